@@ -1,0 +1,1 @@
+"""Model -> block IR -> Structured Text."""

@@ -1,0 +1,126 @@
+"""The block IR: what a generated function block computes, with no dialect syntax in it.
+
+Lowering builds it from a model; printers turn it into text. Expressions keep the exact tree
+the float32 reference evaluates, so the printer must never regroup operands.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Union
+
+
+@dataclass(frozen=True)
+class Ref:
+    name: str
+
+
+@dataclass(frozen=True)
+class BoolConst:
+    value: bool
+
+
+@dataclass(frozen=True)
+class BinOp:
+    op: str  # + - * / < <= > >= = <> AND OR XOR
+    left: "Expr"
+    right: "Expr"
+
+
+@dataclass(frozen=True)
+class Unary:
+    op: str  # '-' or 'NOT'
+    operand: "Expr"
+
+
+@dataclass(frozen=True)
+class Call:
+    func: str  # portable functions only: ABS, SQRT, MIN, MAX
+    args: tuple["Expr", ...]
+
+
+Expr = Union[Ref, BoolConst, BinOp, Unary, Call]
+
+
+@dataclass(frozen=True)
+class Assign:
+    target: str
+    value: Expr
+
+
+@dataclass(frozen=True)
+class If:
+    branches: tuple[tuple[Expr, tuple["Stmt", ...]], ...]  # IF / ELSIF conditions with bodies
+    orelse: tuple["Stmt", ...] = ()
+
+
+Stmt = Union[Assign, If]
+
+
+@dataclass(frozen=True)
+class Region:
+    title: str  # names the model term the region computes (traceability)
+    body: tuple[Stmt, ...]
+
+
+@dataclass(frozen=True)
+class Var:
+    name: str
+    type: str  # 'REAL' | 'BOOL' | 'INT'
+    comment: str = ""
+
+
+@dataclass(frozen=True)
+class Const:
+    name: str
+    value: float  # a binary32 value
+    comment: str = ""
+
+
+@dataclass(frozen=True)
+class Block:
+    name: str
+    title: str
+    header: tuple[str, ...]
+    inputs: tuple[Var, ...]
+    outputs: tuple[Var, ...]
+    statics: tuple[Var, ...]
+    temps: tuple[Var, ...]
+    constants: tuple[Const, ...]
+    regions: tuple[Region, ...]
+
+
+PORTABLE_FUNCTIONS = frozenset({"ABS", "SQRT", "MIN", "MAX"})
+
+
+def walk_exprs(stmts: tuple[Stmt, ...]):
+    """Every expression in a statement list, outermost first."""
+    for stmt in stmts:
+        if isinstance(stmt, Assign):
+            yield from _walk(stmt.value)
+        else:
+            for cond, body in stmt.branches:
+                yield from _walk(cond)
+                yield from walk_exprs(body)
+            yield from walk_exprs(stmt.orelse)
+
+
+def _walk(expr: Expr):
+    yield expr
+    if isinstance(expr, BinOp):
+        yield from _walk(expr.left)
+        yield from _walk(expr.right)
+    elif isinstance(expr, Unary):
+        yield from _walk(expr.operand)
+    elif isinstance(expr, Call):
+        for arg in expr.args:
+            yield from _walk(arg)
+
+
+def assigned_names(stmts: tuple[Stmt, ...]):
+    for stmt in stmts:
+        if isinstance(stmt, Assign):
+            yield stmt.target
+        else:
+            for _, body in stmt.branches:
+                yield from assigned_names(body)
+            yield from assigned_names(stmt.orelse)

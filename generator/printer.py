@@ -1,0 +1,144 @@
+"""IR -> Structured Text. Knows the dialect's syntax, nothing about models."""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from importlib import resources
+
+import jinja2
+
+from thermoplc.generator.identifiers import check_unique, identifier_problem
+from thermoplc.generator.ir import (
+    PORTABLE_FUNCTIONS, Assign, BinOp, Block, BoolConst, Call, Expr, If, Ref, Stmt, Unary,
+    assigned_names, walk_exprs,
+)
+from thermoplc.generator.literals import real_literal
+
+_PRECEDENCE = {"OR": 1, "XOR": 2, "AND": 3, "=": 4, "<>": 4, "<": 5, "<=": 5, ">": 5, ">=": 5,
+               "+": 6, "-": 6, "*": 7, "/": 7}
+_UNARY_PRECEDENCE = 9
+
+
+class GenerationError(Exception):
+    """The IR cannot be printed as a valid block (bad identifier, undeclared name, ...)."""
+
+
+@dataclass(frozen=True)
+class Dialect:
+    name: str
+    template: str
+    local_prefix: str
+    type_names: dict
+    body_indent: str
+
+
+DIALECTS = {
+    "tia": Dialect("tia", "tia.scl.j2", "#", {"REAL": "Real", "BOOL": "Bool", "INT": "Int"}, "\t"),
+}
+
+
+def safe_comment(text: str) -> str:
+    """Comment text that cannot end the comment or the line: printable ASCII, no comment delimiters."""
+    text = "".join(ch if " " <= ch <= "~" else "?" for ch in text)
+    return re.sub(r"\(\*|\*\)|/\*|\*/|[{}]", "?", text).strip()
+
+
+class _Printer:
+    def __init__(self, dialect: Dialect):
+        self.d = dialect
+
+    def expr(self, e: Expr) -> str:
+        if isinstance(e, Ref):
+            return self.d.local_prefix + e.name
+        if isinstance(e, BoolConst):
+            return "TRUE" if e.value else "FALSE"
+        if isinstance(e, Call):
+            return f"{e.func}({', '.join(self.expr(a) for a in e.args)})"
+        if isinstance(e, Unary):
+            inner = self.expr(e.operand)
+            if isinstance(e.operand, (BinOp, Unary)):
+                inner = f"({inner})"
+            return f"-{inner}" if e.op == "-" else f"NOT {inner}"
+        prec = _PRECEDENCE[e.op]
+        left = self.expr(e.left)
+        if isinstance(e.left, BinOp) and _PRECEDENCE[e.left.op] < prec:
+            left = f"({left})"
+        right = self.expr(e.right)
+        if (isinstance(e.right, BinOp) and _PRECEDENCE[e.right.op] <= prec) or isinstance(e.right, Unary):
+            right = f"({right})"
+        return f"{left} {e.op} {right}"
+
+    def stmts(self, body: tuple[Stmt, ...], depth: int) -> list[str]:
+        pad = self.d.body_indent + "    " * depth
+        lines: list[str] = []
+        for s in body:
+            if isinstance(s, Assign):
+                lines.append(f"{pad}{self.d.local_prefix}{s.target} := {self.expr(s.value)};")
+                continue
+            for i, (cond, branch) in enumerate(s.branches):
+                keyword = "IF" if i == 0 else "ELSIF"
+                lines.append(f"{pad}{keyword} {self.expr(cond)} THEN")
+                lines.extend(self.stmts(branch, depth + 1))
+            if s.orelse:
+                lines.append(f"{pad}ELSE")
+                lines.extend(self.stmts(s.orelse, depth + 1))
+            lines.append(f"{pad}END_IF;")
+        return lines
+
+
+def validate(block: Block) -> None:
+    """Refuse a block that breaks DESIGN §4.2/§4.6: bad or duplicate names, undeclared references,
+    non-portable functions, assignments to inputs or constants."""
+    sections = (block.inputs, block.outputs, block.statics, block.temps)
+    declared = {v.name: v for group in sections for v in group}
+    constants = {c.name: c for c in block.constants}
+    names = [block.name, *declared, *constants]
+    for name in names:
+        problem = identifier_problem(name)
+        if problem:
+            raise GenerationError(f"identifier {name!r} {problem}")
+    duplicate = check_unique(names)
+    if duplicate:
+        raise GenerationError(duplicate)
+    body = tuple(s for region in block.regions for s in region.body)
+    for e in walk_exprs(body):
+        if isinstance(e, Ref) and e.name not in declared and e.name not in constants:
+            raise GenerationError(f"expression refers to undeclared {e.name!r}")
+        if isinstance(e, Call) and e.func not in PORTABLE_FUNCTIONS:
+            raise GenerationError(f"{e.func} is not a portable operation (DESIGN §4.4)")
+    writable = {v.name for group in (block.outputs, block.statics, block.temps) for v in group}
+    for target in assigned_names(body):
+        if target not in writable:
+            raise GenerationError(f"statement assigns {target!r}, which is not an output, static or temp")
+    for c in block.constants:
+        real_literal(c.value)  # raises for values that are not finite binary32
+
+
+def render(block: Block, dialect: str = "tia") -> str:
+    """The block as source text, byte-identical for the same IR."""
+    validate(block)
+    d = DIALECTS[dialect]
+    printer = _Printer(d)
+    env = jinja2.Environment(
+        loader=jinja2.FunctionLoader(lambda name: resources.files("thermoplc.templates").joinpath(name).read_text("utf-8")),
+        keep_trailing_newline=True, trim_blocks=True, lstrip_blocks=True, undefined=jinja2.StrictUndefined,
+        autoescape=False,
+    )
+
+    def decls(group):
+        return [(v.name, d.type_names[v.type], safe_comment(v.comment)) for v in group]
+
+    regions = [(safe_comment(r.title), printer.stmts(r.body, 1)) for r in block.regions]
+    text = env.get_template(d.template).render(
+        name=block.name,
+        title=safe_comment(block.title),
+        header=[safe_comment(line) for line in block.header],
+        sections=[(kw, decls(group)) for kw, group in
+                  (("VAR_INPUT", block.inputs), ("VAR_OUTPUT", block.outputs),
+                   ("VAR", block.statics), ("VAR_TEMP", block.temps)) if group],
+        constants=[(c.name, d.type_names["REAL"], real_literal(c.value), safe_comment(c.comment))
+                   for c in block.constants],
+        regions=regions,
+        indent=d.body_indent,
+    )
+    return text

@@ -1,0 +1,1 @@
+"""Fitting, float32 references, the model file and the synthetic machine."""

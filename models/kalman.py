@@ -1,0 +1,188 @@
+"""Kalman fusion of a lumped-mass thermal model with measured temperatures (paper 000).
+
+Per sensor i, every call (the first call starts from TF = T_measured, PF = P0):
+    TP = A*TF + B*Te + C*n + D          lumped-mass prediction (eq. 4-5)
+    PP = AA*PF + N                       (eq. 6; AA = A*A folded in binary32)
+    fault set when |T - T_previous| > Jmp (a sudden jump, paper §5), cleared when |T - TP| <= Agr
+    fault:  TF = TP, PF = PP             (gain 0: model-only prediction)
+    else:   K = PP/(PP+R); TF = TP + K*(T - TP); PF = PP - K*PP      (eq. 7-9)
+then E = b0 + sum_i b_i*(TF_i - T0_i) with T0_i the measured temperature at the first call (eq. 10).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from scipy.optimize import differential_evolution
+
+from thermoplc.binary32 import round_f32
+from thermoplc.models import lumped
+from thermoplc.models.ga import genetic_minimize
+from thermoplc.models.mlr import least_squares
+from thermoplc.models.modelfile import Coefficient, Model
+
+SENSOR_COEFFICIENTS = ("A", "AA", "B", "C", "D", "N", "R", "P0", "Jmp", "Agr")
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    optimizer: str = "ga"  # 'ga' (paper 000) or 'de' (scipy differential evolution)
+    seed: int = 0
+    population: int = 40
+    generations: int = 60
+    jump_limit: float | None = None  # K; default from the training data
+    recover_limit: float | None = None
+
+
+def predict(model: Model, inputs: dict, precision: str) -> dict:
+    """Reference in binary32 ('f32', numpy float32 scalars) or float64 ('f64'), in the block's order."""
+    f = np.float32 if precision == "f32" else np.float64
+    temps = model.signals("temperature")
+    te = np.asarray(inputs[model.signals("ambient")[0].name], f)
+    n = np.asarray(inputs[model.signals("speed")[0].name], f)
+    rows = len(n)
+    coef = {name: f(model.coef(name, precision)) for name in model.coefficients}
+    k = len(temps)
+    sensor = [{c: coef[f"{c}_{i}"] for c in SENSOR_COEFFICIENTS} for i in range(1, k + 1)]
+    betas = [coef[f"b_{i}"] for i in range(1, k + 1)]
+    measured = [np.asarray(inputs[s.name], f) for s in temps]
+    tf = [m[0] for m in measured]
+    t0 = list(tf)
+    tm_prev = list(tf)
+    pf = [s["P0"] for s in sensor]
+    fault = [False] * k
+    error = np.empty(rows, f)
+    faults = np.zeros((k, rows), bool)
+    for j in range(rows):
+        for i, s in enumerate(sensor):
+            tm = measured[i][j]
+            tp = s["A"] * tf[i] + s["B"] * te[j] + s["C"] * n[j] + s["D"]
+            pp = s["AA"] * pf[i] + s["N"]
+            jump = abs(tm - tm_prev[i])
+            tm_prev[i] = tm
+            if not jump <= s["Jmp"]:
+                fault[i] = True
+            elif abs(tm - tp) <= s["Agr"]:
+                fault[i] = False
+            if fault[i]:
+                tf[i], pf[i] = tp, pp
+            else:
+                gain = pp / (pp + s["R"])
+                tf[i] = tp + gain * (tm - tp)
+                pf[i] = pp - gain * pp
+            faults[i, j] = fault[i]
+        e = coef["b0"]
+        for i in range(k):
+            e = e + betas[i] * (tf[i] - t0[i])
+        error[j] = e
+    out = {model.target.name: error}
+    for i in range(k):
+        out[f"Fault_{i + 1}"] = faults[i]
+    return out
+
+
+def _rms(residual: np.ndarray) -> np.ndarray:
+    """Eq. 12-13: root mean square with n-1 in the denominator, along the last axis."""
+    return np.sqrt(np.sum(residual ** 2, axis=-1) / max(residual.shape[-1] - 1, 1))
+
+
+def _minimize(objective, lower, upper, options: FitOptions, rng, progress):
+    if options.optimizer == "de":
+        result = differential_evolution(
+            lambda x: objective(np.atleast_2d(x.T)), list(zip(lower, upper)), seed=options.seed,
+            maxiter=options.generations, popsize=max(1, options.population // len(lower)), polish=False,
+            vectorized=True, updating="deferred", tol=1e-10,
+            callback=(lambda intermediate_result: progress(0, float(intermediate_result.fun))) if progress else None)
+        return result.x, float(result.fun), (float(result.fun),), int(result.nfev)
+    result = genetic_minimize(objective, lower, upper, rng, options.population, options.generations, progress=progress)
+    return result.x, result.cost, result.history, result.evaluations
+
+
+def fit_kalman(temps: np.ndarray, te: np.ndarray, n: np.ndarray, target: np.ndarray, dt: float,
+               names: list[str], options: FitOptions,
+               progress: Callable[[str], None] | None = None) -> tuple[dict[str, Coefficient], dict, dict]:
+    """Fit on training rows: GA step 1 per sensor (eq. 12), GA step 2 for N, R (eq. 13), then eq. 11.
+
+    temps: (rows, sensors). Returns coefficients, human-readable settings and a fit log.
+    """
+    rng = np.random.default_rng(options.seed)
+    k = temps.shape[1]
+    n_max = max(float(np.max(np.abs(n))), 1.0)
+    lumped_params = []
+    log = {"optimizer": options.optimizer, "seed": options.seed, "population": options.population,
+           "generations": options.generations, "steps": []}
+
+    def reporter(step: str):
+        if not progress:
+            return None
+        return lambda gen, cost: progress(f"{step}: generation {gen}/{options.generations}, best RMS {cost:.4g}")
+
+    for i in range(k):
+        tm = temps[:, i]
+        span = max(float(np.ptp(tm)), 0.1)
+        rest = tm - te
+        lower = np.array([np.log10(2 * dt), -3 * span / n_max, float(rest.min()) - span])
+        upper = np.array([np.log10(48 * 3600.0), 3 * span / n_max, float(rest.max()) + span])
+
+        def f1(pop, tm=tm):
+            a, b, c, d = lumped.discrete(10 ** pop[:, 0], pop[:, 1], pop[:, 2], dt)
+            return _rms(lumped.open_loop(a, b, c, d, te, n, tm[0]) - tm)
+
+        x, cost, history, evals = _minimize(f1, lower, upper, options, rng, reporter(f"{names[i]} lumped-mass"))
+        lumped_params.append((10 ** x[0], x[1], x[2]))
+        log["steps"].append({"step": f"lumped-mass {names[i]} (eq. 12)", "rms_K": cost, "evaluations": evals,
+                             "history": list(history)})
+
+    discrete = [lumped.discrete(np.array([tau]), np.array([g_n]), np.array([g_0]), dt)
+                for tau, g_n, g_0 in lumped_params]
+    forcing = [d[1][0] * te + d[2][0] * n + d[3][0] for d in discrete]
+
+    def fused_all(pop):
+        noise_n, noise_r = 10 ** pop[:, 0::2], 10 ** pop[:, 1::2]
+        return [lumped.fused(discrete[i][0][0], forcing[i], temps[:, i], noise_n[:, i], noise_r[:, i], noise_r[:, i])
+                for i in range(k)]
+
+    def f2(pop):
+        series = fused_all(pop)
+        cost = np.empty(len(pop))
+        for p in range(len(pop)):
+            features = np.column_stack([s[p] - temps[0, i] for i, s in enumerate(series)])
+            design = np.column_stack([np.ones(len(target)), features])
+            beta = np.linalg.lstsq(design, target, rcond=None)[0]
+            cost[p] = _rms(target - design @ beta)
+        return cost
+
+    lower = np.tile([-8.0, -5.0], k)
+    upper = np.tile([1.0, 2.0], k)
+    x, cost, history, evals = _minimize(f2, lower, upper, options, rng, reporter("Kalman covariances N, R"))
+    log["steps"].append({"step": "Kalman covariances (eq. 13)", "rms_um": cost, "evaluations": evals,
+                         "history": list(history)})
+    series = fused_all(x[None, :])
+    features = np.column_stack([s[0] - temps[0, i] for i, s in enumerate(series)])
+    beta = least_squares(features, target, names)
+
+    coefficients: dict[str, Coefficient] = {}
+    settings = {"sensors": []}
+    for i in range(k):
+        tau, g_n, g_0 = lumped_params[i]
+        a, b, c, d = (float(v[0]) for v in discrete[i])
+        noise_n, noise_r = 10 ** x[2 * i], 10 ** x[2 * i + 1]
+        innovation = np.abs(temps[1:, i] - (a * series[i][0][:-1] + forcing[i][1:]))
+        jump = options.jump_limit or max(1.0, 3 * float(np.quantile(np.abs(np.diff(temps[:, i])), 0.999)))
+        recover = options.recover_limit or max(0.5, 3 * float(np.quantile(innovation, 0.999)))
+        coef_a = Coefficient.of(a)
+        values = {"A": coef_a, "AA": Coefficient(a * a, round_f32(coef_a.f32 * coef_a.f32)),
+                  "B": Coefficient.of(b), "C": Coefficient.of(c), "D": Coefficient.of(d),
+                  "N": Coefficient.of(noise_n), "R": Coefficient.of(noise_r), "P0": Coefficient.of(noise_r),
+                  "Jmp": Coefficient.of(jump), "Agr": Coefficient.of(recover)}
+        coefficients.update({f"{name}_{i + 1}": values[name] for name in SENSOR_COEFFICIENTS})
+        settings["sensors"].append({
+            "name": names[i], "tau_s": tau, "gain_K_per_rpm": g_n, "standstill_K": g_0,
+            "v1_per_s": 1 / tau, "v_speed_K_per_s_rpm": g_n / tau, "v0_K_per_s": g_0 / tau,
+            "process_noise_N": noise_n, "measurement_noise_R": noise_r,
+            "jump_limit_K": jump, "recover_limit_K": recover})
+    coefficients["b0"] = Coefficient.of(beta[0])
+    for i in range(k):
+        coefficients[f"b_{i + 1}"] = Coefficient.of(beta[i + 1])
+    return coefficients, settings, log

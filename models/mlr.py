@@ -1,0 +1,40 @@
+"""Plain regression (paper 000 eq. 10-11, 16): E = b0 + sum_i b_i * (T_i - T_i[first call])."""
+from __future__ import annotations
+
+import numpy as np
+
+from thermoplc.errors import UserError
+from thermoplc.models.modelfile import Model
+
+
+def least_squares(features: np.ndarray, target: np.ndarray, names: list[str]) -> np.ndarray:
+    """Intercept + slopes by least squares; refuses collinear columns instead of returning huge slopes."""
+    design = np.column_stack([np.ones(len(target)), features])
+    scale = np.linalg.norm(design, axis=0)
+    scale[scale == 0] = 1.0
+    singular = np.linalg.svd(design / scale, compute_uv=False)
+    if singular[-1] < 1e-9 * singular[0]:
+        raise UserError(f"regression on {', '.join(names)} is singular: the columns are (nearly) collinear "
+                        f"(condition number {singular[0] / max(singular[-1], 1e-300):.3g}); drop one of them")
+    return np.linalg.lstsq(design, target, rcond=None)[0]
+
+
+def fit_mlr(temps: np.ndarray, target: np.ndarray, names: list[str]) -> dict[str, float]:
+    """temps: (rows, sensors) training rows; ΔT is taken from the first training row, as the block does."""
+    beta = least_squares(temps - temps[0], target, names)
+    return {"b0": beta[0], **{f"b_{i + 1}": b for i, b in enumerate(beta[1:])}}
+
+
+def predict(model: Model, inputs: dict, precision: str) -> dict:
+    """Reference: the block's arithmetic in binary32 ('f32') or the ideal float64 model ('f64').
+
+    Order as in the block: ((b0 + b_1*(T_1 - T0_1)) + b_2*(T_2 - T0_2)) + ...
+    """
+    dtype = np.float32 if precision == "f32" else np.float64
+    temps = model.signals("temperature")
+    rows = len(inputs[temps[0].name])
+    out = np.full(rows, model.coef("b0", precision), dtype)
+    for i, s in enumerate(temps, start=1):
+        x = np.asarray(inputs[s.name], dtype)
+        out = out + dtype(model.coef(f"b_{i}", precision)) * (x - x[0])
+    return {model.target.name: out}

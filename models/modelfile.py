@@ -1,0 +1,157 @@
+"""The versioned model file: what was fitted, on which data, with exact binary32 coefficients."""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from thermoplc import __version__
+from thermoplc.binary32 import FLT_MAX, f32_hex, parse_f32_hex, round_f32
+from thermoplc.errors import UserError
+
+FORMAT = "thermoplc-model"
+SCHEMA_VERSION = 1
+KINDS = ("mlr", "kalman")
+ROLES = ("temperature", "speed", "ambient")
+
+
+@dataclass(frozen=True)
+class Coefficient:
+    """A fitted value: f64 is the ideal (float64 fit), f32 the binary32 value the block uses."""
+    f64: float
+    f32: float
+
+    @staticmethod
+    def of(value: float) -> "Coefficient":
+        return Coefficient(float(value), round_f32(float(value)))
+
+
+@dataclass(frozen=True)
+class Signal:
+    name: str  # identifier in the block
+    column: str  # CSV column
+    role: str
+    unit: str
+
+
+@dataclass(frozen=True)
+class Model:
+    kind: str
+    block_name: str
+    inputs: tuple[Signal, ...]
+    target: Signal
+    time_column: str
+    sample_period_s: float
+    coefficients: dict  # name -> Coefficient, in block order
+    settings: dict = field(default_factory=dict)
+    training: dict = field(default_factory=dict)
+    metrics: dict = field(default_factory=dict)
+    fit: dict = field(default_factory=dict)
+
+    def signals(self, role: str) -> tuple[Signal, ...]:
+        return tuple(s for s in self.inputs if s.role == role)
+
+    def coef(self, name: str, precision: str = "f32") -> float:
+        return getattr(self.coefficients[name], precision)
+
+    def to_json(self) -> str:
+        return json.dumps(_document(self), indent=2) + "\n"
+
+    def fingerprint(self) -> str:
+        """Hash of everything that decides the block's behaviour (not the metrics or fit log)."""
+        doc = _document(self)
+        essential = {k: doc[k] for k in ("kind", "inputs", "target", "sample_period_s", "coefficients", "settings")}
+        return hashlib.sha256(json.dumps(essential, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def _document(m: Model) -> dict:
+    return {
+        "format": FORMAT,
+        "schema_version": SCHEMA_VERSION,
+        "written_by": f"thermoplc {__version__}",
+        "kind": m.kind,
+        "block_name": m.block_name,
+        "time_column": m.time_column,
+        "sample_period_s": m.sample_period_s,
+        "inputs": [vars(s) for s in m.inputs],
+        "target": vars(m.target),
+        "coefficients": {k: {"f64": c.f64, "f32": f32_hex(c.f32)} for k, c in m.coefficients.items()},
+        "settings": m.settings,
+        "training": m.training,
+        "metrics": m.metrics,
+        "fit": m.fit,
+    }
+
+
+def save_model(model: Model) -> str:
+    return model.to_json()
+
+
+def load_model(path: str | Path) -> Model:
+    path = str(path)
+    try:
+        text = Path(path).read_text("utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"{path}: cannot read model file: {exc}") from None
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise UserError(f"{path}:{exc.lineno}:{exc.colno}: malformed JSON: {exc.msg}") from None
+    return _parse(doc, path)
+
+
+def _field(doc, key: str, kind, path: str, where: str = ""):
+    name = f"{where}.{key}" if where else key
+    if not isinstance(doc, dict) or key not in doc:
+        raise UserError(f"{path}: field {name!r} is missing")
+    value = doc[key]
+    if kind is float and isinstance(value, int) and not isinstance(value, bool):
+        value = float(value)
+    if not isinstance(value, kind) or (kind is float and not math.isfinite(value)):
+        raise UserError(f"{path}: field {name!r} must be {getattr(kind, '__name__', kind)}, found {value!r}")
+    return value
+
+
+def _signal(doc, path: str, where: str) -> Signal:
+    return Signal(*(_field(doc, k, str, path, where) for k in ("name", "column", "role", "unit")))
+
+
+def _parse(doc, path: str) -> Model:
+    if _field(doc, "format", str, path) != FORMAT:
+        raise UserError(f"{path}: field 'format' must be {FORMAT!r}; this is not a thermoplc model file")
+    version = _field(doc, "schema_version", int, path)
+    if version != SCHEMA_VERSION:
+        raise UserError(f"{path}: schema_version {version} is not supported; this thermoplc reads version {SCHEMA_VERSION}")
+    kind = _field(doc, "kind", str, path)
+    if kind not in KINDS:
+        raise UserError(f"{path}: field 'kind' must be one of {', '.join(KINDS)}, found {kind!r}")
+    inputs = tuple(_signal(s, path, f"inputs[{i}]") for i, s in enumerate(_field(doc, "inputs", list, path)))
+    for i, s in enumerate(inputs):
+        if s.role not in ROLES:
+            raise UserError(f"{path}: field 'inputs[{i}].role' must be one of {', '.join(ROLES)}, found {s.role!r}")
+    coefficients = {}
+    for name, entry in _field(doc, "coefficients", dict, path).items():
+        where = f"coefficients.{name}"
+        f64 = _field(entry, "f64", float, path, where)
+        try:
+            f32 = parse_f32_hex(_field(entry, "f32", str, path, where))
+        except ValueError as exc:
+            raise UserError(f"{path}: field '{where}.f32': {exc}") from None
+        if not math.isfinite(f32) or abs(f64) > FLT_MAX:
+            raise UserError(f"{path}: field {where!r} is outside the binary32 range")
+        coefficients[name] = Coefficient(f64, f32)
+    return Model(
+        kind=kind,
+        block_name=_field(doc, "block_name", str, path),
+        inputs=inputs,
+        target=_signal(_field(doc, "target", dict, path), path, "target"),
+        time_column=_field(doc, "time_column", str, path),
+        sample_period_s=_field(doc, "sample_period_s", float, path),
+        coefficients=coefficients,
+        settings=_field(doc, "settings", dict, path),
+        training=_field(doc, "training", dict, path),
+        metrics=_field(doc, "metrics", dict, path),
+        fit=_field(doc, "fit", dict, path),
+    )

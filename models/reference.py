@@ -1,0 +1,29 @@
+"""One entry point to every model's reference: float64 (ideal) or binary32 (what the block computes)."""
+from __future__ import annotations
+
+import numpy as np
+
+from thermoplc.errors import UserError
+from thermoplc.models import kalman, mlr
+from thermoplc.models.modelfile import Model
+from thermoplc.models.table import Table
+
+_PREDICTORS = {"mlr": mlr.predict, "kalman": kalman.predict}
+
+
+def predict(model: Model, inputs: dict, precision: str) -> dict:
+    """Outputs of the block by name; REAL outputs as float32 ('f32') or float64 ('f64') arrays."""
+    return _PREDICTORS[model.kind](model, inputs, precision)
+
+
+def model_inputs(model: Model, table: Table, overrides: dict | None = None) -> dict:
+    """Block input name -> float32 column, by the model's column names unless overridden."""
+    overrides = overrides or {}
+    inputs = {}
+    for s in model.inputs:
+        column = overrides.get(s.name, s.column)
+        if column not in table.columns:
+            raise UserError(f"{table.path}: no column {column!r} for model input {s.name!r} ({s.role}); "
+                            f"map it with --inputs {s.name}=COLUMN")
+        inputs[s.name] = table.columns[column].astype(np.float32)
+    return inputs

@@ -1,0 +1,1 @@
+"""Jinja2 skeletons of the emitted blocks, one per dialect."""

@@ -1,0 +1,187 @@
+"""The `thermoplc` command: thin wrappers over the library, one subcommand each."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from thermoplc import __version__
+from thermoplc.errors import UserError
+from thermoplc.fileio import write_atomic
+
+
+def _columns(text: str) -> tuple[str, ...]:
+    names = tuple(c.strip() for c in text.split(",") if c.strip())
+    if not names:
+        raise argparse.ArgumentTypeError("expected comma-separated column names")
+    return names
+
+
+def _mapping(text: str) -> dict:
+    mapping = {}
+    for item in text.split(","):
+        name, sep, column = item.partition("=")
+        if not sep or not name.strip() or not column.strip():
+            raise argparse.ArgumentTypeError(f"expected NAME=COLUMN[,NAME=COLUMN...], found {item!r}")
+        mapping[name.strip()] = column.strip()
+    return mapping
+
+
+def cmd_twin(args) -> int:
+    from thermoplc.models.table import write_table
+    from thermoplc.models.twin import SensorFault, simulate
+    faults = tuple(SensorFault.parse(f) for f in args.sensor_fault)
+    columns = simulate(args.hours, args.seed, args.dt, args.ambient_start, args.ambient_swing, faults)
+    write_atomic(args.output, write_table(columns))
+    rows = len(columns["time_s"])
+    print(f"wrote {args.output}: {rows} rows, {args.hours:g} h every {args.dt:g} s, seed {args.seed}")
+    print(f"  columns: {', '.join(columns)}")
+    return 0
+
+
+def _progress(message: str) -> None:
+    print(f"\r  {message:<70}", end="", file=sys.stderr, flush=True)
+
+
+def cmd_fit(args) -> int:
+    from thermoplc.models.fit import FitRequest, fit
+    from thermoplc.models.kalman import FitOptions
+    from thermoplc.models.table import read_table
+    table = read_table(args.data, args.time)
+    options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
+                         args.recover_limit)
+    request = FitRequest(args.model, args.target, args.temps, args.speed, args.ambient, args.train_until,
+                         args.train_rows, args.name, options)
+    model = fit(table, request, args.time, _progress if sys.stderr.isatty() else None)
+    if sys.stderr.isatty():
+        print(file=sys.stderr)
+    write_atomic(args.output, model.to_json())
+    print(format_fit(model))
+    print(f"wrote {args.output}")
+    return 0
+
+
+def format_fit(model) -> str:
+    m = model.metrics
+    t = model.training
+    lines = [f"fitted {model.kind} on {t['file']}: {t['rows']} training rows (until {t['until_s']:g} s), "
+             f"{t['total_rows'] - t['rows']} held out",
+             f"  {'':<22}{'RMSE um':>10}{'max |residual| um':>20}"]
+    for label, key in (("fit (training)", "train"), ("prediction (held out)", "held_out")):
+        if m[key]["rows"]:
+            lines.append(f"  {label:<22}{m[key]['rmse_um']:>10.3f}{m[key]['max_abs_um']:>20.3f}")
+    lines.append(f"  float32 block vs float64 model: max {m['float32_vs_float64_max_um']:.3g} um")
+    return "\n".join(lines)
+
+
+def cmd_generate(args) -> int:
+    from thermoplc.generator.lower import lower
+    from thermoplc.generator.printer import GenerationError, render
+    from thermoplc.models.modelfile import load_model
+    model = load_model(args.model)
+    try:
+        text = render(lower(model), args.dialect)
+    except GenerationError as exc:
+        raise UserError(f"{args.model}: cannot generate a block: {exc}") from None
+    write_atomic(args.output, text)
+    print(f"wrote {args.output}: {model.kind} block {model.block_name!r}, dialect {args.dialect}, "
+          f"model fingerprint {model.fingerprint()}")
+    return 0
+
+
+def cmd_verify(args) -> int:
+    from thermoplc.models.table import read_table
+    from thermoplc.verifier.replay import verify_against_model, verify_against_trace
+    if (args.model is None) == (args.expect is None):
+        raise UserError("verify needs either --model MODEL.json or --expect COLUMN[,COLUMN] (a recorded PLC trace)")
+    if args.model:
+        from thermoplc.models.modelfile import load_model
+        model = load_model(args.model)
+        table = read_table(args.data, model.time_column)
+        report = verify_against_model(args.block, model, args.model, table, args.inputs)
+    else:
+        table = read_table(args.data, args.time)
+        expect = {}
+        for item in args.expect:
+            output, sep, column = item.partition("=")
+            expect[output if sep else item] = column if sep else item
+        report = verify_against_trace(args.block, table, expect, args.inputs, args.time)
+    print(report.text())
+    return 0 if report.ok else 1
+
+
+def cmd_demo(args) -> int:
+    from thermoplc.demo import run_demo
+    return run_demo(Path(args.out))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="thermoplc", description=__doc__.splitlines()[0] if __doc__ else None)
+    parser.add_argument("--version", action="version", version=f"thermoplc {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("demo", help="whole pipeline on the bundled FL_THERMAL recording")
+    p.add_argument("--out", default="thermoplc-demo", help="output folder (default: %(default)s)")
+    p.set_defaults(func=cmd_demo)
+
+    p = sub.add_parser("twin", help="synthetic machine data with known truth")
+    p.add_argument("--hours", type=float, default=48.0)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--dt", type=float, default=10.0, help="sample period, s (default: %(default)s)")
+    p.add_argument("--ambient-start", type=float, default=20.0, help="ambient temperature at the start, degC")
+    p.add_argument("--ambient-swing", type=float, default=0.5, help="day/night amplitude of the ambient, K")
+    p.add_argument("--sensor-fault", action="append", default=[], metavar="KIND:COLUMN[@START_S]",
+                   help="add paper 000's sensor error: sin (eq. 18) or offset (eq. 19); repeatable")
+    p.add_argument("-o", "--output", required=True)
+    p.set_defaults(func=cmd_twin)
+
+    p = sub.add_parser("fit", help="fit a thermal-error model to a CSV file")
+    p.add_argument("--data", required=True)
+    p.add_argument("--model", choices=("mlr", "kalman"), required=True)
+    p.add_argument("--target", required=True, help="measured displacement column, um")
+    p.add_argument("--temps", type=_columns, required=True, help="temperature columns, comma-separated")
+    p.add_argument("--speed", help="spindle speed column, rpm (kalman)")
+    p.add_argument("--ambient", help="ambient temperature column, degC (kalman)")
+    p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
+    part = p.add_mutually_exclusive_group(required=True)
+    part.add_argument("--train-until", type=float, metavar="SECONDS", help="train on rows with time <= SECONDS")
+    part.add_argument("--train-rows", type=int, metavar="N", help="train on the first N rows")
+    p.add_argument("--optimizer", choices=("ga", "de"), default="ga",
+                   help="ga: paper 000's genetic algorithm; de: scipy differential evolution")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--generations", type=int, default=60)
+    p.add_argument("--population", type=int, default=40)
+    p.add_argument("--jump-limit", type=float, help="K per call that marks a sensor faulty (default from data)")
+    p.add_argument("--recover-limit", type=float, help="K between measurement and model to recover (default from data)")
+    p.add_argument("--name", default="ThermalComp", help="function block name (default: %(default)s)")
+    p.add_argument("-o", "--output", required=True)
+    p.set_defaults(func=cmd_fit)
+
+    p = sub.add_parser("generate", help="compile a model file into a Structured Text function block")
+    p.add_argument("model")
+    p.add_argument("--dialect", choices=("tia",), default="tia")
+    p.add_argument("-o", "--output", required=True)
+    p.set_defaults(func=cmd_generate)
+
+    p = sub.add_parser("verify", help="replay data through a block and compare every output bit for bit")
+    p.add_argument("block")
+    p.add_argument("--data", required=True)
+    p.add_argument("--model", help="compare with this model's float32 reference")
+    p.add_argument("--expect", type=_columns, help="compare with recorded outputs: COLUMN or OUTPUT=COLUMN, comma-separated")
+    p.add_argument("--inputs", type=_mapping, help="block input to column mapping NAME=COLUMN,...")
+    p.add_argument("--time", default="time_s", help="time column for --expect traces (default: %(default)s)")
+    p.set_defaults(func=cmd_verify)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except UserError as exc:
+        print(f"thermoplc: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

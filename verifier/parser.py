@@ -1,0 +1,276 @@
+"""Structured Text text -> AST (verifier/syntax.py), with file:line:col messages for anything else."""
+from __future__ import annotations
+
+import re
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+
+from lark import Lark, Token, Transformer, v_args
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken, VisitError
+
+from thermoplc.binary32 import decimal_to_f32
+from thermoplc.errors import UserError
+from thermoplc.verifier import syntax as s
+
+SUPPORTED_TYPES = {"REAL", "BOOL", "INT", "DINT"}
+# Constructs that are valid ST but outside the subset the verifier interprets.
+UNSUPPORTED_WORDS = {
+    "CASE": "CASE statement", "WHILE": "WHILE loop", "REPEAT": "REPEAT loop", "GOTO": "GOTO",
+    "RETURN": "RETURN statement", "EXIT": "EXIT statement", "CONTINUE": "CONTINUE statement",
+    "VAR_IN_OUT": "VAR_IN_OUT section", "VAR_GLOBAL": "VAR_GLOBAL section", "VAR_EXTERNAL": "VAR_EXTERNAL section",
+    "STRUCT": "STRUCT type", "POINTER": "POINTER type", "REF_TO": "REF_TO reference", "REF": "REF()",
+    "FUNCTION": "FUNCTION (only one FUNCTION_BLOCK per file)", "PROGRAM": "PROGRAM", "TYPE": "TYPE declaration",
+    "DATA_BLOCK": "DATA_BLOCK", "ORGANIZATION_BLOCK": "ORGANIZATION_BLOCK", "METHOD": "METHOD",
+    "INTERFACE": "INTERFACE", "ACTION": "ACTION", "AT": "AT address",
+}
+
+
+_STATEMENTS = (s.Assign, s.If, s.For, s.Region)
+
+
+class StSyntaxError(UserError):
+    pass
+
+
+@lru_cache(maxsize=1)
+def _lark() -> Lark:
+    grammar = resources.files("thermoplc.verifier").joinpath("st.lark").read_text("utf-8")
+    return Lark(grammar, parser="lalr", strict=True, propagate_positions=True, maybe_placeholders=True)
+
+
+def _at(meta_or_token) -> s.Pos:
+    return (getattr(meta_or_token, "line", 0), getattr(meta_or_token, "column", 0))
+
+
+class _ToAst(Transformer):
+    def __init__(self, source: str):
+        super().__init__()
+        self.source = source
+
+    def _fail(self, pos: s.Pos, message: str):
+        raise StSyntaxError(f"{self.source}:{pos[0]}:{pos[1]}: {message}")
+
+    # declarations -------------------------------------------------------------------------
+    def start(self, items):
+        name = items[0]
+        decls = tuple(d for item in items[1:] if isinstance(item, list) for d in item)
+        body = tuple(item for item in items[1:] if isinstance(item, _STATEMENTS))
+        return s.Program(name, decls, body)
+
+    def block_name(self, items):
+        return str(items[0]).strip('"')
+
+    def title(self, items):
+        return None
+
+    def info(self, items):
+        return None
+
+    def version(self, items):
+        return None
+
+    def begin(self, items):
+        return None
+
+    sec_input = lambda self, _: "input"
+    sec_output = lambda self, _: "output"
+    sec_inout = lambda self, _: "inout"
+    sec_temp = lambda self, _: "temp"
+    sec_constant = lambda self, _: "constant"
+    sec_static = lambda self, _: "static"
+
+    def var_section(self, items):
+        section, decls = items[0], items[1:]
+        return [s.VarDecl(d.name, section, d.type, d.initial, d.pos) for group in decls for d in group]
+
+    @v_args(meta=True)
+    def var_decl(self, meta, items):
+        names = [t for t in items if isinstance(t, Token) and t.type == "NAME"]
+        type_ref = next(i for i in items if isinstance(i, s.TypeRef))
+        initial = items[-1] if not isinstance(items[-1], (Token, s.TypeRef)) else None
+        if type_ref.base not in SUPPORTED_TYPES:
+            self._fail(_at(meta), f"type {type_ref.base} is not supported (REAL, BOOL, INT, DINT and arrays of them are)")
+        return [s.VarDecl(str(n), "", type_ref, initial, _at(n)) for n in names]
+
+    def scalar_type(self, items):
+        return s.TypeRef(str(items[0]).upper())
+
+    def array_type(self, items):
+        return s.TypeRef(str(items[2]).upper(), (items[0], items[1]))
+
+    def initial(self, items):
+        return items[0]
+
+    def array_initial(self, items):
+        return tuple(items)
+
+    def constant(self, items):
+        item = items[0]
+        if isinstance(item, Token):
+            return item.type == "TRUE"
+        return item
+
+    def signed_real(self, items):
+        text = "".join(str(t) for t in items if t is not None).replace("_", "")
+        return decimal_to_f32(text)
+
+    def signed_int(self, items):
+        return int("".join(str(t) for t in items if t is not None).replace("_", ""))
+
+    # statements ----------------------------------------------------------------------------
+    @v_args(meta=True)
+    def assignment(self, meta, items):
+        return s.Assign(items[0], items[1], _at(meta))
+
+    def empty(self, items):
+        return None
+
+    @v_args(meta=True)
+    def if_stmt(self, meta, items):
+        cond, rest = items[0], items[1:]
+        body = tuple(x for x in rest if isinstance(x, _STATEMENTS))
+        branches = [(cond, body)] + [x[1] for x in rest if isinstance(x, tuple) and x[0] == "ELSIF"]
+        orelse = next((x[1] for x in rest if isinstance(x, tuple) and x[0] == "ELSE"), ())
+        return s.If(tuple(branches), orelse, _at(meta))
+
+    def elsif(self, items):
+        return ("ELSIF", (items[0], tuple(x for x in items[1:] if x is not None)))
+
+    def else_part(self, items):
+        return ("ELSE", tuple(x for x in items if x is not None))
+
+    @v_args(meta=True)
+    def for_stmt(self, meta, items):
+        var, start, stop, step = items[:4]
+        body = tuple(x for x in items[4:] if x is not None)
+        return s.For(var.name, start, stop, step, body, _at(meta))
+
+    @v_args(meta=True)
+    def region(self, meta, items):
+        title = re.sub(r"(?i)^REGION\b", "", str(items[0])).strip()
+        return s.Region(title, tuple(x for x in items[1:] if x is not None), _at(meta))
+
+    def lvalue(self, items):
+        return items[0]
+
+    @v_args(meta=True)
+    def indexed(self, meta, items):
+        return s.Index(items[0].name, items[1], _at(meta))
+
+    @v_args(meta=True)
+    def variable(self, meta, items):
+        return s.Name(str(items[-1]), _at(meta))
+
+    # expressions ---------------------------------------------------------------------------
+    @v_args(meta=True)
+    def arith(self, meta, items):
+        return s.BinOp(str(items[1]).upper(), items[0], items[2], _at(meta))
+
+    compare = arith
+
+    @v_args(meta=True)
+    def and_(self, meta, items):
+        return s.BinOp("AND", items[0], items[-1], _at(meta))
+
+    @v_args(meta=True)
+    def or_(self, meta, items):
+        return s.BinOp("OR", items[0], items[1], _at(meta))
+
+    @v_args(meta=True)
+    def xor_(self, meta, items):
+        return s.BinOp("XOR", items[0], items[1], _at(meta))
+
+    @v_args(meta=True)
+    def power(self, meta, items):
+        return s.BinOp("**", items[0], items[1], _at(meta))
+
+    @v_args(meta=True)
+    def neg(self, meta, items):
+        return s.Unary("-", items[0], _at(meta))
+
+    @v_args(meta=True)
+    def not_(self, meta, items):
+        return s.Unary("NOT", items[0], _at(meta))
+
+    def real(self, items):
+        token = items[0]
+        text = re.sub(r"(?i)^REAL#", "", str(token)).replace("_", "")
+        return s.RealLit(str(token), decimal_to_f32(text), _at(token))
+
+    def int(self, items):
+        return s.IntLit(int(str(items[0]).replace("_", "")), _at(items[0]))
+
+    def true(self, items):
+        return s.BoolLit(True, _at(items[0]))
+
+    def false(self, items):
+        return s.BoolLit(False, _at(items[0]))
+
+    def ref(self, items):
+        return items[0]
+
+    @v_args(meta=True)
+    def index(self, meta, items):
+        return s.Index(items[0].name, items[1], _at(meta))
+
+    @v_args(meta=True)
+    def call(self, meta, items):
+        return s.Call(str(items[0]).upper(), tuple(a for a in items[1:] if a is not None), _at(meta))
+
+
+def _blank_free_text(text: str) -> str:
+    """Replace comments, strings, titles and region captions by spaces, keeping every position."""
+    pattern = re.compile(r"//[^\n]*|\(\*.*?\*\)|/\*.*?\*/|'[^'\n]*'|\"[^\"\n]*\"|\{[^{}]*\}"
+                         r"|(?i:TITLE[ \t]*=[^\n]*)|(?i:\bREGION\b[^\n]*)", re.S)
+    return pattern.sub(lambda m: re.sub(r"[^\n]", " ", m.group()), text)
+
+
+def _position(text: str, offset: int) -> s.Pos:
+    line = text.count("\n", 0, offset) + 1
+    return line, offset - (text.rfind("\n", 0, offset) + 1) + 1
+
+
+def _explain(text: str, source: str, exc: UnexpectedInput) -> str:
+    error_offset = getattr(exc, "pos_in_stream", None)
+    if error_offset is None:
+        error_offset = len(text)
+    blanked = _blank_free_text(text)
+    for match in re.finditer(r"[A-Za-z_][A-Za-z0-9_]*", blanked):
+        if match.start() > error_offset:
+            break
+        construct = UNSUPPORTED_WORDS.get(match.group().upper())
+        if construct:
+            line, col = _position(text, match.start())
+            return f"{source}:{line}:{col}: {construct} is not supported"
+    if isinstance(exc, UnexpectedEOF):
+        line, col = _position(text, len(text))
+        return f"{source}:{line}:{col}: unexpected end of file (missing END_FUNCTION_BLOCK?)"
+    if isinstance(exc, UnexpectedCharacters):
+        return f"{source}:{exc.line}:{exc.column}: unexpected character {text[exc.pos_in_stream]!r}"
+    assert isinstance(exc, UnexpectedToken)
+    expected = sorted(exc.expected)[:8]
+    found = "end of file" if exc.token.type == "$END" else repr(str(exc.token))
+    return f"{source}:{exc.line}:{exc.column}: syntax error: unexpected {found}; expected one of {', '.join(expected)}"
+
+
+def parse_text(text: str, source: str = "<text>") -> s.Program:
+    try:
+        tree = _lark().parse(text)
+    except UnexpectedInput as exc:
+        raise StSyntaxError(_explain(text, source, exc)) from None
+    try:
+        return _ToAst(source).transform(tree)
+    except VisitError as exc:
+        if isinstance(exc.orig_exc, UserError):
+            raise exc.orig_exc from None
+        raise
+
+
+def parse_file(path: str | Path) -> s.Program:
+    path = str(path)
+    try:
+        text = Path(path).read_text("utf-8-sig")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"{path}: cannot read Structured Text: {exc}") from None
+    return parse_text(text, path)

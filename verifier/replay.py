@@ -1,0 +1,185 @@
+"""Replay recorded rows through a parsed block and compare every output bit for bit."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from thermoplc.binary32 import f32_hex, ulp_distance
+from thermoplc.errors import UserError
+from thermoplc.models.modelfile import Model
+from thermoplc.models.reference import model_inputs, predict
+from thermoplc.models.table import Table
+from thermoplc.verifier.interpreter import Finding, Machine
+from thermoplc.verifier.parser import parse_file
+from thermoplc.verifier.syntax import Program
+
+FINDING_LABELS = (("subnormal", "subnormal"), ("nan", "NaN"), ("inf", "Inf"),
+                  ("non-portable", "non-portable operations"), ("literal", "literals in expressions"),
+                  ("int-overflow", "INT overflow"))
+
+
+@dataclass(frozen=True)
+class Mismatch:
+    cycle: int
+    row_line: int  # line in the CSV file
+    time: float
+    output: str
+    block_value: object
+    expected_value: object
+    variables: dict
+
+
+@dataclass(frozen=True)
+class Report:
+    block: str
+    against: str  # what the block was compared with
+    data: str
+    cycles: int
+    outputs: tuple[str, ...]
+    mismatch: Mismatch | None
+    findings: tuple[Finding, ...]
+    seconds: float
+    quantisation_um: dict = field(default_factory=dict)  # output -> max |float32 - float64|
+
+    @property
+    def ok(self) -> bool:
+        return self.mismatch is None
+
+    def text(self) -> str:
+        lines = []
+        if self.ok:
+            lines.append(f"bit-exact: {self.block} reproduces {self.against} on {self.data}")
+            lines.append(f"  {self.cycles} cycles, {self.cycles * len(self.outputs)} outputs compared "
+                         f"({', '.join(self.outputs)}): every bit equal")
+        else:
+            m = self.mismatch
+            lines.append(f"NOT bit-exact: {self.block} differs from {self.against} on {self.data}")
+            lines.append(f"  first divergent cycle {m.cycle} (line {m.row_line} of the data, time {m.time:g} s), "
+                         f"output {m.output}:")
+            lines.append(f"    block     {_show(m.block_value)}")
+            lines.append(f"    expected  {_show(m.expected_value)}")
+            if isinstance(m.block_value, float) and isinstance(m.expected_value, float):
+                lines.append(f"    distance  {ulp_distance(m.block_value, m.expected_value)} ULP")
+            lines.append(f"  block variables at cycle {m.cycle}:")
+            lines.extend(f"    {name} = {_show(value)}" for name, value in m.variables.items())
+        for name, error in self.quantisation_um.items():
+            lines.append(f"  max |float32 - float64| on {name}: {error:.6g} um")
+        for kind, label in FINDING_LABELS:
+            found = [f for f in self.findings if f.kind == kind]
+            if not found:
+                lines.append(f"  {label}: none")
+                continue
+            lines.append(f"  {label}: {len(found)} place(s)")
+            for f in found[:10]:
+                when = f", {f.count} time(s) from cycle {f.first_cycle}" if f.first_cycle is not None else ""
+                lines.append(f"    {self.block}:{f.pos[0]}:{f.pos[1]}: {f.detail}{when}")
+        if any(f.kind in ("non-portable", "literal") for f in self.findings):
+            lines.append("  WARNING: the proof does not carry over to a PLC for the places listed above (DESIGN §4.2, §4.4)")
+        rate = self.cycles / self.seconds if self.seconds > 0 else float("inf")
+        lines.append(f"  replay: {self.seconds:.2f} s, {rate:,.0f} cycles/s")
+        return "\n".join(lines)
+
+
+def _show(value) -> str:
+    if isinstance(value, bool) or value is None:
+        return str(value).upper()
+    if isinstance(value, float):
+        return f"{np.float32(value)} ({f32_hex(value)})"
+    if isinstance(value, list):
+        return "[" + ", ".join(_show(v) for v in value) + "]"
+    return repr(value)
+
+
+def _load(block_path: str) -> tuple[Program, Machine]:
+    program = parse_file(block_path)
+    return program, Machine(program, str(block_path))
+
+
+def _check_interface(machine: Machine, block: str, available: dict, what: str) -> None:
+    names = {d.name.upper() for d in machine.inputs}
+    missing = sorted(d.name for d in machine.inputs if d.name not in available)
+    extra = sorted(n for n in available if n.upper() not in names)
+    if missing or extra:
+        raise UserError(f"{block}: block inputs {', '.join(d.name for d in machine.inputs)} do not match {what}"
+                        + (f"; no value for {', '.join(missing)}" if missing else "")
+                        + (f"; {what} also has {', '.join(extra)}" if extra else ""))
+
+
+def _first_mismatch(machine: Machine, produced: dict, expected: dict) -> tuple[int, str] | None:
+    first = None
+    for name in produced:
+        got = produced[name]
+        want = expected[name]
+        if isinstance(want[0], (bool, np.bool_)):
+            differ = np.nonzero(np.asarray(got, bool) != np.asarray(want, bool))[0]
+        else:
+            got_bits = np.asarray(got, np.float32).view(np.uint32)
+            differ = np.nonzero(got_bits != np.asarray(want, np.float32).view(np.uint32))[0]
+        if len(differ) and (first is None or differ[0] < first[0]):
+            first = (int(differ[0]), name)
+    return first
+
+
+def _replay_and_compare(machine: Machine, block: str, against: str, table: Table, time_column: str,
+                        inputs: dict, expected: dict, quantisation: dict) -> Report:
+    rows = table.rows
+    columns = {name: np.asarray(col).tolist() for name, col in inputs.items()}
+    start = time.perf_counter()
+    produced = machine.replay(columns, rows, outputs=tuple(expected))
+    seconds = time.perf_counter() - start
+    findings = tuple(machine.findings.values())
+    first = _first_mismatch(machine, produced, {k: expected[k] for k in produced})
+    mismatch = None
+    if first is not None:
+        cycle, output = first
+        machine.reset()
+        machine.replay(columns, rows, outputs=(), stop_after=cycle)
+        want = expected[output][cycle]
+        t = table.columns[time_column][cycle] if time_column in table.columns else float(cycle)
+        mismatch = Mismatch(cycle, cycle + 2, float(t), output, produced[output][cycle],
+                            bool(want) if isinstance(want, (bool, np.bool_)) else float(want), machine.snapshot())
+    return Report(block, against, Path(table.path).name, rows, tuple(produced), mismatch, findings, seconds,
+                  quantisation)
+
+
+def verify_against_model(block: str, model: Model, model_path: str, table: Table,
+                         overrides: dict | None = None) -> Report:
+    _, machine = _load(block)
+    inputs = model_inputs(model, table, overrides)
+    _check_interface(machine, block, inputs, f"the inputs of {Path(model_path).name}")
+    block32 = predict(model, inputs, "f32")
+    declared = [d.name for d in machine.outputs]
+    unknown = [name for name in declared if name not in block32]
+    missing = [name for name in block32 if name not in declared]
+    if unknown or missing:
+        raise UserError(f"{block}: block outputs {', '.join(declared)} do not match the outputs of "
+                        f"{Path(model_path).name}: {', '.join(block32)}")
+    ideal = predict(model, inputs, "f64")
+    quantisation = {model.target.name: float(np.max(np.abs(block32[model.target.name].astype(np.float64)
+                                                          - ideal[model.target.name])))}
+    against = f"the float32 reference of {Path(model_path).name} ({model.kind})"
+    return _replay_and_compare(machine, block, against, table, model.time_column, inputs, block32, quantisation)
+
+
+def verify_against_trace(block: str, table: Table, expect: dict, overrides: dict | None = None,
+                         time_column: str = "time_s") -> Report:
+    """expect maps block output names to trace columns holding what the PLC produced."""
+    _, machine = _load(block)
+    inputs = {}
+    for d in machine.inputs:
+        column = (overrides or {}).get(d.name, d.name)
+        if column not in table.columns:
+            raise UserError(f"{table.path}: no column {column!r} for block input {d.name}; map it with --inputs {d.name}=COLUMN")
+        inputs[d.name] = table.columns[column].astype(np.float32) if d.type.base == "REAL" else table.columns[column] != 0
+    outputs = {d.name: d for d in machine.outputs}
+    expected = {}
+    for output, column in expect.items():
+        if output not in outputs:
+            raise UserError(f"{block}: no output {output!r} to compare with column {column!r}; outputs are {', '.join(outputs)}")
+        values = table.column(column)
+        expected[output] = values.astype(np.float32) if outputs[output].type.base == "REAL" else values != 0
+    return _replay_and_compare(machine, block, f"the recorded outputs ({', '.join(expect.values())})", table,
+                               time_column, inputs, expected, {})

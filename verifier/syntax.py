@@ -1,0 +1,127 @@
+"""The AST of a parsed block. Positions (line, column) are kept for messages but not compared."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Union
+
+Pos = tuple[int, int]
+
+
+def _pos():
+    return field(default=(0, 0), compare=False, repr=False)
+
+
+@dataclass(frozen=True)
+class Name:
+    name: str
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class Index:
+    name: str
+    index: "Expr"
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class RealLit:
+    text: str
+    value: float
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class IntLit:
+    value: int
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class BoolLit:
+    value: bool
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class BinOp:
+    op: str  # upper case: + - * / MOD ** = <> < <= > >= AND OR XOR
+    left: "Expr"
+    right: "Expr"
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class Unary:
+    op: str  # '-' or 'NOT'
+    operand: "Expr"
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class Call:
+    func: str  # upper case
+    args: tuple["Expr", ...]
+    pos: Pos = _pos()
+
+
+Expr = Union[Name, Index, RealLit, IntLit, BoolLit, BinOp, Unary, Call]
+
+
+@dataclass(frozen=True)
+class Assign:
+    target: Union[Name, Index]
+    value: Expr
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class If:
+    branches: tuple[tuple[Expr, tuple["Stmt", ...]], ...]
+    orelse: tuple["Stmt", ...]
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class For:
+    var: str
+    start: Expr
+    stop: Expr
+    step: Expr | None
+    body: tuple["Stmt", ...]
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class Region:
+    title: str
+    body: tuple["Stmt", ...]
+    pos: Pos = _pos()
+
+
+Stmt = Union[Assign, If, For, Region]
+
+
+@dataclass(frozen=True)
+class TypeRef:
+    base: str  # upper case: REAL, BOOL, INT, DINT
+    bounds: tuple[int, int] | None = None  # ARRAY[lo..hi] OF base
+
+
+@dataclass(frozen=True)
+class VarDecl:
+    name: str
+    section: str  # input, output, inout, static, temp, constant
+    type: TypeRef
+    initial: object = None  # a literal value, a tuple for arrays, or None
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class Program:
+    name: str
+    decls: tuple[VarDecl, ...]
+    body: tuple[Stmt, ...]
+
+    def section(self, section: str) -> tuple[VarDecl, ...]:
+        return tuple(d for d in self.decls if d.section == section)
