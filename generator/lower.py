@@ -43,17 +43,17 @@ def _header(model: Model) -> tuple[str, ...]:
 
 
 def _regression(model: Model, measured) -> Region:
-    """E = b0 + b_1*(X_1 - T0_1) + ... with X the measured (mlr) or fused (kalman) temperature."""
+    """E = beta0 + beta_1*(X_1 - T0_1) + ... with X the measured (mlr) or fused (kalman) temperature."""
     temps = model.signals("temperature")
-    terms = [_c("b0")] + [BinOp("*", _c(f"b_{i}"), BinOp("-", measured(i, s), Ref(f"T0_{i}")))
+    terms = [_c("beta0")] + [BinOp("*", _c(f"beta_{i}"), BinOp("-", measured(i, s), Ref(f"T0_{i}")))
                           for i, s in enumerate(temps, start=1)]
     return Region("Regression on temperature rises, eq. 10", (Assign(model.target.name, _sum(terms)),))
 
 
 def _regression_constants(model: Model) -> list[Const]:
     temps = model.signals("temperature")
-    return [Const("c_b0", model.coef("b0"), "intercept, um")] + [
-        Const(f"c_b_{i}", model.coef(f"b_{i}"), f"um per K of {s.name}") for i, s in enumerate(temps, start=1)]
+    return [Const("c_beta0", model.coef("beta0"), "intercept, um")] + [
+        Const(f"c_beta_{i}", model.coef(f"beta_{i}"), f"um per K of {s.name}") for i, s in enumerate(temps, start=1)]
 
 
 def lower_mlr(model: Model) -> Block:
@@ -89,22 +89,22 @@ def lower_kalman(model: Model) -> Block:
         prediction = _sum([BinOp("*", _c(f"A_{i}"), Ref(f"TF_{i}")), BinOp("*", _c(f"B_{i}"), Ref(ambient)),
                            BinOp("*", _c(f"C_{i}"), Ref(speed)), _c(f"D_{i}")])
         regions.append(Region(f"Sensor {i} {s.name}: lumped-mass prediction, eq. 4-6", (
-            Assign("TP", prediction),
-            Assign("PP", BinOp("+", BinOp("*", _c(f"AA_{i}"), Ref(f"PF_{i}")), _c(f"N_{i}"))),
+            Assign("T_pred", prediction),
+            Assign("P_pred", BinOp("+", BinOp("*", _c(f"AA_{i}"), Ref(f"PF_{i}")), _c(f"N_{i}"))),
         )))
         regions.append(Region(f"Sensor {i} {s.name}: fault criterion (sudden jump), paper 000 section 5", (
             Assign("Jump", Call("ABS", (BinOp("-", measured, Ref(f"TM_{i}")),))),
             Assign(f"TM_{i}", measured),
             If(((Unary("NOT", BinOp("<=", Ref("Jump"), _c(f"Jmp_{i}"))), (Assign(f"Fault_{i}", BoolConst(True)),)),
-                (BinOp("<=", Call("ABS", (BinOp("-", measured, Ref("TP")),)), _c(f"Agr_{i}")),
+                (BinOp("<=", Call("ABS", (BinOp("-", measured, Ref("T_pred")),)), _c(f"Agr_{i}")),
                  (Assign(f"Fault_{i}", BoolConst(False)),)))),
         )))
         regions.append(Region(f"Sensor {i} {s.name}: Kalman update, eq. 7-9 (gain 0 while faulty)", (
-            If(((Ref(f"Fault_{i}"), (Assign(f"TF_{i}", Ref("TP")), Assign(f"PF_{i}", Ref("PP")))),),
+            If(((Ref(f"Fault_{i}"), (Assign(f"TF_{i}", Ref("T_pred")), Assign(f"PF_{i}", Ref("P_pred")))),),
                orelse=(
-                   Assign("K", BinOp("/", Ref("PP"), BinOp("+", Ref("PP"), _c(f"R_{i}")))),
-                   Assign(f"TF_{i}", BinOp("+", Ref("TP"), BinOp("*", Ref("K"), BinOp("-", measured, Ref("TP"))))),
-                   Assign(f"PF_{i}", BinOp("-", Ref("PP"), BinOp("*", Ref("K"), Ref("PP")))),
+                   Assign("Gain", BinOp("/", Ref("P_pred"), BinOp("+", Ref("P_pred"), _c(f"R_{i}")))),
+                   Assign(f"TF_{i}", BinOp("+", Ref("T_pred"), BinOp("*", Ref("Gain"), BinOp("-", measured, Ref("T_pred"))))),
+                   Assign(f"PF_{i}", BinOp("-", Ref("P_pred"), BinOp("*", Ref("Gain"), Ref("P_pred")))),
                )),
         )))
     init.append(Assign("Init", BoolConst(True)))
@@ -126,8 +126,8 @@ def lower_kalman(model: Model) -> Block:
         outputs=(Var(model.target.name, "REAL", f"predicted thermal error, {model.target.unit}"),)
         + tuple(Var(f"Fault_{i}", "BOOL", f"{s.name} faulty: model-only prediction") for i, s in enumerate(temps, start=1)),
         statics=tuple(statics),
-        temps=(Var("TP", "REAL", "predicted temperature"), Var("PP", "REAL", "predicted covariance"),
-               Var("K", "REAL", "Kalman gain"), Var("Jump", "REAL", "change of the measurement since the last call")),
+        temps=(Var("T_pred", "REAL", "predicted temperature"), Var("P_pred", "REAL", "predicted covariance"),
+               Var("Gain", "REAL", "Kalman gain"), Var("Jump", "REAL", "change of the measurement since the last call")),
         constants=tuple(constants + _regression_constants(model)),
         regions=(Region("First call: start the filters at the measured temperatures",
                         (If(((Unary("NOT", Ref("Init")), tuple(init)),)),)),

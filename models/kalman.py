@@ -6,7 +6,7 @@ Per sensor i, every call (the first call starts from TF = T_measured, PF = P0):
     fault set when |T - T_previous| > Jmp (a sudden jump, paper §5), cleared when |T - TP| <= Agr
     fault:  TF = TP, PF = PP             (gain 0: model-only prediction)
     else:   K = PP/(PP+R); TF = TP + K*(T - TP); PF = PP - K*PP      (eq. 7-9)
-then E = b0 + sum_i b_i*(TF_i - T0_i) with T0_i the measured temperature at the first call (eq. 10).
+then E = beta0 + sum_i beta_i*(TF_i - T0_i) with T0_i the measured temperature at the first call (eq. 10).
 """
 from __future__ import annotations
 
@@ -45,7 +45,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     coef = {name: f(model.coef(name, precision)) for name in model.coefficients}
     k = len(temps)
     sensor = [{c: coef[f"{c}_{i}"] for c in SENSOR_COEFFICIENTS} for i in range(1, k + 1)]
-    betas = [coef[f"b_{i}"] for i in range(1, k + 1)]
+    betas = [coef[f"beta_{i}"] for i in range(1, k + 1)]
     measured = [np.asarray(inputs[s.name], f) for s in temps]
     tf = [m[0] for m in measured]
     t0 = list(tf)
@@ -72,7 +72,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
                 tf[i] = tp + gain * (tm - tp)
                 pf[i] = pp - gain * pp
             faults[i, j] = fault[i]
-        e = coef["b0"]
+        e = coef["beta0"]
         for i in range(k):
             e = e + betas[i] * (tf[i] - t0[i])
         error[j] = e
@@ -182,7 +182,7 @@ def fit_kalman(temps: np.ndarray, te: np.ndarray, n: np.ndarray, target: np.ndar
             "v1_per_s": 1 / tau, "v_speed_K_per_s_rpm": g_n / tau, "v0_K_per_s": g_0 / tau,
             "process_noise_N": noise_n, "measurement_noise_R": noise_r,
             "jump_limit_K": jump, "recover_limit_K": recover})
-    coefficients["b0"] = Coefficient.of(beta[0])
+    coefficients["beta0"] = Coefficient.of(beta[0])
     for i in range(k):
-        coefficients[f"b_{i + 1}"] = Coefficient.of(beta[i + 1])
+        coefficients[f"beta_{i + 1}"] = Coefficient.of(beta[i + 1])
     return coefficients, settings, log
