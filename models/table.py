@@ -16,8 +16,8 @@ from thermoplc.errors import UserError
 class Table:
     path: str
     columns: dict  # name -> float64 array
-    text: dict  # name -> list of the cell strings, for columns read verbatim (PLC traces)
     sha256: str
+    lines: tuple[int, ...]  # line number in the file of each row
 
     @property
     def rows(self) -> int:
@@ -29,7 +29,7 @@ class Table:
         return self.columns[name]
 
 
-def read_table(path: str | Path, time_column: str | None = "time_s", keep_text: tuple[str, ...] = ()) -> Table:
+def read_table(path: str | Path, time_column: str | None = "time_s") -> Table:
     """Read a comma-separated file with one header line; every cell must be a finite number."""
     path = str(path)
     try:
@@ -55,8 +55,6 @@ def read_table(path: str | Path, time_column: str | None = "time_s", keep_text: 
     if not body:
         raise UserError(f"{path}: header only, no data rows")
     values = np.empty((len(body), len(header)))
-    text = {name: [] for name in keep_text}
-    text_index = {header.index(n): n for n in keep_text if n in header}
     for r, (line, row) in enumerate(body):
         if len(row) != len(header):
             raise UserError(f"{path}:{line}: {len(row)} fields, expected {len(header)} as in the header")
@@ -68,8 +66,6 @@ def read_table(path: str | Path, time_column: str | None = "time_s", keep_text: 
             if not math.isfinite(value):
                 raise UserError(f"{path}:{line}:{c + 1}: column {header[c]!r}: expected a finite number, found {cell.strip()!r}")
             values[r, c] = value
-            if c in text_index:
-                text[text_index[c]].append(cell.strip())
     columns = {name: values[:, i].copy() for i, name in enumerate(header)}
     if time_column is not None:
         if time_column not in columns:
@@ -80,7 +76,7 @@ def read_table(path: str | Path, time_column: str | None = "time_s", keep_text: 
             line = body[bad[0] + 1][0]
             raise UserError(f"{path}:{line}: column {time_column!r}: time must increase strictly, "
                             f"found {t[bad[0] + 1]!r} after {t[bad[0]]!r}")
-    return Table(path, columns, text, hashlib.sha256(raw).hexdigest())
+    return Table(path, columns, hashlib.sha256(raw).hexdigest(), tuple(line for line, _ in body))
 
 
 def write_table(columns: dict) -> str:

@@ -57,8 +57,6 @@ class Machine:
         self.slots: dict[str, int] = {}
         self.decls: list[s.VarDecl] = []
         for d in program.decls:
-            if d.section == "inout":
-                self._fail(d.pos, "VAR_IN_OUT section is not supported")
             key = d.name.upper()
             if key in self.slots:
                 self._fail(d.pos, f"{d.name} is declared twice (names ignore case)")

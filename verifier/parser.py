@@ -80,8 +80,11 @@ class _ToAst(Transformer):
     sec_constant = lambda self, _: "constant"
     sec_static = lambda self, _: "static"
 
-    def var_section(self, items):
+    @v_args(meta=True)
+    def var_section(self, meta, items):
         section, decls = items[0], items[1:]
+        if section == "inout":
+            self._fail(_at(meta), "VAR_IN_OUT section is not supported")
         return [s.VarDecl(d.name, section, d.type, d.initial, d.pos) for group in decls for d in group]
 
     @v_args(meta=True)

@@ -139,7 +139,7 @@ def _replay_and_compare(machine: Machine, block: str, against: str, table: Table
         machine.replay(columns, rows, outputs=(), stop_after=cycle)
         want = expected[output][cycle]
         t = table.columns[time_column][cycle] if time_column in table.columns else float(cycle)
-        mismatch = Mismatch(cycle, cycle + 2, float(t), output, produced[output][cycle],
+        mismatch = Mismatch(cycle, table.lines[cycle], float(t), output, produced[output][cycle],
                             bool(want) if isinstance(want, (bool, np.bool_)) else float(want), machine.snapshot())
     return Report(block, against, Path(table.path).name, rows, tuple(produced), mismatch, findings, seconds,
                   quantisation)

@@ -1,0 +1,65 @@
+"""Regenerate the golden blocks in tests/golden/ so a generator change shows up as a reviewable diff.
+
+    python scripts/regen_golden.py          # re-render every <model>.scl from the committed <model>.json
+    python scripts/regen_golden.py --refit  # also refit the model files on the golden twin data first
+"""
+from __future__ import annotations
+
+import argparse
+import tempfile
+from pathlib import Path
+
+from thermoplc.generator.lower import lower
+from thermoplc.generator.printer import render
+from thermoplc.models.fit import FitRequest, fit
+from thermoplc.models.kalman import FitOptions
+from thermoplc.models.modelfile import load_model
+from thermoplc.models.table import read_table, write_table
+from thermoplc.models.twin import simulate
+
+GOLDEN = Path(__file__).resolve().parent.parent / "tests" / "golden"
+TWIN = {"hours": 12, "seed": 7}
+KINDS = ("mlr", "kalman")
+DIALECTS = ("tia",)
+
+
+def golden_twin_csv(folder: Path) -> Path:
+    path = folder / "golden_twin.csv"
+    path.write_text(write_table(simulate(TWIN["hours"], seed=TWIN["seed"])))
+    return path
+
+
+def refit(folder: Path) -> None:
+    table = read_table(golden_twin_csv(folder))
+    for kind in KINDS:
+        request = FitRequest(kind, "E_z_um", ("T_motor", "T_bearing"), "n_rpm" if kind == "kalman" else None,
+                             "T_env" if kind == "kalman" else None, train_until=6 * 3600.0,
+                             options=FitOptions(seed=1, population=20, generations=10))
+        (GOLDEN / f"{kind}.json").write_text(fit(table, request).to_json())
+
+
+def render_all() -> list[Path]:
+    written = []
+    for kind in KINDS:
+        model = load_model(GOLDEN / f"{kind}.json")
+        for dialect in DIALECTS:
+            path = GOLDEN / f"{kind}.{dialect}.scl"
+            path.write_text(render(lower(model), dialect))
+            written.append(path)
+    return written
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--refit", action="store_true", help="refit the golden model files first")
+    args = parser.parse_args()
+    GOLDEN.mkdir(parents=True, exist_ok=True)
+    if args.refit:
+        with tempfile.TemporaryDirectory() as tmp:
+            refit(Path(tmp))
+    for path in render_all():
+        print(f"wrote {path.relative_to(GOLDEN.parent.parent)}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,159 @@
+"""The commands as a user types them, in a temporary folder."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from thermoplc.binary32 import f32_bits, f32_from_bits, f32_hex, parse_f32_hex
+from thermoplc.generator.lower import lower
+from thermoplc.generator.printer import render
+from thermoplc.models.modelfile import Coefficient, Model, load_model
+from thermoplc.models.reference import model_inputs, predict
+from thermoplc.models.table import read_table
+
+
+def thermoplc(*args, cwd: Path, check: int | None = 0) -> subprocess.CompletedProcess:
+    result = subprocess.run([sys.executable, "-m", "thermoplc.cli", *map(str, args)], cwd=cwd,
+                            capture_output=True, text=True, stdin=subprocess.DEVNULL)
+    if check is not None:
+        assert result.returncode == check, result.stdout + result.stderr
+    return result
+
+
+@pytest.fixture(scope="module")
+def workdir(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("cli")
+    thermoplc("twin", "--hours", 10, "--seed", 3, "-o", "twin.csv", cwd=folder)
+    return folder
+
+
+FIT_KALMAN = ("fit", "--data", "twin.csv", "--model", "kalman", "--target", "E_z_um", "--temps", "T_motor,T_bearing",
+              "--speed", "n_rpm", "--ambient", "T_env", "--train-until", 18000, "--generations", 5, "--population", 12)
+
+
+FIT_MLR = ("fit", "--data", "twin.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing",
+           "--train-until", 18000)
+
+
+def test_twin_is_deterministic(workdir):
+    thermoplc("twin", "--hours", 10, "--seed", 3, "-o", "again.csv", cwd=workdir)
+    assert (workdir / "again.csv").read_bytes() == (workdir / "twin.csv").read_bytes()
+    thermoplc("twin", "--hours", 10, "--seed", 4, "-o", "other.csv", cwd=workdir)
+    assert (workdir / "other.csv").read_bytes() != (workdir / "twin.csv").read_bytes()
+
+
+def test_twin_sensor_faults_follow_paper_000(workdir):
+    thermoplc("twin", "--hours", 10, "--seed", 3, "--sensor-fault", "offset:T_motor@3600", "-o", "fault.csv", cwd=workdir)
+    clean, faulty = read_table(workdir / "twin.csv"), read_table(workdir / "fault.csv")
+    shift = faulty.columns["T_motor"] - clean.columns["T_motor"]
+    t = clean.columns["time_s"]
+    assert np.allclose(shift[t < 3600], 0, atol=2e-6) and np.allclose(shift[t >= 3600], -2.0, atol=2e-6)
+
+
+@pytest.mark.parametrize("kind", ["mlr", "kalman"])
+def test_fit_generate_verify(workdir, kind):
+    fit_args = FIT_KALMAN if kind == "kalman" else FIT_MLR
+    out = thermoplc(*fit_args, "-o", f"{kind}.json", cwd=workdir).stdout
+    assert "fit (training)" in out and "prediction (held out)" in out and "RMSE um" in out
+    thermoplc("generate", f"{kind}.json", "--dialect", "tia", "-o", f"{kind}.scl", cwd=workdir)
+    text = (workdir / f"{kind}.scl").read_text()
+    assert text.startswith('FUNCTION_BLOCK "ThermalComp"') and load_model(workdir / f"{kind}.json").fingerprint() in text
+    result = thermoplc("verify", f"{kind}.scl", "--model", f"{kind}.json", "--data", "twin.csv", cwd=workdir)
+    rows = read_table(workdir / "twin.csv").rows
+    assert "bit-exact" in result.stdout and f"{rows} cycles" in result.stdout
+    assert "max |float32 - float64|" in result.stdout and "NaN: none" in result.stdout
+
+
+def test_fit_is_reproducible(workdir):
+    thermoplc(*FIT_KALMAN, "-o", "a.json", cwd=workdir)
+    thermoplc(*FIT_KALMAN, "-o", "b.json", cwd=workdir)
+    assert (workdir / "a.json").read_bytes() == (workdir / "b.json").read_bytes()
+    thermoplc("generate", "a.json", "-o", "a.scl", cwd=workdir)
+    thermoplc("generate", "a.json", "-o", "b.scl", cwd=workdir)
+    assert (workdir / "a.scl").read_bytes() == (workdir / "b.scl").read_bytes()
+
+
+def test_differential_evolution_optimizer(workdir):
+    out = thermoplc(*FIT_KALMAN, "--optimizer", "de", "-o", "de.json", cwd=workdir).stdout
+    assert "prediction (held out)" in out
+    assert json.loads((workdir / "de.json").read_text())["fit"]["optimizer"] == "de"
+
+
+def _mutated(model: Model, name: str) -> Model:
+    c = model.coefficients[name]
+    bumped = f32_from_bits(f32_bits(c.f32) + 1)
+    return Model(**{**model.__dict__, "coefficients": {**model.coefficients, name: Coefficient(c.f64, bumped)}})
+
+
+@pytest.mark.parametrize("constant", ["A_1", "beta_2", "beta0"])
+def test_one_ulp_change_of_a_constant_fails_at_the_right_cycle(workdir, constant):
+    if not (workdir / "a.json").exists():
+        thermoplc(*FIT_KALMAN, "-o", "a.json", cwd=workdir)
+    model = load_model(workdir / "a.json")
+    mutant = _mutated(model, constant)
+    (workdir / "mutant.scl").write_text(render(lower(mutant)))
+    table = read_table(workdir / "twin.csv")
+    inputs = model_inputs(model, table)
+    honest = predict(model, inputs, "f32")["E_z_um"].view(np.uint32)
+    changed = predict(mutant, inputs, "f32")["E_z_um"].view(np.uint32)
+    cycle = int(np.nonzero(honest != changed)[0][0])
+    result = thermoplc("verify", "mutant.scl", "--model", "a.json", "--data", "twin.csv", cwd=workdir, check=1)
+    out = result.stdout
+    assert "NOT bit-exact" in out
+    assert f"first divergent cycle {cycle} " in out
+    block_value = predict(mutant, inputs, "f32")["E_z_um"][cycle]
+    assert f32_hex(float(block_value)) in out and f32_hex(float(predict(model, inputs, "f32")["E_z_um"][cycle])) in out
+    assert "ULP" in out and "block variables at cycle" in out and "TF_1 =" in out
+
+
+def test_verify_against_a_recorded_trace(workdir):
+    if not (workdir / "a.json").exists():
+        thermoplc(*FIT_KALMAN, "-o", "a.json", cwd=workdir)
+    model = load_model(workdir / "a.json")
+    table = read_table(workdir / "twin.csv")
+    outputs = predict(model, model_inputs(model, table), "f32")
+    lines = ["time_s,Tm,Tb,speed,amb,plc_E,plc_F1,plc_F2"]
+    for j in range(table.rows):
+        row = [table.columns[c][j] for c in ("time_s", "T_motor", "T_bearing", "n_rpm", "T_env")]
+        lines.append(",".join([repr(float(v)) for v in row] + [repr(float(outputs["E_z_um"][j])),
+                                                              str(int(outputs["Fault_1"][j])), str(int(outputs["Fault_2"][j]))]))
+    (workdir / "trace.csv").write_text("\n".join(lines) + "\n")
+    thermoplc("generate", "a.json", "-o", "a.scl", cwd=workdir)
+    mapping = "T_motor=Tm,T_bearing=Tb,n_rpm=speed,T_env=amb"
+    ok = thermoplc("verify", "a.scl", "--data", "trace.csv", "--expect", "E_z_um=plc_E,Fault_1=plc_F1",
+                   "--inputs", mapping, cwd=workdir)
+    assert "bit-exact" in ok.stdout and "recorded outputs" in ok.stdout
+    lines[50] = lines[50].rsplit(",", 3)[0] + ",123.5," + ",".join(lines[50].rsplit(",", 2)[1:])
+    (workdir / "trace_bad.csv").write_text("\n".join(lines) + "\n")
+    bad = thermoplc("verify", "a.scl", "--data", "trace_bad.csv", "--expect", "E_z_um=plc_E",
+                    "--inputs", mapping, cwd=workdir, check=1)
+    assert "first divergent cycle 49 (line 51" in bad.stdout
+
+
+@pytest.mark.parametrize("args, message", [
+    (("fit", "--data", "twin.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_nope", "--train-rows", 100,
+      "-o", "x.json"), "twin.csv: no column 'T_nope'"),
+    (("fit", "--data", "missing.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor", "--train-rows", 100,
+      "-o", "x.json"), "missing.csv: cannot read"),
+    (("generate", "twin.csv", "-o", "x.scl"), "twin.csv:1:1: malformed JSON"),
+    (("verify", "twin.csv", "--model", "mlr.json", "--data", "twin.csv"), "twin.csv:1:1: syntax error"),
+])
+def test_bad_input_is_one_clear_line_and_exit_2(workdir, args, message):
+    if not (workdir / "mlr.json").exists():
+        thermoplc("fit", "--data", "twin.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing",
+                  "--train-rows", 500, "-o", "mlr.json", cwd=workdir)
+    result = thermoplc(*args, cwd=workdir, check=2)
+    assert message in result.stderr
+    assert "Traceback" not in result.stderr
+    assert not (workdir / "x.json").exists() and not (workdir / "x.scl").exists()
+
+
+def test_demo_runs_on_the_bundled_recording(tmp_path):
+    result = thermoplc("demo", "--out", "demo", cwd=tmp_path)
+    assert result.stdout.count("bit-exact over 11115 cycles") == 2
+    for name in ("mlr.json", "kalman.json", "ThermalCompMlr.scl", "ThermalCompKalman.scl"):
+        assert (tmp_path / "demo" / name).exists()
