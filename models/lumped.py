@@ -52,10 +52,11 @@ def fused(a: float, u: np.ndarray, tm: np.ndarray, noise_n: np.ndarray, noise_r:
         tp = a * tf + u[j]
         tf = tp + gains[j] * (tm[j] - tp)
         out[:, j] = tf
+    if settled == rows:
+        return out
     k = gains[-1]
     for q in range(pop):
-        if settled < rows:
-            pole = (1.0 - k[q]) * a
-            drive = (1.0 - k[q]) * u[settled:] + k[q] * tm[settled:]
-            out[q, settled:] = lfilter([1.0], [1.0, -pole], drive, zi=[pole * out[q, settled - 1]])[0]
+        pole = (1.0 - k[q]) * a
+        drive = (1.0 - k[q]) * u[settled:] + k[q] * tm[settled:]
+        out[q, settled:] = lfilter([1.0], [1.0, -pole], drive, zi=[pole * out[q, settled - 1]])[0]
     return out

@@ -85,10 +85,6 @@ def _document(m: Model) -> dict:
     }
 
 
-def save_model(model: Model) -> str:
-    return model.to_json()
-
-
 def load_model(path: str | Path) -> Model:
     path = str(path)
     try:

@@ -67,13 +67,10 @@ class Report:
             lines.extend(f"    {name} = {_show(value)}" for name, value in m.variables.items())
         for name, error in self.quantisation_um.items():
             lines.append(f"  max |float32 - float64| on {name}: {error:.6g} um")
+        found = {kind: [f for f in self.findings if f.kind == kind] for kind, _ in FINDING_LABELS}
+        lines.append("  " + "; ".join(f"{label}: {len(found[kind]) or 'none'}" for kind, label in FINDING_LABELS))
         for kind, label in FINDING_LABELS:
-            found = [f for f in self.findings if f.kind == kind]
-            if not found:
-                lines.append(f"  {label}: none")
-                continue
-            lines.append(f"  {label}: {len(found)} place(s)")
-            for f in found[:10]:
+            for f in found[kind][:10]:
                 when = f", {f.count} time(s) from cycle {f.first_cycle}" if f.first_cycle is not None else ""
                 lines.append(f"    {self.block}:{f.pos[0]}:{f.pos[1]}: {f.detail}{when}")
         if any(f.kind in ("non-portable", "literal") for f in self.findings):
@@ -87,7 +84,7 @@ def _show(value) -> str:
     if isinstance(value, bool) or value is None:
         return str(value).upper()
     if isinstance(value, float):
-        return f"{np.float32(value)} ({f32_hex(value)})"
+        return f"{str(np.float32(value))} ({f32_hex(value)})"
     if isinstance(value, list):
         return "[" + ", ".join(_show(v) for v in value) + "]"
     return repr(value)
