@@ -169,8 +169,12 @@ def fit_kalman(temps: np.ndarray, te: np.ndarray, n: np.ndarray, target: np.ndar
         a, b, c, d = (float(v[0]) for v in discrete[i])
         noise_n, noise_r = 10 ** x[2 * i], 10 ** x[2 * i + 1]
         innovation = np.abs(temps[1:, i] - (a * series[i][0][:-1] + forcing[i][1:]))
-        jump = options.jump_limit or max(1.0, 3 * float(np.quantile(np.abs(np.diff(temps[:, i])), 0.999)))
-        recover = options.recover_limit or max(0.5, 3 * float(np.quantile(innovation, 0.999)))
+        jump = options.jump_limit
+        if jump is None:
+            jump = max(1.0, 3 * float(np.quantile(np.abs(np.diff(temps[:, i])), 0.999)))
+        recover = options.recover_limit
+        if recover is None:
+            recover = max(0.5, 3 * float(np.quantile(innovation, 0.999)))
         coef_a = Coefficient.of(a)
         values = {"A": coef_a, "AA": Coefficient(a * a, round_f32(coef_a.f32 * coef_a.f32)),
                   "B": Coefficient.of(b), "C": Coefficient.of(c), "D": Coefficient.of(d),
