@@ -35,7 +35,7 @@ def main() -> None:
     for kind in ("mlr", "kalman"):
         request = FitRequest(kind, "E_z_um", ("T_motor", "T_bearing"), "n_rpm", "T_env",
                              train_until=args.hours * 1800, options=FitOptions(population=12, generations=3))
-        model = fit(table, request)
+        model = fit([table], request)
         machine = Machine(parse_text(render(lower(model))))
         inputs = model_inputs(model, table)
         columns = {name: col.tolist() for name, col in inputs.items()}

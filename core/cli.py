@@ -47,12 +47,12 @@ def cmd_fit(args) -> int:
     from thermoplc.models.fit import FitRequest, fit
     from thermoplc.models.kalman import FitOptions
     from thermoplc.models.table import read_table
-    table = read_table(args.data, args.time)
+    tables = [read_table(path, args.time) for path in args.data]
     options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
                          args.recover_limit)
     request = FitRequest(args.model, args.target, args.temps, args.speed, args.ambient, args.train_until,
                          args.train_rows, args.name, options)
-    model = fit(table, request, args.time, _progress if sys.stderr.isatty() else None)
+    model = fit(tables, request, args.time, _progress if sys.stderr.isatty() else None)
     if sys.stderr.isatty():
         print(file=sys.stderr)
     write_atomic(args.output, model.to_json())
@@ -63,9 +63,11 @@ def cmd_fit(args) -> int:
 
 def format_fit(model) -> str:
     m = model.metrics
-    t = model.training
-    lines = [f"fitted {model.kind} on {t['file']}: {t['rows']} training rows (until {t['until_s']:g} s), "
-             f"{t['total_rows'] - t['rows']} held out",
+    batches = model.training.get("batches", [model.training])
+    files = ", ".join(t["file"] for t in batches)
+    lines = [f"fitted {model.kind} on {files}: {m['train']['rows']} training rows "
+             f"(until {batches[0]['until_s']:g} s{' in each file' if len(batches) > 1 else ''}), "
+             f"{m['held_out']['rows']} held out",
              f"  {'':<22}{'RMSE um':>10}{'max |residual| um':>20}"]
     for label, key in (("fit (training)", "train"), ("prediction (held out)", "held_out")):
         if m[key]["rows"]:
@@ -136,12 +138,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_twin)
 
     p = sub.add_parser("fit", help="fit a thermal-error model to a CSV file")
-    p.add_argument("--data", required=True)
-    p.add_argument("--model", choices=("mlr", "kalman"), required=True)
+    p.add_argument("--data", required=True, action="append",
+                   help="CSV file; repeat for piecewise (one file per batch, initial ambient read from each)")
+    p.add_argument("--model", choices=("mlr", "kalman", "piecewise"), required=True)
     p.add_argument("--target", required=True, help="measured displacement column, um")
     p.add_argument("--temps", type=_columns, required=True, help="temperature columns, comma-separated")
     p.add_argument("--speed", help="spindle speed column, rpm (kalman)")
-    p.add_argument("--ambient", help="ambient temperature column, degC (kalman)")
+    p.add_argument("--ambient", help="ambient temperature column, degC (kalman, piecewise)")
     p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
     part = p.add_mutually_exclusive_group(required=True)
     part.add_argument("--train-until", type=float, metavar="SECONDS", help="train on rows with time <= SECONDS")

@@ -44,7 +44,7 @@ def run_demo(out: Path) -> int:
     for kind, block_name in BLOCKS.items():
         request = FitRequest(kind, TARGET, TEMPS, SPEED if kind == "kalman" else None,
                              AMBIENT if kind == "kalman" else None, train_until=TRAIN_UNTIL_S, block_name=block_name)
-        model = fit(table, request)
+        model = fit([table], request)
         model_path = out / f"{kind}.json"
         block_path = out / f"{block_name}.scl"
         write_atomic(model_path, model.to_json())

@@ -20,6 +20,19 @@ class BoolConst:
 
 
 @dataclass(frozen=True)
+class IntConst:
+    """An INT literal: only as an array index, a loop bound or a value given to an INT variable
+    (integer arithmetic is exact, so DESIGN §4.2 does not apply)."""
+    value: int
+
+
+@dataclass(frozen=True)
+class Index:
+    name: str
+    index: "Expr"
+
+
+@dataclass(frozen=True)
 class BinOp:
     op: str  # + - * / < <= > >= = <> AND OR XOR
     left: "Expr"
@@ -38,13 +51,14 @@ class Call:
     args: tuple["Expr", ...]
 
 
-Expr = Union[Ref, BoolConst, BinOp, Unary, Call]
+Expr = Union[Ref, BoolConst, IntConst, Index, BinOp, Unary, Call]
 
 
 @dataclass(frozen=True)
 class Assign:
     target: str
     value: Expr
+    index: Expr | None = None  # assigns target[index] when set
 
 
 @dataclass(frozen=True)
@@ -53,7 +67,15 @@ class If:
     orelse: tuple["Stmt", ...] = ()
 
 
-Stmt = Union[Assign, If]
+@dataclass(frozen=True)
+class For:
+    var: str  # an INT variable
+    start: Expr
+    stop: Expr
+    body: tuple["Stmt", ...]
+
+
+Stmt = Union[Assign, If, For]
 
 
 @dataclass(frozen=True)
@@ -67,13 +89,16 @@ class Var:
     name: str
     type: str  # 'REAL' | 'BOOL' | 'INT'
     comment: str = ""
+    length: int | None = None  # Array[0..length-1] of type
+    initial: tuple | None = None  # start values of a table (REAL binary32 values)
 
 
 @dataclass(frozen=True)
 class Const:
     name: str
-    value: float  # a binary32 value
+    value: float | int  # a binary32 value for REAL, an integer for INT
     comment: str = ""
+    type: str = "REAL"
 
 
 @dataclass(frozen=True)
@@ -96,7 +121,13 @@ def walk_exprs(stmts: tuple[Stmt, ...]):
     """Every expression in a statement list, outermost first."""
     for stmt in stmts:
         if isinstance(stmt, Assign):
+            if stmt.index is not None:
+                yield from _walk(stmt.index)
             yield from _walk(stmt.value)
+        elif isinstance(stmt, For):
+            yield from _walk(stmt.start)
+            yield from _walk(stmt.stop)
+            yield from walk_exprs(stmt.body)
         else:
             for cond, body in stmt.branches:
                 yield from _walk(cond)
@@ -114,12 +145,17 @@ def _walk(expr: Expr):
     elif isinstance(expr, Call):
         for arg in expr.args:
             yield from _walk(arg)
+    elif isinstance(expr, Index):
+        yield from _walk(expr.index)
 
 
 def assigned_names(stmts: tuple[Stmt, ...]):
     for stmt in stmts:
         if isinstance(stmt, Assign):
             yield stmt.target
+        elif isinstance(stmt, For):
+            yield stmt.var
+            yield from assigned_names(stmt.body)
         else:
             for _, body in stmt.branches:
                 yield from assigned_names(body)

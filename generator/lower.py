@@ -5,9 +5,10 @@ from functools import reduce
 
 from thermoplc import __version__
 from thermoplc.generator.ir import (
-    Assign, BinOp, Block, BoolConst, Call, Const, If, Ref, Region, Unary, Var,
+    Assign, BinOp, Block, BoolConst, Call, Const, If, Index, IntConst, Ref, Region, Unary, Var,
 )
 from thermoplc.models.kalman import SENSOR_COEFFICIENTS
+from thermoplc.models.piecewise import node_count
 from thermoplc.models.modelfile import Model
 
 _KALMAN_COMMENTS = {
@@ -136,7 +137,66 @@ def lower_kalman(model: Model) -> Block:
     )
 
 
-LOWERINGS = {"mlr": lower_mlr, "kalman": lower_kalman}
+def lower_piecewise(model: Model) -> Block:
+    temps = model.signals("temperature")
+    ambient = model.signals("ambient")[0].name
+    count = node_count(model)
+    nodes = lambda index: Index("tab_Node", index)
+
+    def table(name: str, stem: str, comment: str) -> Var:
+        values = tuple(model.coef(f"{stem}_{m}") for m in range(1, count + 1))
+        return Var(name, "REAL", f"{comment} (table, read only)", length=count, initial=values)
+
+    chain = [(BinOp("<=", Ref("Amb0"), nodes(IntConst(0))), (Assign("Ia", IntConst(0)), Assign("Ib", IntConst(0))))]
+    chain += [(BinOp("<=", Ref("Amb0"), nodes(IntConst(j))), (Assign("Ia", IntConst(j - 1)), Assign("Ib", IntConst(j))))
+              for j in range(1, count)]
+    last = (Assign("Ia", IntConst(count - 1)), Assign("Ib", IntConst(count - 1)))
+    span = BinOp("-", nodes(Ref("Ib")), nodes(Ref("Ia")))
+    weights = If(((BinOp("=", Ref("Ia"), Ref("Ib")), (Assign("Wa", _c("One")), Assign("Wb", _c("Zero")))),),
+                 orelse=(Assign("Wa", BinOp("/", BinOp("-", nodes(Ref("Ib")), Ref("Amb0")), span)),
+                         Assign("Wb", BinOp("/", BinOp("-", Ref("Amb0"), nodes(Ref("Ia"))), span))))
+    latch = (*(Assign(f"T0_{i}", Ref(s.name)) for i, s in enumerate(temps, start=1)),
+             Assign("Amb0", Ref(ambient)), If(tuple(chain), orelse=last), weights, Assign("Init", BoolConst(True)))
+
+    def node_model(which: str) -> Assign:
+        index = Ref(f"I{which}")
+        terms = [Index("tab_Beta0", index)] + [
+            BinOp("*", Index(f"tab_Beta_{i}", index), BinOp("-", Ref(s.name), Ref(f"T0_{i}")))
+            for i, s in enumerate(temps, start=1)]
+        return Assign(f"Y{which}", _sum(terms))
+
+    tables = [table("tab_Node", "node", "node ambient temperatures, degC"),
+              table("tab_Beta0", "beta0", "intercept per node, um")]
+    tables += [Var(f"tab_Beta_{i}", "REAL", f"um per K of {s.name} per node (table, read only)", length=count,
+                   initial=tuple(model.coef(f"beta_{i}_{m}") for m in range(1, count + 1)))
+               for i, s in enumerate(temps, start=1)]
+    return Block(
+        name=model.block_name,
+        title="Thermal error compensation: piecewise weighted model library over ambient temperature (paper 001)",
+        header=_header(model),
+        inputs=tuple(Var(s.name, "REAL", f"{s.role}, {s.unit}") for s in model.inputs),
+        outputs=(Var(model.target.name, "REAL", f"predicted thermal error, {model.target.unit}"),),
+        statics=(Var("Init", "BOOL", "TRUE after the first call"),
+                 Var("Amb0", "REAL", f"{ambient} at the first call"),
+                 Var("Ia", "INT", "lower node"), Var("Ib", "INT", "upper node"),
+                 Var("Wa", "REAL", "weight of the lower node, eq. 1"), Var("Wb", "REAL", "weight of the upper node"),
+                 *(Var(f"T0_{i}", "REAL", f"{s.name} at the first call") for i, s in enumerate(temps, start=1)),
+                 *tables),
+        temps=(Var("Ya", "REAL", "prediction of the lower node's model"),
+               Var("Yb", "REAL", "prediction of the upper node's model")),
+        constants=(Const("c_One", 1.0, "weight of a single node"), Const("c_Zero", 0.0, "weight of no node")),
+        regions=(
+            Region("First call: latch temperatures, ambient, the two nearest nodes and their weights (eq. 1)",
+                   (If(((Unary("NOT", Ref("Init")), latch),)),)),
+            Region("Regression model of each chosen node", (node_model("a"), node_model("b"))),
+            Region("Weighted sum of the two node models, eq. 1",
+                   (Assign(model.target.name, BinOp("+", BinOp("*", Ref("Wa"), Ref("Ya")),
+                                                    BinOp("*", Ref("Wb"), Ref("Yb")))),)),
+        ),
+    )
+
+
+LOWERINGS = {"mlr": lower_mlr, "kalman": lower_kalman, "piecewise": lower_piecewise}
 
 
 def lower(model: Model) -> Block:

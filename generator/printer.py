@@ -9,8 +9,8 @@ import jinja2
 
 from thermoplc.generator.identifiers import check_unique, identifier_problem
 from thermoplc.generator.ir import (
-    PORTABLE_FUNCTIONS, Assign, BinOp, Block, BoolConst, Call, Expr, If, Ref, Stmt, Unary,
-    assigned_names, walk_exprs,
+    PORTABLE_FUNCTIONS, Assign, BinOp, Block, BoolConst, Call, Expr, For, If, Index, IntConst, Ref, Stmt,
+    Unary, Var, assigned_names, walk_exprs,
 )
 from thermoplc.generator.literals import real_literal
 
@@ -30,10 +30,12 @@ class Dialect:
     local_prefix: str
     type_names: dict
     body_indent: str
+    array_type: str
 
 
 DIALECTS = {
-    "tia": Dialect("tia", "tia.scl.j2", "#", {"REAL": "Real", "BOOL": "Bool", "INT": "Int"}, "\t"),
+    "tia": Dialect("tia", "tia.scl.j2", "#", {"REAL": "Real", "BOOL": "Bool", "INT": "Int"}, "\t",
+                   "Array[0..{last}] of {type}"),
 }
 
 
@@ -52,6 +54,10 @@ class _Printer:
             return self.d.local_prefix + e.name
         if isinstance(e, BoolConst):
             return "TRUE" if e.value else "FALSE"
+        if isinstance(e, IntConst):
+            return str(e.value)
+        if isinstance(e, Index):
+            return f"{self.d.local_prefix}{e.name}[{self.expr(e.index)}]"
         if isinstance(e, Call):
             return f"{e.func}({', '.join(self.expr(a) for a in e.args)})"
         if isinstance(e, Unary):
@@ -73,7 +79,16 @@ class _Printer:
         lines: list[str] = []
         for s in body:
             if isinstance(s, Assign):
-                lines.append(f"{pad}{self.d.local_prefix}{s.target} := {self.expr(s.value)};")
+                target = self.d.local_prefix + s.target
+                if s.index is not None:
+                    target += f"[{self.expr(s.index)}]"
+                lines.append(f"{pad}{target} := {self.expr(s.value)};")
+                continue
+            if isinstance(s, For):
+                lines.append(f"{pad}FOR {self.d.local_prefix}{s.var} := {self.expr(s.start)} "
+                             f"TO {self.expr(s.stop)} DO")
+                lines.extend(self.stmts(s.body, depth + 1))
+                lines.append(f"{pad}END_FOR;")
                 continue
             for i, (cond, branch) in enumerate(s.branches):
                 keyword = "IF" if i == 0 else "ELSIF"
@@ -102,16 +117,31 @@ def validate(block: Block) -> None:
         raise GenerationError(duplicate)
     body = tuple(s for region in block.regions for s in region.body)
     for e in walk_exprs(body):
-        if isinstance(e, Ref) and e.name not in declared and e.name not in constants:
+        if isinstance(e, (Ref, Index)) and e.name not in declared and e.name not in constants:
             raise GenerationError(f"expression refers to undeclared {e.name!r}")
+        if isinstance(e, BinOp) and e.op in "+-*/" and any(isinstance(x, IntConst) for x in (e.left, e.right)):
+            raise GenerationError(f"integer literal inside arithmetic ({e.op}); declare a named INT constant")
         if isinstance(e, Call) and e.func not in PORTABLE_FUNCTIONS:
             raise GenerationError(f"{e.func} is not a portable operation (DESIGN §4.4)")
-    writable = {v.name for group in (block.outputs, block.statics, block.temps) for v in group}
+    writable = {v.name for group in (block.outputs, block.statics, block.temps) for v in group if v.initial is None}
     for target in assigned_names(body):
         if target not in writable:
             raise GenerationError(f"statement assigns {target!r}, which is not an output, static or temp")
     for c in block.constants:
-        real_literal(c.value)  # raises for values that are not finite binary32
+        if c.type == "REAL":
+            real_literal(c.value)  # raises for values that are not finite binary32
+    for v in (*block.statics, *block.temps):
+        for value in v.initial or ():
+            real_literal(value)
+
+
+def _initial(v: Var) -> str:
+    """Start values of a table: ' := [a, b, ...]', wrapped so that review diffs stay readable."""
+    if v.initial is None:
+        return ""
+    items = [real_literal(x) for x in v.initial]
+    rows = [", ".join(items[i:i + 6]) for i in range(0, len(items), 6)]
+    return " := [" + ",\n         ".join(rows) + "]"
 
 
 def render(block: Block, dialect: str = "tia") -> str:
@@ -125,8 +155,13 @@ def render(block: Block, dialect: str = "tia") -> str:
         autoescape=False,
     )
 
+    def type_of(v: Var) -> str:
+        if v.length is None:
+            return d.type_names[v.type]
+        return d.array_type.format(last=v.length - 1, type=d.type_names[v.type])
+
     def decls(group):
-        return [(v.name, d.type_names[v.type], safe_comment(v.comment)) for v in group]
+        return [(v.name, type_of(v), _initial(v), safe_comment(v.comment)) for v in group]
 
     regions = [(safe_comment(r.title), printer.stmts(r.body, 1)) for r in block.regions]
     text = env.get_template(d.template).render(
@@ -136,8 +171,8 @@ def render(block: Block, dialect: str = "tia") -> str:
         sections=[(kw, decls(group)) for kw, group in
                   (("VAR_INPUT", block.inputs), ("VAR_OUTPUT", block.outputs),
                    ("VAR", block.statics), ("VAR_TEMP", block.temps)) if group],
-        constants=[(c.name, d.type_names["REAL"], real_literal(c.value), safe_comment(c.comment))
-                   for c in block.constants],
+        constants=[(c.name, d.type_names[c.type], real_literal(c.value) if c.type == "REAL" else str(c.value),
+                    safe_comment(c.comment)) for c in block.constants],
         regions=regions,
         indent=d.body_indent,
     )

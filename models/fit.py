@@ -9,7 +9,7 @@ import numpy as np
 
 from thermoplc.errors import UserError
 from thermoplc.generator.identifiers import check_unique, identifier_from_column, identifier_problem
-from thermoplc.models import kalman, mlr
+from thermoplc.models import kalman, mlr, piecewise
 from thermoplc.models.modelfile import Coefficient, Model, Signal
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.table import Table
@@ -66,58 +66,104 @@ def _metrics(residual: np.ndarray) -> dict:
             "max_abs_um": float(np.max(np.abs(residual))) if len(residual) else 0.0}
 
 
-def fit(table: Table, request: FitRequest, time_column: str = "time_s",
-        progress: Callable[[str], None] | None = None) -> Model:
-    for column in request.temps:
-        table.column(column)
+ROLES_NEEDED = {"mlr": (), "kalman": ("speed", "ambient"), "piecewise": ("ambient",)}
+
+
+@dataclass(frozen=True)
+class Part:
+    """The training rows of one file, by role."""
+    temps: np.ndarray  # (rows, sensors)
+    target: np.ndarray
+    speed: np.ndarray | None
+    ambient: np.ndarray | None
+
+
+def _fit_mlr(parts, request, names, dt, progress):
+    part = parts[0]
+    coefficients = {k: Coefficient.of(v) for k, v in mlr.fit_mlr(part.temps, part.target, names).items()}
+    return coefficients, {}, {"method": "least squares (eq. 11)"}
+
+
+def _fit_kalman(parts, request, names, dt, progress):
+    part = parts[0]
+    return kalman.fit_kalman(part.temps, part.ambient, part.speed, part.target, dt, names, request.options, progress)
+
+
+def _fit_piecewise(parts, request, names, dt, progress):
+    return piecewise.fit_piecewise([(p.temps, p.ambient, p.target) for p in parts], names)
+
+
+FITTERS = {"mlr": _fit_mlr, "kalman": _fit_kalman, "piecewise": _fit_piecewise}
+
+
+def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
     if not request.temps:
         raise UserError("--temps needs at least one column")
     signals = [Signal(block_identifier(c, "temperature"), c, "temperature", "degC") for c in request.temps]
-    if request.kind == "kalman":
-        for role, column, unit in (("speed", request.speed, "rpm"), ("ambient", request.ambient, "degC")):
-            if column is None:
-                raise UserError(f"--model kalman needs --{role} COLUMN")
-            table.column(column)
-            signals.append(Signal(block_identifier(column, role), column, role, unit))
+    for role in ROLES_NEEDED[request.kind]:
+        column = getattr(request, role)
+        if column is None:
+            raise UserError(f"--model {request.kind} needs --{role} COLUMN")
+        shared = [i for i, s in enumerate(signals) if s.column == column]
+        if shared:  # e.g. the ambient sensor is also one of the regression temperatures (paper 001's T14)
+            s = signals[shared[0]]
+            signals[shared[0]] = Signal(s.name, s.column, f"{s.role},{role}", s.unit)
+            continue
+        signals.append(Signal(block_identifier(column, role), column, role, "rpm" if role == "speed" else "degC"))
+    for table in tables:
+        for s in signals:
+            table.column(s.column)
+        table.column(request.target)
+    return signals
+
+
+def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
+        progress: Callable[[str], None] | None = None) -> Model:
+    """Fit `request.kind` on the training part of each table (one table, or one per batch for piecewise)."""
+    if request.kind != "piecewise" and len(tables) != 1:
+        raise UserError(f"--model {request.kind} fits one --data file; only piecewise takes one file per batch")
+    signals = _signals(tables, request)
     target = Signal(block_identifier(request.target, "target"), request.target, "target", "um")
-    table.column(request.target)
     duplicate = check_unique([s.name for s in signals] + [target.name, request.block_name])
     if duplicate:
         raise UserError(f"column names clash in the block: {duplicate}")
     problem = identifier_problem(request.block_name)
     if problem:
         raise UserError(f"block name {request.block_name!r} {problem}")
-    n_train = training_rows(table, time_column, request.train_until, request.train_rows)
-    dt = sample_period(table, time_column)
-    temps = np.column_stack([table.columns[c] for c in request.temps])[:n_train]
-    y = table.columns[request.target][:n_train]
+    n_train = [training_rows(t, time_column, request.train_until, request.train_rows) for t in tables]
+    periods = [sample_period(t, time_column) for t in tables]
+    dt = periods[0]
+    for table, period in zip(tables, periods):
+        if abs(period - dt) > SAMPLING_TOLERANCE * dt:
+            raise UserError(f"{table.path}: sampled every {period:g} s, but {tables[0].path} every {dt:g} s")
+    parts = [Part(np.column_stack([t.columns[c] for c in request.temps])[:n], t.columns[request.target][:n],
+                  t.columns[request.speed][:n] if request.speed in t.columns else None,
+                  t.columns[request.ambient][:n] if request.ambient in t.columns else None)
+             for t, n in zip(tables, n_train)]
     names = [s.name for s in signals if s.role == "temperature"]
-    settings: dict = {}
-    log: dict = {}
-    if request.kind == "mlr":
-        coefficients = {k: Coefficient.of(v) for k, v in mlr.fit_mlr(temps, y, names).items()}
-        log = {"method": "least squares (eq. 11)"}
-    else:
-        te = table.columns[request.ambient][:n_train]
-        n = table.columns[request.speed][:n_train]
-        coefficients, settings, log = kalman.fit_kalman(temps, te, n, y, dt, names, request.options, progress)
+    coefficients, settings, log = FITTERS[request.kind](parts, request, names, dt, progress)
+    training = [{"file": Path(t.path).name, "sha256": t.sha256, "rows": n, "total_rows": t.rows,
+                 "until_s": float(t.columns[time_column][n - 1])} for t, n in zip(tables, n_train)]
     model = Model(
         kind=request.kind, block_name=request.block_name, inputs=tuple(signals), target=target,
         time_column=time_column, sample_period_s=dt, coefficients=coefficients, settings=settings,
-        training={"file": Path(table.path).name, "sha256": table.sha256, "rows": n_train, "total_rows": table.rows,
-                  "until_s": float(table.columns[time_column][n_train - 1])},
-        fit=log,
+        training=training[0] if len(training) == 1 else {"batches": training}, fit=log,
     )
-    return Model(**{**model.__dict__, "metrics": evaluate(model, table, n_train)})
+    return Model(**{**model.__dict__, "metrics": evaluate(model, tables, n_train)})
 
 
-def evaluate(model: Model, table: Table, n_train: int) -> dict:
+def evaluate(model: Model, tables: list[Table], n_train: list[int]) -> dict:
     """Fit (training rows) and prediction (held-out rows) errors of the float64 model, and the
-    float32-vs-float64 quantisation error over all rows."""
-    inputs = model_inputs(model, table)
-    measured = table.columns[model.target.column]
-    ideal = predict(model, inputs, "f64")[model.target.name]
-    block = predict(model, inputs, "f32")[model.target.name]
-    residual = measured - ideal
-    return {"train": _metrics(residual[:n_train]), "held_out": _metrics(residual[n_train:]),
-            "float32_vs_float64_max_um": float(np.max(np.abs(block.astype(np.float64) - ideal)))}
+    float32-vs-float64 quantisation error over all rows, pooled over the tables (each replayed
+    from its first row, as the block would be)."""
+    train, held_out, quantisation = [], [], 0.0
+    for table, n in zip(tables, n_train):
+        inputs = model_inputs(model, table)
+        ideal = predict(model, inputs, "f64")[model.target.name]
+        block = predict(model, inputs, "f32")[model.target.name]
+        residual = table.columns[model.target.column] - ideal
+        train.append(residual[:n])
+        held_out.append(residual[n:])
+        quantisation = max(quantisation, float(np.max(np.abs(block.astype(np.float64) - ideal))))
+    return {"train": _metrics(np.concatenate(train)), "held_out": _metrics(np.concatenate(held_out)),
+            "float32_vs_float64_max_um": quantisation}

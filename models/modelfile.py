@@ -13,7 +13,7 @@ from thermoplc.errors import UserError
 
 FORMAT = "thermoplc-model"
 SCHEMA_VERSION = 1
-KINDS = ("mlr", "kalman")
+KINDS = ("mlr", "kalman", "piecewise")
 ROLES = ("temperature", "speed", "ambient")
 
 
@@ -51,7 +51,8 @@ class Model:
     fit: dict = field(default_factory=dict)
 
     def signals(self, role: str) -> tuple[Signal, ...]:
-        return tuple(s for s in self.inputs if s.role == role)
+        """Inputs with this role; one input may hold several roles ('temperature,ambient')."""
+        return tuple(s for s in self.inputs if role in s.role.split(","))
 
     def coef(self, name: str, precision: str = "f32") -> float:
         return getattr(self.coefficients[name], precision)
@@ -125,7 +126,7 @@ def _parse(doc, path: str) -> Model:
         raise UserError(f"{path}: field 'kind' must be one of {', '.join(KINDS)}, found {kind!r}")
     inputs = tuple(_signal(s, path, f"inputs[{i}]") for i, s in enumerate(_field(doc, "inputs", list, path)))
     for i, s in enumerate(inputs):
-        if s.role not in ROLES:
+        if not s.role or any(role not in ROLES for role in s.role.split(",")):
             raise UserError(f"{path}: field 'inputs[{i}].role' must be one of {', '.join(ROLES)}, found {s.role!r}")
     coefficients = {}
     for name, entry in _field(doc, "coefficients", dict, path).items():

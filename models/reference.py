@@ -4,11 +4,11 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.errors import UserError
-from thermoplc.models import kalman, mlr
+from thermoplc.models import kalman, mlr, piecewise
 from thermoplc.models.modelfile import Model
 from thermoplc.models.table import Table
 
-_PREDICTORS = {"mlr": mlr.predict, "kalman": kalman.predict}
+_PREDICTORS = {"mlr": mlr.predict, "kalman": kalman.predict, "piecewise": piecewise.predict}
 
 
 def predict(model: Model, inputs: dict, precision: str) -> dict:

@@ -19,7 +19,8 @@ from thermoplc.models.twin import simulate
 
 GOLDEN = Path(__file__).resolve().parent.parent / "tests" / "golden"
 TWIN = {"hours": 12, "seed": 7}
-KINDS = ("mlr", "kalman")
+BATCH_AMBIENTS_C = (14.0, 19.0, 26.0, 31.0)  # piecewise library batches, one per node region
+KINDS = ("mlr", "kalman", "piecewise")
 DIALECTS = ("tia",)
 
 
@@ -29,13 +30,24 @@ def golden_twin_csv(folder: Path) -> Path:
     return path
 
 
+def batch_csvs(folder: Path) -> list[Path]:
+    """Short runs started at different ambient temperatures (the piecewise model's batches)."""
+    paths = []
+    for k, ambient in enumerate(BATCH_AMBIENTS_C):
+        path = folder / f"batch_{ambient:g}C.csv"
+        path.write_text(write_table(simulate(8, seed=20 + k, ambient_start=ambient)))
+        paths.append(path)
+    return paths
+
+
 def refit(folder: Path) -> None:
     table = read_table(golden_twin_csv(folder))
+    batches = [read_table(p) for p in batch_csvs(folder)]
     for kind in KINDS:
-        request = FitRequest(kind, "E_z_um", ("T_motor", "T_bearing"), "n_rpm" if kind == "kalman" else None,
-                             "T_env" if kind == "kalman" else None, train_until=6 * 3600.0,
+        request = FitRequest(kind, "E_z_um", ("T_motor", "T_bearing"), "n_rpm", "T_env", train_until=6 * 3600.0,
                              options=FitOptions(seed=1, population=20, generations=10))
-        (GOLDEN / f"{kind}.json").write_text(fit(table, request).to_json())
+        tables = batches if kind == "piecewise" else [table]
+        (GOLDEN / f"{kind}.json").write_text(fit(tables, request).to_json())
 
 
 def render_all() -> list[Path]:

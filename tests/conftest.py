@@ -27,7 +27,7 @@ def fit_small(table, kind: str, **options):
     request = FitRequest(kind, "E_z_um", TEMPS, "n_rpm" if kind == "kalman" else None,
                          "T_env" if kind == "kalman" else None, train_until=4 * 3600.0,
                          options=FitOptions(population=12, generations=4, **options))
-    return fit(table, request)
+    return fit([table], request)
 
 
 @pytest.fixture(scope="session")

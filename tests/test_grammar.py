@@ -48,7 +48,7 @@ def test_printed_expression_parses_to_the_same_tree(expr):
 @given(real_exprs())
 @settings(max_examples=100, deadline=None)
 def test_bare_names_parse_the_same_as_hash_names(expr):
-    bare = _Printer(Dialect("bare", "", "", {}, ""))
+    bare = _Printer(Dialect("bare", "", "", {}, "", ""))
     program = parse_text(wrap(f"y := {bare.expr(expr)};"))
     assert program.body[0].value == to_ast(expr)
 
