@@ -7,6 +7,7 @@ from pathlib import Path
 
 from thermoplc import __version__
 from thermoplc.errors import UserError
+from thermoplc.models.modelfile import KINDS
 from thermoplc.fileio import write_atomic
 
 
@@ -140,7 +141,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("fit", help="fit a thermal-error model to a CSV file")
     p.add_argument("--data", required=True, action="append",
                    help="CSV file; repeat for piecewise (one file per batch, initial ambient read from each)")
-    p.add_argument("--model", choices=("mlr", "kalman", "piecewise"), required=True)
+    p.add_argument("--model", choices=KINDS, required=True)
     p.add_argument("--target", required=True, help="measured displacement column, um")
     p.add_argument("--temps", type=_columns, required=True, help="temperature columns, comma-separated")
     p.add_argument("--speed", help="spindle speed column, rpm (kalman)")

@@ -196,7 +196,72 @@ def lower_piecewise(model: Model) -> Block:
     )
 
 
-LOWERINGS = {"mlr": lower_mlr, "kalman": lower_kalman, "piecewise": lower_piecewise}
+def _grey_block(model: Model, title: str, statics, temps_, constants, regions) -> Block:
+    temps = model.signals("temperature")
+    return Block(
+        name=model.block_name, title=title, header=_header(model),
+        inputs=tuple(Var(s.name, "REAL", f"{s.role}, {s.unit}") for s in temps),
+        outputs=(Var(model.target.name, "REAL", f"predicted thermal error, {model.target.unit}"),),
+        statics=tuple(Var(f"S_{i}", "REAL", f"1-AGO running sum of {s.name}") for i, s in enumerate(temps, start=1))
+        + tuple(statics),
+        temps=tuple(temps_), constants=tuple(constants), regions=tuple(regions))
+
+
+def _accumulate(model: Model) -> Region:
+    temps = model.signals("temperature")
+    return Region("1-AGO: accumulate the temperatures", tuple(
+        Assign(f"S_{i}", BinOp("+", Ref(f"S_{i}"), Ref(s.name))) for i, s in enumerate(temps, start=1)))
+
+
+def lower_gm0n(model: Model) -> Block:
+    temps = model.signals("temperature")
+    level = _sum([_c("a")] + [BinOp("*", _c(f"b_{i}"), Ref(f"S_{i}")) for i in range(1, len(temps) + 1)])
+    return _grey_block(
+        model, "Thermal error compensation: grey model GM(0,N) (paper 003)",
+        statics=[Var("Init", "BOOL", "TRUE after the first call"),
+                 Var("Xprev", "REAL", "accumulated error estimate of the previous call")],
+        temps_=[Var("X", "REAL", "accumulated error estimate")],
+        constants=[Const("c_a", model.coef("a"), "GM(0,N) constant a"),
+                   Const("c_X1", model.coef("X1"), "error at the first sample of the fit, um")]
+        + [Const(f"c_b_{i}", model.coef(f"b_{i}"), f"GM(0,N) coefficient of {s.name}")
+           for i, s in enumerate(temps, start=1)],
+        regions=[_accumulate(model),
+                 Region("GM(0,N): accumulated estimate and its first difference",
+                        (Assign("X", level),
+                         If(((Unary("NOT", Ref("Init")), (Assign("Xprev", BinOp("-", Ref("X"), _c("X1"))),
+                                                          Assign("Init", BoolConst(True)))),)),
+                         Assign(model.target.name, BinOp("-", Ref("X"), Ref("Xprev"))),
+                         Assign("Xprev", Ref("X"))))])
+
+
+def lower_gm1n(model: Model) -> Block:
+    temps = model.signals("temperature")
+    forced = _sum([BinOp("*", _c(f"g_{i}"), Ref(f"S_{i}")) for i in range(1, len(temps) + 1)])
+    damping = If(((Unary("NOT", Ref("Init")), (Assign("Damp", _c("One")), Assign("Init", BoolConst(True)))),),
+                 orelse=(Assign("Damp", BinOp("*", Ref("Damp"), _c("Decay"))),
+                         If(((BinOp("<", Ref("Damp"), _c("Tiny")), (Assign("Damp", _c("Zero")),)),))))
+    return _grey_block(
+        model, "Thermal error compensation: grey model GM(1,N) (paper 003)",
+        statics=[Var("Init", "BOOL", "TRUE after the first call"),
+                 Var("Damp", "REAL", "exp(-a*(k-1)) by recurrence"),
+                 Var("Xprev", "REAL", "accumulated error estimate of the previous call")],
+        temps_=[Var("F", "REAL", "sum of (b_i/a)*S_i"), Var("X", "REAL", "accumulated error estimate")],
+        constants=[Const("c_X1", model.coef("X1"), "error at the first sample of the fit, um"),
+                   Const("c_Decay", model.coef("Decay"), "exp(-a)"),
+                   Const("c_Tiny", model.coef("Tiny"), "flush exp(-a*k) to 0 below this (no subnormals)"),
+                   Const("c_One", 1.0, "exp(0)"), Const("c_Zero", 0.0, "flushed damping")]
+        + [Const(f"c_g_{i}", model.coef(f"g_{i}"), f"b/a for {s.name}") for i, s in enumerate(temps, start=1)],
+        regions=[_accumulate(model),
+                 Region("GM(1,N) time response: damping exp(-a*(k-1)) by recurrence", (damping,)),
+                 Region("GM(1,N): accumulated estimate and its first difference",
+                        (Assign("F", forced),
+                         Assign("X", BinOp("+", BinOp("*", BinOp("-", _c("X1"), Ref("F")), Ref("Damp")), Ref("F"))),
+                         Assign(model.target.name, BinOp("-", Ref("X"), Ref("Xprev"))),
+                         Assign("Xprev", Ref("X"))))])
+
+
+LOWERINGS = {"mlr": lower_mlr, "kalman": lower_kalman, "piecewise": lower_piecewise, "gm0n": lower_gm0n,
+             "gm1n": lower_gm1n}
 
 
 def lower(model: Model) -> Block:

@@ -9,7 +9,7 @@ import numpy as np
 
 from thermoplc.errors import UserError
 from thermoplc.generator.identifiers import check_unique, identifier_from_column, identifier_problem
-from thermoplc.models import kalman, mlr, piecewise
+from thermoplc.models import grey, kalman, mlr, piecewise
 from thermoplc.models.modelfile import Coefficient, Model, Signal
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.table import Table
@@ -66,7 +66,7 @@ def _metrics(residual: np.ndarray) -> dict:
             "max_abs_um": float(np.max(np.abs(residual))) if len(residual) else 0.0}
 
 
-ROLES_NEEDED = {"mlr": (), "kalman": ("speed", "ambient"), "piecewise": ("ambient",)}
+ROLES_NEEDED = {"mlr": (), "kalman": ("speed", "ambient"), "piecewise": ("ambient",), "gm0n": (), "gm1n": ()}
 
 
 @dataclass(frozen=True)
@@ -93,7 +93,9 @@ def _fit_piecewise(parts, request, names, dt, progress):
     return piecewise.fit_piecewise([(p.temps, p.ambient, p.target) for p in parts], names)
 
 
-FITTERS = {"mlr": _fit_mlr, "kalman": _fit_kalman, "piecewise": _fit_piecewise}
+FITTERS = {"mlr": _fit_mlr, "kalman": _fit_kalman, "piecewise": _fit_piecewise,
+           "gm0n": lambda parts, request, names, dt, progress: grey.fit_gm0n(parts[0].temps, parts[0].target, names),
+           "gm1n": lambda parts, request, names, dt, progress: grey.fit_gm1n(parts[0].temps, parts[0].target, names)}
 
 
 def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:

@@ -54,9 +54,9 @@ def test_twin_sensor_faults_follow_paper_000(workdir):
     assert np.allclose(shift[t < 3600], 0, atol=2e-6) and np.allclose(shift[t >= 3600], -2.0, atol=2e-6)
 
 
-@pytest.mark.parametrize("kind", ["mlr", "kalman"])
+@pytest.mark.parametrize("kind", ["mlr", "kalman", "gm0n", "gm1n"])
 def test_fit_generate_verify(workdir, kind):
-    fit_args = FIT_KALMAN if kind == "kalman" else FIT_MLR
+    fit_args = FIT_KALMAN if kind == "kalman" else tuple(kind if a == "mlr" else a for a in FIT_MLR)
     out = thermoplc(*fit_args, "-o", f"{kind}.json", cwd=workdir).stdout
     assert "fit (training)" in out and "prediction (held out)" in out and "RMSE um" in out
     thermoplc("generate", f"{kind}.json", "--dialect", "tia", "-o", f"{kind}.scl", cwd=workdir)
