@@ -52,7 +52,7 @@ def cmd_fit(args) -> int:
     options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
                          args.recover_limit)
     request = FitRequest(args.model, args.target, args.temps, args.speed, args.ambient, args.train_until,
-                         args.train_rows, args.name, options)
+                         args.train_rows, args.name, options, args.bins, args.precision_um)
     model = fit(tables, request, args.time, _progress if sys.stderr.isatty() else None)
     if sys.stderr.isatty():
         print(file=sys.stderr)
@@ -157,6 +157,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--population", type=int, default=40)
     p.add_argument("--jump-limit", type=float, help="K per call that marks a sensor faulty (default from data)")
     p.add_argument("--recover-limit", type=float, help="K between measurement and model to recover (default from data)")
+    p.add_argument("--bins", type=int, default=8, help="bayes: intervals per temperature (default: %(default)s)")
+    p.add_argument("--precision-um", type=float, default=1.0,
+                   help="bayes: interval width of the error, the precision requirement (default: %(default)s)")
     p.add_argument("--name", default="ThermalComp", help="function block name (default: %(default)s)")
     p.add_argument("-o", "--output", required=True)
     p.set_defaults(func=cmd_fit)

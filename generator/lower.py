@@ -7,6 +7,7 @@ from thermoplc import __version__
 from thermoplc.generator.ir import (
     Assign, BinOp, Block, BoolConst, Call, Const, If, Index, IntConst, Ref, Region, Unary, Var,
 )
+from thermoplc.models.bayes import edges_of
 from thermoplc.models.kalman import SENSOR_COEFFICIENTS
 from thermoplc.models.piecewise import node_count
 from thermoplc.models.modelfile import Model
@@ -260,7 +261,51 @@ def lower_gm1n(model: Model) -> Block:
                          Assign("Xprev", Ref("X"))))])
 
 
-LOWERINGS = {"mlr": lower_mlr, "kalman": lower_kalman, "piecewise": lower_piecewise, "gm0n": lower_gm0n,
+def lower_bayes(model: Model) -> Block:
+    temps = model.signals("temperature")
+    counts = model.settings["intervals"]
+    regions, statics, constants = [], [], []
+    for i, s in enumerate(temps, start=1):
+        edges = tuple(edges_of(model, i))
+        if edges:
+            statics.append(Var(f"tab_Edge_{i}", "REAL", f"interval edges of the rise of {s.name}, K (table, read only)",
+                               length=len(edges), initial=edges))
+            chain = tuple((BinOp("<", Ref("Rise"), Index(f"tab_Edge_{i}", IntConst(m))), (Assign(f"J_{i}", IntConst(m)),))
+                          for m in range(len(edges)))
+            choose = If(chain, orelse=(Assign(f"J_{i}", IntConst(len(edges))),))
+        else:
+            choose = Assign(f"J_{i}", IntConst(0))
+        regions.append(Region(f"Interval of the rise of {s.name} ({counts[i - 1]} intervals)", (
+            Assign("Rise", BinOp("-", Ref(s.name), Ref(f"T0_{i}"))), choose)))
+        constants.append(Const(f"c_K_{i}", counts[i - 1], f"intervals of {s.name}", type="INT"))
+    config = Ref(f"J_{len(temps)}")
+    for i in range(len(temps) - 1, 0, -1):
+        config = BinOp("+", Ref(f"J_{i}"), BinOp("*", _c(f"K_{i}"), config))
+    table = tuple(model.coef(f"pred_{c}") for c in range(model.settings["configurations"]))
+    latch = tuple(Assign(f"T0_{i}", Ref(s.name)) for i, s in enumerate(temps, start=1)) + (Assign("Init", BoolConst(True)),)
+    return Block(
+        name=model.block_name,
+        title="Thermal error compensation: Bayesian network, most probable error interval (paper 004)",
+        header=_header(model),
+        inputs=tuple(Var(s.name, "REAL", f"{s.role}, {s.unit}") for s in temps),
+        outputs=(Var(model.target.name, "REAL", f"predicted thermal error, {model.target.unit}"),),
+        statics=(Var("Init", "BOOL", "TRUE after the first call"),
+                 *(Var(f"T0_{i}", "REAL", f"{s.name} at the first call") for i, s in enumerate(temps, start=1)),
+                 *statics,
+                 Var("tab_Pred", "REAL", "midpoint of the most probable error interval per configuration, um "
+                     "(table, read only)", length=len(table), initial=table)),
+        temps=(Var("Rise", "REAL", "temperature rise since the first call"),
+               *(Var(f"J_{i}", "INT", f"interval of {s.name}") for i, s in enumerate(temps, start=1)),
+               Var("Config", "INT", "configuration of all intervals")),
+        constants=tuple(constants[:-1]),
+        regions=(Region("First call: latch reference temperatures", (If(((Unary("NOT", Ref("Init")), latch),)),)),
+                 *regions,
+                 Region("Look up the prediction of the configuration, eq. 7",
+                        (Assign("Config", config), Assign(model.target.name, Index("tab_Pred", Ref("Config")))))),
+    )
+
+
+LOWERINGS = {"bayes": lower_bayes, "mlr": lower_mlr, "kalman": lower_kalman, "piecewise": lower_piecewise, "gm0n": lower_gm0n,
              "gm1n": lower_gm1n}
 
 

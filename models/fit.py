@@ -9,7 +9,7 @@ import numpy as np
 
 from thermoplc.errors import UserError
 from thermoplc.generator.identifiers import check_unique, identifier_from_column, identifier_problem
-from thermoplc.models import grey, kalman, mlr, piecewise
+from thermoplc.models import bayes, grey, kalman, mlr, piecewise
 from thermoplc.models.modelfile import Coefficient, Model, Signal
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.table import Table
@@ -28,6 +28,8 @@ class FitRequest:
     train_rows: int | None = None
     block_name: str = "ThermalComp"
     options: kalman.FitOptions = kalman.FitOptions()
+    bins: int = 8  # bayes: intervals per temperature
+    precision_um: float = 1.0  # bayes: interval width of the error
 
 
 def block_identifier(column: str, what: str) -> str:
@@ -66,7 +68,8 @@ def _metrics(residual: np.ndarray) -> dict:
             "max_abs_um": float(np.max(np.abs(residual))) if len(residual) else 0.0}
 
 
-ROLES_NEEDED = {"mlr": (), "kalman": ("speed", "ambient"), "piecewise": ("ambient",), "gm0n": (), "gm1n": ()}
+ROLES_NEEDED = {"mlr": (), "kalman": ("speed", "ambient"), "piecewise": ("ambient",), "gm0n": (), "gm1n": (),
+                "bayes": ()}
 
 
 @dataclass(frozen=True)
@@ -95,7 +98,9 @@ def _fit_piecewise(parts, request, names, dt, progress):
 
 FITTERS = {"mlr": _fit_mlr, "kalman": _fit_kalman, "piecewise": _fit_piecewise,
            "gm0n": lambda parts, request, names, dt, progress: grey.fit_gm0n(parts[0].temps, parts[0].target, names),
-           "gm1n": lambda parts, request, names, dt, progress: grey.fit_gm1n(parts[0].temps, parts[0].target, names)}
+           "gm1n": lambda parts, request, names, dt, progress: grey.fit_gm1n(parts[0].temps, parts[0].target, names),
+           "bayes": lambda parts, request, names, dt, progress: bayes.fit_bayes(
+               parts[0].temps, parts[0].target, names, request.bins, request.precision_um)}
 
 
 def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:

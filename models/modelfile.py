@@ -13,7 +13,7 @@ from thermoplc.errors import UserError
 
 FORMAT = "thermoplc-model"
 SCHEMA_VERSION = 1
-KINDS = ("mlr", "kalman", "piecewise", "gm0n", "gm1n")
+KINDS = ("mlr", "kalman", "piecewise", "gm0n", "gm1n", "bayes")
 ROLES = ("temperature", "speed", "ambient")
 
 

@@ -54,7 +54,7 @@ def test_twin_sensor_faults_follow_paper_000(workdir):
     assert np.allclose(shift[t < 3600], 0, atol=2e-6) and np.allclose(shift[t >= 3600], -2.0, atol=2e-6)
 
 
-@pytest.mark.parametrize("kind", ["mlr", "kalman", "gm0n", "gm1n"])
+@pytest.mark.parametrize("kind", ["mlr", "kalman", "gm0n", "gm1n", "bayes"])
 def test_fit_generate_verify(workdir, kind):
     fit_args = FIT_KALMAN if kind == "kalman" else tuple(kind if a == "mlr" else a for a in FIT_MLR)
     out = thermoplc(*fit_args, "-o", f"{kind}.json", cwd=workdir).stdout

@@ -2,12 +2,13 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
-from thermoplc.binary32 import f32_hex, ulp_distance
+from thermoplc.binary32 import f32_bits, f32_hex, ulp_distance
+from thermoplc.generator.lower import lower
 from thermoplc.errors import UserError
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import model_inputs, predict
@@ -43,10 +44,12 @@ class Report:
     findings: tuple[Finding, ...]
     seconds: float
     quantisation_um: dict = field(default_factory=dict)  # output -> max |float32 - float64|
+    constants_checked: int = 0
+    constant_errors: tuple[str, ...] = ()  # block constants/tables that differ from the model
 
     @property
     def ok(self) -> bool:
-        return self.mismatch is None
+        return self.mismatch is None and not self.constant_errors
 
     def text(self) -> str:
         lines = []
@@ -54,6 +57,9 @@ class Report:
             lines.append(f"bit-exact: {self.block} reproduces {self.against} on {self.data}")
             lines.append(f"  {self.cycles} cycles, {self.cycles * len(self.outputs)} outputs compared "
                          f"({', '.join(self.outputs)}): every bit equal")
+        elif self.mismatch is None:
+            lines.append(f"NOT bit-exact: {self.block} holds constants that differ from the model "
+                         f"(the {self.cycles} replayed cycles matched)")
         else:
             m = self.mismatch
             lines.append(f"NOT bit-exact: {self.block} differs from {self.against} on {self.data}")
@@ -65,6 +71,10 @@ class Report:
                 lines.append(f"    distance  {ulp_distance(m.block_value, m.expected_value)} ULP")
             lines.append(f"  block variables at cycle {m.cycle}:")
             lines.extend(f"    {name} = {_show(value)}" for name, value in m.variables.items())
+        if self.constants_checked:
+            lines.append(f"  constants and tables: {self.constants_checked} values checked against the model, "
+                         f"{len(self.constant_errors) or 'none'} differ")
+            lines.extend(f"    {e}" for e in self.constant_errors[:20])
         for name, error in self.quantisation_um.items():
             lines.append(f"  max |float32 - float64| on {name}: {error:.6g} um")
         found = {kind: [f for f in self.findings if f.kind == kind] for kind, _ in FINDING_LABELS}
@@ -142,9 +152,42 @@ def _replay_and_compare(machine: Machine, block: str, against: str, table: Table
                   quantisation)
 
 
+def _compare_constants(program: Program, model: Model) -> tuple[int, tuple[str, ...]]:
+    """Every constant and read-only table the model asks for, against the block's declarations.
+
+    Replay proves behaviour on the data; table entries the data never reaches (a Bayes
+    configuration never seen, an edge no sample lies next to) are only covered by this check.
+    """
+    expected = lower(model)
+    declared = {d.name.upper(): d for d in program.decls}
+    wanted = [(c.name, (c.value,)) for c in expected.constants]
+    wanted += [(v.name, v.initial) for v in expected.statics if v.initial is not None]
+    errors, checked = [], 0
+    for name, values in wanted:
+        decl = declared.get(name.upper())
+        if decl is None:
+            errors.append(f"{name}: missing from the block")
+            continue
+        found = decl.initial if isinstance(decl.initial, tuple) else (decl.initial,)
+        if len(found) != len(values):
+            errors.append(f"{name}: {len(found)} values in the block, the model has {len(values)}")
+            continue
+        for k, (got, want) in enumerate(zip(found, values)):
+            checked += 1
+            if isinstance(want, int) and not isinstance(want, bool):
+                same = got == want
+            else:
+                same = isinstance(got, float) and f32_bits(got) == f32_bits(want)
+            if not same:
+                where = f"{name}[{k}]" if len(values) > 1 or decl.type.bounds else name
+                errors.append(f"{where}: block {_show(got)}, model {_show(float(want))} "
+                              f"({ulp_distance(got, want) if isinstance(got, float) else '?'} ULP)")
+    return checked, tuple(errors)
+
+
 def verify_against_model(block: str, model: Model, model_path: str, table: Table,
                          overrides: dict | None = None) -> Report:
-    _, machine = _load(block)
+    program, machine = _load(block)
     inputs = model_inputs(model, table, overrides)
     _check_interface(machine, block, inputs, f"the inputs of {Path(model_path).name}")
     block32 = predict(model, inputs, "f32")
@@ -158,7 +201,9 @@ def verify_against_model(block: str, model: Model, model_path: str, table: Table
     quantisation = {model.target.name: float(np.max(np.abs(block32[model.target.name].astype(np.float64)
                                                           - ideal[model.target.name])))}
     against = f"the float32 reference of {Path(model_path).name} ({model.kind})"
-    return _replay_and_compare(machine, block, against, table, model.time_column, inputs, block32, quantisation)
+    report = _replay_and_compare(machine, block, against, table, model.time_column, inputs, block32, quantisation)
+    checked, errors = _compare_constants(program, model)
+    return replace(report, constants_checked=checked, constant_errors=errors)
 
 
 def verify_against_trace(block: str, table: Table, expect: dict, overrides: dict | None = None,

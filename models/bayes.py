@@ -1,0 +1,85 @@
+"""Bayesian network of paper 004: temperatures (parents) -> thermal error (child), discretised.
+
+Each temperature rise dT_i = T_i - T_i[first call] falls into one of K_i equal-width intervals
+(values outside the training range go to the outer intervals); the error into intervals of the
+width the precision requirement asks for. The conditional probability table comes from counts
+with a Dirichlet prior N' = 1: P(D = k | config j) = (1 + N_jk) / (K_D + N_j). The prediction is
+the midpoint of the most probable interval (eq. 7). Ties - every configuration never seen in
+training - go to the interval most frequent overall. The block holds no probabilities: it finds
+each interval by comparisons and reads the prediction from a table indexed by the configuration.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from thermoplc.errors import UserError
+from thermoplc.models.modelfile import Coefficient, Model
+
+MAX_CONFIGURATIONS = 4096  # table entries in the block
+
+
+def interval(values: np.ndarray, edges: list) -> np.ndarray:
+    """Index of the interval of each value: the first interior edge it lies below, else the last."""
+    index = np.full(len(values), len(edges), dtype=np.int64)
+    for m in range(len(edges) - 1, -1, -1):
+        index = np.where(values < edges[m], m, index)
+    return index
+
+
+def configuration(indices: list[np.ndarray], counts: list[int]) -> np.ndarray:
+    """J = j_1 + K_1*(j_2 + K_2*(j_3 + ...)), the block's INT arithmetic."""
+    j = indices[-1]
+    for idx, k in zip(reversed(indices[:-1]), reversed(counts[:-1])):
+        j = idx + k * j
+    return j
+
+
+def fit_bayes(temps: np.ndarray, target: np.ndarray, names: list[str], bins: int, precision_um: float):
+    if bins < 1 or precision_um <= 0:
+        raise UserError("--bins must be at least 1 and --precision-um positive")
+    rises = temps - temps[0]
+    edges, counts = [], []
+    for i in range(rises.shape[1]):
+        low, high = float(rises[:, i].min()), float(rises[:, i].max())
+        width = (high - low) / bins if high > low else 1.0
+        edges.append([low + m * width for m in range(1, bins)] if high > low else [])
+        counts.append(len(edges[-1]) + 1)
+    configurations = math.prod(counts)
+    if configurations > MAX_CONFIGURATIONS:
+        raise UserError(f"{configurations} temperature interval combinations exceed {MAX_CONFIGURATIONS}; "
+                        f"use fewer --bins or fewer sensors")
+    low = float(np.floor(target.min() / precision_um) * precision_um)
+    classes = max(1, int(np.ceil((float(target.max()) - low) / precision_um + 1e-9)))
+    target_class = np.clip(((target - low) // precision_um).astype(np.int64), 0, classes - 1)
+    j = configuration([interval(rises[:, i], edges[i]) for i in range(len(counts))], counts)
+    table = np.zeros((configurations, classes))
+    np.add.at(table, (j, target_class), 1.0)
+    marginal = np.bincount(target_class, minlength=classes)
+    posterior = (1.0 + table) / (classes + table.sum(axis=1, keepdims=True))
+    best = np.lexsort((-marginal[None, :].repeat(configurations, 0), -posterior), axis=1)[:, 0]
+    coefficients = {}
+    for i, e in enumerate(edges, start=1):
+        coefficients.update({f"edge_{i}_{m}": Coefficient.of(v) for m, v in enumerate(e)})
+    coefficients.update({f"pred_{c}": Coefficient.of(low + (best[c] + 0.5) * precision_um)
+                         for c in range(configurations)})
+    seen = int(np.count_nonzero(table.sum(axis=1)))
+    settings = {"intervals": counts, "error_low_um": low, "error_width_um": precision_um, "error_classes": classes,
+                "configurations": configurations, "configurations_seen": seen}
+    return coefficients, settings, {"method": "Dirichlet N'=1 counts, most probable interval (paper 004 eq. 5-7)"}
+
+
+def edges_of(model: Model, sensor: int, precision: str = "f32") -> list:
+    count = model.settings["intervals"][sensor - 1] - 1
+    return [model.coef(f"edge_{sensor}_{m}", precision) for m in range(count)]
+
+
+def predict(model: Model, inputs: dict, precision: str) -> dict:
+    f = np.float32 if precision == "f32" else np.float64
+    temps = model.signals("temperature")
+    rises = [np.asarray(inputs[s.name], f) - np.asarray(inputs[s.name], f)[0] for s in temps]
+    indices = [interval(r, [f(e) for e in edges_of(model, i, precision)]) for i, r in enumerate(rises, start=1)]
+    j = configuration(indices, list(model.settings["intervals"]))
+    table = np.array([model.coef(f"pred_{c}", precision) for c in range(model.settings["configurations"])], f)
+    return {model.target.name: table[j]}
