@@ -52,7 +52,7 @@ def cmd_fit(args) -> int:
     options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
                          args.recover_limit)
     request = FitRequest(args.model, args.target, args.temps, args.speed, args.ambient, args.train_until,
-                         args.train_rows, args.name, options, args.bins, args.precision_um)
+                         args.train_rows, args.name, options, args.bins, args.precision_um, args.lags, args.lag_step)
     model = fit(tables, request, args.time, _progress if sys.stderr.isatty() else None)
     if sys.stderr.isatty():
         print(file=sys.stderr)
@@ -89,6 +89,9 @@ def cmd_generate(args) -> int:
     write_atomic(args.output, text)
     print(f"wrote {args.output}: {model.kind} block {model.block_name!r}, dialect {args.dialect}, "
           f"model fingerprint {model.fingerprint()}")
+    if args.stats:
+        from thermoplc.generator.stats import block_stats, format_stats
+        print(format_stats(block_stats(lower(model))))
     return 0
 
 
@@ -160,6 +163,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--bins", type=int, default=8, help="bayes: intervals per temperature (default: %(default)s)")
     p.add_argument("--precision-um", type=float, default=1.0,
                    help="bayes: interval width of the error, the precision requirement (default: %(default)s)")
+    p.add_argument("--lags", type=int, default=3, help="dlag: lagged terms per sensor (default: %(default)s)")
+    p.add_argument("--lag-step", type=float, default=600.0, metavar="SECONDS",
+                   help="dlag: time between lags (default: %(default)s)")
     p.add_argument("--name", default="ThermalComp", help="function block name (default: %(default)s)")
     p.add_argument("-o", "--output", required=True)
     p.set_defaults(func=cmd_fit)
@@ -167,6 +173,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("generate", help="compile a model file into a Structured Text function block")
     p.add_argument("model")
     p.add_argument("--dialect", choices=("tia",), default="tia")
+    p.add_argument("--stats", action="store_true", help="print operations per call and bytes of state")
     p.add_argument("-o", "--output", required=True)
     p.set_defaults(func=cmd_generate)
 

@@ -5,7 +5,7 @@ from functools import reduce
 
 from thermoplc import __version__
 from thermoplc.generator.ir import (
-    Assign, BinOp, Block, BoolConst, Call, Const, If, Index, IntConst, Ref, Region, Unary, Var,
+    Assign, BinOp, Block, BoolConst, Call, Const, For, If, Index, IntConst, Ref, Region, Unary, Var,
 )
 from thermoplc.models.bayes import edges_of
 from thermoplc.models.kalman import SENSOR_COEFFICIENTS
@@ -305,7 +305,54 @@ def lower_bayes(model: Model) -> Block:
     )
 
 
-LOWERINGS = {"bayes": lower_bayes, "mlr": lower_mlr, "kalman": lower_kalman, "piecewise": lower_piecewise, "gm0n": lower_gm0n,
+def lower_dlag(model: Model) -> Block:
+    temps = model.signals("temperature")
+    lags, step = model.settings["lags"], model.settings["lag_step_samples"]
+    length = lags * step + 1
+    fill = tuple(For("I", IntConst(0), _c("Last"), (Assign(f"Buf_{i}", Ref(s.name), index=Ref("I")),))
+                 for i, s in enumerate(temps, start=1))
+    latch = (*(Assign(f"T0_{i}", Ref(s.name)) for i, s in enumerate(temps, start=1)), *fill,
+             Assign("Pos", IntConst(0)), Assign("Init", BoolConst(True)))
+    advance = (Assign("Pos", BinOp("+", Ref("Pos"), _c("One"))),
+               If(((BinOp(">", Ref("Pos"), _c("Last")), (Assign("Pos", IntConst(0)),)),)),
+               *(Assign(f"Buf_{i}", Ref(s.name), index=Ref("Pos")) for i, s in enumerate(temps, start=1)))
+    terms: list = [Assign("Acc", _c("beta0"))]
+    for lag in range(lags + 1):
+        terms += [Assign("Idx", BinOp("-", Ref("Pos"), _c(f"Lag_{lag}"))),
+                  If(((BinOp("<", Ref("Idx"), IntConst(0)), (Assign("Idx", BinOp("+", Ref("Idx"), _c("Len"))),)),))]
+        terms += [Assign("Acc", BinOp("+", Ref("Acc"), BinOp("*", _c(f"beta_{i}_{lag}"),
+                                                              BinOp("-", Index(f"Buf_{i}", Ref("Idx")), Ref(f"T0_{i}")))))
+                  for i in range(1, len(temps) + 1)]
+    constants = [Const("c_beta0", model.coef("beta0"), "intercept, um"),
+                 Const("c_One", 1, "ring buffer step", type="INT"),
+                 Const("c_Len", length, "ring buffer length, samples", type="INT"),
+                 Const("c_Last", length - 1, "last ring buffer index", type="INT")]
+    constants += [Const(f"c_Lag_{lag}", lag * step, f"lag {lag}: {lag * step} samples back", type="INT")
+                  for lag in range(lags + 1)]
+    constants += [Const(f"c_beta_{i}_{lag}", model.coef(f"beta_{i}_{lag}"), f"um per K of {s.name}, lag {lag}")
+                  for lag in range(lags + 1) for i, s in enumerate(temps, start=1)]
+    return Block(
+        name=model.block_name,
+        title="Thermal error compensation: distributed-lag regression (paper 001's DL model)",
+        header=_header(model),
+        inputs=tuple(Var(s.name, "REAL", f"{s.role}, {s.unit}") for s in temps),
+        outputs=(Var(model.target.name, "REAL", f"predicted thermal error, {model.target.unit}"),),
+        statics=(Var("Init", "BOOL", "TRUE after the first call"), Var("Pos", "INT", "ring buffer position of now"),
+                 *(Var(f"T0_{i}", "REAL", f"{s.name} at the first call") for i, s in enumerate(temps, start=1)),
+                 *(Var(f"Buf_{i}", "REAL", f"last {length} samples of {s.name}", length=length)
+                   for i, s in enumerate(temps, start=1))),
+        temps=(Var("I", "INT", "loop index"), Var("Idx", "INT", "ring buffer index of a lag"),
+               Var("Acc", "REAL", "sum of the terms so far")),
+        constants=tuple(constants),
+        regions=(Region("First call: latch reference temperatures, fill the ring buffers",
+                        (If(((Unary("NOT", Ref("Init")), latch),)),)),
+                 Region("Store this call's temperatures in the ring buffers", advance),
+                 Region("Regression on current and lagged temperature rises", tuple(terms)
+                        + (Assign(model.target.name, Ref("Acc")),))),
+    )
+
+
+LOWERINGS = {"bayes": lower_bayes, "dlag": lower_dlag, "mlr": lower_mlr, "kalman": lower_kalman, "piecewise": lower_piecewise, "gm0n": lower_gm0n,
              "gm1n": lower_gm1n}
 
 

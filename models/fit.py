@@ -9,7 +9,7 @@ import numpy as np
 
 from thermoplc.errors import UserError
 from thermoplc.generator.identifiers import check_unique, identifier_from_column, identifier_problem
-from thermoplc.models import bayes, grey, kalman, mlr, piecewise
+from thermoplc.models import bayes, dlag, grey, kalman, mlr, piecewise
 from thermoplc.models.modelfile import Coefficient, Model, Signal
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.table import Table
@@ -30,6 +30,8 @@ class FitRequest:
     options: kalman.FitOptions = kalman.FitOptions()
     bins: int = 8  # bayes: intervals per temperature
     precision_um: float = 1.0  # bayes: interval width of the error
+    lags: int = 3  # dlag: lagged terms per sensor
+    lag_step_s: float = 600.0  # dlag: time between lags
 
 
 def block_identifier(column: str, what: str) -> str:
@@ -69,7 +71,7 @@ def _metrics(residual: np.ndarray) -> dict:
 
 
 ROLES_NEEDED = {"mlr": (), "kalman": ("speed", "ambient"), "piecewise": ("ambient",), "gm0n": (), "gm1n": (),
-                "bayes": ()}
+                "bayes": (), "dlag": ()}
 
 
 @dataclass(frozen=True)
@@ -100,7 +102,9 @@ FITTERS = {"mlr": _fit_mlr, "kalman": _fit_kalman, "piecewise": _fit_piecewise,
            "gm0n": lambda parts, request, names, dt, progress: grey.fit_gm0n(parts[0].temps, parts[0].target, names),
            "gm1n": lambda parts, request, names, dt, progress: grey.fit_gm1n(parts[0].temps, parts[0].target, names),
            "bayes": lambda parts, request, names, dt, progress: bayes.fit_bayes(
-               parts[0].temps, parts[0].target, names, request.bins, request.precision_um)}
+               parts[0].temps, parts[0].target, names, request.bins, request.precision_um),
+           "dlag": lambda parts, request, names, dt, progress: dlag.fit_dlag(
+               parts[0].temps, parts[0].target, names, request.lags, request.lag_step_s, dt)}
 
 
 def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:

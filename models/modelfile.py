@@ -13,7 +13,7 @@ from thermoplc.errors import UserError
 
 FORMAT = "thermoplc-model"
 SCHEMA_VERSION = 1
-KINDS = ("mlr", "kalman", "piecewise", "gm0n", "gm1n", "bayes")
+KINDS = ("mlr", "kalman", "piecewise", "dlag", "gm0n", "gm1n", "bayes")
 ROLES = ("temperature", "speed", "ambient")
 
 
@@ -55,6 +55,9 @@ class Model:
         return tuple(s for s in self.inputs if role in s.role.split(","))
 
     def coef(self, name: str, precision: str = "f32") -> float:
+        if name not in self.coefficients:
+            raise UserError(f"model file: coefficient {name!r} is missing; a {self.kind} model needs it "
+                            f"(was the file written by another thermoplc version?)")
         return getattr(self.coefficients[name], precision)
 
     def to_json(self) -> str:

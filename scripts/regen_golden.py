@@ -20,7 +20,7 @@ from thermoplc.models.twin import simulate
 GOLDEN = Path(__file__).resolve().parent.parent / "tests" / "golden"
 TWIN = {"hours": 12, "seed": 7}
 BATCH_AMBIENTS_C = (14.0, 19.0, 26.0, 31.0)  # piecewise library batches, one per node region
-KINDS = ("mlr", "kalman", "piecewise", "gm0n", "gm1n", "bayes")
+KINDS = ("mlr", "kalman", "piecewise", "dlag", "gm0n", "gm1n", "bayes")
 DIALECTS = ("tia",)
 
 

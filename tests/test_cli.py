@@ -54,7 +54,7 @@ def test_twin_sensor_faults_follow_paper_000(workdir):
     assert np.allclose(shift[t < 3600], 0, atol=2e-6) and np.allclose(shift[t >= 3600], -2.0, atol=2e-6)
 
 
-@pytest.mark.parametrize("kind", ["mlr", "kalman", "gm0n", "gm1n", "bayes"])
+@pytest.mark.parametrize("kind", ["mlr", "kalman", "dlag", "gm0n", "gm1n", "bayes"])
 def test_fit_generate_verify(workdir, kind):
     fit_args = FIT_KALMAN if kind == "kalman" else tuple(kind if a == "mlr" else a for a in FIT_MLR)
     out = thermoplc(*fit_args, "-o", f"{kind}.json", cwd=workdir).stdout
@@ -157,3 +157,11 @@ def test_demo_runs_on_the_bundled_recording(tmp_path):
     assert result.stdout.count("bit-exact over 11115 cycles") == 2
     for name in ("mlr.json", "kalman.json", "ThermalCompMlr.scl", "ThermalCompKalman.scl"):
         assert (tmp_path / "demo" / name).exists()
+
+
+def test_generate_stats_reports_cost(workdir):
+    if not (workdir / "a.json").exists():
+        thermoplc(*FIT_KALMAN, "-o", "a.json", cwd=workdir)
+    out = thermoplc("generate", "a.json", "-o", "s.scl", "--stats", cwd=workdir).stdout
+    assert "cost per call (worst-case path): 44 REAL/INT arithmetic operations" in out
+    assert "state: 39 bytes" in out

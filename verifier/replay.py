@@ -17,6 +17,7 @@ from thermoplc.verifier.interpreter import Finding, Machine
 from thermoplc.verifier.parser import parse_file
 from thermoplc.verifier.syntax import Program
 
+ARRAY_ITEMS_SHOWN = 6
 FINDING_LABELS = (("subnormal", "subnormal"), ("nan", "NaN"), ("inf", "Inf"),
                   ("non-portable", "non-portable operations"), ("literal", "literals in expressions"),
                   ("int-overflow", "INT overflow"))
@@ -96,7 +97,8 @@ def _show(value) -> str:
     if isinstance(value, float):
         return f"{str(np.float32(value))} ({f32_hex(value)})"
     if isinstance(value, list):
-        return "[" + ", ".join(_show(v) for v in value) + "]"
+        shown = ", ".join(_show(v) for v in value[:ARRAY_ITEMS_SHOWN])
+        return f"[{shown}{', ...' if len(value) > ARRAY_ITEMS_SHOWN else ''}] ({len(value)} values)"
     return repr(value)
 
 

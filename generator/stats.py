@@ -1,0 +1,78 @@
+"""What a block costs on the PLC: operations per call (worst-case path) and bytes of state."""
+from __future__ import annotations
+
+from collections import Counter
+
+from thermoplc.generator.ir import Assign, BinOp, Block, Call, Const, For, If, Index, IntConst, Ref, Unary
+
+STATE_BYTES = {"REAL": 4, "INT": 2, "BOOL": 1}
+_KIND = {"+": "add/sub", "-": "add/sub", "*": "mul", "/": "div", "<": "compare", "<=": "compare", ">": "compare",
+         ">=": "compare", "=": "compare", "<>": "compare", "AND": "logic", "OR": "logic", "XOR": "logic"}
+
+
+def _expr(e, tally: Counter) -> None:
+    if isinstance(e, BinOp):
+        tally[_KIND[e.op]] += 1
+        _expr(e.left, tally)
+        _expr(e.right, tally)
+    elif isinstance(e, Unary):
+        tally["logic" if e.op == "NOT" else "negate"] += 1
+        _expr(e.operand, tally)
+    elif isinstance(e, Call):
+        tally[e.func.lower()] += 1
+        for a in e.args:
+            _expr(a, tally)
+    elif isinstance(e, Index):
+        tally["index"] += 1
+        _expr(e.index, tally)
+
+
+def _bound(e, constants: dict) -> int:
+    if isinstance(e, IntConst):
+        return e.value
+    return int(constants[e.name].value) if isinstance(e, Ref) and e.name in constants else 0
+
+
+def _stmts(body, constants: dict) -> Counter:
+    tally: Counter = Counter()
+    for s in body:
+        if isinstance(s, Assign):
+            tally["assign"] += 1
+            _expr(s.value, tally)
+            if s.index is not None:
+                _expr(s.index, tally)
+        elif isinstance(s, For):
+            trips = _bound(s.stop, constants) - _bound(s.start, constants) + 1
+            inner = _stmts(s.body, constants)
+            tally.update({k: v * trips for k, v in inner.items()})
+        else:
+            conditions: Counter = Counter()
+            costs = []
+            for cond, branch in s.branches:
+                _expr(cond, conditions)
+                costs.append(_stmts(branch, constants))
+            costs.append(_stmts(s.orelse, constants))
+            tally.update(conditions)
+            tally.update(max(costs, key=lambda c: sum(c.values())))
+    return tally
+
+
+def block_stats(block: Block) -> dict:
+    constants = {c.name: c for c in block.constants}
+    per_region = {r.title: dict(_stmts(r.body, constants)) for r in block.regions}
+    total: Counter = Counter()
+    for counts in per_region.values():
+        total.update(counts)
+    state = sum(STATE_BYTES[v.type] * (v.length or 1) for v in (*block.outputs, *block.statics) if v.initial is None)
+    tables = sum(STATE_BYTES[v.type] * (v.length or 1) for v in block.statics if v.initial is not None)
+    return {"operations_per_call": dict(sorted(total.items())), "arithmetic_per_call":
+            sum(total[k] for k in ("add/sub", "mul", "div", "negate", "abs", "sqrt", "min", "max")),
+            "state_bytes": state, "table_bytes": tables, "constants": len(block.constants),
+            "regions": per_region}
+
+
+def format_stats(stats: dict) -> str:
+    ops = ", ".join(f"{k} {v}" for k, v in stats["operations_per_call"].items())
+    return (f"cost per call (worst-case path): {stats['arithmetic_per_call']} REAL/INT arithmetic operations; {ops}\n"
+            f"state: {stats['state_bytes']} bytes, tables: {stats['table_bytes']} bytes, "
+            f"named constants: {stats['constants']}")
