@@ -51,8 +51,9 @@ def cmd_fit(args) -> int:
     tables = [read_table(path, args.time) for path in args.data]
     options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
                          args.recover_limit)
-    request = FitRequest(args.model, args.target, args.temps, args.speed, args.ambient, args.train_until,
-                         args.train_rows, args.name, options, args.bins, args.precision_um, args.lags, args.lag_step)
+    request = FitRequest(args.model, args.target[0], args.temps, args.speed, args.ambient, args.train_until,
+                         args.train_rows, args.name, options, args.bins, args.precision_um, args.lags, args.lag_step,
+                         args.target[1:], args.tool_length)
     model = fit(tables, request, args.time, _progress if sys.stderr.isatty() else None)
     if sys.stderr.isatty():
         print(file=sys.stderr)
@@ -145,7 +146,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--data", required=True, action="append",
                    help="CSV file; repeat for piecewise (one file per batch, initial ambient read from each)")
     p.add_argument("--model", choices=KINDS, required=True)
-    p.add_argument("--target", required=True, help="measured displacement column, um")
+    p.add_argument("--target", type=_columns, required=True,
+                   help="measured displacement column, um; bpnn takes several: elongation,yaw,pitch")
     p.add_argument("--temps", type=_columns, required=True, help="temperature columns, comma-separated")
     p.add_argument("--speed", help="spindle speed column, rpm (kalman)")
     p.add_argument("--ambient", help="ambient temperature column, degC (kalman, piecewise)")
@@ -166,6 +168,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--lags", type=int, default=3, help="dlag: lagged terms per sensor (default: %(default)s)")
     p.add_argument("--lag-step", type=float, default=600.0, metavar="SECONDS",
                    help="dlag: time between lags (default: %(default)s)")
+    p.add_argument("--tool-length", metavar="COLUMN",
+                   help="bpnn: tool length column, mm; adds paper 002's X/Y/Z compensation outputs")
     p.add_argument("--name", default="ThermalComp", help="function block name (default: %(default)s)")
     p.add_argument("-o", "--output", required=True)
     p.set_defaults(func=cmd_fit)

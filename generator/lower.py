@@ -8,6 +8,7 @@ from thermoplc.generator.ir import (
     Assign, BinOp, Block, BoolConst, Call, Const, For, If, Index, IntConst, Ref, Region, Unary, Var,
 )
 from thermoplc.models.bayes import edges_of
+from thermoplc.models.bpnn import has_compensation, output_names
 from thermoplc.models.kalman import SENSOR_COEFFICIENTS
 from thermoplc.models.piecewise import node_count
 from thermoplc.models.modelfile import Model
@@ -352,7 +353,69 @@ def lower_dlag(model: Model) -> Block:
     )
 
 
-LOWERINGS = {"bayes": lower_bayes, "dlag": lower_dlag, "mlr": lower_mlr, "kalman": lower_kalman, "piecewise": lower_piecewise, "gm0n": lower_gm0n,
+def _horner(z2, names: tuple[str, ...]):
+    """a0 + z2*(a1 + z2*(a2 + z2*a3)) over named constants."""
+    expr = _c(names[-1])
+    for name in reversed(names[:-1]):
+        expr = BinOp("+", _c(name), BinOp("*", z2, expr))
+    return expr
+
+
+def lower_bpnn(model: Model) -> Block:
+    temps = model.signals("temperature")
+    m, hidden, q = model.settings["inputs"], model.settings["hidden"], model.settings["outputs"]
+    names = output_names(model)
+    units = [t["unit"] for t in model.settings["targets"]]
+    scaled = tuple(Assign(f"X_{i}", BinOp("+", BinOp("*", BinOp("-", Ref(s.name), Ref(f"T0_{i}")), _c(f"in_scale_{i}")),
+                                          _c(f"in_shift_{i}"))) for i, s in enumerate(temps, start=1))
+    layer = []
+    for j in range(1, hidden + 1):
+        layer += [
+            Assign("Z", _sum([_c(f"b1_{j}")] + [BinOp("*", _c(f"w1_{j}_{i}"), Ref(f"X_{i}")) for i in range(1, m + 1)])),
+            Assign("Z", Call("MIN", (Call("MAX", (Ref("Z"), _c("act_nclip"))), _c("act_clip")))),
+            Assign("Z2", BinOp("*", Ref("Z"), Ref("Z"))),
+            Assign(f"H_{j}", BinOp("/", BinOp("*", Ref("Z"), _horner(Ref("Z2"), ("act_one", "act_p1", "act_p2", "act_p3"))),
+                                   _horner(Ref("Z2"), ("act_one", "act_q1", "act_q2", "act_q3"))))]
+    outputs = []
+    for k in range(1, q + 1):
+        y = _sum([_c(f"b2_{k}")] + [BinOp("*", _c(f"w2_{k}_{j}"), Ref(f"H_{j}")) for j in range(1, hidden + 1)])
+        outputs += [Assign("Y", y),
+                    Assign(names[k - 1], BinOp("+", BinOp("*", Ref("Y"), _c(f"out_scale_{k}")), _c(f"out_shift_{k}")))]
+    regions = [Region("First call: latch reference temperatures",
+                      (If(((Unary("NOT", Ref("Init")), (*(Assign(f"T0_{i}", Ref(s.name))
+                                                            for i, s in enumerate(temps, start=1)),
+                                                          Assign("Init", BoolConst(True)))),)),)),
+               Region("Input layer: temperature rises scaled to [-1, 1]", scaled),
+               Region("Hidden layer: act(x) = Pade(7,6) tanh of clip(x, +-4.97)", tuple(layer)),
+               Region("Output layer, scaled back to units", tuple(outputs))]
+    out_vars = [Var(n, "REAL", f"predicted {n}, {u}") for n, u in zip(names, units)]
+    inputs = [Var(s.name, "REAL", f"{s.role}, {s.unit}") for s in temps]
+    if has_compensation(model):
+        length = model.signals("tool_length")[0].name
+        inputs.append(Var(length, "REAL", "tool length, mm"))
+        regions.append(Region("Compensation per axis, paper 002: Dx = L*yaw, Dy = L*pitch, Dz = elongation", (
+            Assign("Dx_um", BinOp("*", BinOp("*", Ref(length), Ref(names[1])), _c("um_per_mm_urad"))),
+            Assign("Dy_um", BinOp("*", BinOp("*", Ref(length), Ref(names[2])), _c("um_per_mm_urad"))),
+            Assign("Dz_um", Ref(names[0])))))
+        out_vars += [Var(n, "REAL", f"thermal error along {n[1]} at the tool tip, um") for n in ("Dx_um", "Dy_um", "Dz_um")]
+    return Block(
+        name=model.block_name,
+        title=f"Thermal error compensation: GA-BP neural network {m}-{hidden}-{q} (paper 002)",
+        header=_header(model),
+        inputs=tuple(inputs),
+        outputs=tuple(out_vars),
+        statics=(Var("Init", "BOOL", "TRUE after the first call"),
+                 *(Var(f"T0_{i}", "REAL", f"{s.name} at the first call") for i, s in enumerate(temps, start=1))),
+        temps=(*(Var(f"X_{i}", "REAL", f"scaled rise of {s.name}") for i, s in enumerate(temps, start=1)),
+               *(Var(f"H_{j}", "REAL", f"hidden neuron {j}") for j in range(1, hidden + 1)),
+               Var("Z", "REAL", "neuron input"), Var("Z2", "REAL", "neuron input squared"),
+               Var("Y", "REAL", "scaled output")),
+        constants=tuple(Const(f"c_{name}", model.coef(name), "") for name in model.coefficients),
+        regions=tuple(regions),
+    )
+
+
+LOWERINGS = {"bayes": lower_bayes, "bpnn": lower_bpnn, "dlag": lower_dlag, "mlr": lower_mlr, "kalman": lower_kalman, "piecewise": lower_piecewise, "gm0n": lower_gm0n,
              "gm1n": lower_gm1n}
 
 

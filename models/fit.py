@@ -9,7 +9,7 @@ import numpy as np
 
 from thermoplc.errors import UserError
 from thermoplc.generator.identifiers import check_unique, identifier_from_column, identifier_problem
-from thermoplc.models import bayes, dlag, grey, kalman, mlr, piecewise
+from thermoplc.models import bayes, bpnn, dlag, grey, kalman, mlr, piecewise
 from thermoplc.models.modelfile import Coefficient, Model, Signal
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.table import Table
@@ -32,6 +32,8 @@ class FitRequest:
     precision_um: float = 1.0  # bayes: interval width of the error
     lags: int = 3  # dlag: lagged terms per sensor
     lag_step_s: float = 600.0  # dlag: time between lags
+    extra_targets: tuple[str, ...] = ()  # bpnn: further outputs (elongation, yaw, pitch order for compensation)
+    tool_length: str | None = None  # bpnn: tool length column, mm (enables the X/Y/Z compensation outputs)
 
 
 def block_identifier(column: str, what: str) -> str:
@@ -71,7 +73,7 @@ def _metrics(residual: np.ndarray) -> dict:
 
 
 ROLES_NEEDED = {"mlr": (), "kalman": ("speed", "ambient"), "piecewise": ("ambient",), "gm0n": (), "gm1n": (),
-                "bayes": (), "dlag": ()}
+                "bayes": (), "dlag": (), "bpnn": ()}
 
 
 @dataclass(frozen=True)
@@ -79,6 +81,7 @@ class Part:
     """The training rows of one file, by role."""
     temps: np.ndarray  # (rows, sensors)
     target: np.ndarray
+    extra: np.ndarray  # (rows, further targets)
     speed: np.ndarray | None
     ambient: np.ndarray | None
 
@@ -98,7 +101,25 @@ def _fit_piecewise(parts, request, names, dt, progress):
     return piecewise.fit_piecewise([(p.temps, p.ambient, p.target) for p in parts], names)
 
 
-FITTERS = {"mlr": _fit_mlr, "kalman": _fit_kalman, "piecewise": _fit_piecewise,
+def _fit_bpnn(parts, request, names, dt, progress):
+    part = parts[0]
+    targets = np.column_stack([part.target, part.extra])
+    coefficients, settings, log = bpnn.fit_bpnn(part.temps, targets, names, request.options.seed,
+                                                request.options.population, request.options.generations)
+    settings["targets"] = [{"name": block_identifier(c, "target"), "column": c, "unit": _unit_of(c)}
+                           for c in (request.target, *request.extra_targets)]
+    if request.tool_length:
+        if len(settings["targets"]) < 3:
+            raise UserError("--tool-length needs three targets: axial elongation (um), yaw and pitch (urad)")
+        coefficients["um_per_mm_urad"] = Coefficient.of(1e-3)
+    return coefficients, settings, log
+
+
+def _unit_of(column: str) -> str:
+    return "urad" if column.lower().endswith("urad") else "um"
+
+
+FITTERS = {"bpnn": _fit_bpnn, "mlr": _fit_mlr, "kalman": _fit_kalman, "piecewise": _fit_piecewise,
            "gm0n": lambda parts, request, names, dt, progress: grey.fit_gm0n(parts[0].temps, parts[0].target, names),
            "gm1n": lambda parts, request, names, dt, progress: grey.fit_gm1n(parts[0].temps, parts[0].target, names),
            "bayes": lambda parts, request, names, dt, progress: bayes.fit_bayes(
@@ -111,6 +132,11 @@ def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
     if not request.temps:
         raise UserError("--temps needs at least one column")
     signals = [Signal(block_identifier(c, "temperature"), c, "temperature", "degC") for c in request.temps]
+    if request.kind != "bpnn" and (request.extra_targets or request.tool_length):
+        raise UserError("several targets and --tool-length are for --model bpnn only")
+    if request.tool_length:
+        signals.append(Signal(block_identifier(request.tool_length, "tool length"), request.tool_length,
+                              "tool_length", "mm"))
     for role in ROLES_NEEDED[request.kind]:
         column = getattr(request, role)
         if column is None:
@@ -124,7 +150,8 @@ def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
     for table in tables:
         for s in signals:
             table.column(s.column)
-        table.column(request.target)
+        for column in (request.target, *request.extra_targets):
+            table.column(column)
     return signals
 
 
@@ -148,6 +175,8 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
         if abs(period - dt) > SAMPLING_TOLERANCE * dt:
             raise UserError(f"{table.path}: sampled every {period:g} s, but {tables[0].path} every {dt:g} s")
     parts = [Part(np.column_stack([t.columns[c] for c in request.temps])[:n], t.columns[request.target][:n],
+                  np.column_stack([t.columns[c] for c in request.extra_targets])[:n] if request.extra_targets
+                  else np.empty((n, 0)),
                   t.columns[request.speed][:n] if request.speed in t.columns else None,
                   t.columns[request.ambient][:n] if request.ambient in t.columns else None)
              for t, n in zip(tables, n_train)]

@@ -22,6 +22,10 @@ LINKS = {(0, 2): 1 / 12000, (1, 2): 1 / 6000, (2, 3): 4 / 20000}
 TO_AMBIENT = np.array([1 / 3000, 1 / 2400, 4 / 9000, 12 / 40000])
 HEAT_PER_RPM = np.array([1.7e-6, 1.4e-6, 0.0, 0.0])  # motor and bearing heat, per rpm
 DISPLACEMENT_UM_PER_K = np.array([0.0, 1.5, 12.0, 6.0])
+YAW_URAD_PER_K = np.array([0.0, 3.0, -1.0, 0.0])  # asymmetric heating tilts the spindle (paper 002)
+PITCH_URAD_PER_K = np.array([1.5, 0.0, 0.0, -0.8])
+TOOL_LENGTHS_MM = (80.0, 150.0, 250.0)
+ANGLE_NOISE_URAD = 0.3
 TEMP_NOISE_K = 0.05
 DISPLACEMENT_NOISE_UM = 0.5
 SPEEDS_RPM = (500, 750, 1000, 1300, 1500, 2000, 2500, 3000)
@@ -87,7 +91,8 @@ def _network():
 
 def simulate(hours: float, seed: int, dt: float = 10.0, ambient_start: float = 20.0, ambient_swing: float = 0.5,
              faults: tuple[SensorFault, ...] = ()) -> dict:
-    """Columns time_s, n_rpm, T_env, the four node sensors, E_z_um (measured) and E_z_true_um."""
+    """Columns time_s, n_rpm, T_env, the four node sensors, E_z_um (measured), E_z_true_um, the spindle
+    tilts yaw_urad and pitch_urad, and the tool length in use, tool_length_mm."""
     if hours <= 0 or dt <= 0:
         raise UserError("--hours and --dt must be positive")
     rng = np.random.default_rng(seed)
@@ -114,4 +119,8 @@ def simulate(hours: float, seed: int, dt: float = 10.0, ambient_start: float = 2
     columns.update({name: measured[:, i] for i, name in enumerate(NODES)})
     columns["E_z_um"] = truth + rng.normal(0, DISPLACEMENT_NOISE_UM, len(t))
     columns["E_z_true_um"] = truth
+    rises = temps - temps[0]
+    columns["yaw_urad"] = rises @ YAW_URAD_PER_K + rng.normal(0, ANGLE_NOISE_URAD, len(t))
+    columns["pitch_urad"] = rises @ PITCH_URAD_PER_K + rng.normal(0, ANGLE_NOISE_URAD, len(t))
+    columns["tool_length_mm"] = np.array(TOOL_LENGTHS_MM)[(t // (4 * 3600)).astype(int) % len(TOOL_LENGTHS_MM)]
     return columns

@@ -20,7 +20,7 @@ from thermoplc.models.twin import simulate
 GOLDEN = Path(__file__).resolve().parent.parent / "tests" / "golden"
 TWIN = {"hours": 12, "seed": 7}
 BATCH_AMBIENTS_C = (14.0, 19.0, 26.0, 31.0)  # piecewise library batches, one per node region
-KINDS = ("mlr", "kalman", "piecewise", "dlag", "gm0n", "gm1n", "bayes")
+KINDS = ("mlr", "kalman", "piecewise", "dlag", "gm0n", "gm1n", "bayes", "bpnn")
 DIALECTS = ("tia",)
 
 
@@ -44,8 +44,11 @@ def refit(folder: Path) -> None:
     table = read_table(golden_twin_csv(folder))
     batches = [read_table(p) for p in batch_csvs(folder)]
     for kind in KINDS:
+        bpnn = kind == "bpnn"
         request = FitRequest(kind, "E_z_um", ("T_motor", "T_bearing"), "n_rpm", "T_env", train_until=6 * 3600.0,
-                             options=FitOptions(seed=1, population=20, generations=10))
+                             options=FitOptions(seed=1, population=20, generations=10),
+                             extra_targets=("yaw_urad", "pitch_urad") if bpnn else (),
+                             tool_length="tool_length_mm" if bpnn else None)
         tables = batches if kind == "piecewise" else [table]
         (GOLDEN / f"{kind}.json").write_text(fit(tables, request).to_json())
 

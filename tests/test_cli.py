@@ -54,9 +54,14 @@ def test_twin_sensor_faults_follow_paper_000(workdir):
     assert np.allclose(shift[t < 3600], 0, atol=2e-6) and np.allclose(shift[t >= 3600], -2.0, atol=2e-6)
 
 
-@pytest.mark.parametrize("kind", ["mlr", "kalman", "dlag", "gm0n", "gm1n", "bayes"])
+FIT_BPNN = ("fit", "--data", "twin.csv", "--model", "bpnn", "--target", "E_z_um,yaw_urad,pitch_urad",
+            "--temps", "T_motor,T_bearing,T_struct", "--tool-length", "tool_length_mm", "--train-until", 18000,
+            "--generations", 6, "--population", 10)
+
+
+@pytest.mark.parametrize("kind", ["mlr", "kalman", "dlag", "gm0n", "gm1n", "bayes", "bpnn"])
 def test_fit_generate_verify(workdir, kind):
-    fit_args = FIT_KALMAN if kind == "kalman" else tuple(kind if a == "mlr" else a for a in FIT_MLR)
+    fit_args = {"kalman": FIT_KALMAN, "bpnn": FIT_BPNN}.get(kind, tuple(kind if a == "mlr" else a for a in FIT_MLR))
     out = thermoplc(*fit_args, "-o", f"{kind}.json", cwd=workdir).stdout
     assert "fit (training)" in out and "prediction (held out)" in out and "RMSE um" in out
     thermoplc("generate", f"{kind}.json", "--dialect", "tia", "-o", f"{kind}.scl", cwd=workdir)

@@ -1,0 +1,230 @@
+"""GA-optimised back-propagation network (paper 002), with portable activations.
+
+Inputs: temperature rises scaled to [-1, 1] by the training range; one hidden layer; linear
+outputs scaled back to their units (axial elongation um, yaw and pitch tilt urad, ...). The
+hidden activation is tanh approximated by the Pade (7,6) rational function on a clipped input:
+    act(x) = r(min(max(x, -4.97), 4.97)),  r(x) = x*(1 + p1 x^2 + p2 x^4 + p3 x^6)/(1 + q1 x^2 + q2 x^4 + q3 x^6)
+with |act(x) - tanh(x)| <= 9.6e-5 for every x (measured on a 1e-5 grid over [0, 8]); only
++ - * / MIN MAX, so the block is portable (DESIGN §4.4). Training uses this same function, so the
+fitted network is the one the block computes.
+
+A genetic algorithm (paper 000's operators) first chooses the hidden-layer size (fitness: held-out
+error after a short training), then the initial weights and thresholds (fitness: error of the
+untrained network, paper eq. 17); back-propagation (batch gradient descent with momentum) trains
+from there. Paper 002's compensation equations with the tool length L (small tilt angles, axial
+elongation far below L): Dx = L*yaw, Dy = L*pitch, Dz = elongation (um with L in mm, angles in urad).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from thermoplc.errors import UserError
+from thermoplc.models.ga import genetic_minimize
+from thermoplc.models.modelfile import Coefficient, Model
+
+PADE_P = (1.0, 17325 / 135135, 378 / 135135, 1 / 135135)
+PADE_Q = (1.0, 62370 / 135135, 3150 / 135135, 28 / 135135)
+CLIP = 4.97
+ACTIVATION_ERROR_BOUND = 9.6e-5
+HIDDEN_RANGE = (2, 12)
+COMPENSATION = ("Dx_um", "Dy_um", "Dz_um")
+
+
+@dataclass(frozen=True)
+class Network:
+    w1: np.ndarray  # (hidden, inputs)
+    b1: np.ndarray
+    w2: np.ndarray  # (outputs, hidden)
+    b2: np.ndarray
+
+
+def _rational(z):
+    z2 = z * z
+    num = z * (PADE_P[0] + z2 * (PADE_P[1] + z2 * (PADE_P[2] + z2 * PADE_P[3])))
+    den = PADE_Q[0] + z2 * (PADE_Q[1] + z2 * (PADE_Q[2] + z2 * PADE_Q[3]))
+    return num / den
+
+
+def activation(x: np.ndarray) -> np.ndarray:
+    return _rational(np.clip(x, -CLIP, CLIP))
+
+
+def activation_slope(x: np.ndarray) -> np.ndarray:
+    z = np.clip(x, -CLIP, CLIP)
+    z2 = z * z
+    num = z * (PADE_P[0] + z2 * (PADE_P[1] + z2 * (PADE_P[2] + z2 * PADE_P[3])))
+    den = PADE_Q[0] + z2 * (PADE_Q[1] + z2 * (PADE_Q[2] + z2 * PADE_Q[3]))
+    dnum = PADE_P[0] + z2 * (3 * PADE_P[1] + z2 * (5 * PADE_P[2] + z2 * 7 * PADE_P[3]))
+    dden = z * (2 * PADE_Q[1] + z2 * (4 * PADE_Q[2] + z2 * 6 * PADE_Q[3]))
+    return np.where(np.abs(x) < CLIP, (dnum * den - num * dden) / (den * den), 0.0)
+
+
+def forward(net: Network, x: np.ndarray) -> np.ndarray:
+    return activation(x @ net.w1.T + net.b1) @ net.w2.T + net.b2
+
+
+def _random_network(rng, inputs: int, hidden: int, outputs: int) -> Network:
+    return Network(rng.uniform(-1, 1, (hidden, inputs)), rng.uniform(-1, 1, hidden),
+                   rng.uniform(-1, 1, (outputs, hidden)), rng.uniform(-1, 1, outputs))
+
+
+def _unpack(genes: np.ndarray, inputs: int, hidden: int, outputs: int) -> Network:
+    sizes = [hidden * inputs, hidden, outputs * hidden, outputs]
+    parts = np.split(genes, np.cumsum(sizes)[:-1])
+    return Network(parts[0].reshape(hidden, inputs), parts[1], parts[2].reshape(outputs, hidden), parts[3])
+
+
+def train(net: Network, x: np.ndarray, y: np.ndarray, epochs: int, goal_mse: float,
+          rate: float = 0.2, momentum: float = 0.9) -> tuple[Network, int, float]:
+    """Batch gradient descent with momentum until the training MSE reaches goal_mse.
+    Returns the network, the epochs used, and the final MSE."""
+    w1, b1, w2, b2 = (a.copy() for a in (net.w1, net.b1, net.w2, net.b2))
+    velocity = [np.zeros_like(a) for a in (w1, b1, w2, b2)]
+    mse = float("inf")
+    for epoch in range(1, epochs + 1):
+        pre = x @ w1.T + b1
+        hidden = activation(pre)
+        error = hidden @ w2.T + b2 - y
+        mse = float(np.mean(error ** 2))
+        if mse <= goal_mse:
+            return Network(w1, b1, w2, b2), epoch - 1, mse
+        grad_out = 2 * error / error.size
+        grad_hidden = (grad_out @ w2) * activation_slope(pre)
+        grads = (grad_hidden.T @ x, grad_hidden.sum(0), grad_out.T @ hidden, grad_out.sum(0))
+        for v, g, p in zip(velocity, grads, (w1, b1, w2, b2)):
+            v *= momentum
+            v -= rate * g
+            p += v
+    return Network(w1, b1, w2, b2), epochs, mse
+
+
+def _scale(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per column (scale, shift) mapping the training range onto [-1, 1]."""
+    low, high = values.min(axis=0), values.max(axis=0)
+    span = np.where(high > low, high - low, 1.0)
+    return 2.0 / span, -1.0 - 2.0 * low / span
+
+
+def fit_bpnn(temps: np.ndarray, targets: np.ndarray, names: list[str], seed: int, population: int,
+             generations: int, epochs: int = 3000, goal_mse: float = 2e-3) -> tuple[dict, dict, dict]:
+    """temps (rows, sensors), targets (rows, outputs): the training rows."""
+    rng = np.random.default_rng(seed)
+    rises = temps - temps[0]
+    in_scale, in_shift = _scale(rises)
+    x = rises * in_scale + in_shift
+    out_scale, out_shift = _scale(targets)
+    y = targets * out_scale + out_shift
+    rows = len(x)
+    stride = max(1, rows // 2000)  # training set thinned to ~2000 rows; thermal data is smooth
+    fit_rows = np.arange(0, int(rows * 0.8), stride)
+    check_rows = np.arange(int(rows * 0.8), rows, stride)
+    if len(fit_rows) < 10 or len(check_rows) < 2:
+        raise UserError(f"--model bpnn needs at least 50 training rows, got {rows}")
+    m, q = x.shape[1], y.shape[1]
+    scores: dict[int, float] = {}
+
+    def hidden_fitness(pop: np.ndarray) -> np.ndarray:
+        out = []
+        for gene in pop[:, 0]:
+            n = int(gene)
+            if n not in scores:
+                trial = _random_network(np.random.default_rng(seed + n), m, n, q)
+                trained, _, _ = train(trial, x[fit_rows], y[fit_rows], 150, 0.0)
+                scores[n] = float(np.mean((forward(trained, x[check_rows]) - y[check_rows]) ** 2))
+            out.append(scores[n])
+        return np.array(out)
+
+    hidden_ga = genetic_minimize(hidden_fitness, np.array([HIDDEN_RANGE[0]]), np.array([HIDDEN_RANGE[1] + 0.999]),
+                                 rng, population=max(6, population // 4), generations=max(3, generations // 4))
+    hidden = int(hidden_ga.x[0])
+    length = hidden * m + hidden + q * hidden + q
+    xs, ys = x[fit_rows], y[fit_rows]
+
+    def weight_fitness(pop: np.ndarray) -> np.ndarray:
+        sse = np.empty(len(pop))
+        for p, genes in enumerate(pop):
+            sse[p] = np.sum((forward(_unpack(genes, m, hidden, q), xs) - ys) ** 2)
+        return sse
+
+    weight_ga = genetic_minimize(weight_fitness, -np.ones(length), np.ones(length), rng, population, generations)
+    net, epochs_ga, mse_ga = train(_unpack(weight_ga.x, m, hidden, q), xs, ys, epochs, goal_mse)
+    _, epochs_plain, mse_plain = train(_random_network(np.random.default_rng(seed), m, hidden, q), xs, ys,
+                                       epochs, goal_mse)
+    coefficients = {}
+    for i in range(m):
+        coefficients[f"in_scale_{i + 1}"] = Coefficient.of(in_scale[i])
+        coefficients[f"in_shift_{i + 1}"] = Coefficient.of(in_shift[i])
+    for j in range(hidden):
+        coefficients[f"b1_{j + 1}"] = Coefficient.of(net.b1[j])
+        for i in range(m):
+            coefficients[f"w1_{j + 1}_{i + 1}"] = Coefficient.of(net.w1[j, i])
+    for k in range(q):
+        coefficients[f"b2_{k + 1}"] = Coefficient.of(net.b2[k])
+        for j in range(hidden):
+            coefficients[f"w2_{k + 1}_{j + 1}"] = Coefficient.of(net.w2[k, j])
+        coefficients[f"out_scale_{k + 1}"] = Coefficient.of(1.0 / out_scale[k])
+        coefficients[f"out_shift_{k + 1}"] = Coefficient.of(-out_shift[k] / out_scale[k])
+    for n, value in enumerate(PADE_P[1:], start=1):
+        coefficients[f"act_p{n}"] = Coefficient.of(value)
+    for n, value in enumerate(PADE_Q[1:], start=1):
+        coefficients[f"act_q{n}"] = Coefficient.of(value)
+    coefficients["act_one"] = Coefficient.of(1.0)
+    coefficients["act_clip"] = Coefficient.of(CLIP)
+    coefficients["act_nclip"] = Coefficient.of(-CLIP)
+    settings = {"inputs": m, "hidden": hidden, "outputs": q, "activation": "Pade(7,6) tanh on clip(x, +-4.97)",
+                "activation_error_bound": ACTIVATION_ERROR_BOUND}
+    log = {"method": "GA (hidden size, initial weights) + back-propagation with momentum (paper 002)",
+           "hidden_size_scores": {str(k): v for k, v in sorted(scores.items())},
+           "weight_ga_history": list(weight_ga.history), "goal_mse": goal_mse, "epoch_limit": epochs,
+           "ga_bp_epochs": epochs_ga, "ga_bp_mse": mse_ga, "plain_bp_epochs": epochs_plain, "plain_bp_mse": mse_plain}
+    return coefficients, settings, log
+
+
+def output_names(model: Model) -> list[str]:
+    return [t["name"] for t in model.settings["targets"]]
+
+
+def has_compensation(model: Model) -> bool:
+    return bool(model.signals("tool_length")) and len(model.settings["targets"]) >= 3
+
+
+def predict(model: Model, inputs: dict, precision: str) -> dict:
+    """Reference, vectorised over rows in binary32 or float64, in the block's operation order."""
+    f = np.float32 if precision == "f32" else np.float64
+    c = lambda name: f(model.coef(name, precision))
+    m, hidden, q = model.settings["inputs"], model.settings["hidden"], model.settings["outputs"]
+    temps = model.signals("temperature")
+    x = []
+    for i, s in enumerate(temps, start=1):
+        t = np.asarray(inputs[s.name], f)
+        x.append((t - t[0]) * c(f"in_scale_{i}") + c(f"in_shift_{i}"))
+    p = [c(f"act_p{n}") for n in (1, 2, 3)]
+    qq = [c(f"act_q{n}") for n in (1, 2, 3)]
+    one, clip, nclip = c("act_one"), c("act_clip"), c("act_nclip")
+    h = []
+    for j in range(1, hidden + 1):
+        z = np.full(len(x[0]), c(f"b1_{j}"), f)
+        for i in range(1, m + 1):
+            z = z + c(f"w1_{j}_{i}") * x[i - 1]
+        z = np.where(nclip > z, nclip, z)  # MAX(z, -clip)
+        z = np.where(clip < z, clip, z)  # MIN(z, clip)
+        z2 = z * z
+        num = z * (one + z2 * (p[0] + z2 * (p[1] + z2 * p[2])))
+        den = one + z2 * (qq[0] + z2 * (qq[1] + z2 * qq[2]))
+        h.append(num / den)
+    out = {}
+    names = output_names(model)
+    for k in range(1, q + 1):
+        y = np.full(len(x[0]), c(f"b2_{k}"), f)
+        for j in range(1, hidden + 1):
+            y = y + c(f"w2_{k}_{j}") * h[j - 1]
+        out[names[k - 1]] = y * c(f"out_scale_{k}") + c(f"out_shift_{k}")
+    if has_compensation(model):
+        length = np.asarray(inputs[model.signals("tool_length")[0].name], f)
+        milli = c("um_per_mm_urad")
+        out["Dx_um"] = length * out[names[1]] * milli
+        out["Dy_um"] = length * out[names[2]] * milli
+        out["Dz_um"] = out[names[0]]
+    return out
