@@ -12,6 +12,11 @@ from thermoplc.fileio import write_atomic
 
 
 def _columns(text: str) -> tuple[str, ...]:
+    if text.startswith("@"):  # a file written by select-sensors -o
+        try:
+            text = Path(text[1:]).read_text("utf-8").strip()
+        except OSError as exc:
+            raise argparse.ArgumentTypeError(f"cannot read {text[1:]}: {exc.strerror}") from None
     names = tuple(c.strip() for c in text.split(",") if c.strip())
     if not names:
         raise argparse.ArgumentTypeError("expected comma-separated column names")
@@ -117,6 +122,26 @@ def cmd_verify(args) -> int:
     return 0 if report.ok else 1
 
 
+def cmd_select(args) -> int:
+    from thermoplc.models.selection import select_sensors
+    from thermoplc.models.table import read_table
+    table = read_table(args.data, args.time)
+    candidates = args.candidates or tuple(c for c in table.columns if c not in (args.time, args.target))
+    rows = table.rows if args.train_rows is None else args.train_rows
+    selection = select_sensors({c: table.column(c)[:rows] for c in candidates}, table.column(args.target)[:rows],
+                               args.method, args.threshold, args.max_groups)
+    print(f"sensor selection ({selection.method}) for {args.target} on {Path(args.data).name}, {rows} rows")
+    print(f"  {selection.detail}")
+    for k, group in enumerate(selection.groups, start=1):
+        members = ", ".join(f"{s} ({selection.scores[s]:.3f})" for s in group)
+        print(f"  group {k}: {members}")
+    print(f"chosen: {','.join(selection.chosen)}")
+    if args.output:
+        write_atomic(args.output, ",".join(selection.chosen) + "\n")
+        print(f"wrote {args.output} (use it as fit --temps @{args.output})")
+    return 0
+
+
 def cmd_demo(args) -> int:
     from thermoplc.demo import run_demo
     return run_demo(Path(args.out))
@@ -173,6 +198,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--name", default="ThermalComp", help="function block name (default: %(default)s)")
     p.add_argument("-o", "--output", required=True)
     p.set_defaults(func=cmd_fit)
+
+    p = sub.add_parser("select-sensors", help="group similar temperature sensors and choose one per group")
+    p.add_argument("--data", required=True)
+    p.add_argument("--target", required=True)
+    p.add_argument("--method", choices=("fcm-grey", "grey-cluster"), default="fcm-grey",
+                   help="fcm-grey: paper 001's fuzzy clustering + grey relational grade; "
+                        "grey-cluster: paper 002's grey clustering + correlation")
+    p.add_argument("--candidates", type=_columns, help="temperature columns to choose from (default: all but time and target)")
+    p.add_argument("--threshold", type=float, default=0.85, help="grey-cluster: degree that joins two sensors")
+    p.add_argument("--max-groups", type=int, default=5, help="fcm-grey: at most this many groups (default: %(default)s)")
+    p.add_argument("--train-rows", type=int, help="use only the first N rows (the training part)")
+    p.add_argument("--time", default="time_s")
+    p.add_argument("-o", "--output", help="write the chosen sensors for fit --temps @FILE")
+    p.set_defaults(func=cmd_select)
 
     p = sub.add_parser("generate", help="compile a model file into a Structured Text function block")
     p.add_argument("model")
