@@ -9,7 +9,7 @@ from thermoplc.models.selection import fuzzy_cluster, grey_relational_grades, se
 def test_duplicated_sensors_fall_into_one_group():
     rng = np.random.default_rng(0)
     t = np.linspace(0, 10, 500)
-    slow, fast = 1 - np.exp(-t / 5), np.sin(t)
+    slow, fast = 20 + 5 * (1 - np.exp(-t / 5)), 25 + np.sin(t)  # temperatures, degC
     columns = {"a": slow, "a_copy": slow + rng.normal(0, 1e-3, 500), "b": fast, "b_copy": fast * 1.01}
     target = 3 * slow + fast
     for method in ("fcm-grey", "grey-cluster"):
