@@ -68,8 +68,10 @@ def sample_period(table: Table, time_column: str) -> float:
 
 
 def _metrics(residual: np.ndarray) -> dict:
+    if not len(residual):
+        return {"rows": 0, "rmse_um": None, "max_abs_um": None}
     return {"rows": int(len(residual)), "rmse_um": float(np.sqrt(np.mean(residual ** 2))),
-            "max_abs_um": float(np.max(np.abs(residual))) if len(residual) else 0.0}
+            "max_abs_um": float(np.max(np.abs(residual)))}
 
 
 ROLES_NEEDED = {"mlr": (), "kalman": ("speed", "ambient"), "piecewise": ("ambient",), "gm0n": (), "gm1n": (),

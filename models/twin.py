@@ -90,7 +90,7 @@ def _network():
 
 
 def simulate(hours: float, seed: int, dt: float = 10.0, ambient_start: float = 20.0, ambient_swing: float = 0.5,
-             faults: tuple[SensorFault, ...] = ()) -> dict:
+             faults: tuple[SensorFault, ...] = (), constant_rpm: float | None = None) -> dict:
     """Columns time_s, n_rpm, T_env, the four node sensors, E_z_um (measured), E_z_true_um, the spindle
     tilts yaw_urad and pitch_urad, and the tool length in use, tool_length_mm."""
     if hours <= 0 or dt <= 0:
@@ -98,6 +98,8 @@ def simulate(hours: float, seed: int, dt: float = 10.0, ambient_start: float = 2
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, hours * 3600 + dt / 2, dt)
     n = speed_schedule(t, rng)
+    if constant_rpm is not None:  # paper 000 case 1: one speed from the start
+        n = np.full_like(t, constant_rpm)
     te = ambient_profile(t, ambient_start, ambient_swing, rng)
     m, drive = _network()
     k = len(NODES)
