@@ -59,21 +59,44 @@ def _regression_constants(model: Model) -> list[Const]:
         Const(f"c_beta_{i}", model.coef(f"beta_{i}"), f"um per K of {s.name}") for i, s in enumerate(temps, start=1)]
 
 
+INIT = Var("Init", "BOOL", "TRUE after the first call")
+
+
+def _references(temps) -> tuple[Assign, ...]:
+    """T0_i := T_i: the temperatures the rises are taken from, latched at the first call."""
+    return tuple(Assign(f"T0_{i}", Ref(s.name)) for i, s in enumerate(temps, start=1))
+
+
+def _reference_vars(temps) -> tuple[Var, ...]:
+    return tuple(Var(f"T0_{i}", "REAL", f"{s.name} at the first call") for i, s in enumerate(temps, start=1))
+
+
+def _first_call(title: str, body) -> Region:
+    """A region that runs `body` once, at the first call, and then sets Init."""
+    return Region(title, (If(((Unary("NOT", Ref("Init")), (*body, Assign("Init", BoolConst(True)))),)),))
+
+
+def _inputs(signals) -> tuple[Var, ...]:
+    return tuple(Var(s.name, "REAL", f"{s.role}, {s.unit}") for s in signals)
+
+
+def _error_output(model: Model) -> Var:
+    return Var(model.target.name, "REAL", f"predicted thermal error, {model.target.unit}")
+
+
 def lower_mlr(model: Model) -> Block:
     temps = model.signals("temperature")
-    latch = tuple(Assign(f"T0_{i}", Ref(s.name)) for i, s in enumerate(temps, start=1)) + (Assign("Init", BoolConst(True)),)
     return Block(
         name=model.block_name,
         title="Thermal error compensation: multiple linear regression",
         header=_header(model),
-        inputs=tuple(Var(s.name, "REAL", f"{s.role}, {s.unit}") for s in temps),
-        outputs=(Var(model.target.name, "REAL", f"predicted thermal error, {model.target.unit}"),),
-        statics=(Var("Init", "BOOL", "TRUE after the first call"),)
-        + tuple(Var(f"T0_{i}", "REAL", f"{s.name} at the first call") for i, s in enumerate(temps, start=1)),
+        inputs=_inputs(temps),
+        outputs=(_error_output(model),),
+        statics=(INIT, *_reference_vars(temps)),
         temps=(),
         constants=tuple(_regression_constants(model)),
         regions=(
-            Region("First call: latch reference temperatures", (If(((Unary("NOT", Ref("Init")), latch),)),)),
+            _first_call("First call: latch reference temperatures", _references(temps)),
             _regression(model, lambda i, s: Ref(s.name)),
         ),
     )
@@ -110,8 +133,7 @@ def lower_kalman(model: Model) -> Block:
                    Assign(f"PF_{i}", BinOp("-", Ref("P_pred"), BinOp("*", Ref("Gain"), Ref("P_pred")))),
                )),
         )))
-    init.append(Assign("Init", BoolConst(True)))
-    statics = [Var("Init", "BOOL", "TRUE after the first call")]
+    statics = [INIT]
     constants = []
     for i, s in enumerate(temps, start=1):
         statics += [Var(f"T0_{i}", "REAL", f"{s.name} at the first call"),
@@ -124,16 +146,14 @@ def lower_kalman(model: Model) -> Block:
         name=model.block_name,
         title="Thermal error compensation: Kalman fusion of a lumped-mass model (paper 000)",
         header=_header(model),
-        inputs=tuple(Var(s.name, "REAL", f"{s.role}, {s.unit}") for s in (*temps, *model.signals("speed"),
-                                                                              *model.signals("ambient"))),
-        outputs=(Var(model.target.name, "REAL", f"predicted thermal error, {model.target.unit}"),)
+        inputs=_inputs((*temps, *model.signals("speed"), *model.signals("ambient"))),
+        outputs=(_error_output(model),)
         + tuple(Var(f"Fault_{i}", "BOOL", f"{s.name} faulty: model-only prediction") for i, s in enumerate(temps, start=1)),
         statics=tuple(statics),
         temps=(Var("T_pred", "REAL", "predicted temperature"), Var("P_pred", "REAL", "predicted covariance"),
                Var("Gain", "REAL", "Kalman gain"), Var("Jump", "REAL", "change of the measurement since the last call")),
         constants=tuple(constants + _regression_constants(model)),
-        regions=(Region("First call: start the filters at the measured temperatures",
-                        (If(((Unary("NOT", Ref("Init")), tuple(init)),)),)),
+        regions=(_first_call("First call: start the filters at the measured temperatures", init),
                  *regions,
                  _regression(model, lambda i, s: Ref(f"TF_{i}"))),
     )
@@ -157,8 +177,7 @@ def lower_piecewise(model: Model) -> Block:
     weights = If(((BinOp("=", Ref("Ia"), Ref("Ib")), (Assign("Wa", _c("One")), Assign("Wb", _c("Zero")))),),
                  orelse=(Assign("Wa", BinOp("/", BinOp("-", nodes(Ref("Ib")), Ref("Amb0")), span)),
                          Assign("Wb", BinOp("/", BinOp("-", Ref("Amb0"), nodes(Ref("Ia"))), span))))
-    latch = (*(Assign(f"T0_{i}", Ref(s.name)) for i, s in enumerate(temps, start=1)),
-             Assign("Amb0", Ref(ambient)), If(tuple(chain), orelse=last), weights, Assign("Init", BoolConst(True)))
+    latch = (*_references(temps), Assign("Amb0", Ref(ambient)), If(tuple(chain), orelse=last), weights)
 
     def node_model(which: str) -> Assign:
         index = Ref(f"I{which}")
@@ -176,20 +195,20 @@ def lower_piecewise(model: Model) -> Block:
         name=model.block_name,
         title="Thermal error compensation: piecewise weighted model library over ambient temperature (paper 001)",
         header=_header(model),
-        inputs=tuple(Var(s.name, "REAL", f"{s.role}, {s.unit}") for s in model.inputs),
-        outputs=(Var(model.target.name, "REAL", f"predicted thermal error, {model.target.unit}"),),
-        statics=(Var("Init", "BOOL", "TRUE after the first call"),
+        inputs=_inputs(model.inputs),
+        outputs=(_error_output(model),),
+        statics=(INIT,
                  Var("Amb0", "REAL", f"{ambient} at the first call"),
                  Var("Ia", "INT", "lower node"), Var("Ib", "INT", "upper node"),
                  Var("Wa", "REAL", "weight of the lower node, eq. 1"), Var("Wb", "REAL", "weight of the upper node"),
-                 *(Var(f"T0_{i}", "REAL", f"{s.name} at the first call") for i, s in enumerate(temps, start=1)),
+                 *_reference_vars(temps),
                  *tables),
         temps=(Var("Ya", "REAL", "prediction of the lower node's model"),
                Var("Yb", "REAL", "prediction of the upper node's model")),
         constants=(Const("c_One", 1.0, "weight of a single node"), Const("c_Zero", 0.0, "weight of no node")),
         regions=(
-            Region("First call: latch temperatures, ambient, the two nearest nodes and their weights (eq. 1)",
-                   (If(((Unary("NOT", Ref("Init")), latch),)),)),
+            _first_call("First call: latch temperatures, ambient, the two nearest nodes and their weights (eq. 1)",
+                        latch),
             Region("Regression model of each chosen node", (node_model("a"), node_model("b"))),
             Region("Weighted sum of the two node models, eq. 1",
                    (Assign(model.target.name, BinOp("+", BinOp("*", Ref("Wa"), Ref("Ya")),
@@ -202,8 +221,8 @@ def _grey_block(model: Model, title: str, statics, temps_, constants, regions) -
     temps = model.signals("temperature")
     return Block(
         name=model.block_name, title=title, header=_header(model),
-        inputs=tuple(Var(s.name, "REAL", f"{s.role}, {s.unit}") for s in temps),
-        outputs=(Var(model.target.name, "REAL", f"predicted thermal error, {model.target.unit}"),),
+        inputs=_inputs(temps),
+        outputs=(_error_output(model),),
         statics=tuple(Var(f"S_{i}", "REAL", f"1-AGO running sum of {s.name}") for i, s in enumerate(temps, start=1))
         + tuple(statics),
         temps=tuple(temps_), constants=tuple(constants), regions=tuple(regions))
@@ -220,7 +239,7 @@ def lower_gm0n(model: Model) -> Block:
     level = _sum([_c("a")] + [BinOp("*", _c(f"b_{i}"), Ref(f"S_{i}")) for i in range(1, len(temps) + 1)])
     return _grey_block(
         model, "Thermal error compensation: grey model GM(0,N) (paper 003)",
-        statics=[Var("Init", "BOOL", "TRUE after the first call"),
+        statics=[INIT,
                  Var("Xprev", "REAL", "accumulated error estimate of the previous call")],
         temps_=[Var("X", "REAL", "accumulated error estimate")],
         constants=[Const("c_a", model.coef("a"), "GM(0,N) constant a"),
@@ -244,7 +263,7 @@ def lower_gm1n(model: Model) -> Block:
                          If(((BinOp("<", Ref("Damp"), _c("Tiny")), (Assign("Damp", _c("Zero")),)),))))
     return _grey_block(
         model, "Thermal error compensation: grey model GM(1,N) (paper 003)",
-        statics=[Var("Init", "BOOL", "TRUE after the first call"),
+        statics=[INIT,
                  Var("Damp", "REAL", "exp(-a*(k-1)) by recurrence"),
                  Var("Xprev", "REAL", "accumulated error estimate of the previous call")],
         temps_=[Var("F", "REAL", "sum of (b_i/a)*S_i"), Var("X", "REAL", "accumulated error estimate")],
@@ -283,23 +302,20 @@ def lower_bayes(model: Model) -> Block:
     for i in range(len(temps) - 1, 0, -1):
         config = BinOp("+", Ref(f"J_{i}"), BinOp("*", _c(f"K_{i}"), config))
     table = tuple(model.coef(f"pred_{c}") for c in range(model.settings["configurations"]))
-    latch = tuple(Assign(f"T0_{i}", Ref(s.name)) for i, s in enumerate(temps, start=1)) + (Assign("Init", BoolConst(True)),)
     return Block(
         name=model.block_name,
         title="Thermal error compensation: Bayesian network, most probable error interval (paper 004)",
         header=_header(model),
-        inputs=tuple(Var(s.name, "REAL", f"{s.role}, {s.unit}") for s in temps),
-        outputs=(Var(model.target.name, "REAL", f"predicted thermal error, {model.target.unit}"),),
-        statics=(Var("Init", "BOOL", "TRUE after the first call"),
-                 *(Var(f"T0_{i}", "REAL", f"{s.name} at the first call") for i, s in enumerate(temps, start=1)),
-                 *statics,
+        inputs=_inputs(temps),
+        outputs=(_error_output(model),),
+        statics=(INIT, *_reference_vars(temps), *statics,
                  Var("tab_Pred", "REAL", "midpoint of the most probable error interval per configuration, um "
                      "(table, read only)", length=len(table), initial=table)),
         temps=(Var("Rise", "REAL", "temperature rise since the first call"),
                *(Var(f"J_{i}", "INT", f"interval of {s.name}") for i, s in enumerate(temps, start=1)),
                Var("Config", "INT", "configuration of all intervals")),
         constants=tuple(constants[:-1]),
-        regions=(Region("First call: latch reference temperatures", (If(((Unary("NOT", Ref("Init")), latch),)),)),
+        regions=(_first_call("First call: latch reference temperatures", _references(temps)),
                  *regions,
                  Region("Look up the prediction of the configuration, eq. 7",
                         (Assign("Config", config), Assign(model.target.name, Index("tab_Pred", Ref("Config")))))),
@@ -312,8 +328,7 @@ def lower_dlag(model: Model) -> Block:
     length = lags * step + 1
     fill = tuple(For("I", IntConst(0), _c("Last"), (Assign(f"Buf_{i}", Ref(s.name), index=Ref("I")),))
                  for i, s in enumerate(temps, start=1))
-    latch = (*(Assign(f"T0_{i}", Ref(s.name)) for i, s in enumerate(temps, start=1)), *fill,
-             Assign("Pos", IntConst(0)), Assign("Init", BoolConst(True)))
+    latch = (*_references(temps), *fill, Assign("Pos", IntConst(0)))
     advance = (Assign("Pos", BinOp("+", Ref("Pos"), _c("One"))),
                If(((BinOp(">", Ref("Pos"), _c("Last")), (Assign("Pos", IntConst(0)),)),)),
                *(Assign(f"Buf_{i}", Ref(s.name), index=Ref("Pos")) for i, s in enumerate(temps, start=1)))
@@ -336,17 +351,15 @@ def lower_dlag(model: Model) -> Block:
         name=model.block_name,
         title="Thermal error compensation: distributed-lag regression (paper 001's DL model)",
         header=_header(model),
-        inputs=tuple(Var(s.name, "REAL", f"{s.role}, {s.unit}") for s in temps),
-        outputs=(Var(model.target.name, "REAL", f"predicted thermal error, {model.target.unit}"),),
-        statics=(Var("Init", "BOOL", "TRUE after the first call"), Var("Pos", "INT", "ring buffer position of now"),
-                 *(Var(f"T0_{i}", "REAL", f"{s.name} at the first call") for i, s in enumerate(temps, start=1)),
+        inputs=_inputs(temps),
+        outputs=(_error_output(model),),
+        statics=(INIT, Var("Pos", "INT", "ring buffer position of now"), *_reference_vars(temps),
                  *(Var(f"Buf_{i}", "REAL", f"last {length} samples of {s.name}", length=length)
                    for i, s in enumerate(temps, start=1))),
         temps=(Var("I", "INT", "loop index"), Var("Idx", "INT", "ring buffer index of a lag"),
                Var("Acc", "REAL", "sum of the terms so far")),
         constants=tuple(constants),
-        regions=(Region("First call: latch reference temperatures, fill the ring buffers",
-                        (If(((Unary("NOT", Ref("Init")), latch),)),)),
+        regions=(_first_call("First call: latch reference temperatures, fill the ring buffers", latch),
                  Region("Store this call's temperatures in the ring buffers", advance),
                  Region("Regression on current and lagged temperature rises", tuple(terms)
                         + (Assign(model.target.name, Ref("Acc")),))),
@@ -381,15 +394,12 @@ def lower_bpnn(model: Model) -> Block:
         y = _sum([_c(f"b2_{k}")] + [BinOp("*", _c(f"w2_{k}_{j}"), Ref(f"H_{j}")) for j in range(1, hidden + 1)])
         outputs += [Assign("Y", y),
                     Assign(names[k - 1], BinOp("+", BinOp("*", Ref("Y"), _c(f"out_scale_{k}")), _c(f"out_shift_{k}")))]
-    regions = [Region("First call: latch reference temperatures",
-                      (If(((Unary("NOT", Ref("Init")), (*(Assign(f"T0_{i}", Ref(s.name))
-                                                            for i, s in enumerate(temps, start=1)),
-                                                          Assign("Init", BoolConst(True)))),)),)),
+    regions = [_first_call("First call: latch reference temperatures", _references(temps)),
                Region("Input layer: temperature rises scaled to [-1, 1]", scaled),
                Region("Hidden layer: act(x) = Pade(7,6) tanh of clip(x, +-4.97)", tuple(layer)),
                Region("Output layer, scaled back to units", tuple(outputs))]
     out_vars = [Var(n, "REAL", f"predicted {n}, {u}") for n, u in zip(names, units)]
-    inputs = [Var(s.name, "REAL", f"{s.role}, {s.unit}") for s in temps]
+    inputs = list(_inputs(temps))
     if has_compensation(model):
         length = model.signals("tool_length")[0].name
         inputs.append(Var(length, "REAL", "tool length, mm"))
@@ -404,8 +414,7 @@ def lower_bpnn(model: Model) -> Block:
         header=_header(model),
         inputs=tuple(inputs),
         outputs=tuple(out_vars),
-        statics=(Var("Init", "BOOL", "TRUE after the first call"),
-                 *(Var(f"T0_{i}", "REAL", f"{s.name} at the first call") for i, s in enumerate(temps, start=1))),
+        statics=(INIT, *_reference_vars(temps)),
         temps=(*(Var(f"X_{i}", "REAL", f"scaled rise of {s.name}") for i, s in enumerate(temps, start=1)),
                *(Var(f"H_{j}", "REAL", f"hidden neuron {j}") for j in range(1, hidden + 1)),
                Var("Z", "REAL", "neuron input"), Var("Z2", "REAL", "neuron input squared"),
