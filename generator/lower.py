@@ -297,7 +297,8 @@ def lower_bayes(model: Model) -> Block:
             choose = Assign(f"J_{i}", IntConst(0))
         regions.append(Region(f"Interval of the rise of {s.name} ({counts[i - 1]} intervals)", (
             Assign("Rise", BinOp("-", Ref(s.name), Ref(f"T0_{i}"))), choose)))
-        constants.append(Const(f"c_K_{i}", counts[i - 1], f"intervals of {s.name}", type="INT"))
+        if i < len(temps):  # the last sensor's count does not enter the configuration index
+            constants.append(Const(f"c_K_{i}", counts[i - 1], f"intervals of {s.name}", type="INT"))
     config = Ref(f"J_{len(temps)}")
     for i in range(len(temps) - 1, 0, -1):
         config = BinOp("+", Ref(f"J_{i}"), BinOp("*", _c(f"K_{i}"), config))
@@ -314,7 +315,7 @@ def lower_bayes(model: Model) -> Block:
         temps=(Var("Rise", "REAL", "temperature rise since the first call"),
                *(Var(f"J_{i}", "INT", f"interval of {s.name}") for i, s in enumerate(temps, start=1)),
                Var("Config", "INT", "configuration of all intervals")),
-        constants=tuple(constants[:-1]),
+        constants=tuple(constants),
         regions=(_first_call("First call: latch reference temperatures", _references(temps)),
                  *regions,
                  Region("Look up the prediction of the configuration, eq. 7",

@@ -9,7 +9,7 @@ import jinja2
 
 from thermoplc.generator.identifiers import check_unique, identifier_problem
 from thermoplc.generator.ir import (
-    PORTABLE_FUNCTIONS, Assign, BinOp, Block, BoolConst, Call, Expr, For, If, Index, IntConst, Ref, Stmt,
+    PORTABLE_FUNCTIONS, Assign, BinOp, Block, BoolConst, Call, Expr, For, Index, IntConst, Ref, Stmt,
     Unary, Var, assigned_names, walk_exprs,
 )
 from thermoplc.generator.literals import real_literal

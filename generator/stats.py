@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from collections import Counter
 
-from thermoplc.generator.ir import Assign, BinOp, Block, Call, Const, For, If, Index, IntConst, Ref, Unary
+from thermoplc.generator.ir import Assign, BinOp, Block, Call, For, Index, IntConst, Ref, Unary
 
 STATE_BYTES = {"REAL": 4, "INT": 2, "BOOL": 1}
 _KIND = {"+": "add/sub", "-": "add/sub", "*": "mul", "/": "div", "<": "compare", "<=": "compare", ">": "compare",

@@ -40,22 +40,22 @@ class Network:
     b2: np.ndarray
 
 
-def _rational(z):
+def _numerator_denominator(z):
     z2 = z * z
     num = z * (PADE_P[0] + z2 * (PADE_P[1] + z2 * (PADE_P[2] + z2 * PADE_P[3])))
     den = PADE_Q[0] + z2 * (PADE_Q[1] + z2 * (PADE_Q[2] + z2 * PADE_Q[3]))
-    return num / den
+    return num, den
 
 
 def activation(x: np.ndarray) -> np.ndarray:
-    return _rational(np.clip(x, -CLIP, CLIP))
+    num, den = _numerator_denominator(np.clip(x, -CLIP, CLIP))
+    return num / den
 
 
 def activation_slope(x: np.ndarray) -> np.ndarray:
     z = np.clip(x, -CLIP, CLIP)
     z2 = z * z
-    num = z * (PADE_P[0] + z2 * (PADE_P[1] + z2 * (PADE_P[2] + z2 * PADE_P[3])))
-    den = PADE_Q[0] + z2 * (PADE_Q[1] + z2 * (PADE_Q[2] + z2 * PADE_Q[3]))
+    num, den = _numerator_denominator(z)
     dnum = PADE_P[0] + z2 * (3 * PADE_P[1] + z2 * (5 * PADE_P[2] + z2 * 7 * PADE_P[3]))
     dden = z * (2 * PADE_Q[1] + z2 * (4 * PADE_Q[2] + z2 * 6 * PADE_Q[3]))
     return np.where(np.abs(x) < CLIP, (dnum * den - num * dden) / (den * den), 0.0)

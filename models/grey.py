@@ -38,8 +38,7 @@ def _gm1n_parameters(sums: np.ndarray, target: np.ndarray) -> np.ndarray:
     """[a, b_1..b_N] by least squares: x1(k) = -a*z1(k) + sum_i b_i*S_i(k), k = 2..n."""
     target_sums = accumulate(target)
     background = 0.5 * (target_sums[1:] + target_sums[:-1])
-    columns = [-background] + ([sums[1:]] if sums.size else [])
-    return np.linalg.lstsq(np.column_stack(columns), target[1:], rcond=None)[0]
+    return np.linalg.lstsq(np.column_stack([-background, sums[1:]]), target[1:], rcond=None)[0]
 
 
 def fit_gm1n(temps: np.ndarray, target: np.ndarray, names: list[str]):

@@ -117,7 +117,7 @@ def _check_interface(machine: Machine, block: str, available: dict, what: str) -
                         + (f"; {what} also has {', '.join(extra)}" if extra else ""))
 
 
-def _first_mismatch(machine: Machine, produced: dict, expected: dict) -> tuple[int, str] | None:
+def _first_mismatch(produced: dict, expected: dict) -> tuple[int, str] | None:
     first = None
     for name in produced:
         got = produced[name]
@@ -140,7 +140,7 @@ def _replay_and_compare(machine: Machine, block: str, against: str, table: Table
     produced = machine.replay(columns, rows, outputs=tuple(expected))
     seconds = time.perf_counter() - start
     findings = tuple(machine.findings.values())
-    first = _first_mismatch(machine, produced, {k: expected[k] for k in produced})
+    first = _first_mismatch(produced, {k: expected[k] for k in produced})
     mismatch = None
     if first is not None:
         cycle, output = first
