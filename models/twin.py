@@ -1,10 +1,12 @@
 """The synthetic machine (DESIGN §7): a lumped-mass network whose truth is known.
 
-Nodes: spindle motor, front bearing, ram structure and a slow base structure, exchanging heat
-with each other and the ambient air. Motor and bearing heat grow with spindle speed. The
-linear network is discretised exactly (matrix exponential, inputs held over a sample), so the
-data does not depend on an integrator's step. Displacement at the spindle nose follows the
-structure temperatures (time constants of hours) plus a little bearing growth.
+Nodes: spindle motor and front bearing (heated by the spindle speed, cooled to ambient, each a
+first-order lumped mass as in paper 000 eq. 4), the ram structure (fed by the motor and bearing
+rises), a slow base structure below the ram, and a feed-axis ball screw heated by axis motion.
+The network is linear and discretised exactly (matrix exponential, inputs held over a sample),
+so the data does not depend on an integrator's step. The displacement at the spindle nose
+follows the heat-driven rises of the bearing and the ram; uniform ambient changes move tool and
+workpiece alike. Each named effect of `thermoplc.models.effects` can be switched on.
 """
 from __future__ import annotations
 
@@ -14,14 +16,14 @@ import numpy as np
 from scipy.linalg import expm
 
 from thermoplc.errors import UserError
+from thermoplc.models.effects import Effect
 
-NODES = ("T_motor", "T_bearing", "T_struct", "T_base")
-CAPACITY = np.array([1.0, 1.0, 4.0, 12.0])
-# conductances between nodes (same units as CAPACITY per second) and to ambient
-LINKS = {(0, 2): 1 / 12000, (1, 2): 1 / 6000, (2, 3): 4 / 20000}
-TO_AMBIENT = np.array([1 / 3000, 1 / 2400, 4 / 9000, 12 / 40000])
-HEAT_PER_RPM = np.array([1.7e-6, 1.4e-6, 0.0, 0.0])  # motor and bearing heat, per rpm
-DISPLACEMENT_UM_PER_K = np.array([0.0, 1.5, 12.0, 6.0])
+NODES = ("T_motor", "T_bearing", "T_struct", "T_base")  # the sensor columns
+TAU_S = {"motor": 2400.0, "bearing": 1800.0, "struct": 9000.0, "screw": 1800.0}
+RISE_AT_3000_RPM_K = {"motor": 12.0, "bearing": 8.0}
+STRUCT_FROM = {"motor": 0.25, "bearing": 0.35}  # share of the motor/bearing rise the ram settles at
+SCREW_K_PER_MM_MIN = 1.0 / 1000.0  # ball screw rise per feed rate at steady state
+DISPLACEMENT_UM_PER_K = {"bearing": 1.5, "struct": 8.0}
 YAW_URAD_PER_K = np.array([0.0, 3.0, -1.0, 0.0])  # asymmetric heating tilts the spindle (paper 002)
 PITCH_URAD_PER_K = np.array([1.5, 0.0, 0.0, -0.8])
 TOOL_LENGTHS_MM = (80.0, 150.0, 250.0)
@@ -29,7 +31,9 @@ ANGLE_NOISE_URAD = 0.3
 TEMP_NOISE_K = 0.05
 DISPLACEMENT_NOISE_UM = 0.5
 SPEEDS_RPM = (500, 750, 1000, 1300, 1500, 2000, 2500, 3000)
+FEEDS_MM_MIN = (0, 500, 2000, 4000, 6000)
 FAULT_KINDS = ("sin", "offset")
+STOPPED_RPM = 0.5
 
 
 @dataclass(frozen=True)
@@ -76,53 +80,138 @@ def ambient_profile(t: np.ndarray, start_c: float, swing_k: float, rng: np.rando
     return start_c + daily + wander - wander[0]
 
 
-def _network():
-    k = len(NODES)
-    m = np.zeros((k, k))
-    for (i, j), g in LINKS.items():
-        m[i, i] -= g
-        m[j, j] -= g
-        m[i, j] += g
-        m[j, i] += g
-    m -= np.diag(TO_AMBIENT)
-    drive = np.column_stack([HEAT_PER_RPM, TO_AMBIENT])  # inputs: speed, ambient
-    return m / CAPACITY[:, None], drive / CAPACITY[:, None]
+def feed_schedule(n: np.ndarray, dt: float, rng: np.random.Generator) -> np.ndarray:
+    """Feed-axis rate, mm/min: while the spindle runs, blocks of 10-40 min at a random feed; 0 at standstill."""
+    v = np.zeros_like(n)
+    j = 0
+    while j < len(n):
+        length = max(1, int(rng.uniform(600, 2400) / dt))
+        v[j:j + length] = rng.choice(FEEDS_MM_MIN)
+        j += length
+    return np.where(n > STOPPED_RPM, v, 0.0)
+
+
+def _step_matrices(dt: float, tau: dict, tau_base: float):
+    """Exact discretisation of the network; state (motor, bearing, struct, base, screw), inputs
+    (motor heat, bearing heat, screw heat in K/s, ambient)."""
+    m = np.zeros((5, 5))
+    drive = np.zeros((5, 4))
+    for i, node in ((0, "motor"), (1, "bearing"), (4, "screw")):
+        m[i, i] = -1 / tau[node]
+        drive[i, 3] = 1 / tau[node]
+    drive[0, 0] = drive[1, 1] = drive[4, 2] = 1.0
+    m[2, 2] = -1 / tau["struct"]
+    m[2, 0] = STRUCT_FROM["motor"] / tau["struct"]
+    m[2, 1] = STRUCT_FROM["bearing"] / tau["struct"]
+    drive[2, 3] = (1 - STRUCT_FROM["motor"] - STRUCT_FROM["bearing"]) / tau["struct"]
+    m[3, 3] = -1 / tau_base
+    m[3, 2] = 1 / tau_base
+    block = np.zeros((9, 9))
+    block[:5, :5] = m
+    block[:5, 5:] = drive
+    step = expm(block * dt)
+    return step[:5, :5], step[:5, 5:]
+
+
+def _lag(u: np.ndarray, tau: float, dt: float) -> np.ndarray:
+    """First-order lag with the input held over a sample, starting settled at u[0]."""
+    a = np.exp(-dt / tau)
+    out = np.empty_like(u)
+    y = u[0]
+    for j, x in enumerate(u):
+        y = a * y + (1 - a) * x
+        out[j] = y
+    return out
 
 
 def simulate(hours: float, seed: int, dt: float = 10.0, ambient_start: float = 20.0, ambient_swing: float = 0.5,
-             faults: tuple[SensorFault, ...] = (), constant_rpm: float | None = None) -> dict:
-    """Columns time_s, n_rpm, T_env, the four node sensors, E_z_um (measured), E_z_true_um, the spindle
-    tilts yaw_urad and pitch_urad, and the tool length in use, tool_length_mm."""
+             faults: tuple[SensorFault, ...] = (), constant_rpm: float | None = None,
+             effects: tuple[Effect, ...] = (), noise: float = 1.0) -> dict:
+    """Columns time_s, n_rpm, v_feed_mm_min, T_env, the four node sensors, E_z_um (measured),
+    E_z_true_um, the spindle tilts yaw_urad and pitch_urad, and the tool length in use."""
     if hours <= 0 or dt <= 0:
         raise UserError("--hours and --dt must be positive")
+    if noise < 0:
+        raise UserError("--noise must be zero or positive")
+    on = {e.name: e for e in effects}
+    for e in effects:
+        if e.name in ("sensor_offset", "sensor_drift") and e.get("column") not in NODES:
+            raise UserError(f"--effect {e.name}: column must be one of {', '.join(NODES)}, found {e.get('column')!r}")
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, hours * 3600 + dt / 2, dt)
     n = speed_schedule(t, rng)
     if constant_rpm is not None:  # paper 000 case 1: one speed from the start
         n = np.full_like(t, constant_rpm)
     te = ambient_profile(t, ambient_start, ambient_swing, rng)
-    m, drive = _network()
-    k = len(NODES)
-    block = np.zeros((k + 2, k + 2))
-    block[:k, :k] = m
-    block[:k, k:] = drive
-    step = expm(block * dt)
-    ad, bd = step[:k, :k], step[:k, k:]
-    state = np.full(k, te[0])
-    temps = np.empty((len(t), k))
+    feed = feed_schedule(n, dt, np.random.default_rng([seed, 1]))
+
+    tau = dict(TAU_S)
+    if "feed_axis_heat" in on:
+        tau["screw"] = on["feed_axis_heat"].get("tau_h") * 3600
+    tau_base = on["slow_structure"].get("tau_h") * 3600 if "slow_structure" in on else 8 * 3600.0
+    running = _step_matrices(dt, tau, tau_base)
+    stopped = running
+    if "stop_convection" in on:
+        factor = on["stop_convection"].get("factor")
+        stopped = _step_matrices(dt, {**tau, "motor": tau["motor"] * factor, "bearing": tau["bearing"] * factor},
+                                 tau_base)
+
+    speed_heat = n.copy()
+    if "nonlinear_speed_heat" in on:
+        e = on["nonlinear_speed_heat"]
+        speed_heat = e.get("reference_rpm") * (n / e.get("reference_rpm")) ** e.get("exponent")
+    motor_heat = RISE_AT_3000_RPM_K["motor"] / (TAU_S["motor"] * 3000) * speed_heat
+    if "gear_ratio_switch" in on:
+        e = on["gear_ratio_switch"]
+        motor_heat = np.where(n > e.get("threshold_rpm"), e.get("ratio") * motor_heat, motor_heat)
+    bearing_heat = RISE_AT_3000_RPM_K["bearing"] / (TAU_S["bearing"] * 3000) * speed_heat
+    screw_heat = SCREW_K_PER_MM_MIN / tau["screw"] * feed
+    coolant = on.get("coolant_switching")
+
+    full = np.empty((len(t), 5))
+    ambient_only = np.empty((len(t), 5))
+    state = np.full(5, te[0])
+    still = np.full(5, te[0])
+    cooling = False
     for j in range(len(t)):
-        temps[j] = state
-        state = ad @ state + bd @ np.array([n[j], te[j]])
-    truth = (temps - temps[0]) @ DISPLACEMENT_UM_PER_K
-    measured = temps + rng.normal(0, TEMP_NOISE_K, temps.shape)
+        ad, bd = stopped if n[j] <= STOPPED_RPM else running
+        q_motor = motor_heat[j]
+        if coolant is not None:
+            if state[0] > coolant.get("on_C"):
+                cooling = True
+            elif state[0] < coolant.get("off_C"):
+                cooling = False
+            if cooling:
+                q_motor -= coolant.get("cooling_K") / tau["motor"]
+        state = ad @ state + bd @ np.array([q_motor, bearing_heat[j], screw_heat[j], te[j]])
+        still = ad @ still + bd @ np.array([0.0, 0.0, 0.0, te[j]])
+        full[j] = state
+        ambient_only[j] = still
+    heat = full - ambient_only
+    truth = DISPLACEMENT_UM_PER_K["bearing"] * heat[:, 1] + DISPLACEMENT_UM_PER_K["struct"] * heat[:, 2]
+    if "slow_structure" in on:
+        truth = truth + on["slow_structure"].get("um_per_K") * heat[:, 3]
+    if "feed_axis_heat" in on:
+        truth = truth + on["feed_axis_heat"].get("um_per_K") * heat[:, 4]
+    if "ambient_coupling" in on:
+        e = on["ambient_coupling"]
+        truth = truth + e.get("um_per_K") * (_lag(te, e.get("tau_h") * 3600, dt) - te[0])
+
+    temps = full[:, :4]
+    measured = temps + rng.normal(0, TEMP_NOISE_K * noise, temps.shape)
     for fault in faults:
         measured[:, NODES.index(fault.column)] += fault.error(t)
-    columns = {"time_s": t, "n_rpm": n, "T_env": te + rng.normal(0, TEMP_NOISE_K, len(t))}
+    if "sensor_offset" in on:
+        measured[:, NODES.index(on["sensor_offset"].get("column"))] += on["sensor_offset"].get("offset_K")
+    if "sensor_drift" in on:
+        measured[:, NODES.index(on["sensor_drift"].get("column"))] += on["sensor_drift"].get("rate_K_per_h") * t / 3600
+    columns = {"time_s": t, "n_rpm": n, "v_feed_mm_min": feed,
+               "T_env": te + rng.normal(0, TEMP_NOISE_K * noise, len(t))}
     columns.update({name: measured[:, i] for i, name in enumerate(NODES)})
-    columns["E_z_um"] = truth + rng.normal(0, DISPLACEMENT_NOISE_UM, len(t))
+    columns["E_z_um"] = truth + rng.normal(0, DISPLACEMENT_NOISE_UM * noise, len(t))
     columns["E_z_true_um"] = truth
-    rises = temps - temps[0]
-    columns["yaw_urad"] = rises @ YAW_URAD_PER_K + rng.normal(0, ANGLE_NOISE_URAD, len(t))
-    columns["pitch_urad"] = rises @ PITCH_URAD_PER_K + rng.normal(0, ANGLE_NOISE_URAD, len(t))
+    rises = heat[:, :4]
+    columns["yaw_urad"] = rises @ YAW_URAD_PER_K + rng.normal(0, ANGLE_NOISE_URAD * noise, len(t))
+    columns["pitch_urad"] = rises @ PITCH_URAD_PER_K + rng.normal(0, ANGLE_NOISE_URAD * noise, len(t))
     columns["tool_length_mm"] = np.array(TOOL_LENGTHS_MM)[(t // (4 * 3600)).astype(int) % len(TOOL_LENGTHS_MM)]
     return columns

@@ -1,0 +1,65 @@
+"""Where simulation and measurement disagree: residual windows outside the noise band.
+
+A channel's noise is estimated from the residual's sample-to-sample differences (robust: the
+model's slow mismatch barely changes from one sample to the next). The residual is averaged
+over `SMOOTHING_S`; a window is where that average leaves the band for at least half that time.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+SMOOTHING_S = 1800.0
+BAND_SIGMAS = 6.0  # band on the smoothed residual, in standard errors of the mean over the smoothing time
+BAND_FLOOR = 1.0  # ... and never below the noise itself: a systematic gap smaller than the sensor noise is not worth a name
+MAD_TO_SIGMA = 1.4826
+SETTLING_S = 3600.0  # the simulation starts from one noisy sample; its first hour is not judged
+
+
+@dataclass(frozen=True)
+class Window:
+    channel: str
+    start: int  # first row
+    stop: int  # one past the last row
+    rms: float
+
+
+def noise_sigma(residual: np.ndarray) -> float:
+    """White-noise standard deviation from first differences (median absolute deviation)."""
+    d = np.diff(residual)
+    if len(d) == 0:
+        return 0.0
+    return float(MAD_TO_SIGMA * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0))
+
+
+def smoothing_rows(dt: float) -> int:
+    return max(3, int(round(SMOOTHING_S / dt)))
+
+
+def smooth(residual: np.ndarray, width: int) -> np.ndarray:
+    """Centred moving average; at the ends over the samples that exist."""
+    kernel = np.ones(width)
+    total = np.convolve(residual, kernel, mode="same")
+    count = np.convolve(np.ones(len(residual)), kernel, mode="same")
+    return total / count
+
+
+def band(sigma: float, width: int) -> float:
+    return max(BAND_SIGMAS * sigma / np.sqrt(width), BAND_FLOOR * sigma)
+
+
+def find_windows(channel: str, residual: np.ndarray, sigma: float, dt: float) -> list[Window]:
+    width = smoothing_rows(dt)
+    outside = np.abs(smooth(residual, width)) > band(sigma, width)
+    outside[:int(round(SETTLING_S / dt))] = False
+    edges = np.flatnonzero(np.diff(np.r_[0, outside.astype(int), 0]))
+    runs = list(zip(edges[::2], edges[1::2]))
+    merged: list[list[int]] = []
+    for start, stop in runs:  # a short dip back into the band does not split a window
+        if merged and start - merged[-1][1] < width:
+            merged[-1][1] = stop
+        else:
+            merged.append([start, stop])
+    return [Window(channel, int(a), int(b), float(np.sqrt(np.mean(residual[a:b] ** 2))))
+            for a, b in merged if b - a >= width // 2]

@@ -1,0 +1,447 @@
+"""The lumped-mass simulation of paper 000 (eq. 4) with named effects, in float64 for fitting.
+
+Per temperature sensor i the simulation runs open loop from speed and ambient alone:
+    T_i = amb_i + h_i,  amb_i[j] = a_i amb_i[j-1] + (1-a_i) Te[j]          (starts at Te[0])
+    h_i[j] = a_i h_i[j-1] + (1-a_i) q_i[j]                                  (starts at T_i[0] - Te[0] - offset_i)
+    q_i = g_i s(n) + [gear] g2_i n [n > threshold] + [coolant] k_i cool
+with a_i = exp(-dt/tau_i) (tau_i times a factor while the spindle stands, stop_convection) and
+s(n) = n, or n^p through a node table (nonlinear_speed_heat). The sensor reads T_i plus
+offset_i and drift_i * t. The displacement follows the heat rises h_i (uniform ambient changes
+move tool and workpiece alike) and a structure that lags them:
+    E = beta0 + sum_i beta_i (h_i - h0_i) + gamma_i (L_i - h0_i) [+ delta_i (M_i - h0_i)]
+        [+ alpha (lag_a(Te) - Te[0])] [+ phi lag_f(feed)]
+with L_i = lag_struct(h_i), M_i = lag_slow(L_i) (slow_structure). Nonlinear parameters (time
+constants, thresholds, exponent) are searched; the gains follow by least squares (variable
+projection), so every fit is deterministic.
+"""
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.optimize import minimize, minimize_scalar
+from scipy.signal import lfilter
+
+SENSOR_EFFECTS = ("gear_ratio_switch", "coolant_switching", "nonlinear_speed_heat", "sensor_offset",
+                  "sensor_drift", "stop_convection")
+DISPLACEMENT_EFFECTS = ("slow_structure", "ambient_coupling", "feed_axis_heat")
+PER_SENSOR = ("sensor_offset", "sensor_drift", "coolant_switching")  # tried on each sensor in turn
+TABLE_SEGMENTS = 16
+RELAY_ROUNDS = 4
+HOUR = 3600.0
+
+
+@dataclass(frozen=True)
+class Series:
+    """One recording by role. Rows are equally spaced by `dt`."""
+    dt: float
+    t: np.ndarray
+    n: np.ndarray
+    te: np.ndarray
+    temps: np.ndarray  # (rows, sensors)
+    names: tuple[str, ...]
+    target: np.ndarray
+    feed: np.ndarray | None = None
+
+    @property
+    def rows(self) -> int:
+        return len(self.t)
+
+    def head(self, rows: int) -> "Series":
+        return replace(self, t=self.t[:rows], n=self.n[:rows], te=self.te[:rows], temps=self.temps[:rows],
+                       target=self.target[:rows], feed=None if self.feed is None else self.feed[:rows])
+
+
+@dataclass(frozen=True)
+class Shared:
+    """Parameters every sensor shares: what the machine does, not where a sensor sits."""
+    stopped_rpm: float
+    gear_rpm: float | None = None
+    exponent: float | None = None
+    reference_rpm: float = 1.0
+    table_rpm: tuple[float, ...] = ()  # nodes of the n^p table
+    relay: tuple[int, float, float] | None = None  # (sensor, on at degC, off at degC)
+
+
+@dataclass(frozen=True)
+class SensorParams:
+    tau_s: float
+    gain: float
+    stop_factor: float = 1.0
+    gear_gain: float = 0.0
+    cooling: float = 0.0
+    offset_K: float = 0.0
+    drift_K_per_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class DisplacementParams:
+    tau_struct_s: float
+    beta0: float
+    beta: tuple[float, ...]
+    gamma: tuple[float, ...]
+    tau_slow_s: float | None = None
+    delta: tuple[float, ...] = ()
+    tau_ambient_s: float | None = None
+    alpha: float = 0.0
+    tau_feed_s: float | None = None
+    phi: float = 0.0
+
+
+@dataclass(frozen=True)
+class Simulation:
+    effects: tuple[tuple[str, int | None], ...]  # (name, sensor index for per-sensor effects), in order added
+    shared: Shared
+    sensors: tuple[SensorParams, ...]
+    displacement: DisplacementParams
+
+    def has(self, name: str) -> bool:
+        return any(e == name for e, _ in self.effects)
+
+    def sensor_of(self, name: str) -> int | None:
+        return next((s for e, s in self.effects if e == name), None)
+
+    def parameter_count(self) -> int:
+        per_sensor = 2 + sum(self.has(e) for e in ("stop_convection", "gear_ratio_switch", "coolant_switching"))
+        count = len(self.sensors) * per_sensor + 1 + 2 * len(self.sensors) + 1
+        count += sum(self.has(e) for e in ("gear_ratio_switch", "nonlinear_speed_heat", "sensor_offset", "sensor_drift"))
+        count += 2 * self.has("coolant_switching")
+        count += (1 + len(self.sensors)) * self.has("slow_structure")
+        count += 2 * self.has("ambient_coupling") + 2 * self.has("feed_axis_heat")
+        return count
+
+
+def pole(tau_s: float, dt: float) -> float:
+    return float(np.exp(-dt / tau_s))
+
+
+def lag(x: np.ndarray, a, y0: float) -> np.ndarray:
+    """y[j] = a[j] y[j-1] + (1 - a[j]) x[j], y[-1] = y0; `a` a number or one value per row."""
+    if np.ndim(a) == 0:
+        return lfilter([1.0 - a], [1.0, -a], x, zi=[a * y0])[0]
+    out = np.empty(len(x))
+    change = np.flatnonzero(np.diff(a)) + 1
+    y = y0
+    for start, stop in zip(np.r_[0, change], np.r_[change, len(x)]):
+        if stop > start:
+            p = a[start]
+            out[start:stop] = lfilter([1.0 - p], [1.0, -p], x[start:stop], zi=[p * y])[0]
+            y = out[stop - 1]
+    return out
+
+
+def stopped(series: Series, shared: Shared) -> np.ndarray:
+    return series.n <= shared.stopped_rpm
+
+
+def speed_table(shared: Shared) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Nodes, values and slopes of the n^p heat table (the block interpolates the same table)."""
+    nodes = np.asarray(shared.table_rpm)
+    values = shared.reference_rpm * (nodes / shared.reference_rpm) ** shared.exponent
+    slopes = np.diff(values) / np.diff(nodes)
+    return nodes[:-1], values[:-1], slopes
+
+
+def speed_heat(n: np.ndarray, shared: Shared) -> np.ndarray:
+    if shared.exponent is None:
+        return n
+    nodes, values, slopes = speed_table(shared)
+    index = np.clip(np.searchsorted(nodes, n, side="right") - 1, 0, len(nodes) - 1)
+    return values[index] + (n - nodes[index]) * slopes[index]
+
+
+def relay(temperature: np.ndarray, on: float, off: float) -> np.ndarray:
+    """Coolant state used at each row: switched by the temperatures of the rows before (hysteresis)."""
+    above, below = temperature > on, temperature < off
+    events = np.where(above | below, np.arange(len(temperature)), -1)
+    last = np.maximum.accumulate(events)
+    state = np.where(last >= 0, above[np.maximum(last, 0)], False)
+    return np.r_[False, state[:-1]].astype(float)
+
+
+def _poles(series: Series, shared: Shared, p: SensorParams):
+    a_run = pole(p.tau_s, series.dt)
+    if p.stop_factor == 1.0:
+        return a_run
+    return np.where(stopped(series, shared), pole(p.tau_s * p.stop_factor, series.dt), a_run)
+
+
+def _heat_inputs(series: Series, shared: Shared, effects) -> list[tuple[str, np.ndarray]]:
+    names = {e for e, _ in effects}
+    inputs = [("gain", speed_heat(series.n, shared))]
+    if "gear_ratio_switch" in names:
+        inputs.append(("gear_gain", np.where(series.n > shared.gear_rpm, series.n, 0.0)))
+    if "coolant_switching" in names and shared.relay is not None:  # None while the thresholds are unknown
+        sensor, on, off = shared.relay
+        inputs.append(("cooling", relay(series.temps[:, sensor], on, off)))
+    return inputs
+
+
+def _sensor_design(series: Series, i: int, shared: Shared, effects, a):
+    """Known part of sensor i's reading and the columns its linear parameters multiply."""
+    first = series.temps[0, i] - series.te[0]
+    decay = lag(np.zeros(series.rows), a, 1.0)
+    known = lag(series.te, a, series.te[0]) + decay * first
+    columns = [(name, lag(x, a, 0.0)) for name, x in _heat_inputs(series, shared, effects)]
+    if ("sensor_offset", i) in effects:
+        columns.append(("offset_K", 1.0 - decay))
+    if ("sensor_drift", i) in effects:
+        columns.append(("drift_K_per_s", series.t - series.t[0]))
+    return known, columns
+
+
+def _solve(y: np.ndarray, columns: list[np.ndarray]):
+    design = np.column_stack(columns)
+    coef, *_ = np.linalg.lstsq(design, y, rcond=None)
+    residual = y - design @ coef
+    return coef, float(residual @ residual)
+
+
+def _sensor_cost(series, i, shared, effects, tau_s, factor):
+    p = SensorParams(tau_s, 0.0, factor)
+    known, columns = _sensor_design(series, i, shared, effects, _poles(series, shared, p))
+    coef, sse = _solve(series.temps[:, i] - known, [c for _, c in columns])
+    return sse, replace(p, **{name: float(v) for (name, _), v in zip(columns, coef)})
+
+
+def fit_sensor(series: Series, i: int, shared: Shared, effects, start: SensorParams | None = None):
+    """Time constant (and standstill factor) by search; gains, offset, drift by least squares."""
+    has_stop = any(e == "stop_convection" for e, _ in effects)
+    dt = series.dt
+    low, high = np.log(2 * dt), np.log(72 * HOUR)
+
+    def cost(x):
+        tau = float(np.exp(np.clip(x[0], low, high)))
+        factor = float(np.exp(np.clip(x[1], -2.5, 2.5))) if has_stop else 1.0
+        return _sensor_cost(series, i, shared, effects, tau, factor)[0]
+
+    if start is not None:
+        x0 = [np.log(start.tau_s), np.log(start.stop_factor)]
+    else:
+        grid = np.linspace(np.log(120.0), np.log(24 * HOUR), 12)
+        x0 = [min(grid, key=lambda g: cost([g, 0.0])), 0.0]
+    if has_stop:
+        starts = [[x0[0], f] for f in (-1.0, 0.0, 0.7, 1.4)]
+        x0 = min(starts, key=cost)
+        result = minimize(cost, x0, method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-10, "maxiter": 300})
+        x = result.x
+    else:
+        result = minimize_scalar(lambda g: cost([g, 0.0]), bounds=(max(low, x0[0] - 1.5), min(high, x0[0] + 1.5)),
+                                 method="bounded", options={"xatol": 1e-5})
+        x = [result.x, 0.0]
+    tau = float(np.exp(np.clip(x[0], low, high)))
+    factor = float(np.exp(np.clip(x[1], -2.5, 2.5))) if has_stop else 1.0
+    sse, params = _sensor_cost(series, i, shared, effects, tau, factor)
+    return params, sse
+
+
+def _fit_all_sensors(series, shared, effects, starts):
+    fitted = [fit_sensor(series, i, shared, effects, starts[i] if starts else None) for i in range(len(series.names))]
+    return tuple(p for p, _ in fitted), sum(sse for _, sse in fitted)
+
+
+def _speed_levels(n: np.ndarray, shared: Shared) -> np.ndarray:
+    running = np.unique(np.round(n[n > shared.stopped_rpm], 1))
+    if len(running) > 40:
+        running = np.unique(np.quantile(n[n > shared.stopped_rpm], np.linspace(0.05, 0.95, 19)))
+    return running
+
+
+def fit_temperatures(series: Series, shared: Shared, effects, starts=None):
+    """Shared parameters (gear threshold, exponent, coolant thresholds) by search, sensors inside."""
+    names = {e for e, _ in effects}
+    if "gear_ratio_switch" in names:
+        levels = _speed_levels(series.n, shared)
+
+        def gear_cost(threshold):
+            return _fit_all_sensors(series, replace(shared, gear_rpm=float(threshold)), effects, starts)[1]
+        shared = replace(shared, gear_rpm=float(min(levels[:-1], key=gear_cost)) if len(levels) > 1 else 0.0)
+    if "nonlinear_speed_heat" in names:
+        running = series.n[series.n > shared.stopped_rpm]
+        top = float(np.max(running)) if len(running) else 1.0
+        shared = replace(shared, reference_rpm=float(np.median(running)) if len(running) else 1.0,
+                         table_rpm=tuple(np.linspace(0.0, 1.25 * top, TABLE_SEGMENTS + 1)))
+        result = minimize_scalar(
+            lambda p: _fit_all_sensors(series, replace(shared, exponent=float(p)), effects, starts)[1],
+            bounds=(0.2, 3.5), method="bounded", options={"xatol": 1e-3})
+        shared = replace(shared, exponent=float(result.x))
+    if "coolant_switching" in names:
+        shared = _fit_relay(series, shared, effects, starts)
+    return (shared, *_fit_all_sensors(series, shared, effects, starts))
+
+
+def _fit_relay(series, shared, effects, starts):
+    """Thresholds by grid with the time constants held, then the time constants with the thresholds
+    held, alternating: the cooling shortens the apparent time constant, so both must move."""
+    sensor = next(s for e, s in effects if e == "coolant_switching")
+    temperature = series.temps[:, sensor]
+    levels = np.linspace(*np.quantile(temperature, [0.3, 0.995]), 16)
+    pairs = [(on, off) for on, off in itertools.product(levels, levels) if on - off >= 0.5]
+    if not pairs:
+        return replace(shared, relay=(sensor, float(levels[-1]), float(levels[0])))
+    sensors = starts or _fit_all_sensors(series, shared, [e for e in effects if e[0] != "coolant_switching"], None)[0]
+
+    def prepared():  # everything but the cooling column, per sensor, for the time constants held
+        out = []
+        for i, p in enumerate(sensors):
+            a = _poles(series, shared, p)
+            known, columns = _sensor_design(series, i, replace(shared, relay=None), effects, a)
+            out.append((a, series.temps[:, i] - known, [c for _, c in columns]))
+        return out
+
+    def cost(on, off):
+        cooling = relay(temperature, on, off)
+        return sum(_solve(y, fixed + [lag(cooling, a, 0.0)])[1] for a, y, fixed in parts)
+
+    step = max(float(np.ptp(temperature)) / 100, 0.01)
+    chosen = None
+    for _ in range(RELAY_ROUNDS):
+        parts = prepared()
+        on, off = min(pairs, key=lambda pair: cost(*pair))
+        for _ in range(2):  # each threshold to the middle of its best plateau (the cost is flat between data)
+            on = _plateau_centre(np.arange(on - 8 * step, on + 8 * step, step / 4), lambda v: cost(v, min(off, v - 0.5)))
+            off = _plateau_centre(np.arange(off - 8 * step, off + 8 * step, step / 4), lambda v: cost(max(on, v + 0.5), v))
+            off = min(off, on - 0.5)
+        if chosen == (on, off):
+            break
+        chosen = (on, off)
+        shared = replace(shared, relay=(sensor, float(on), float(off)))
+        sensors = _fit_all_sensors(series, shared, effects, None)[0]
+    return shared
+
+
+def _plateau_centre(values: np.ndarray, cost) -> float:
+    costs = np.array([cost(v) for v in values])
+    best = int(np.argmin(costs))
+    flat = costs <= costs[best] * (1 + 1e-9) + 1e-12
+    low = high = best
+    while low > 0 and flat[low - 1]:
+        low -= 1
+    while high < len(values) - 1 and flat[high + 1]:
+        high += 1
+    return float((values[low] + values[high]) / 2)
+
+
+def heat_rises(series: Series, sim_shared: Shared, sensors, effects) -> tuple[np.ndarray, np.ndarray]:
+    """Simulated sensor readings and heat rises h_i, (rows, sensors) each."""
+    readings = np.empty_like(series.temps)
+    heat = np.empty_like(series.temps)
+    for i, p in enumerate(sensors):
+        a = _poles(series, sim_shared, p)
+        q = sum(getattr(p, name) * x for name, x in _heat_inputs(series, sim_shared, effects))
+        heat[:, i] = lag(q, a, series.temps[0, i] - series.te[0] - p.offset_K)
+        readings[:, i] = (lag(series.te, a, series.te[0]) + heat[:, i] + p.offset_K
+                          + p.drift_K_per_s * (series.t - series.t[0]))
+    return readings, heat
+
+
+def _displacement_columns(series, heat, taus: dict, effects):
+    names = {e for e, _ in effects}
+    dt = series.dt
+    h0 = taus["h0"]  # heat rises before the first row
+    columns = []
+    struct = [lag(heat[:, i], pole(taus["struct"], dt), h0[i]) for i in range(heat.shape[1])]
+    columns += [heat[:, i] - h0[i] for i in range(heat.shape[1])]
+    columns += [s - h0[i] for i, s in enumerate(struct)]
+    if "slow_structure" in names:
+        columns += [lag(s, pole(taus["slow"], dt), h0[i]) - h0[i] for i, s in enumerate(struct)]
+    if "ambient_coupling" in names:
+        columns.append(lag(series.te, pole(taus["ambient"], dt), series.te[0]) - series.te[0])
+    if "feed_axis_heat" in names:
+        columns.append(lag(series.feed, pole(taus["feed"], dt), 0.0))
+    return columns
+
+
+def fit_displacement(series: Series, heat: np.ndarray, h0: np.ndarray, effects,
+                     start: DisplacementParams | None = None) -> tuple[DisplacementParams, float]:
+    names = {e for e, _ in effects}
+    wanted = ["struct"] + [k for k, e in (("slow", "slow_structure"), ("ambient", "ambient_coupling"),
+                                           ("feed", "feed_axis_heat")) if e in names]
+    # the slow time constant as a multiple of the structure's, so the two cannot swap roles
+    bounds = {"struct": (np.log(600.0), np.log(48 * HOUR)), "slow": (np.log(1.5), np.log(60.0)),
+              "ambient": (np.log(600.0), np.log(48 * HOUR)), "feed": (np.log(120.0), np.log(24 * HOUR))}
+    known = {}
+    if start is not None:
+        known = {"struct": start.tau_struct_s, "ambient": start.tau_ambient_s, "feed": start.tau_feed_s,
+                 "slow": start.tau_slow_s / start.tau_struct_s if start.tau_slow_s else None}
+    k = heat.shape[1]
+
+    def taus_of(x):
+        taus = {"h0": h0, **{name: float(np.exp(np.clip(v, *bounds[name]))) for name, v in zip(wanted, x)}}
+        if "slow" in taus:
+            taus["slow"] *= taus["struct"]
+        return taus
+
+    def cost(x):
+        columns = [np.ones(series.rows)] + _displacement_columns(series, heat, taus_of(x), effects)
+        return _solve(series.target, columns)[1]
+
+    x0 = []
+    for name in wanted:
+        if known.get(name):
+            x0.append(np.log(known[name]))
+            continue
+        grid = np.linspace(*bounds[name], 9)
+        x0.append(min(grid, key=lambda g: cost(x0 + [g] + [np.mean(bounds[w]) for w in wanted[len(x0) + 1:]])))
+    if len(wanted) == 1:
+        lo, hi = bounds["struct"]
+        x = [minimize_scalar(lambda g: cost([g]), bounds=(max(lo, x0[0] - 1.5), min(hi, x0[0] + 1.5)),
+                             method="bounded", options={"xatol": 1e-5}).x]
+    else:
+        x = minimize(cost, x0, method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-9, "maxiter": 400}).x
+    taus = taus_of(x)
+    columns = [np.ones(series.rows)] + _displacement_columns(series, heat, taus, effects)
+    coef, sse = _solve(series.target, columns)
+    coef = [float(c) for c in coef]
+    params = DisplacementParams(
+        tau_struct_s=taus["struct"], beta0=coef[0], beta=tuple(coef[1:1 + k]), gamma=tuple(coef[1 + k:1 + 2 * k]))
+    rest = coef[1 + 2 * k:]
+    if "slow_structure" in names:
+        params = replace(params, tau_slow_s=taus["slow"], delta=tuple(rest[:k]))
+        rest = rest[k:]
+    if "ambient_coupling" in names:
+        params = replace(params, tau_ambient_s=taus["ambient"], alpha=rest[0])
+        rest = rest[1:]
+    if "feed_axis_heat" in names:
+        params = replace(params, tau_feed_s=taus["feed"], phi=rest[0])
+    return params, sse
+
+
+def first_heat(series: Series, sensors) -> np.ndarray:
+    return np.array([series.temps[0, i] - series.te[0] - p.offset_K for i, p in enumerate(sensors)])
+
+
+def fit(series: Series, effects=(), warm: Simulation | None = None) -> Simulation:
+    """Fit the simulation with these effects on `series` (the training part)."""
+    effects = tuple(effects)
+    shared = Shared(stopped_rpm=stopped_threshold(series.n))
+    starts = None
+    if warm is not None:
+        shared = replace(warm.shared, stopped_rpm=shared.stopped_rpm)
+        starts = warm.sensors
+    shared, sensors, _ = fit_temperatures(series, shared, effects, starts)
+    _, heat = heat_rises(series, shared, sensors, effects)
+    displacement, _ = fit_displacement(series, heat, first_heat(series, sensors), effects,
+                                       warm.displacement if warm is not None else None)
+    return Simulation(effects, shared, sensors, displacement)
+
+
+def stopped_threshold(n: np.ndarray) -> float:
+    """Speeds at or below 1 % of the highest speed count as standing (sensor noise at standstill)."""
+    return 0.01 * max(float(np.max(np.abs(n))), 1.0)
+
+
+def run(sim: Simulation, series: Series) -> dict[str, np.ndarray]:
+    """Simulated channels over the whole series: each temperature by name, and 'target'."""
+    readings, heat = heat_rises(series, sim.shared, sim.sensors, sim.effects)
+    d = sim.displacement
+    taus = {"h0": first_heat(series, sim.sensors), "struct": d.tau_struct_s, "slow": d.tau_slow_s,
+            "ambient": d.tau_ambient_s, "feed": d.tau_feed_s}
+    columns = _displacement_columns(series, heat, taus, sim.effects)
+    coef = [*d.beta, *d.gamma, *d.delta] + ([d.alpha] if sim.has("ambient_coupling") else []) \
+        + ([d.phi] if sim.has("feed_axis_heat") else [])
+    target = d.beta0 + sum(c * x for c, x in zip(coef, columns))
+    out = {name: readings[:, i] for i, name in enumerate(series.names)}
+    out["target"] = np.asarray(target, float) * np.ones(series.rows)
+    return out
