@@ -7,6 +7,7 @@ from pathlib import Path
 
 from thermoplc import __version__
 from thermoplc.errors import UserError
+from thermoplc.models.effects import NAMES as EFFECT_NAMES
 from thermoplc.models.modelfile import KINDS
 from thermoplc.fileio import write_atomic
 
@@ -35,12 +36,21 @@ def _mapping(text: str) -> dict:
 
 def cmd_twin(args) -> int:
     from thermoplc.models.table import write_table
+    from thermoplc.models.effects import Effect
     from thermoplc.models.twin import SensorFault, simulate
     faults = tuple(SensorFault.parse(f) for f in args.sensor_fault)
-    columns = simulate(args.hours, args.seed, args.dt, args.ambient_start, args.ambient_swing, faults)
+    effects = tuple(Effect.parse(e) for e in args.effect)
+    names = [e.name for e in effects]
+    if len(set(names)) != len(names):
+        raise UserError("--effect: each effect can be switched on once")
+    columns = simulate(args.hours, args.seed, args.dt, args.ambient_start, args.ambient_swing, faults,
+                       effects=effects, noise=args.noise)
     write_atomic(args.output, write_table(columns))
     rows = len(columns["time_s"])
     print(f"wrote {args.output}: {rows} rows, {args.hours:g} h every {args.dt:g} s, seed {args.seed}")
+    for e in effects:
+        print(f"  hidden effect {e.name}: " + ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                                                     for k, v in e.parameters))
     print(f"  columns: {', '.join(columns)}")
     return 0
 
@@ -142,6 +152,20 @@ def cmd_select(args) -> int:
     return 0
 
 
+def cmd_diagnose(args) -> int:
+    from thermoplc.diagnosis.command import DiagnoseRequest, run
+    from thermoplc.diagnosis.findings import text
+    request = DiagnoseRequest(args.data, args.temps, args.speed, args.ambient, args.target, args.feed, args.baseline,
+                              args.train_until, args.train_rows, args.time, args.name)
+    doc = run(request, args.output, args.json, args.report, _progress if sys.stderr.isatty() else None)
+    if sys.stderr.isatty():
+        print(file=sys.stderr)
+    print(text(doc))
+    print(f"wrote {args.output}" + (f", {args.json}" if args.json else "")
+          + (f", {args.report}/index.html" if args.report else ""))
+    return 0
+
+
 def cmd_demo(args) -> int:
     from thermoplc.demo import run_demo
     return run_demo(Path(args.out))
@@ -164,6 +188,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ambient-swing", type=float, default=0.5, help="day/night amplitude of the ambient, K")
     p.add_argument("--sensor-fault", action="append", default=[], metavar="KIND:COLUMN[@START_S]",
                    help="add paper 000's sensor error: sin (eq. 18) or offset (eq. 19); repeatable")
+    p.add_argument("--effect", action="append", default=[], metavar="NAME[:KEY=VALUE,...]",
+                   help=f"hide a physical effect in the data; repeatable. Names: {', '.join(EFFECT_NAMES)}")
+    p.add_argument("--noise", type=float, default=1.0, help="scale of the sensor noise (default: %(default)s)")
     p.add_argument("-o", "--output", required=True)
     p.set_defaults(func=cmd_twin)
 
@@ -212,6 +239,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--time", default="time_s")
     p.add_argument("-o", "--output", help="write the chosen sensors for fit --temps @FILE")
     p.set_defaults(func=cmd_select)
+
+    p = sub.add_parser("diagnose", help="find the physical effect the lumped-mass simulation misses")
+    p.add_argument("--data", required=True, help="measured CSV")
+    p.add_argument("--temps", type=_columns, required=True, help="temperature columns, comma-separated")
+    p.add_argument("--speed", required=True, help="spindle speed column, rpm")
+    p.add_argument("--ambient", required=True, help="ambient temperature column, degC")
+    p.add_argument("--target", required=True, help="measured displacement column, um")
+    p.add_argument("--feed", help="feed-axis rate column, mm/min (enables the feed_axis_heat candidate)")
+    p.add_argument("--baseline", help="a lumped model file to start from instead of fitting the baseline")
+    part = p.add_mutually_exclusive_group()
+    part.add_argument("--train-until", type=float, metavar="SECONDS", help="training part: rows with time <= SECONDS")
+    part.add_argument("--train-rows", type=int, metavar="N", help="training part: the first N rows (default: 60%%)")
+    p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
+    p.add_argument("--name", default="ThermalComp", help="function block name of the augmented model")
+    p.add_argument("--json", help="write the findings here (findings.json)")
+    p.add_argument("--report", metavar="FOLDER", help="write an HTML report with plots into this folder")
+    p.add_argument("-o", "--output", default="diagnosed_model.json",
+                   help="augmented model file (default: %(default)s)")
+    p.set_defaults(func=cmd_diagnose)
 
     p = sub.add_parser("generate", help="compile a model file into a Structured Text function block")
     p.add_argument("model")

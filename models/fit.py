@@ -9,7 +9,7 @@ import numpy as np
 
 from thermoplc.errors import UserError
 from thermoplc.generator.identifiers import check_unique, identifier_from_column, identifier_problem
-from thermoplc.models import bayes, bpnn, dlag, grey, kalman, mlr, piecewise
+from thermoplc.models import bayes, bpnn, dlag, grey, kalman, lumped_model, mlr, piecewise, simulation
 from thermoplc.models.modelfile import Coefficient, Model, Signal
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.table import Table
@@ -74,7 +74,7 @@ def _metrics(residual: np.ndarray) -> dict:
             "max_abs_um": float(np.max(np.abs(residual)))}
 
 
-ROLES_NEEDED = {"mlr": (), "kalman": ("speed", "ambient"), "piecewise": ("ambient",), "gm0n": (), "gm1n": (),
+ROLES_NEEDED = {"mlr": (), "kalman": ("speed", "ambient"), "lumped": ("speed", "ambient"), "piecewise": ("ambient",), "gm0n": (), "gm1n": (),
                 "bayes": (), "dlag": (), "bpnn": ()}
 
 
@@ -99,6 +99,16 @@ def _fit_kalman(parts, request, names, dt, progress):
     return kalman.fit_kalman(part.temps, part.ambient, part.speed, part.target, dt, names, request.options, progress)
 
 
+def _fit_lumped(parts, request, names, dt, progress):
+    """The baseline simulation (no effects); `thermoplc diagnose` adds the effects."""
+    part = parts[0]
+    series = simulation.Series(dt, np.arange(len(part.target)) * dt, part.speed, part.ambient, part.temps,
+                               tuple(names), part.target)
+    fitted = simulation.fit(series)
+    coefficients, settings = lumped_model.coefficients(fitted, dt)
+    return coefficients, settings, {"method": "lumped-mass simulation, time constants searched, gains by least squares"}
+
+
 def _fit_piecewise(parts, request, names, dt, progress):
     return piecewise.fit_piecewise([(p.temps, p.ambient, p.target) for p in parts], names)
 
@@ -121,7 +131,7 @@ def _unit_of(column: str) -> str:
     return "urad" if column.lower().endswith("urad") else "um"
 
 
-FITTERS = {"bpnn": _fit_bpnn, "mlr": _fit_mlr, "kalman": _fit_kalman, "piecewise": _fit_piecewise,
+FITTERS = {"bpnn": _fit_bpnn, "lumped": _fit_lumped, "mlr": _fit_mlr, "kalman": _fit_kalman, "piecewise": _fit_piecewise,
            "gm0n": lambda parts, request, names, dt, progress: grey.fit_gm0n(parts[0].temps, parts[0].target, names),
            "gm1n": lambda parts, request, names, dt, progress: grey.fit_gm1n(parts[0].temps, parts[0].target, names),
            "bayes": lambda parts, request, names, dt, progress: bayes.fit_bayes(

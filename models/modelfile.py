@@ -13,8 +13,8 @@ from thermoplc.errors import UserError
 
 FORMAT = "thermoplc-model"
 SCHEMA_VERSION = 1
-KINDS = ("mlr", "kalman", "piecewise", "dlag", "gm0n", "gm1n", "bayes", "bpnn")
-ROLES = ("temperature", "speed", "ambient", "tool_length")
+KINDS = ("mlr", "kalman", "piecewise", "dlag", "gm0n", "gm1n", "bayes", "bpnn", "lumped")
+ROLES = ("temperature", "speed", "ambient", "tool_length", "feed")
 
 
 @dataclass(frozen=True)

@@ -4,13 +4,13 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.errors import UserError
-from thermoplc.models import bayes, bpnn, dlag, grey, kalman, mlr, piecewise
+from thermoplc.models import bayes, bpnn, dlag, grey, kalman, lumped_model, mlr, piecewise
 from thermoplc.models.modelfile import Model
 from thermoplc.models.table import Table
 
 _PREDICTORS = {"mlr": mlr.predict, "kalman": kalman.predict, "piecewise": piecewise.predict,
                "gm0n": grey.predict_gm0n, "gm1n": grey.predict_gm1n, "bayes": bayes.predict,
-               "dlag": dlag.predict, "bpnn": bpnn.predict}
+               "dlag": dlag.predict, "bpnn": bpnn.predict, "lumped": lumped_model.predict}
 
 
 def predict(model: Model, inputs: dict, precision: str) -> dict:

@@ -1,0 +1,115 @@
+"""`thermoplc diagnose`: read the data, run the search, write the augmented model, findings and report."""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from thermoplc.diagnosis.findings import document
+from thermoplc.diagnosis.search import Diagnosis, diagnose
+from thermoplc.errors import UserError
+from thermoplc.fileio import write_atomic
+from thermoplc.models import lumped_model
+from thermoplc.models.fit import block_identifier, evaluate, sample_period
+from thermoplc.models.modelfile import Model, Signal, load_model
+from thermoplc.models.simulation import Series
+from thermoplc.models.table import Table, read_table
+
+DEFAULT_TRAIN_SHARE = 0.6
+MIN_ROWS = 10
+
+
+@dataclass(frozen=True)
+class DiagnoseRequest:
+    data: str
+    temps: tuple[str, ...]
+    speed: str
+    ambient: str
+    target: str
+    feed: str | None = None
+    baseline: str | None = None
+    train_until: float | None = None
+    train_rows: int | None = None
+    time_column: str = "time_s"
+    block_name: str = "ThermalComp"
+
+
+def _training_rows(table: Table, request: DiagnoseRequest) -> int:
+    if request.train_rows is not None:
+        rows = request.train_rows
+    elif request.train_until is not None:
+        rows = int(np.searchsorted(table.columns[request.time_column], request.train_until, side="right"))
+    else:
+        rows = int(DEFAULT_TRAIN_SHARE * table.rows)
+    if rows < MIN_ROWS or table.rows - rows < MIN_ROWS:
+        raise UserError(f"{table.path}: the training part has {rows} of {table.rows} rows; both it and the held-out "
+                        f"part need at least {MIN_ROWS} rows (the held-out part judges every effect)")
+    return rows
+
+
+def _check_baseline(model: Model, request: DiagnoseRequest, path: str) -> None:
+    if model.kind != "lumped":
+        raise UserError(f"{path}: --baseline needs a lumped model (thermoplc fit --model lumped, or a model written "
+                        f"by diagnose), found kind {model.kind!r}")
+    expected = {"temperature": list(request.temps), "speed": [request.speed], "ambient": [request.ambient]}
+    for role, columns in expected.items():
+        found = [s.column for s in model.signals(role)]
+        if found != columns:
+            raise UserError(f"{path}: the baseline's {role} columns are {', '.join(found)}, but the command names "
+                            f"{', '.join(columns)}; give the columns the baseline was fitted on")
+    if model.target.column != request.target:
+        raise UserError(f"{path}: the baseline predicts {model.target.column!r}, not --target {request.target!r}")
+
+
+def series_of(table: Table, request: DiagnoseRequest, dt: float) -> Series:
+    for column in (*request.temps, request.speed, request.ambient, request.target,
+                   *((request.feed,) if request.feed else ())):
+        table.column(column)
+    return Series(dt, table.columns[request.time_column], table.columns[request.speed], table.columns[request.ambient],
+                  np.column_stack([table.columns[c] for c in request.temps]), tuple(request.temps),
+                  table.columns[request.target], table.columns[request.feed] if request.feed else None)
+
+
+def augmented_model(d: Diagnosis, request: DiagnoseRequest, table: Table, dt: float, n_train: int) -> Model:
+    coefficients, settings = lumped_model.coefficients(d.final, dt)
+    signals = [Signal(block_identifier(c, "temperature"), c, "temperature", "degC") for c in request.temps]
+    signals.append(Signal(block_identifier(request.speed, "speed"), request.speed, "speed", "rpm"))
+    signals.append(Signal(block_identifier(request.ambient, "ambient"), request.ambient, "ambient", "degC"))
+    if d.final.has("feed_axis_heat"):
+        signals.append(Signal(block_identifier(request.feed, "feed"), request.feed, "feed", "mm/min"))
+    model = Model(
+        kind="lumped", block_name=request.block_name, inputs=tuple(signals),
+        target=Signal(block_identifier(request.target, "target"), request.target, "target", "um"),
+        time_column=request.time_column, sample_period_s=dt, coefficients=coefficients, settings=settings,
+        training={"file": Path(table.path).name, "sha256": table.sha256, "rows": n_train, "total_rows": table.rows,
+                  "until_s": float(table.columns[request.time_column][n_train - 1])},
+        fit={"method": "thermoplc diagnose: lumped-mass simulation with the effects the data supports",
+             "effects": d.added})
+    return Model(**{**model.__dict__, "metrics": evaluate(model, [table], [n_train])})
+
+
+def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report_dir: str | None,
+        progress: Callable[[str], None] | None = None) -> dict:
+    table = read_table(request.data, request.time_column)
+    dt = sample_period(table, request.time_column)
+    n_train = _training_rows(table, request)
+    series = series_of(table, request, dt)
+    baseline = None
+    if request.baseline:
+        model = load_model(request.baseline)
+        _check_baseline(model, request, request.baseline)
+        baseline = lumped_model.simulation_of(model)
+    d = diagnose(series, n_train, request.target, baseline, progress)
+    model = augmented_model(d, request, table, dt, n_train)
+    source = {"file": Path(table.path).name, "sha256": table.sha256}
+    doc = document(d, series, n_train, source, model_path)
+    write_atomic(model_path, model.to_json())
+    if json_path:
+        write_atomic(json_path, json.dumps(doc, indent=2) + "\n")
+    if report_dir:
+        from thermoplc.diagnosis.report import write_report
+        write_report(Path(report_dir), doc, d, series, n_train)
+    return doc

@@ -1,0 +1,104 @@
+"""What the diagnosis found, as the findings document (findings.json) and as console text."""
+from __future__ import annotations
+
+import numpy as np
+
+from thermoplc.diagnosis.search import Diagnosis
+from thermoplc.diagnosis.windows import Window
+from thermoplc.models.simulation import Series
+
+FORMAT = "thermoplc-findings"
+VERSION = 1
+
+
+def conditions(series: Series, w: Window, residual: np.ndarray) -> dict:
+    """Operating conditions inside a window: what an engineer checks first."""
+    rows = slice(w.start, w.stop)
+    n = series.n[rows]
+    running = float(np.mean(n > 0.01 * max(float(np.max(np.abs(series.n))), 1.0)))
+    found = {
+        "speed_rpm": [float(n.min()), float(n.max())],
+        "spindle": "running" if running == 1.0 else "stopped" if running == 0.0 else f"mixed ({running:.0%} running)",
+        "ambient_C": [float(series.te[rows].min()), float(series.te[rows].max())],
+        "hours_since_start": [float((series.t[w.start] - series.t[0]) / 3600),
+                              float((series.t[w.stop - 1] - series.t[0]) / 3600)],
+        "measured_minus_simulated_mean": float(np.mean(residual[rows])),
+    }
+    if series.feed is not None:
+        found["feed_mm_min"] = [float(series.feed[rows].min()), float(series.feed[rows].max())]
+    return found
+
+
+def _window(series: Series, w: Window, d: Diagnosis, after: bool) -> dict:
+    entry = {"start_s": float(series.t[w.start]), "end_s": float(series.t[w.stop - 1]), "channel": w.channel,
+             "rms": w.rms}
+    if after:
+        r = d.residual_after[w.channel][w.start:w.stop]
+        entry["rms_after"] = float(np.sqrt(np.mean(r ** 2)))
+    entry["conditions"] = conditions(series, w, (d.residual_before if after else d.residual_after)[w.channel])
+    return entry
+
+
+def document(d: Diagnosis, series: Series, n_train: int, source: dict, model_path: str | None) -> dict:
+    target = d.channels[-1]
+    channels = {c: {"noise_sigma": d.sigma[c],
+                    "train_rmse_before": d.before.rmse_train[c], "train_rmse_after": d.after.rmse_train[c],
+                    "held_out_rmse_before": d.before.rmse_held_out[c], "held_out_rmse_after": d.after.rmse_held_out[c],
+                    "held_out_max_abs_before": d.before.max_abs_held_out[c],
+                    "held_out_max_abs_after": d.after.max_abs_held_out[c]} for c in d.channels}
+    return {
+        "format": FORMAT,
+        "version": VERSION,
+        "data": {**source, "rows": series.rows, "train_rows": n_train, "sample_period_s": series.dt},
+        "verdict": d.verdict,
+        "summary": summary(d),
+        "effects": d.added,
+        "disagreements": [_window(series, w, d, True) for w in d.windows_before],
+        "remaining_disagreements": [_window(series, w, d, False) for w in d.windows_after],
+        "rmse_before_um": d.before.rmse_held_out[target],
+        "rmse_after_um": d.after.rmse_held_out[target],
+        "max_abs_before_um": d.before.max_abs_held_out[target],
+        "max_abs_after_um": d.after.max_abs_held_out[target],
+        "channels": channels,
+        "tested": [[vars(t) for t in trials] for trials in d.rounds],
+        "not_tested": d.not_tested,
+        "model": model_path,
+    }
+
+
+def summary(d: Diagnosis) -> str:
+    if d.verdict == "no_missing_effect":
+        return "no significant missing effect: simulation and measurement agree within the noise on every channel"
+    names = ", ".join(e["name"] for e in d.added)
+    left = len(d.windows_after)
+    if d.verdict == "explained":
+        return f"explained by {names}; no disagreement beyond the noise is left"
+    found = f"found {names}, but " if names else ""
+    return f"{found}{left} disagreement window(s) not explained by any known effect"
+
+
+def _fmt(value) -> str:
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k}: {_fmt(v)}" for k, v in value.items()) + "}"
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return str(value)
+
+
+def text(doc: dict) -> str:
+    lines = [f"verdict: {doc['verdict']} - {doc['summary']}"]
+    for k, e in enumerate(doc["effects"], start=1):
+        ev = e["evidence"]
+        lines.append(f"  {k}. {e['name']}: {_fmt(e['parameters'])}")
+        lines.append(f"     delta BIC {ev['delta_bic']:.1f}; held-out excess above noise removed "
+                     f"{ev['held_out_excess_removed']:.0%}")
+    lines.append(f"  disagreement windows: {len(doc['disagreements'])} before, {len(doc['remaining_disagreements'])} after")
+    lines.append(f"  {'channel':<16}{'noise':>9}{'held-out RMSE before':>22}{'after':>10}{'max before':>12}{'after':>10}")
+    for c, v in doc["channels"].items():
+        if v["held_out_rmse_before"] is None:
+            continue
+        lines.append(f"  {c:<16}{v['noise_sigma']:>9.3g}{v['held_out_rmse_before']:>22.3f}{v['held_out_rmse_after']:>10.3f}"
+                     f"{v['held_out_max_abs_before']:>12.3f}{v['held_out_max_abs_after']:>10.3f}")
+    if doc["not_tested"]:
+        lines.append("  not tested: " + "; ".join(f"{k} ({v})" for k, v in doc["not_tested"].items()))
+    return "\n".join(lines)

@@ -1,0 +1,190 @@
+"""The `lumped` model kind: paper 000's lumped-mass simulation with named effects, as a block.
+
+Open loop: the block simulates the heat rises from speed (and feed) alone, measured
+temperatures only set the start and switch the coolant relay. Per call, in this order:
+    S := n, or the n^p table interpolated at n                          (nonlinear_speed_heat)
+    per sensor i:  Q := G_i*S [+ G2_i*n if n > Gear] [+ K_i if Cool]
+                   H_i := A_i*H_i + B_i*Q   (As_i, Bs_i while n <= Stop: stop_convection)
+                   L_i := AS*L_i + BS*H_i   [M_i := A2*M_i + B2*L_i]  (structure, slow_structure)
+    [LA := AAm*LA + BAm*Te]  [LF := AF*LF + BF*feed]
+    E := beta0 + sum_i beta_i*(H_i-H0_i) + gamma_i*(L_i-H0_i) [+ delta_i*(M_i-H0_i)] [+ alpha*(LA-Te0)] [+ phi*LF]
+    [relay: Cool := TRUE above CoolOn, FALSE below CoolOff, from the switching sensor]
+First call: H_i = L_i = M_i = H0_i := T_i [- O_i] - Te, LA = Te0 := Te, LF := 0, Cool := FALSE.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from thermoplc.models import simulation as sim_
+from thermoplc.models.modelfile import Coefficient, Model
+from thermoplc.models.simulation import Simulation
+
+
+def effect_names(model: Model) -> tuple[str, ...]:
+    return tuple(e["name"] for e in model.settings.get("effects", ()))
+
+
+def has(model: Model, name: str) -> bool:
+    return name in effect_names(model)
+
+
+def segments(model: Model) -> int:
+    return int(model.settings.get("speed_table_segments", 0))
+
+
+def _pair(a: float) -> tuple[Coefficient, Coefficient]:
+    """A decay and its complement, each rounded once from float64 (B is not 1 - A in binary32)."""
+    return Coefficient.of(a), Coefficient.of(1.0 - a)
+
+
+def coefficients(sim: Simulation, dt: float) -> tuple[dict[str, Coefficient], dict]:
+    """Model-file coefficients (block order) and settings of a fitted simulation."""
+    c: dict[str, Coefficient] = {}
+    for i, p in enumerate(sim.sensors, start=1):
+        c[f"A_{i}"], c[f"B_{i}"] = _pair(sim_.pole(p.tau_s, dt))
+        if sim.has("stop_convection"):
+            c[f"As_{i}"], c[f"Bs_{i}"] = _pair(sim_.pole(p.tau_s * p.stop_factor, dt))
+        c[f"G_{i}"] = Coefficient.of(p.gain)
+        if sim.has("gear_ratio_switch"):
+            c[f"G2_{i}"] = Coefficient.of(p.gear_gain)
+        if sim.has("coolant_switching"):
+            c[f"K_{i}"] = Coefficient.of(p.cooling)
+        if sim.has("sensor_offset") and sim.sensor_of("sensor_offset") == i - 1:
+            c[f"O_{i}"] = Coefficient.of(p.offset_K)
+    s = sim.shared
+    if sim.has("stop_convection"):
+        c["Stop_rpm"] = Coefficient.of(s.stopped_rpm)
+    if sim.has("gear_ratio_switch"):
+        c["Gear_rpm"] = Coefficient.of(s.gear_rpm)
+    if sim.has("coolant_switching"):
+        c["CoolOn"], c["CoolOff"] = Coefficient.of(s.relay[1]), Coefficient.of(s.relay[2])
+    if sim.has("nonlinear_speed_heat"):
+        nodes, values, slopes = sim_.speed_table(s)
+        for m, (x, y, k) in enumerate(zip(nodes, values, slopes), start=1):
+            c[f"node_{m}"], c[f"heat_{m}"], c[f"slope_{m}"] = Coefficient.of(x), Coefficient.of(y), Coefficient.of(k)
+    d = sim.displacement
+    c["AS"], c["BS"] = _pair(sim_.pole(d.tau_struct_s, dt))
+    if sim.has("slow_structure"):
+        c["A2"], c["B2"] = _pair(sim_.pole(d.tau_slow_s, dt))
+    if sim.has("ambient_coupling"):
+        c["AAm"], c["BAm"] = _pair(sim_.pole(d.tau_ambient_s, dt))
+    if sim.has("feed_axis_heat"):
+        c["AF"], c["BF"] = _pair(sim_.pole(d.tau_feed_s, dt))
+    c["beta0"] = Coefficient.of(d.beta0)
+    for i in range(1, len(sim.sensors) + 1):
+        c[f"beta_{i}"] = Coefficient.of(d.beta[i - 1])
+        c[f"gamma_{i}"] = Coefficient.of(d.gamma[i - 1])
+        if sim.has("slow_structure"):
+            c[f"delta_{i}"] = Coefficient.of(d.delta[i - 1])
+    if sim.has("ambient_coupling"):
+        c["alpha"] = Coefficient.of(d.alpha)
+    if sim.has("feed_axis_heat"):
+        c["phi"] = Coefficient.of(d.phi)
+    settings = {
+        "effects": [{"name": name, "sensor": None if sensor is None else sensor + 1} for name, sensor in sim.effects],
+        "sensors": [{"tau_s": p.tau_s, "stop_factor": p.stop_factor, "drift_K_per_h": p.drift_K_per_s * 3600}
+                    for p in sim.sensors],
+        "stopped_rpm": s.stopped_rpm,
+        "tau_struct_s": d.tau_struct_s,
+    }
+    if sim.has("coolant_switching"):
+        settings["relay_sensor"] = s.relay[0] + 1
+    if sim.has("nonlinear_speed_heat"):
+        settings["speed_table_segments"] = len(sim_.speed_table(s)[0])
+        settings.update(exponent=s.exponent, reference_rpm=s.reference_rpm, table_rpm=list(s.table_rpm))
+    return c, settings
+
+
+def simulation_of(model: Model) -> Simulation:
+    """The float64 simulation a `lumped` model file describes (a baseline for the diagnosis)."""
+    dt = model.sample_period_s
+    c = lambda name, default=0.0: model.coef(name, "f64") if name in model.coefficients else default
+    tau = lambda a: -dt / np.log(a)
+    st = model.settings
+    effects = tuple((e["name"], None if e.get("sensor") is None else e["sensor"] - 1) for e in st.get("effects", ()))
+    k = len(model.signals("temperature"))
+    drift = [s.get("drift_K_per_h", 0.0) / 3600 for s in st.get("sensors", [{}] * k)]
+    sensors = tuple(sim_.SensorParams(
+        tau_s=tau(c(f"A_{i}")), gain=c(f"G_{i}"),
+        stop_factor=tau(c(f"As_{i}")) / tau(c(f"A_{i}")) if f"As_{i}" in model.coefficients else 1.0,
+        gear_gain=c(f"G2_{i}"), cooling=c(f"K_{i}"), offset_K=c(f"O_{i}"), drift_K_per_s=drift[i - 1])
+        for i in range(1, k + 1))
+    shared = sim_.Shared(
+        stopped_rpm=float(st.get("stopped_rpm", 0.0)), gear_rpm=c("Gear_rpm", None),
+        exponent=st.get("exponent"), reference_rpm=float(st.get("reference_rpm", 1.0)),
+        table_rpm=tuple(st.get("table_rpm", ())),
+        relay=(st["relay_sensor"] - 1, c("CoolOn"), c("CoolOff")) if "relay_sensor" in st else None)
+    slow = "A2" in model.coefficients
+    displacement = sim_.DisplacementParams(
+        tau_struct_s=tau(c("AS")), beta0=c("beta0"),
+        beta=tuple(c(f"beta_{i}") for i in range(1, k + 1)), gamma=tuple(c(f"gamma_{i}") for i in range(1, k + 1)),
+        tau_slow_s=tau(c("A2")) if slow else None,
+        delta=tuple(c(f"delta_{i}") for i in range(1, k + 1)) if slow else (),
+        tau_ambient_s=tau(c("AAm")) if "AAm" in model.coefficients else None, alpha=c("alpha"),
+        tau_feed_s=tau(c("AF")) if "AF" in model.coefficients else None, phi=c("phi"))
+    return Simulation(effects, shared, sensors, displacement)
+
+
+def predict(model: Model, inputs: dict, precision: str) -> dict:
+    """Reference in binary32 ('f32', numpy float32 scalars) or float64 ('f64'), in the block's order."""
+    f = np.float32 if precision == "f32" else np.float64
+    coef = {name: f(model.coef(name, precision)) for name in model.coefficients}
+    temps = [np.asarray(inputs[s.name], f) for s in model.signals("temperature")]
+    te = np.asarray(inputs[model.signals("ambient")[0].name], f)
+    n = np.asarray(inputs[model.signals("speed")[0].name], f)
+    feed = np.asarray(inputs[model.signals("feed")[0].name], f) if has(model, "feed_axis_heat") else None
+    k, rows = len(temps), len(n)
+    gear, cool_on, stop = (has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection"))
+    slow, amb = has(model, "slow_structure"), has(model, "ambient_coupling")
+    table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
+    offset = [coef.get(f"O_{i}") for i in range(1, k + 1)]
+    relay_sensor = model.settings.get("relay_sensor", 1) - 1
+    h = l_ = m_ = h0 = None
+    la = te0 = lf = None
+    cool = False
+    out = np.empty(rows, f)
+    for j in range(rows):
+        if h is None:
+            h = [(temps[i][j] - offset[i] if offset[i] is not None else temps[i][j]) - te[j] for i in range(k)]
+            l_, m_, h0 = list(h), list(h), list(h)
+            la, te0, lf = te[j], te[j], f(0.0)
+        s = n[j]
+        if table:
+            index = next((m for m in range(len(table) - 1, 0, -1) if n[j] >= table[m][0]), 0)
+            node, heat, slope = table[index]
+            s = heat + (n[j] - node) * slope
+        for i in range(1, k + 1):
+            q = coef[f"G_{i}"] * s
+            if gear and n[j] > coef["Gear_rpm"]:
+                q = q + coef[f"G2_{i}"] * n[j]
+            if cool_on and cool:
+                q = q + coef[f"K_{i}"]
+            if stop and n[j] <= coef["Stop_rpm"]:
+                h[i - 1] = coef[f"As_{i}"] * h[i - 1] + coef[f"Bs_{i}"] * q
+            else:
+                h[i - 1] = coef[f"A_{i}"] * h[i - 1] + coef[f"B_{i}"] * q
+            l_[i - 1] = coef["AS"] * l_[i - 1] + coef["BS"] * h[i - 1]
+            if slow:
+                m_[i - 1] = coef["A2"] * m_[i - 1] + coef["B2"] * l_[i - 1]
+        if amb:
+            la = coef["AAm"] * la + coef["BAm"] * te[j]
+        if feed is not None:
+            lf = coef["AF"] * lf + coef["BF"] * feed[j]
+        e = coef["beta0"]
+        for i in range(1, k + 1):
+            e = e + coef[f"beta_{i}"] * (h[i - 1] - h0[i - 1])
+            e = e + coef[f"gamma_{i}"] * (l_[i - 1] - h0[i - 1])
+            if slow:
+                e = e + coef[f"delta_{i}"] * (m_[i - 1] - h0[i - 1])
+        if amb:
+            e = e + coef["alpha"] * (la - te0)
+        if feed is not None:
+            e = e + coef["phi"] * lf
+        out[j] = e
+        if cool_on:
+            t_switch = temps[relay_sensor][j]
+            if t_switch > coef["CoolOn"]:
+                cool = True
+            elif t_switch < coef["CoolOff"]:
+                cool = False
+    return {model.target.name: out}
