@@ -126,7 +126,7 @@ def paper_002(folder: Path) -> None:
 
 
 def paper_003(folder: Path) -> None:
-    data = table_of(folder, "p3", hours=24, seed=400, dt=300.0)
+    data = table_of(folder, "p3", hours=24, seed=401, dt=300.0)
     temps = ("T_motor", "T_bearing", "T_struct", "T_base")
     split = int(data.rows * 0.7)
     measured = data.columns["E_z_um"]

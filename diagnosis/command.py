@@ -9,13 +9,13 @@ from typing import Callable
 import numpy as np
 
 from thermoplc.diagnosis.findings import document
-from thermoplc.diagnosis.search import Diagnosis, diagnose
+from thermoplc.diagnosis.search import diagnose
 from thermoplc.errors import UserError
 from thermoplc.fileio import write_atomic
 from thermoplc.models import lumped_model
 from thermoplc.models.fit import block_identifier, evaluate, sample_period
 from thermoplc.models.modelfile import Model, Signal, load_model
-from thermoplc.models.simulation import Series
+from thermoplc.models.simulation import Series, Simulation
 from thermoplc.models.table import Table, read_table
 
 DEFAULT_TRAIN_SHARE = 0.6
@@ -73,12 +73,14 @@ def series_of(table: Table, request: DiagnoseRequest, dt: float) -> Series:
                   table.columns[request.target], table.columns[request.feed] if request.feed else None)
 
 
-def augmented_model(d: Diagnosis, request: DiagnoseRequest, table: Table, dt: float, n_train: int) -> Model:
-    coefficients, settings = lumped_model.coefficients(d.final, dt)
+def augmented_model(final: Simulation, added: list[dict], request: DiagnoseRequest, table: Table, dt: float,
+                    n_train: int) -> Model:
+    """The model file of a fitted simulation; `added` is the evidence for each effect, kept in the fit log."""
+    coefficients, settings = lumped_model.coefficients(final, dt)
     signals = [Signal(block_identifier(c, "temperature"), c, "temperature", "degC") for c in request.temps]
     signals.append(Signal(block_identifier(request.speed, "speed"), request.speed, "speed", "rpm"))
     signals.append(Signal(block_identifier(request.ambient, "ambient"), request.ambient, "ambient", "degC"))
-    if d.final.has("feed_axis_heat"):
+    if final.has("feed_axis_heat"):
         signals.append(Signal(block_identifier(request.feed, "feed"), request.feed, "feed", "mm/min"))
     model = Model(
         kind="lumped", block_name=request.block_name, inputs=tuple(signals),
@@ -87,7 +89,7 @@ def augmented_model(d: Diagnosis, request: DiagnoseRequest, table: Table, dt: fl
         training={"file": Path(table.path).name, "sha256": table.sha256, "rows": n_train, "total_rows": table.rows,
                   "until_s": float(table.columns[request.time_column][n_train - 1])},
         fit={"method": "thermoplc diagnose: lumped-mass simulation with the effects the data supports",
-             "effects": d.added})
+             "effects": added})
     return Model(**{**model.__dict__, "metrics": evaluate(model, [table], [n_train])})
 
 
@@ -103,7 +105,7 @@ def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report
         _check_baseline(model, request, request.baseline)
         baseline = lumped_model.simulation_of(model)
     d = diagnose(series, n_train, request.target, baseline, progress)
-    model = augmented_model(d, request, table, dt, n_train)
+    model = augmented_model(d.final, d.added, request, table, dt, n_train)
     source = {"file": Path(table.path).name, "sha256": table.sha256}
     doc = document(d, series, n_train, source, model_path)
     write_atomic(model_path, model.to_json())

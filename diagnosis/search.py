@@ -3,7 +3,8 @@
 An effect is kept only when both judges agree: the information criterion on the training part
 (BIC, Gaussian with one variance per channel, falls by more than `BIC_MARGIN`) and the held-out
 part (the noise-normalised squared error falls by at least `HELD_OUT_SHARE` of what is left
-above the noise). The search repeats with the effect added until no disagreement window is
+above the noise). An effect must do this on at least one channel that is off by more than `MIN_EXCESS`, so
+leftovers of a fitted effect at the noise level are never named. The search repeats with the effect added until no disagreement window is
 left or no candidate passes; what is left unexplained is reported as windows, never named.
 """
 from __future__ import annotations
@@ -20,7 +21,7 @@ from thermoplc.models.simulation import Series, Simulation
 
 BIC_MARGIN = 10.0
 HELD_OUT_SHARE = 0.2
-INITIAL_SHARE = 0.05  # ... and at least this share of the baseline's excess: leftovers of a fitted effect are not a new one
+MIN_EXCESS = 0.1  # a channel counts as off when its held-out MSE exceeds its noise variance by this share
 HOUR = 3600.0
 
 
@@ -31,6 +32,7 @@ class Score:
     max_abs_held_out: dict
     bic: float
     held_out: float  # sum over channels of held-out MSE / noise variance
+    held_out_by_channel: dict
 
     def evidence(self) -> dict:
         return {"bic": self.bic, "held_out_rmse": self.rmse_held_out, "train_rmse": self.rmse_train}
@@ -41,7 +43,7 @@ class Trial:
     name: str
     sensor: str | None
     delta_bic: float
-    held_out_gain: float  # share of the excess above noise removed on the held-out part
+    held_out_gain: float  # largest share of a channel's excess above noise removed on the held-out part
     accepted: bool
 
 
@@ -86,7 +88,7 @@ def _simulate(sim: Simulation, series: Series, channels) -> tuple[dict, dict]:
 def score(sim: Simulation, residual: dict, sigma: dict, n_train: int) -> Score:
     bic = 0.0
     held = 0.0
-    rmse_train, rmse_held, max_held = {}, {}, {}
+    rmse_train, rmse_held, max_held, normalised = {}, {}, {}, {}
     for c, r in residual.items():
         train, rest = r[:n_train], r[n_train:]
         sse = float(train @ train)
@@ -95,9 +97,17 @@ def score(sim: Simulation, residual: dict, sigma: dict, n_train: int) -> Score:
         rmse_held[c] = float(np.sqrt(np.mean(rest ** 2))) if len(rest) else None
         max_held[c] = float(np.max(np.abs(rest))) if len(rest) else None
         if len(rest):
-            held += float(np.mean(rest ** 2)) / max(sigma[c], 1e-12) ** 2
+            normalised[c] = float(np.mean(rest ** 2)) / max(sigma[c], 1e-12) ** 2
+            held += normalised[c]
     bic += sim.parameter_count() * np.log(n_train * len(residual))
-    return Score(rmse_train, rmse_held, max_held, float(bic), held)
+    return Score(rmse_train, rmse_held, max_held, float(bic), held, normalised)
+
+
+def held_out_gain(before: Score, after: Score) -> float:
+    """The largest share of a channel's excess above noise removed, over channels that are off."""
+    gains = [(before.held_out_by_channel[c] - after.held_out_by_channel[c]) / (before.held_out_by_channel[c] - 1.0)
+             for c in before.held_out_by_channel if before.held_out_by_channel[c] - 1.0 >= MIN_EXCESS]
+    return max(gains, default=0.0)
 
 
 def candidates(series: Series, present: Simulation) -> tuple[list[tuple[str, int | None]], dict]:
@@ -183,11 +193,9 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             trial = sim_.fit(train, (*current.effects, (name, sensor)), warm=current)
             sim_out, res = _simulate(trial, series, channels)
             s = score(trial, res, sigma, n_train)
-            excess = max(current_score.held_out - len(channels), 1e-9)
-            gain = (current_score.held_out - s.held_out) / excess
+            gain = held_out_gain(current_score, s)
             delta = s.bic - current_score.bic
-            ok = (delta < -BIC_MARGIN and gain >= HELD_OUT_SHARE
-                  and current_score.held_out - s.held_out >= INITIAL_SHARE * (before.held_out - len(channels)))
+            ok = delta < -BIC_MARGIN and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
             trials.append(Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False))
             if ok and (best is None or s.held_out < best[1].held_out):
                 best = (trial, s, res, sim_out, len(trials) - 1, name)

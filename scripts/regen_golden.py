@@ -2,6 +2,7 @@
 
     python scripts/regen_golden.py          # re-render every <model>.scl from the committed <model>.json
     python scripts/regen_golden.py --refit  # also refit the model files on the golden twin data first
+    python scripts/regen_golden.py --refit lumped  # ... only these kinds
 """
 from __future__ import annotations
 
@@ -9,18 +10,26 @@ import argparse
 import tempfile
 from pathlib import Path
 
+import numpy as np
+
+from thermoplc.diagnosis.command import DiagnoseRequest, augmented_model, series_of
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
-from thermoplc.models.fit import FitRequest, fit
+from thermoplc.models import simulation
+from thermoplc.models.fit import FitRequest, fit, sample_period
 from thermoplc.models.kalman import FitOptions
-from thermoplc.models.modelfile import load_model
+from thermoplc.models.modelfile import Model, load_model
 from thermoplc.models.table import read_table, write_table
 from thermoplc.models.twin import simulate
 
 GOLDEN = Path(__file__).resolve().parent.parent / "tests" / "golden"
 TWIN = {"hours": 12, "seed": 7}
 BATCH_AMBIENTS_C = (14.0, 19.0, 26.0, 31.0)  # piecewise library batches, one per node region
-KINDS = ("mlr", "kalman", "piecewise", "dlag", "gm0n", "gm1n", "bayes", "bpnn")
+KINDS = ("mlr", "kalman", "piecewise", "dlag", "gm0n", "gm1n", "bayes", "bpnn", "lumped")
+# the lumped golden block carries every effect, so every branch of its lowering is under review
+LUMPED_EFFECTS = (("gear_ratio_switch", None), ("nonlinear_speed_heat", None), ("stop_convection", None),
+                  ("sensor_offset", 1), ("coolant_switching", 0), ("slow_structure", None), ("ambient_coupling", None),
+                  ("feed_axis_heat", None))
 DIALECTS = ("tia",)
 
 
@@ -40,10 +49,22 @@ def batch_csvs(folder: Path) -> list[Path]:
     return paths
 
 
-def refit(folder: Path) -> None:
+def lumped_golden(path: Path) -> Model:
+    request = DiagnoseRequest(str(path), ("T_motor", "T_bearing"), "n_rpm", "T_env", "E_z_um", "v_feed_mm_min")
+    table = read_table(path)
+    series = series_of(table, request, sample_period(table, "time_s"))
+    rows = int(np.searchsorted(table.columns["time_s"], 6 * 3600.0, side="right"))
+    fitted = simulation.fit(series.head(rows), LUMPED_EFFECTS)
+    return augmented_model(fitted, [], request, table, series.dt, rows)
+
+
+def refit(folder: Path, kinds: tuple[str, ...]) -> None:
     table = read_table(golden_twin_csv(folder))
     batches = [read_table(p) for p in batch_csvs(folder)]
-    for kind in KINDS:
+    for kind in kinds:
+        if kind == "lumped":
+            (GOLDEN / "lumped.json").write_text(lumped_golden(Path(table.path)).to_json())
+            continue
         bpnn = kind == "bpnn"
         request = FitRequest(kind, "E_z_um", ("T_motor", "T_bearing"), "n_rpm", "T_env", train_until=6 * 3600.0,
                              options=FitOptions(seed=1, population=20, generations=10),
@@ -66,12 +87,13 @@ def render_all() -> list[Path]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--refit", action="store_true", help="refit the golden model files first")
+    parser.add_argument("--refit", nargs="*", metavar="KIND", choices=KINDS,
+                        help="refit the golden model files first (all, or these kinds)")
     args = parser.parse_args()
     GOLDEN.mkdir(parents=True, exist_ok=True)
-    if args.refit:
+    if args.refit is not None:
         with tempfile.TemporaryDirectory() as tmp:
-            refit(Path(tmp))
+            refit(Path(tmp), tuple(args.refit) or KINDS)
     for path in render_all():
         print(f"wrote {path.relative_to(GOLDEN.parent.parent)}")
 
