@@ -77,8 +77,9 @@ def write_report(folder: Path, doc: dict, d: Diagnosis, series: Series, n_train:
     windows = _table(["channel", "start s", "end s", "RMS before", "RMS after", "conditions"],
                      [[w["channel"], w["start_s"], w["end_s"], w["rms"], w["rms_after"], w["conditions"]]
                       for w in doc["disagreements"]])
-    trials = "".join(f"<h3>round {k}</h3>" + _table(["candidate", "sensor", "delta BIC", "held-out gain", "kept"],
-                                                    [[t["name"], t["sensor"], t["delta_bic"], t["held_out_gain"], t["accepted"]]
+    trials = "".join(f"<h3>round {k}</h3>" + _table(["candidate", "sensor", "delta BIC", "held-out gain", "kept", "implausible"],
+                                                    [[t["name"], t["sensor"], t["delta_bic"], t["held_out_gain"], t["accepted"],
+                                                      t["rejected_because"]]
                                                      for t in trials])
                      for k, trials in enumerate(doc["tested"], start=1))
     page = f"""<!DOCTYPE html>

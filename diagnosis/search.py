@@ -45,6 +45,7 @@ class Trial:
     delta_bic: float
     held_out_gain: float  # largest share of a channel's excess above noise removed on the held-out part
     accepted: bool
+    rejected_because: str | None = None
 
 
 @dataclass
@@ -160,6 +161,27 @@ def describe(sim: Simulation, name: str, series: Series) -> dict:
     raise ValueError(name)
 
 
+def implausible(sim: Simulation, name: str) -> str | None:
+    """Why a fitted effect is not the named physics (a parameter at its search bound or with the
+    wrong sign), or None. Such a fit only soaks up a mismatch; naming it would be made up."""
+    s, d = sim.shared, sim.displacement
+    if name == "coolant_switching" and sim.sensors[s.relay[0]].cooling >= 0:
+        return "the switched term heats the sensor that switches it"
+    if name == "nonlinear_speed_heat" and not 0.25 < s.exponent < 3.4:
+        return f"exponent {s.exponent:.3g} at the end of the searched range"
+    if name == "stop_convection" and any(not 0.09 < p.stop_factor < 11.0 for p in sim.sensors):
+        return "standstill time-constant factor at the end of the searched range"
+    if name == "gear_ratio_switch" and any(p.gain + p.gear_gain < 0 for p in sim.sensors):
+        return "negative heat above the threshold"
+    taus = {"slow_structure": (d.tau_slow_s, 1.6 * d.tau_struct_s if d.tau_slow_s else 0, 55 * d.tau_struct_s),
+            "ambient_coupling": (d.tau_ambient_s, 650.0, 45 * HOUR), "feed_axis_heat": (d.tau_feed_s, 130.0, 23 * HOUR)}
+    if name in taus:
+        tau, low, high = taus[name]
+        if not low < tau < high:
+            return f"time constant {tau / HOUR:.3g} h at the end of the searched range"
+    return None
+
+
 def _window_change(windows: list[Window], before: dict, after: dict) -> list[dict]:
     return [{"channel": w.channel, "start_row": w.start, "rms_before": float(np.sqrt(np.mean(before[w.channel][w.start:w.stop] ** 2))),
              "rms_after": float(np.sqrt(np.mean(after[w.channel][w.start:w.stop] ** 2)))} for w in windows]
@@ -195,8 +217,10 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             s = score(trial, res, sigma, n_train)
             gain = held_out_gain(current_score, s)
             delta = s.bic - current_score.bic
-            ok = delta < -BIC_MARGIN and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
-            trials.append(Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False))
+            why = implausible(trial, name)
+            ok = delta < -BIC_MARGIN and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out and why is None
+            trials.append(Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False,
+                                why))
             if ok and (best is None or s.held_out < best[1].held_out):
                 best = (trial, s, res, sim_out, len(trials) - 1, name)
         if best is None:
