@@ -34,9 +34,6 @@ class Score:
     held_out: float  # sum over channels of held-out MSE / noise variance
     held_out_by_channel: dict
 
-    def evidence(self) -> dict:
-        return {"bic": self.bic, "held_out_rmse": self.rmse_held_out, "train_rmse": self.rmse_train}
-
 
 @dataclass(frozen=True)
 class Trial:
