@@ -261,7 +261,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("generate", help="compile a model file into a Structured Text function block")
     p.add_argument("model")
-    p.add_argument("--dialect", choices=("tia",), default="tia")
+    p.add_argument("--dialect", choices=("tia", "step7", "iec"), default="tia",
+                   help="tia: S7-1500/SINUMERIK ONE (TIA Portal); step7: classic STEP 7 SCL (840D sl, S7-300); "
+                        "iec: IEC 61131-3 for CODESYS/TwinCAT/OpenPLC (default: %(default)s)")
     p.add_argument("--stats", action="store_true", help="print operations per call and bytes of state")
     p.add_argument("-o", "--output", required=True)
     p.set_defaults(func=cmd_generate)

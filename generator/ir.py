@@ -75,13 +75,14 @@ class For:
     body: tuple["Stmt", ...]
 
 
-Stmt = Union[Assign, If, For]
-
-
 @dataclass(frozen=True)
 class Region:
-    title: str  # names the model term the region computes (traceability)
-    body: tuple[Stmt, ...]
+    """A titled group of statements; it names the model term it computes (traceability) and may nest."""
+    title: str
+    body: tuple["Stmt", ...]
+
+
+Stmt = Union[Assign, If, For, Region]
 
 
 @dataclass(frozen=True)
@@ -128,6 +129,8 @@ def walk_exprs(stmts: tuple[Stmt, ...]):
             yield from _walk(stmt.start)
             yield from _walk(stmt.stop)
             yield from walk_exprs(stmt.body)
+        elif isinstance(stmt, Region):
+            yield from walk_exprs(stmt.body)
         else:
             for cond, body in stmt.branches:
                 yield from _walk(cond)
@@ -155,6 +158,8 @@ def assigned_names(stmts: tuple[Stmt, ...]):
             yield stmt.target
         elif isinstance(stmt, For):
             yield stmt.var
+            yield from assigned_names(stmt.body)
+        elif isinstance(stmt, Region):
             yield from assigned_names(stmt.body)
         else:
             for _, body in stmt.branches:

@@ -387,7 +387,8 @@ def lower_bpnn(model: Model) -> Block:
     for j in range(1, hidden + 1):
         layer += [
             Assign("Z", _sum([_c(f"b1_{j}")] + [BinOp("*", _c(f"w1_{j}_{i}"), Ref(f"X_{i}")) for i in range(1, m + 1)])),
-            Assign("Z", Call("MIN", (Call("MAX", (Ref("Z"), _c("act_nclip"))), _c("act_clip")))),
+            If(((BinOp("<", Ref("Z"), _c("act_nclip")), (Assign("Z", _c("act_nclip")),)),
+                (BinOp(">", Ref("Z"), _c("act_clip")), (Assign("Z", _c("act_clip")),)))),
             Assign("Z2", BinOp("*", Ref("Z"), Ref("Z"))),
             Assign(f"H_{j}", BinOp("/", BinOp("*", Ref("Z"), _horner(Ref("Z2"), ("act_one", "act_p1", "act_p2", "act_p3"))),
                                    _horner(Ref("Z2"), ("act_one", "act_q1", "act_q2", "act_q3"))))]

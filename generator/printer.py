@@ -9,7 +9,7 @@ import jinja2
 
 from thermoplc.generator.identifiers import check_unique, identifier_problem
 from thermoplc.generator.ir import (
-    PORTABLE_FUNCTIONS, Assign, BinOp, Block, BoolConst, Call, Expr, For, Index, IntConst, Ref, Stmt,
+    PORTABLE_FUNCTIONS, Assign, BinOp, Block, BoolConst, Call, Expr, For, Index, IntConst, Ref, Region, Stmt,
     Unary, Var, assigned_names, walk_exprs,
 )
 from thermoplc.generator.literals import real_literal
@@ -25,17 +25,26 @@ class GenerationError(Exception):
 
 @dataclass(frozen=True)
 class Dialect:
+    """What differs between the dialects at the statement level; the template holds the block's frame."""
     name: str
     template: str
-    local_prefix: str
+    local_prefix: str  # '#' for TIA, nothing elsewhere
     type_names: dict
     body_indent: str
     array_type: str
+    regions: str  # 'keyword': REGION ... END_REGION; 'comment': a comment line opens and closes a region
+    array_initial: str  # 'brackets': := [a, b]; 'list': := a, b (classic STEP 7 SCL)
+    suffix: str  # file name ending users expect
+    functions: frozenset = PORTABLE_FUNCTIONS  # functions the dialect's compiler offers
 
 
 DIALECTS = {
     "tia": Dialect("tia", "tia.scl.j2", "#", {"REAL": "Real", "BOOL": "Bool", "INT": "Int"}, "\t",
-                   "Array[0..{last}] of {type}"),
+                   "Array[0..{last}] of {type}", "keyword", "brackets", ".scl"),
+    "step7": Dialect("step7", "step7.scl.j2", "", {"REAL": "REAL", "BOOL": "BOOL", "INT": "INT"}, "    ",
+                     "ARRAY[0..{last}] OF {type}", "comment", "list", ".scl", frozenset({"ABS", "SQRT"})),
+    "iec": Dialect("iec", "iec.st.j2", "", {"REAL": "REAL", "BOOL": "BOOL", "INT": "INT"}, "    ",
+                   "ARRAY[0..{last}] OF {type}", "comment", "brackets", ".st"),
 }
 
 
@@ -84,6 +93,9 @@ class _Printer:
                     target += f"[{self.expr(s.index)}]"
                 lines.append(f"{pad}{target} := {self.expr(s.value)};")
                 continue
+            if isinstance(s, Region):
+                lines.extend(self.region(s, depth))
+                continue
             if isinstance(s, For):
                 lines.append(f"{pad}FOR {self.d.local_prefix}{s.var} := {self.expr(s.start)} "
                              f"TO {self.expr(s.stop)} DO")
@@ -98,6 +110,21 @@ class _Printer:
                 lines.append(f"{pad}ELSE")
                 lines.extend(self.stmts(s.orelse, depth + 1))
             lines.append(f"{pad}END_IF;")
+        return lines
+
+    def region(self, r: Region, depth: int) -> list[str]:
+        """A region at the depth of its neighbours, its body one level in; only TIA has the REGION keyword, the others get a comment."""
+        pad = self.d.body_indent + "    " * depth
+        title = safe_comment(r.title)
+        if self.d.regions == "keyword":
+            return [f"{pad}REGION {title}", *self.stmts(r.body, depth + 1), f"{pad}END_REGION"]
+        return [f"{pad}(* {title} *)", *self.stmts(r.body, depth)]
+
+    def body(self, regions: tuple[Region, ...]) -> list[str]:
+        lines: list[str] = []
+        for r in regions:
+            lines.extend(self.region(r, 0))
+            lines.append("")
         return lines
 
 
@@ -115,7 +142,7 @@ def validate(block: Block) -> None:
     duplicate = check_unique(names)
     if duplicate:
         raise GenerationError(duplicate)
-    body = tuple(s for region in block.regions for s in region.body)
+    body = tuple(block.regions)
     for e in walk_exprs(body):
         if isinstance(e, (Ref, Index)) and e.name not in declared and e.name not in constants:
             raise GenerationError(f"expression refers to undeclared {e.name!r}")
@@ -135,12 +162,14 @@ def validate(block: Block) -> None:
             real_literal(value)
 
 
-def _initial(v: Var) -> str:
-    """Start values of a table: ' := [a, b, ...]', wrapped so that review diffs stay readable."""
+def _initial(v: Var, style: str) -> str:
+    """Start values of a table, six per line so that review diffs stay readable."""
     if v.initial is None:
         return ""
     items = [real_literal(x) for x in v.initial]
     rows = [", ".join(items[i:i + 6]) for i in range(0, len(items), 6)]
+    if style == "list":
+        return " := " + ",\n         ".join(rows)
     return " := [" + ",\n         ".join(rows) + "]"
 
 
@@ -148,6 +177,9 @@ def render(block: Block, dialect: str = "tia") -> str:
     """The block as source text, byte-identical for the same IR."""
     validate(block)
     d = DIALECTS[dialect]
+    missing = {e.func for e in walk_exprs(block.regions) if isinstance(e, Call)} - d.functions
+    if missing:
+        raise GenerationError(f"the {dialect} dialect has no {', '.join(sorted(missing))}; lower it with IF")
     printer = _Printer(d)
     env = jinja2.Environment(
         loader=jinja2.FunctionLoader(lambda name: resources.files("thermoplc.templates").joinpath(name).read_text("utf-8")),
@@ -161,9 +193,8 @@ def render(block: Block, dialect: str = "tia") -> str:
         return d.array_type.format(last=v.length - 1, type=d.type_names[v.type])
 
     def decls(group):
-        return [(v.name, type_of(v), _initial(v), safe_comment(v.comment)) for v in group]
+        return [(v.name, type_of(v), _initial(v, d.array_initial), safe_comment(v.comment)) for v in group]
 
-    regions = [(safe_comment(r.title), printer.stmts(r.body, 1)) for r in block.regions]
     text = env.get_template(d.template).render(
         name=block.name,
         title=safe_comment(block.title),
@@ -173,7 +204,6 @@ def render(block: Block, dialect: str = "tia") -> str:
                    ("VAR", block.statics), ("VAR_TEMP", block.temps)) if group],
         constants=[(c.name, d.type_names[c.type], real_literal(c.value) if c.type == "REAL" else str(c.value),
                     safe_comment(c.comment)) for c in block.constants],
-        regions=regions,
-        indent=d.body_indent,
+        body=printer.body(block.regions),
     )
     return text

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from collections import Counter
 
-from thermoplc.generator.ir import Assign, BinOp, Block, Call, For, Index, IntConst, Ref, Unary
+from thermoplc.generator.ir import Assign, BinOp, Block, Call, For, Index, IntConst, Ref, Region, Unary
 
 STATE_BYTES = {"REAL": 4, "INT": 2, "BOOL": 1}
 _KIND = {"+": "add/sub", "-": "add/sub", "*": "mul", "/": "div", "<": "compare", "<=": "compare", ">": "compare",
@@ -45,6 +45,8 @@ def _stmts(body, constants: dict) -> Counter:
             trips = _bound(s.stop, constants) - _bound(s.start, constants) + 1
             inner = _stmts(s.body, constants)
             tally.update({k: v * trips for k, v in inner.items()})
+        elif isinstance(s, Region):
+            tally.update(_stmts(s.body, constants))
         else:
             conditions: Counter = Counter()
             costs = []

@@ -208,8 +208,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
         z = np.full(len(x[0]), c(f"b1_{j}"), f)
         for i in range(1, m + 1):
             z = z + c(f"w1_{j}_{i}") * x[i - 1]
-        z = np.where(nclip > z, nclip, z)  # MAX(z, -clip)
-        z = np.where(clip < z, clip, z)  # MIN(z, clip)
+        z = np.where(z < nclip, nclip, np.where(z > clip, clip, z))  # IF z < -clip ... ELSIF z > clip
         z2 = z * z
         num = z * (one + z2 * (p[0] + z2 * (p[1] + z2 * p[2])))
         den = one + z2 * (qq[0] + z2 * (qq[1] + z2 * qq[2]))

@@ -96,6 +96,14 @@ class _ToAst(Transformer):
             self._fail(_at(meta), f"type {type_ref.base} is not supported (REAL, BOOL, INT, DINT and arrays of them are)")
         return [s.VarDecl(str(n), "", type_ref, initial, _at(n)) for n in names]
 
+    def const_section(self, items):
+        return list(items)
+
+    def const_decl(self, items):
+        name, value = items
+        base = "BOOL" if isinstance(value, bool) else "INT" if isinstance(value, int) else "REAL"
+        return s.VarDecl(str(name), "constant", s.TypeRef(base), value, _at(name))
+
     def scalar_type(self, items):
         return s.TypeRef(str(items[0]).upper())
 
