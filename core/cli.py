@@ -24,6 +24,14 @@ def _columns(text: str) -> tuple[str, ...]:
     return names
 
 
+def _range(text: str) -> tuple[float, float]:
+    try:
+        low, high = (float(x) for x in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected LOW,HIGH (two numbers), found {text!r}") from None
+    return low, high
+
+
 def _mapping(text: str) -> dict:
     mapping = {}
     for item in text.split(","):
@@ -94,20 +102,32 @@ def format_fit(model) -> str:
 
 
 def cmd_generate(args) -> int:
-    from thermoplc.generator.lower import lower
-    from thermoplc.generator.printer import GenerationError, render
+    from thermoplc.generator.lower import lower, lower_model
+    from thermoplc.generator.printer import GenerationError, render, render_plcopen
     from thermoplc.models.modelfile import load_model
+    from thermoplc.models.safety import Limits
     model = load_model(args.model)
+    low, high = args.temp_range
+    limits = Limits(args.max_offset_um, args.max_step_um, low, high, max_jump_K=args.max_jump_k,
+                    settle_calls=args.settle_calls)
+    block = lower(model, limits)
+    if args.format == "plcopen" and args.dialect != "iec":
+        raise UserError("--format plcopen wraps the iec dialect; add --dialect iec")
     try:
-        text = render(lower(model), args.dialect)
+        text = render_plcopen(block, __version__) if args.format == "plcopen" else render(block, args.dialect)
     except GenerationError as exc:
         raise UserError(f"{args.model}: cannot generate a block: {exc}") from None
     write_atomic(args.output, text)
-    print(f"wrote {args.output}: {model.kind} block {model.block_name!r}, dialect {args.dialect}, "
-          f"model fingerprint {model.fingerprint()}")
+    print(f"wrote {args.output}: {model.kind} block {model.block_name!r}, dialect {args.dialect}"
+          f"{', PLCopen XML' if args.format == 'plcopen' else ''}, model fingerprint {model.fingerprint()}")
+    print(f"  outputs within +-{limits.max_output:g}, at most {limits.max_step:g} per call; temperatures "
+          f"{limits.temp_min_C:g}..{limits.temp_max_C:g} degC, jump {limits.max_jump_K:g} K per call")
     if args.stats:
         from thermoplc.generator.stats import block_stats, format_stats
-        print(format_stats(block_stats(lower(model))))
+        print(format_stats(block_stats(block), block_stats(lower_model(model))))
+    if args.explain:
+        from thermoplc.generator.explain import explain
+        print(explain(block))
     return 0
 
 
@@ -264,7 +284,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--dialect", choices=("tia", "step7", "iec"), default="tia",
                    help="tia: S7-1500/SINUMERIK ONE (TIA Portal); step7: classic STEP 7 SCL (840D sl, S7-300); "
                         "iec: IEC 61131-3 for CODESYS/TwinCAT/OpenPLC (default: %(default)s)")
+    p.add_argument("--format", choices=("st", "plcopen"), default="st",
+                   help="st: source text; plcopen: PLCopen TC6 XML of the iec block (default: %(default)s)")
+    p.add_argument("--max-offset-um", type=float, default=300.0,
+                   help="clamp every output to +-this (um; urad for angles) (default: %(default)s)")
+    p.add_argument("--max-step-um", type=float, default=2.0,
+                   help="largest change of an output per call (default: %(default)s)")
+    p.add_argument("--temp-range", type=_range, default=(-40.0, 150.0), metavar="LOW,HIGH",
+                   help="plausible temperatures, degC; outside = sensor fault (default: -40,150)")
+    p.add_argument("--max-jump-k", type=float, default=1.0,
+                   help="temperature change per call that marks a sensor faulty, K (default: %(default)s)")
+    p.add_argument("--settle-calls", type=int, default=30,
+                   help="steady calls before a faulty sensor is trusted again (default: %(default)s)")
     p.add_argument("--stats", action="store_true", help="print operations per call and bytes of state")
+    p.add_argument("--explain", action="store_true", help="print which region computes which model term, "
+                                                          "with its constants")
     p.add_argument("-o", "--output", required=True)
     p.set_defaults(func=cmd_generate)
 

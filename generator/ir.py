@@ -165,3 +165,30 @@ def assigned_names(stmts: tuple[Stmt, ...]):
             for _, body in stmt.branches:
                 yield from assigned_names(body)
             yield from assigned_names(stmt.orelse)
+
+
+def rename(stmts: tuple[Stmt, ...], names: dict) -> tuple[Stmt, ...]:
+    """The statements with every variable in `names` (reads and writes) renamed."""
+    def expr(e: Expr) -> Expr:
+        if isinstance(e, Ref):
+            return Ref(names.get(e.name, e.name))
+        if isinstance(e, Index):
+            return Index(names.get(e.name, e.name), expr(e.index))
+        if isinstance(e, BinOp):
+            return BinOp(e.op, expr(e.left), expr(e.right))
+        if isinstance(e, Unary):
+            return Unary(e.op, expr(e.operand))
+        if isinstance(e, Call):
+            return Call(e.func, tuple(expr(a) for a in e.args))
+        return e
+
+    def stmt(s: Stmt) -> Stmt:
+        if isinstance(s, Assign):
+            return Assign(names.get(s.target, s.target), expr(s.value), None if s.index is None else expr(s.index))
+        if isinstance(s, For):
+            return For(names.get(s.var, s.var), expr(s.start), expr(s.stop), rename(s.body, names))
+        if isinstance(s, Region):
+            return Region(s.title, rename(s.body, names))
+        return If(tuple((expr(c), rename(b, names)) for c, b in s.branches), rename(s.orelse, names))
+
+    return tuple(stmt(s) for s in stmts)

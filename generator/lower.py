@@ -13,6 +13,8 @@ from thermoplc.models import lumped_model
 from thermoplc.models.kalman import SENSOR_COEFFICIENTS
 from thermoplc.models.piecewise import node_count
 from thermoplc.models.modelfile import Model
+from thermoplc.models.safety import Limits, axis_outputs, guards
+from thermoplc.generator.safety import with_safety
 
 _KALMAN_COMMENTS = {
     "A": "lumped-mass decay A = mc/dt / (mc/dt + v1), eq. 5",
@@ -119,12 +121,14 @@ def lower_kalman(model: Model) -> Block:
             Assign("T_pred", prediction),
             Assign("P_pred", BinOp("+", BinOp("*", _c(f"AA_{i}"), Ref(f"PF_{i}")), _c(f"N_{i}"))),
         )))
-        regions.append(Region(f"Sensor {i} {s.name}: fault criterion (sudden jump), paper 000 section 5", (
-            Assign("Jump", Call("ABS", (BinOp("-", measured, Ref(f"TM_{i}")),))),
-            Assign(f"TM_{i}", measured),
-            If(((Unary("NOT", BinOp("<=", Ref("Jump"), _c(f"Jmp_{i}"))), (Assign(f"Fault_{i}", BoolConst(True)),)),
-                (BinOp("<=", Call("ABS", (BinOp("-", measured, Ref("T_pred")),)), _c(f"Agr_{i}")),
-                 (Assign(f"Fault_{i}", BoolConst(False)),)))),
+        regions.append(Region(f"Sensor {i} {s.name}: fault criterion (out of range, sudden jump), paper 000 section 5", (
+            If(((Unary("NOT", Ref(f"InOk_{i}")), (Assign(f"Fault_{i}", BoolConst(True)),)),), orelse=(
+                Assign("Jump", Call("ABS", (BinOp("-", measured, Ref(f"TM_{i}")),))),
+                Assign(f"TM_{i}", measured),
+                If(((Unary("NOT", BinOp("<=", Ref("Jump"), _c(f"Jmp_{i}"))), (Assign(f"Fault_{i}", BoolConst(True)),)),
+                    (BinOp("<=", Call("ABS", (BinOp("-", measured, Ref("T_pred")),)), _c(f"Agr_{i}")),
+                     (Assign(f"Fault_{i}", BoolConst(False)),)))),
+            )),
         )))
         regions.append(Region(f"Sensor {i} {s.name}: Kalman update, eq. 7-9 (gain 0 while faulty)", (
             If(((Ref(f"Fault_{i}"), (Assign(f"TF_{i}", Ref("T_pred")), Assign(f"PF_{i}", Ref("P_pred")))),),
@@ -555,5 +559,13 @@ LOWERINGS = {"bayes": lower_bayes, "bpnn": lower_bpnn, "dlag": lower_dlag, "mlr"
              "piecewise": lower_piecewise, "gm0n": lower_gm0n, "gm1n": lower_gm1n, "lumped": lower_lumped}
 
 
-def lower(model: Model) -> Block:
+def lower_model(model: Model) -> Block:
+    """What the model computes, without the safety logic (its cost is reported apart)."""
     return LOWERINGS[model.kind](model)
+
+
+def lower(model: Model, limits: Limits = Limits()) -> Block:
+    """The block for `model`, inside the input guards and output limits every block carries."""
+    core = lower_model(model)
+    axes = axis_outputs(model, [v.name for v in core.outputs if v.type == "REAL"])
+    return with_safety(core, guards(model), axes, limits)

@@ -173,6 +173,36 @@ def _initial(v: Var, style: str) -> str:
     return " := [" + ",\n         ".join(rows) + "]"
 
 
+def _environment() -> jinja2.Environment:
+    return jinja2.Environment(
+        loader=jinja2.FunctionLoader(lambda name: resources.files("thermoplc.templates").joinpath(name).read_text("utf-8")),
+        keep_trailing_newline=True, trim_blocks=True, lstrip_blocks=True, undefined=jinja2.StrictUndefined,
+        autoescape=False,
+    )
+
+
+def render_plcopen(block: Block, version: str) -> str:
+    """The iec block wrapped as PLCopen TC6 XML (CODESYS, TwinCAT import); no dates, so byte-identical."""
+    validate(block)
+    printer = _Printer(DIALECTS["iec"])
+
+    def decl(v: Var) -> dict:
+        items = [real_literal(x) for x in v.initial] if v.initial is not None else []
+        return {"name": v.name, "type": v.type, "last": None if v.length is None else v.length - 1,
+                "simple": None, "array": items, "comment": safe_comment(v.comment)}
+
+    constants = [{"name": c.name, "type": c.type, "last": None, "array": [], "comment": safe_comment(c.comment),
+                  "simple": real_literal(c.value) if c.type == "REAL" else str(c.value)} for c in block.constants]
+    sections = [(element, "", [decl(v) for v in group]) for element, group in
+                (("inputVars", block.inputs), ("outputVars", block.outputs), ("localVars", block.statics),
+                 ("tempVars", block.temps)) if group]
+    if constants:
+        sections.append(("localVars", ' constant="true"', constants))
+    return _environment().get_template("plcopen.xml.j2").render(
+        name=block.name, version=version, title=safe_comment(block.title),
+        header=[safe_comment(line) for line in block.header], sections=sections, body=printer.body(block.regions))
+
+
 def render(block: Block, dialect: str = "tia") -> str:
     """The block as source text, byte-identical for the same IR."""
     validate(block)
@@ -181,11 +211,7 @@ def render(block: Block, dialect: str = "tia") -> str:
     if missing:
         raise GenerationError(f"the {dialect} dialect has no {', '.join(sorted(missing))}; lower it with IF")
     printer = _Printer(d)
-    env = jinja2.Environment(
-        loader=jinja2.FunctionLoader(lambda name: resources.files("thermoplc.templates").joinpath(name).read_text("utf-8")),
-        keep_trailing_newline=True, trim_blocks=True, lstrip_blocks=True, undefined=jinja2.StrictUndefined,
-        autoescape=False,
-    )
+    env = _environment()
 
     def type_of(v: Var) -> str:
         if v.length is None:

@@ -61,9 +61,9 @@ def _stmts(body, constants: dict) -> Counter:
 
 def block_stats(block: Block) -> dict:
     constants = {c.name: c for c in block.constants}
-    per_region = {r.title: dict(_stmts(r.body, constants)) for r in block.regions}
+    per_region = [(r.title, dict(_stmts(r.body, constants))) for r in block.regions]
     total: Counter = Counter()
-    for counts in per_region.values():
+    for _, counts in per_region:
         total.update(counts)
     state = sum(STATE_BYTES[v.type] * (v.length or 1) for v in (*block.outputs, *block.statics) if v.initial is None)
     tables = sum(STATE_BYTES[v.type] * (v.length or 1) for v in block.statics if v.initial is not None)
@@ -73,8 +73,11 @@ def block_stats(block: Block) -> dict:
             "regions": per_region}
 
 
-def format_stats(stats: dict) -> str:
+def format_stats(stats: dict, model_only: dict) -> str:
+    """model_only: the stats of the model's statements alone, to show what the safety logic adds."""
     ops = ", ".join(f"{k} {v}" for k, v in stats["operations_per_call"].items())
-    return (f"cost per call (worst-case path): {stats['arithmetic_per_call']} REAL/INT arithmetic operations; {ops}\n"
+    safety = stats["arithmetic_per_call"] - model_only["arithmetic_per_call"]
+    return (f"cost per call (worst-case path): {stats['arithmetic_per_call']} REAL/INT arithmetic operations "
+            f"(model {model_only['arithmetic_per_call']}, input guards and output limits {safety}); {ops}\n"
             f"state: {stats['state_bytes']} bytes, tables: {stats['table_bytes']} bytes, "
             f"named constants: {stats['constants']}")

@@ -35,8 +35,12 @@ class FitOptions:
     recover_limit: float | None = None
 
 
-def predict(model: Model, inputs: dict, precision: str) -> dict:
-    """Reference in binary32 ('f32', numpy float32 scalars) or float64 ('f64'), in the block's order."""
+def predict(model: Model, inputs: dict, precision: str, valid: dict | None = None) -> dict:
+    """Reference in binary32 ('f32', numpy float32 scalars) or float64 ('f64'), in the block's order.
+
+    valid maps a temperature input to a per-call flag 'reading in range'; a reading out of range
+    marks the sensor faulty without touching the jump memory (the block's input guard decides it).
+    """
     f = np.float32 if precision == "f32" else np.float64
     temps = model.signals("temperature")
     te = np.asarray(inputs[model.signals("ambient")[0].name], f)
@@ -54,11 +58,18 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     fault = [False] * k
     error = np.empty(rows, f)
     faults = np.zeros((k, rows), bool)
+    in_range = [np.ones(rows, bool) if valid is None or s.name not in valid else np.asarray(valid[s.name], bool)
+                for s in temps]
     for j in range(rows):
         for i, s in enumerate(sensor):
             tm = measured[i][j]
             tp = s["A"] * tf[i] + s["B"] * te[j] + s["C"] * n[j] + s["D"]
             pp = s["AA"] * pf[i] + s["N"]
+            if not in_range[i][j]:
+                fault[i] = True
+                tf[i], pf[i] = tp, pp
+                faults[i, j] = True
+                continue
             jump = abs(tm - tm_prev[i])
             tm_prev[i] = tm
             if not jump <= s["Jmp"]:

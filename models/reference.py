@@ -6,6 +6,7 @@ import numpy as np
 from thermoplc.errors import UserError
 from thermoplc.models import bayes, bpnn, dlag, grey, kalman, lumped_model, mlr, piecewise
 from thermoplc.models.modelfile import Model
+from thermoplc.models.safety import Limits, guarded_predict
 from thermoplc.models.table import Table
 
 _PREDICTORS = {"mlr": mlr.predict, "kalman": kalman.predict, "piecewise": piecewise.predict,
@@ -14,8 +15,19 @@ _PREDICTORS = {"mlr": mlr.predict, "kalman": kalman.predict, "piecewise": piecew
 
 
 def predict(model: Model, inputs: dict, precision: str) -> dict:
-    """Outputs of the block by name; REAL outputs as float32 ('f32') or float64 ('f64') arrays."""
+    """What the model computes, by output name; REAL outputs as float32 ('f32') or float64 ('f64') arrays."""
     return _PREDICTORS[model.kind](model, inputs, precision)
+
+
+def _core(model: Model, inputs: dict, precision: str, fused_valid: dict) -> dict:
+    if model.kind == "kalman":
+        return kalman.predict(model, inputs, precision, fused_valid)
+    return predict(model, inputs, precision)
+
+
+def block_outputs(model: Model, inputs: dict, precision: str, limits: Limits) -> dict:
+    """Every output of the generated block: the model inside its input guards and output limiter."""
+    return guarded_predict(model, inputs, precision, limits, _core)
 
 
 def model_inputs(model: Model, table: Table, overrides: dict | None = None) -> dict:

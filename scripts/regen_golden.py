@@ -14,7 +14,8 @@ import numpy as np
 
 from thermoplc.diagnosis.command import DiagnoseRequest, augmented_model, series_of
 from thermoplc.generator.lower import lower
-from thermoplc.generator.printer import render
+from thermoplc import __version__
+from thermoplc.generator.printer import DIALECTS as PRINTER_DIALECTS, render, render_plcopen
 from thermoplc.models import simulation
 from thermoplc.models.fit import FitRequest, fit, sample_period
 from thermoplc.models.kalman import FitOptions
@@ -30,7 +31,7 @@ KINDS = ("mlr", "kalman", "piecewise", "dlag", "gm0n", "gm1n", "bayes", "bpnn", 
 LUMPED_EFFECTS = (("gear_ratio_switch", None), ("nonlinear_speed_heat", None), ("stop_convection", None),
                   ("sensor_offset", 1), ("coolant_switching", 0), ("slow_structure", None), ("ambient_coupling", None),
                   ("feed_axis_heat", None))
-DIALECTS = ("tia",)
+DIALECTS = tuple(PRINTER_DIALECTS)
 
 
 def golden_twin_csv(folder: Path) -> Path:
@@ -74,13 +75,23 @@ def refit(folder: Path, kinds: tuple[str, ...]) -> None:
         (GOLDEN / f"{kind}.json").write_text(fit(tables, request).to_json())
 
 
+def golden_block(kind: str, dialect: str) -> Path:
+    """tests/golden/<kind>.<dialect><suffix>; dialect 'plcopen' is the iec block as PLCopen XML."""
+    suffix = ".xml" if dialect == "plcopen" else PRINTER_DIALECTS[dialect].suffix
+    return GOLDEN / f"{kind}.{dialect}{suffix}"
+
+
+def rendered(kind: str, dialect: str) -> str:
+    block = lower(load_model(GOLDEN / f"{kind}.json"))
+    return render_plcopen(block, __version__) if dialect == "plcopen" else render(block, dialect)
+
+
 def render_all() -> list[Path]:
     written = []
     for kind in KINDS:
-        model = load_model(GOLDEN / f"{kind}.json")
-        for dialect in DIALECTS:
-            path = GOLDEN / f"{kind}.{dialect}.scl"
-            path.write_text(render(lower(model), dialect))
+        for dialect in (*DIALECTS, "plcopen"):
+            path = golden_block(kind, dialect)
+            path.write_text(rendered(kind, dialect))
             written.append(path)
     return written
 

@@ -4,7 +4,7 @@ from hypothesis import given, settings
 
 from thermoplc.generator import ir
 from thermoplc.generator.lower import lower
-from thermoplc.generator.printer import Dialect, _Printer, DIALECTS, render
+from thermoplc.generator.printer import _Printer, DIALECTS, render
 from thermoplc.verifier import syntax as s
 from thermoplc.verifier.parser import StSyntaxError, parse_text
 from tests.strategies import real_exprs
@@ -16,6 +16,8 @@ def to_ast(e):
         return s.Name(e.name)
     if isinstance(e, ir.BoolConst):
         return s.BoolLit(e.value)
+    if isinstance(e, ir.IntConst):
+        return s.IntLit(e.value)
     if isinstance(e, ir.BinOp):
         return s.BinOp(e.op, to_ast(e.left), to_ast(e.right))
     if isinstance(e, ir.Unary):
@@ -48,7 +50,7 @@ def test_printed_expression_parses_to_the_same_tree(expr):
 @given(real_exprs())
 @settings(max_examples=100, deadline=None)
 def test_bare_names_parse_the_same_as_hash_names(expr):
-    bare = _Printer(Dialect("bare", "", "", {}, "", ""))
+    bare = _Printer(DIALECTS["iec"])
     program = parse_text(wrap(f"y := {bare.expr(expr)};"))
     assert program.body[0].value == to_ast(expr)
 

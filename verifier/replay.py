@@ -11,7 +11,8 @@ from thermoplc.binary32 import f32_bits, f32_hex, ulp_distance
 from thermoplc.generator.lower import lower
 from thermoplc.errors import UserError
 from thermoplc.models.modelfile import Model
-from thermoplc.models.reference import model_inputs, predict
+from thermoplc.models.reference import block_outputs, model_inputs
+from thermoplc.models.safety import Limits
 from thermoplc.models.table import Table
 from thermoplc.verifier.interpreter import Finding, Machine
 from thermoplc.verifier.parser import parse_file
@@ -47,6 +48,7 @@ class Report:
     quantisation_um: dict = field(default_factory=dict)  # output -> max |float32 - float64|
     constants_checked: int = 0
     constant_errors: tuple[str, ...] = ()  # block constants/tables that differ from the model
+    limits: Limits | None = None  # safety limits read from the block (model verification)
 
     @property
     def ok(self) -> bool:
@@ -76,6 +78,11 @@ class Report:
             lines.append(f"  constants and tables: {self.constants_checked} values checked against the model, "
                          f"{len(self.constant_errors) or 'none'} differ")
             lines.extend(f"    {e}" for e in self.constant_errors[:20])
+        if self.limits is not None:
+            lim = self.limits
+            lines.append(f"  safety limits read from the block: outputs within +-{lim.max_output:g}, at most "
+                         f"{lim.max_step:g} per call; temperatures {lim.temp_min_C:g}..{lim.temp_max_C:g} degC, "
+                         f"jump {lim.max_jump_K:g} K, trusted again after {lim.settle_calls} steady calls")
         for name, error in self.quantisation_um.items():
             lines.append(f"  max |float32 - float64| on {name}: {error:.6g} um")
         found = {kind: [f for f in self.findings if f.kind == kind] for kind, _ in FINDING_LABELS}
@@ -154,13 +161,18 @@ def _replay_and_compare(machine: Machine, block: str, against: str, table: Table
                   quantisation)
 
 
-def _compare_constants(program: Program, model: Model) -> tuple[int, tuple[str, ...]]:
+def block_limits(program: Program, source: str) -> Limits:
+    """The safety limits the block was generated with, from its named constants."""
+    return Limits.from_constants({d.name: d.initial for d in program.decls if d.section == "constant"}, source)
+
+
+def _compare_constants(program: Program, model: Model, limits: Limits) -> tuple[int, tuple[str, ...]]:
     """Every constant and read-only table the model asks for, against the block's declarations.
 
     Replay proves behaviour on the data; table entries the data never reaches (a Bayes
     configuration never seen, an edge no sample lies next to) are only covered by this check.
     """
-    expected = lower(model)
+    expected = lower(model, limits)
     declared = {d.name.upper(): d for d in program.decls}
     wanted = [(c.name, (c.value,)) for c in expected.constants]
     wanted += [(v.name, v.initial) for v in expected.statics if v.initial is not None]
@@ -190,22 +202,23 @@ def _compare_constants(program: Program, model: Model) -> tuple[int, tuple[str, 
 def verify_against_model(block: str, model: Model, model_path: str, table: Table,
                          overrides: dict | None = None) -> Report:
     program, machine = _load(block)
+    limits = block_limits(program, block)
     inputs = model_inputs(model, table, overrides)
     _check_interface(machine, block, inputs, f"the inputs of {Path(model_path).name}")
-    block32 = predict(model, inputs, "f32")
+    block32 = block_outputs(model, inputs, "f32", limits)
     declared = [d.name for d in machine.outputs]
     unknown = [name for name in declared if name not in block32]
     missing = [name for name in block32 if name not in declared]
     if unknown or missing:
         raise UserError(f"{block}: block outputs {', '.join(declared)} do not match the outputs of "
                         f"{Path(model_path).name}: {', '.join(block32)}")
-    ideal = predict(model, inputs, "f64")
+    ideal = block_outputs(model, inputs, "f64", limits)
     quantisation = {model.target.name: float(np.max(np.abs(block32[model.target.name].astype(np.float64)
                                                           - ideal[model.target.name])))}
     against = f"the float32 reference of {Path(model_path).name} ({model.kind})"
     report = _replay_and_compare(machine, block, against, table, model.time_column, inputs, block32, quantisation)
-    checked, errors = _compare_constants(program, model)
-    return replace(report, constants_checked=checked, constant_errors=errors)
+    checked, errors = _compare_constants(program, model, limits)
+    return replace(report, constants_checked=checked, constant_errors=errors, limits=limits)
 
 
 def verify_against_trace(block: str, table: Table, expect: dict, overrides: dict | None = None,

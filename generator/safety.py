@@ -1,0 +1,116 @@
+"""Wrap a model's block in the safety logic of DESIGN §6: input guards, start gate, output limiter.
+
+Knows the IR, not the models: the caller says how each input is guarded (models/safety.py) and
+which outputs carry a K0. The statements mirror models/safety.py operation for operation.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+from functools import reduce
+
+from thermoplc.generator.ir import (
+    Assign, BinOp, Block, BoolConst, Call, Const, If, IntConst, Ref, Region, Unary, Var, rename, walk_exprs,
+)
+from thermoplc.models.safety import Guard, Limits
+
+_CONSTANT_COMMENTS = {
+    "c_TempMin": "lowest plausible temperature, degC (a broken PT100 reads -3276.8)",
+    "c_TempMax": "highest plausible temperature, degC (an open PT100 reads 3276.7)",
+    "c_SpeedMin": "lowest plausible speed, rpm", "c_SpeedMax": "highest plausible speed, rpm",
+    "c_OtherMin": "lowest plausible value of other inputs", "c_OtherMax": "highest plausible value of other inputs",
+    "c_JumpMax": "temperature change per call that marks a sensor faulty, K",
+    "c_SettleCalls": "steady calls before a faulty sensor is trusted again", "c_OneCall": "one call",
+    "c_StepMax": "largest output change per call (--max-step-um)", "c_StepMin": "largest output change per call, downwards",
+    "c_OutMax": "output clamp (--max-offset-um)", "c_OutMin": "output clamp, negative side",
+    "c_K0_mm": "K0 in mm per um of error: the NC moves the axis back by the error",
+}
+
+
+def _guard_region(g: Guard) -> Region:
+    x, ok, fault = Ref(g.name), Ref(f"InOk_{g.index}"), f"Fault_{g.index}"
+    in_range = Assign(ok.name, BinOp("AND", BinOp(">=", x, Ref(g.low)), BinOp("<=", x, Ref(g.high))))
+    if g.kind == "fused":
+        return Region(f"Input {g.index} {g.name}: range check (the filter decides the fault)", (
+            in_range, If(((Unary("NOT", Ref("Ready")), (Assign(fault, Unary("NOT", ok)),)),))))
+    hold = If(((Unary("NOT", Ref(fault)), (Assign(f"Good_{g.index}", x),)),))
+    if g.kind == "range":
+        return Region(f"Input {g.index} {g.name}: range check, hold the last good value", (
+            in_range, Assign(fault, Unary("NOT", ok)), hold))
+    settle, last = f"Settle_{g.index}", f"LastIn_{g.index}"
+    reset = (Assign(fault, BoolConst(True)), Assign(settle, IntConst(0)))
+    steady = BinOp("<=", Call("ABS", (BinOp("-", x, Ref(last)),)), Ref("c_JumpMax"))
+    count = (Assign(settle, BinOp("+", Ref(settle), Ref("c_OneCall"))),
+             If(((BinOp(">=", Ref(settle), Ref("c_SettleCalls")), (Assign(fault, BoolConst(False)),)),)))
+    decide = If((
+        (Unary("NOT", Ref("Ready")), (Assign(fault, Unary("NOT", ok)), Assign(settle, IntConst(0)))),
+        (Unary("NOT", ok), reset),
+        (Unary("NOT", steady), reset),
+        (Ref(fault), count),
+    ))
+    return Region(f"Input {g.index} {g.name}: range and jump check, hold the last good value", (
+        in_range, decide, If(((ok, (Assign(last, x),)),)), hold))
+
+
+def _limit(name: str, model_value: str) -> tuple:
+    y = Ref(name)
+    return (
+        Assign("Delta", BinOp("-", Ref(model_value), y)),
+        If(((BinOp(">", Ref("Delta"), Ref("c_StepMax")), (Assign(name, BinOp("+", y, Ref("c_StepMax"))),
+                                                          Assign("Limited", BoolConst(True)))),
+            (BinOp("<", Ref("Delta"), Ref("c_StepMin")), (Assign(name, BinOp("+", y, Ref("c_StepMin"))),
+                                                          Assign("Limited", BoolConst(True))))),
+           orelse=(Assign(name, Ref(model_value)),)),
+        If(((BinOp(">", y, Ref("c_OutMax")), (Assign(name, Ref("c_OutMax")), Assign("Clamped", BoolConst(True)))),
+            (BinOp("<", y, Ref("c_OutMin")), (Assign(name, Ref("c_OutMin")), Assign("Clamped", BoolConst(True)))))),
+    )
+
+
+def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], limits: Limits) -> Block:
+    """The block `core` computes, made safe: guarded inputs, a start gate and limited outputs."""
+    limited = [v for v in core.outputs if v.type == "REAL"]
+    model_names = {v.name: f"Model_{j}" for j, v in enumerate(limited, start=1)}
+    held = {g.name: f"Good_{g.index}" for g in plan if g.kind != "fused"}
+    body = rename(core.regions, {**model_names, **held})
+    ready = reduce(lambda a, b: BinOp("AND", a, b), [Ref(f"InOk_{g.index}") for g in plan])
+    # every model region runs only once the block is Ready; REGIONs stay at the top level (TIA)
+    gated = lambda title, stmts: Region(title, (If(((Ref("Ready"), tuple(stmts)),)),))
+    regions = [
+        *(_guard_region(g) for g in plan),
+        Region("Start the model at the first call with every input in range", (
+            If(((Unary("NOT", Ref("Ready")), (Assign("Ready", ready),)),)),)),
+        *(gated(r.title, r.body) for r in body),
+        Region("Output status: nothing limited yet in this call",
+               (Assign("Limited", BoolConst(False)), Assign("Clamped", BoolConst(False)))),
+    ]
+    k0 = {name: f"K0_{k}" for k, name in enumerate(axis_outputs, start=1)}
+    for v in limited:
+        stmts = _limit(v.name, model_names[v.name])
+        if v.name in k0:
+            stmts += (Assign(k0[v.name], BinOp("*", Ref(v.name), Ref("c_K0_mm"))),)
+        title = f"Output {v.name}: rate limit, clamp" + (", K0 for SD43900 $SA_TEMP_COMP_ABS_VALUE" if v.name in k0 else "")
+        regions.append(gated(title, stmts))
+    core_flags = {v.name: v for v in core.outputs if v.type != "REAL"}
+    faults = []
+    for g in plan:
+        name = f"Fault_{g.index}"
+        faults.append(core_flags.pop(name, None) or Var(name, "BOOL", f"{g.name} faulty: holding its last good value"))
+    outputs = (*limited,
+               *(Var(k0[v.name], "REAL", f"K0 of {v.name} for SD43900, mm") for v in limited if v.name in k0),
+               *core_flags.values(), *faults,
+               Var("Ready", "BOOL", "TRUE once every input was in range: the model runs"),
+               Var("Limited", "BOOL", "an output was rate-limited in this call"),
+               Var("Clamped", "BOOL", "an output was clamped in this call"))
+    statics = [*core.statics]
+    for g in plan:
+        if g.kind == "temperature":
+            statics += [Var(f"LastIn_{g.index}", "REAL", f"{g.name}: last reading in range"),
+                        Var(f"Settle_{g.index}", "INT", f"{g.name}: steady calls while faulty")]
+        if g.kind != "fused":
+            statics.append(Var(f"Good_{g.index}", "REAL", f"{g.name}: last good value"))
+    temps = (*core.temps, *(Var(f"InOk_{g.index}", "BOOL", f"{g.name} reads in range") for g in plan),
+             *(Var(model_names[v.name], "REAL", f"model value of {v.name}") for v in limited),
+             Var("Delta", "REAL", "wanted output change"))
+    referenced = {e.name for e in walk_exprs(tuple(regions)) if isinstance(e, Ref)}
+    constants = (*core.constants, *(Const(name, value, _CONSTANT_COMMENTS[name], "INT" if isinstance(value, int) else "REAL")
+                                    for name, value in limits.constants().items() if name in referenced))
+    return replace(core, outputs=outputs, statics=tuple(statics), temps=temps, constants=constants, regions=tuple(regions))

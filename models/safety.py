@@ -1,0 +1,203 @@
+"""What every block does around its model so that it is safe on a machine (DESIGN §6).
+
+Input guards: a reading that is NaN or outside its range (a broken PT100 reads 3276.7 or -3276.8)
+or, for temperatures, jumps by more than a limit in one call marks its sensor faulty; the block
+then holds the last good value (the Kalman filter instead sets that sensor's gain to 0) and takes
+the sensor back after it has read steadily for a number of calls. The model starts at the first
+call on which every input is in range. Output limits: each output moves at most `max_step` per
+call and stays within +-`max_output`; K0 for SINUMERIK SD43900 is the limited error in mm with the
+opposite sign. This module is the float32 reference of that logic; generator/safety.py emits the
+same operations in the same order.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from thermoplc.errors import UserError
+from thermoplc.models.modelfile import Model
+
+K0_MM_PER_UM = -0.001  # K0 opposes the predicted error: the NC moves the axis back by it
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Commissioning settings of the safety logic (generate --max-offset-um ... )."""
+    max_output: float = 300.0  # um (urad for angle outputs)
+    max_step: float = 2.0  # um per call
+    temp_min_C: float = -40.0
+    temp_max_C: float = 150.0
+    max_speed_rpm: float = 100000.0
+    max_other: float = 1.0e6  # feed, tool length and other non-temperature inputs
+    max_jump_K: float = 1.0  # temperature change per call that marks a sensor faulty
+    settle_calls: int = 30  # steady calls after which a held sensor is trusted again
+
+    def __post_init__(self):
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if not np.isfinite(value) or value <= 0 and f.name not in ("temp_min_C",):
+                raise UserError(f"safety limit {f.name} must be a positive finite number, got {value}")
+        if self.temp_min_C >= self.temp_max_C:
+            raise UserError(f"temperature range {self.temp_min_C}..{self.temp_max_C} degC is empty")
+        if not 1 <= self.settle_calls <= 10000:
+            raise UserError(f"settle calls must be 1..10000, got {self.settle_calls}")
+
+    def constants(self) -> dict:
+        """The block's named constants (name -> binary32 value or INT)."""
+        f = lambda x: float(np.float32(x))
+        return {"c_TempMin": f(self.temp_min_C), "c_TempMax": f(self.temp_max_C),
+                "c_SpeedMin": f(-self.max_speed_rpm), "c_SpeedMax": f(self.max_speed_rpm),
+                "c_OtherMin": f(-self.max_other), "c_OtherMax": f(self.max_other),
+                "c_JumpMax": f(self.max_jump_K), "c_SettleCalls": int(self.settle_calls), "c_OneCall": 1,
+                "c_StepMax": f(self.max_step), "c_StepMin": f(-self.max_step),
+                "c_OutMax": f(self.max_output), "c_OutMin": f(-self.max_output), "c_K0_mm": f(K0_MM_PER_UM)}
+
+    @classmethod
+    def from_constants(cls, declared: dict, source: str) -> "Limits":
+        """The limits a block was generated with, read back from its constants."""
+        wanted = {"c_TempMin": "temp_min_C", "c_TempMax": "temp_max_C", "c_SpeedMax": "max_speed_rpm",
+                  "c_OtherMax": "max_other", "c_JumpMax": "max_jump_K", "c_SettleCalls": "settle_calls",
+                  "c_StepMax": "max_step", "c_OutMax": "max_output"}
+        upper = {k.upper(): v for k, v in declared.items()}
+        missing = [k for k in ("c_StepMax", "c_OutMax") if k.upper() not in upper]
+        if missing:
+            raise UserError(f"{source}: the block has no safety constants ({', '.join(missing)}); "
+                            f"regenerate it with this version of thermoplc")
+        # a limit the block does not use (no speed input, say) keeps its default: it cannot change an output
+        return cls(**{field: upper[k.upper()] for k, field in wanted.items() if k.upper() in upper})
+
+
+@dataclass(frozen=True)
+class Guard:
+    """How one block input is checked. kind: 'fused' (the model's own fault logic decides, Kalman),
+    'temperature' (range and jump, hold last good), 'range' (range only, hold last good)."""
+    name: str
+    index: int  # 1-based position among the block inputs; names Fault_<index>
+    kind: str
+    low: str  # constant names of the valid range
+    high: str
+
+
+def guards(model: Model) -> tuple[Guard, ...]:
+    out = []
+    for k, s in enumerate(model.inputs, start=1):
+        roles = set(s.role.split(","))
+        if roles & {"temperature", "ambient"}:
+            kind = "fused" if model.kind == "kalman" and "temperature" in roles else "temperature"
+            out.append(Guard(s.name, k, kind, "c_TempMin", "c_TempMax"))
+        elif "speed" in roles:
+            out.append(Guard(s.name, k, "range", "c_SpeedMin", "c_SpeedMax"))
+        else:
+            out.append(Guard(s.name, k, "range", "c_OtherMin", "c_OtherMax"))
+    return tuple(out)
+
+
+def limited_outputs(core: dict) -> list[str]:
+    """The model outputs the limiter acts on: every REAL one, in the model's order."""
+    return [name for name, values in core.items() if np.asarray(values).dtype.kind == "f"]
+
+
+def axis_outputs(model: Model, names: list[str]) -> list[str]:
+    """Outputs in um: each gets a K0 for SD43900."""
+    units = {model.target.name: model.target.unit}
+    units.update({t["name"]: t["unit"] for t in model.settings.get("targets", ())})
+    return [n for n in names if units.get(n, "um") == "um"]
+
+
+def _hold(x: np.ndarray, valid: np.ndarray, guard: Guard, ready_row: int, limits: Limits, f):
+    """Last good value and fault flag per call, as the guard region computes them."""
+    rows = len(x)
+    held = np.zeros(rows, f)
+    faults = np.zeros(rows, bool)
+    fault, count, last, good = False, 0, f(0), f(0)
+    jump = f(limits.max_jump_K)
+    for j in range(rows):
+        ok = bool(valid[j])
+        if guard.kind == "range":
+            fault = not ok
+        elif j <= ready_row:
+            fault, count = not ok, 0
+        elif not ok:
+            fault, count = True, 0
+        elif not abs(x[j] - last) <= jump:
+            fault, count = True, 0
+        elif fault:
+            count += 1
+            if count >= limits.settle_calls:
+                fault = False
+        if ok and guard.kind != "range":
+            last = x[j]
+        if not fault:
+            good = x[j]
+        held[j], faults[j] = good, fault
+    return held, faults
+
+
+def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, core_predict) -> dict:
+    """Every block output, given raw inputs: guards, the model from the first all-valid call, limiter."""
+    f = np.float32 if precision == "f32" else np.float64
+    constants = limits.constants()
+    plan = guards(model)
+    rows = len(next(iter(inputs.values())))
+    raw = {g.name: np.asarray(inputs[g.name], f) for g in plan}
+    with np.errstate(invalid="ignore"):
+        valid = {g.name: (raw[g.name] >= f(constants[g.low])) & (raw[g.name] <= f(constants[g.high])) for g in plan}
+    all_valid = np.logical_and.reduce([valid[g.name] for g in plan])
+    ready_row = int(np.argmax(all_valid)) if all_valid.any() else rows
+    core_inputs, faults = {}, {}
+    for g in plan:
+        if g.kind == "fused":
+            core_inputs[g.name] = raw[g.name]
+        else:
+            core_inputs[g.name], faults[g.name] = _hold(raw[g.name], valid[g.name], g, ready_row, limits, f)
+    running = {name: values[ready_row:] for name, values in core_inputs.items()}
+    fused_valid = {g.name: valid[g.name][ready_row:] for g in plan if g.kind == "fused"}
+    core = core_predict(model, running, precision, fused_valid) if ready_row < rows else None
+    names = limited_outputs(core) if core is not None else _real_outputs_of(model, core_predict, precision)
+    out = {}
+    limited = np.zeros(rows, bool)
+    clamped = np.zeros(rows, bool)
+    step_max, step_min = f(constants["c_StepMax"]), f(constants["c_StepMin"])
+    out_max, out_min = f(constants["c_OutMax"]), f(constants["c_OutMin"])
+    for name in names:
+        y = f(0)
+        series = np.zeros(rows, f)
+        model_values = core[name] if core is not None else ()
+        for j in range(ready_row, rows):
+            m = model_values[j - ready_row]
+            delta = m - y
+            if delta > step_max:
+                y, limited[j] = y + step_max, True
+            elif delta < step_min:
+                y, limited[j] = y + step_min, True
+            else:
+                y = m
+            if y > out_max:
+                y, clamped[j] = out_max, True
+            elif y < out_min:
+                y, clamped[j] = out_min, True
+            series[j] = y
+        out[name] = series
+    for k, name in enumerate(axis_outputs(model, names), start=1):
+        k0 = np.zeros(rows, f)
+        k0[ready_row:] = out[name][ready_row:] * f(constants["c_K0_mm"])
+        out[f"K0_{k}"] = k0
+    for g in plan:
+        if g.kind == "fused":
+            flags = ~valid[g.name]
+            if core is not None:
+                flags[ready_row:] = core[f"Fault_{g.index}"]
+            out[f"Fault_{g.index}"] = flags
+        else:
+            out[f"Fault_{g.index}"] = faults[g.name]
+    out["Ready"] = np.arange(rows) >= ready_row
+    out["Limited"] = limited
+    out["Clamped"] = clamped
+    return out
+
+
+def _real_outputs_of(model: Model, core_predict, precision: str) -> list[str]:
+    """Output names when the model never starts (no call had every input in range)."""
+    probe = {s.name: np.full(1, 20.0, np.float32) for s in model.inputs}
+    return limited_outputs(core_predict(model, probe, precision, {}))
