@@ -140,8 +140,15 @@ def cmd_verify(args) -> int:
         from thermoplc.models.modelfile import load_model
         model = load_model(args.model)
         table = read_table(args.data, model.time_column)
+        if args.faults:
+            from thermoplc.verifier.faults import format_cases, verify_faults
+            cases = verify_faults(args.block, model, table, args.inputs)
+            print(format_cases(cases, args.block, table.rows))
+            return 0 if all(c.ok for c in cases) else 1
         report = verify_against_model(args.block, model, args.model, table, args.inputs)
     else:
+        if args.faults:
+            raise UserError("--faults needs --model: the faulty replay is compared with the model's reference")
         table = read_table(args.data, args.time)
         expect = {}
         for item in args.expect:
@@ -150,6 +157,17 @@ def cmd_verify(args) -> int:
         report = verify_against_trace(args.block, table, expect, args.inputs, args.time)
     print(report.text())
     return 0 if report.ok else 1
+
+
+def cmd_diff(args) -> int:
+    from thermoplc.models.table import read_table
+    from thermoplc.verifier.diff import diff_blocks, format_diff
+    table = read_table(args.data, args.time) if args.data else None
+    result = diff_blocks(args.old, args.new, table, args.inputs, args.time)
+    print(format_diff(result))
+    if table is not None:
+        return 0 if result.behaviour_equal else 1
+    return 0 if result.structurally_equal else 1
 
 
 def cmd_select(args) -> int:
@@ -302,12 +320,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True)
     p.set_defaults(func=cmd_generate)
 
+    p = sub.add_parser("diff", help="what changed between two blocks: constants, interface, statements, behaviour")
+    p.add_argument("old")
+    p.add_argument("new")
+    p.add_argument("--data", help="replay both blocks on this CSV and report the largest output difference")
+    p.add_argument("--inputs", type=_mapping, help="block input to column mapping NAME=COLUMN,...")
+    p.add_argument("--time", default="time_s", help="time column (default: %(default)s)")
+    p.set_defaults(func=cmd_diff)
+
     p = sub.add_parser("verify", help="replay data through a block and compare every output bit for bit")
     p.add_argument("block")
     p.add_argument("--data", required=True)
     p.add_argument("--model", help="compare with this model's float32 reference")
     p.add_argument("--expect", type=_columns, help="compare with recorded outputs: COLUMN or OUTPUT=COLUMN, comma-separated")
     p.add_argument("--inputs", type=_mapping, help="block input to column mapping NAME=COLUMN,...")
+    p.add_argument("--faults", action="store_true",
+                   help="replay with injected sensor faults (NaN, open/short PT100, jumps, paper 000 sine and "
+                        "offset) and check exactness, finiteness, clamp and rate limit")
     p.add_argument("--time", default="time_s", help="time column for --expect traces (default: %(default)s)")
     p.set_defaults(func=cmd_verify)
     return parser

@@ -1,0 +1,245 @@
+"""thermoplc diff: what changed between two blocks, in structure and (given data) in behaviour.
+
+Works on parsed blocks, so layout, comments, keyword case and dialect do not count as changes;
+changed constants, interface, state and statements do. With data, both blocks are replayed and
+the largest output difference is reported with the call where it occurs.
+"""
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from thermoplc.binary32 import f32_bits
+from thermoplc.errors import UserError
+from thermoplc.models.table import Table
+from thermoplc.verifier import syntax as s
+from thermoplc.verifier.interpreter import Machine
+from thermoplc.verifier.parser import parse_file
+
+SECTIONS = (("input", "inputs"), ("output", "outputs"), ("static", "state"), ("temp", "temporaries"))
+WHOLE_BODY = "(body)"
+
+
+@dataclass(frozen=True)
+class ConstantChange:
+    name: str
+    old: object
+    new: object
+
+    @property
+    def relative(self) -> float | None:
+        if isinstance(self.old, (int, float)) and isinstance(self.new, (int, float)) and self.old != 0:
+            return (float(self.new) - float(self.old)) / abs(float(self.old))
+        return None
+
+
+@dataclass(frozen=True)
+class OutputDifference:
+    output: str
+    max_abs: float  # REAL: largest |new - old|; BOOL: number of calls that differ
+    cycle: int  # first call with that largest difference
+    time: float
+    differing_calls: int
+    real: bool  # REAL output (max_abs in its unit) or BOOL (max_abs unused)
+
+
+@dataclass
+class BlockDiff:
+    old: str
+    new: str
+    interface: list[str] = field(default_factory=list)  # '+ input X : REAL', '- state Y', '~ output Z: REAL -> BOOL'
+    constants: list[ConstantChange] = field(default_factory=list)
+    statements: list[str] = field(default_factory=list)  # per region: what changed, with lines
+    behaviour: list[OutputDifference] | None = None  # None: no data given
+    cycles: int = 0
+
+    @property
+    def structurally_equal(self) -> bool:
+        return not (self.interface or self.constants or self.statements)
+
+    @property
+    def behaviour_equal(self) -> bool:
+        return self.behaviour is not None and all(d.differing_calls == 0 for d in self.behaviour)
+
+
+def _same_value(a, b) -> bool:
+    if isinstance(a, tuple) or isinstance(b, tuple):
+        return (isinstance(a, tuple) and isinstance(b, tuple) and len(a) == len(b)
+                and all(_same_value(x, y) for x, y in zip(a, b)))
+    if isinstance(a, float) and isinstance(b, float):
+        return f32_bits(a) == f32_bits(b)
+    return type(a) is type(b) and a == b
+
+
+def _type_text(t: s.TypeRef) -> str:
+    return t.base if t.bounds is None else f"ARRAY[{t.bounds[0]}..{t.bounds[1]}] OF {t.base}"
+
+
+def _interface(old: s.Program, new: s.Program) -> list[str]:
+    lines = []
+    for section, label in SECTIONS:
+        before = {d.name.upper(): d for d in old.section(section)}
+        after = {d.name.upper(): d for d in new.section(section)}
+        lines += [f"- {label[:-1] if label.endswith('s') else label} {d.name} : {_type_text(d.type)}"
+                  for key, d in before.items() if key not in after]
+        lines += [f"+ {label[:-1] if label.endswith('s') else label} {d.name} : {_type_text(d.type)}"
+                  for key, d in after.items() if key not in before]
+        for key in before.keys() & after.keys():
+            if before[key].type != after[key].type:
+                lines.append(f"~ {label[:-1]} {after[key].name}: {_type_text(before[key].type)} -> "
+                             f"{_type_text(after[key].type)}")
+    return sorted(lines, key=lambda line: line[2:])
+
+
+def _constants(old: s.Program, new: s.Program) -> list[ConstantChange]:
+    """Named constants and the start values of tables (read-only statics)."""
+    def values(p: s.Program) -> dict:
+        return {d.name.upper(): (d.name, d.initial) for d in p.decls
+                if d.section == "constant" or (d.section == "static" and isinstance(d.initial, tuple))}
+    before, after = values(old), values(new)
+    changes = []
+    for key in sorted(before.keys() | after.keys()):
+        name_old, value_old = before.get(key, (None, None))
+        name_new, value_new = after.get(key, (None, None))
+        if key in before and key in after and _same_value(value_old, value_new):
+            continue
+        if isinstance(value_old, tuple) and isinstance(value_new, tuple) and len(value_old) == len(value_new):
+            changes += [ConstantChange(f"{name_new}[{k}]", a, b) for k, (a, b) in enumerate(zip(value_old, value_new))
+                        if not _same_value(a, b)]
+        else:
+            changes.append(ConstantChange(name_new or name_old, value_old, value_new))
+    return changes
+
+
+def _regions(p: s.Program) -> dict[str, tuple]:
+    """Top-level regions by title; statements outside regions (or a dialect without REGION) go under one key."""
+    regions: dict[str, tuple] = {}
+    loose: list = []
+    for st in p.body:
+        if isinstance(st, s.Region):
+            regions[st.title] = regions.get(st.title, ()) + st.body
+        else:
+            loose.append(st)
+    if loose:
+        regions[WHOLE_BODY] = tuple(loose)
+    return regions
+
+
+def _flat(body: tuple) -> list:
+    out = []
+    for st in body:
+        out.extend(_flat(st.body) if isinstance(st, s.Region) else [st])
+    return out
+
+
+def _statements(old: s.Program, new: s.Program, old_lines: list[str], new_lines: list[str]) -> list[str]:
+    a, b = _regions(old), _regions(new)
+    if (WHOLE_BODY in a) != (WHOLE_BODY in b) or set(a) == {WHOLE_BODY} or set(b) == {WHOLE_BODY}:
+        a, b = {WHOLE_BODY: tuple(_flat(old.body))}, {WHOLE_BODY: tuple(_flat(new.body))}  # one side has no REGIONs
+    report = []
+    for title in [t for t in a if t not in b]:
+        report.append(f"- region {title!r} removed ({len(a[title])} statements)")
+    for title in [t for t in b if t not in a]:
+        report.append(f"+ region {title!r} added ({len(b[title])} statements)")
+    for title in [t for t in b if t in a]:
+        before, after = list(a[title]), list(b[title])
+        if before == after:
+            continue
+        matcher = difflib.SequenceMatcher(a=before, b=after, autojunk=False)
+        for tag, i1, i2, j1, j2 in matcher.get_opcodes():
+            if tag == "equal":
+                continue
+            where = "body" if title == WHOLE_BODY else f"region {title!r}"
+            report.append(f"~ {where}: {i2 - i1} statement(s) replaced by {j2 - j1}")
+            report += [f"    old line {st.pos[0]}: {old_lines[st.pos[0] - 1].strip()}" for st in before[i1:i2][:3]]
+            report += [f"    new line {st.pos[0]}: {new_lines[st.pos[0] - 1].strip()}" for st in after[j1:j2][:3]]
+    return report
+
+
+def _columns(machine: Machine, table: Table, overrides: dict | None, block: str) -> dict:
+    columns = {}
+    for d in machine.inputs:
+        column = (overrides or {}).get(d.name, d.name)
+        if column not in table.columns:
+            raise UserError(f"{table.path}: no column {column!r} for input {d.name} of {block}; "
+                            f"map it with --inputs {d.name}=COLUMN")
+        values = table.columns[column]
+        columns[d.name] = values.astype(np.float32).tolist() if d.type.base == "REAL" else (values != 0).tolist()
+    return columns
+
+
+def _behaviour(old_path: str, new_path: str, old: s.Program, new: s.Program, table: Table,
+               overrides: dict | None, time_column: str) -> list[OutputDifference]:
+    old_machine, new_machine = Machine(old, old_path), Machine(new, new_path)
+    before = old_machine.replay(_columns(old_machine, table, overrides, old_path), table.rows)
+    after = new_machine.replay(_columns(new_machine, table, overrides, new_path), table.rows)
+    times = table.columns.get(time_column, np.arange(table.rows, dtype=float))
+    diffs = []
+    common = [d for d in new_machine.outputs if d.name in before]
+    for d in common:
+        a, b = before[d.name], after[d.name]
+        if d.type.base == "REAL":
+            x, y = np.asarray(a, np.float32), np.asarray(b, np.float32)
+            differ = x.view(np.uint32) != y.view(np.uint32)
+            with np.errstate(invalid="ignore"):
+                gap = np.abs(y.astype(np.float64) - x.astype(np.float64))
+            gap = np.where(differ, np.nan_to_num(gap, nan=np.inf), 0.0)
+        else:
+            differ = np.asarray(a, bool) != np.asarray(b, bool)
+            gap = differ.astype(float)
+        worst = int(np.argmax(gap)) if differ.any() else 0
+        diffs.append(OutputDifference(d.name, float(gap[worst]) if d.type.base == "REAL" else float(differ.sum()),
+                                      worst, float(times[worst]), int(differ.sum()), d.type.base == "REAL"))
+    return diffs
+
+
+def diff_blocks(old_path: str, new_path: str, table: Table | None = None, overrides: dict | None = None,
+                time_column: str = "time_s") -> BlockDiff:
+    old, new = parse_file(old_path), parse_file(new_path)
+    old_lines = Path(old_path).read_text("utf-8-sig").splitlines()
+    new_lines = Path(new_path).read_text("utf-8-sig").splitlines()
+    result = BlockDiff(old_path, new_path, _interface(old, new), _constants(old, new),
+                       _statements(old, new, old_lines, new_lines))
+    if table is not None:
+        result.behaviour = _behaviour(old_path, new_path, old, new, table, overrides, time_column)
+        result.cycles = table.rows
+    return result
+
+
+def _show(value) -> str:
+    if value is None:
+        return "(none)"
+    if isinstance(value, float):
+        return str(np.float32(value))
+    if isinstance(value, tuple):
+        return f"table of {len(value)} values"
+    return str(value)
+
+
+def format_diff(d: BlockDiff) -> str:
+    lines = [f"diff {d.old} -> {d.new}"]
+    lines.append("interface: " + ("unchanged" if not d.interface else f"{len(d.interface)} change(s)"))
+    lines += [f"  {line}" for line in d.interface]
+    lines.append("constants: " + ("unchanged" if not d.constants else f"{len(d.constants)} changed"))
+    for c in d.constants[:50]:
+        rel = c.relative
+        lines.append(f"  {c.name}: {_show(c.old)} -> {_show(c.new)}" + (f"  ({rel:+.3g} relative)" if rel is not None else ""))
+    if len(d.constants) > 50:
+        lines.append(f"  ... {len(d.constants) - 50} more")
+    lines.append("statements: " + ("unchanged" if not d.statements else "changed"))
+    lines += [f"  {line}" for line in d.statements]
+    if d.behaviour is not None:
+        same = d.behaviour_equal
+        lines.append(f"behaviour on the data ({d.cycles} calls): " + ("identical, every output bit equal" if same else "DIFFERENT"))
+        for b in d.behaviour:
+            if b.differing_calls == 0:
+                lines.append(f"  {b.output}: identical")
+            elif not b.real:
+                lines.append(f"  {b.output}: differs in {b.differing_calls} calls, first at call {b.cycle} (time {b.time:g} s)")
+            else:
+                lines.append(f"  {b.output}: differs in {b.differing_calls} calls; largest |new - old| = {b.max_abs:.6g} "
+                             f"at call {b.cycle} (time {b.time:g} s)")
+    return "\n".join(lines)

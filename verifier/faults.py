@@ -1,0 +1,130 @@
+"""verify --faults: replay the data with sensor faults injected and check the block stays exact and safe.
+
+Each fault kind is injected on each temperature input in turn, starting a third into the data.
+For every case the block must still match the float32 reference bit for bit, keep every REAL
+output finite, inside the clamp and within the rate limit; the table also says whether the
+sensor's fault bit came up, whether it was clear again at the end, and how far the fault moved
+the predicted error compared with the run without it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from thermoplc.models.modelfile import Model
+from thermoplc.models.reference import block_outputs, model_inputs
+from thermoplc.models.safety import Limits, guards
+from thermoplc.models.table import Table
+from thermoplc.verifier.replay import _check_interface, _load, _replay_and_compare, block_limits
+
+TRANSIENT_CALLS = 30
+
+
+def _constant(value: float):
+    return lambda x, t: np.full_like(x, value)
+
+
+@dataclass(frozen=True)
+class FaultKind:
+    name: str
+    description: str
+    lasting: bool  # True: from the start to the end of the data; False: TRANSIENT_CALLS calls
+    apply: object  # (values, seconds since the fault began) -> faulty values
+
+
+FAULT_KINDS = (
+    FaultKind("nan", "reads NaN", False, _constant(np.nan)),
+    FaultKind("open", "open circuit, PT100 code 3276.7", False, _constant(3276.7)),
+    FaultKind("short", "short circuit, PT100 code -3276.8", False, _constant(-3276.8)),
+    FaultKind("jump", "jumps by +5 K", False, lambda x, t: x + np.float32(5.0)),
+    FaultKind("dead", "dies: NaN to the end", True, _constant(np.nan)),
+    FaultKind("sine", "paper 000 eq. 18: +2 sin(t/350) degC", True, lambda x, t: x + 2.0 * np.sin(t / 350.0)),
+    FaultKind("offset", "paper 000 eq. 19: -2 degC", True, lambda x, t: x - np.float32(2.0)),
+)
+
+
+@dataclass(frozen=True)
+class FaultCase:
+    kind: FaultKind
+    sensor: str
+    first_row: int
+    last_row: int
+    bit_exact: bool
+    finite: bool
+    within_clamp: bool
+    within_rate: bool
+    flagged: bool
+    clear_at_end: bool
+    max_change: float  # largest |output with fault - output without| of the model's target
+
+    @property
+    def ok(self) -> bool:
+        return self.bit_exact and self.finite and self.within_clamp and self.within_rate
+
+
+def inject(values: np.ndarray, times: np.ndarray, kind: FaultKind, first: int) -> tuple[np.ndarray, int]:
+    """A copy of a float32 column with the fault applied from row `first`; returns it and the last faulty row."""
+    out = np.array(values, np.float32)
+    last = len(out) - 1 if kind.lasting else min(len(out) - 1, first + TRANSIENT_CALLS - 1)
+    span = slice(first, last + 1)
+    seconds = (times[span] - times[first]).astype(np.float64)
+    out[span] = np.asarray(kind.apply(out[span].astype(np.float64), seconds), np.float64).astype(np.float32)
+    return out, last
+
+
+def _within_rate(series: np.ndarray, step: float) -> bool:
+    """Each change at most the step, allowing the rounding of y + step in binary32."""
+    y = series.astype(np.float64)
+    allowed = step + np.spacing(np.maximum(np.abs(y[1:]), np.abs(y[:-1])).astype(np.float32)).astype(np.float64)
+    return bool(np.all(np.abs(np.diff(y)) <= allowed))
+
+
+def verify_faults(block: str, model: Model, table: Table, overrides: dict | None = None) -> list[FaultCase]:
+    program, machine = _load(block)
+    limits: Limits = block_limits(program, block)
+    clean = model_inputs(model, table, overrides)
+    _check_interface(machine, block, clean, "the model inputs")
+    times = table.columns[model.time_column] if model.time_column in table.columns else np.arange(table.rows) * 1.0
+    baseline = block_outputs(model, clean, "f32", limits)[model.target.name]
+    first = table.rows // 3
+    cases = []
+    for g in guards(model):
+        if g.low != "c_TempMin":
+            continue
+        for kind in FAULT_KINDS:
+            inputs = dict(clean)
+            inputs[g.name], last = inject(clean[g.name], np.asarray(times), kind, first)
+            expected = block_outputs(model, inputs, "f32", limits)
+            machine.reset()
+            report = _replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
+            real = [np.asarray(v, np.float32) for v in expected.values() if np.asarray(v).dtype.kind == "f"]
+            limited = [np.asarray(expected[v.name], np.float32) for v in machine.outputs
+                       if v.type.base == "REAL" and not v.name.startswith("K0_")]
+            flags = np.asarray(expected[f"Fault_{g.index}"], bool)
+            cases.append(FaultCase(
+                kind, g.name, first, last, report.mismatch is None,
+                all(bool(np.all(np.isfinite(v))) for v in real) and not any(f.kind in ("nan", "inf") for f in report.findings),
+                all(bool(np.all(np.abs(v) <= np.float32(limits.max_output))) for v in limited),
+                all(_within_rate(v, limits.max_step) for v in limited),
+                bool(flags[first:last + 1].any()), not bool(flags[-1]),
+                float(np.max(np.abs(expected[model.target.name].astype(np.float64) - baseline.astype(np.float64))))))
+    return cases
+
+
+def format_cases(cases: list[FaultCase], block: str, rows: int) -> str:
+    lines = [f"fault injection on {block}: {len(cases)} cases over {rows} calls each, faults start at call "
+             f"{cases[0].first_row if cases else 0}; transient faults last {TRANSIENT_CALLS} calls",
+             f"{'sensor':<16}{'fault':<44}{'bit-exact':>10}{'finite':>8}{'clamp':>7}{'rate':>6}"
+             f"{'flagged':>9}{'clear at end':>14}{'max change':>12}"]
+    yes = lambda b: "yes" if b else "NO"
+    for c in cases:
+        lines.append(f"{c.sensor:<16}{c.kind.name + ': ' + c.kind.description:<44}{yes(c.bit_exact):>10}"
+                     f"{yes(c.finite):>8}{yes(c.within_clamp):>7}{yes(c.within_rate):>6}"
+                     f"{'yes' if c.flagged else 'no':>9}{'yes' if c.clear_at_end else 'no':>14}{c.max_change:>12.4g}")
+    bad = [c for c in cases if not c.ok]
+    lines.append("all cases bit-exact, finite, inside the clamp and the rate limit" if not bad else
+                 f"{len(bad)} case(s) FAILED: " + ", ".join(f"{c.sensor}/{c.kind.name}" for c in bad))
+    lines.append("flagged/clear at end describe the block's behaviour, they are not pass criteria; max change "
+                 "is the largest |error with fault - error without| in the target's unit")
+    return "\n".join(lines)
