@@ -135,6 +135,30 @@ def _flat(body: tuple) -> list:
     return out
 
 
+def _leaves(body) -> list[tuple[object, int]]:
+    """Statements as a flat list of (comparable key, source line): an IF contributes its conditions
+    and the leaves of its branches, so a change deep inside an IF is reported at its own line."""
+    out: list[tuple[object, int]] = []
+    for st in body:
+        if isinstance(st, s.Region):
+            out += _leaves(st.body)
+        elif isinstance(st, s.If):
+            for k, (cond, branch) in enumerate(st.branches):
+                out.append((("IF" if k == 0 else "ELSIF", cond), getattr(cond, "pos", st.pos)[0] or st.pos[0]))
+                out += _leaves(branch)
+            if st.orelse:
+                out.append((("ELSE",), st.orelse[0].pos[0]))
+                out += _leaves(st.orelse)
+            out.append((("END_IF",), 0))
+        elif isinstance(st, s.For):
+            out.append((("FOR", st.var, st.start, st.stop, st.step), st.pos[0]))
+            out += _leaves(st.body)
+            out.append((("END_FOR",), 0))
+        else:
+            out.append((st, st.pos[0]))
+    return out
+
+
 def _statements(old: s.Program, new: s.Program, old_lines: list[str], new_lines: list[str]) -> list[str]:
     a, b = _regions(old), _regions(new)
     if (WHOLE_BODY in a) != (WHOLE_BODY in b) or set(a) == {WHOLE_BODY} or set(b) == {WHOLE_BODY}:
@@ -145,17 +169,17 @@ def _statements(old: s.Program, new: s.Program, old_lines: list[str], new_lines:
     for title in [t for t in b if t not in a]:
         report.append(f"+ region {title!r} added ({len(b[title])} statements)")
     for title in [t for t in b if t in a]:
-        before, after = list(a[title]), list(b[title])
-        if before == after:
+        before, after = _leaves(a[title]), _leaves(b[title])
+        if [k for k, _ in before] == [k for k, _ in after]:
             continue
-        matcher = difflib.SequenceMatcher(a=before, b=after, autojunk=False)
+        matcher = difflib.SequenceMatcher(a=[k for k, _ in before], b=[k for k, _ in after], autojunk=False)
         for tag, i1, i2, j1, j2 in matcher.get_opcodes():
             if tag == "equal":
                 continue
             where = "body" if title == WHOLE_BODY else f"region {title!r}"
             report.append(f"~ {where}: {i2 - i1} statement(s) replaced by {j2 - j1}")
-            report += [f"    old line {st.pos[0]}: {old_lines[st.pos[0] - 1].strip()}" for st in before[i1:i2][:3]]
-            report += [f"    new line {st.pos[0]}: {new_lines[st.pos[0] - 1].strip()}" for st in after[j1:j2][:3]]
+            report += [f"    old line {line}: {old_lines[line - 1].strip()}" for _, line in before[i1:i2][:3] if line]
+            report += [f"    new line {line}: {new_lines[line - 1].strip()}" for _, line in after[j1:j2][:3] if line]
     return report
 
 

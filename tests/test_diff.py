@@ -1,0 +1,63 @@
+"""thermoplc diff: structure and behaviour, on generated and hand-edited blocks."""
+import re
+
+import numpy as np
+import pytest
+
+from scripts.regen_golden import GOLDEN, golden_block, golden_twin_csv
+from tests.test_cli import thermoplc
+from thermoplc.generator.literals import real_literal
+from thermoplc.models.table import read_table
+from thermoplc.verifier.diff import diff_blocks
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory):
+    return golden_twin_csv(tmp_path_factory.mktemp("diff"))
+
+
+def _one_ulp_up(text: str, name: str) -> tuple[str, float, float]:
+    match = re.search(rf"({name} : Real := )([-0-9.E]+);", text)
+    old = np.float32(match.group(2))
+    new = np.nextafter(old, np.float32(np.inf))
+    return text.replace(match.group(0), f"{match.group(1)}{real_literal(float(new))};"), float(old), float(new)
+
+
+def test_one_ulp_constant_change_shows_structurally_and_behaviourally(tmp_path, data):
+    old = golden_block("kalman", "tia")
+    text, before, after = _one_ulp_up(old.read_text(), "c_beta_1")
+    new = tmp_path / "new.scl"
+    new.write_text(text)
+    d = diff_blocks(str(old), str(new), read_table(data))
+    assert [(c.name, c.old, c.new) for c in d.constants] == [("c_beta_1", before, after)]
+    assert d.interface == [] and d.statements == []
+    assert not d.behaviour_equal
+    error = next(b for b in d.behaviour if b.output == "E_z_um")
+    assert error.differing_calls > 0 and 0 < error.max_abs < 1e-4
+    out = thermoplc("diff", old, new, "--data", data, cwd=tmp_path, check=1).stdout
+    assert "c_beta_1: " in out and "relative" in out and "E_z_um: differs in" in out
+
+
+def test_dialects_and_reformatting_are_not_changes(tmp_path, data):
+    tia = golden_block("lumped", "tia")
+    edited = tmp_path / "edited.scl"
+    edited.write_text("// reviewed by hand\n" + tia.read_text().replace("\t", "  ").replace("IF ", "if ")
+                      .replace(" THEN", " then").replace("END_IF;", "end_if; (* checked *)"))
+    for other in (golden_block("lumped", "step7"), golden_block("lumped", "iec"), edited):
+        out = thermoplc("diff", tia, other, "--data", data, cwd=tmp_path).stdout
+        assert "interface: unchanged" in out and "constants: unchanged" in out
+        assert "statements: unchanged" in out and "identical, every output bit equal" in out
+
+
+def test_changed_statement_and_interface_are_named(tmp_path):
+    old = golden_block("mlr", "tia")
+    text = old.read_text()
+    text = text.replace("#Model_1 := #c_beta0 + #c_beta_1", "#Model_1 := #c_beta0 - #c_beta_1")
+    text = text.replace("      T_bearing : Real;", "      T_bearing : Real;\n      T_spare : Real;")
+    new = tmp_path / "new.scl"
+    new.write_text(text)
+    d = diff_blocks(str(old), str(new))
+    assert d.interface == ["+ input T_spare : REAL"]
+    assert d.statements[0] == "~ region 'Regression on temperature rises, eq. 10': 1 statement(s) replaced by 1"
+    assert "#c_beta0 - #c_beta_1" in d.statements[2]
+    assert thermoplc("diff", old, new, cwd=tmp_path, check=1).returncode == 1

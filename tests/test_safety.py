@@ -1,0 +1,91 @@
+"""The safety logic every block carries: guards, start gate, clamp, rate limit, K0, fault injection."""
+import numpy as np
+import pytest
+
+from scripts.regen_golden import GOLDEN, KINDS, golden_block, golden_twin_csv
+from tests.test_cli import thermoplc
+from thermoplc.generator.lower import lower
+from thermoplc.generator.printer import render
+from thermoplc.models.modelfile import load_model
+from thermoplc.models.reference import block_outputs, model_inputs
+from thermoplc.models.safety import K0_MM_PER_UM, Limits
+from thermoplc.models.table import read_table
+from thermoplc.verifier.faults import FAULT_KINDS, verify_faults
+from thermoplc.verifier.interpreter import Machine
+from thermoplc.verifier.parser import parse_text
+
+
+@pytest.fixture(scope="module")
+def golden_table(tmp_path_factory):
+    return read_table(golden_twin_csv(tmp_path_factory.mktemp("safety")))
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_every_fault_on_every_golden_block_stays_exact_finite_and_limited(kind, golden_table):
+    model = load_model(GOLDEN / f"{kind}.json")
+    cases = verify_faults(str(golden_block(kind, "tia")), model, golden_table)
+    temperatures = [s for s in model.inputs if {"temperature", "ambient"} & set(s.role.split(","))]
+    assert len(cases) == len(FAULT_KINDS) * len(temperatures)
+    failed = [(c.sensor, c.kind.name) for c in cases if not c.ok]
+    assert failed == []
+    for c in cases:
+        if c.kind.name in ("nan", "open", "short", "jump", "dead", "offset"):
+            assert c.flagged, (c.sensor, c.kind.name)
+        if c.kind.name in ("nan", "open", "short") and model.kind != "kalman":
+            assert c.clear_at_end, (c.sensor, c.kind.name)
+
+
+def _run(block_text: str, columns: dict) -> dict:
+    machine = Machine(parse_text(block_text, "b.scl"), "b.scl")
+    rows = len(next(iter(columns.values())))
+    return {k: np.asarray(v) for k, v in machine.replay({k: list(v) for k, v in columns.items()}, rows).items()}
+
+
+def _same_bits(block: dict, reference: dict) -> None:
+    for name, want in reference.items():
+        got = block[name]
+        if want.dtype.kind == "f":
+            assert np.array_equal(got.astype(np.float32).view(np.uint32), want.astype(np.float32).view(np.uint32)), name
+        else:
+            assert np.array_equal(got.astype(bool), want), name
+
+
+def test_model_starts_only_when_every_input_is_in_range(golden_table):
+    model = load_model(GOLDEN / "mlr.json")
+    inputs = model_inputs(model, golden_table)
+    inputs["T_motor"] = inputs["T_motor"].copy()
+    inputs["T_motor"][:5] = [np.nan, 3276.7, -3276.8, np.nan, 200.0]
+    expected = block_outputs(model, inputs, "f32", Limits())
+    produced = _run(render(lower(model)), inputs)
+    _same_bits(produced, expected)
+    assert not produced["Ready"][:5].any() and produced["Ready"][5:].all()
+    assert (produced["E_z_um"][:5] == 0).all() and produced["Fault_1"][:5].all() and not produced["Fault_1"][5]
+
+
+def test_clamp_and_rate_limit_hold_and_say_so(golden_table):
+    model = load_model(GOLDEN / "kalman.json")
+    inputs = model_inputs(model, golden_table)
+    limits = Limits(max_output=3.0, max_step=0.05)
+    expected = block_outputs(model, inputs, "f32", limits)
+    produced = _run(render(lower(model, limits), "step7"), inputs)
+    _same_bits(produced, expected)
+    error = produced["E_z_um"].astype(np.float64)
+    assert np.abs(error).max() == 3.0 and produced["Clamped"].any()
+    assert produced["Limited"].any() and np.abs(np.diff(error)).max() <= 0.05 + 1e-6
+    k0 = produced["K0_1"].astype(np.float32)
+    assert np.array_equal(k0.view(np.uint32), (error.astype(np.float32) * np.float32(K0_MM_PER_UM)).view(np.uint32))
+
+
+def test_verify_faults_from_the_command_line(tmp_path):
+    thermoplc("generate", GOLDEN / "mlr.json", "--dialect", "iec", "-o", "b.st", cwd=tmp_path)
+    data = golden_twin_csv(tmp_path)
+    out = thermoplc("verify", "b.st", "--data", data, "--model", GOLDEN / "mlr.json", "--faults", cwd=tmp_path).stdout
+    assert "14 cases" in out and "all cases bit-exact, finite, inside the clamp and the rate limit" in out
+    assert "offset: paper 000 eq. 19: -2 degC" in out
+
+
+def test_generate_rejects_limits_that_make_no_sense(tmp_path):
+    result = thermoplc("generate", GOLDEN / "mlr.json", "--max-step-um", "0", "-o", "b.scl", cwd=tmp_path, check=2)
+    assert "max_step must be a positive finite number" in result.stderr and not (tmp_path / "b.scl").exists()
+    result = thermoplc("generate", GOLDEN / "mlr.json", "--temp-range", "80,20", "-o", "b.scl", cwd=tmp_path, check=2)
+    assert "temperature range 80.0..20.0 degC is empty" in result.stderr
