@@ -142,10 +142,10 @@ def cmd_verify(args) -> int:
         table = read_table(args.data, model.time_column)
         if args.faults:
             from thermoplc.verifier.faults import format_cases, verify_faults
-            cases = verify_faults(args.block, model, table, args.inputs)
+            cases = verify_faults(args.block, model, table, args.inputs, args.engine)
             print(format_cases(cases, args.block, table.rows))
             return 0 if all(c.ok for c in cases) else 1
-        report = verify_against_model(args.block, model, args.model, table, args.inputs)
+        report = verify_against_model(args.block, model, args.model, table, args.inputs, args.engine)
     else:
         if args.faults:
             raise UserError("--faults needs --model: the faulty replay is compared with the model's reference")
@@ -154,7 +154,7 @@ def cmd_verify(args) -> int:
         for item in args.expect:
             output, sep, column = item.partition("=")
             expect[output if sep else item] = column if sep else item
-        report = verify_against_trace(args.block, table, expect, args.inputs, args.time)
+        report = verify_against_trace(args.block, table, expect, args.inputs, args.time, args.engine)
     print(report.text())
     return 0 if report.ok else 1
 
@@ -334,6 +334,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--model", help="compare with this model's float32 reference")
     p.add_argument("--expect", type=_columns, help="compare with recorded outputs: COLUMN or OUTPUT=COLUMN, comma-separated")
     p.add_argument("--inputs", type=_mapping, help="block input to column mapping NAME=COLUMN,...")
+    p.add_argument("--engine", choices=("auto", "interp", "fast"), default="auto",
+                   help="interp: the reference interpreter; fast: the block compiled to C (same bits); "
+                        "auto: fast when a C compiler is there (default: %(default)s)")
     p.add_argument("--faults", action="store_true",
                    help="replay with injected sensor faults (NaN, open/short PT100, jumps, paper 000 sine and "
                         "offset) and check exactness, finiteness, clamp and rate limit")

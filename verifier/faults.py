@@ -80,8 +80,9 @@ def _within_rate(series: np.ndarray, step: float) -> bool:
     return bool(np.all(np.abs(np.diff(y)) <= allowed))
 
 
-def verify_faults(block: str, model: Model, table: Table, overrides: dict | None = None) -> list[FaultCase]:
-    program, machine = _load(block)
+def verify_faults(block: str, model: Model, table: Table, overrides: dict | None = None,
+                  engine: str = "auto") -> list[FaultCase]:
+    program, machine = _load(block, engine)
     limits: Limits = block_limits(program, block)
     clean = model_inputs(model, table, overrides)
     _check_interface(machine, block, clean, "the model inputs")
@@ -96,7 +97,6 @@ def verify_faults(block: str, model: Model, table: Table, overrides: dict | None
             inputs = dict(clean)
             inputs[g.name], last = inject(clean[g.name], np.asarray(times), kind, first)
             expected = block_outputs(model, inputs, "f32", limits)
-            machine.reset()
             report = _replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
             real = [np.asarray(v, np.float32) for v in expected.values() if np.asarray(v).dtype.kind == "f"]
             limited = [np.asarray(expected[v.name], np.float32) for v in machine.outputs

@@ -14,7 +14,8 @@ from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits
 from thermoplc.models.table import Table
-from thermoplc.verifier.interpreter import Finding, Machine
+from thermoplc.verifier.engines import Replayer
+from thermoplc.verifier.interpreter import Finding
 from thermoplc.verifier.parser import parse_file
 from thermoplc.verifier.syntax import Program
 
@@ -49,6 +50,8 @@ class Report:
     constants_checked: int = 0
     constant_errors: tuple[str, ...] = ()  # block constants/tables that differ from the model
     limits: Limits | None = None  # safety limits read from the block (model verification)
+    engine: str = "interp"  # the engine that produced the compared outputs
+    engine_note: str = ""  # why the fast engine was not used, when asked for
 
     @property
     def ok(self) -> bool:
@@ -94,7 +97,10 @@ class Report:
         if any(f.kind in ("non-portable", "literal") for f in self.findings):
             lines.append("  WARNING: the proof does not carry over to a PLC for the places listed above (DESIGN §4.2, §4.4)")
         rate = self.cycles / self.seconds if self.seconds > 0 else float("inf")
-        lines.append(f"  replay: {self.seconds:.2f} s, {rate:,.0f} cycles/s")
+        engine = "fast engine (compiled C)" if self.engine == "fast" else "interpreter"
+        lines.append(f"  replay: {self.seconds:.2f} s, {rate:,.0f} cycles/s, {engine}")
+        if self.engine_note:
+            lines.append(f"  note: {self.engine_note}")
         return "\n".join(lines)
 
 
@@ -109,12 +115,12 @@ def _show(value) -> str:
     return repr(value)
 
 
-def _load(block_path: str) -> tuple[Program, Machine]:
+def _load(block_path: str, engine: str = "auto") -> tuple[Program, Replayer]:
     program = parse_file(block_path)
-    return program, Machine(program, str(block_path))
+    return program, Replayer(program, str(block_path), engine)
 
 
-def _check_interface(machine: Machine, block: str, available: dict, what: str) -> None:
+def _check_interface(machine, block: str, available: dict, what: str) -> None:
     names = {d.name.upper() for d in machine.inputs}
     missing = sorted(d.name for d in machine.inputs if d.name not in available)
     extra = sorted(n for n in available if n.upper() not in names)
@@ -139,26 +145,28 @@ def _first_mismatch(produced: dict, expected: dict) -> tuple[int, str] | None:
     return first
 
 
-def _replay_and_compare(machine: Machine, block: str, against: str, table: Table, time_column: str,
+def _replay_and_compare(replayer: Replayer, block: str, against: str, table: Table, time_column: str,
                         inputs: dict, expected: dict, quantisation: dict) -> Report:
     rows = table.rows
-    columns = {name: np.asarray(col).tolist() for name, col in inputs.items()}
     start = time.perf_counter()
-    produced = machine.replay(columns, rows, outputs=tuple(expected))
+    produced = replayer.replay(inputs, rows, outputs=tuple(expected))
     seconds = time.perf_counter() - start
+    machine = replayer.machine
     findings = tuple(machine.findings.values())
     first = _first_mismatch(produced, {k: expected[k] for k in produced})
     mismatch = None
     if first is not None:
         cycle, output = first
         machine.reset()
-        machine.replay(columns, rows, outputs=(), stop_after=cycle)
+        machine.replay({name: np.asarray(col).tolist() for name, col in inputs.items()}, rows, outputs=(),
+                       stop_after=cycle)
         want = expected[output][cycle]
         t = table.columns[time_column][cycle] if time_column in table.columns else float(cycle)
-        mismatch = Mismatch(cycle, table.lines[cycle], float(t), output, produced[output][cycle],
+        got = produced[output][cycle]
+        mismatch = Mismatch(cycle, table.lines[cycle], float(t), output, got.item() if hasattr(got, "item") else got,
                             bool(want) if isinstance(want, (bool, np.bool_)) else float(want), machine.snapshot())
     return Report(block, against, Path(table.path).name, rows, tuple(produced), mismatch, findings, seconds,
-                  quantisation)
+                  quantisation, engine=replayer.used, engine_note=replayer.note)
 
 
 def block_limits(program: Program, source: str) -> Limits:
@@ -200,8 +208,8 @@ def _compare_constants(program: Program, model: Model, limits: Limits) -> tuple[
 
 
 def verify_against_model(block: str, model: Model, model_path: str, table: Table,
-                         overrides: dict | None = None) -> Report:
-    program, machine = _load(block)
+                         overrides: dict | None = None, engine: str = "auto") -> Report:
+    program, machine = _load(block, engine)
     limits = block_limits(program, block)
     inputs = model_inputs(model, table, overrides)
     _check_interface(machine, block, inputs, f"the inputs of {Path(model_path).name}")
@@ -222,9 +230,9 @@ def verify_against_model(block: str, model: Model, model_path: str, table: Table
 
 
 def verify_against_trace(block: str, table: Table, expect: dict, overrides: dict | None = None,
-                         time_column: str = "time_s") -> Report:
+                         time_column: str = "time_s", engine: str = "auto") -> Report:
     """expect maps block output names to trace columns holding what the PLC produced."""
-    _, machine = _load(block)
+    _, machine = _load(block, engine)
     inputs = {}
     for d in machine.inputs:
         column = (overrides or {}).get(d.name, d.name)
