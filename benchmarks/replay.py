@@ -1,51 +1,96 @@
-"""Replay speed of the ST interpreter per generated block, on twin data it makes itself.
+"""Replay speed per block and engine, on twin data the script makes itself, measured in one run.
 
-    python benchmarks/replay.py [--hours H]
+    python benchmarks/replay.py [--cycles 3000000] [--interp-cycles 20000] [--json]
 
-Prints cycles per second of the interpreter and of the numpy float32 reference for the same
-block, measured in one run (ratios are what to compare; absolute numbers depend on the machine).
+Engines: `interp` (the reference interpreter), `fast` (the block compiled to C with every check
+verify relies on), `c_plain` (the same C without run-time checks: the plain loop over the same
+arithmetic, the physical limit on this machine) and `reference` (the model's numpy float32
+reference that verify compares with). Blocks are the golden models of every kind. Cycles per
+second are best of three; ratios are to the interpreter in the same run. With --json the last
+line is one JSON object {"<block>": {"<engine>": cycles_per_s, ...}, ...}.
 """
 from __future__ import annotations
 
 import argparse
+import json
+import sys
 import tempfile
 import time
 from pathlib import Path
 
-from thermoplc.generator.lower import lower
-from thermoplc.generator.printer import render
-from thermoplc.models.fit import FitRequest, fit
-from thermoplc.models.kalman import FitOptions
-from thermoplc.models.reference import model_inputs, predict
-from thermoplc.models.table import read_table, write_table
-from thermoplc.models.twin import simulate
-from thermoplc.verifier.interpreter import Machine
-from thermoplc.verifier.parser import parse_text
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from scripts.regen_golden import GOLDEN, KINDS, golden_block  # noqa: E402
+from thermoplc.models.modelfile import load_model  # noqa: E402
+from thermoplc.models.reference import block_outputs, model_inputs  # noqa: E402
+from thermoplc.models.safety import Limits  # noqa: E402
+from thermoplc.models.table import read_table, write_table  # noqa: E402
+from thermoplc.models.twin import simulate  # noqa: E402
+from thermoplc.verifier.interpreter import Machine  # noqa: E402
+from thermoplc.verifier.native import NativeBlock  # noqa: E402
+from thermoplc.verifier.parser import parse_file  # noqa: E402
+
+
+def _best(run, repeat: int = 3) -> float:
+    best = float("inf")
+    for _ in range(repeat):
+        start = time.perf_counter()
+        run()
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def measure(kind: str, table, cycles: int, interp_cycles: int) -> dict:
+    model = load_model(GOLDEN / f"{kind}.json")
+    program = parse_file(golden_block(kind, "tia"))
+    inputs = model_inputs(model, table)
+    repeats = -(-cycles // table.rows)
+    long = {name: np.tile(col, repeats)[:cycles] for name, col in inputs.items()}
+    short = {name: col[:interp_cycles].tolist() for name, col in inputs.items()}
+    rates = {}
+    machine = Machine(program)
+
+    def interp():
+        machine.reset()
+        machine.replay(short, interp_cycles)
+    rates["interp"] = interp_cycles / _best(interp, 1)
+    for engine, checked in (("fast", True), ("c_plain", False)):
+        block = NativeBlock(program, checked)
+
+        def run():
+            block.reset()
+            assert block.run(long) is not None
+        rates[engine] = cycles / _best(run)
+    reference_rows = {name: col[:interp_cycles] for name, col in inputs.items()}
+    rates["reference"] = interp_cycles / _best(lambda: block_outputs(model, reference_rows, "f32", Limits()), 1)
+    return rates
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--hours", type=float, default=48.0)
+    parser.add_argument("--cycles", type=int, default=3_000_000, help="cycles per native run")
+    parser.add_argument("--interp-cycles", type=int, default=20_000, help="cycles per interpreter run")
+    parser.add_argument("--json", action="store_true", help="print the results as JSON on the last line")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "twin.csv"
-        path.write_text(write_table(simulate(args.hours, seed=1)))
+        path.write_text(write_table(simulate(72, seed=1)))
         table = read_table(path)
-    print(f"{'block':<8}{'cycles':>9}{'interpreter c/s':>18}{'f32 reference c/s':>20}{'ratio':>8}")
-    for kind in ("mlr", "kalman"):
-        request = FitRequest(kind, "E_z_um", ("T_motor", "T_bearing"), "n_rpm", "T_env",
-                             train_until=args.hours * 1800, options=FitOptions(population=12, generations=3))
-        model = fit([table], request)
-        machine = Machine(parse_text(render(lower(model))))
-        inputs = model_inputs(model, table)
-        columns = {name: col.tolist() for name, col in inputs.items()}
-        start = time.perf_counter()
-        machine.replay(columns, table.rows)
-        interp = table.rows / (time.perf_counter() - start)
-        start = time.perf_counter()
-        predict(model, inputs, "f32")
-        reference = table.rows / (time.perf_counter() - start)
-        print(f"{kind:<8}{table.rows:>9}{interp:>18,.0f}{reference:>20,.0f}{interp / reference:>8.2f}")
+    results = {}
+    print(f"{'block':<10}{'interp c/s':>12}{'fast c/s':>14}{'c_plain c/s':>14}{'reference c/s':>15}"
+          f"{'fast/interp':>13}{'fast/c_plain':>14}")
+    for kind in KINDS:
+        r = measure(kind, table, args.cycles, min(args.interp_cycles, table.rows))
+        results[kind] = {k: round(v) for k, v in r.items()}
+        print(f"{kind:<10}{r['interp']:>12,.0f}{r['fast']:>14,.0f}{r['c_plain']:>14,.0f}{r['reference']:>15,.0f}"
+              f"{r['fast'] / r['interp']:>13,.0f}{r['fast'] / r['c_plain']:>14.2f}", flush=True)
+    year = 365 * 24 * 3600
+    print(f"a year of 1 Hz data ({year:,} cycles): kalman fast engine {year / results['kalman']['fast']:.1f} s, "
+          f"mlr {year / results['mlr']['fast']:.1f} s")
+    if args.json:
+        print(json.dumps(results, sort_keys=True))
 
 
 if __name__ == "__main__":

@@ -44,9 +44,13 @@ def _real_literal(value: float) -> str:
 
 
 class _Translator:
-    def __init__(self, program: s.Program):
+    """checked=False drops the run-time checks (unset temps, index and INT ranges): the plain C loop
+    over the same arithmetic that benchmarks/replay.py uses as the physical limit."""
+
+    def __init__(self, program: s.Program, checked: bool = True):
         self.decls = {d.name.upper(): d for d in program.decls}
         self.program = program
+        self.checked = checked
 
     # -- types -------------------------------------------------------------------------------------
     def ctype(self, d: s.VarDecl) -> str:
@@ -81,12 +85,12 @@ class _Translator:
         d = self.decl(name)
         kind = "DINT" if d.type.base in INT_RANGES else d.type.base
         c = _cname(d.name)
-        temp = d.section == "temp"
+        temp = d.section == "temp" and self.checked
         if index is None:
             return (f"({{ if (!w_{c}) goto fail; {c}; }})" if temp else c), kind
         i, _ = self.expr(index)
         lo, hi = d.type.bounds
-        check = f"if (i_ < {lo} || i_ > {hi}) goto fail;"
+        check = f"if (i_ < {lo} || i_ > {hi}) goto fail;" if self.checked else ""
         written = f"if (!w_{c}[i_ - {lo}]) goto fail;" if temp else ""
         return f"({{ int64_t i_ = {i}; {check} {written} {c}[i_ - {lo}]; }})", kind
 
@@ -145,7 +149,7 @@ class _Translator:
         return out
 
     def _store(self, d: s.VarDecl, target: str, value: str, pad: str) -> list[str]:
-        if d.type.base in INT_RANGES:
+        if d.type.base in INT_RANGES and self.checked:
             lo, hi = INT_RANGES[d.type.base]
             return [f"{pad}{{ int64_t x_ = {value}; if (x_ < {lo}LL || x_ > {hi}LL) goto fail; {target} = x_; }}"]
         return [f"{pad}{target} = {value};"]
@@ -156,7 +160,7 @@ class _Translator:
             raise NativeUnavailable(f"assignment to {d.section} {d.name}")
         value, _ = self.expr(st.value)
         c = _cname(d.name)
-        temp = d.section == "temp"
+        temp = d.section == "temp" and self.checked
         if isinstance(st.target, s.Index):
             i, _ = self.expr(st.target.index)
             lo, hi = d.type.bounds
@@ -236,7 +240,7 @@ class _Translator:
         lines.append("    for (j = 0; j < rows; j++) {")
         for k, d in enumerate(inputs):
             lines.append(f"        {_cname(d.name)} = (({self._io_type(d)} *)in[{k}])[j];")
-        for d in temps:
+        for d in temps if self.checked else ():
             lines.append(f"        memset(&w_{_cname(d.name)}, 0, sizeof w_{_cname(d.name)});")
         lines += self.stmts(self.program.body, "        ")
         for k, d in enumerate(outputs):
@@ -302,13 +306,13 @@ def _is_x86() -> bool:
 class NativeBlock:
     """One block instance running natively; state persists between chunks like the FB's memory."""
 
-    def __init__(self, program: s.Program):
+    def __init__(self, program: s.Program, checked: bool = True):
         self.program = program
         self.inputs = [d for d in program.decls if d.section == "input"]
         self.outputs = [d for d in program.decls if d.section == "output"]
         if any(d.type.bounds for d in (*self.inputs, *self.outputs)):
             raise NativeUnavailable("array inputs or outputs")
-        self.source = _Translator(program).source()
+        self.source = _Translator(program, checked).source()
         self.lib = ctypes.CDLL(str(compile_source(self.source)))
         self.lib.run.restype = ctypes.c_int64
         self.lib.run.argtypes = [ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
