@@ -133,13 +133,26 @@ def cmd_generate(args) -> int:
 
 def cmd_verify(args) -> int:
     from thermoplc.models.table import read_table
+    if args.manifest:
+        if args.block or args.data or args.model or args.expect or args.faults:
+            raise UserError("--manifest lists the blocks, data and models itself; give no BLOCK, --data, --model, --expect or --faults")
+        from thermoplc.verifier.fleet import format_fleet, read_manifest, verify_fleet
+        outcomes = verify_fleet(read_manifest(args.manifest), args.jobs, args.engine)
+        print(format_fleet(outcomes, args.manifest))
+        if any(o.status == "error" for o in outcomes):
+            return 2
+        return 0 if all(o.status == "bit-exact" for o in outcomes) else 1
+    if not args.block or not args.data:
+        raise UserError("verify needs BLOCK and --data (or --manifest FILE for many pairs)")
+    if args.jobs != 1:
+        raise UserError("--jobs runs the pairs of a --manifest in parallel; give --manifest FILE")
     from thermoplc.verifier.replay import verify_against_model, verify_against_trace
     if (args.model is None) == (args.expect is None):
         raise UserError("verify needs either --model MODEL.json or --expect COLUMN[,COLUMN] (a recorded PLC trace)")
     if args.model:
         from thermoplc.models.modelfile import load_model
         model = load_model(args.model)
-        table = read_table(args.data, model.time_column)
+        table = read_table(args.data, model.time_column, _progress if sys.stderr.isatty() else None)
         if args.faults:
             from thermoplc.verifier.faults import format_cases, verify_faults
             cases = verify_faults(args.block, model, table, args.inputs, args.engine)
@@ -329,11 +342,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_diff)
 
     p = sub.add_parser("verify", help="replay data through a block and compare every output bit for bit")
-    p.add_argument("block")
-    p.add_argument("--data", required=True)
+    p.add_argument("block", nargs="?")
+    p.add_argument("--data", help="the recording (CSV, or .npz of columns), one row per call")
     p.add_argument("--model", help="compare with this model's float32 reference")
     p.add_argument("--expect", type=_columns, help="compare with recorded outputs: COLUMN or OUTPUT=COLUMN, comma-separated")
     p.add_argument("--inputs", type=_mapping, help="block input to column mapping NAME=COLUMN,...")
+    p.add_argument("--manifest", help="CSV of pairs to verify (columns block,data and model or expect, optional inputs)")
+    p.add_argument("--jobs", type=int, default=1, help="with --manifest: pairs verified in parallel (default: %(default)s)")
     p.add_argument("--engine", choices=("auto", "interp", "fast"), default="auto",
                    help="interp: the reference interpreter; fast: the block compiled to C (same bits); "
                         "auto: fast when a C compiler is there (default: %(default)s)")

@@ -10,6 +10,8 @@ then E = beta0 + sum_i beta_i*(TF_i - T0_i) with T0_i the measured temperature a
 """
 from __future__ import annotations
 
+import time
+
 from dataclasses import dataclass
 from typing import Callable
 
@@ -125,9 +127,15 @@ def fit_kalman(temps: np.ndarray, te: np.ndarray, n: np.ndarray, target: np.ndar
            "generations": options.generations, "steps": []}
 
     def reporter(step: str):
+        """Progress with an ETA from the time per generation so far in this step."""
         if not progress:
             return None
-        return lambda gen, cost: progress(f"{step}: generation {gen}/{options.generations}, best RMS {cost:.4g}")
+        started = time.perf_counter()
+
+        def report(gen: int, cost: float) -> None:
+            left = (time.perf_counter() - started) / max(gen, 1) * max(options.generations - gen, 0)
+            progress(f"{step}: generation {gen}/{options.generations}, best RMS {cost:.4g}, about {left:.0f} s left")
+        return report
 
     for i in range(k):
         tm = temps[:, i]

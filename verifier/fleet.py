@@ -1,0 +1,114 @@
+"""verify --manifest: many (block, data, model) pairs, checked in parallel processes (fleets).
+
+The manifest is a CSV with a header naming at least `block` and `data`, and per row either a
+`model` (compare with its float32 reference) or an `expect` (OUTPUT=COLUMN[;...] of a recorded
+PLC trace); an optional `inputs` column maps block inputs to columns (NAME=COLUMN[;...]).
+Relative paths are taken from the manifest's folder. Results come back in manifest order.
+"""
+from __future__ import annotations
+
+import csv
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+from thermoplc.errors import UserError
+
+
+@dataclass(frozen=True)
+class Pair:
+    line: int
+    block: str
+    data: str
+    model: str | None
+    expect: dict | None
+    inputs: dict | None
+
+
+@dataclass(frozen=True)
+class Outcome:
+    pair: Pair
+    status: str  # 'bit-exact', 'NOT bit-exact', 'error'
+    detail: str  # one line: cycles and rate, or the error message
+    text: str  # the full report
+
+
+def _mapping(text: str, manifest: str, line: int, field: str) -> dict | None:
+    if not text.strip():
+        return None
+    mapping = {}
+    for item in text.split(";"):
+        name, sep, column = item.partition("=")
+        if not sep or not name.strip() or not column.strip():
+            raise UserError(f"{manifest}:{line}: column {field!r}: expected NAME=COLUMN[;NAME=COLUMN...], found {item!r}")
+        mapping[name.strip()] = column.strip()
+    return mapping
+
+
+def read_manifest(path: str) -> list[Pair]:
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as f:
+            rows = list(csv.reader(f))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"{path}: cannot read the manifest: {exc}") from None
+    if not rows:
+        raise UserError(f"{path}: the manifest is empty; expected a header with block,data,model")
+    header = [h.strip().lower() for h in rows[0]]
+    for needed in ("block", "data"):
+        if needed not in header:
+            raise UserError(f"{path}:1: the header has no {needed!r} column; expected block,data and model or expect")
+    base = Path(path).resolve().parent
+    pairs = []
+    for line, row in enumerate(rows[1:], start=2):
+        if not any(cell.strip() for cell in row):
+            continue
+        if len(row) != len(header):
+            raise UserError(f"{path}:{line}: {len(row)} fields, expected {len(header)} as in the header")
+        cell = dict(zip(header, (c.strip() for c in row)))
+        model, expect = cell.get("model", ""), cell.get("expect", "")
+        if bool(model) == bool(expect):
+            raise UserError(f"{path}:{line}: give either a model or an expect column value, not {'both' if model else 'neither'}")
+        where = lambda p: str(base / p) if p and not Path(p).is_absolute() else p
+        pairs.append(Pair(line, where(cell["block"]), where(cell["data"]), where(model) or None,
+                          _mapping(expect, path, line, "expect"), _mapping(cell.get("inputs", ""), path, line, "inputs")))
+    if not pairs:
+        raise UserError(f"{path}: the manifest lists no pairs")
+    return pairs
+
+
+def verify_pair(pair: Pair, engine: str) -> Outcome:
+    """One pair, in a worker process; errors become an outcome, never an exception."""
+    from thermoplc.models.modelfile import load_model
+    from thermoplc.models.table import read_table
+    from thermoplc.verifier.replay import verify_against_model, verify_against_trace
+    try:
+        if pair.model:
+            model = load_model(pair.model)
+            table = read_table(pair.data, model.time_column)
+            report = verify_against_model(pair.block, model, pair.model, table, pair.inputs, engine)
+        else:
+            table = read_table(pair.data)
+            report = verify_against_trace(pair.block, table, pair.expect, pair.inputs, engine=engine)
+    except UserError as exc:
+        return Outcome(pair, "error", str(exc), str(exc))
+    status = "bit-exact" if report.ok else "NOT bit-exact"
+    detail = f"{report.cycles} cycles, {report.engine}"
+    if report.mismatch is not None:
+        detail += f", first divergent cycle {report.mismatch.cycle} ({report.mismatch.output})"
+    return Outcome(pair, status, detail, report.text())
+
+
+def verify_fleet(pairs: list[Pair], jobs: int, engine: str) -> list[Outcome]:
+    if jobs <= 1:
+        return [verify_pair(p, engine) for p in pairs]
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        return list(pool.map(verify_pair, pairs, [engine] * len(pairs)))
+
+
+def format_fleet(outcomes: list[Outcome], manifest: str) -> str:
+    lines = [f"{'line':>5}  {'status':<14}{'block':<28}{'data':<28}detail"]
+    for o in outcomes:
+        lines.append(f"{o.pair.line:>5}  {o.status:<14}{Path(o.pair.block).name:<28}{Path(o.pair.data).name:<28}{o.detail}")
+    counts = {s: sum(o.status == s for o in outcomes) for s in ("bit-exact", "NOT bit-exact", "error")}
+    lines.append(f"{manifest}: {len(outcomes)} pairs: " + ", ".join(f"{n} {s}" for s, n in counts.items()))
+    return "\n".join(lines)
