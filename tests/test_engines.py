@@ -18,6 +18,9 @@ from thermoplc.verifier.native import NativeBlock
 from thermoplc.verifier.parser import parse_file, parse_text
 
 
+pytestmark = pytest.mark.skipif(native._compiler() is None, reason="no C compiler: the fast engine cannot be built here")
+
+
 def _bits(values) -> np.ndarray:
     """Bit patterns, every NaN as one pattern: IEEE 754 leaves NaN payloads open (x86 makes
     SQRT(-1) a negative NaN, Python a positive one) and the verifier reports any NaN anyway."""

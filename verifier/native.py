@@ -270,10 +270,28 @@ def _compiler() -> str | None:
     return None
 
 
+def _private(folder: Path) -> bool:
+    """Ours alone: a library loaded from a folder others can write to would run their code."""
+    info = folder.stat()
+    return (not hasattr(os, "getuid") or info.st_uid == os.getuid()) and not info.st_mode & 0o022
+
+
 def _cache_dir() -> Path:
-    folder = Path(tempfile.gettempdir()) / f"thermoplc-native-{os.getuid() if hasattr(os, 'getuid') else 'user'}"
-    folder.mkdir(parents=True, exist_ok=True)
-    return folder
+    """The user's cache folder for compiled blocks (XDG), or a fresh private temp folder."""
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "thermoplc" / "native"
+    try:
+        base.mkdir(parents=True, exist_ok=True, mode=0o700)
+        if _private(base):
+            return base
+    except OSError:
+        pass
+    global _FALLBACK_DIR
+    if _FALLBACK_DIR is None:
+        _FALLBACK_DIR = Path(tempfile.mkdtemp(prefix="thermoplc-native-"))
+    return _FALLBACK_DIR
+
+
+_FALLBACK_DIR: Path | None = None
 
 
 def compile_source(source: str) -> Path:
