@@ -83,6 +83,11 @@ def cmd_fit(args) -> int:
     write_atomic(args.output, model.to_json())
     print(format_fit(model))
     print(f"wrote {args.output}")
+    held = model.metrics["held_out"]
+    if held["rows"] and held["rmse_um"] > held.get("zero_rmse_um", float("inf")):
+        print(f"thermoplc: WARNING: on the held-out rows this model is worse than no compensation at all: "
+              f"RMSE {held['rmse_um']:.3f} um with the model, {held['zero_rmse_um']:.3f} um predicting 0. "
+              f"Do not put it on a machine.", file=sys.stderr)
     return 0
 
 

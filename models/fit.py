@@ -62,7 +62,7 @@ def sample_period(table: Table, time_column: str) -> float:
     dt = float(np.median(steps))
     bad = np.nonzero(np.abs(steps - dt) > SAMPLING_TOLERANCE * dt)[0]
     if len(bad):
-        raise UserError(f"{table.path}:{bad[0] + 3}: column {time_column!r}: step {steps[bad[0]]:g} s, expected "
+        raise UserError(f"{table.path}:{table.lines[bad[0] + 1]}: column {time_column!r}: step {steps[bad[0]]:g} s, expected "
                         f"{dt:g} s ±{SAMPLING_TOLERANCE:.0%}; the block runs on a fixed cycle, resample the data")
     return dt
 
@@ -193,7 +193,10 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
                   t.columns[request.ambient][:n] if request.ambient in t.columns else None)
              for t, n in zip(tables, n_train)]
     names = [s.name for s in signals if s.role == "temperature"]
-    coefficients, settings, log = FITTERS[request.kind](parts, request, names, dt, progress)
+    try:
+        coefficients, settings, log = FITTERS[request.kind](parts, request, names, dt, progress)
+    except UserError as exc:
+        raise UserError(f"{', '.join(t.path for t in tables)}: {exc}") from None
     training = [{"file": Path(t.path).name, "sha256": t.sha256, "rows": n, "total_rows": t.rows,
                  "until_s": float(t.columns[time_column][n - 1])} for t, n in zip(tables, n_train)]
     model = Model(
@@ -208,7 +211,7 @@ def evaluate(model: Model, tables: list[Table], n_train: list[int]) -> dict:
     """Fit (training rows) and prediction (held-out rows) errors of the float64 model, and the
     float32-vs-float64 quantisation error over all rows, pooled over the tables (each replayed
     from its first row, as the block would be)."""
-    train, held_out, quantisation = [], [], 0.0
+    train, held_out, zero, quantisation = [], [], [], 0.0
     for table, n in zip(tables, n_train):
         inputs = model_inputs(model, table)
         ideal = predict(model, inputs, "f64")[model.target.name]
@@ -216,6 +219,9 @@ def evaluate(model: Model, tables: list[Table], n_train: list[int]) -> dict:
         residual = table.columns[model.target.column] - ideal
         train.append(residual[:n])
         held_out.append(residual[n:])
+        zero.append(table.columns[model.target.column][n:])
         quantisation = max(quantisation, float(np.max(np.abs(block.astype(np.float64) - ideal))))
-    return {"train": _metrics(np.concatenate(train)), "held_out": _metrics(np.concatenate(held_out)),
-            "float32_vs_float64_max_um": quantisation}
+    held = _metrics(np.concatenate(held_out))
+    if held["rows"]:
+        held["zero_rmse_um"] = _metrics(np.concatenate(zero))["rmse_um"]  # the error of compensating nothing
+    return {"train": _metrics(np.concatenate(train)), "held_out": held, "float32_vs_float64_max_um": quantisation}

@@ -7,15 +7,31 @@ from thermoplc.errors import UserError
 from thermoplc.models.modelfile import Model
 
 
+# Above this condition number of the standardised columns, binary32 (about 7 digits) cannot
+# resolve the slopes: they come out large, of opposite sign, and cancel in the block.
+CONDITION_LIMIT = 1e6
+
+
 def least_squares(features: np.ndarray, target: np.ndarray, names: list[str]) -> np.ndarray:
-    """Intercept + slopes by least squares; refuses collinear columns instead of returning huge slopes."""
+    """Intercept + slopes by least squares; refuses constant or collinear columns, naming them,
+    instead of returning huge slopes (the papers' multicollinearity problem)."""
+    features = np.asarray(features, float).reshape(len(target), -1)
+    centred = features - features.mean(axis=0)
+    spread = centred.std(axis=0)
+    flat = [names[i] for i in np.nonzero(spread <= 1e-12 * np.maximum(np.abs(features).max(axis=0), 1.0))[0]]
+    if flat:
+        raise UserError(f"{', '.join(flat)} does not change on the training rows: its slope cannot be fitted; "
+                        f"drop it or train on data where it moves")
+    if features.shape[1] > 1:
+        _, singular, vt = np.linalg.svd(centred / spread, full_matrices=False)
+        condition = singular[0] / max(singular[-1], 1e-300)
+        if condition > CONDITION_LIMIT:
+            weights = np.abs(vt[-1])
+            involved = [names[i] for i in np.nonzero(weights >= 0.25 * weights.max())[0]]
+            raise UserError(f"{', '.join(involved)} are collinear on the training rows (condition number "
+                            f"{condition:.3g} > {CONDITION_LIMIT:.0e}, more than binary32 resolves): their slopes "
+                            f"would be huge and cancel; keep one of them (select-sensors groups such sensors)")
     design = np.column_stack([np.ones(len(target)), features])
-    scale = np.linalg.norm(design, axis=0)
-    scale[scale == 0] = 1.0
-    singular = np.linalg.svd(design / scale, compute_uv=False)
-    if singular[-1] < 1e-9 * singular[0]:
-        raise UserError(f"regression on {', '.join(names)} is singular: the columns are (nearly) collinear "
-                        f"(condition number {singular[0] / max(singular[-1], 1e-300):.3g}); drop one of them")
     return np.linalg.lstsq(design, target, rcond=None)[0]
 
 

@@ -10,6 +10,7 @@ import numpy as np
 from thermoplc.binary32 import f32_bits, f32_hex, ulp_distance
 from thermoplc.generator.lower import lower
 from thermoplc.errors import UserError
+from thermoplc.models.fit import SAMPLING_TOLERANCE, sample_period
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits
@@ -169,6 +170,16 @@ def _replay_and_compare(replayer: Replayer, block: str, against: str, table: Tab
                   quantisation, engine=replayer.used, engine_note=replayer.note)
 
 
+def _check_period(model: Model, table: Table) -> None:
+    """The block's constants are discretised for the model's period: the data must be sampled at it."""
+    if model.time_column not in table.columns or table.rows < 2:
+        return
+    dt = sample_period(table, model.time_column)
+    if abs(dt - model.sample_period_s) > SAMPLING_TOLERANCE * model.sample_period_s:
+        raise UserError(f"{table.path}: column {model.time_column!r}: sampled every {dt:g} s, but the model was "
+                        f"fitted for a call every {model.sample_period_s:g} s; resample the data")
+
+
 def block_limits(program: Program, source: str) -> Limits:
     """The safety limits the block was generated with, from its named constants."""
     return Limits.from_constants({d.name: d.initial for d in program.decls if d.section == "constant"}, source)
@@ -211,6 +222,7 @@ def verify_against_model(block: str, model: Model, model_path: str, table: Table
                          overrides: dict | None = None, engine: str = "auto") -> Report:
     program, machine = _load(block, engine)
     limits = block_limits(program, block)
+    _check_period(model, table)
     inputs = model_inputs(model, table, overrides)
     _check_interface(machine, block, inputs, f"the inputs of {Path(model_path).name}")
     block32 = block_outputs(model, inputs, "f32", limits)
