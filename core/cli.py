@@ -9,7 +9,7 @@ from thermoplc import __version__
 from thermoplc.errors import UserError
 from thermoplc.models.effects import NAMES as EFFECT_NAMES
 from thermoplc.models.modelfile import KINDS
-from thermoplc.fileio import write_atomic
+from thermoplc.fileio import check_overwrite, write_atomic
 
 
 def _columns(text: str) -> tuple[str, ...]:
@@ -18,6 +18,7 @@ def _columns(text: str) -> tuple[str, ...]:
             text = Path(text[1:]).read_text("utf-8").strip()
         except OSError as exc:
             raise argparse.ArgumentTypeError(f"cannot read {text[1:]}: {exc.strerror}") from None
+    text = ",".join(line for line in text.splitlines() if not line.lstrip().startswith("#"))
     names = tuple(c.strip() for c in text.split(",") if c.strip())
     if not names:
         raise argparse.ArgumentTypeError("expected comma-separated column names")
@@ -51,6 +52,7 @@ def cmd_twin(args) -> int:
     names = [e.name for e in effects]
     if len(set(names)) != len(names):
         raise UserError("--effect: each effect can be switched on once")
+    check_overwrite(args.output, args.force)
     columns = simulate(args.hours, args.seed, args.dt, args.ambient_start, args.ambient_swing, faults,
                        effects=effects, noise=args.noise)
     write_atomic(args.output, write_table(columns))
@@ -71,7 +73,8 @@ def cmd_fit(args) -> int:
     from thermoplc.models.fit import FitRequest, fit
     from thermoplc.models.kalman import FitOptions
     from thermoplc.models.table import read_table
-    tables = [read_table(path, args.time) for path in args.data]
+    check_overwrite(args.output, args.force)
+    tables = [read_table(path, args.time, decimal=args.decimal) for path in args.data]
     options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
                          args.recover_limit)
     request = FitRequest(args.model, args.target[0], args.temps, args.speed, args.ambient, args.train_until,
@@ -111,6 +114,7 @@ def cmd_generate(args) -> int:
     from thermoplc.generator.printer import GenerationError, render, render_plcopen
     from thermoplc.models.modelfile import load_model
     from thermoplc.models.safety import Limits
+    check_overwrite(args.output, args.force)
     model = load_model(args.model)
     low, high = args.temp_range
     limits = Limits(args.max_offset_um, args.max_step_um, low, high, max_jump_K=args.max_jump_k,
@@ -157,7 +161,7 @@ def cmd_verify(args) -> int:
     if args.model:
         from thermoplc.models.modelfile import load_model
         model = load_model(args.model)
-        table = read_table(args.data, model.time_column, _progress if sys.stderr.isatty() else None)
+        table = read_table(args.data, model.time_column, _progress if sys.stderr.isatty() else None, args.decimal)
         if args.faults:
             from thermoplc.verifier.faults import format_cases, verify_faults
             cases = verify_faults(args.block, model, table, args.inputs, args.engine)
@@ -167,7 +171,7 @@ def cmd_verify(args) -> int:
     else:
         if args.faults:
             raise UserError("--faults needs --model: the faulty replay is compared with the model's reference")
-        table = read_table(args.data, args.time)
+        table = read_table(args.data, args.time, decimal=args.decimal)
         expect = {}
         for item in args.expect:
             output, sep, column = item.partition("=")
@@ -180,7 +184,7 @@ def cmd_verify(args) -> int:
 def cmd_diff(args) -> int:
     from thermoplc.models.table import read_table
     from thermoplc.verifier.diff import diff_blocks, format_diff
-    table = read_table(args.data, args.time) if args.data else None
+    table = read_table(args.data, args.time, decimal=args.decimal) if args.data else None
     result = diff_blocks(args.old, args.new, table, args.inputs, args.time)
     print(format_diff(result))
     if table is not None:
@@ -191,7 +195,7 @@ def cmd_diff(args) -> int:
 def cmd_select(args) -> int:
     from thermoplc.models.selection import select_sensors
     from thermoplc.models.table import read_table
-    table = read_table(args.data, args.time)
+    table = read_table(args.data, args.time, decimal=args.decimal)
     candidates = args.candidates or tuple(c for c in table.columns if c not in (args.time, args.target))
     rows = table.rows if args.train_rows is None else args.train_rows
     selection = select_sensors({c: table.column(c)[:rows] for c in candidates}, table.column(args.target)[:rows],
@@ -203,7 +207,9 @@ def cmd_select(args) -> int:
         print(f"  group {k}: {members}")
     print(f"chosen: {','.join(selection.chosen)}")
     if args.output:
-        write_atomic(args.output, ",".join(selection.chosen) + "\n")
+        check_overwrite(args.output, args.force)
+        write_atomic(args.output, f"# thermoplc select-sensors {selection.method} for {args.target}\n"
+                     + ",".join(selection.chosen) + "\n")
         print(f"wrote {args.output} (use it as fit --temps @{args.output})")
     return 0
 
@@ -212,7 +218,10 @@ def cmd_diagnose(args) -> int:
     from thermoplc.diagnosis.command import DiagnoseRequest, run
     from thermoplc.diagnosis.findings import text
     request = DiagnoseRequest(args.data, args.temps, args.speed, args.ambient, args.target, args.feed, args.baseline,
-                              args.train_until, args.train_rows, args.time, args.name)
+                              args.train_until, args.train_rows, args.time, args.name, args.decimal)
+    for path in (args.output, args.json, args.report and str(Path(args.report) / "index.html")):
+        if path:
+            check_overwrite(path, args.force)
     doc = run(request, args.output, args.json, args.report, _progress if sys.stderr.isatty() else None)
     if sys.stderr.isatty():
         print(file=sys.stderr)
@@ -224,7 +233,13 @@ def cmd_diagnose(args) -> int:
 
 def cmd_demo(args) -> int:
     from thermoplc.demo import run_demo
-    return run_demo(Path(args.out))
+    return run_demo(Path(args.out), args.force)
+
+
+FORCE_HELP = "replace an output file even if thermoplc did not write it"
+DECIMAL = {"choices": ("auto", ".", ","), "default": "auto",
+           "help": "decimal separator of the CSV: auto (',' when ';' separates the columns), '.' or ',' "
+                   "(default: %(default)s)"}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -234,6 +249,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("demo", help="whole pipeline on the bundled FL_THERMAL recording")
     p.add_argument("--out", default="thermoplc-demo", help="output folder (default: %(default)s)")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=cmd_demo)
 
     p = sub.add_parser("twin", help="synthetic machine data with known truth")
@@ -247,6 +263,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--effect", action="append", default=[], metavar="NAME[:KEY=VALUE,...]",
                    help=f"hide a physical effect in the data; repeatable. Names: {', '.join(EFFECT_NAMES)}")
     p.add_argument("--noise", type=float, default=1.0, help="scale of the sensor noise (default: %(default)s)")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("-o", "--output", required=True)
     p.set_defaults(func=cmd_twin)
 
@@ -279,6 +296,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tool-length", metavar="COLUMN",
                    help="bpnn: tool length column, mm; adds paper 002's X/Y/Z compensation outputs")
     p.add_argument("--name", default="ThermalComp", help="function block name (default: %(default)s)")
+    p.add_argument("--decimal", **DECIMAL)
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("-o", "--output", required=True)
     p.set_defaults(func=cmd_fit)
 
@@ -294,6 +313,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--train-rows", type=int, help="use only the first N rows (the training part)")
     p.add_argument("--time", default="time_s")
     p.add_argument("-o", "--output", help="write the chosen sensors for fit --temps @FILE")
+    p.add_argument("--decimal", **DECIMAL)
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=cmd_select)
 
     p = sub.add_parser("diagnose", help="find the physical effect the lumped-mass simulation misses")
@@ -309,6 +330,8 @@ def build_parser() -> argparse.ArgumentParser:
     part.add_argument("--train-rows", type=int, metavar="N", help="training part: the first N rows (default: 60%%)")
     p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
     p.add_argument("--name", default="ThermalComp", help="function block name of the augmented model")
+    p.add_argument("--decimal", **DECIMAL)
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--json", help="write the findings here (findings.json)")
     p.add_argument("--report", metavar="FOLDER", help="write an HTML report with plots into this folder")
     p.add_argument("-o", "--output", default="diagnosed_model.json",
@@ -333,6 +356,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--settle-calls", type=int, default=30,
                    help="steady calls before a faulty sensor is trusted again (default: %(default)s)")
     p.add_argument("--stats", action="store_true", help="print operations per call and bytes of state")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--explain", action="store_true", help="print which region computes which model term, "
                                                           "with its constants")
     p.add_argument("-o", "--output", required=True)
@@ -342,6 +366,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("old")
     p.add_argument("new")
     p.add_argument("--data", help="replay both blocks on this CSV and report the largest output difference")
+    p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--inputs", type=_mapping, help="block input to column mapping NAME=COLUMN,...")
     p.add_argument("--time", default="time_s", help="time column (default: %(default)s)")
     p.set_defaults(func=cmd_diff)
@@ -349,6 +374,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("verify", help="replay data through a block and compare every output bit for bit")
     p.add_argument("block", nargs="?")
     p.add_argument("--data", help="the recording (CSV, or .npz of columns), one row per call")
+    p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--model", help="compare with this model's float32 reference")
     p.add_argument("--expect", type=_columns, help="compare with recorded outputs: COLUMN or OUTPUT=COLUMN, comma-separated")
     p.add_argument("--inputs", type=_mapping, help="block input to column mapping NAME=COLUMN,...")

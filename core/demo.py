@@ -12,7 +12,8 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
-from thermoplc.fileio import write_atomic
+from thermoplc import __version__
+from thermoplc.fileio import check_overwrite, write_atomic
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
 from thermoplc.models.fit import FitRequest, fit
@@ -31,7 +32,7 @@ def recording() -> Path:
     return Path(str(resources.files("thermoplc").joinpath("data", "fl_thermal", "fl_thermal.csv")))
 
 
-def run_demo(out: Path) -> int:
+def run_demo(out: Path, force: bool = False) -> int:
     data = recording()
     table = read_table(data)
     hours = table.columns["time_s"][-1] / 3600
@@ -47,11 +48,14 @@ def run_demo(out: Path) -> int:
         model = fit([table], request)
         model_path = out / f"{kind}.json"
         block_path = out / f"{block_name}.scl"
+        for path in (model_path, block_path, out / f"{block_name}.verify.txt"):
+            check_overwrite(path, force)
         write_atomic(model_path, model.to_json())
         write_atomic(block_path, render(lower(model), "tia"))
         report = verify_against_model(str(block_path), model, str(model_path), table)
         report_path = out / f"{block_name}.verify.txt"
-        write_atomic(report_path, report.text() + "\n")
+        write_atomic(report_path, f"thermoplc {__version__} verify {block_path.name} --model {model_path.name}\n"
+                     + report.text() + "\n")
         written += [model_path, block_path, report_path]
         m = model.metrics
         rows.append((kind, m["train"]["rmse_um"], m["held_out"]["rmse_um"], m["held_out"]["max_abs_um"],

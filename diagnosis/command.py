@@ -35,6 +35,7 @@ class DiagnoseRequest:
     train_rows: int | None = None
     time_column: str = "time_s"
     block_name: str = "ThermalComp"
+    decimal: str = "auto"
 
 
 def _training_rows(table: Table, request: DiagnoseRequest) -> int:
@@ -95,7 +96,7 @@ def augmented_model(final: Simulation, added: list[dict], request: DiagnoseReque
 
 def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report_dir: str | None,
         progress: Callable[[str], None] | None = None) -> dict:
-    table = read_table(request.data, request.time_column)
+    table = read_table(request.data, request.time_column, decimal=request.decimal)
     dt = sample_period(table, request.time_column)
     n_train = _training_rows(table, request)
     series = series_of(table, request, dt)

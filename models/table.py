@@ -40,15 +40,18 @@ def _sha256(path: str) -> str:
     return digest.hexdigest()
 
 
-def _parse_cells(path: str, header: list[str], text_lines: list[str], numbers: list[int]) -> np.ndarray:
+def _parse_cells(path: str, header: list[str], text_lines: list[str], numbers: list[int], delimiter: str,
+                 comma_decimal: bool) -> np.ndarray:
     """Rows of numbers; the fast C parser first, the careful one for the message when it fails."""
+    if comma_decimal:
+        text_lines = [text.replace(",", ".") for text in text_lines]
     try:
         with np.errstate(all="ignore"):
-            block = np.loadtxt(text_lines, delimiter=",", dtype=np.float64, ndmin=2, quotechar='"')
+            block = np.loadtxt(text_lines, delimiter=delimiter, dtype=np.float64, ndmin=2, quotechar='"')
     except ValueError:
         block = None
     if block is None or block.shape[1] != len(header):
-        for line, row in zip(numbers, csv.reader(text_lines)):
+        for line, row in zip(numbers, csv.reader(text_lines, delimiter=delimiter)):
             if len(row) != len(header):
                 raise UserError(f"{path}:{line}: {len(row)} fields, expected {len(header)} as in the header")
             for c, cell in enumerate(row):
@@ -61,7 +64,7 @@ def _parse_cells(path: str, header: list[str], text_lines: list[str], numbers: l
     bad = np.argwhere(~np.isfinite(block))
     if len(bad):
         r, c = bad[0]
-        cell = next(csv.reader([text_lines[r]]))[c]
+        cell = next(csv.reader([text_lines[r]], delimiter=delimiter))[c]
         raise UserError(f"{path}:{numbers[r]}:{c + 1}: column {header[c]!r}: expected a finite number, "
                         f"found {cell.strip()!r}")
     return block
@@ -108,9 +111,24 @@ def _check_time(table: Table, time_column: str | None, header: list[str]) -> Non
                         f"found {t[bad[0] + 1]!r} after {t[bad[0]]!r}")
 
 
-def read_table(path: str | Path, time_column: str | None = "time_s", progress=None) -> Table:
-    """Read a comma-separated file with one header line (or a .npz of columns); every cell must be
-    a finite number. The text is streamed in chunks, so memory stays near the size of the numbers."""
+def _delimiter(path: str, header_line: str, decimal: str) -> tuple[str, bool]:
+    """',' with decimal points, or ';' (German Excel exports) where a comma can only be a decimal comma."""
+    has_comma, has_semicolon = "," in header_line, ";" in header_line
+    if has_comma and has_semicolon:
+        raise UserError(f"{path}:1: the header has both ',' and ';': cannot tell which one separates the columns")
+    if has_semicolon:
+        if decimal == ".":
+            return ";", False
+        return ";", True
+    if decimal == ",":
+        raise UserError(f"{path}:1: --decimal , needs ';' between the columns, but the header is separated by ','")
+    return ",", False
+
+
+def read_table(path: str | Path, time_column: str | None = "time_s", progress=None, decimal: str = "auto") -> Table:
+    """Read a CSV file with one header line (or a .npz of columns); every cell must be a finite
+    number. ',' separated with decimal points, or ';' separated with decimal commas (detected, or
+    decimal=','). The text is streamed in chunks, so memory stays near the size of the numbers."""
     path = str(path)
     if path.lower().endswith(".npz"):
         return _read_npz(path, time_column)
@@ -126,7 +144,8 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
             line = 1
             if not first.strip():
                 raise UserError(f"{path}: file is empty; expected a header line and data rows")
-            header = [h.strip() for h in next(csv.reader([first]))]
+            delimiter, comma_decimal = _delimiter(path, first, decimal)
+            header = [h.strip() for h in next(csv.reader([first], delimiter=delimiter))]
             seen = set()
             for col, name in enumerate(header, start=1):
                 if not name:
@@ -137,19 +156,19 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
             text_lines, numbers, total = [], [], 0
             for text in handle:
                 line += 1
-                if not text.strip().strip(",").strip():
+                if not text.strip().strip(delimiter).strip():
                     continue
                 text_lines.append(text)
                 numbers.append(line)
                 if len(text_lines) == CHUNK_ROWS:
-                    blocks.append(_parse_cells(path, header, text_lines, numbers))
+                    blocks.append(_parse_cells(path, header, text_lines, numbers, delimiter, comma_decimal))
                     numbers_all.append(np.asarray(numbers, np.int64))
                     total += len(text_lines)
                     text_lines, numbers = [], []
                     if progress is not None and total % PROGRESS_ROWS < CHUNK_ROWS:
                         progress(f"read {total:,} rows of {Path(path).name}")
             if text_lines:
-                blocks.append(_parse_cells(path, header, text_lines, numbers))
+                blocks.append(_parse_cells(path, header, text_lines, numbers, delimiter, comma_decimal))
                 numbers_all.append(np.asarray(numbers, np.int64))
     except UnicodeDecodeError as exc:
         raise UserError(f"{path}:{line + 1}: not a UTF-8 text file (byte {exc.object[exc.start]:#04x})") from None

@@ -37,7 +37,8 @@ def test_select_sensors_cli_feeds_fit(tmp_path, method):
     out = thermoplc("select-sensors", "--data", "twin.csv", "--target", "E_z_um", "--method", method,
                     "--candidates", "T_motor,T_bearing,T_struct,T_base,T_env", "-o", "chosen.txt", cwd=tmp_path).stdout
     assert "group 1:" in out and "chosen:" in out
-    chosen = (tmp_path / "chosen.txt").read_text().strip()
+    header, chosen = (tmp_path / "chosen.txt").read_text().strip().splitlines()
+    assert header.startswith("# thermoplc select-sensors")
     assert chosen and set(chosen.split(",")) <= {"T_motor", "T_bearing", "T_struct", "T_base", "T_env"}
     fitted = thermoplc("fit", "--data", "twin.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "@chosen.txt",
                        "--train-until", 10800, "-o", "m.json", cwd=tmp_path).stdout
