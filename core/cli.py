@@ -13,12 +13,12 @@ from thermoplc.fileio import check_overwrite, write_atomic
 
 
 def _columns(text: str) -> tuple[str, ...]:
-    if text.startswith("@"):  # a file written by select-sensors -o
+    if text.startswith("@"):  # a file written by select-sensors -o; its '#' lines are comments
         try:
             text = Path(text[1:]).read_text("utf-8").strip()
         except OSError as exc:
             raise argparse.ArgumentTypeError(f"cannot read {text[1:]}: {exc.strerror}") from None
-    text = ",".join(line for line in text.splitlines() if not line.lstrip().startswith("#"))
+        text = ",".join(line for line in text.splitlines() if not line.lstrip().startswith("#"))
     names = tuple(c.strip() for c in text.split(",") if c.strip())
     if not names:
         raise argparse.ArgumentTypeError("expected comma-separated column names")
@@ -198,8 +198,11 @@ def cmd_select(args) -> int:
     table = read_table(args.data, args.time, decimal=args.decimal)
     candidates = args.candidates or tuple(c for c in table.columns if c not in (args.time, args.target))
     rows = table.rows if args.train_rows is None else args.train_rows
-    selection = select_sensors({c: table.column(c)[:rows] for c in candidates}, table.column(args.target)[:rows],
-                               args.method, args.threshold, args.max_groups)
+    try:
+        selection = select_sensors({c: table.column(c)[:rows] for c in candidates}, table.column(args.target)[:rows],
+                                   args.method, args.threshold, args.max_groups)
+    except UserError as exc:
+        raise UserError(str(exc) if str(exc).startswith(args.data) else f"{args.data}: {exc}") from None
     print(f"sensor selection ({selection.method}) for {args.target} on {Path(args.data).name}, {rows} rows")
     print(f"  {selection.detail}")
     for k, group in enumerate(selection.groups, start=1):

@@ -40,7 +40,8 @@ def block_identifier(column: str, what: str) -> str:
     name = identifier_from_column(column)
     problem = identifier_problem(name)
     if problem:
-        raise UserError(f"{what} column {column!r} gives block name {name!r}, which {problem}; rename the column")
+        shown = lambda text: repr(text) if len(text) <= 40 else repr(text[:30]) + f"... ({len(text)} characters)"
+        raise UserError(f"{what} column {shown(column)} gives block name {shown(name)}, which {problem}; rename the column")
     return name
 
 

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from thermoplc import __version__
+from thermoplc.generator.identifiers import identifier_problem
 from thermoplc.binary32 import FLT_MAX, f32_hex, parse_f32_hex, round_f32
 from thermoplc.errors import UserError
 
@@ -114,8 +115,18 @@ def _field(doc, key: str, kind, path: str, where: str = ""):
     return value
 
 
+def _identifier(name: str, path: str, where: str) -> str:
+    """Names that reach the block are checked here too: a hand-edited model file is user input."""
+    problem = identifier_problem(name)
+    if problem:
+        raise UserError(f"{path}: field {where!r}: {name!r} {problem}")
+    return name
+
+
 def _signal(doc, path: str, where: str) -> Signal:
-    return Signal(*(_field(doc, k, str, path, where) for k in ("name", "column", "role", "unit")))
+    signal = Signal(*(_field(doc, k, str, path, where) for k in ("name", "column", "role", "unit")))
+    _identifier(signal.name, path, f"{where}.name")
+    return signal
 
 
 def _parse(doc, path: str) -> Model:
@@ -140,11 +151,12 @@ def _parse(doc, path: str) -> Model:
         except ValueError as exc:
             raise UserError(f"{path}: field '{where}.f32': {exc}") from None
         if not math.isfinite(f32) or abs(f64) > FLT_MAX:
-            raise UserError(f"{path}: field {where!r} is outside the binary32 range")
+            raise UserError(f"{path}: field {where!r} must be a finite binary32 value (|x| <= {FLT_MAX:.7g}), "
+                            f"found f32 {f32!r}, f64 {f64!r}")
         coefficients[name] = Coefficient(f64, f32)
     return Model(
         kind=kind,
-        block_name=_field(doc, "block_name", str, path),
+        block_name=_identifier(_field(doc, "block_name", str, path), path, "block_name"),
         inputs=inputs,
         target=_signal(_field(doc, "target", dict, path), path, "target"),
         time_column=_field(doc, "time_column", str, path),

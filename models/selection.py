@@ -73,7 +73,7 @@ def fuzzy_cluster(series: np.ndarray, max_groups: int) -> tuple[list[list[int]],
     cuts with at most `max_groups` groups (F alone favours near-singleton cuts)."""
     similarity = np.abs(np.corrcoef(series))
     np.fill_diagonal(similarity, 1.0)
-    while True:
+    for _ in range(len(series)):  # max-min closure converges within n compositions
         closure = np.max(np.minimum(similarity[:, :, None], similarity[None, :, :]), axis=1)
         if np.array_equal(closure, similarity):
             break
@@ -108,6 +108,9 @@ def select_sensors(columns: dict, target: np.ndarray, method: str, threshold: fl
     if len(names) < 2:
         raise UserError("select-sensors needs at least two candidate temperature columns")
     series = np.array([columns[n] for n in names])
+    flat = [n for n, s in zip(names, series) if np.ptp(s) == 0]
+    if flat:
+        raise UserError(f"{', '.join(flat)} does not change: not a sensor to choose from; leave it out of --candidates")
     if method == "fcm-grey":
         groups, level, f = fuzzy_cluster(series, max_groups)
         scores = dict(zip(names, grey_relational_grades(series, target).tolist()))

@@ -108,7 +108,7 @@ def _check_time(table: Table, time_column: str | None, header: list[str]) -> Non
     if len(bad):
         line = int(table.lines[bad[0] + 1])
         raise UserError(f"{table.path}:{line}: column {time_column!r}: time must increase strictly, "
-                        f"found {t[bad[0] + 1]!r} after {t[bad[0]]!r}")
+                        f"found {t[bad[0] + 1]:g} after {t[bad[0]]:g}")
 
 
 def _delimiter(path: str, header_line: str, decimal: str) -> tuple[str, bool]:

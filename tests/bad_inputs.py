@@ -1,0 +1,291 @@
+"""Every bad input a user can give, as a table: fault x command -> outcome.
+
+Each case writes its files into an empty folder (next to a good recording `good.csv`, a model
+`mlr.json` fitted on it and its block `block.scl`), runs the command as a user types it and
+expects either exit 2 with one message naming the file and line/column or field, or (for inputs
+engineers really produce: BOM, Windows line endings, ';' with decimal commas, units in the header)
+success. `tests/test_bad_input.py` runs every row; `python scripts/bad_input_table.py` writes the
+table in docs/bad_input.md from the same runs.
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from thermoplc.models.table import write_table
+from thermoplc.models.twin import simulate
+
+FIT = ("fit", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "--train-rows", "200",
+       "-o", "out.json", "--data")
+VERIFY = ("verify", "block.scl", "--model", "mlr.json", "--data")
+DIAGNOSE = ("diagnose", "--speed", "n_rpm", "--ambient", "T_env", "--temps", "T_motor,T_bearing", "--target", "E_z_um",
+            "-o", "out.json", "--data")
+SELECT = ("select-sensors", "--target", "E_z_um", "--candidates", "T_motor,T_bearing,T_struct,T_base", "-o", "out.txt",
+          "--data")
+
+
+@dataclass(frozen=True)
+class Case:
+    category: str
+    fault: str
+    command: str  # what the table shows
+    argv: tuple[str, ...]
+    prepare: Callable[[Path], None]
+    expect: str  # 'error' or 'accepted'
+    message: str  # part of the message (error) or of stdout (accepted)
+
+
+def good_csv(folder: Path) -> str:
+    return (folder / "good.csv").read_text()
+
+
+def with_text(name: str, make: Callable[[str], str | bytes]):
+    def prepare(folder: Path) -> None:
+        content = make(good_csv(folder))
+        path = folder / name
+        path.write_bytes(content if isinstance(content, bytes) else content.encode("utf-8"))
+    return prepare
+
+
+def _cell(text: str, row: int, column: str, value: str) -> str:
+    lines = text.splitlines()
+    header = lines[0].split(",")
+    cells = lines[row].split(",")
+    cells[header.index(column)] = value
+    lines[row] = ",".join(cells)
+    return "\n".join(lines) + "\n"
+
+
+def _rename(text: str, old: str, new: str) -> str:
+    head, rest = text.split("\n", 1)
+    return ",".join(new if h == old else h for h in head.split(",")) + "\n" + rest
+
+
+def _drop_column(text: str, column: str) -> str:
+    lines = text.splitlines()
+    k = lines[0].split(",").index(column)
+    return "\n".join(",".join(c for i, c in enumerate(line.split(",")) if i != k) for line in lines) + "\n"
+
+
+def _german(text: str) -> str:
+    return text.replace(",", ";").replace(".", ",")
+
+
+def _time_step(text: str, row: int, delta: float) -> str:
+    lines = text.splitlines()
+    cells = lines[row].split(",")
+    cells[0] = f"{float(cells[0]) + delta:g}"
+    lines[row] = ",".join(cells)
+    return "\n".join(lines) + "\n"
+
+
+def _model_edit(edit: Callable[[dict], None], raw: Callable[[str], str] | None = None):
+    def prepare(folder: Path) -> None:
+        doc = json.loads((folder / "mlr.json").read_text())
+        edit(doc)
+        text = json.dumps(doc, indent=2)
+        (folder / "bad.json").write_text(raw(text) if raw else text)
+    return prepare
+
+
+def _block_edit(edit: Callable[[str], str]):
+    def prepare(folder: Path) -> None:
+        (folder / "bad.scl").write_text(edit((folder / "block.scl").read_text()))
+    return prepare
+
+
+def _set(path: list, value):
+    def edit(doc: dict) -> None:
+        node = doc
+        for key in path[:-1]:
+            node = node[key]
+        node[path[-1]] = value
+    return edit
+
+
+def _delete(key: str):
+    return lambda doc: doc.pop(key)
+
+
+def _csv_cases() -> list[Case]:
+    faults = [
+        ("empty file", lambda t: "", "error", "bad.csv: file is empty"),
+        ("header only", lambda t: t.splitlines()[0] + "\n", "error", "bad.csv: header only, no data rows"),
+        ("missing column", lambda t: _drop_column(t, "T_motor"), "error", "no column 'T_motor'"),
+        ("duplicated column", lambda t: _rename(t, "T_struct", "T_motor"), "error",
+         "bad.csv:1:7: column 'T_motor' appears twice in the header"),
+        ("non-numeric cell", lambda t: _cell(t, 5, "T_motor", "abc"), "error",
+         "bad.csv:6:5: column 'T_motor': expected a number, found 'abc'"),
+        ("NaN cell", lambda t: _cell(t, 5, "T_motor", "nan"), "error",
+         "bad.csv:6:5: column 'T_motor': expected a finite number, found 'nan'"),
+        ("empty cell", lambda t: _cell(t, 5, "T_motor", ""), "error",
+         "bad.csv:6:5: column 'T_motor': expected a number, found ''"),
+        ("time not increasing", lambda t: _time_step(t, 8, -20.0), "error",
+         "bad.csv:9: column 'time_s': time must increase strictly"),
+        ("irregular sampling", lambda t: _time_step(t, 8, 4.0), "error",
+         "bad.csv:9: column 'time_s': step 14 s, expected 10 s"),
+        ("UTF-8 byte order mark", lambda t: "\ufeff" + t, "accepted", ""),
+        ("Windows line endings", lambda t: t.replace("\n", "\r\n"), "accepted", ""),
+        ("';' and decimal commas (German Excel)", _german, "accepted", ""),
+        ("',' and ';' both in the header", lambda t: t.replace("time_s,", "time_s;", 1), "error",
+         "bad.csv:1: the header has both ',' and ';'"),
+        ("truncated last line", lambda t: t.rstrip("\n")[:-12] + "\n", "error", "fields, expected 13 as in the header"),
+        ("binary garbage", lambda t: bytes(range(256)) * 4, "error", "not a UTF-8 text file"),
+    ]
+    cases = []
+    for fault, make, expect, message in faults:
+        for command, argv in (("fit", FIT), ("verify", VERIFY), ("diagnose", DIAGNOSE), ("select-sensors", SELECT)):
+            if command in ("diagnose", "select-sensors") and expect == "accepted":
+                continue  # the reader is shared; fit and verify show acceptance
+            if fault == "irregular sampling" and command == "select-sensors":
+                continue  # sensor selection does not depend on the sampling
+            shown = message
+            if fault == "missing column" and command == "verify":
+                shown = "bad.csv: no column 'T_motor' for model input 'T_motor'"
+            cases.append(Case("CSV", fault, command, (*argv, "bad.csv"), with_text("bad.csv", make), expect,
+                              shown if expect == "error" else ("bit-exact" if command == "verify" else "wrote out.json")))
+    cases.append(Case("CSV", "decimal commas with --decimal .", "fit", (*FIT, "bad.csv", "--decimal", "."),
+                      with_text("bad.csv", _german), "error", "bad.csv:2:"))
+    cases.append(Case("CSV", "--decimal , on a ',' separated file", "fit", (*FIT, "bad.csv", "--decimal", ","),
+                      with_text("bad.csv", lambda t: t), "error", "bad.csv:1: --decimal , needs ';' between the columns"))
+    cases.append(Case("CSV", "units in the header: T_motor(degC)", "fit",
+                      ("fit", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor(°C),T_bearing", "--train-rows",
+                       "200", "-o", "out.json", "--data", "bad.csv"),
+                      with_text("bad.csv", lambda t: _rename(t, "T_motor", "T_motor(°C)")), "accepted", "wrote out.json"))
+    cases.append(Case("CSV", "missing file", "fit", (*FIT, "nothere.csv"), lambda f: None, "error",
+                      "nothere.csv: cannot read: No such file or directory"))
+    return cases
+
+
+def _model_cases() -> list[Case]:
+    faults = [
+        ("malformed JSON", _model_edit(lambda d: None, lambda t: t[:-40]), "malformed JSON"),
+        ("not a model file", _model_edit(_set(["format"], "something")), "field 'format' must be 'thermoplc-model'"),
+        ("older schema version", _model_edit(_set(["schema_version"], 0)), "schema_version 0 is not supported"),
+        ("future schema version", _model_edit(_set(["schema_version"], 99)), "schema_version 99 is not supported"),
+        ("missing field", _model_edit(_delete("coefficients")), "field 'coefficients' is missing"),
+        ("non-finite coefficient", _model_edit(_set(["coefficients", "beta_1", "f32"], "0x7FC00000")),
+         "field 'coefficients.beta_1' must be a finite binary32 value"),
+        ("coefficient beyond binary32", _model_edit(_set(["coefficients", "beta_1"], {"f64": 1e39, "f32": "0x7F800000"})),
+         "field 'coefficients.beta_1' must be a finite binary32 value"),
+        ("hostile block name", _model_edit(_set(["block_name"], 'X" END_FUNCTION_BLOCK')), "field 'block_name'"),
+        ("hostile input name", _model_edit(_set(["inputs", 0, "name"], "T1*) END_VAR")), "field 'inputs[0].name'"),
+    ]
+    cases = []
+    for fault, prepare, message in faults:
+        cases.append(Case("model file", fault, "generate", ("generate", "bad.json", "-o", "out.scl"), prepare, "error", message))
+        cases.append(Case("model file", fault, "verify", ("verify", "block.scl", "--model", "bad.json", "--data", "good.csv"),
+                          prepare, "error", message))
+    cases.append(Case("model file", "model fitted on other column names", "verify",
+                      ("verify", "block.scl", "--model", "mlr.json", "--data", "bad.csv"),
+                      with_text("bad.csv", lambda t: _rename(_rename(t, "T_motor", "t1"), "T_bearing", "t2")), "error",
+                      "bad.csv: no column 'T_motor' for model input 'T_motor' (temperature); map it with --inputs T_motor=COLUMN"))
+    cases.append(Case("model file", "data sampled at another period", "verify",
+                      ("verify", "block.scl", "--model", "mlr.json", "--data", "bad.csv"),
+                      with_text("bad.csv", lambda t: write_table({**_columns(t), "time_s": _columns(t)["time_s"] * 2})),
+                      "error", "bad.csv: column 'time_s': sampled every 20 s, but the model was fitted for a call every 10 s"))
+    return cases
+
+
+def _columns(text: str) -> dict:
+    import numpy as np
+    lines = text.splitlines()
+    header = lines[0].split(",")
+    values = np.array([[float(c) for c in line.split(",")] for line in lines[1:]])
+    return {h: values[:, i] for i, h in enumerate(header)}
+
+
+def _st_cases() -> list[Case]:
+    faults = [
+        ("syntax error (missing ';')", _block_edit(lambda t: t.replace("#Init := TRUE;", "#Init := TRUE", 1)),
+         "bad.scl:", "syntax error"),
+        ("unsupported construct (WHILE)", _block_edit(lambda t: t.replace("BEGIN\n", "BEGIN\n    WHILE #Init DO #Init := TRUE; END_WHILE;\n", 1)),
+         "bad.scl:", "WHILE loop is not supported"),
+        ("undeclared variable", _block_edit(lambda t: t.replace("#Init := TRUE;", "#Inti := TRUE;", 1)),
+         "bad.scl:", "Inti is not declared"),
+        ("interface does not match the data", _block_edit(lambda t: t.replace("      T_bearing : Real;", "      T_bearing : Real;\n      T_spare : Real;", 1)),
+         "bad.scl:", "T_spare"),
+    ]
+    cases = []
+    for fault, prepare, where, message in faults:
+        cases.append(Case("ST file", fault, "verify", ("verify", "bad.scl", "--model", "mlr.json", "--data", "good.csv"),
+                          prepare, "error", message))
+        cases.append(Case("ST file", fault, "diff", ("diff", "block.scl", "bad.scl", "--data", "good.csv"),
+                          prepare, "error", message))
+    return cases
+
+
+HOSTILE = [
+    ("T1; END_FUNCTION_BLOCK", "error", "the header has both ',' and ';'"),  # a ';' in a ',' header is ambiguous
+    ("T1 END_FUNCTION_BLOCK", "accepted", "wrote out.json"),  # becomes the identifier T1_END_FUNCTION_BLOCK
+    ("T*)x", "accepted", "wrote out.json"),
+    ('T"1', "accepted", "wrote out.json"),
+    ("#T1", "accepted", "wrote out.json"),
+    ("Т1", "error", "gives block name '1', which"),  # a Cyrillic T
+    ("T" * 200, "error", "has 200 characters, at most 24 are allowed"),
+    ("TON", "error", "gives block name 'TON', which"),
+    ("EXP", "error", "gives block name 'EXP', which"),
+    ("BEGIN", "error", "gives block name 'BEGIN', which"),
+]
+
+
+def _injection_cases() -> list[Case]:
+    cases = []
+    for name, expect, message in HOSTILE:
+        shown = name if len(name) < 40 else name[:12] + f"... ({len(name)} characters)"
+        cases.append(Case("injection", f"column named {shown!r}", "fit",
+                          ("fit", "--model", "mlr", "--target", "E_z_um", "--temps", f"{name},T_bearing", "--train-rows",
+                           "200", "-o", "out.json", "--data", "bad.csv"),
+                          with_text("bad.csv", lambda t, n=name: _rename(t, "T_motor", n)), expect, message))
+    cases.append(Case("injection", "block name with a quote and END_FUNCTION_BLOCK", "fit",
+                      (*FIT, "good.csv", "--name", 'X" END_FUNCTION_BLOCK'), lambda f: None, "error", "block name"))
+    return cases
+
+
+def _output_cases() -> list[Case]:
+    def foreign(folder: Path) -> None:
+        (folder / "out.scl").write_text("my own notes\n")
+    return [
+        Case("output", "output exists, not written by thermoplc", "generate", ("generate", "mlr.json", "-o", "out.scl"),
+             foreign, "error", "out.scl: exists and was not written by thermoplc"),
+        Case("output", "same, with --force", "generate", ("generate", "mlr.json", "-o", "out.scl", "--force"),
+             foreign, "accepted", "wrote out.scl"),
+        Case("output", "output is a folder", "generate", ("generate", "mlr.json", "-o", "."), lambda f: None, "error",
+             ": is a folder"),
+    ]
+
+
+CASES = [*_csv_cases(), *_model_cases(), *_st_cases(), *_injection_cases(), *_output_cases()]
+
+
+def setup_folder(folder: Path) -> None:
+    """good.csv (2 h twin), mlr.json fitted on it, block.scl generated from it."""
+    (folder / "good.csv").write_text(write_table(simulate(2, seed=4)))
+    run(folder, ("fit", "--data", "good.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing",
+                 "--train-rows", "200", "-o", "mlr.json"))
+    run(folder, ("generate", "mlr.json", "-o", "block.scl"))
+
+
+def run(folder: Path, argv: tuple[str, ...]) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "thermoplc.cli", *argv], cwd=folder, capture_output=True, text=True,
+                          stdin=subprocess.DEVNULL)
+
+
+def outcome(result: subprocess.CompletedProcess) -> str:
+    """What the user sees: the error line, or the first line of the output."""
+    if result.returncode == 2:
+        return result.stderr.strip().splitlines()[-1] if result.stderr.strip() else "(no message)"
+    lines = result.stdout.strip().splitlines()
+    return lines[0] if lines else ""
+
+
+def table_markdown(rows: list[tuple[Case, subprocess.CompletedProcess]]) -> str:
+    out = ["| input | fault | command | exit | what the user sees |", "| --- | --- | --- | ---: | --- |"]
+    for case, result in rows:
+        seen = outcome(result).replace("|", "\\|")
+        out.append(f"| {case.category} | {case.fault} | `{case.command}` | {result.returncode} | {seen} |")
+    return "\n".join(out) + "\n"
