@@ -4,7 +4,7 @@ import re
 import numpy as np
 import pytest
 
-from scripts.regen_golden import GOLDEN, golden_block, golden_twin_csv
+from scripts.regen_golden import golden_block, golden_twin_csv
 from tests.test_cli import thermoplc
 from thermoplc.generator.literals import real_literal
 from thermoplc.models.table import read_table

@@ -24,7 +24,7 @@ def test_streamed_reading_equals_whole_reading_and_points_at_late_lines(tmp_path
     lines[3500] = ",".join(cells)
     bad = tmp_path / "bad.csv"
     bad.write_text("\n".join(lines) + "\n")
-    with pytest.raises(UserError, match=rf"bad.csv:3501:5: column 'T_motor': expected a number, found 'n/a'"):
+    with pytest.raises(UserError, match=r"bad.csv:3501:5: column 'T_motor': expected a number, found 'n/a'"):
         read_table(bad)
 
 

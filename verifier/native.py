@@ -109,7 +109,7 @@ class _Translator:
         raise NativeUnavailable(f"{e.func} is not a portable operation; the fast engine runs portable operations only")
 
     def binop(self, e: s.BinOp) -> tuple[str, str]:
-        (a, ka), (b, kb) = self.expr(e.left), self.expr(e.right)
+        (a, ka), (b, _) = self.expr(e.left), self.expr(e.right)
         op = e.op
         if op in ("AND", "OR", "XOR"):
             return {"AND": f"({a} && {b})", "OR": f"({a} || {b})", "XOR": f"(({a}) != ({b}))"}[op], "BOOL"
@@ -218,7 +218,7 @@ class _Translator:
                  "static inline float f_max(float a, float b) { return isgreater(b, a) ? b : a; }",
                  "typedef struct {"]
         lines += [f"    {self.ctype(d)} {_cname(d.name)}{size(d)};" for d in memory] or ["    int unused_;"]
-        lines += ["} state_t;", f"int64_t state_size(void) {{ return (int64_t)sizeof(state_t); }}",
+        lines += ["} state_t;", "int64_t state_size(void) { return (int64_t)sizeof(state_t); }",
                   "void state_init(state_t *s) {", "    memset(s, 0, sizeof(state_t));"]
         for d in memory:
             if d.initial is not None:
