@@ -15,14 +15,12 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from thermoplc.diagnosis.search import diagnose
-from thermoplc.models.effects import NAMES, Effect
+from thermoplc.models.effects import NAMES, SHOWS_IN as EFFECT_CHANNELS, Effect
 from thermoplc.models.simulation import Series
 from thermoplc.models.twin import simulate
 
 TEMPS = ("T_motor", "T_bearing")
-SHOWS_IN = {"gear_ratio_switch": "T_motor", "coolant_switching": "T_motor", "nonlinear_speed_heat": "T_motor",
-            "stop_convection": "T_motor", "sensor_offset": "T_bearing", "sensor_drift": "T_motor",
-            "slow_structure": "E_z_um", "ambient_coupling": "E_z_um", "feed_axis_heat": "E_z_um", "none": "E_z_um"}
+SHOWS_IN = {**EFFECT_CHANNELS, "none": "E_z_um"}
 
 
 def one(case: tuple[str, int, float, float]) -> dict:

@@ -77,19 +77,24 @@ def summary(d: Diagnosis) -> str:
     return f"{found}{left} disagreement window(s) not explained by any known effect"
 
 
-def _fmt(value) -> str:
+def display(value, braces: bool = True) -> str:
+    """A parameter or evidence value for people: 4 significant digits, dicts as key: value
+    (in braces for the text output, bare in the HTML table's cells)."""
     if isinstance(value, dict):
-        return "{" + ", ".join(f"{k}: {_fmt(v)}" for k, v in value.items()) + "}"
+        inner = ", ".join(f"{k}: {display(v, braces)}" for k, v in value.items())
+        return "{" + inner + "}" if braces else inner
     if isinstance(value, float):
         return f"{value:.4g}"
-    return str(value)
+    if isinstance(value, list):
+        return " .. ".join(display(v, braces) for v in value)
+    return "" if value is None else str(value)
 
 
 def text(doc: dict) -> str:
     lines = [f"verdict: {doc['verdict']} - {doc['summary']}"]
     for k, e in enumerate(doc["effects"], start=1):
         ev = e["evidence"]
-        lines.append(f"  {k}. {e['name']}: {_fmt(e['parameters'])}")
+        lines.append(f"  {k}. {e['name']}: {display(e['parameters'])}")
         lines.append(f"     delta BIC {ev['delta_bic']:.1f}; held-out excess above noise removed "
                      f"{ev['held_out_excess_removed']:.0%}")
     lines.append(f"  disagreement windows: {len(doc['disagreements'])} before, {len(doc['remaining_disagreements'])} after")

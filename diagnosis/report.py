@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from thermoplc.diagnosis.search import Diagnosis
+from thermoplc.diagnosis.findings import display
 from thermoplc.fileio import write_atomic
 from thermoplc.models.simulation import Series
 
@@ -48,13 +49,7 @@ def _table(header: list[str], rows: list[list]) -> str:
 
 
 def _cell(v) -> str:
-    if isinstance(v, float):
-        return f"{v:.4g}"
-    if isinstance(v, dict):
-        return ", ".join(f"{k}: {_cell(x)}" for k, x in v.items())
-    if isinstance(v, list):
-        return " .. ".join(_cell(x) for x in v)
-    return "" if v is None else str(v)
+    return display(v, braces=False)
 
 
 def write_report(folder: Path, doc: dict, d: Diagnosis, series: Series, n_train: int) -> list[Path]:

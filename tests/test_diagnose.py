@@ -15,7 +15,7 @@ import pytest
 from thermoplc.cli import main
 from thermoplc.diagnosis.search import diagnose
 from thermoplc.models import lumped_model, simulation
-from thermoplc.models.effects import NAMES, Effect
+from thermoplc.models.effects import NAMES, SHOWS_IN, Effect
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.table import read_table
@@ -24,10 +24,6 @@ from thermoplc.models.twin import simulate
 HOURS = 72
 TEMPS = ("T_motor", "T_bearing")
 # where each effect shows: a temperature channel or the displacement
-SHOWS_IN = {"gear_ratio_switch": "T_motor", "coolant_switching": "T_motor", "nonlinear_speed_heat": "T_motor",
-            "stop_convection": "T_motor", "sensor_offset": "T_bearing", "sensor_drift": "T_motor",
-            "slow_structure": "E_z_um", "ambient_coupling": "E_z_um", "feed_axis_heat": "E_z_um"}
-
 
 def _series(columns: dict) -> simulation.Series:
     return simulation.Series(10.0, columns["time_s"], columns["n_rpm"], columns["T_env"],
