@@ -2,11 +2,6 @@
 from __future__ import annotations
 
 import pytest
-from hypothesis import settings
-
-# the normal suite keeps each property test's own bounded example count; --hypothesis-profile=fuzz
-# is the long run (README: "Reliability")
-settings.register_profile("fuzz", max_examples=20000, deadline=None)
 
 from thermoplc.models.fit import FitRequest, fit
 from thermoplc.models.kalman import FitOptions

@@ -1,10 +1,11 @@
 """Fuzzing (hypothesis): the ST parser, the interpreter and the CSV reader give clear errors, never a
 crash or a hang, and text from user data can never change the structure of an emitted program.
 
-The normal suite runs a bounded number of examples; a longer run is
-`python -m pytest tests/test_fuzz.py --hypothesis-profile=fuzz` (see README).
+The normal suite runs 150 examples per test; the long run sets THERMOPLC_FUZZ_EXAMPLES, e.g.
+`THERMOPLC_FUZZ_EXAMPLES=20000 python -m pytest tests/test_fuzz.py` (see README).
 """
 import json
+import os
 
 import numpy as np
 from hypothesis import HealthCheck, given, settings, strategies as st
@@ -18,6 +19,7 @@ from thermoplc.models.table import read_table
 from thermoplc.verifier.interpreter import Machine
 from thermoplc.verifier.parser import parse_text
 
+EXAMPLES = int(os.environ.get("THERMOPLC_FUZZ_EXAMPLES", "150"))
 GOLDEN_TEXT = golden_block("kalman", "tia").read_text()
 ST_WORDS = st.sampled_from(["IF", "THEN", "END_IF", ";", ":=", "#x", "(", ")", "REGION", "END_REGION", "VAR", "END_VAR",
                             "1.5", "-", "*", "WHILE", "FOR", "TO", "DO", "END_FOR", "(*", "*)", "//", "\n", "'", '"',
@@ -25,7 +27,7 @@ ST_WORDS = st.sampled_from(["IF", "THEN", "END_IF", ";", ":=", "#x", "(", ")", "
 
 
 @given(st.text(max_size=400))
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=EXAMPLES, deadline=None)
 def test_parser_on_arbitrary_text_raises_only_user_errors(text):
     try:
         parse_text(text, "fuzz.scl")
@@ -34,7 +36,7 @@ def test_parser_on_arbitrary_text_raises_only_user_errors(text):
 
 
 @given(st.integers(0, len(GOLDEN_TEXT) - 1), st.lists(ST_WORDS, min_size=1, max_size=6))
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=EXAMPLES, deadline=None)
 def test_parser_and_interpreter_on_mutated_blocks(at, words):
     """A generated block with tokens spliced in: a clear error, or a program that runs a few calls."""
     text = GOLDEN_TEXT[:at] + " ".join(words) + GOLDEN_TEXT[at:]
@@ -49,7 +51,7 @@ def test_parser_and_interpreter_on_mutated_blocks(at, words):
 
 
 @given(st.binary(max_size=600))
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 def test_csv_reader_on_arbitrary_bytes_raises_only_user_errors(tmp_path, data):
     path = tmp_path / "fuzz.csv"
     path.write_bytes(data)
@@ -65,7 +67,7 @@ CELLS = st.one_of(st.floats(allow_nan=True, allow_infinity=True).map(repr), st.t
 
 
 @given(st.lists(st.lists(CELLS, min_size=2, max_size=4), min_size=1, max_size=8), st.sampled_from([",", ";"]))
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 def test_csv_reader_on_structured_junk(tmp_path, rows, delimiter):
     text = delimiter.join(["time_s", "a", "b", "c"][:len(rows[0])]) + "\n" + "\n".join(delimiter.join(r) for r in rows)
     path = tmp_path / "junk.csv"
@@ -77,7 +79,7 @@ def test_csv_reader_on_structured_junk(tmp_path, rows, delimiter):
 
 
 @given(st.text(min_size=1, max_size=60))
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 def test_text_from_user_data_cannot_change_the_program(tmp_path, hostile):
     """Input units land in comments; whatever they hold, the block parses to the same program."""
     doc = json.loads((GOLDEN / "mlr.json").read_text())
