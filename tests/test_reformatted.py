@@ -4,6 +4,7 @@ Every variant of a generated block must verify with exactly the results of the o
 construct outside the subset must be rejected with file:line:col and the construct's name.
 """
 import re
+from pathlib import Path
 
 import pytest
 
@@ -81,16 +82,22 @@ UNSUPPORTED = [
 ]
 
 
-@pytest.mark.parametrize("statement, construct", UNSUPPORTED)
-def test_unsupported_statement_is_named_at_its_line_and_column(statement, construct, table, tmp_path):
+def _rejection(line_after: str, inserted: str, table, tmp_path) -> tuple[str, int, Path]:
+    """The message verify gives for the golden mlr block with one line inserted after `line_after`."""
     lines = golden_block("mlr", "tia").read_text().splitlines()
-    at = lines.index("BEGIN") + 1
-    lines.insert(at, statement)
+    at = lines.index(line_after) + 1
+    lines.insert(at, inserted)
     path = tmp_path / "bad.scl"
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(UserError) as error:
         _verify(path, "mlr", table)
-    assert str(error.value) == f"{path}:{at + 1}:5: {construct}"
+    return str(error.value), at + 1, path
+
+
+@pytest.mark.parametrize("statement, construct", UNSUPPORTED)
+def test_unsupported_statement_is_named_at_its_line_and_column(statement, construct, table, tmp_path):
+    message, line, path = _rejection("BEGIN", statement, table, tmp_path)
+    assert message == f"{path}:{line}:5: {construct}"
 
 
 @pytest.mark.parametrize("declaration, construct", [
@@ -99,11 +106,5 @@ def test_unsupported_statement_is_named_at_its_line_and_column(statement, constr
     ("      Spare : String;", "type STRING is not supported"),
 ])
 def test_unsupported_declaration_is_named_at_its_line(declaration, construct, table, tmp_path):
-    lines = golden_block("mlr", "tia").read_text().splitlines()
-    at = lines.index("   VAR ") + 1
-    lines.insert(at, declaration)
-    path = tmp_path / "bad.scl"
-    path.write_text("\n".join(lines) + "\n")
-    with pytest.raises(UserError) as error:
-        _verify(path, "mlr", table)
-    assert str(error.value).startswith(f"{path}:{at + 1}:") and f": {construct}" in str(error.value)
+    message, line, path = _rejection("   VAR ", declaration, table, tmp_path)
+    assert message.startswith(f"{path}:{line}:") and f": {construct}" in message
