@@ -16,7 +16,6 @@ import hashlib
 import os
 import shutil
 import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
@@ -367,7 +366,3 @@ def native_or_reason(program: s.Program) -> tuple[NativeBlock | None, str]:
         return None, str(exc)
     except OSError as exc:
         return None, f"cannot load the compiled block: {exc}"
-
-
-def warn(message: str) -> None:
-    print(f"thermoplc: {message}", file=sys.stderr)
