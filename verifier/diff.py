@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 
 from thermoplc.binary32 import f32_bits
-from thermoplc.errors import UserError
 from thermoplc.models.table import Table
 from thermoplc.verifier import syntax as s
-from thermoplc.verifier.interpreter import Machine
+from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.parser import parse_file
+from thermoplc.verifier.replay import block_columns
 
 SECTIONS = (("input", "inputs"), ("output", "outputs"), ("static", "state"), ("temp", "temporaries"))
 WHOLE_BODY = "(body)"
@@ -183,26 +183,18 @@ def _statements(old: s.Program, new: s.Program, old_lines: list[str], new_lines:
     return report
 
 
-def _columns(machine: Machine, table: Table, overrides: dict | None, block: str) -> dict:
-    columns = {}
-    for d in machine.inputs:
-        column = (overrides or {}).get(d.name, d.name)
-        if column not in table.columns:
-            raise UserError(f"{table.path}: no column {column!r} for input {d.name} of {block}; "
-                            f"map it with --inputs {d.name}=COLUMN")
-        values = table.columns[column]
-        columns[d.name] = values.astype(np.float32).tolist() if d.type.base == "REAL" else (values != 0).tolist()
-    return columns
-
-
 def _behaviour(old_path: str, new_path: str, old: s.Program, new: s.Program, table: Table,
                overrides: dict | None, time_column: str) -> list[OutputDifference]:
-    old_machine, new_machine = Machine(old, old_path), Machine(new, new_path)
-    before = old_machine.replay(_columns(old_machine, table, overrides, old_path), table.rows)
-    after = new_machine.replay(_columns(new_machine, table, overrides, new_path), table.rows)
+    replayed = []
+    for program, path in ((old, old_path), (new, new_path)):
+        replayer = Replayer(program, path)
+        columns = block_columns(replayer.inputs, table, overrides, path)
+        replayed.append(replayer.replay(columns, table.rows, tuple(d.name for d in replayer.outputs)))
+    before, after = replayed
+    new_outputs = [d for d in new.decls if d.section == "output"]
     times = table.columns.get(time_column, np.arange(table.rows, dtype=float))
     diffs = []
-    common = [d for d in new_machine.outputs if d.name in before]
+    common = [d for d in new_outputs if d.name in before]
     for d in common:
         a, b = before[d.name], after[d.name]
         if d.type.base == "REAL":

@@ -131,6 +131,19 @@ def _check_interface(machine, block: str, available: dict, what: str) -> None:
                         + (f"; {what} also has {', '.join(extra)}" if extra else ""))
 
 
+def block_columns(inputs: list, table: Table, overrides: dict | None, block: str) -> dict:
+    """The data column of each block input (by its name unless --inputs maps it), REAL as float32."""
+    columns = {}
+    for d in inputs:
+        column = (overrides or {}).get(d.name, d.name)
+        if column not in table.columns:
+            raise UserError(f"{table.path}: no column {column!r} for input {d.name} of {block}; "
+                            f"map it with --inputs {d.name}=COLUMN")
+        values = table.columns[column]
+        columns[d.name] = values.astype(np.float32) if d.type.base == "REAL" else values != 0
+    return columns
+
+
 def _first_mismatch(produced: dict, expected: dict) -> tuple[int, str] | None:
     first = None
     for name in produced:
@@ -245,12 +258,7 @@ def verify_against_trace(block: str, table: Table, expect: dict, overrides: dict
                          time_column: str = "time_s", engine: str = "auto") -> Report:
     """expect maps block output names to trace columns holding what the PLC produced."""
     _, machine = _load(block, engine)
-    inputs = {}
-    for d in machine.inputs:
-        column = (overrides or {}).get(d.name, d.name)
-        if column not in table.columns:
-            raise UserError(f"{table.path}: no column {column!r} for block input {d.name}; map it with --inputs {d.name}=COLUMN")
-        inputs[d.name] = table.columns[column].astype(np.float32) if d.type.base == "REAL" else table.columns[column] != 0
+    inputs = block_columns(machine.inputs, table, overrides, block)
     outputs = {d.name: d for d in machine.outputs}
     expected = {}
     for output, column in expect.items():
