@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import io
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,6 +31,26 @@ class Table:
         if name not in self.columns:
             raise UserError(f"{self.path}: no column {name!r}; the header has {', '.join(self.columns)}")
         return self.columns[name]
+
+
+class _Hashing(io.RawIOBase):
+    """A binary file that feeds every byte read into a digest: the CSV is hashed in the same pass
+    that parses it, not read twice."""
+
+    def __init__(self, raw, digest):
+        self.raw, self.digest = raw, digest
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, buffer) -> int:
+        n = self.raw.readinto(buffer)
+        self.digest.update(memoryview(buffer)[:n])
+        return n
+
+    def close(self) -> None:
+        self.raw.close()
+        super().close()
 
 
 def _sha256(path: str) -> str:
@@ -132,12 +153,20 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
     path = str(path)
     if path.lower().endswith(".npz"):
         return _read_npz(path, time_column)
+    digest = hashlib.sha256()
     try:
-        handle = open(path, encoding="utf-8-sig", newline=None)
+        raw = open(path, "rb")
     except OSError as exc:
         raise UserError(f"{path}: cannot read: {exc.strerror}") from None
+    handle = io.TextIOWrapper(io.BufferedReader(_Hashing(raw, digest)), encoding="utf-8-sig", newline=None)
     blocks, numbers_all = [], []
+    text_lines, numbers = [], []
     line = 0
+
+    def flush() -> None:
+        blocks.append(_parse_cells(path, header, text_lines, numbers, delimiter, comma_decimal))
+        numbers_all.append(np.asarray(numbers, np.int64))
+
     try:
         with handle:
             first = handle.readline()
@@ -153,7 +182,7 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
                 if name in seen:
                     raise UserError(f"{path}:1:{col}: column {name!r} appears twice in the header")
                 seen.add(name)
-            text_lines, numbers, total = [], [], 0
+            total = 0
             for text in handle:
                 line += 1
                 if not text.strip().strip(delimiter).strip():
@@ -161,24 +190,22 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
                 text_lines.append(text)
                 numbers.append(line)
                 if len(text_lines) == CHUNK_ROWS:
-                    blocks.append(_parse_cells(path, header, text_lines, numbers, delimiter, comma_decimal))
-                    numbers_all.append(np.asarray(numbers, np.int64))
+                    flush()
                     total += len(text_lines)
                     text_lines, numbers = [], []
                     if progress is not None and total % PROGRESS_ROWS < CHUNK_ROWS:
                         progress(f"read {total:,} rows of {Path(path).name}")
             if text_lines:
-                blocks.append(_parse_cells(path, header, text_lines, numbers, delimiter, comma_decimal))
-                numbers_all.append(np.asarray(numbers, np.int64))
+                flush()
     except UnicodeDecodeError as exc:
         raise UserError(f"{path}:{line + 1}: not a UTF-8 text file (byte {exc.object[exc.start]:#04x})") from None
     if not blocks:
         raise UserError(f"{path}: header only, no data rows")
     values = np.concatenate(blocks) if len(blocks) > 1 else blocks[0]
-    del blocks
+    blocks.clear()  # frees the chunks before the columns are copied out
     columns = {name: np.ascontiguousarray(values[:, i]) for i, name in enumerate(header)}
     del values
-    table = Table(path, columns, _sha256(path), np.concatenate(numbers_all))
+    table = Table(path, columns, digest.hexdigest(), np.concatenate(numbers_all))
     _check_time(table, time_column, header)
     return table
 
