@@ -17,7 +17,7 @@ from thermoplc.demo import AMBIENT, SPEED, TARGET, TEMPS, TRAIN_UNTIL_S, recordi
 from thermoplc.models.fit import FitRequest, fit
 from thermoplc.models.kalman import FitOptions
 from thermoplc.models.table import read_table, write_table
-from thermoplc.models.twin import simulate
+from thermoplc.machines.cascade import simulate
 
 
 def main() -> None:

@@ -20,7 +20,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from scripts.regen_golden import GOLDEN, golden_block  # noqa: E402
-from thermoplc.models.twin import simulate  # noqa: E402
+from thermoplc.machines.cascade import simulate  # noqa: E402
 
 
 def write_recording(folder: Path, rows: int) -> tuple[Path, Path]:

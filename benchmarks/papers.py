@@ -21,7 +21,8 @@ from thermoplc.models.kalman import FitOptions
 from thermoplc.models.modelfile import Coefficient
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.table import read_table, write_table
-from thermoplc.models.twin import SensorFault, simulate
+from thermoplc.machines.cascade import simulate
+from thermoplc.machines.faults import SensorFault
 
 ROWS: list[tuple[str, str, str, str]] = []  # paper, comparison, paper's number, ours
 

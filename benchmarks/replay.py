@@ -27,7 +27,7 @@ from thermoplc.models.modelfile import load_model  # noqa: E402
 from thermoplc.models.reference import block_outputs, model_inputs  # noqa: E402
 from thermoplc.models.safety import Limits  # noqa: E402
 from thermoplc.models.table import read_table, write_table  # noqa: E402
-from thermoplc.models.twin import simulate  # noqa: E402
+from thermoplc.machines.cascade import simulate  # noqa: E402
 from thermoplc.verifier.interpreter import Machine  # noqa: E402
 from thermoplc.verifier.native import NativeBlock  # noqa: E402
 from thermoplc.verifier.parser import parse_file  # noqa: E402

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from thermoplc import __version__
 from thermoplc.errors import UserError
+from thermoplc.machines import DEFAULT as DEFAULT_MACHINE, MACHINES as MACHINE_NAMES
 from thermoplc.models.effects import NAMES as EFFECT_NAMES
 from thermoplc.models.modelfile import KINDS
 from thermoplc.fileio import check_overwrite, write_atomic
@@ -44,20 +45,24 @@ def _mapping(text: str) -> dict:
 
 
 def cmd_twin(args) -> int:
+    from thermoplc.machines import machine
+    from thermoplc.machines.faults import SensorFault
     from thermoplc.models.table import write_table
     from thermoplc.models.effects import Effect
-    from thermoplc.models.twin import SensorFault, simulate
-    faults = tuple(SensorFault.parse(f) for f in args.sensor_fault)
-    effects = tuple(Effect.parse(e) for e in args.effect)
+    chosen = machine(args.machine)
+    faults = tuple(SensorFault.parse(f, chosen.SENSORS) for f in args.sensor_fault)
+    effects = tuple(Effect.parse(e, chosen.COLUMN_DEFAULTS) for e in args.effect)
     names = [e.name for e in effects]
     if len(set(names)) != len(names):
         raise UserError("--effect: each effect can be switched on once")
     check_overwrite(args.output, args.force)
-    columns = simulate(args.hours, args.seed, args.dt, args.ambient_start, args.ambient_swing, faults,
-                       effects=effects, noise=args.noise)
+    options = {} if args.ambient_swing is None else {"ambient_swing": args.ambient_swing}
+    columns = chosen.simulate(args.hours, args.seed, args.dt, args.ambient_start, faults=faults, effects=effects,
+                              noise=args.noise, **options)
     write_atomic(args.output, write_table(columns))
     rows = len(columns["time_s"])
-    print(f"wrote {args.output}: {rows} rows, {args.hours:g} h every {args.dt:g} s, seed {args.seed}")
+    print(f"wrote {args.output}: {rows} rows, {args.hours:g} h every {args.dt:g} s, seed {args.seed}, "
+          f"machine {chosen.NAME}")
     for e in effects:
         print(f"  hidden effect {e.name}: " + ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
                                                      for k, v in e.parameters))
@@ -256,11 +261,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_demo)
 
     p = sub.add_parser("twin", help="synthetic machine data with known truth")
+    p.add_argument("--machine", choices=MACHINE_NAMES, default=DEFAULT_MACHINE,
+                   help="cascade: motor/bearing/ram/base network, run/stop at fixed speeds, daily sine ambient; "
+                        "portal: three spindle-heated nodes and a lagging ram, random speeds, heated workshop "
+                        "(default: %(default)s)")
     p.add_argument("--hours", type=float, default=48.0)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--dt", type=float, default=10.0, help="sample period, s (default: %(default)s)")
     p.add_argument("--ambient-start", type=float, default=20.0, help="ambient temperature at the start, degC")
-    p.add_argument("--ambient-swing", type=float, default=0.5, help="day/night amplitude of the ambient, K")
+    p.add_argument("--ambient-swing", type=float, default=None,
+                   help="day/night amplitude of the ambient, K (default: the machine's own, 0.5 cascade, 1 portal)")
     p.add_argument("--sensor-fault", action="append", default=[], metavar="KIND:COLUMN[@START_S]",
                    help="add paper 000's sensor error: sin (eq. 18) or offset (eq. 19); repeatable")
     p.add_argument("--effect", action="append", default=[], metavar="NAME[:KEY=VALUE,...]",

@@ -64,6 +64,10 @@ class Diagnosis:
     not_tested: dict = field(default_factory=dict)  # name -> why
 
     @property
+    def reason(self) -> str | None:
+        return None
+
+    @property
     def verdict(self) -> str:
         if not self.windows_before:
             return "no_missing_effect"
@@ -170,7 +174,8 @@ def implausible(sim: Simulation, name: str) -> str | None:
         return "standstill time-constant factor at the end of the searched range"
     if name == "gear_ratio_switch" and any(p.gain + p.gear_gain < 0 for p in sim.sensors):
         return "negative heat above the threshold"
-    taus = {"slow_structure": (d.tau_slow_s, 1.6 * d.tau_struct_s if d.tau_slow_s else 0, 55 * d.tau_struct_s),
+    slow_reference = sim_.slow_reference_s(d.tau_struct_s)
+    taus = {"slow_structure": (d.tau_slow_s, 1.6 * slow_reference, 55 * slow_reference),
             "ambient_coupling": (d.tau_ambient_s, 650.0, 45 * HOUR), "feed_axis_heat": (d.tau_feed_s, 130.0, 23 * HOUR)}
     if name in taus:
         tau, low, high = taus[name]

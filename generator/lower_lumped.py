@@ -39,31 +39,36 @@ def lower_lumped(model: Model) -> Block:
     statics = [INIT]
     init = []
     sensor_regions = []
+    structure = "AS" in model.coefficients
     for i, s in enumerate(temps, start=1):
-        rise = BinOp("-", Ref(s.name), const(f"O_{i}")) if f"O_{i}" in model.coefficients else Ref(s.name)
-        init += [Assign(f"H_{i}", BinOp("-", rise, ambient)), Assign(f"L_{i}", Ref(f"H_{i}")),
-                 Assign(f"H0_{i}", Ref(f"H_{i}"))]
-        statics += [Var(f"H_{i}", "REAL", f"simulated heat rise at {s.name}, K"),
-                    Var(f"L_{i}", "REAL", f"structure lagging {s.name}'s rise, K"),
-                    Var(f"H0_{i}", "REAL", f"rise at {s.name} at the first call, K")]
+        start = BinOp("-", Ref(s.name), const(f"O_{i}")) if f"O_{i}" in model.coefficients else Ref(s.name)
+        init += [Assign(f"Tsim_{i}", start), Assign(f"T0_{i}", Ref(f"Tsim_{i}"))]
+        statics += [Var(f"Tsim_{i}", "REAL", f"simulated temperature at {s.name}, degC"),
+                    Var(f"T0_{i}", "REAL", f"simulated temperature at {s.name} at the first call, degC")]
+        if structure:
+            init.append(Assign(f"L_{i}", Ref(f"Tsim_{i}")))
+            statics.append(Var(f"L_{i}", "REAL", f"structure lagging {s.name}, degC"))
         if has("slow_structure"):
-            init.append(Assign(f"M_{i}", Ref(f"H_{i}")))
-            statics.append(Var(f"M_{i}", "REAL", f"slow structure lagging {s.name}'s rise, K"))
+            init.append(Assign(f"M_{i}", Ref(f"Tsim_{i}")))
+            statics.append(Var(f"M_{i}", "REAL", f"slow structure lagging {s.name}, degC"))
         heat = [Assign("Q", BinOp("*", const(f"G_{i}"), Ref("S")))]
         if has("gear_ratio_switch"):
             heat.append(If(((BinOp(">", speed, const("Gear_rpm")),
                              (Assign("Q", BinOp("+", Ref("Q"), BinOp("*", const(f"G2_{i}"), speed))),)),)))
         if has("coolant_switching"):
             heat.append(If(((Ref("Cool"), (Assign("Q", BinOp("+", Ref("Q"), const(f"K_{i}"))),)),)))
-        step = _lag(f"H_{i}", f"A_{i}", f"B_{i}", Ref("Q"))
+        drive = BinOp("+", Ref("Q"), ambient)
+        step = _lag(f"Tsim_{i}", f"A_{i}", f"B_{i}", drive)
         if has("stop_convection"):
-            step = If(((BinOp("<=", speed, const("Stop_rpm")), (_lag(f"H_{i}", f"As_{i}", f"Bs_{i}", Ref("Q")),)),),
+            step = If(((BinOp("<=", speed, const("Stop_rpm")), (_lag(f"Tsim_{i}", f"As_{i}", f"Bs_{i}", drive),)),),
                       orelse=(step,))
-        body = [*heat, step, _lag(f"L_{i}", "AS", "BS", Ref(f"H_{i}"))]
+        body = [*heat, step]
+        if structure:
+            body.append(_lag(f"L_{i}", "AS", "BS", Ref(f"Tsim_{i}")))
         if has("slow_structure"):
-            body.append(_lag(f"M_{i}", "A2", "B2", Ref(f"L_{i}")))
-        sensor_regions.append(Region(f"Sensor {i} {s.name}: heat input and lumped-mass rise, paper 000 eq. 4; "
-                                     f"structure lag", tuple(body)))
+            body.append(_lag(f"M_{i}", "A2", "B2", Ref(f"L_{i}" if structure else f"Tsim_{i}")))
+        sensor_regions.append(Region(f"Sensor {i} {s.name}: heat input and lumped-mass temperature, paper 000 eq. 4"
+                                     + ("; structure lag" if structure else ""), tuple(body)))
     init += [Assign("Te0", ambient)]
     statics.append(Var("Te0", "REAL", "ambient at the first call, degC"))
     shared = []
@@ -82,10 +87,11 @@ def lower_lumped(model: Model) -> Block:
         statics.append(Var("Cool", "BOOL", "coolant relay state"))
     terms = [const("beta0")]
     for i in range(1, len(temps) + 1):
-        terms.append(BinOp("*", const(f"beta_{i}"), BinOp("-", Ref(f"H_{i}"), Ref(f"H0_{i}"))))
-        terms.append(BinOp("*", const(f"gamma_{i}"), BinOp("-", Ref(f"L_{i}"), Ref(f"H0_{i}"))))
+        terms.append(BinOp("*", const(f"beta_{i}"), BinOp("-", Ref(f"Tsim_{i}"), Ref(f"T0_{i}"))))
+        if structure:
+            terms.append(BinOp("*", const(f"gamma_{i}"), BinOp("-", Ref(f"L_{i}"), Ref(f"T0_{i}"))))
         if has("slow_structure"):
-            terms.append(BinOp("*", const(f"delta_{i}"), BinOp("-", Ref(f"M_{i}"), Ref(f"H0_{i}"))))
+            terms.append(BinOp("*", const(f"delta_{i}"), BinOp("-", Ref(f"M_{i}"), Ref(f"T0_{i}"))))
     if has("ambient_coupling"):
         terms.append(BinOp("*", const("alpha"), BinOp("-", Ref("LA"), Ref("Te0"))))
     if has("feed_axis_heat"):
@@ -93,12 +99,12 @@ def lower_lumped(model: Model) -> Block:
     speed_body, tables = _speed_heat(model, speed)
     if tables:
         statics += [Var("Ix", "INT", "speed table segment"), *tables]
-    regions = [first_call("First call: start the rises at the measured temperatures", init),
+    regions = [first_call("First call: start the simulation at the measured temperatures", init),
                Region("Speed heat input" + (" n^p from the table (nonlinear_speed_heat)" if tables else ""), speed_body),
                *sensor_regions]
     if shared:
         regions.append(Region("Ambient coupling and feed-axis heat lags", tuple(shared)))
-    regions.append(Region("Displacement from the simulated rises", (Assign(model.target.name, sum_of(terms)),)))
+    regions.append(Region("Displacement from the simulated temperatures, paper 000 eq. 10", (Assign(model.target.name, sum_of(terms)),)))
     if has("coolant_switching"):
         switch = Ref(temps[model.settings.get("relay_sensor", 1) - 1].name)
         regions.append(Region("Coolant relay with hysteresis (coolant_switching), used from the next call", (
@@ -126,7 +132,7 @@ _LUMPED_COMMENTS = {
     "Gear": "gear threshold, rpm", "CoolOn": "coolant on above, degC", "CoolOff": "coolant off below, degC",
     "AS": "structure decay per call", "BS": "1 - AS", "A2": "slow structure decay per call", "B2": "1 - A2",
     "AAm": "ambient coupling decay per call", "BAm": "1 - AAm", "AF": "feed heat decay per call", "BF": "1 - AF",
-    "beta0": "intercept, um", "beta": "um per K of the rise", "gamma": "um per K of the structure lag",
+    "beta0": "intercept, um", "beta": "um per K of the simulated temperature", "gamma": "um per K of the structure lag",
     "delta": "um per K of the slow structure", "alpha": "um per K of the lagged ambient",
     "phi": "um per mm/min of lagged feed",
 }

@@ -43,12 +43,16 @@ class Effect:
         return dict(self.parameters)[key]
 
     @staticmethod
-    def parse(text: str) -> "Effect":
+    def parse(text: str, columns: dict[str, str] | None = None) -> "Effect":
+        """NAME[:key=value,...]; `columns` names the sensor an effect with a `column` lands on
+        unless told (each machine has its own sensors)."""
         name, _, rest = text.partition(":")
         name = name.strip()
         if name not in EFFECTS:
             raise UserError(f"--effect {text!r}: unknown effect {name!r}; expected one of {', '.join(NAMES)}")
         parameters = dict(EFFECTS[name][1])
+        if columns and name in columns:
+            parameters["column"] = columns[name]
         for item in filter(None, (s.strip() for s in rest.split(","))):
             key, sep, value = item.partition("=")
             key = key.strip()

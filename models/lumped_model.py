@@ -1,15 +1,17 @@
 """The `lumped` model kind: paper 000's lumped-mass simulation with named effects, as a block.
 
-Open loop: the block simulates the heat rises from speed (and feed) alone, measured
+Open loop: the block simulates the temperatures from speed, ambient (and feed) alone; measured
 temperatures only set the start and switch the coolant relay. Per call, in this order:
     S := n, or the n^p table interpolated at n                          (nonlinear_speed_heat)
     per sensor i:  Q := G_i*S [+ G2_i*n if n > Gear] [+ K_i if Cool]
-                   H_i := A_i*H_i + B_i*Q   (As_i, Bs_i while n <= Stop: stop_convection)
-                   L_i := AS*L_i + BS*H_i   [M_i := A2*M_i + B2*L_i]  (structure, slow_structure)
+                   Tsim_i := A_i*Tsim_i + B_i*(Q + Te)   (As_i, Bs_i while n <= Stop: stop_convection)
+                   [L_i := AS*L_i + BS*Tsim_i]  [M_i := A2*M_i + B2*(L_i or Tsim_i)]  (structure, slow_structure)
     [LA := AAm*LA + BAm*Te]  [LF := AF*LF + BF*feed]
-    E := beta0 + sum_i beta_i*(H_i-H0_i) + gamma_i*(L_i-H0_i) [+ delta_i*(M_i-H0_i)] [+ alpha*(LA-Te0)] [+ phi*LF]
+    E := beta0 + sum_i beta_i*(Tsim_i-T0_i) [+ gamma_i*(L_i-T0_i)] [+ delta_i*(M_i-T0_i)] [+ alpha*(LA-Te0)] [+ phi*LF]
     [relay: Cool := TRUE above CoolOn, FALSE below CoolOff, from the switching sensor]
-First call: H_i = L_i = M_i = H0_i := T_i [- O_i] - Te, LA = Te0 := Te, LF := 0, Cool := FALSE.
+First call: Tsim_i = L_i = M_i = T0_i := T_i [- O_i], LA = Te0 := Te, LF := 0, Cool := FALSE.
+The displacement follows the simulated temperatures with their ambient-driven part (paper 000
+eq. 10); the structure lag is absent when the model was fitted without one.
 """
 from __future__ import annotations
 
@@ -63,7 +65,8 @@ def coefficients(sim: Simulation, dt: float) -> tuple[dict[str, Coefficient], di
         for m, (x, y, k) in enumerate(zip(nodes, values, slopes), start=1):
             c[f"node_{m}"], c[f"heat_{m}"], c[f"slope_{m}"] = Coefficient.of(x), Coefficient.of(y), Coefficient.of(k)
     d = sim.displacement
-    c["AS"], c["BS"] = _pair(sim_.pole(d.tau_struct_s, dt))
+    if d.tau_struct_s is not None:
+        c["AS"], c["BS"] = _pair(sim_.pole(d.tau_struct_s, dt))
     if sim.has("slow_structure"):
         c["A2"], c["B2"] = _pair(sim_.pole(d.tau_slow_s, dt))
     if sim.has("ambient_coupling"):
@@ -73,7 +76,8 @@ def coefficients(sim: Simulation, dt: float) -> tuple[dict[str, Coefficient], di
     c["beta0"] = Coefficient.of(d.beta0)
     for i in range(1, len(sim.sensors) + 1):
         c[f"beta_{i}"] = Coefficient.of(d.beta[i - 1])
-        c[f"gamma_{i}"] = Coefficient.of(d.gamma[i - 1])
+        if d.tau_struct_s is not None:
+            c[f"gamma_{i}"] = Coefficient.of(d.gamma[i - 1])
         if sim.has("slow_structure"):
             c[f"delta_{i}"] = Coefficient.of(d.delta[i - 1])
     if sim.has("ambient_coupling"):
@@ -115,9 +119,11 @@ def simulation_of(model: Model) -> Simulation:
         table_rpm=tuple(st.get("table_rpm", ())),
         relay=(st["relay_sensor"] - 1, c("CoolOn"), c("CoolOff")) if "relay_sensor" in st else None)
     slow = "A2" in model.coefficients
+    structure = "AS" in model.coefficients
     displacement = sim_.DisplacementParams(
-        tau_struct_s=tau(c("AS")), beta0=c("beta0"),
-        beta=tuple(c(f"beta_{i}") for i in range(1, k + 1)), gamma=tuple(c(f"gamma_{i}") for i in range(1, k + 1)),
+        tau_struct_s=tau(c("AS")) if structure else None, beta0=c("beta0"),
+        beta=tuple(c(f"beta_{i}") for i in range(1, k + 1)),
+        gamma=tuple(c(f"gamma_{i}") for i in range(1, k + 1)) if structure else (),
         tau_slow_s=tau(c("A2")) if slow else None,
         delta=tuple(c(f"delta_{i}") for i in range(1, k + 1)) if slow else (),
         tau_ambient_s=tau(c("AAm")) if "AAm" in model.coefficients else None, alpha=c("alpha"),
@@ -135,18 +141,18 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     feed = np.asarray(inputs[model.signals("feed")[0].name], f) if has(model, "feed_axis_heat") else None
     k, rows = len(temps), len(n)
     gear, cool_on, stop = (has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection"))
-    slow, amb = has(model, "slow_structure"), has(model, "ambient_coupling")
+    slow, amb, structure = has(model, "slow_structure"), has(model, "ambient_coupling"), "AS" in coef
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     offset = [coef.get(f"O_{i}") for i in range(1, k + 1)]
     relay_sensor = model.settings.get("relay_sensor", 1) - 1
-    h = l_ = m_ = h0 = None
+    sim = l_ = m_ = t0 = None
     la = te0 = lf = None
     cool = False
     out = np.empty(rows, f)
     for j in range(rows):
-        if h is None:
-            h = [(temps[i][j] - offset[i] if offset[i] is not None else temps[i][j]) - te[j] for i in range(k)]
-            l_, m_, h0 = list(h), list(h), list(h)
+        if sim is None:
+            sim = [temps[i][j] - offset[i] if offset[i] is not None else temps[i][j] for i in range(k)]
+            l_, m_, t0 = list(sim), list(sim), list(sim)
             la, te0, lf = te[j], te[j], f(0.0)
         s = n[j]
         if table:
@@ -160,22 +166,24 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
             if cool_on and cool:
                 q = q + coef[f"K_{i}"]
             if stop and n[j] <= coef["Stop_rpm"]:
-                h[i - 1] = coef[f"As_{i}"] * h[i - 1] + coef[f"Bs_{i}"] * q
+                sim[i - 1] = coef[f"As_{i}"] * sim[i - 1] + coef[f"Bs_{i}"] * (q + te[j])
             else:
-                h[i - 1] = coef[f"A_{i}"] * h[i - 1] + coef[f"B_{i}"] * q
-            l_[i - 1] = coef["AS"] * l_[i - 1] + coef["BS"] * h[i - 1]
+                sim[i - 1] = coef[f"A_{i}"] * sim[i - 1] + coef[f"B_{i}"] * (q + te[j])
+            if structure:
+                l_[i - 1] = coef["AS"] * l_[i - 1] + coef["BS"] * sim[i - 1]
             if slow:
-                m_[i - 1] = coef["A2"] * m_[i - 1] + coef["B2"] * l_[i - 1]
+                m_[i - 1] = coef["A2"] * m_[i - 1] + coef["B2"] * (l_[i - 1] if structure else sim[i - 1])
         if amb:
             la = coef["AAm"] * la + coef["BAm"] * te[j]
         if feed is not None:
             lf = coef["AF"] * lf + coef["BF"] * feed[j]
         e = coef["beta0"]
         for i in range(1, k + 1):
-            e = e + coef[f"beta_{i}"] * (h[i - 1] - h0[i - 1])
-            e = e + coef[f"gamma_{i}"] * (l_[i - 1] - h0[i - 1])
+            e = e + coef[f"beta_{i}"] * (sim[i - 1] - t0[i - 1])
+            if structure:
+                e = e + coef[f"gamma_{i}"] * (l_[i - 1] - t0[i - 1])
             if slow:
-                e = e + coef[f"delta_{i}"] * (m_[i - 1] - h0[i - 1])
+                e = e + coef[f"delta_{i}"] * (m_[i - 1] - t0[i - 1])
         if amb:
             e = e + coef["alpha"] * (la - te0)
         if feed is not None:

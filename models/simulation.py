@@ -1,18 +1,17 @@
 """The lumped-mass simulation of paper 000 (eq. 4) with named effects, in float64 for fitting.
 
 Per temperature sensor i the simulation runs open loop from speed and ambient alone:
-    T_i = amb_i + h_i,  amb_i[j] = a_i amb_i[j-1] + (1-a_i) Te[j]          (starts at Te[0])
-    h_i[j] = a_i h_i[j-1] + (1-a_i) q_i[j]                                  (starts at T_i[0] - Te[0] - offset_i)
+    T_i[j] = a_i T_i[j-1] + (1-a_i) (Te[j] + q_i[j])                       (starts at T_i[0] - offset_i)
     q_i = g_i s(n) + [gear] g2_i n [n > threshold] + [coolant] k_i cool
 with a_i = exp(-dt/tau_i) (tau_i times a factor while the spindle stands, stop_convection) and
 s(n) = n, or n^p through a node table (nonlinear_speed_heat). The sensor reads T_i plus
-offset_i and drift_i * t. The displacement follows the heat rises h_i (uniform ambient changes
-move tool and workpiece alike) and a structure that lags them:
-    E = beta0 + sum_i beta_i (h_i - h0_i) + gamma_i (L_i - h0_i) [+ delta_i (M_i - h0_i)]
+offset_i and drift_i * t. The displacement is regressed on the simulated temperatures, the
+ambient-driven part included (paper 000 eq. 10/16), and on a structure that lags them:
+    E = beta0 + sum_i beta_i (T_i - T0_i) [+ gamma_i (L_i - T0_i)] [+ delta_i (M_i - T0_i)]
         [+ alpha (lag_a(Te) - Te[0])] [+ phi lag_f(feed)]
-with L_i = lag_struct(h_i), M_i = lag_slow(L_i) (slow_structure). Nonlinear parameters (time
-constants, thresholds, exponent) are searched; the gains follow by least squares (variable
-projection), so every fit is deterministic.
+with L_i = lag_struct(T_i) (the structure lag, on by default), M_i = lag_slow(L_i or T_i)
+(slow_structure). Nonlinear parameters (time constants, thresholds, exponent) are searched; the
+gains follow by least squares (variable projection), so every fit is deterministic.
 """
 from __future__ import annotations
 
@@ -30,6 +29,10 @@ PER_SENSOR = ("sensor_offset", "sensor_drift", "coolant_switching")  # tried on 
 TABLE_SEGMENTS = 16
 RELAY_ROUNDS = 4
 HOUR = 3600.0
+EXPONENT_RANGE = (0.2, 3.5)
+GRAM_CONDITION_LIMIT = 1e8  # above this the normal equations lose digits the fit needs
+SEARCH_ROUNDS = 2  # shared parameter by grid with the time constants held, then the time constants
+SLOW_REFERENCE_S = 1800.0  # without a structure lag the slow lag is searched as a multiple of this
 
 
 @dataclass(frozen=True)
@@ -77,7 +80,7 @@ class SensorParams:
 
 @dataclass(frozen=True)
 class DisplacementParams:
-    tau_struct_s: float
+    tau_struct_s: float | None  # None: the displacement follows the temperatures without a structure lag
     beta0: float
     beta: tuple[float, ...]
     gamma: tuple[float, ...]
@@ -104,7 +107,8 @@ class Simulation:
 
     def parameter_count(self) -> int:
         per_sensor = 2 + sum(self.has(e) for e in ("stop_convection", "gear_ratio_switch", "coolant_switching"))
-        count = len(self.sensors) * per_sensor + 1 + 2 * len(self.sensors) + 1
+        structure = self.displacement.tau_struct_s is not None
+        count = len(self.sensors) * per_sensor + 1 + len(self.sensors) + (1 + len(self.sensors)) * structure
         count += sum(self.has(e) for e in ("gear_ratio_switch", "nonlinear_speed_heat", "sensor_offset", "sensor_drift"))
         count += 2 * self.has("coolant_switching")
         count += (1 + len(self.sensors)) * self.has("slow_structure")
@@ -192,8 +196,17 @@ def _sensor_design(series: Series, i: int, shared: Shared, effects, a):
 
 
 def _solve(y: np.ndarray, columns: list[np.ndarray]):
+    """Least squares by the normal equations of the column-scaled design (the searches call this
+    tens of thousands of times); an SVD where the scaled Gram matrix is ill-conditioned."""
     design = np.column_stack(columns)
-    coef, *_ = np.linalg.lstsq(design, y, rcond=None)
+    scale = np.sqrt(np.einsum("ij,ij->j", design, design))
+    scale[scale == 0.0] = 1.0
+    scaled = design / scale
+    gram = scaled.T @ scaled
+    if np.linalg.cond(gram) < GRAM_CONDITION_LIMIT:
+        coef = np.linalg.solve(gram, scaled.T @ y) / scale
+    else:
+        coef = np.linalg.lstsq(design, y, rcond=None)[0]
     residual = y - design @ coef
     return coef, float(residual @ residual)
 
@@ -248,24 +261,47 @@ def _speed_levels(n: np.ndarray, shared: Shared) -> np.ndarray:
     return running
 
 
+def _held_cost(series: Series, shared: Shared, effects, sensors) -> float:
+    """Squared error of every sensor with its time constants held (gains by least squares)."""
+    return sum(_sensor_cost(series, i, shared, effects, p.tau_s, p.stop_factor)[0] for i, p in enumerate(sensors))
+
+
+def _search_shared(series, shared, effects, starts, without: str, options, apply):
+    """A shared parameter (`options` a list, or a (low, high) interval) searched with the time
+    constants held, then the time constants refitted with it, `SEARCH_ROUNDS` times: refitting
+    every sensor's time constant for every candidate value costs tens of seconds."""
+    held = starts or _fit_all_sensors(series, shared, [e for e in effects if e[0] != without], None)[0]
+    chosen = None
+    for _ in range(SEARCH_ROUNDS):
+        cost = lambda value: _held_cost(series, apply(shared, value), effects, held)
+        if isinstance(options, tuple):
+            value = float(minimize_scalar(cost, bounds=options, method="bounded", options={"xatol": 1e-3}).x)
+        else:
+            value = float(min(options, key=cost))
+        if chosen is not None and abs(value - chosen) <= 1e-3 * max(abs(chosen), 1.0):
+            break
+        chosen = value
+        held = _fit_all_sensors(series, apply(shared, chosen), effects, held)[0]
+    return apply(shared, chosen)
+
+
 def fit_temperatures(series: Series, shared: Shared, effects, starts=None):
     """Shared parameters (gear threshold, exponent, coolant thresholds) by search, sensors inside."""
     names = {e for e, _ in effects}
     if "gear_ratio_switch" in names:
         levels = _speed_levels(series.n, shared)
-
-        def gear_cost(threshold):
-            return _fit_all_sensors(series, replace(shared, gear_rpm=float(threshold)), effects, starts)[1]
-        shared = replace(shared, gear_rpm=float(min(levels[:-1], key=gear_cost)) if len(levels) > 1 else 0.0)
+        if len(levels) > 1:
+            shared = _search_shared(series, shared, effects, starts, "gear_ratio_switch", list(levels[:-1]),
+                                    lambda s, v: replace(s, gear_rpm=float(v)))
+        else:
+            shared = replace(shared, gear_rpm=0.0)
     if "nonlinear_speed_heat" in names:
         running = series.n[series.n > shared.stopped_rpm]
         top = float(np.max(running)) if len(running) else 1.0
         shared = replace(shared, reference_rpm=float(np.median(running)) if len(running) else 1.0,
                          table_rpm=tuple(np.linspace(0.0, 1.25 * top, TABLE_SEGMENTS + 1)))
-        result = minimize_scalar(
-            lambda p: _fit_all_sensors(series, replace(shared, exponent=float(p)), effects, starts)[1],
-            bounds=(0.2, 3.5), method="bounded", options={"xatol": 1e-3})
-        shared = replace(shared, exponent=float(result.x))
+        shared = _search_shared(series, shared, effects, starts, "nonlinear_speed_heat", EXPONENT_RANGE,
+                                lambda s, v: replace(s, exponent=float(v)))
     if "coolant_switching" in names:
         shared = _fit_relay(series, shared, effects, starts)
     return (shared, *_fit_all_sensors(series, shared, effects, starts))
@@ -287,12 +323,12 @@ def _fit_relay(series, shared, effects, starts):
         for i, p in enumerate(sensors):
             a = _poles(series, shared, p)
             known, columns = _sensor_design(series, i, replace(shared, relay=None), effects, a)
-            out.append((a, series.temps[:, i] - known, [c for _, c in columns]))
+            out.append((a, *_Projection.of(series.temps[:, i] - known, [c for _, c in columns])))
         return out
 
     def cost(on, off):
         cooling = relay(temperature, on, off)
-        return sum(_solve(y, fixed + [lag(cooling, a, 0.0)])[1] for a, y, fixed in parts)
+        return sum(_added_column_sse(basis, y_perp, lag(cooling, a, 0.0)) for a, basis, y_perp in parts)
 
     step = max(float(np.ptp(temperature)) / 100, 0.01)
     chosen = None
@@ -311,6 +347,25 @@ def _fit_relay(series, shared, effects, starts):
     return shared
 
 
+class _Projection:
+    """The fixed columns' orthonormal basis and the target's part outside it: the squared error with
+    one more column then costs two dot products per row instead of a new least-squares solve."""
+
+    @staticmethod
+    def of(y: np.ndarray, columns: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        basis, _ = np.linalg.qr(np.column_stack(columns))
+        return basis, y - basis @ (basis.T @ y)
+
+
+def _added_column_sse(basis: np.ndarray, y_perp: np.ndarray, column: np.ndarray) -> float:
+    c_perp = column - basis @ (basis.T @ column)
+    norm = float(c_perp @ c_perp)
+    base = float(y_perp @ y_perp)
+    if norm <= 1e-12 * max(float(column @ column), 1e-300):  # the column adds nothing new
+        return base
+    return base - float(c_perp @ y_perp) ** 2 / norm
+
+
 def _plateau_centre(values: np.ndarray, cost) -> float:
     costs = np.array([cost(v) for v in values])
     best = int(np.argmin(costs))
@@ -323,29 +378,40 @@ def _plateau_centre(values: np.ndarray, cost) -> float:
     return float((values[low] + values[high]) / 2)
 
 
-def heat_rises(series: Series, sim_shared: Shared, sensors, effects) -> tuple[np.ndarray, np.ndarray]:
-    """Simulated sensor readings and heat rises h_i, (rows, sensors) each."""
+def temperatures(series: Series, sim_shared: Shared, sensors, effects) -> tuple[np.ndarray, np.ndarray]:
+    """Simulated sensor readings and the physical temperatures they read, (rows, sensors) each.
+
+    Ambient and heat share each sensor's pole, so one lag of (Te + q) started at the first
+    physical temperature is their sum (and the form the block computes)."""
     readings = np.empty_like(series.temps)
-    heat = np.empty_like(series.temps)
+    physical = np.empty_like(series.temps)
+    start = first_temperatures(series, sensors)
     for i, p in enumerate(sensors):
         a = _poles(series, sim_shared, p)
         q = sum(getattr(p, name) * x for name, x in _heat_inputs(series, sim_shared, effects))
-        heat[:, i] = lag(q, a, series.temps[0, i] - series.te[0] - p.offset_K)
-        readings[:, i] = (lag(series.te, a, series.te[0]) + heat[:, i] + p.offset_K
-                          + p.drift_K_per_s * (series.t - series.t[0]))
-    return readings, heat
+        physical[:, i] = lag(series.te + q, a, start[i])
+        readings[:, i] = physical[:, i] + p.offset_K + p.drift_K_per_s * (series.t - series.t[0])
+    return readings, physical
 
 
-def _displacement_columns(series, heat, taus: dict, effects):
+def slow_reference_s(tau_struct_s: float | None) -> float:
+    """What the slow time constant is a multiple of: the structure's, so the two cannot swap roles."""
+    return tau_struct_s if tau_struct_s is not None else SLOW_REFERENCE_S
+
+
+def _displacement_columns(series, temps, taus: dict, effects):
+    """Rises of the simulated temperatures (ambient part included) and of the structures lagging them."""
     names = {e for e, _ in effects}
     dt = series.dt
-    h0 = taus["h0"]  # heat rises before the first row
-    columns = []
-    struct = [lag(heat[:, i], pole(taus["struct"], dt), h0[i]) for i in range(heat.shape[1])]
-    columns += [heat[:, i] - h0[i] for i in range(heat.shape[1])]
-    columns += [s - h0[i] for i, s in enumerate(struct)]
+    t0 = taus["t0"]  # physical temperatures before the first row
+    k = temps.shape[1]
+    columns = [temps[:, i] - t0[i] for i in range(k)]
+    lagged = [temps[:, i] for i in range(k)]
+    if taus["struct"] is not None:
+        lagged = [lag(temps[:, i], pole(taus["struct"], dt), t0[i]) for i in range(k)]
+        columns += [x - t0[i] for i, x in enumerate(lagged)]
     if "slow_structure" in names:
-        columns += [lag(s, pole(taus["slow"], dt), h0[i]) - h0[i] for i, s in enumerate(struct)]
+        columns += [lag(x, pole(taus["slow"], dt), t0[i]) - t0[i] for i, x in enumerate(lagged)]
     if "ambient_coupling" in names:
         columns.append(lag(series.te, pole(taus["ambient"], dt), series.te[0]) - series.te[0])
     if "feed_axis_heat" in names:
@@ -353,28 +419,29 @@ def _displacement_columns(series, heat, taus: dict, effects):
     return columns
 
 
-def fit_displacement(series: Series, heat: np.ndarray, h0: np.ndarray, effects,
+def fit_displacement(series: Series, temps: np.ndarray, t0: np.ndarray, effects, structure_lag: bool = True,
                      start: DisplacementParams | None = None) -> tuple[DisplacementParams, float]:
     names = {e for e, _ in effects}
-    wanted = ["struct"] + [k for k, e in (("slow", "slow_structure"), ("ambient", "ambient_coupling"),
-                                           ("feed", "feed_axis_heat")) if e in names]
+    wanted = (["struct"] if structure_lag else []) + [
+        k for k, e in (("slow", "slow_structure"), ("ambient", "ambient_coupling"), ("feed", "feed_axis_heat"))
+        if e in names]
     # the slow time constant as a multiple of the structure's, so the two cannot swap roles
     bounds = {"struct": (np.log(600.0), np.log(48 * HOUR)), "slow": (np.log(1.5), np.log(60.0)),
               "ambient": (np.log(600.0), np.log(48 * HOUR)), "feed": (np.log(120.0), np.log(24 * HOUR))}
     known = {}
     if start is not None:
         known = {"struct": start.tau_struct_s, "ambient": start.tau_ambient_s, "feed": start.tau_feed_s,
-                 "slow": start.tau_slow_s / start.tau_struct_s if start.tau_slow_s else None}
-    k = heat.shape[1]
+                 "slow": start.tau_slow_s / slow_reference_s(start.tau_struct_s) if start.tau_slow_s else None}
+    k = temps.shape[1]
 
     def taus_of(x):
-        taus = {"h0": h0, **{name: float(np.exp(np.clip(v, *bounds[name]))) for name, v in zip(wanted, x)}}
+        taus = {"t0": t0, "struct": None, **{name: float(np.exp(np.clip(v, *bounds[name]))) for name, v in zip(wanted, x)}}
         if "slow" in taus:
-            taus["slow"] *= taus["struct"]
+            taus["slow"] *= slow_reference_s(taus["struct"])
         return taus
 
     def cost(x):
-        columns = [np.ones(series.rows)] + _displacement_columns(series, heat, taus_of(x), effects)
+        columns = [np.ones(series.rows)] + _displacement_columns(series, temps, taus_of(x), effects)
         return _solve(series.target, columns)[1]
 
     x0 = []
@@ -385,18 +452,21 @@ def fit_displacement(series: Series, heat: np.ndarray, h0: np.ndarray, effects,
         grid = np.linspace(*bounds[name], 9)
         x0.append(min(grid, key=lambda g: cost(x0 + [g] + [np.mean(bounds[w]) for w in wanted[len(x0) + 1:]])))
     if len(wanted) == 1:
-        lo, hi = bounds["struct"]
+        lo, hi = bounds[wanted[0]]
         x = [minimize_scalar(lambda g: cost([g]), bounds=(max(lo, x0[0] - 1.5), min(hi, x0[0] + 1.5)),
                              method="bounded", options={"xatol": 1e-5}).x]
-    else:
+    elif wanted:
         x = minimize(cost, x0, method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-9, "maxiter": 400}).x
+    else:
+        x = []
     taus = taus_of(x)
-    columns = [np.ones(series.rows)] + _displacement_columns(series, heat, taus, effects)
+    columns = [np.ones(series.rows)] + _displacement_columns(series, temps, taus, effects)
     coef, sse = _solve(series.target, columns)
     coef = [float(c) for c in coef]
-    params = DisplacementParams(
-        tau_struct_s=taus["struct"], beta0=coef[0], beta=tuple(coef[1:1 + k]), gamma=tuple(coef[1 + k:1 + 2 * k]))
-    rest = coef[1 + 2 * k:]
+    lagged = k if structure_lag else 0
+    params = DisplacementParams(tau_struct_s=taus["struct"], beta0=coef[0], beta=tuple(coef[1:1 + k]),
+                                gamma=tuple(coef[1 + k:1 + k + lagged]))
+    rest = coef[1 + k + lagged:]
     if "slow_structure" in names:
         params = replace(params, tau_slow_s=taus["slow"], delta=tuple(rest[:k]))
         rest = rest[k:]
@@ -408,21 +478,31 @@ def fit_displacement(series: Series, heat: np.ndarray, h0: np.ndarray, effects,
     return params, sse
 
 
-def first_heat(series: Series, sensors) -> np.ndarray:
-    return np.array([series.temps[0, i] - series.te[0] - p.offset_K for i, p in enumerate(sensors)])
+def first_temperatures(series: Series, sensors) -> np.ndarray:
+    """Physical temperature at each sensor before the first row: its first reading less the offset."""
+    return np.array([series.temps[0, i] - p.offset_K for i, p in enumerate(sensors)])
 
 
-def fit(series: Series, effects=(), warm: Simulation | None = None) -> Simulation:
-    """Fit the simulation with these effects on `series` (the training part)."""
+def fit(series: Series, effects=(), warm: Simulation | None = None, structure_lag: bool = True) -> Simulation:
+    """Fit the simulation with these effects on `series` (the training part). A warm start keeps
+    its structure-lag choice."""
     effects = tuple(effects)
     shared = Shared(stopped_rpm=stopped_threshold(series.n))
     starts = None
     if warm is not None:
         shared = replace(warm.shared, stopped_rpm=shared.stopped_rpm)
         starts = warm.sensors
-    shared, sensors, _ = fit_temperatures(series, shared, effects, starts)
-    _, heat = heat_rises(series, shared, sensors, effects)
-    displacement, _ = fit_displacement(series, heat, first_heat(series, sensors), effects,
+        structure_lag = warm.displacement.tau_struct_s is not None
+    added = {name for name, _ in effects} - {name for name, _ in warm.effects} if warm is not None else None
+    if added is not None and added <= set(DISPLACEMENT_EFFECTS):  # the temperatures do not change
+        sensors = warm.sensors
+    elif added is not None and added <= {"sensor_offset", "sensor_drift"}:  # only that sensor changes
+        sensors = tuple(fit_sensor(series, i, shared, effects, p)[0] if any(s == i for n, s in effects if n in added)
+                        else p for i, p in enumerate(warm.sensors))
+    else:
+        shared, sensors, _ = fit_temperatures(series, shared, effects, starts)
+    _, temps = temperatures(series, shared, sensors, effects)
+    displacement, _ = fit_displacement(series, temps, first_temperatures(series, sensors), effects, structure_lag,
                                        warm.displacement if warm is not None else None)
     return Simulation(effects, shared, sensors, displacement)
 
@@ -434,11 +514,11 @@ def stopped_threshold(n: np.ndarray) -> float:
 
 def run(sim: Simulation, series: Series) -> dict[str, np.ndarray]:
     """Simulated channels over the whole series: each temperature by name, and 'target'."""
-    readings, heat = heat_rises(series, sim.shared, sim.sensors, sim.effects)
+    readings, temps = temperatures(series, sim.shared, sim.sensors, sim.effects)
     d = sim.displacement
-    taus = {"h0": first_heat(series, sim.sensors), "struct": d.tau_struct_s, "slow": d.tau_slow_s,
+    taus = {"t0": first_temperatures(series, sim.sensors), "struct": d.tau_struct_s, "slow": d.tau_slow_s,
             "ambient": d.tau_ambient_s, "feed": d.tau_feed_s}
-    columns = _displacement_columns(series, heat, taus, sim.effects)
+    columns = _displacement_columns(series, temps, taus, sim.effects)
     coef = [*d.beta, *d.gamma, *d.delta] + ([d.alpha] if sim.has("ambient_coupling") else []) \
         + ([d.phi] if sim.has("feed_axis_heat") else [])
     target = d.beta0 + sum(c * x for c, x in zip(coef, columns))

@@ -21,7 +21,7 @@ from thermoplc.models.fit import FitRequest, fit, sample_period
 from thermoplc.models.kalman import FitOptions
 from thermoplc.models.modelfile import Model, load_model
 from thermoplc.models.table import read_table, write_table
-from thermoplc.models.twin import simulate
+from thermoplc.machines.cascade import simulate
 
 GOLDEN = Path(__file__).resolve().parent.parent / "tests" / "golden"
 TWIN = {"hours": 12, "seed": 7}

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Callable
 
 from thermoplc.models.table import write_table
-from thermoplc.models.twin import simulate
+from thermoplc.machines.cascade import simulate
 
 FIT = ("fit", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "--train-rows", "200",
        "-o", "out.json", "--data")

@@ -6,7 +6,7 @@ import pytest
 from thermoplc.models.fit import FitRequest, fit
 from thermoplc.models.kalman import FitOptions
 from thermoplc.models.table import read_table, write_table
-from thermoplc.models.twin import simulate
+from thermoplc.machines.cascade import simulate
 
 TEMPS = ("T_motor", "T_bearing")
 

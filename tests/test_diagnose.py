@@ -19,7 +19,7 @@ from thermoplc.models.effects import NAMES, SHOWS_IN, Effect
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.table import read_table
-from thermoplc.models.twin import simulate
+from thermoplc.machines.cascade import simulate
 
 HOURS = 72
 TEMPS = ("T_motor", "T_bearing")

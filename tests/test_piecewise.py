@@ -10,7 +10,7 @@ from thermoplc.generator.literals import real_literal
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.piecewise import node_of, select
 from thermoplc.models.table import read_table, write_table
-from thermoplc.models.twin import simulate
+from thermoplc.machines.cascade import simulate
 from thermoplc.verifier.replay import verify_against_model
 
 
