@@ -135,7 +135,7 @@ def describe(sim: Simulation, name: str, series: Series) -> dict:
     s = sim.shared
     d = sim.displacement
     if name == "gear_ratio_switch":
-        levels = sim_._speed_levels(series.n, s)
+        levels = sim_.speed_levels(series.n, s)
         above = levels[levels > s.gear_rpm]
         return {"threshold_rpm": s.gear_rpm,
                 "next_speed_rpm": float(above[0]) if len(above) else None,
@@ -175,7 +175,7 @@ def implausible(sim: Simulation, name: str) -> str | None:
     if name == "gear_ratio_switch" and any(p.gain + p.gear_gain < 0 for p in sim.sensors):
         return "negative heat above the threshold"
     slow_reference = sim_.slow_reference_s(d.tau_struct_s)
-    taus = {"slow_structure": (d.tau_slow_s, 1.6 * slow_reference, 55 * slow_reference),
+    taus = {"slow_structure": (d.tau_slow_s, 1.03 * sim_.SLOW_MIN_RATIO * slow_reference, 90 * HOUR),
             "ambient_coupling": (d.tau_ambient_s, 650.0, 45 * HOUR), "feed_axis_heat": (d.tau_feed_s, 130.0, 23 * HOUR)}
     if name in taus:
         tau, low, high = taus[name]

@@ -106,8 +106,8 @@ def lower_lumped(model: Model) -> Block:
         regions.append(Region("Ambient coupling and feed-axis heat lags", tuple(shared)))
     regions.append(Region("Displacement from the simulated temperatures, paper 000 eq. 10", (Assign(model.target.name, sum_of(terms)),)))
     if has("coolant_switching"):
-        switch = Ref(temps[model.settings.get("relay_sensor", 1) - 1].name)
-        regions.append(Region("Coolant relay with hysteresis (coolant_switching), used from the next call", (
+        switch = Ref(f"Tsim_{model.settings.get('relay_sensor', 1)}")
+        regions.append(Region("Coolant relay with hysteresis on the simulated temperature (coolant_switching), used from the next call", (
             If(((BinOp(">", switch, const("CoolOn")), (Assign("Cool", BoolConst(True)),)),
                 (BinOp("<", switch, const("CoolOff")), (Assign("Cool", BoolConst(False)),)))),)))
     inputs = (*temps, *model.signals("speed"), *model.signals("ambient"), *model.signals("feed"))

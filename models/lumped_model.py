@@ -1,14 +1,14 @@
 """The `lumped` model kind: paper 000's lumped-mass simulation with named effects, as a block.
 
 Open loop: the block simulates the temperatures from speed, ambient (and feed) alone; measured
-temperatures only set the start and switch the coolant relay. Per call, in this order:
+temperatures only set the start. Per call, in this order:
     S := n, or the n^p table interpolated at n                          (nonlinear_speed_heat)
     per sensor i:  Q := G_i*S [+ G2_i*n if n > Gear] [+ K_i if Cool]
                    Tsim_i := A_i*Tsim_i + B_i*(Q + Te)   (As_i, Bs_i while n <= Stop: stop_convection)
                    [L_i := AS*L_i + BS*Tsim_i]  [M_i := A2*M_i + B2*(L_i or Tsim_i)]  (structure, slow_structure)
     [LA := AAm*LA + BAm*Te]  [LF := AF*LF + BF*feed]
     E := beta0 + sum_i beta_i*(Tsim_i-T0_i) [+ gamma_i*(L_i-T0_i)] [+ delta_i*(M_i-T0_i)] [+ alpha*(LA-Te0)] [+ phi*LF]
-    [relay: Cool := TRUE above CoolOn, FALSE below CoolOff, from the switching sensor]
+    [relay: Cool := TRUE above CoolOn, FALSE below CoolOff, from the simulated temperature of the switching sensor]
 First call: Tsim_i = L_i = M_i = T0_i := T_i [- O_i], LA = Te0 := Te, LF := 0, Cool := FALSE.
 The displacement follows the simulated temperatures with their ambient-driven part (paper 000
 eq. 10); the structure lag is absent when the model was fitted without one.
@@ -190,7 +190,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
             e = e + coef["phi"] * lf
         out[j] = e
         if cool_on:
-            t_switch = temps[relay_sensor][j]
+            t_switch = sim[relay_sensor]
             if t_switch > coef["CoolOn"]:
                 cool = True
             elif t_switch < coef["CoolOff"]:

@@ -28,11 +28,18 @@ DISPLACEMENT_EFFECTS = ("slow_structure", "ambient_coupling", "feed_axis_heat")
 PER_SENSOR = ("sensor_offset", "sensor_drift", "coolant_switching")  # tried on each sensor in turn
 TABLE_SEGMENTS = 16
 RELAY_ROUNDS = 4
+RELAY_LOOKAHEAD_S = 7200.0
+CLOSED_LOOP_ROUNDS = 3  # relay state from the simulation, sensors refitted with it
 HOUR = 3600.0
+SPEED_GAP_SHARE = 0.005
+MAX_SPEED_LEVELS = 48
+GRID_POINTS = 9  # per time constant searched anew in the displacement
+POLISHED_STARTS = 3
 EXPONENT_RANGE = (0.2, 3.5)
 GRAM_CONDITION_LIMIT = 1e8  # above this the normal equations lose digits the fit needs
 SEARCH_ROUNDS = 2  # shared parameter by grid with the time constants held, then the time constants
-SLOW_REFERENCE_S = 1800.0  # without a structure lag the slow lag is searched as a multiple of this
+SLOW_REFERENCE_S = 1200.0  # without a structure lag the slow lag must exceed a multiple of this
+SLOW_MIN_RATIO = 1.5
 
 
 @dataclass(frozen=True)
@@ -164,6 +171,30 @@ def relay(temperature: np.ndarray, on: float, off: float) -> np.ndarray:
     return np.r_[False, state[:-1]].astype(float)
 
 
+def closed_loop_cooling(series: Series, shared: Shared, sensors, effects) -> np.ndarray:
+    """Coolant state per row (1.0 while cooling), switched by the *simulated* temperature of the relay
+    sensor: the coolant's controller reacts to the true temperature, which the simulation estimates
+    without the sensor noise that would trip a relay early. Between switches the sensor is a
+    linear lag, so the state is found switch by switch over windows of `RELAY_LOOKAHEAD_S`."""
+    index, on, off = shared.relay
+    p = sensors[index]
+    a = np.broadcast_to(_poles(series, shared, p), (series.rows,))
+    drive = series.te + sum(getattr(p, name) * x for name, x in _heat_inputs(series, replace(shared, relay=None), effects))
+    state = np.zeros(series.rows)
+    window = max(2, int(RELAY_LOOKAHEAD_S / series.dt))
+    y, cooling, j = first_temperatures(series, sensors)[index], False, 0
+    while j < series.rows:
+        stop = min(j + window, series.rows)
+        trajectory = lag(drive[j:stop] + (p.cooling if cooling else 0.0), a[j:stop], y)
+        crossing = np.flatnonzero(trajectory < off if cooling else trajectory > on)
+        end = j + int(crossing[0]) + 1 if len(crossing) else stop  # the new state acts from the next row
+        state[j:end] = cooling
+        y = trajectory[end - j - 1]
+        cooling = cooling != bool(len(crossing))
+        j = end
+    return state
+
+
 def _poles(series: Series, shared: Shared, p: SensorParams):
     a_run = pole(p.tau_s, series.dt)
     if p.stop_factor == 1.0:
@@ -171,23 +202,26 @@ def _poles(series: Series, shared: Shared, p: SensorParams):
     return np.where(stopped(series, shared), pole(p.tau_s * p.stop_factor, series.dt), a_run)
 
 
-def _heat_inputs(series: Series, shared: Shared, effects) -> list[tuple[str, np.ndarray]]:
+def _heat_inputs(series: Series, shared: Shared, effects, cooling: np.ndarray | None = None
+                 ) -> list[tuple[str, np.ndarray]]:
+    """Heat input columns; the coolant relay state is `cooling` when given (the closed loop),
+    else switched by the measured temperature (a fast stand-in while its thresholds are searched)."""
     names = {e for e, _ in effects}
     inputs = [("gain", speed_heat(series.n, shared))]
     if "gear_ratio_switch" in names:
         inputs.append(("gear_gain", np.where(series.n > shared.gear_rpm, series.n, 0.0)))
     if "coolant_switching" in names and shared.relay is not None:  # None while the thresholds are unknown
         sensor, on, off = shared.relay
-        inputs.append(("cooling", relay(series.temps[:, sensor], on, off)))
+        inputs.append(("cooling", relay(series.temps[:, sensor], on, off) if cooling is None else cooling))
     return inputs
 
 
-def _sensor_design(series: Series, i: int, shared: Shared, effects, a):
+def _sensor_design(series: Series, i: int, shared: Shared, effects, a, cooling=None):
     """Known part of sensor i's reading and the columns its linear parameters multiply."""
     first = series.temps[0, i] - series.te[0]
     decay = lag(np.zeros(series.rows), a, 1.0)
     known = lag(series.te, a, series.te[0]) + decay * first
-    columns = [(name, lag(x, a, 0.0)) for name, x in _heat_inputs(series, shared, effects)]
+    columns = [(name, lag(x, a, 0.0)) for name, x in _heat_inputs(series, shared, effects, cooling)]
     if ("sensor_offset", i) in effects:
         columns.append(("offset_K", 1.0 - decay))
     if ("sensor_drift", i) in effects:
@@ -211,14 +245,14 @@ def _solve(y: np.ndarray, columns: list[np.ndarray]):
     return coef, float(residual @ residual)
 
 
-def _sensor_cost(series, i, shared, effects, tau_s, factor):
+def _sensor_cost(series, i, shared, effects, tau_s, factor, cooling=None):
     p = SensorParams(tau_s, 0.0, factor)
-    known, columns = _sensor_design(series, i, shared, effects, _poles(series, shared, p))
+    known, columns = _sensor_design(series, i, shared, effects, _poles(series, shared, p), cooling)
     coef, sse = _solve(series.temps[:, i] - known, [c for _, c in columns])
     return sse, replace(p, **{name: float(v) for (name, _), v in zip(columns, coef)})
 
 
-def fit_sensor(series: Series, i: int, shared: Shared, effects, start: SensorParams | None = None):
+def fit_sensor(series: Series, i: int, shared: Shared, effects, start: SensorParams | None = None, cooling=None):
     """Time constant (and standstill factor) by search; gains, offset, drift by least squares."""
     has_stop = any(e == "stop_convection" for e, _ in effects)
     dt = series.dt
@@ -227,7 +261,7 @@ def fit_sensor(series: Series, i: int, shared: Shared, effects, start: SensorPar
     def cost(x):
         tau = float(np.exp(np.clip(x[0], low, high)))
         factor = float(np.exp(np.clip(x[1], -2.5, 2.5))) if has_stop else 1.0
-        return _sensor_cost(series, i, shared, effects, tau, factor)[0]
+        return _sensor_cost(series, i, shared, effects, tau, factor, cooling)[0]
 
     if start is not None:
         x0 = [np.log(start.tau_s), np.log(start.stop_factor)]
@@ -245,20 +279,28 @@ def fit_sensor(series: Series, i: int, shared: Shared, effects, start: SensorPar
         x = [result.x, 0.0]
     tau = float(np.exp(np.clip(x[0], low, high)))
     factor = float(np.exp(np.clip(x[1], -2.5, 2.5))) if has_stop else 1.0
-    sse, params = _sensor_cost(series, i, shared, effects, tau, factor)
+    sse, params = _sensor_cost(series, i, shared, effects, tau, factor, cooling)
     return params, sse
 
 
-def _fit_all_sensors(series, shared, effects, starts):
-    fitted = [fit_sensor(series, i, shared, effects, starts[i] if starts else None) for i in range(len(series.names))]
+def _fit_all_sensors(series, shared, effects, starts, cooling=None):
+    fitted = [fit_sensor(series, i, shared, effects, starts[i] if starts else None, cooling)
+              for i in range(len(series.names))]
     return tuple(p for p, _ in fitted), sum(sse for _, sse in fitted)
 
 
-def _speed_levels(n: np.ndarray, shared: Shared) -> np.ndarray:
-    running = np.unique(np.round(n[n > shared.stopped_rpm], 1))
-    if len(running) > 40:
-        running = np.unique(np.quantile(n[n > shared.stopped_rpm], np.linspace(0.05, 0.95, 19)))
-    return running
+def speed_levels(n: np.ndarray, shared: Shared) -> np.ndarray:
+    """The highest speed of each group of running speeds (groups split where sorted speeds jump by
+    more than `SPEED_GAP_SHARE` of the top speed): a gear threshold at one of these separates the
+    groups the data can tell apart. Quantiles where the speeds form no groups (a continuous sweep)."""
+    running = np.sort(n[n > shared.stopped_rpm])
+    if len(running) == 0:
+        return running
+    jumps = np.flatnonzero(np.diff(running) > SPEED_GAP_SHARE * running[-1])
+    levels = np.r_[running[jumps], running[-1]]
+    if len(levels) > MAX_SPEED_LEVELS:
+        levels = np.unique(np.quantile(running, np.linspace(0.02, 0.98, MAX_SPEED_LEVELS)))
+    return levels
 
 
 def _held_cost(series: Series, shared: Shared, effects, sensors) -> float:
@@ -289,7 +331,7 @@ def fit_temperatures(series: Series, shared: Shared, effects, starts=None):
     """Shared parameters (gear threshold, exponent, coolant thresholds) by search, sensors inside."""
     names = {e for e, _ in effects}
     if "gear_ratio_switch" in names:
-        levels = _speed_levels(series.n, shared)
+        levels = speed_levels(series.n, shared)
         if len(levels) > 1:
             shared = _search_shared(series, shared, effects, starts, "gear_ratio_switch", list(levels[:-1]),
                                     lambda s, v: replace(s, gear_rpm=float(v)))
@@ -303,19 +345,25 @@ def fit_temperatures(series: Series, shared: Shared, effects, starts=None):
         shared = _search_shared(series, shared, effects, starts, "nonlinear_speed_heat", EXPONENT_RANGE,
                                 lambda s, v: replace(s, exponent=float(v)))
     if "coolant_switching" in names:
-        shared = _fit_relay(series, shared, effects, starts)
+        shared, sensors = _fit_relay(series, shared, effects, starts)
+        cooling = closed_loop_cooling(series, shared, sensors, effects)
+        return (shared, *_fit_all_sensors(series, shared, effects, sensors, cooling))
     return (shared, *_fit_all_sensors(series, shared, effects, starts))
 
 
 def _fit_relay(series, shared, effects, starts):
     """Thresholds by grid with the time constants held, then the time constants with the thresholds
-    held, alternating: the cooling shortens the apparent time constant, so both must move."""
+    held, alternating: the cooling shortens the apparent time constant, so both must move. The
+    grid switches the relay by the measured temperature (fast); the last rounds switch it by the
+    simulated one (the closed loop the model runs) and move the thresholds and sensors with it.
+    Returns the shared parameters and the sensors fitted with the closed-loop relay."""
     sensor = next(s for e, s in effects if e == "coolant_switching")
     temperature = series.temps[:, sensor]
     levels = np.linspace(*np.quantile(temperature, [0.3, 0.995]), 16)
     pairs = [(on, off) for on, off in itertools.product(levels, levels) if on - off >= 0.5]
     if not pairs:
-        return replace(shared, relay=(sensor, float(levels[-1]), float(levels[0])))
+        shared = replace(shared, relay=(sensor, float(levels[-1]), float(levels[0])))
+        return shared, _fit_all_sensors(series, shared, effects, starts)[0]
     sensors = starts or _fit_all_sensors(series, shared, [e for e in effects if e[0] != "coolant_switching"], None)[0]
 
     def prepared():  # everything but the cooling column, per sensor, for the time constants held
@@ -326,25 +374,38 @@ def _fit_relay(series, shared, effects, starts):
             out.append((a, *_Projection.of(series.temps[:, i] - known, [c for _, c in columns])))
         return out
 
-    def cost(on, off):
-        cooling = relay(temperature, on, off)
-        return sum(_added_column_sse(basis, y_perp, lag(cooling, a, 0.0)) for a, basis, y_perp in parts)
+    def cost_of(state):
+        return sum(_added_column_sse(basis, y_perp, lag(state, a, 0.0)) for a, basis, y_perp in parts)
 
+    measured = lambda on, off: cost_of(relay(temperature, on, off))
+    closed = lambda on, off: cost_of(closed_loop_cooling(series, replace(shared, relay=(sensor, on, off)), sensors,
+                                                         effects))
     step = max(float(np.ptp(temperature)) / 100, 0.01)
     chosen = None
     for _ in range(RELAY_ROUNDS):
         parts = prepared()
-        on, off = min(pairs, key=lambda pair: cost(*pair))
-        for _ in range(2):  # each threshold to the middle of its best plateau (the cost is flat between data)
-            on = _plateau_centre(np.arange(on - 8 * step, on + 8 * step, step / 4), lambda v: cost(v, min(off, v - 0.5)))
-            off = _plateau_centre(np.arange(off - 8 * step, off + 8 * step, step / 4), lambda v: cost(max(on, v + 0.5), v))
-            off = min(off, on - 0.5)
+        on, off = _centred(*min(pairs, key=lambda pair: measured(*pair)), step, measured)
         if chosen == (on, off):
             break
         chosen = (on, off)
         shared = replace(shared, relay=(sensor, float(on), float(off)))
         sensors = _fit_all_sensors(series, shared, effects, None)[0]
-    return shared
+    for _ in range(CLOSED_LOOP_ROUNDS):
+        parts = prepared()
+        on, off = _centred(on, off, step, closed)
+        shared = replace(shared, relay=(sensor, float(on), float(off)))
+        sensors = _fit_all_sensors(series, shared, effects, sensors,
+                                   closed_loop_cooling(series, shared, sensors, effects))[0]
+    return shared, sensors
+
+
+def _centred(on: float, off: float, step: float, cost) -> tuple[float, float]:
+    """Each threshold to the middle of its best plateau near where it is (the cost is flat between data)."""
+    for _ in range(2):
+        on = _plateau_centre(np.arange(on - 8 * step, on + 8 * step, step / 4), lambda v: cost(v, min(off, v - 0.5)))
+        off = _plateau_centre(np.arange(off - 8 * step, off + 8 * step, step / 4), lambda v: cost(max(on, v + 0.5), v))
+        off = min(off, on - 0.5)
+    return on, off
 
 
 class _Projection:
@@ -386,16 +447,17 @@ def temperatures(series: Series, sim_shared: Shared, sensors, effects) -> tuple[
     readings = np.empty_like(series.temps)
     physical = np.empty_like(series.temps)
     start = first_temperatures(series, sensors)
+    cooling = closed_loop_cooling(series, sim_shared, sensors, effects) if sim_shared.relay is not None else None
     for i, p in enumerate(sensors):
         a = _poles(series, sim_shared, p)
-        q = sum(getattr(p, name) * x for name, x in _heat_inputs(series, sim_shared, effects))
+        q = sum(getattr(p, name) * x for name, x in _heat_inputs(series, sim_shared, effects, cooling))
         physical[:, i] = lag(series.te + q, a, start[i])
         readings[:, i] = physical[:, i] + p.offset_K + p.drift_K_per_s * (series.t - series.t[0])
     return readings, physical
 
 
 def slow_reference_s(tau_struct_s: float | None) -> float:
-    """What the slow time constant is a multiple of: the structure's, so the two cannot swap roles."""
+    """What the slow time constant must exceed a multiple of: the structure's, so the two cannot swap roles."""
     return tau_struct_s if tau_struct_s is not None else SLOW_REFERENCE_S
 
 
@@ -425,38 +487,44 @@ def fit_displacement(series: Series, temps: np.ndarray, t0: np.ndarray, effects,
     wanted = (["struct"] if structure_lag else []) + [
         k for k, e in (("slow", "slow_structure"), ("ambient", "ambient_coupling"), ("feed", "feed_axis_heat"))
         if e in names]
-    # the slow time constant as a multiple of the structure's, so the two cannot swap roles
-    bounds = {"struct": (np.log(600.0), np.log(48 * HOUR)), "slow": (np.log(1.5), np.log(60.0)),
+    # the slow time constant at least SLOW_MIN_RATIO times the structure's, so the two cannot swap roles
+    bounds = {"struct": (np.log(600.0), np.log(48 * HOUR)), "slow": (np.log(1800.0), np.log(96 * HOUR)),
               "ambient": (np.log(600.0), np.log(48 * HOUR)), "feed": (np.log(120.0), np.log(24 * HOUR))}
     known = {}
     if start is not None:
         known = {"struct": start.tau_struct_s, "ambient": start.tau_ambient_s, "feed": start.tau_feed_s,
-                 "slow": start.tau_slow_s / slow_reference_s(start.tau_struct_s) if start.tau_slow_s else None}
+                 "slow": start.tau_slow_s}
     k = temps.shape[1]
 
     def taus_of(x):
         taus = {"t0": t0, "struct": None, **{name: float(np.exp(np.clip(v, *bounds[name]))) for name, v in zip(wanted, x)}}
         if "slow" in taus:
-            taus["slow"] *= slow_reference_s(taus["struct"])
+            taus["slow"] = max(taus["slow"], SLOW_MIN_RATIO * slow_reference_s(taus["struct"]))
         return taus
 
     def cost(x):
         columns = [np.ones(series.rows)] + _displacement_columns(series, temps, taus_of(x), effects)
         return _solve(series.target, columns)[1]
 
-    x0 = []
+    # a grid over what is new, jointly with the structure's time constant (a slow lag added to a
+    # structure that had settled between the two true time constants must be able to move it)
+    axes = []
     for name in wanted:
+        values = list(np.linspace(*bounds[name], GRID_POINTS))
         if known.get(name):
-            x0.append(np.log(known[name]))
-            continue
-        grid = np.linspace(*bounds[name], 9)
-        x0.append(min(grid, key=lambda g: cost(x0 + [g] + [np.mean(bounds[w]) for w in wanted[len(x0) + 1:]])))
+            joint = name == "struct" and any(not known.get(w) for w in wanted)
+            values = [np.log(known[name])] + (values if joint else [])
+        axes.append(values)
+    grid = sorted(itertools.product(*axes), key=lambda x: cost(list(x)))
     if len(wanted) == 1:
         lo, hi = bounds[wanted[0]]
-        x = [minimize_scalar(lambda g: cost([g]), bounds=(max(lo, x0[0] - 1.5), min(hi, x0[0] + 1.5)),
+        x0 = grid[0][0]
+        x = [minimize_scalar(lambda g: cost([g]), bounds=(max(lo, x0 - 1.5), min(hi, x0 + 1.5)),
                              method="bounded", options={"xatol": 1e-5}).x]
-    elif wanted:
-        x = minimize(cost, x0, method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-9, "maxiter": 400}).x
+    elif wanted:  # the valleys are narrow and curved: polish the best few grid points, keep the best
+        polished = [minimize(cost, list(x0), method="Nelder-Mead",
+                             options={"xatol": 1e-4, "fatol": 1e-9, "maxiter": 400}) for x0 in grid[:POLISHED_STARTS]]
+        x = min(polished, key=lambda result: result.fun).x
     else:
         x = []
     taus = taus_of(x)
