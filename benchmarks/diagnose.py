@@ -13,16 +13,20 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 from concurrent.futures import ProcessPoolExecutor
 
-import numpy as np
+for _threads in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):  # one core per job: small
+    os.environ.setdefault(_threads, "1")  # matrices in several processes slow down 5x with threaded BLAS
 
-from thermoplc.diagnosis.search import diagnose
-from thermoplc.machines import MACHINES, machine
-from thermoplc.machines.random_effects import draw
-from thermoplc.models.effects import NAMES
-from thermoplc.models.simulation import Series
+import numpy as np  # noqa: E402
+
+from thermoplc.diagnosis.search import diagnose  # noqa: E402
+from thermoplc.machines import MACHINES, machine  # noqa: E402
+from thermoplc.machines.random_effects import draw  # noqa: E402
+from thermoplc.models.effects import NAMES  # noqa: E402
+from thermoplc.models.simulation import Series  # noqa: E402
 
 TRAIN_SHARE = 0.6
 TARGETS = {72.0: {"clean": 0.95, "right": 0.90, "wrong": 0.02}, 24.0: {"wrong": 0.02}}

@@ -226,7 +226,8 @@ def cmd_diagnose(args) -> int:
     from thermoplc.diagnosis.command import DiagnoseRequest, run
     from thermoplc.diagnosis.findings import text
     request = DiagnoseRequest(args.data, args.temps, args.speed, args.ambient, args.target, args.feed, args.baseline,
-                              args.train_until, args.train_rows, args.time, args.name, args.decimal)
+                              args.train_until, args.train_rows, args.time, args.name, args.decimal,
+                              not args.no_structure_lag)
     for path in (args.output, args.json, args.report and str(Path(args.report) / "index.html")):
         if path:
             check_overwrite(path, args.force)
@@ -338,6 +339,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--target", required=True, help="measured displacement column, um")
     p.add_argument("--feed", help="feed-axis rate column, mm/min (enables the feed_axis_heat candidate)")
     p.add_argument("--baseline", help="a lumped model file to start from instead of fitting the baseline")
+    p.add_argument("--no-structure-lag", action="store_true",
+                   help="baseline displacement from the simulated temperatures alone (paper 000 eq. 10), without "
+                        "the structure that lags them")
     part = p.add_mutually_exclusive_group()
     part.add_argument("--train-until", type=float, metavar="SECONDS", help="training part: rows with time <= SECONDS")
     part.add_argument("--train-rows", type=int, metavar="N", help="training part: the first N rows (default: 60%%)")

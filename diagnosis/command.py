@@ -36,6 +36,7 @@ class DiagnoseRequest:
     time_column: str = "time_s"
     block_name: str = "ThermalComp"
     decimal: str = "auto"
+    structure_lag: bool = True
 
 
 def _training_rows(table: Table, request: DiagnoseRequest) -> int:
@@ -105,7 +106,7 @@ def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report
         model = load_model(request.baseline)
         _check_baseline(model, request, request.baseline)
         baseline = lumped_model.simulation_of(model)
-    d = diagnose(series, n_train, request.target, baseline, progress)
+    d = diagnose(series, n_train, request.target, baseline, progress, request.structure_lag)
     model = augmented_model(d.final, d.added, request, table, dt, n_train)
     source = {"file": Path(table.path).name, "sha256": table.sha256}
     doc = document(d, series, n_train, source, model_path)

@@ -52,6 +52,7 @@ def document(d: Diagnosis, series: Series, n_train: int, source: dict, model_pat
         "data": {**source, "rows": series.rows, "train_rows": n_train, "sample_period_s": series.dt},
         "verdict": d.verdict,
         "summary": summary(d),
+        "reason": d.reason,
         "effects": d.added,
         "disagreements": [_window(series, w, d, True) for w in d.windows_before],
         "remaining_disagreements": [_window(series, w, d, False) for w in d.windows_after],
@@ -67,6 +68,8 @@ def document(d: Diagnosis, series: Series, n_train: int, source: dict, model_pat
 
 
 def summary(d: Diagnosis) -> str:
+    if d.verdict == "insufficient_data":
+        return f"the data cannot decide: {d.insufficient}"
     if d.verdict == "no_missing_effect":
         return "no significant missing effect: simulation and measurement agree within the noise on every channel"
     names = ", ".join(e["name"] for e in d.added)
@@ -74,7 +77,8 @@ def summary(d: Diagnosis) -> str:
     if d.verdict == "explained":
         return f"explained by {names}; no disagreement beyond the noise is left"
     found = f"found {names}, but " if names else ""
-    return f"{found}{left} disagreement window(s) not explained by any known effect"
+    because = f" ({d.reason})" if d.reason else ""
+    return f"{found}{left} disagreement window(s) not explained by any known effect{because}"
 
 
 def display(value, braces: bool = True) -> str:

@@ -14,6 +14,7 @@ from typing import Callable
 
 import numpy as np
 
+from thermoplc.diagnosis import sufficiency
 from thermoplc.diagnosis.windows import Window, find_windows, noise_sigma
 from thermoplc.models import simulation as sim_
 from thermoplc.models.effects import NAMES
@@ -62,16 +63,28 @@ class Diagnosis:
     added: list[dict] = field(default_factory=list)  # {name, parameters, evidence} in the order added
     rounds: list[list[Trial]] = field(default_factory=list)
     not_tested: dict = field(default_factory=dict)  # name -> why
-
-    @property
-    def reason(self) -> str | None:
-        return None
+    insufficient: str | None = None  # why the data cannot support a diagnosis at all
+    unseen: dict = field(default_factory=dict)  # remaining window index -> conditions training never saw
 
     @property
     def verdict(self) -> str:
+        if self.insufficient:
+            return "insufficient_data"
         if not self.windows_before:
             return "no_missing_effect"
         return "unexplained" if self.windows_after else "explained"
+
+    @property
+    def reason(self) -> str | None:
+        """Why the verdict is not a plain yes or no: what the data lacks."""
+        if self.insufficient:
+            return self.insufficient
+        if self.verdict != "unexplained":
+            return None
+        notes = [f"window {k + 1} ran at {text}" for k, text in self.unseen.items()]
+        if self.not_tested:
+            notes.append("not testable on this data: " + "; ".join(f"{k} ({v})" for k, v in self.not_tested.items()))
+        return "; ".join(notes) or None
 
 
 def _channels(series: Series, target_name: str) -> tuple[str, ...]:
@@ -112,14 +125,19 @@ def held_out_gain(before: Score, after: Score) -> float:
     return max(gains, default=0.0)
 
 
-def candidates(series: Series, present: Simulation) -> tuple[list[tuple[str, int | None]], dict]:
-    """Every named effect not in the model yet; per-sensor effects once per sensor."""
+def candidates(series: Series, present: Simulation, train: Series) -> tuple[list[tuple[str, int | None]], dict]:
+    """Every named effect not in the model yet that the training part can show; per-sensor effects
+    once per sensor. The others with the reason they were not tested."""
     found, skipped = [], {}
     for name in NAMES:
         if present.has(name):
             continue
         if name == "feed_axis_heat" and series.feed is None:
             skipped[name] = "needs --feed COLUMN (the feed-axis rate)"
+            continue
+        why = sufficiency.untestable(train, name)
+        if why:
+            skipped[name] = why
             continue
         if name in sim_.PER_SENSOR:
             found += [(name, i) for i in range(len(series.names))]
@@ -194,12 +212,15 @@ def all_windows(residual: dict, sigma: dict, dt: float) -> list[Window]:
 
 
 def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulation | None = None,
-             progress: Callable[[str], None] | None = None) -> Diagnosis:
+             progress: Callable[[str], None] | None = None, structure_lag: bool = True) -> Diagnosis:
+    """Search for missing effects; `structure_lag` keeps the displacement's structure lag in the
+    fitted baseline (paper 000's regression on the temperatures alone without it)."""
     say = progress or (lambda message: None)
     channels = _channels(series, target_name)
     train = series.head(n_train)
+    insufficient = sufficiency.recording_problem(train) if baseline is None else None
     say("fitting the baseline simulation")
-    base = baseline or sim_.fit(train)
+    base = baseline or sim_.fit(train, structure_lag=structure_lag)
     simulated0, residual0 = _simulate(base, series, channels)
     sigma = {c: noise_sigma(r) for c, r in residual0.items()}
     before = score(base, residual0, sigma, n_train)
@@ -208,9 +229,9 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
     windows = windows0
     added, rounds = [], []
     skipped = {}
-    while windows:
+    while windows and not insufficient:
         trials, best = [], None
-        options, skipped = candidates(series, current)
+        options, skipped = candidates(series, current, train)
         for k, (name, sensor) in enumerate(options, start=1):
             say(f"round {len(rounds) + 1}: testing {name}" + (f" on {series.names[sensor]}" if sensor is not None else "")
                 + f" ({k}/{len(options)})")
@@ -219,7 +240,8 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             s = score(trial, res, sigma, n_train)
             gain = held_out_gain(current_score, s)
             delta = s.bic - current_score.bic
-            why = implausible(trial, name)
+            why = implausible(trial, name) or (sufficiency.relay_too_quiet(trial, train)
+                                               if name == "coolant_switching" else None)
             ok = delta < -BIC_MARGIN and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out and why is None
             trials.append(Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False,
                                 why))
@@ -238,7 +260,8 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             "windows": _window_change(windows0, residual, res)}})
         current, current_score, residual, simulated = trial, s, res, sim_out
         windows = all_windows(residual, sigma, series.dt)
-    if not windows0:
-        skipped = candidates(series, base)[1]
+    if not windows0 or insufficient:
+        skipped = candidates(series, base, train)[1]
+    unseen = {k: text for k, w in enumerate(windows) if (text := sufficiency.unseen_conditions(series, n_train, w))}
     return Diagnosis(channels, sigma, base, current, before, current_score, windows0, windows, residual0, residual,
-                     simulated0, simulated, added, rounds, skipped)
+                     simulated0, simulated, added, rounds, skipped, insufficient, unseen)

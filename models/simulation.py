@@ -29,7 +29,7 @@ PER_SENSOR = ("sensor_offset", "sensor_drift", "coolant_switching")  # tried on 
 TABLE_SEGMENTS = 16
 RELAY_ROUNDS = 4
 RELAY_LOOKAHEAD_S = 7200.0
-CLOSED_LOOP_ROUNDS = 3  # relay state from the simulation, sensors refitted with it
+CLOSED_LOOP_ROUNDS = 2  # relay state from the simulation, sensors refitted with it
 HOUR = 3600.0
 SPEED_GAP_SHARE = 0.005
 MAX_SPEED_LEVELS = 48
@@ -392,18 +392,21 @@ def _fit_relay(series, shared, effects, starts):
         sensors = _fit_all_sensors(series, shared, effects, None)[0]
     for _ in range(CLOSED_LOOP_ROUNDS):
         parts = prepared()
-        on, off = _centred(on, off, step, closed)
+        for reach, points in ((4.0, 17), (0.5, 11)):  # coarse, then fine: the measured relay trips early
+            on, off = _centred(on, off, step, closed, reach, passes=2, points=points)
         shared = replace(shared, relay=(sensor, float(on), float(off)))
         sensors = _fit_all_sensors(series, shared, effects, sensors,
                                    closed_loop_cooling(series, shared, sensors, effects))[0]
     return shared, sensors
 
 
-def _centred(on: float, off: float, step: float, cost) -> tuple[float, float]:
-    """Each threshold to the middle of its best plateau near where it is (the cost is flat between data)."""
-    for _ in range(2):
-        on = _plateau_centre(np.arange(on - 8 * step, on + 8 * step, step / 4), lambda v: cost(v, min(off, v - 0.5)))
-        off = _plateau_centre(np.arange(off - 8 * step, off + 8 * step, step / 4), lambda v: cost(max(on, v + 0.5), v))
+def _centred(on: float, off: float, step: float, cost, reach: float = 8, passes: int = 2, points: int = 64
+             ) -> tuple[float, float]:
+    """Each threshold to the middle of its best plateau within `reach` steps (the cost is flat between data)."""
+    for _ in range(passes):
+        grid = lambda centre: np.linspace(centre - reach * step, centre + reach * step, points)
+        on = _plateau_centre(grid(on), lambda v: cost(v, min(off, v - 0.5)))
+        off = _plateau_centre(grid(off), lambda v: cost(max(on, v + 0.5), v))
         off = min(off, on - 0.5)
     return on, off
 

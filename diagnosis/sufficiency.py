@@ -1,0 +1,89 @@
+"""Can the data decide? Naming an effect the training part cannot show would be made up.
+
+A recording too short or without running says nothing about heat; an effect that needs speeds on
+both sides of a threshold, standstills after running or several coolant cycles is not tested where
+the training part lacks them; a held-out window at a speed the training part never ran is
+reported as such rather than blamed on a missing effect.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from thermoplc.diagnosis.windows import Window
+from thermoplc.models import simulation as sim_
+from thermoplc.models.simulation import Series, Simulation
+
+HOUR = 3600.0
+MIN_TRAIN_S = 6 * HOUR  # the slowest sensor time constants are about an hour; less cannot separate them
+MIN_RUNNING_S = 1 * HOUR
+MIN_STANDSTILLS = 2  # stretches at rest of at least STANDSTILL_S, each after running
+STANDSTILL_S = 1800.0
+MIN_RELAY_SWITCHES = 3  # on, off, on: one cycle and the start of another
+
+
+def recording_problem(train: Series) -> str | None:
+    """Why the training part cannot support any diagnosis, or None."""
+    span = train.rows * train.dt
+    if span < MIN_TRAIN_S:
+        return (f"the training part covers {span / HOUR:.1f} h; at least {MIN_TRAIN_S / HOUR:g} h are needed to "
+                f"separate the sensors' time constants (about an hour each)")
+    running = np.count_nonzero(train.n > sim_.stopped_threshold(train.n)) * train.dt
+    if running < MIN_RUNNING_S:
+        return (f"the spindle runs {running / HOUR:.2f} h in the training part; at least {MIN_RUNNING_S / HOUR:g} h "
+                f"of running are needed to learn how speed heats the machine")
+    return None
+
+
+def _standstills(train: Series, stopped_rpm: float) -> int:
+    at_rest = train.n <= stopped_rpm
+    edges = np.flatnonzero(np.diff(np.r_[0, at_rest.astype(int), 0]))
+    ran_before = np.r_[False, np.cumsum(~at_rest)[:-1] > 0]
+    return sum((stop - start) * train.dt >= STANDSTILL_S and ran_before[start]
+               for start, stop in zip(edges[::2], edges[1::2]))
+
+
+def untestable(train: Series, name: str) -> str | None:
+    """Why the training part cannot show this effect, or None."""
+    shared = sim_.Shared(stopped_rpm=sim_.stopped_threshold(train.n))
+    groups = len(sim_.speed_levels(train.n, shared))
+    if name == "gear_ratio_switch" and groups < 2:
+        return f"the training part runs at {groups} speed group(s); a threshold needs speeds on both sides"
+    if name == "nonlinear_speed_heat" and groups < 3:
+        return f"the training part runs at {groups} speed group(s); a curve needs at least three"
+    if name == "stop_convection" and _standstills(train, shared.stopped_rpm) < MIN_STANDSTILLS:
+        return (f"the training part has fewer than {MIN_STANDSTILLS} standstills of {STANDSTILL_S / 60:g} min "
+                f"after running")
+    return None
+
+
+def relay_too_quiet(sim: Simulation, train: Series) -> str | None:
+    """A fitted coolant relay that switches too rarely in training is a step, not a coolant."""
+    if not sim.has("coolant_switching"):
+        return None
+    state = sim_.closed_loop_cooling(train, sim.shared, sim.sensors, sim.effects)
+    switches = int(np.count_nonzero(np.diff(np.r_[0.0, state])))
+    if switches < MIN_RELAY_SWITCHES:
+        return (f"the fitted relay switches {switches} time(s) in the training part; at least {MIN_RELAY_SWITCHES} "
+                f"are needed to tell a coolant from a one-off change")
+    return None
+
+
+def unseen_conditions(series: Series, n_train: int, window: Window) -> str | None:
+    """What a held-out window ran at that the training part never did, or None."""
+    if window.stop <= n_train:
+        return None
+    shared = sim_.Shared(stopped_rpm=sim_.stopped_threshold(series.n[:n_train]))
+    trained = sim_.speed_levels(series.n[:n_train], shared)
+    start = max(window.start, n_train)
+    seen = sim_.speed_levels(series.n[start:window.stop], shared)
+    tolerance = sim_.SPEED_GAP_SHARE * max(float(np.max(np.abs(series.n))), 1.0)
+    new = [float(v) for v in seen if not len(trained) or np.min(np.abs(trained - v)) > tolerance]
+    notes = []
+    if new:
+        notes.append("speeds the training part never ran: " + ", ".join(f"{v:.0f}" for v in new) + " rpm")
+    te_train = series.te[:n_train]
+    te_window = series.te[start:window.stop]
+    if len(te_window) and (te_window.min() < te_train.min() - 0.5 or te_window.max() > te_train.max() + 0.5):
+        notes.append(f"ambient {te_window.min():.1f}..{te_window.max():.1f} degC outside the training part's "
+                     f"{te_train.min():.1f}..{te_train.max():.1f} degC")
+    return "; ".join(notes) or None
