@@ -22,6 +22,8 @@ from thermoplc.models.simulation import Series, Simulation
 
 BIC_MARGIN = 10.0
 HELD_OUT_SHARE = 0.2
+MIN_TRAIN_EXCESS = 0.05  # ... and its training MSE by this share
+GAIN_TIE = 0.03  # held-out gains this close are a tie, decided by BIC
 MIN_EXCESS = 0.1  # a channel counts as off when its held-out MSE exceeds its noise variance by this share
 HOUR = 3600.0
 
@@ -34,6 +36,7 @@ class Score:
     bic: float
     held_out: float  # sum over channels of held-out MSE / noise variance
     held_out_by_channel: dict
+    train_by_channel: dict  # channel -> training MSE / noise variance
 
 
 @dataclass(frozen=True)
@@ -115,13 +118,17 @@ def score(sim: Simulation, residual: dict, sigma: dict, n_train: int) -> Score:
             normalised[c] = float(np.mean(rest ** 2)) / max(sigma[c], 1e-12) ** 2
             held += normalised[c]
     bic += sim.parameter_count() * np.log(n_train * len(residual))
-    return Score(rmse_train, rmse_held, max_held, float(bic), held, normalised)
+    train_normalised = {c: (rmse_train[c] / max(sigma[c], 1e-12)) ** 2 for c in residual}
+    return Score(rmse_train, rmse_held, max_held, float(bic), held, normalised, train_normalised)
 
 
 def held_out_gain(before: Score, after: Score) -> float:
-    """The largest share of a channel's excess above noise removed, over channels that are off."""
+    """The largest share of a channel's excess above noise removed, over channels that are off on the
+    held-out part and visibly so on the training part: a held-out gap the training part does not show
+    is extrapolation error (of coefficients the data hardly separates), not a missing effect."""
     gains = [(before.held_out_by_channel[c] - after.held_out_by_channel[c]) / (before.held_out_by_channel[c] - 1.0)
-             for c in before.held_out_by_channel if before.held_out_by_channel[c] - 1.0 >= MIN_EXCESS]
+             for c in before.held_out_by_channel if before.held_out_by_channel[c] - 1.0 >= MIN_EXCESS
+             and before.train_by_channel[c] - 1.0 >= MIN_TRAIN_EXCESS]
     return max(gains, default=0.0)
 
 
@@ -211,6 +218,13 @@ def all_windows(residual: dict, sigma: dict, dt: float) -> list[Window]:
     return [w for c, r in residual.items() for w in find_windows(c, r, sigma[c], dt)]
 
 
+def _choose(passed: list[tuple]) -> tuple:
+    """The candidate that removes the most held-out excess; among those within `GAIN_TIE` of it (the
+    held-out part cannot tell them apart) the one the information criterion prefers."""
+    best_gain = max(p[-1] for p in passed)
+    return min((p for p in passed if p[-1] >= best_gain - GAIN_TIE), key=lambda p: p[1].bic)
+
+
 def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulation | None = None,
              progress: Callable[[str], None] | None = None, structure_lag: bool = True) -> Diagnosis:
     """Search for missing effects; `structure_lag` keeps the displacement's structure lag in the
@@ -230,7 +244,7 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
     added, rounds = [], []
     skipped = {}
     while windows and not insufficient:
-        trials, best = [], None
+        trials, passed = [], []
         options, skipped = candidates(series, current, train)
         for k, (name, sensor) in enumerate(options, start=1):
             say(f"round {len(rounds) + 1}: testing {name}" + (f" on {series.names[sensor]}" if sensor is not None else "")
@@ -245,12 +259,12 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             ok = delta < -BIC_MARGIN and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out and why is None
             trials.append(Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False,
                                 why))
-            if ok and (best is None or s.held_out < best[1].held_out):
-                best = (trial, s, res, sim_out, len(trials) - 1, name)
-        if best is None:
+            if ok:
+                passed.append((trial, s, res, sim_out, len(trials) - 1, name, gain))
+        if not passed:
             rounds.append(trials)
             break
-        trial, s, res, sim_out, index, name = best
+        trial, s, res, sim_out, index, name, _ = _choose(passed)
         trials[index] = Trial(**{**trials[index].__dict__, "accepted": True})
         rounds.append(trials)
         added.append({"name": name, "parameters": describe(trial, name, series), "evidence": {

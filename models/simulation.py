@@ -263,11 +263,13 @@ def fit_sensor(series: Series, i: int, shared: Shared, effects, start: SensorPar
         factor = float(np.exp(np.clip(x[1], -2.5, 2.5))) if has_stop else 1.0
         return _sensor_cost(series, i, shared, effects, tau, factor, cooling)[0]
 
+    # the whole grid even from a warm start: an effect the start lacked (a drift) may have bent its
+    # time constant far from the truth
+    grid = list(np.linspace(np.log(120.0), np.log(24 * HOUR), 12))
+    factor0 = np.log(start.stop_factor) if start is not None else 0.0
     if start is not None:
-        x0 = [np.log(start.tau_s), np.log(start.stop_factor)]
-    else:
-        grid = np.linspace(np.log(120.0), np.log(24 * HOUR), 12)
-        x0 = [min(grid, key=lambda g: cost([g, 0.0])), 0.0]
+        grid.append(np.log(start.tau_s))
+    x0 = [min(grid, key=lambda g: cost([g, factor0])), factor0]
     if has_stop:
         starts = [[x0[0], f] for f in (-1.0, 0.0, 0.7, 1.4)]
         x0 = min(starts, key=cost)
