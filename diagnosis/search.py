@@ -3,9 +3,11 @@
 An effect is kept only when both judges agree: the information criterion on the training part
 (BIC, Gaussian with one variance per channel, falls by more than `BIC_MARGIN`) and the held-out
 part (the noise-normalised squared error falls by at least `HELD_OUT_SHARE` of what is left
-above the noise). An effect must do this on at least one channel that is off by more than `MIN_EXCESS`, so
-leftovers of a fitted effect at the noise level are never named. The search repeats with the effect added until no disagreement window is
-left or no candidate passes; what is left unexplained is reported as windows, never named.
+above the noise), on a channel that is off on the held-out part by more than `MIN_EXCESS` and on
+the training part by more than `MIN_TRAIN_EXCESS`, so leftovers at the noise level and held-out
+extrapolation errors are never named. Of the supported candidates the one with the lowest BIC is
+added and the search repeats until no disagreement window is left or no candidate passes; what is
+left unexplained is reported as windows, never named.
 """
 from __future__ import annotations
 
@@ -23,7 +25,6 @@ from thermoplc.models.simulation import Series, Simulation
 BIC_MARGIN = 10.0
 HELD_OUT_SHARE = 0.2
 MIN_TRAIN_EXCESS = 0.05  # ... and its training MSE by this share
-GAIN_TIE = 0.03  # held-out gains this close are a tie, decided by BIC
 MIN_EXCESS = 0.1  # a channel counts as off when its held-out MSE exceeds its noise variance by this share
 HOUR = 3600.0
 
@@ -219,10 +220,10 @@ def all_windows(residual: dict, sigma: dict, dt: float) -> list[Window]:
 
 
 def _choose(passed: list[tuple]) -> tuple:
-    """The candidate that removes the most held-out excess; among those within `GAIN_TIE` of it (the
-    held-out part cannot tell them apart) the one the information criterion prefers."""
-    best_gain = max(p[-1] for p in passed)
-    return min((p for p in passed if p[-1] >= best_gain - GAIN_TIE), key=lambda p: p[1].bic)
+    """Among the candidates both judges support, the one the information criterion prefers: the
+    training part is the larger and its evidence grows with the data, while a held-out gain can be
+    cut by speeds the training part never separated (a gear threshold between two of them)."""
+    return min(passed, key=lambda p: p[1].bic)
 
 
 def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulation | None = None,
@@ -260,11 +261,11 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             trials.append(Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False,
                                 why))
             if ok:
-                passed.append((trial, s, res, sim_out, len(trials) - 1, name, gain))
+                passed.append((trial, s, res, sim_out, len(trials) - 1, name))
         if not passed:
             rounds.append(trials)
             break
-        trial, s, res, sim_out, index, name, _ = _choose(passed)
+        trial, s, res, sim_out, index, name = _choose(passed)
         trials[index] = Trial(**{**trials[index].__dict__, "accepted": True})
         rounds.append(trials)
         added.append({"name": name, "parameters": describe(trial, name, series), "evidence": {

@@ -3,7 +3,7 @@
 A recording too short or without running says nothing about heat; an effect that needs speeds on
 both sides of a threshold, standstills after running or several coolant cycles is not tested where
 the training part lacks them; a held-out window at a speed the training part never ran is
-reported as such rather than blamed on a missing effect.
+reported as extrapolation rather than blamed on a missing effect.
 """
 from __future__ import annotations
 
@@ -69,7 +69,7 @@ def relay_too_quiet(sim: Simulation, train: Series) -> str | None:
 
 
 def unseen_conditions(series: Series, n_train: int, window: Window) -> str | None:
-    """What a held-out window ran at that the training part never did, or None."""
+    """Where a held-out window extrapolates beyond the training part (speeds or ambient), or None."""
     if window.stop <= n_train:
         return None
     shared = sim_.Shared(stopped_rpm=sim_.stopped_threshold(series.n[:n_train]))
@@ -77,10 +77,12 @@ def unseen_conditions(series: Series, n_train: int, window: Window) -> str | Non
     start = max(window.start, n_train)
     seen = sim_.speed_levels(series.n[start:window.stop], shared)
     tolerance = sim_.SPEED_GAP_SHARE * max(float(np.max(np.abs(series.n))), 1.0)
-    new = [float(v) for v in seen if not len(trained) or np.min(np.abs(trained - v)) > tolerance]
+    outside = [float(v) for v in seen if not len(trained) or v > trained.max() + tolerance
+               or v < trained.min() - tolerance]
     notes = []
-    if new:
-        notes.append("speeds the training part never ran: " + ", ".join(f"{v:.0f}" for v in new) + " rpm")
+    if outside:
+        notes.append("speeds outside the training part's " + (f"{trained.min():.0f}..{trained.max():.0f} rpm: "
+                     if len(trained) else "(it never ran): ") + ", ".join(f"{v:.0f}" for v in outside) + " rpm")
     te_train = series.te[:n_train]
     te_window = series.te[start:window.stop]
     if len(te_window) and (te_window.min() < te_train.min() - 0.5 or te_window.max() > te_train.max() + 0.5):

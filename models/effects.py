@@ -26,10 +26,6 @@ EFFECTS: dict[str, tuple[str, dict]] = {
                         {"factor": 2.5}),
 }
 NAMES = tuple(EFFECTS)
-# the twin channel each effect shows in with its default parameters (tests and the detection benchmark)
-SHOWS_IN = {"gear_ratio_switch": "T_motor", "coolant_switching": "T_motor", "nonlinear_speed_heat": "T_motor",
-            "stop_convection": "T_motor", "sensor_offset": "T_bearing", "sensor_drift": "T_motor",
-            "slow_structure": "E_z_um", "ambient_coupling": "E_z_um", "feed_axis_heat": "E_z_um"}
 TEXT_PARAMETERS = frozenset({"column"})
 
 
