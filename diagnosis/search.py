@@ -85,7 +85,11 @@ class Diagnosis:
             return self.insufficient
         if self.verdict != "unexplained":
             return None
-        notes = [f"window {k + 1} ran at {text}" for k, text in self.unseen.items()]
+        grouped: dict[str, list[int]] = {}
+        for k, text in self.unseen.items():
+            grouped.setdefault(text, []).append(k + 1)
+        notes = [("window " if len(ks) == 1 else "windows ") + ", ".join(map(str, ks)) + f" ran at {text}"
+                 for text, ks in grouped.items()]
         if self.not_tested:
             notes.append("not testable on this data: " + "; ".join(f"{k} ({v})" for k, v in self.not_tested.items()))
         return "; ".join(notes) or None

@@ -1,6 +1,8 @@
 """Shared fixtures: a short synthetic recording and models fitted on it (small GA for speed)."""
 from __future__ import annotations
 
+import thermoplc  # noqa: F401  (first: it sets the BLAS thread count before numpy loads)
+
 import pytest
 
 from thermoplc.models.fit import FitRequest, fit
