@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 from pathlib import Path
@@ -12,6 +13,9 @@ from thermoplc.machines import DEFAULT as DEFAULT_MACHINE, MACHINES as MACHINE_N
 from thermoplc.models.effects import NAMES as EFFECT_NAMES
 from thermoplc.models.modelfile import KINDS
 from thermoplc.fileio import check_overwrite, write_atomic
+
+
+MAX_TWIN_ROWS = 50_000_000  # about 1.6 years at 1 s; beyond it the arrays alone need tens of GB
 
 
 def _columns(text: str) -> tuple[str, ...]:
@@ -51,6 +55,19 @@ def cmd_twin(args) -> int:
     from thermoplc.models.table import write_table
     from thermoplc.models.effects import Effect
     chosen = machine(args.machine)
+    for option, value, low in (("--hours", args.hours, 0.0), ("--dt", args.dt, 0.0)):
+        if not (math.isfinite(value) and value > low):
+            raise UserError(f"{option} must be a positive finite number, found {value:g}")
+    if args.hours * 3600 / args.dt > MAX_TWIN_ROWS:
+        raise UserError(f"--hours {args.hours:g} at --dt {args.dt:g} gives more than {MAX_TWIN_ROWS:,} rows; "
+                        f"use a longer --dt or fewer hours")
+    for option, value in (("--noise", args.noise), ("--ambient-start", args.ambient_start),
+                          ("--ambient-swing", 0.0 if args.ambient_swing is None else args.ambient_swing)):
+        if not math.isfinite(value) or (option != "--ambient-start" and value < 0):
+            raise UserError(f"{option} must be a finite number" + ("" if option == "--ambient-start" else " >= 0")
+                            + f", found {value:g}")
+    if args.seed < 0:
+        raise UserError(f"--seed must be zero or positive, found {args.seed}")
     faults = tuple(SensorFault.parse(f, chosen.SENSORS) for f in args.sensor_fault)
     effects = tuple(Effect.parse(e, chosen.COLUMN_DEFAULTS) for e in args.effect)
     names = [e.name for e in effects]
@@ -229,6 +246,18 @@ def cmd_diagnose(args) -> int:
     request = DiagnoseRequest(args.data, args.temps, args.speed, args.ambient, args.target, args.feed, args.baseline,
                               args.train_until, args.train_rows, args.time, args.name, args.decimal,
                               not args.no_structure_lag)
+    if args.baseline and args.no_structure_lag:
+        raise UserError("--no-structure-lag shapes a fitted baseline; with --baseline the model file decides")
+    outputs = [p for p in (args.output, args.json, args.report) if p]
+    inputs = [p for p in (args.data, args.baseline) if p]
+    resolved = [Path(p).resolve() for p in outputs]
+    for path, where in zip(outputs, resolved):
+        if where in {Path(p).resolve() for p in inputs}:
+            raise UserError(f"{path}: is an input of this command; write the output elsewhere")
+        if resolved.count(where) > 1:
+            raise UserError(f"{path}: named for two outputs; give each output its own file")
+    if args.report and Path(args.report).exists() and not Path(args.report).is_dir():
+        raise UserError(f"--report {args.report}: exists and is not a folder")
     for path in (args.output, args.json, args.report and str(Path(args.report) / "index.html")):
         if path:
             check_overwrite(path, args.force)
@@ -416,9 +445,12 @@ def main(argv: list[str] | None = None) -> int:
     except UserError as exc:
         print(f"thermoplc: error: {exc}", file=sys.stderr)
         return 2
-    except BrokenPipeError:  # the reader left (`| head`): stop quietly, as other command-line tools do
+    except BrokenPipeError:  # the reader left (`| head`): stop quietly with the shell's SIGPIPE status
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 1
+        return 141
+    except KeyboardInterrupt:
+        print("thermoplc: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

@@ -24,6 +24,8 @@ from thermoplc.models.simulation import Series, Simulation
 
 BIC_MARGIN = 10.0
 HELD_OUT_SHARE = 0.2
+MIN_LOG_STOP_FACTOR = 0.05  # a standstill factor within 5 % of 1 is no effect
+MIN_SENSOR_ERROR_SIGMAS = 3.0  # an offset or a drift over the recording smaller than this many noise sigmas is noise
 MIN_TRAIN_EXCESS = 0.05  # ... and its training MSE by this share
 MIN_EXCESS = 0.1  # a channel counts as off when its held-out MSE exceeds its noise variance by this share
 HOUR = 3600.0
@@ -202,6 +204,8 @@ def implausible(sim: Simulation, name: str) -> str | None:
         return f"exponent {s.exponent:.3g} at the end of the searched range"
     if name == "stop_convection" and any(not 0.09 < p.stop_factor < 11.0 for p in sim.sensors):
         return "standstill time-constant factor at the end of the searched range"
+    if name == "stop_convection" and all(abs(np.log(p.stop_factor)) < MIN_LOG_STOP_FACTOR for p in sim.sensors):
+        return "standstill time constants equal to the running ones: no change"
     if name == "gear_ratio_switch" and any(p.gain + p.gear_gain < 0 for p in sim.sensors):
         return "negative heat above the threshold"
     slow_reference = sim_.slow_reference_s(d.tau_struct_s)
@@ -211,6 +215,19 @@ def implausible(sim: Simulation, name: str) -> str | None:
         tau, low, high = taus[name]
         if not low < tau < high:
             return f"time constant {tau / HOUR:.3g} h at the end of the searched range"
+    return None
+
+
+def too_small(sim: Simulation, name: str, series: Series, sigma: dict) -> str | None:
+    """A sensor offset or drift below a few noise sigmas over the recording only soaks up the refit."""
+    if name not in ("sensor_offset", "sensor_drift"):
+        return None
+    i = sim.sensor_of(name)
+    p = sim.sensors[i]
+    size = abs(p.offset_K) if name == "sensor_offset" else abs(p.drift_K_per_s) * (series.t[-1] - series.t[0])
+    noise = sigma[series.names[i]]
+    if size < MIN_SENSOR_ERROR_SIGMAS * noise:
+        return f"{size:.3g} K over the recording, under {MIN_SENSOR_ERROR_SIGMAS:g} times the sensor noise ({noise:.3g} K)"
     return None
 
 
@@ -237,7 +254,7 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
     say = progress or (lambda message: None)
     channels = _channels(series, target_name)
     train = series.head(n_train)
-    insufficient = sufficiency.recording_problem(train) if baseline is None else None
+    insufficient = sufficiency.recording_problem(train)
     say("fitting the baseline simulation")
     base = baseline or sim_.fit(train, structure_lag=structure_lag)
     simulated0, residual0 = _simulate(base, series, channels)
@@ -259,8 +276,8 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             s = score(trial, res, sigma, n_train)
             gain = held_out_gain(current_score, s)
             delta = s.bic - current_score.bic
-            why = implausible(trial, name) or (sufficiency.relay_too_quiet(trial, train)
-                                               if name == "coolant_switching" else None)
+            why = implausible(trial, name) or too_small(trial, name, series, sigma) or (
+                sufficiency.relay_too_quiet(trial, train) if name == "coolant_switching" else None)
             ok = delta < -BIC_MARGIN and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out and why is None
             trials.append(Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False,
                                 why))

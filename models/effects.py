@@ -6,6 +6,7 @@ user-facing contract, so they live here once.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from thermoplc.errors import UserError
@@ -27,6 +28,7 @@ EFFECTS: dict[str, tuple[str, dict]] = {
 }
 NAMES = tuple(EFFECTS)
 TEXT_PARAMETERS = frozenset({"column"})
+POSITIVE_PARAMETERS = frozenset({"tau_h", "factor", "ratio", "exponent", "reference_rpm"})
 
 
 @dataclass(frozen=True)
@@ -62,4 +64,10 @@ class Effect:
                 parameters[key] = float(value)
             except ValueError:
                 raise UserError(f"--effect {text!r}: {key} must be a number, found {value.strip()!r}") from None
+            if not math.isfinite(parameters[key]):
+                raise UserError(f"--effect {text!r}: {key} must be a finite number, found {value.strip()!r}")
+            if key in POSITIVE_PARAMETERS and parameters[key] <= 0:
+                raise UserError(f"--effect {text!r}: {key} must be above 0, found {value.strip()!r}")
+        if name == "coolant_switching" and not parameters["on_C"] > parameters["off_C"]:
+            raise UserError(f"--effect {text!r}: on_C must be above off_C (the relay's hysteresis)")
         return Effect(name, tuple(parameters.items()))
