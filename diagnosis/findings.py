@@ -63,6 +63,7 @@ def document(d: Diagnosis, series: Series, n_train: int, source: dict, model_pat
         "channels": channels,
         "tested": [[vars(t) for t in trials] for trials in d.rounds],
         "not_tested": d.not_tested,
+        "ambiguous": list(d.ambiguous),
         "model": model_path,
     }
 

@@ -30,9 +30,9 @@ def lower_bpnn(model: Model) -> Block:
             Assign("Z", sum_of([const(f"b1_{j}")] + [BinOp("*", const(f"w1_{j}_{i}"), Ref(f"X_{i}")) for i in range(1, m + 1)])),
             If(((BinOp("<", Ref("Z"), const("act_nclip")), (Assign("Z", const("act_nclip")),)),
                 (BinOp(">", Ref("Z"), const("act_clip")), (Assign("Z", const("act_clip")),)))),
-            Assign("Z2", BinOp("*", Ref("Z"), Ref("Z"))),
-            Assign(f"H_{j}", BinOp("/", BinOp("*", Ref("Z"), _horner(Ref("Z2"), ("act_one", "act_p1", "act_p2", "act_p3"))),
-                                   _horner(Ref("Z2"), ("act_one", "act_q1", "act_q2", "act_q3"))))]
+            Assign("Zsq", BinOp("*", Ref("Z"), Ref("Z"))),
+            Assign(f"H_{j}", BinOp("/", BinOp("*", Ref("Z"), _horner(Ref("Zsq"), ("act_one", "act_p1", "act_p2", "act_p3"))),
+                                   _horner(Ref("Zsq"), ("act_one", "act_q1", "act_q2", "act_q3"))))]
     outputs = []
     for k in range(1, q + 1):
         y = sum_of([const(f"b2_{k}")] + [BinOp("*", const(f"w2_{k}_{j}"), Ref(f"H_{j}")) for j in range(1, hidden + 1)])
@@ -61,7 +61,7 @@ def lower_bpnn(model: Model) -> Block:
         statics=(INIT, *reference_vars(temps)),
         temps=(*(Var(f"X_{i}", "REAL", f"scaled rise of {s.name}") for i, s in enumerate(temps, start=1)),
                *(Var(f"H_{j}", "REAL", f"hidden neuron {j}") for j in range(1, hidden + 1)),
-               Var("Z", "REAL", "neuron input"), Var("Z2", "REAL", "neuron input squared"),
+               Var("Z", "REAL", "neuron input"), Var("Zsq", "REAL", "neuron input squared"),
                Var("Y", "REAL", "scaled output")),
         constants=tuple(Const(f"c_{name}", model.coef(name), "") for name in model.coefficients),
         regions=tuple(regions),

@@ -111,7 +111,7 @@ def lower_dlag(model: Model) -> Block:
                   for lag in range(lags + 1) for i, s in enumerate(temps, start=1)]
     return Block(
         name=model.block_name,
-        title="Thermal error compensation: distributed-lag regression (paper 001's DL model)",
+        title="Thermal error compensation: distributed-lag (DL) regression (paper 001)",
         header=header(model),
         inputs=inputs_of(temps),
         outputs=(error_output(model),),

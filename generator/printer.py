@@ -7,7 +7,7 @@ from importlib import resources
 
 import jinja2
 
-from thermoplc.generator.identifiers import check_unique, identifier_problem
+from thermoplc.identifiers import check_unique, identifier_problem
 from thermoplc.generator.ir import (
     PORTABLE_FUNCTIONS, Assign, BinOp, Block, BoolConst, Call, Expr, For, Index, IntConst, Ref, Region, Stmt,
     Unary, Var, assigned_names, walk_exprs,
@@ -52,6 +52,11 @@ def safe_comment(text: str) -> str:
     """Comment text that cannot end the comment or the line: printable ASCII, no comment delimiters."""
     text = "".join(ch if " " <= ch <= "~" else "?" for ch in text)
     return re.sub(r"\(\*|\*\)|/\*|\*/|[{}]", "?", text).strip()
+
+
+def safe_string(text: str) -> str:
+    """Text that cannot end the quoted string it is printed in (the STEP 7 TITLE) or escape from it."""
+    return re.sub(r"['\"$]", "?", safe_comment(text))
 
 
 class _Printer:
@@ -134,7 +139,7 @@ def validate(block: Block) -> None:
     sections = (block.inputs, block.outputs, block.statics, block.temps)
     declared = {v.name: v for group in sections for v in group}
     constants = {c.name: c for c in block.constants}
-    names = [block.name, *declared, *constants]
+    names = [block.name, *(v.name for group in sections for v in group), *(c.name for c in block.constants)]
     for name in names:
         problem = identifier_problem(name)
         if problem:
@@ -199,7 +204,7 @@ def render_plcopen(block: Block, version: str) -> str:
     if constants:
         sections.append(("localVars", ' constant="true"', constants))
     return _environment().get_template("plcopen.xml.j2").render(
-        name=block.name, version=version, title=safe_comment(block.title),
+        name=block.name, version=version, title=safe_string(block.title),
         header=[safe_comment(line) for line in block.header], sections=sections, body=printer.body(block.regions))
 
 
@@ -223,7 +228,7 @@ def render(block: Block, dialect: str = "tia") -> str:
 
     text = env.get_template(d.template).render(
         name=block.name,
-        title=safe_comment(block.title),
+        title=safe_string(block.title),
         header=[safe_comment(line) for line in block.header],
         sections=[(kw, decls(group)) for kw, group in
                   (("VAR_INPUT", block.inputs), ("VAR_OUTPUT", block.outputs),

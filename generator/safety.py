@@ -23,6 +23,7 @@ _CONSTANT_COMMENTS = {
     "c_StepMax": "largest output change per call (--max-step-um)", "c_StepMin": "largest output change per call, downwards",
     "c_OutMax": "output clamp (--max-offset-um)", "c_OutMin": "output clamp, negative side",
     "c_K0_mm": "K0 in mm per um of error: the NC moves the axis back by the error",
+    "c_RealMax": "largest finite REAL: a model value beyond it (Inf) or unordered (NaN) is not passed on",
 }
 
 
@@ -52,14 +53,20 @@ def _guard_region(g: Guard) -> Region:
 
 
 def _limit(name: str, model_value: str) -> tuple:
+    """Rate limit and clamp; a NaN or Inf model value holds the last output and raises Invalid (every
+    comparison with NaN is FALSE, so the finite test must be the one that lets a value through)."""
     y = Ref(name)
-    return (
+    step = (
         Assign("Delta", BinOp("-", Ref(model_value), y)),
         If(((BinOp(">", Ref("Delta"), Ref("c_StepMax")), (Assign(name, BinOp("+", y, Ref("c_StepMax"))),
                                                           Assign("Limited", BoolConst(True)))),
             (BinOp("<", Ref("Delta"), Ref("c_StepMin")), (Assign(name, BinOp("+", y, Ref("c_StepMin"))),
                                                           Assign("Limited", BoolConst(True))))),
            orelse=(Assign(name, Ref(model_value)),)),
+    )
+    finite = BinOp("<=", Call("ABS", (Ref(model_value),)), Ref("c_RealMax"))
+    return (
+        If(((finite, step),), orelse=(Assign("Invalid", BoolConst(True)),)),
         If(((BinOp(">", y, Ref("c_OutMax")), (Assign(name, Ref("c_OutMax")), Assign("Clamped", BoolConst(True)))),
             (BinOp("<", y, Ref("c_OutMin")), (Assign(name, Ref("c_OutMin")), Assign("Clamped", BoolConst(True)))))),
     )
@@ -80,7 +87,8 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
             If(((Unary("NOT", Ref("Ready")), (Assign("Ready", ready),)),)),)),
         *(gated(r.title, r.body) for r in body),
         Region("Output status: nothing limited yet in this call",
-               (Assign("Limited", BoolConst(False)), Assign("Clamped", BoolConst(False)))),
+               (Assign("Limited", BoolConst(False)), Assign("Clamped", BoolConst(False)),
+                Assign("Invalid", BoolConst(False)))),
     ]
     k0 = {name: f"K0_{k}" for k, name in enumerate(axis_outputs, start=1)}
     for v in limited:
@@ -99,7 +107,8 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
                *core_flags.values(), *faults,
                Var("Ready", "BOOL", "TRUE once every input was in range: the model runs"),
                Var("Limited", "BOOL", "an output was rate-limited in this call"),
-               Var("Clamped", "BOOL", "an output was clamped in this call"))
+               Var("Clamped", "BOOL", "an output was clamped in this call"),
+               Var("Invalid", "BOOL", "the model gave NaN or Inf in this call: the last output is held"))
     statics = [*core.statics]
     for g in plan:
         if g.kind == "temperature":

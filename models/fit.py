@@ -8,7 +8,7 @@ from typing import Callable
 import numpy as np
 
 from thermoplc.errors import UserError
-from thermoplc.generator.identifiers import check_unique, identifier_from_column, identifier_problem
+from thermoplc.identifiers import check_unique, identifier_from_column, identifier_problem
 from thermoplc.models import bayes, bpnn, dlag, grey, kalman, lumped_model, mlr, piecewise, simulation
 from thermoplc.models.modelfile import Coefficient, Model, Signal
 from thermoplc.models.reference import model_inputs, predict

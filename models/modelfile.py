@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from thermoplc import __version__
-from thermoplc.generator.identifiers import identifier_problem
+from thermoplc.identifiers import identifier_problem
 from thermoplc.binary32 import FLT_MAX, f32_hex, parse_f32_hex, round_f32
 from thermoplc.errors import UserError
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from thermoplc.binary32 import FLT_MAX
 from thermoplc.errors import UserError
 from thermoplc.models.modelfile import Model
 
@@ -51,7 +52,8 @@ class Limits:
                 "c_OtherMin": f(-self.max_other), "c_OtherMax": f(self.max_other),
                 "c_JumpMax": f(self.max_jump_K), "c_SettleCalls": int(self.settle_calls), "c_OneCall": 1,
                 "c_StepMax": f(self.max_step), "c_StepMin": f(-self.max_step),
-                "c_OutMax": f(self.max_output), "c_OutMin": f(-self.max_output), "c_K0_mm": f(K0_MM_PER_UM)}
+                "c_OutMax": f(self.max_output), "c_OutMin": f(-self.max_output), "c_K0_mm": f(K0_MM_PER_UM),
+                "c_RealMax": f(FLT_MAX)}
 
     @classmethod
     def from_constants(cls, declared: dict, source: str) -> "Limits":
@@ -158,6 +160,8 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     out = {}
     limited = np.zeros(rows, bool)
     clamped = np.zeros(rows, bool)
+    invalid = np.zeros(rows, bool)
+    real_max = f(constants["c_RealMax"])
     step_max, step_min = f(constants["c_StepMax"]), f(constants["c_StepMin"])
     out_max, out_min = f(constants["c_OutMax"]), f(constants["c_OutMin"])
     for name in names:
@@ -166,13 +170,16 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
         model_values = core[name] if core is not None else ()
         for j in range(ready_row, rows):
             m = model_values[j - ready_row]
-            delta = m - y
-            if delta > step_max:
-                y, limited[j] = y + step_max, True
-            elif delta < step_min:
-                y, limited[j] = y + step_min, True
+            if not abs(m) <= real_max:  # NaN or Inf: hold the last output
+                invalid[j] = True
             else:
-                y = m
+                delta = m - y
+                if delta > step_max:
+                    y, limited[j] = y + step_max, True
+                elif delta < step_min:
+                    y, limited[j] = y + step_min, True
+                else:
+                    y = m
             if y > out_max:
                 y, clamped[j] = out_max, True
             elif y < out_min:
@@ -194,6 +201,7 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     out["Ready"] = np.arange(rows) >= ready_row
     out["Limited"] = limited
     out["Clamped"] = clamped
+    out["Invalid"] = invalid
     return out
 
 

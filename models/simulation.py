@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import minimize, minimize_scalar
-from scipy.signal import lfilter
+from scipy.signal import lfilter, savgol_filter
 
 SENSOR_EFFECTS = ("gear_ratio_switch", "coolant_switching", "nonlinear_speed_heat", "sensor_offset",
                   "sensor_drift", "stop_convection")
@@ -28,6 +28,9 @@ DISPLACEMENT_EFFECTS = ("slow_structure", "ambient_coupling", "feed_axis_heat")
 PER_SENSOR = ("sensor_offset", "sensor_drift", "coolant_switching")  # tried on each sensor in turn
 TABLE_SEGMENTS = 16
 RELAY_ROUNDS = 4
+RELAY_GRID_STEP_K = 0.05
+RELAY_GRID_LEVELS = 80
+RELAY_SMOOTHING_ROWS = 9
 RELAY_LOOKAHEAD_S = 7200.0
 CLOSED_LOOP_ROUNDS = 2  # relay state from the simulation, sensors refitted with it
 HOUR = 3600.0
@@ -360,8 +363,11 @@ def _fit_relay(series, shared, effects, starts):
     simulated one (the closed loop the model runs) and move the thresholds and sensors with it.
     Returns the shared parameters and the sensors fitted with the closed-loop relay."""
     sensor = next(s for e, s in effects if e == "coolant_switching")
-    temperature = series.temps[:, sensor]
-    levels = np.linspace(*np.quantile(temperature, [0.3, 0.995]), 16)
+    temperature = savgol_filter(series.temps[:, sensor], RELAY_SMOOTHING_ROWS, 2) if series.rows > RELAY_SMOOTHING_ROWS else series.temps[:, sensor]
+    # the cost is spiky in the thresholds (a relay switched by a noisy reading trips on single
+    # samples): a grid as fine as the noise finds the right basin where 16 levels missed it
+    low, high = np.quantile(temperature, [0.02, 0.995])
+    levels = np.linspace(low, high, int(np.clip((high - low) / RELAY_GRID_STEP_K, 16, RELAY_GRID_LEVELS)))
     pairs = [(on, off) for on, off in itertools.product(levels, levels) if on - off >= 0.5]
     if not pairs:
         shared = replace(shared, relay=(sensor, float(levels[-1]), float(levels[0])))
@@ -384,9 +390,11 @@ def _fit_relay(series, shared, effects, starts):
                                                          effects))
     step = max(float(np.ptp(temperature)) / 100, 0.01)
     chosen = None
-    for _ in range(RELAY_ROUNDS):
+    a, basis, y_perp = prepared()[sensor]  # the grid scores the switch sensor alone (the others follow it)
+    on, off = min(pairs, key=lambda pair: _added_column_sse(basis, y_perp, lag(relay(temperature, *pair), a, 0.0)))
+    for _ in range(RELAY_ROUNDS):  # the whole grid once; later rounds move the thresholds near it
         parts = prepared()
-        on, off = _centred(*min(pairs, key=lambda pair: measured(*pair)), step, measured)
+        on, off = _centred(on, off, step, measured)
         if chosen == (on, off):
             break
         chosen = (on, off)

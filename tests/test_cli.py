@@ -167,5 +167,5 @@ def test_generate_stats_reports_cost(workdir):
     if not (workdir / "a.json").exists():
         thermoplc(*FIT_KALMAN, "-o", "a.json", cwd=workdir)
     out = thermoplc("generate", "a.json", "-o", "s.scl", "--stats", cwd=workdir).stdout
-    assert "cost per call (worst-case path): 50 REAL/INT arithmetic operations (model 44, input guards and output limits 6)" in out
-    assert "state: 62 bytes" in out
+    assert "cost per call (worst-case path): 51 REAL/INT arithmetic operations (model 44, input guards and output limits 7)" in out
+    assert "state: 63 bytes" in out

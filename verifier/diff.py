@@ -51,6 +51,7 @@ class BlockDiff:
     old: str
     new: str
     interface: list[str] = field(default_factory=list)  # '+ input X : REAL', '- state Y', '~ output Z: REAL -> BOOL'
+    header: list[str] = field(default_factory=list)  # "~ TITLE: 'old' -> 'new'": the attributes a PLC shows
     constants: list[ConstantChange] = field(default_factory=list)
     statements: list[str] = field(default_factory=list)  # per region: what changed, with lines
     behaviour: list[OutputDifference] | None = None  # None: no data given
@@ -58,7 +59,7 @@ class BlockDiff:
 
     @property
     def structurally_equal(self) -> bool:
-        return not (self.interface or self.constants or self.statements)
+        return not (self.header or self.interface or self.constants or self.statements)
 
     @property
     def behaviour_equal(self) -> bool:
@@ -92,6 +93,20 @@ def _interface(old: s.Program, new: s.Program) -> list[str]:
                 lines.append(f"~ {label[:-1]} {after[key].name}: {_type_text(before[key].type)} -> "
                              f"{_type_text(after[key].type)}")
     return sorted(lines, key=lambda line: line[2:])
+
+
+def _header(old: s.Program, new: s.Program) -> list[str]:
+    """Block name, TITLE, AUTHOR, FAMILY, NAME and VERSION: shown to whoever opens the block."""
+    before, after = [("block name", old.name), *old.header], [("block name", new.name), *new.header]
+    if before == after:
+        return []
+    keys = dict.fromkeys(k for k, _ in before + after)
+    lines = []
+    for key in keys:
+        a, b = [v for k, v in before if k == key], [v for k, v in after if k == key]
+        if a != b:
+            lines.append(f"~ {key}: {' '.join(map(repr, a)) or '(none)'} -> {' '.join(map(repr, b)) or '(none)'}")
+    return lines
 
 
 def _constants(old: s.Program, new: s.Program) -> list[ConstantChange]:
@@ -217,7 +232,7 @@ def diff_blocks(old_path: str, new_path: str, table: Table | None = None, overri
     old, new = parse_file(old_path), parse_file(new_path)
     old_lines = Path(old_path).read_text("utf-8-sig").splitlines()
     new_lines = Path(new_path).read_text("utf-8-sig").splitlines()
-    result = BlockDiff(old_path, new_path, _interface(old, new), _constants(old, new),
+    result = BlockDiff(old_path, new_path, _interface(old, new), _header(old, new), _constants(old, new),
                        _statements(old, new, old_lines, new_lines))
     if table is not None:
         result.behaviour = _behaviour(old_path, new_path, old, new, table, overrides, time_column)
@@ -237,6 +252,8 @@ def _show(value) -> str:
 
 def format_diff(d: BlockDiff) -> str:
     lines = [f"diff {d.old} -> {d.new}"]
+    lines.append("header: " + ("unchanged" if not d.header else f"{len(d.header)} change(s)"))
+    lines += [f"  {line}" for line in d.header]
     lines.append("interface: " + ("unchanged" if not d.interface else f"{len(d.interface)} change(s)"))
     lines += [f"  {line}" for line in d.interface]
     lines.append("constants: " + ("unchanged" if not d.constants else f"{len(d.constants)} changed"))

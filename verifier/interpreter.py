@@ -344,6 +344,9 @@ class Machine:
             return (lambda v: not fn(v)), "BOOL"
         if kind == "BOOL":
             self._fail(e.pos, "negation of a BOOL")
+        if kind in INT_RANGES:
+            check = self._int_range_check("DINT", e.pos)
+            return (lambda v: check(-fn(v))), kind
         return (lambda v: -fn(v)), kind
 
     def _round(self, pos: s.Pos, what: str):
@@ -448,7 +451,8 @@ class Machine:
         if e.op not in ops:
             self._fail(e.pos, f"'{e.op}' on INT operands is not supported")
         f = ops[e.op]
-        return lambda v: f(lf(v), rf(v))
+        check = self._int_range_check("DINT", e.pos)  # every intermediate is a DINT, as in the fast engine
+        return lambda v: check(f(lf(v), rf(v)))
 
 
 def _divide(a: float, b: float) -> float:

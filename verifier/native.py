@@ -29,6 +29,13 @@ X86_FLAGS = ["-msse2", "-mfpmath=sse"]
 STATUS_FLAGS = 2  # status[0]: FPU flags raised, status[1]: first cycle the chunk could not run
 
 
+def _dint(value: str) -> str:
+    """An integer intermediate checked against DINT, as the interpreter does: operands are DINT, so
+    the int64 operation itself cannot overflow, and an out-of-range result leaves the fast run."""
+    lo, hi = INT_RANGES["DINT"]
+    return f"({{ int64_t r_ = {value}; if (r_ < {lo}LL || r_ > {hi}LL) goto fail; r_; }})"
+
+
 class NativeUnavailable(Exception):
     """The block cannot run natively here; the message says why (no compiler, EXP in the block, ...)."""
 
@@ -75,7 +82,9 @@ class _Translator:
             return self.read(e.name, e.index)
         if isinstance(e, s.Unary):
             inner, kind = self.expr(e.operand)
-            return (f"(!{inner})", "BOOL") if e.op == "NOT" else (f"(-{inner})", kind)
+            if e.op == "NOT":
+                return f"(!{inner})", "BOOL"
+            return (_dint(f"(-{inner})") if kind == "DINT" else f"(-{inner})"), kind
         if isinstance(e, s.Call):
             return self.call(e)
         return self.binop(e)
@@ -123,8 +132,8 @@ class _Translator:
                 raise NativeUnavailable(f"'{op}' on REAL is not a portable operation")
             return f"({a} {op} {b})", "REAL"
         if op in ("/", "MOD"):
-            return f"({{ int64_t d_ = {b}; if (d_ == 0) goto fail; ({a}) {'/' if op == '/' else '%'} d_; }})", "DINT"
-        return f"({a} {op} {b})", "DINT"
+            return _dint(f"({{ int64_t d_ = {b}; if (d_ == 0) goto fail; ({a}) {'/' if op == '/' else '%'} d_; }})"), "DINT"
+        return _dint(f"({a} {op} {b})"), "DINT"
 
     # -- statements --------------------------------------------------------------------------------
     def stmts(self, body, pad: str) -> list[str]:

@@ -27,6 +27,11 @@ UNSUPPORTED_WORDS = {
 
 
 _STATEMENTS = (s.Assign, s.If, s.For, s.Region)
+DINT_MAX = 2 ** 31 - 1
+
+
+class _HeaderItem(tuple):
+    """One header attribute, (key, text), told apart from declarations in the start rule."""
 
 
 class StSyntaxError(UserError):
@@ -56,19 +61,27 @@ class _ToAst(Transformer):
         name = items[0]
         decls = tuple(d for item in items[1:] if isinstance(item, list) for d in item)
         body = tuple(item for item in items[1:] if isinstance(item, _STATEMENTS))
-        return s.Program(name, decls, body)
+        header = tuple(item for item in items[1:] if isinstance(item, _HeaderItem))
+        return s.Program(name, decls, body, header)
 
     def block_name(self, items):
         return str(items[0]).strip('"')
 
     def title(self, items):
-        return None
+        text = re.sub(r"(?i)^TITLE[ \t]*=[ \t]*", "", str(items[0]))
+        return _HeaderItem(("TITLE", text))
 
-    def info(self, items):
-        return None
+    def author(self, items):
+        return _HeaderItem(("AUTHOR", str(items[0])))
+
+    def family(self, items):
+        return _HeaderItem(("FAMILY", str(items[0])))
+
+    def name_info(self, items):
+        return _HeaderItem(("NAME", str(items[0])))
 
     def version(self, items):
-        return None
+        return _HeaderItem(("VERSION", str(items[0])))
 
     def begin(self, items):
         return None
@@ -127,7 +140,10 @@ class _ToAst(Transformer):
         return decimal_to_f32(text)
 
     def signed_int(self, items):
-        return int("".join(str(t) for t in items if t is not None).replace("_", ""))
+        value = int("".join(str(t) for t in items if t is not None).replace("_", ""))
+        if not -DINT_MAX - 1 <= value <= DINT_MAX:
+            self._fail(_at(items[-1]), f"integer {value} does not fit DINT ({-DINT_MAX - 1}..{DINT_MAX})")
+        return value
 
     # statements ----------------------------------------------------------------------------
     @v_args(meta=True)
@@ -210,7 +226,10 @@ class _ToAst(Transformer):
         return s.RealLit(str(token), decimal_to_f32(text), _at(token))
 
     def int(self, items):
-        return s.IntLit(int(str(items[0]).replace("_", "")), _at(items[0]))
+        value = int(str(items[0]).replace("_", ""))
+        if value > DINT_MAX:
+            self._fail(_at(items[0]), f"integer literal {items[0]} does not fit DINT (at most {DINT_MAX})")
+        return s.IntLit(value, _at(items[0]))
 
     def true(self, items):
         return s.BoolLit(True, _at(items[0]))
@@ -233,7 +252,7 @@ class _ToAst(Transformer):
 def _blank_free_text(text: str) -> str:
     """Replace comments, strings, titles and region captions by spaces, keeping every position."""
     pattern = re.compile(r"//[^\n]*|\(\*.*?\*\)|/\*.*?\*/|'[^'\n]*'|\"[^\"\n]*\"|\{[^{}]*\}"
-                         r"|(?i:TITLE[ \t]*=[^\n]*)|(?i:\bREGION\b[^\n]*)", re.S)
+                         r"|(?i:\bREGION\b[^\n]*)", re.S)
     return pattern.sub(lambda m: re.sub(r"[^\n]", " ", m.group()), text)
 
 

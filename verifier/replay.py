@@ -19,6 +19,7 @@ from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.interpreter import Finding
 from thermoplc.verifier.parser import parse_file
 from thermoplc.verifier.syntax import Program
+from thermoplc.verifier.typed import cells_as, differing_rows, first_non_finite
 
 ARRAY_ITEMS_SHOWN = 6
 FINDING_LABELS = (("subnormal", "subnormal"), ("nan", "NaN"), ("inf", "Inf"),
@@ -53,10 +54,11 @@ class Report:
     limits: Limits | None = None  # safety limits read from the block (model verification)
     engine: str = "interp"  # the engine that produced the compared outputs
     engine_note: str = ""  # why the fast engine was not used, when asked for
+    unsafe: tuple[str, ...] = ()  # a non-finite REAL output or an INT overflow: fails whatever the reference says
 
     @property
     def ok(self) -> bool:
-        return self.mismatch is None and not self.constant_errors
+        return self.mismatch is None and not self.constant_errors and not self.unsafe
 
     def text(self) -> str:
         lines = []
@@ -64,9 +66,12 @@ class Report:
             lines.append(f"bit-exact: {self.block} reproduces {self.against} on {self.data}")
             lines.append(f"  {self.cycles} cycles, {self.cycles * len(self.outputs)} outputs compared "
                          f"({', '.join(self.outputs)}): every bit equal")
-        elif self.mismatch is None:
+        elif self.mismatch is None and self.constant_errors:
             lines.append(f"NOT bit-exact: {self.block} holds constants that differ from the model "
                          f"(the {self.cycles} replayed cycles matched)")
+        elif self.mismatch is None:
+            lines.append(f"NOT verified: {self.block} matches {self.against} on {self.data}, but a value it "
+                         f"produced must not reach the NC")
         else:
             m = self.mismatch
             lines.append(f"NOT bit-exact: {self.block} differs from {self.against} on {self.data}")
@@ -78,6 +83,7 @@ class Report:
                 lines.append(f"    distance  {ulp_distance(m.block_value, m.expected_value)} ULP")
             lines.append(f"  block variables at cycle {m.cycle}:")
             lines.extend(f"    {name} = {_show(value)}" for name, value in m.variables.items())
+        lines.extend(f"  UNSAFE: {u}" for u in self.unsafe)
         if self.constants_checked:
             lines.append(f"  constants and tables: {self.constants_checked} values checked against the model, "
                          f"{len(self.constant_errors) or 'none'} differ")
@@ -140,23 +146,30 @@ def block_columns(inputs: list, table: Table, overrides: dict | None, block: str
             raise UserError(f"{table.path}: no column {column!r} for input {d.name} of {block}; "
                             f"map it with --inputs {d.name}=COLUMN")
         values = table.columns[column]
-        columns[d.name] = values.astype(np.float32) if d.type.base == "REAL" else values != 0
+        columns[d.name] = cells_as(table, column, d.type.base, f"input {d.name} of {block}")
     return columns
 
 
-def _first_mismatch(produced: dict, expected: dict) -> tuple[int, str] | None:
+def _first_mismatch(produced: dict, expected: dict, types: dict) -> tuple[int, str] | None:
     first = None
     for name in produced:
-        got = produced[name]
-        want = expected[name]
-        if isinstance(want[0], (bool, np.bool_)):
-            differ = np.nonzero(np.asarray(got, bool) != np.asarray(want, bool))[0]
-        else:
-            got_bits = np.asarray(got, np.float32).view(np.uint32)
-            differ = np.nonzero(got_bits != np.asarray(want, np.float32).view(np.uint32))[0]
+        differ = differing_rows(types[name], produced[name], expected[name])
         if len(differ) and (first is None or differ[0] < first[0]):
             first = (int(differ[0]), name)
     return first
+
+
+def _unsafe(produced: dict, types: dict, findings, table: Table, block: str) -> tuple[str, ...]:
+    """What must fail verification even where the reference agrees: a NaN or Inf reaching an
+    output, an integer overflow anywhere (IEC 61131-3: an error, not a wrap-around)."""
+    problems = []
+    for name, values in produced.items():
+        if types[name] == "REAL" and (row := first_non_finite(values)) is not None:
+            problems.append(f"output {name} is {np.float32(values[row])} at cycle {row} "
+                            f"(line {int(table.lines[row])} of the data)")
+    problems += [f"{block}:{f.pos[0]}:{f.pos[1]}: INT overflow ({f.detail}), {f.count} time(s) from cycle {f.first_cycle}"
+                 for f in findings if f.kind == "int-overflow"]
+    return tuple(problems)
 
 
 def _replay_and_compare(replayer: Replayer, block: str, against: str, table: Table, time_column: str,
@@ -167,7 +180,8 @@ def _replay_and_compare(replayer: Replayer, block: str, against: str, table: Tab
     seconds = time.perf_counter() - start
     machine = replayer.machine
     findings = tuple(machine.findings.values())
-    first = _first_mismatch(produced, {k: expected[k] for k in produced})
+    types = {d.name: d.type.base for d in replayer.outputs}
+    first = _first_mismatch(produced, {k: expected[k] for k in produced}, types)
     mismatch = None
     if first is not None:
         cycle, output = first
@@ -178,9 +192,10 @@ def _replay_and_compare(replayer: Replayer, block: str, against: str, table: Tab
         t = table.columns[time_column][cycle] if time_column in table.columns else float(cycle)
         got = produced[output][cycle]
         mismatch = Mismatch(cycle, table.lines[cycle], float(t), output, got.item() if hasattr(got, "item") else got,
-                            bool(want) if isinstance(want, (bool, np.bool_)) else float(want), machine.snapshot())
+                            want.item() if hasattr(want, "item") else want, machine.snapshot())
     return Report(block, against, Path(table.path).name, rows, tuple(produced), mismatch, findings, seconds,
-                  quantisation, engine=replayer.used, engine_note=replayer.note)
+                  quantisation, engine=replayer.used, engine_note=replayer.note,
+                  unsafe=_unsafe(produced, types, findings, table, block))
 
 
 def _check_period(model: Model, table: Table) -> None:
@@ -264,7 +279,6 @@ def verify_against_trace(block: str, table: Table, expect: dict, overrides: dict
     for output, column in expect.items():
         if output not in outputs:
             raise UserError(f"{block}: no output {output!r} to compare with column {column!r}; outputs are {', '.join(outputs)}")
-        values = table.column(column)
-        expected[output] = values.astype(np.float32) if outputs[output].type.base == "REAL" else values != 0
+        expected[output] = cells_as(table, column, outputs[output].type.base, f"the recorded output {output}")
     return _replay_and_compare(machine, block, f"the recorded outputs ({', '.join(expect.values())})", table,
                                time_column, inputs, expected, {})

@@ -122,6 +122,7 @@ class Program:
     name: str
     decls: tuple[VarDecl, ...]
     body: tuple[Stmt, ...]
+    header: tuple[tuple[str, str], ...] = ()  # (TITLE, AUTHOR, FAMILY, NAME or VERSION, its text) in order
 
     def section(self, section: str) -> tuple[VarDecl, ...]:
         return tuple(d for d in self.decls if d.section == section)

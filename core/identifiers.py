@@ -1,0 +1,74 @@
+"""Identifier rules of DESIGN §4.6, applied to every name that reaches emitted ST: one neutral module
+that the models (checking a model file) and the generator (checking a block) both read."""
+from __future__ import annotations
+
+import re
+
+MAX_LENGTH = 24  # STEP 7 classic symbol limit
+_SHAPE = re.compile(r"[A-Za-z](?:_?[A-Za-z0-9])*\Z")
+
+# IEC 61131-3 3rd edition keywords and elementary types
+_IEC_KEYWORDS = """
+ABSTRACT ACTION AND ANY ANY_BIT ANY_CHAR ANY_CHARS ANY_DATE ANY_DERIVED ANY_DURATION ANY_ELEMENTARY ANY_INT
+ANY_MAGNITUDE ANY_NUM ANY_REAL ANY_SIGNED ANY_STRING ANY_UNSIGNED ARRAY AT BOOL BY BYTE CASE CHAR CLASS
+CONFIGURATION CONSTANT CONTINUE DATE DATE_AND_TIME DINT DO DT DWORD ELSE ELSIF EN ENO END_ACTION END_CASE
+END_CLASS END_CONFIGURATION END_FOR END_FUNCTION END_FUNCTION_BLOCK END_IF END_INTERFACE END_METHOD
+END_NAMESPACE END_PROGRAM END_REPEAT END_RESOURCE END_STEP END_STRUCT END_TRANSITION END_TYPE END_VAR
+END_WHILE EXIT EXTENDS F_EDGE FALSE FINAL FOR FROM FUNCTION FUNCTION_BLOCK IF IMPLEMENTS INITIAL_STEP INT
+INTERFACE INTERNAL INTERVAL LDATE LDATE_AND_TIME LDT LINT LREAL LTIME LTIME_OF_DAY LTOD LWORD METHOD MOD
+NAMESPACE NON_RETAIN NOT NULL OF ON OR OVERLAP OVERRIDE PRIORITY PRIVATE PROGRAM PROTECTED PUBLIC R_EDGE
+READ_ONLY READ_WRITE REAL REF REF_TO REPEAT RESOURCE RETAIN RETURN SINGLE SINT STEP STRING STRUCT SUPER TASK
+THEN THIS TIME TIME_OF_DAY TO TOD TRANSITION TRUE TYPE UDINT UINT ULINT UNTIL USING USINT VAR VAR_ACCESS
+VAR_CONFIG VAR_EXTERNAL VAR_GLOBAL VAR_IN_OUT VAR_INPUT VAR_OUTPUT VAR_TEMP WCHAR WHILE WITH WORD WSTRING XOR
+"""
+# Siemens SCL (TIA Portal and classic STEP 7): block keywords, header attributes, parameter types
+_SCL_KEYWORDS = """
+AUTHOR BEGIN BLOCK_DB BLOCK_FB BLOCK_FC BLOCK_SDB CODE_VERSION1 CONST COUNTER DATA_BLOCK DB_ANY DTL
+END_CONST END_DATA_BLOCK END_LABEL END_ORGANIZATION_BLOCK END_REGION FAMILY GOTO KNOW_HOW_PROTECT LABEL
+NAME OK ORGANIZATION_BLOCK POINTER REGION S5TIME TIMER TITLE UDT UNLINKED VARIANT VERSION VOID
+"""
+# CODESYS extensions (object orientation, pointers, unions, instruction-list operators)
+_CODESYS_KEYWORDS = """
+ADR BITADR BIT CAL END_PROPERTY END_UNION INDEXOF ISVALIDREF JMP PERSISTENT PROPERTY REFERENCE RET SIZEOF
+UNION VAR_INST VAR_STAT XSIZEOF
+"""
+_STANDARD_NAMES = """
+ABS SQRT LN LOG EXP EXPT SIN COS TAN ASIN ACOS ATAN ATAN2 ADD SUB MUL DIV MOVE SEL MAX MIN LIMIT
+MUX GT GE EQ LE LT NE SHL SHR ROL ROR LEN LEFT RIGHT MID CONCAT INSERT DELETE REPLACE FIND TRUNC
+ROUND CEIL FLOOR FRAC NORM_X SCALE_X SCALE UNSCALE SR RS TP TON TOF TONR CTU CTD CTUD R_TRIG
+F_TRIG SEMA RTC NEG BCD_TO_INT INT_TO_BCD SWAP PEEK POKE
+"""
+# absolute addresses in classic SCL (M10, DBW4, PIW256, T5 ...) read as memory, not as a name
+_ADDRESS = re.compile(r"(?:[IQMETCZLXA]|DB|DI|P[IQEA]|[IQMELA][BWD]|DB[XBWD]|DI[XBWD]|P[IQEA][BWD])\d+\Z")
+RESERVED = frozenset((_IEC_KEYWORDS + _SCL_KEYWORDS + _CODESYS_KEYWORDS + _STANDARD_NAMES).split())
+
+
+def identifier_problem(name: str) -> str | None:
+    """Why `name` cannot be an ST identifier, or None when it can."""
+    if not name.isascii():
+        return "must be ASCII"
+    if len(name) > MAX_LENGTH:
+        return f"has {len(name)} characters, at most {MAX_LENGTH} are allowed"
+    if not _SHAPE.match(name):
+        return "must start with a letter and hold only letters, digits and single underscores"
+    if name.upper() in RESERVED or re.fullmatch(r"[A-Z]+_TO_[A-Z]+", name.upper()):
+        return "is a reserved word (IEC 61131-3, Siemens SCL or CODESYS) or a standard function/block name"
+    if _ADDRESS.match(name.upper()):
+        return "reads as an absolute address (like M10 or DBW4) in Siemens SCL"
+    return None
+
+
+def identifier_from_column(column: str) -> str:
+    """The block identifier for a CSV column: the column name itself when it is a valid identifier."""
+    cleaned = re.sub(r"[^A-Za-z0-9]+", "_", column).strip("_")
+    return cleaned
+
+
+def check_unique(names: list[str]) -> str | None:
+    seen: dict[str, str] = {}
+    for name in names:
+        key = name.upper()
+        if key in seen:
+            return f"{seen[key]!r} and {name!r} are the same identifier (ST names ignore case)"
+        seen[key] = name
+    return None
