@@ -142,10 +142,10 @@ def cmd_generate(args) -> int:
     low, high = args.temp_range
     limits = Limits(args.max_offset_um, args.max_step_um, low, high, max_jump_K=args.max_jump_k,
                     settle_calls=args.settle_calls)
-    block = lower(model, limits)
     if args.format == "plcopen" and args.dialect != "iec":
         raise UserError("--format plcopen wraps the iec dialect; add --dialect iec")
     try:
+        block = lower(model, limits)
         text = render_plcopen(block, __version__) if args.format == "plcopen" else render(block, args.dialect)
     except GenerationError as exc:
         raise UserError(f"{args.model}: cannot generate a block: {exc}") from None

@@ -9,6 +9,11 @@ from dataclasses import dataclass
 from typing import Union
 
 
+class GenerationError(Exception):
+    """The model cannot become a valid block (bad identifier, a constant an INT cannot hold, zero
+    Kalman noise, ...): lowering and printing raise it, the CLI names the model file."""
+
+
 @dataclass(frozen=True)
 class Ref:
     name: str

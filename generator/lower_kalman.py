@@ -1,7 +1,9 @@
 """The Kalman fusion block of paper 000: per sensor a lumped-mass prediction, a fault test and an update."""
 from __future__ import annotations
 
-from thermoplc.generator.ir import Assign, BinOp, Block, BoolConst, Call, Const, If, Ref, Region, Unary, Var
+from thermoplc.generator.ir import (
+    Assign, BinOp, Block, BoolConst, Call, Const, GenerationError, If, Ref, Region, Unary, Var,
+)
 from thermoplc.models.kalman import SENSOR_COEFFICIENTS
 from thermoplc.models.modelfile import Model
 from thermoplc.generator.lower_shared import (
@@ -21,8 +23,19 @@ _KALMAN_COMMENTS = {
     "Agr": "|measured - predicted| below which a faulty sensor recovers, K",
 }
 
+def _check_noise(model: Model, sensors: int) -> None:
+    """Zero or negative covariances make the gain 0/0 (NaN) or negative: refused before any text."""
+    for i in range(1, sensors + 1):
+        for name in ("N", "R", "P0"):
+            value = model.coef(f"{name}_{i}")
+            if not value > 0:
+                raise GenerationError(f"coefficient {name}_{i} ({_KALMAN_COMMENTS[name]}) is {value:g}; the Kalman "
+                                f"filter needs it > 0 (with zero noise its gain is 0/0)")
+
+
 def lower_kalman(model: Model) -> Block:
     temps = model.signals("temperature")
+    _check_noise(model, len(temps))
     ambient = model.signals("ambient")[0].name
     speed = model.signals("speed")[0].name
     init = []

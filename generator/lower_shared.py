@@ -23,6 +23,8 @@ def header(model: Model) -> tuple[str, ...]:
         f"Model {model.kind}, fingerprint {model.fingerprint()}",
         f"Inputs: {signals}",
         f"Output {model.target.name} in {model.target.unit}. Call once every {model.sample_period_s:g} s.",
+        "Proven bit-exact assuming each REAL operation is rounded to binary32: no fused multiply-add,",
+        "no extended precision. Check a controller: record inputs and outputs, run thermoplc verify --expect.",
     )
 
 

@@ -9,6 +9,7 @@ import jinja2
 
 from thermoplc.identifiers import check_unique, identifier_problem
 from thermoplc.generator.ir import (
+    GenerationError,
     PORTABLE_FUNCTIONS, Assign, BinOp, Block, BoolConst, Call, Expr, For, Index, IntConst, Ref, Region, Stmt,
     Unary, Var, assigned_names, walk_exprs,
 )
@@ -19,8 +20,7 @@ _PRECEDENCE = {"OR": 1, "XOR": 2, "AND": 3, "=": 4, "<>": 4, "<": 5, "<=": 5, ">
 _UNARY_PRECEDENCE = 9
 
 
-class GenerationError(Exception):
-    """The IR cannot be printed as a valid block (bad identifier, undeclared name, ...)."""
+INT_MIN, INT_MAX = -32768, 32767
 
 
 @dataclass(frozen=True)
@@ -162,6 +162,11 @@ def validate(block: Block) -> None:
     for c in block.constants:
         if c.type == "REAL":
             real_literal(c.value)  # raises for values that are not finite binary32
+        elif c.type == "INT" and not INT_MIN <= c.value <= INT_MAX:
+            raise GenerationError(f"constant {c.name} = {c.value} does not fit INT ({INT_MIN}..{INT_MAX}): {c.comment}")
+    for v in (*block.statics, *block.temps):
+        if v.length is not None and v.length - 1 > INT_MAX:
+            raise GenerationError(f"array {v.name} of {v.length} values cannot be indexed by an INT ({v.comment})")
     for v in (*block.statics, *block.temps):
         for value in v.initial or ():
             real_literal(value)

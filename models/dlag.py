@@ -17,10 +17,17 @@ def lagged(x: np.ndarray, step: int) -> np.ndarray:
     return x[np.maximum(np.arange(len(x)) - step, 0)]
 
 
+MAX_BUFFER_SAMPLES = 32767  # a PLC INT indexes the ring buffer
+
+
 def fit_dlag(temps: np.ndarray, target: np.ndarray, names: list[str], lags: int, lag_step_s: float, dt: float):
     step = int(round(lag_step_s / dt))
     if lags < 1 or step < 1:
         raise UserError(f"--lags must be at least 1 and --lag-step at least one sample ({dt:g} s)")
+    if lags * step + 1 > MAX_BUFFER_SAMPLES:
+        raise UserError(f"--lags {lags} x --lag-step {lag_step_s:g} s needs a ring buffer of {lags * step + 1} samples "
+                        f"at {dt:g} s; the block indexes it with an INT, so at most {MAX_BUFFER_SAMPLES}: "
+                        f"use fewer or shorter lags")
     columns, labels = [], []
     for i in range(temps.shape[1]):
         for lag in range(lags + 1):

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from thermoplc import __version__
 from thermoplc.identifiers import identifier_problem
+from thermoplc.models.effects import NAMES as EFFECT_NAMES
 from thermoplc.binary32 import FLT_MAX, f32_hex, parse_f32_hex, round_f32
 from thermoplc.errors import UserError
 
@@ -129,6 +130,18 @@ def _signal(doc, path: str, where: str) -> Signal:
     return signal
 
 
+def _check_effects(settings: dict, path: str) -> None:
+    """Effect names reach the block's title: only the library's names are read."""
+    effects = settings.get("effects", [])
+    if not isinstance(effects, list):
+        raise UserError(f"{path}: field 'settings.effects' must be a list, found {effects!r:.60}")
+    for i, effect in enumerate(effects):
+        name = effect.get("name") if isinstance(effect, dict) else None
+        if name not in EFFECT_NAMES:
+            raise UserError(f"{path}: field 'settings.effects[{i}].name' must be one of {', '.join(EFFECT_NAMES)}, "
+                            f"found {name!r:.60}")
+
+
 def _parse(doc, path: str) -> Model:
     if _field(doc, "format", str, path) != FORMAT:
         raise UserError(f"{path}: field 'format' must be {FORMAT!r}; this is not a thermoplc model file")
@@ -154,6 +167,8 @@ def _parse(doc, path: str) -> Model:
             raise UserError(f"{path}: field {where!r} must be a finite binary32 value (|x| <= {FLT_MAX:.7g}), "
                             f"found f32 {f32!r}, f64 {f64!r}")
         coefficients[name] = Coefficient(f64, f32)
+    settings = _field(doc, "settings", dict, path)
+    _check_effects(settings, path)
     return Model(
         kind=kind,
         block_name=_identifier(_field(doc, "block_name", str, path), path, "block_name"),
@@ -162,7 +177,7 @@ def _parse(doc, path: str) -> Model:
         time_column=_field(doc, "time_column", str, path),
         sample_period_s=_field(doc, "sample_period_s", float, path),
         coefficients=coefficients,
-        settings=_field(doc, "settings", dict, path),
+        settings=settings,
         training=_field(doc, "training", dict, path),
         metrics=_field(doc, "metrics", dict, path),
         fit=_field(doc, "fit", dict, path),

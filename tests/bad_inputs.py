@@ -35,8 +35,8 @@ class Case:
     command: str  # what the table shows
     argv: tuple[str, ...]
     prepare: Callable[[Path], None]
-    expect: str  # 'error' or 'accepted'
-    message: str  # part of the message (error) or of stdout (accepted)
+    expect: str  # 'error' (exit 2), 'accepted' (exit 0) or 'refused' (exit 1: verify found a difference or danger)
+    message: str  # part of the message (error) or of stdout (accepted, refused)
 
 
 def good_csv(folder: Path) -> str:
@@ -224,7 +224,9 @@ HOSTILE = [
     ("T1 END_FUNCTION_BLOCK", "accepted", "wrote out.json"),  # becomes the identifier T1_END_FUNCTION_BLOCK
     ("T*)x", "accepted", "wrote out.json"),
     ('T"1', "accepted", "wrote out.json"),
-    ("#T1", "accepted", "wrote out.json"),
+    ("#T1", "error", "gives block name 'T1', which reads as an absolute address"),  # timer 1 in classic SCL
+    ("#T_1", "accepted", "wrote out.json"),
+    ("METHOD", "error", "gives block name 'METHOD', which is a reserved word"),
     ("Т1", "error", "gives block name '1', which"),  # a Cyrillic T
     ("T" * 200, "error", "has 200 characters, at most 24 are allowed"),
     ("TON", "error", "gives block name 'TON', which"),
@@ -259,7 +261,79 @@ def _output_cases() -> list[Case]:
     ]
 
 
-CASES = [*_csv_cases(), *_model_cases(), *_st_cases(), *_injection_cases(), *_output_cases()]
+GOLDEN = Path(__file__).resolve().parent / "golden"
+COUNTER = """FUNCTION_BLOCK Counter
+VAR_INPUT x : INT; END_VAR
+VAR_OUTPUT i : DINT; flag : BOOL; END_VAR
+i := x * x * x;
+flag := x > 0;
+END_FUNCTION_BLOCK
+"""
+
+
+def _counter_trace(x: list, i: list, flag: list):
+    def prepare(folder: Path) -> None:
+        (folder / "bad.st").write_text(COUNTER)
+        (folder / "bad.csv").write_text(write_table({"time_s": [10.0 * k for k in range(len(x))], "x": x,
+                                                     "i_plc": i, "flag_plc": flag}))
+    return prepare
+
+
+def _golden_edit(kind: str, edit: Callable[[dict], None]):
+    def prepare(folder: Path) -> None:
+        doc = json.loads((GOLDEN / f"{kind}.json").read_text())
+        edit(doc)
+        (folder / "bad.json").write_text(json.dumps(doc, indent=2))
+    return prepare
+
+
+def _generated(prepare: Callable[[Path], None]):
+    """bad.json as `prepare` writes it, and bad.scl generated from it."""
+    def both(folder: Path) -> None:
+        prepare(folder)
+        run(folder, ("generate", "bad.json", "-o", "bad.scl"))
+    return both
+
+
+def _zero_noise(doc: dict) -> None:
+    for name in ("N_1", "R_1", "P0_1"):
+        doc["coefficients"][name] = {"f64": 0.0, "f32": "0x00000000"}
+
+
+def _verify_cases() -> list[Case]:
+    """Issue 13: what verify or generate must never let through."""
+    expect = ("verify", "bad.st", "--data", "bad.csv", "--expect", "i=i_plc,flag=flag_plc")
+    overflowing = {"f64": 3e38, "f32": "0x7F61B1E6"}
+    return [
+        Case("model file", "effect name carrying a quote and statements", "generate", ("generate", "bad.json", "-o", "out.scl"),
+             _model_edit(_set(["settings", "effects"], [{"name": "x' BEGIN E_z_um := 250.0; END_FUNCTION_BLOCK //"}])),
+             "error", "field 'settings.effects[0].name' must be one of"),
+        Case("model file", "input named like the block's own Ready", "generate", ("generate", "bad.json", "-o", "out.scl"),
+             _model_edit(_set(["inputs", 0, "name"], "Ready")), "error", "'Ready' and 'Ready' are the same identifier"),
+        Case("model file", "Kalman noise constants of 0", "generate", ("generate", "bad.json", "-o", "out.scl"),
+             _golden_edit("kalman", _zero_noise), "error", "the Kalman filter needs it > 0"),
+        Case("model file", "dlag ring buffer longer than an INT indexes", "generate", ("generate", "bad.json", "-o", "out.scl"),
+             _golden_edit("dlag", _set(["settings", "lag_step_samples"], 33000)), "error", "does not fit INT"),
+        Case("model file", "coefficients that overflow REAL", "verify", ("verify", "bad.scl", "--model", "bad.json", "--data",
+             "good.csv"), _generated(_model_edit(_set(["coefficients", "beta_1"], overflowing))), "refused", "NOT verified"),
+        Case("ST file", "statements after a quoted TITLE", "verify", ("verify", "bad.scl", "--model", "mlr.json", "--data",
+             "good.csv"), _block_edit(lambda t: t.replace("\n", "\nTITLE = 'x' #E_z_um := 250.0;\n", 1)), "error",
+             "syntax error"),
+        Case("ST file", "integer literal beyond DINT", "verify", ("verify", "bad.scl", "--model", "mlr.json", "--data",
+             "good.csv"), _block_edit(lambda t: t.replace("#Init := TRUE;", "#Init := 12345678901234567890123456 > 0;", 1)),
+             "error", "does not fit DINT"),
+        Case("trace", "INT input holding 2.5", "verify", expect, _counter_trace([1, 2.5], [1, 8], [1, 1]), "error",
+             "column 'x': 2.5 cannot be input x of bad.st of type INT; expected a whole number"),
+        Case("trace", "BOOL output column holding 2", "verify", expect, _counter_trace([1, 2], [1, 8], [1, 2]), "error",
+             "cannot be the recorded output flag of type BOOL; expected 0 or 1"),
+        Case("trace", "DINT output that differs", "verify", expect, _counter_trace([1, 2], [1, 9], [1, 1]), "refused",
+             "NOT bit-exact"),
+        Case("trace", "integer overflow in the block", "verify", expect, _counter_trace([1, 2000], [1, 0], [1, 1]),
+             "refused", "NOT"),
+    ]
+
+
+CASES = [*_csv_cases(), *_model_cases(), *_st_cases(), *_injection_cases(), *_output_cases(), *_verify_cases()]
 
 
 def setup_folder(folder: Path) -> None:

@@ -92,7 +92,6 @@ def test_fast_engine_equals_interpreter_on_random_programs(value, condition, row
 def test_auto_falls_back_with_a_reason_and_fast_refuses(monkeypatch):
     program = parse_file(golden_block("mlr", "tia"))
     monkeypatch.setattr(native, "_compiler", lambda: None)
-    monkeypatch.setattr(native, "_cache_dir", lambda: __import__("pathlib").Path("/nonexistent-cache"))
     auto = Replayer(program, "mlr.scl", "auto")
     assert auto.native is None and "no C compiler found" in auto.note
     with pytest.raises(UserError, match="the fast engine is not available: no C compiler found"):

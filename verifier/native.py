@@ -14,6 +14,7 @@ from __future__ import annotations
 import ctypes
 import hashlib
 import os
+import shlex
 import shutil
 import subprocess
 import tempfile
@@ -271,56 +272,49 @@ class _Translator:
 IO_DTYPES = {"REAL": np.float32, "BOOL": np.uint8}
 
 
-def _compiler() -> str | None:
-    for name in (os.environ.get("CC"), "cc", "gcc", "clang"):
-        if name and shutil.which(name):
-            return shutil.which(name)
+def _compiler() -> list[str] | None:
+    """The C compiler command: $CC (split like a shell would, so CC="gcc -O0" works), else cc, gcc, clang."""
+    given = shlex.split(os.environ.get("CC") or "")
+    if given and shutil.which(given[0]):
+        return [shutil.which(given[0]), *given[1:]]
+    for name in ("cc", "gcc", "clang"):
+        if shutil.which(name):
+            return [shutil.which(name)]
     return None
 
 
-def _private(folder: Path) -> bool:
-    """Ours alone: a library loaded from a folder others can write to would run their code."""
-    info = folder.stat()
-    return (not hasattr(os, "getuid") or info.st_uid == os.getuid()) and not info.st_mode & 0o022
+_LOADED: dict[str, ctypes.CDLL] = {}  # source hash -> library, for this process only
 
 
-def _cache_dir() -> Path:
-    """The user's cache folder for compiled blocks (XDG), or a fresh private temp folder."""
-    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "thermoplc" / "native"
-    try:
-        base.mkdir(parents=True, exist_ok=True, mode=0o700)
-        if _private(base):
-            return base
-    except OSError:
-        pass
-    global _FALLBACK_DIR
-    if _FALLBACK_DIR is None:
-        _FALLBACK_DIR = Path(tempfile.mkdtemp(prefix="thermoplc-native-"))
-    return _FALLBACK_DIR
-
-
-_FALLBACK_DIR: Path | None = None
-
-
-def compile_source(source: str) -> Path:
-    """The shared library for `source`, compiled once and cached by the hash of source and flags."""
+def load_library(source: str) -> ctypes.CDLL:
+    """`source` compiled and loaded. No library ever comes from a shared or persistent cache (a
+    planted `.so` would run its constructor in our process): each is built in a folder that
+    mkdtemp creates for this user alone (0700, a fresh name), loaded, and the folder removed, also
+    when the compiler fails. Compiling costs about 0.15 s per block; a process compiles each
+    block once."""
     compiler = _compiler()
     if compiler is None:
         raise NativeUnavailable("no C compiler found (set CC, or install gcc)")
     flags = CFLAGS + (X86_FLAGS if _is_x86() else [])
-    key = hashlib.sha256((source + " ".join(flags) + compiler).encode()).hexdigest()[:20]
-    library = _cache_dir() / f"block_{key}.so"
-    if library.exists():
-        return library
-    folder = Path(tempfile.mkdtemp(dir=_cache_dir()))
-    c_file = folder / "block.c"
-    c_file.write_text(source)
-    built = folder / "block.so"
-    result = subprocess.run([compiler, *flags, "-o", str(built), str(c_file), "-lm"], capture_output=True, text=True)
-    if result.returncode != 0:
-        raise NativeUnavailable(f"the C compiler failed: {result.stderr.strip()[:400]}")
-    os.replace(built, library)
-    shutil.rmtree(folder, ignore_errors=True)
+    key = hashlib.sha256("\0".join([source, *flags, *compiler]).encode()).hexdigest()
+    if key in _LOADED:
+        return _LOADED[key]
+    folder = Path(tempfile.mkdtemp(prefix="thermoplc-native-"))
+    try:
+        c_file, built = folder / "block.c", folder / "block.so"
+        c_file.write_text(source)
+        try:
+            result = subprocess.run([*compiler, *flags, "-o", str(built), str(c_file), "-lm"], capture_output=True,
+                                    text=True, stdin=subprocess.DEVNULL)
+        except OSError as exc:
+            raise NativeUnavailable(f"the C compiler {compiler[0]} cannot run: {exc}") from None
+        if result.returncode != 0 or not built.exists():
+            said = (result.stderr.strip() or result.stdout.strip())[:400] or "no message"
+            raise NativeUnavailable(f"the C compiler {' '.join(compiler)} failed (exit {result.returncode}): {said}")
+        library = ctypes.CDLL(str(built))
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+    _LOADED[key] = library
     return library
 
 
@@ -339,7 +333,7 @@ class NativeBlock:
         if any(d.type.bounds for d in (*self.inputs, *self.outputs)):
             raise NativeUnavailable("array inputs or outputs")
         self.source = _Translator(program, checked).source()
-        self.lib = ctypes.CDLL(str(compile_source(self.source)))
+        self.lib = load_library(self.source)
         self.lib.run.restype = ctypes.c_int64
         self.lib.run.argtypes = [ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
         self.lib.state_size.restype = ctypes.c_int64

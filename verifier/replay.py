@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from thermoplc.binary32 import f32_bits, f32_hex, ulp_distance
+from thermoplc.generator.ir import GenerationError
 from thermoplc.generator.lower import lower
 from thermoplc.errors import UserError
 from thermoplc.models.fit import SAMPLING_TOLERANCE, sample_period
@@ -167,8 +168,9 @@ def _unsafe(produced: dict, types: dict, findings, table: Table, block: str) -> 
         if types[name] == "REAL" and (row := first_non_finite(values)) is not None:
             problems.append(f"output {name} is {np.float32(values[row])} at cycle {row} "
                             f"(line {int(table.lines[row])} of the data)")
-    problems += [f"{block}:{f.pos[0]}:{f.pos[1]}: INT overflow ({f.detail}), {f.count} time(s) from cycle {f.first_cycle}"
-                 for f in findings if f.kind == "int-overflow"]
+    problems += [f"{block}:{f.pos[0]}:{f.pos[1]}: {label} ({f.detail}), {f.count} time(s) from cycle {f.first_cycle}"
+                 for f in findings for kind, label in (("int-overflow", "INT overflow"), ("nan", "NaN"), ("inf", "Inf"))
+                 if f.kind == kind and f.first_cycle is not None]
     return tuple(problems)
 
 
@@ -219,7 +221,10 @@ def _compare_constants(program: Program, model: Model, limits: Limits) -> tuple[
     Replay proves behaviour on the data; table entries the data never reaches (a Bayes
     configuration never seen, an edge no sample lies next to) are only covered by this check.
     """
-    expected = lower(model, limits)
+    try:
+        expected = lower(model, limits)
+    except GenerationError as exc:
+        raise UserError(f"{model.block_name}: the model cannot become a block, so no block reproduces it: {exc}") from None
     declared = {d.name.upper(): d for d in program.decls}
     wanted = [(c.name, (c.value,)) for c in expected.constants]
     wanted += [(v.name, v.initial) for v in expected.statics if v.initial is not None]

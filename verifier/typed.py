@@ -20,7 +20,7 @@ def cells_as(table: Table, column: str, base: str, what: str) -> np.ndarray:
 
     def refuse(bad: np.ndarray, expected: str) -> None:
         row = int(np.flatnonzero(bad)[0])
-        raise UserError(f"{table.path}: line {int(table.lines[row])}, column {column!r}: {values[row]!r} cannot "
+        raise UserError(f"{table.path}: line {int(table.lines[row])}, column {column!r}: {float(values[row]):.17g} cannot "
                         f"be {what} of type {base}; expected {expected}")
     if base == "REAL":
         too_big = np.isfinite(values) & (np.abs(values) > FLT_MAX)

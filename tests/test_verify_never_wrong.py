@@ -1,0 +1,233 @@
+"""Issue 13: `verify` never says bit-exact wrongly and nothing unsafe reaches the NC. One test per
+case found by a hostile review: injection past the parser, values compared by the wrong type,
+engines that disagree on integers, integer constants that overflow, NaN through the limiter,
+names that collide, a planted native library."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from thermoplc.binary32 import f32_hex
+from thermoplc.identifiers import identifier_problem
+from thermoplc.models.table import write_table
+from thermoplc.verifier.parser import StSyntaxError, parse_text
+from tests.test_golden import GOLDEN
+
+HERE = Path(__file__).parent
+
+
+def thermoplc(*args, cwd: Path, env: dict | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "thermoplc.cli", *map(str, args)], cwd=cwd, capture_output=True,
+                          text=True, stdin=subprocess.DEVNULL, env={**os.environ, **(env or {})})
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    here = tmp_path_factory.mktemp("never_wrong")
+    assert thermoplc("twin", "--hours", 2, "--seed", 5, "-o", "twin.csv", cwd=here).returncode == 0
+    return here
+
+
+def _hostile_model(folder: Path, name: str, edit) -> Path:
+    doc = json.loads((GOLDEN / "lumped.json").read_text())
+    edit(doc)
+    path = folder / name
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_effect_name_cannot_inject_statements(folder):
+    injected = "x' BEGIN E_z_um := 250.0; END_FUNCTION_BLOCK //"
+    model = _hostile_model(folder, "inject.json", lambda d: d["settings"]["effects"].append({"name": injected}))
+    result = thermoplc("generate", model, "-o", "inject.scl", "--dialect", "step7", cwd=folder)
+    assert result.returncode == 2 and "settings.effects" in result.stderr and "Traceback" not in result.stderr
+    assert not (folder / "inject.scl").exists()
+
+
+def test_text_after_a_quoted_title_is_parsed_so_diff_and_verify_see_it(folder):
+    clean = (GOLDEN / "mlr.step7.scl").read_text()
+    title = next(line for line in clean.splitlines() if line.startswith("TITLE"))
+    (folder / "clean.scl").write_text(clean)
+    (folder / "hostile.scl").write_text(clean.replace(title, "TITLE = 'x' AUTHOR : evil"))
+    result = thermoplc("diff", "clean.scl", "hostile.scl", cwd=folder)
+    assert result.returncode == 1, result.stdout + result.stderr
+    assert "~ TITLE" in result.stdout and "~ AUTHOR: (none) -> 'evil'" in result.stdout
+    (folder / "broken.scl").write_text(clean.replace(title, "TITLE = 'x' y := 250.0;"))
+    for command in (("diff", "clean.scl", "broken.scl"), ("verify", "broken.scl", "--model", GOLDEN / "mlr.json",
+                                                          "--data", "twin.csv")):
+        result = thermoplc(*command, cwd=folder)
+        assert result.returncode == 2 and "broken.scl:" in result.stderr and "syntax error" in result.stderr
+
+
+def test_header_attributes_are_compared(folder):
+    clean = (GOLDEN / "mlr.step7.scl").read_text()
+    (folder / "a.scl").write_text(clean)
+    (folder / "b.scl").write_text(clean.replace("VERSION : '1.0'", "VERSION : '1.1'"))
+    result = thermoplc("diff", "a.scl", "b.scl", cwd=folder)
+    assert result.returncode == 1 and "~ VERSION: \"'1.0'\" -> \"'1.1'\"" in result.stdout
+
+
+def test_every_user_string_is_escaped_in_the_title():
+    from thermoplc.generator.printer import safe_string
+    for text in ("a'b", 'a"b', "a$b", "line\nbreak", "(* x *)", "{ attr }"):
+        printed = safe_string(text)
+        assert not set(printed) & set("'\"$\n{}") and "(*" not in printed
+
+
+HAND_WRITTEN = """FUNCTION_BLOCK Counter
+VAR_INPUT x : INT; END_VAR
+VAR_OUTPUT i : DINT; flag : BOOL; END_VAR
+i := x + x;
+flag := x > 0;
+END_FUNCTION_BLOCK
+"""
+
+
+def _trace(folder: Path, name: str, columns: dict) -> None:
+    (folder / name).write_text(write_table({"time_s": np.arange(len(next(iter(columns.values())))) * 10.0, **columns}))
+
+
+def test_integer_outputs_are_compared_by_value_not_as_booleans(folder):
+    (folder / "counter.st").write_text(HAND_WRITTEN)
+    _trace(folder, "right.csv", {"x": np.array([1.0, 2.0, 3.0]), "i_plc": np.array([2.0, 4.0, 6.0])})
+    ok = thermoplc("verify", "counter.st", "--data", "right.csv", "--expect", "i=i_plc", cwd=folder)
+    assert ok.returncode == 0 and "bit-exact" in ok.stdout, ok.stdout + ok.stderr
+    _trace(folder, "wrong.csv", {"x": np.array([1.0, 2.0, 3.0]), "i_plc": np.array([2.0, 5.0, 6.0])})
+    bad = thermoplc("verify", "counter.st", "--data", "wrong.csv", "--expect", "i=i_plc", cwd=folder)
+    assert bad.returncode == 1 and "NOT bit-exact" in bad.stdout and "first divergent cycle 1" in bad.stdout
+
+
+def test_cells_a_type_cannot_hold_are_errors_with_their_line(folder):
+    (folder / "counter.st").write_text(HAND_WRITTEN)
+    _trace(folder, "half.csv", {"x": np.array([1.0, 2.5]), "i_plc": np.array([2.0, 5.0])})
+    result = thermoplc("verify", "counter.st", "--data", "half.csv", "--expect", "i=i_plc", cwd=folder)
+    assert result.returncode == 2 and "line 3, column 'x'" in result.stderr and "whole number" in result.stderr
+    _trace(folder, "flag.csv", {"x": np.array([1.0, 2.0]), "f_plc": np.array([1.0, 2.0])})
+    result = thermoplc("verify", "counter.st", "--data", "flag.csv", "--expect", "flag=f_plc", cwd=folder)
+    assert result.returncode == 2 and "column 'f_plc'" in result.stderr and "0 or 1" in result.stderr
+
+
+OVERFLOW = """FUNCTION_BLOCK Over
+VAR_INPUT j : DINT; k : DINT; END_VAR
+VAR_OUTPUT y : REAL; END_VAR
+VAR CONSTANT c_one : REAL := 1.0; END_VAR
+IF j * k * j > 0 THEN
+    y := c_one;
+END_IF;
+END_FUNCTION_BLOCK
+"""
+
+
+@pytest.mark.parametrize("engine", ["interp", "auto"])
+def test_integer_overflow_fails_verify_in_both_engines(folder, engine):
+    (folder / "over.st").write_text(OVERFLOW)
+    _trace(folder, "big.csv", {"j": np.array([1.0, 2.0e9]), "k": np.array([1.0, 2.0e9]), "y_plc": np.array([1.0, 1.0])})
+    result = thermoplc("verify", "over.st", "--data", "big.csv", "--expect", "y=y_plc", "--engine", engine, cwd=folder)
+    assert result.returncode == 1, result.stdout + result.stderr
+    assert "UNSAFE" in result.stdout and "INT overflow" in result.stdout and "from cycle 1" in result.stdout
+
+
+def test_an_integer_literal_beyond_dint_is_a_syntax_error():
+    text = "FUNCTION_BLOCK B\nVAR x : DINT; END_VAR\nx := 12345678901234567890123456;\nEND_FUNCTION_BLOCK\n"
+    with pytest.raises(StSyntaxError, match=r"<text>:3:6: integer literal 12345678901234567890123456 does not fit DINT"):
+        parse_text(text, "<text>")
+
+
+def test_ring_buffer_beyond_int_is_refused_at_fit_and_generate(folder):
+    fit = thermoplc("fit", "--data", "twin.csv", "--model", "dlag", "--target", "E_z_um", "--temps", "T_motor",
+                    "--lags", 1, "--lag-step", 330000, "--train-until", 3600, "-o", "long.json", cwd=folder)
+    assert fit.returncode == 2 and "at most 32767" in fit.stderr and not (folder / "long.json").exists()
+    doc = json.loads((GOLDEN / "dlag.json").read_text())
+    doc["settings"]["lag_step_samples"] = 33000
+    (folder / "dlag_long.json").write_text(json.dumps(doc))
+    result = thermoplc("generate", "dlag_long.json", "-o", "dlag_long.scl", cwd=folder)
+    assert result.returncode == 2 and "does not fit INT" in result.stderr and not (folder / "dlag_long.scl").exists()
+
+
+def test_kalman_without_noise_is_refused(folder):
+    doc = json.loads((GOLDEN / "kalman.json").read_text())
+    for name in ("N_1", "R_1", "P0_1"):
+        doc["coefficients"][name] = {"f64": 0.0, "f32": "0x00000000"}
+    (folder / "quiet.json").write_text(json.dumps(doc))
+    result = thermoplc("generate", "quiet.json", "-o", "quiet.scl", cwd=folder)
+    assert result.returncode == 2 and "needs it > 0" in result.stderr and not (folder / "quiet.scl").exists()
+
+
+def test_nan_never_reaches_the_nc_and_fails_verify(folder):
+    doc = json.loads((GOLDEN / "mlr.json").read_text())
+    for name, value in (("beta_1", 3e38), ("beta_2", -3e38)):  # a few kelvin of rise overflow to Inf, Inf - Inf
+        doc["coefficients"][name] = {"f64": value, "f32": f32_hex(value)}
+    (folder / "huge.json").write_text(json.dumps(doc))
+    assert thermoplc("generate", "huge.json", "-o", "huge.scl", cwd=folder).returncode == 0
+    result = thermoplc("verify", "huge.scl", "--model", "huge.json", "--data", "twin.csv", cwd=folder)
+    assert result.returncode == 1 and "UNSAFE" in result.stdout, result.stdout + result.stderr
+    from thermoplc.models.modelfile import load_model
+    from thermoplc.models.reference import block_outputs, model_inputs
+    from thermoplc.models.safety import Limits
+    from thermoplc.models.table import read_table
+    model = load_model(folder / "huge.json")
+    out = block_outputs(model, model_inputs(model, read_table(folder / "twin.csv")), "f32", Limits())
+    assert np.isfinite(out["E_z_um"]).all() and np.isfinite(out["K0_1"]).all() and out["Invalid"].any()
+
+
+@pytest.mark.parametrize("name", ["Init", "Ready", "K0_1", "Invalid", "METHOD", "POINTER", "INTERFACE", "REF_TO",
+                                  "OK", "TIMER", "UNION", "M10", "DBW4"])
+def test_names_that_collide_are_refused(folder, name):
+    table = (folder / "twin.csv").read_text().replace("T_motor", name, 1)
+    (folder / f"named_{name}.csv").write_text(table)
+    result = thermoplc("fit", "--data", f"named_{name}.csv", "--model", "mlr", "--target", "E_z_um", "--temps", name,
+                       "-o", f"named_{name}.json", cwd=folder)
+    if result.returncode == 0:
+        result = thermoplc("generate", f"named_{name}.json", "-o", f"named_{name}.scl", cwd=folder)
+    assert result.returncode == 2 and "Traceback" not in result.stderr, result.stdout + result.stderr
+    assert not (folder / f"named_{name}.scl").exists()
+
+
+def test_reserved_words_are_checked_case_insensitively():
+    for word in ("method", "Pointer", "end_region", "Timer", "ok", "dbw12", "m7"):
+        assert identifier_problem(word), word
+    for fine in ("T_motor", "Mass1", "Db_offset", "M_1"):
+        assert identifier_problem(fine) is None, fine
+
+
+PLANTED = r"""
+#include <stdio.h>
+__attribute__((constructor)) static void planted(void) {
+    FILE *f = fopen(getenv("PLANTED_MARKER"), "w"); if (f) { fputs("ran", f); fclose(f); }
+}
+"""
+
+
+def test_a_planted_library_is_never_loaded(folder, tmp_path):
+    cache = tmp_path / "cache" / "thermoplc" / "native"
+    cache.mkdir(parents=True)
+    source = tmp_path / "planted.c"
+    source.write_text("#include <stdlib.h>\n" + PLANTED)
+    build = subprocess.run(["gcc", "-shared", "-fPIC", "-o", str(tmp_path / "planted.so"), str(source)],
+                           capture_output=True)
+    if build.returncode != 0:
+        pytest.skip("no C compiler")
+    for key in ("0" * 20, "f" * 20):
+        (cache / f"block_{key}.so").write_bytes((tmp_path / "planted.so").read_bytes())
+    marker = tmp_path / "marker"
+    env = {"XDG_CACHE_HOME": str(tmp_path / "cache"), "PLANTED_MARKER": str(marker), "TMPDIR": str(tmp_path)}
+    (folder / "counter.st").write_text(HAND_WRITTEN)
+    _trace(folder, "right.csv", {"x": np.array([1.0, 2.0, 3.0]), "i_plc": np.array([2.0, 4.0, 6.0])})
+    result = thermoplc("verify", "counter.st", "--data", "right.csv", "--expect", "i=i_plc", "--engine", "fast",
+                       cwd=folder, env=env)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert not marker.exists()
+    assert not list(tmp_path.glob("thermoplc-native-*")), "the build folder is removed after loading"
+
+
+def test_a_failed_compile_leaves_nothing(folder, tmp_path):
+    (folder / "counter.st").write_text(HAND_WRITTEN)
+    _trace(folder, "right.csv", {"x": np.array([1.0, 2.0, 3.0]), "i_plc": np.array([2.0, 4.0, 6.0])})
+    result = thermoplc("verify", "counter.st", "--data", "right.csv", "--expect", "i=i_plc", "--engine", "fast",
+                       cwd=folder, env={"CC": "false", "TMPDIR": str(tmp_path)})
+    assert result.returncode == 2 and "failed (exit 1)" in result.stderr, result.stdout + result.stderr
+    assert not list(tmp_path.iterdir())
