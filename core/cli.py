@@ -132,6 +132,17 @@ def format_fit(model) -> str:
     return "\n".join(lines)
 
 
+def _stress(model, limits, text: str, args):
+    """Refuse a block that reaches NaN, Inf or an INT overflow on inputs inside their guard ranges."""
+    from thermoplc.verifier.parser import parse_text
+    from thermoplc.verifier.stress import stress
+    result = stress(parse_text(text, args.output), model, limits, args.output)
+    if result.problems:
+        raise UserError(f"{args.model}: the block reaches a value that must not reach the NC with every input inside its "
+                        f"guard range (stress replay): " + "; ".join(result.problems[:3]) + "; nothing written")
+    return result
+
+
 def cmd_generate(args) -> int:
     from thermoplc.generator.lower import lower, lower_model
     from thermoplc.generator.printer import GenerationError, render, render_plcopen
@@ -149,6 +160,7 @@ def cmd_generate(args) -> int:
         text = render_plcopen(block, __version__) if args.format == "plcopen" else render(block, args.dialect)
     except GenerationError as exc:
         raise UserError(f"{args.model}: cannot generate a block: {exc}") from None
+    stressed = _stress(model, limits, render(block, "iec") if args.format == "plcopen" else text, args)
     write_atomic(args.output, text)
     print(f"wrote {args.output}: {model.kind} block {model.block_name!r}, dialect {args.dialect}"
           f"{', PLCopen XML' if args.format == 'plcopen' else ''}, model fingerprint {model.fingerprint()}")
@@ -157,6 +169,9 @@ def cmd_generate(args) -> int:
     if args.stats:
         from thermoplc.generator.stats import block_stats, format_stats
         print(format_stats(block_stats(block), block_stats(lower_model(model))))
+        print(f"stress replay: {stressed.rows} calls with every input at the ends of its guard range, no NaN, Inf or "
+              f"INT overflow; outputs seen: " + ", ".join(f"{name} {low:.6g}..{high:.6g}"
+                                                         for name, (low, high) in stressed.output_ranges.items()))
     if args.explain:
         from thermoplc.generator.explain import explain
         print(explain(block))

@@ -4,6 +4,7 @@ crash or a hang, and text from user data can never change the structure of an em
 The normal suite runs 150 examples per test; the long run sets THERMOPLC_FUZZ_EXAMPLES, e.g.
 `THERMOPLC_FUZZ_EXAMPLES=20000 python -m pytest tests/test_fuzz.py` (see README).
 """
+import functools
 import json
 import os
 
@@ -91,3 +92,45 @@ def test_text_from_user_data_cannot_change_the_program(tmp_path, hostile):
         clean = parse_text(render(lower(load_model(GOLDEN / "mlr.json")), dialect))
         dirty = parse_text(render(lower(load_model(path)), dialect))
         assert dirty.decls == clean.decls and dirty.body == clean.body
+
+
+TEXT_FIELDS = (("inputs", 0, "unit"), ("inputs", 1, "column"), ("inputs", 1, "unit"), ("target", "column"),
+               ("time_column",))  # the target's unit decides whether a K0 output exists: not free text
+
+
+@functools.lru_cache(maxsize=None)
+def _clean_program(kind: str, dialect: str):
+    return parse_text(render(lower(load_model(GOLDEN / f"{kind}.json")), dialect))
+
+
+def _put(doc: dict, path: tuple, value) -> None:
+    node = doc
+    for key in path[:-1]:
+        node = node[key]
+    node[path[-1]] = value
+
+
+@given(st.sampled_from(["mlr", "lumped", "kalman"]), st.lists(st.text(min_size=1, max_size=40), min_size=6, max_size=6))
+@settings(max_examples=max(EXAMPLES // 5, 10), deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_random_text_in_every_user_field_leaves_the_statements_alone(tmp_path, kind, hostile):
+    """Every string field a user controls: text fields reach comments and the title and must not change
+    a statement or declaration in any dialect; an effect name is refused unless it is the library's."""
+    doc = json.loads((GOLDEN / f"{kind}.json").read_text())
+    for path, text in zip(TEXT_FIELDS, hostile):
+        _put(doc, path, text)
+    path = tmp_path / "m.json"
+    if kind == "lumped":
+        doc["settings"]["effects"] = [*doc["settings"]["effects"], {"name": hostile[-1], "sensor": None}]
+        path.write_text(json.dumps(doc))
+        try:
+            load_model(path)
+        except UserError as exc:
+            assert "settings.effects" in str(exc)
+        else:
+            raise AssertionError(f"effect name {hostile[-1]!r} was accepted")
+        doc["settings"]["effects"] = doc["settings"]["effects"][:-1]
+    path.write_text(json.dumps(doc))
+    for dialect in ("tia", "step7", "iec"):
+        clean = _clean_program(kind, dialect)
+        dirty = parse_text(render(lower(load_model(path)), dialect))
+        assert dirty.decls == clean.decls and dirty.body == clean.body and dirty.name == clean.name

@@ -162,10 +162,15 @@ def test_nan_never_reaches_the_nc_and_fails_verify(folder):
     for name, value in (("beta_1", 3e38), ("beta_2", -3e38)):  # a few kelvin of rise overflow to Inf, Inf - Inf
         doc["coefficients"][name] = {"f64": value, "f32": f32_hex(value)}
     (folder / "huge.json").write_text(json.dumps(doc))
-    assert thermoplc("generate", "huge.json", "-o", "huge.scl", cwd=folder).returncode == 0
+    refused = thermoplc("generate", "huge.json", "-o", "huge.scl", cwd=folder)
+    assert refused.returncode == 2 and "stress replay" in refused.stderr and "Inf" in refused.stderr
+    assert not (folder / "huge.scl").exists()
+    from thermoplc.generator.lower import lower
+    from thermoplc.generator.printer import render
+    from thermoplc.models.modelfile import load_model
+    (folder / "huge.scl").write_text(render(lower(load_model(folder / "huge.json")), "tia"))  # past generate's check
     result = thermoplc("verify", "huge.scl", "--model", "huge.json", "--data", "twin.csv", cwd=folder)
     assert result.returncode == 1 and "UNSAFE" in result.stdout, result.stdout + result.stderr
-    from thermoplc.models.modelfile import load_model
     from thermoplc.models.reference import block_outputs, model_inputs
     from thermoplc.models.safety import Limits
     from thermoplc.models.table import read_table
