@@ -45,6 +45,8 @@ def _mapping(text: str) -> dict:
         name, sep, column = item.partition("=")
         if not sep or not name.strip() or not column.strip():
             raise argparse.ArgumentTypeError(f"expected NAME=COLUMN[,NAME=COLUMN...], found {item!r}")
+        if name.strip().upper() in {k.upper() for k in mapping}:
+            raise argparse.ArgumentTypeError(f"{name.strip()!r} is mapped twice")
         mapping[name.strip()] = column.strip()
     return mapping
 
@@ -213,7 +215,10 @@ def cmd_verify(args) -> int:
         expect = {}
         for item in args.expect:
             output, sep, column = item.partition("=")
-            expect[output if sep else item] = column if sep else item
+            output = output if sep else item
+            if output.upper() in {k.upper() for k in expect}:
+                raise UserError(f"--expect names output {output!r} twice; give each output one column")
+            expect[output] = column if sep else item
         report = verify_against_trace(args.block, table, expect, args.inputs, args.time, args.engine)
     print(report.text())
     return 0 if report.ok else 1
@@ -459,6 +464,14 @@ def main(argv: list[str] | None = None) -> int:
         return args.func(args)
     except UserError as exc:
         print(f"thermoplc: error: {exc}", file=sys.stderr)
+        return 2
+    except RecursionError:  # an expression or statement nesting deeper than Python's stack (thousands of levels)
+        print("thermoplc: error: an input nests expressions or statements too deeply to read (thousands of levels); "
+              "nothing written", file=sys.stderr)
+        return 2
+    except MemoryError:
+        print("thermoplc: error: an input needs more memory than this machine has (a huge array or table?); "
+              "nothing written", file=sys.stderr)
         return 2
     except BrokenPipeError:  # the reader left (`| head`): stop quietly with the shell's SIGPIPE status
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

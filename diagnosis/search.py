@@ -23,7 +23,7 @@ from thermoplc.models.effects import NAMES
 from thermoplc.models.simulation import Series, Simulation
 
 BIC_MARGIN = 10.0
-AMBIGUOUS_BIC_SHARE = 0.02  # a rival within this share of the winner's BIC gain, better held out: no name
+AMBIGUOUS_BIC_SHARE = 0.02  # another effect within this share of the winner's BIC gain: no name
 HELD_OUT_SHARE = 0.2
 MIN_LOG_STOP_FACTOR = 0.05  # a standstill factor within 5 % of 1 is no effect
 MIN_SENSOR_ERROR_SIGMAS = 3.0  # an offset or a drift over the recording smaller than this many noise sigmas is noise
@@ -72,7 +72,7 @@ class Diagnosis:
     not_tested: dict = field(default_factory=dict)  # name -> why
     insufficient: str | None = None  # why the data cannot support a diagnosis at all
     unseen: dict = field(default_factory=dict)  # remaining window index -> conditions training never saw
-    ambiguous: tuple[str, ...] = ()  # supported candidates the two judges ranked differently, none named
+    ambiguous: tuple[str, ...] = ()  # supported effects the BIC cannot separate, none named
 
     @property
     def verdict(self) -> str:
@@ -95,8 +95,8 @@ class Diagnosis:
         notes = [("window " if len(ks) == 1 else "windows ") + ", ".join(map(str, ks)) + f" ran at {text}"
                  for text, ks in grouped.items()]
         if self.ambiguous:
-            notes.insert(0, "the data cannot tell " + " from ".join(self.ambiguous) + " (the information criterion "
-                         "prefers the first, the held-out part another)")
+            notes.insert(0, "the data cannot tell " + " from ".join(self.ambiguous) + " (their information "
+                         f"criteria differ by less than {AMBIGUOUS_BIC_SHARE:.0%} of the gain)")
         if self.not_tested:
             notes.append("not testable on this data: " + "; ".join(f"{k} ({v})" for k, v in self.not_tested.items()))
         return "; ".join(notes) or None
@@ -254,13 +254,11 @@ def _choose(passed: list[tuple]) -> tuple:
 
 
 def _rivals(passed: list[tuple], best: tuple) -> list[tuple]:
-    """Supported candidates that the held-out part prefers to the BIC's choice while the BIC barely
-    separates them (slow structure and lagged ambient look alike when the temperatures follow the
-    air): naming either would be a coin toss."""
-    gain_of = lambda p: p[6]
-    best_gain = abs(best[1].bic - best[7])
-    return [p for p in passed if p is not best and gain_of(p) > gain_of(best)
-            and p[1].bic - best[1].bic < AMBIGUOUS_BIC_SHARE * best_gain]
+    """Other supported effects that the BIC barely separates from its choice (slow structure and
+    lagged ambient look alike when the temperatures follow the air): naming either would be a coin
+    toss, whichever the held-out part prefers. The same effect on another sensor is no rival."""
+    best_gain = abs(best[1].bic - best[6])
+    return [p for p in passed if p[5] != best[5] and p[1].bic - best[1].bic < AMBIGUOUS_BIC_SHARE * best_gain]
 
 
 def _label(p: tuple, series: Series) -> str:
@@ -305,7 +303,7 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             trials.append(Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False,
                                 why))
             if ok:
-                passed.append((trial, s, res, sim_out, len(trials) - 1, name, gain, current_score.bic))
+                passed.append((trial, s, res, sim_out, len(trials) - 1, name, current_score.bic))
         if not passed:
             rounds.append(trials)
             break

@@ -1,6 +1,7 @@
 """The Kalman fusion block of paper 000: per sensor a lumped-mass prediction, a fault test and an update."""
 from __future__ import annotations
 
+from thermoplc.binary32 import FLT_MIN_NORMAL
 from thermoplc.generator.ir import (
     Assign, BinOp, Block, BoolConst, Call, Const, GenerationError, If, Ref, Region, Unary, Var,
 )
@@ -28,9 +29,10 @@ def _check_noise(model: Model, sensors: int) -> None:
     for i in range(1, sensors + 1):
         for name in ("N", "R", "P0"):
             value = model.coef(f"{name}_{i}")
-            if not value > 0:
+            if not value >= FLT_MIN_NORMAL:
                 raise GenerationError(f"coefficient {name}_{i} ({_KALMAN_COMMENTS[name]}) is {value:g}; the Kalman "
-                                f"filter needs it > 0 (with zero noise its gain is 0/0)")
+                                      f"filter needs it > 0 and normal (>= {FLT_MIN_NORMAL:.7g}): with zero noise its "
+                                      f"gain is 0/0, and a PLC that flushes subnormals to zero makes it so")
 
 
 def lower_kalman(model: Model) -> Block:

@@ -19,6 +19,7 @@ from thermoplc.binary32 import FLT_MAX
 from thermoplc.errors import UserError
 from thermoplc.models.modelfile import Model
 
+LIMIT_MAX = 1.0e12  # far beyond any machine, far below FLT_MAX
 K0_MM_PER_UM = -0.001  # K0 opposes the predicted error: the NC moves the axis back by it
 
 
@@ -39,6 +40,8 @@ class Limits:
             value = getattr(self, f.name)
             if not np.isfinite(value) or value <= 0 and f.name not in ("temp_min_C",):
                 raise UserError(f"safety limit {f.name} must be a positive finite number, got {value}")
+            if abs(value) > LIMIT_MAX:  # a block constant: must stay a finite REAL, with room for the arithmetic
+                raise UserError(f"safety limit {f.name} must be within +-{LIMIT_MAX:g}, got {value}")
         if self.temp_min_C >= self.temp_max_C:
             raise UserError(f"temperature range {self.temp_min_C}..{self.temp_max_C} degC is empty")
         if not 1 <= self.settle_calls <= 10000:

@@ -29,6 +29,9 @@ TEMPS = ("T_motor", "T_bearing")
 TRAIN_SHARE = 0.6
 
 
+LOOK_ALIKE = ("slow_structure", "ambient_coupling")
+
+
 def _series(columns: dict, temps: tuple[str, ...] = TEMPS) -> simulation.Series:
     return simulation.Series(10.0, columns["time_s"], columns["n_rpm"], columns["T_env"],
                              np.column_stack([columns[c] for c in temps]), temps, columns["E_z_um"],
@@ -59,6 +62,10 @@ def _hidden(machine_name: str, name: str, seed: int, hours: float = HOURS):
 @pytest.mark.parametrize("name", NAMES)
 def test_a_hidden_effect_with_random_parameters_is_named_alone_and_the_gap_halves(machine_name, name):
     d, effect = _hidden(machine_name, name, seed=1)
+    if d.ambiguous:  # lagged ambient and a slow structure can fit alike: then neither may be named
+        assert {name, *(a.split()[0] for a in d.ambiguous)} == set(LOOK_ALIKE) and not d.added, (effect, d.ambiguous)
+        assert d.verdict == "unexplained" and "cannot tell" in d.reason
+        return
     assert [e["name"] for e in d.added] == [name], (effect, d.added)
     channel = max(d.before.held_out_by_channel, key=d.before.held_out_by_channel.get)
     before = _excess(d.before.rmse_train[channel], d.sigma[channel])

@@ -47,7 +47,7 @@ def table(tmp_path_factory):
 def test_fast_engine_equals_interpreter_on_golden_blocks(kind, dialect, table):
     program = parse_file(golden_block(kind, dialect))
     columns = model_inputs(load_model(GOLDEN / f"{kind}.json"), table)
-    fast, flags = NativeBlock(program).run(columns)
+    fast, flags = NativeBlock(program).run(columns, len(next(iter(columns.values()))))
     assert not flags
     slow = _interpreted(program, columns, table.rows)
     for name in slow:
@@ -62,7 +62,7 @@ def test_fast_engine_equals_interpreter_with_faulty_sensors(kind, table):
     for fault in FAULT_KINDS:
         faulty = dict(columns)
         faulty["T_motor"], _ = inject(columns["T_motor"], times, fault, table.rows // 3)
-        fast, _ = NativeBlock(program).run(faulty)
+        fast, _ = NativeBlock(program).run(faulty, len(next(iter(faulty.values()))))
         slow = _interpreted(program, faulty, table.rows)
         for name in slow:
             assert np.array_equal(_bits(fast[name]), _bits(slow[name])), (fault.name, name)
@@ -83,7 +83,7 @@ def test_fast_engine_equals_interpreter_on_random_programs(value, condition, row
             f"ELSE\n  y := {printer.expr(condition)};\n  b := FALSE;\nEND_IF;\nx3 := y;\nEND_FUNCTION_BLOCK\n")
     program = parse_text(text)
     columns = {"x1": np.array([r[0] for r in rows], np.float32), "x2": np.array([r[1] for r in rows], np.float32)}
-    fast, _ = NativeBlock(program).run(columns)
+    fast, _ = NativeBlock(program).run(columns, len(rows))
     slow = _interpreted(program, columns, len(rows))
     for name in ("y", "b"):
         assert np.array_equal(_bits(fast[name]), _bits(slow[name])), (name, text)

@@ -110,5 +110,5 @@ def test_type_errors_name_the_place():
 
 def test_runaway_loop_is_bounded(monkeypatch):
     monkeypatch.setattr("thermoplc.verifier.interpreter.MAX_LOOP_ITERATIONS", 100)
-    with pytest.raises(InterpretError, match="exceeds 100 iterations"):
+    with pytest.raises(InterpretError, match="exceed 100 iterations"):
         run("FOR #i := 0 TO 1000 DO #i := #i; END_FOR;", "VAR i : DInt; END_VAR")

@@ -7,6 +7,7 @@ the largest output difference is reported with the call where it occurs.
 from __future__ import annotations
 
 import difflib
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -18,6 +19,7 @@ from thermoplc.verifier import syntax as s
 from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.parser import parse_file
 from thermoplc.verifier.replay import block_columns
+from thermoplc.verifier.typed import differing_rows
 
 SECTIONS = (("input", "inputs"), ("output", "outputs"), ("static", "state"), ("temp", "temporaries"))
 WHOLE_BODY = "(body)"
@@ -206,12 +208,22 @@ def _behaviour(old_path: str, new_path: str, old: s.Program, new: s.Program, tab
         columns = block_columns(replayer.inputs, table, overrides, path)
         replayed.append(replayer.replay(columns, table.rows, tuple(d.name for d in replayer.outputs)))
     before, after = replayed
+    old_outputs = {d.name.upper(): d for d in old.decls if d.section == "output"}
     new_outputs = [d for d in new.decls if d.section == "output"]
     times = table.columns.get(time_column, np.arange(table.rows, dtype=float))
     diffs = []
-    common = [d for d in new_outputs if d.name in before]
+    for d in new_outputs:  # an output only one block has, or of another type, differs on every call
+        was = old_outputs.get(d.name.upper())
+        if was is None or was.type != d.type:
+            diffs.append(OutputDifference(d.name, math.inf, 0, float(times[0]) if table.rows else 0.0, max(table.rows, 1),
+                                          d.type.base == "REAL"))
+    for key, was in old_outputs.items():
+        if key not in {d.name.upper() for d in new_outputs}:
+            diffs.append(OutputDifference(was.name, math.inf, 0, float(times[0]) if table.rows else 0.0, max(table.rows, 1),
+                                          was.type.base == "REAL"))
+    common = [d for d in new_outputs if (was := old_outputs.get(d.name.upper())) is not None and was.type == d.type]
     for d in common:
-        a, b = before[d.name], after[d.name]
+        a, b = before[old_outputs[d.name.upper()].name], after[d.name]
         if d.type.base == "REAL":
             x, y = np.asarray(a, np.float32), np.asarray(b, np.float32)
             differ = x.view(np.uint32) != y.view(np.uint32)
@@ -219,7 +231,8 @@ def _behaviour(old_path: str, new_path: str, old: s.Program, new: s.Program, tab
                 gap = np.abs(y.astype(np.float64) - x.astype(np.float64))
             gap = np.where(differ, np.nan_to_num(gap, nan=np.inf), 0.0)
         else:
-            differ = np.asarray(a, bool) != np.asarray(b, bool)
+            differ = np.zeros(len(a), bool)
+            differ[differing_rows(d.type.base, a, b)] = True
             gap = differ.astype(float)
         worst = int(np.argmax(gap)) if differ.any() else 0
         diffs.append(OutputDifference(d.name, float(gap[worst]) if d.type.base == "REAL" else float(differ.sum()),
@@ -270,6 +283,8 @@ def format_diff(d: BlockDiff) -> str:
         for b in d.behaviour:
             if b.differing_calls == 0:
                 lines.append(f"  {b.output}: identical")
+            elif math.isinf(b.max_abs):
+                lines.append(f"  {b.output}: in one block only, or declared with another type: not comparable")
             elif not b.real:
                 lines.append(f"  {b.output}: differs in {b.differing_calls} calls, first at call {b.cycle} (time {b.time:g} s)")
             else:

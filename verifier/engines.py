@@ -44,7 +44,7 @@ class Replayer:
         """Outputs by name, one value per row, the block starting from its initial state."""
         if self.native is not None:
             self.native.reset()
-            result = self.native.run(columns)
+            result = self.native.run(columns, rows)
             if result is not None and not result[1]:
                 self.used = "fast"
                 return {name: result[0][name] for name in outputs}

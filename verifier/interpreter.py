@@ -53,6 +53,7 @@ class Machine:
         self.source = source
         self.cycle = 0
         self.findings: dict[tuple, Finding] = {}
+        self._loop_cycle, self._loop_count = -1, 0
         self._cell = array("f", [0.0])
         self.slots: dict[str, int] = {}
         self.decls: list[s.VarDecl] = []
@@ -60,6 +61,7 @@ class Machine:
             key = d.name.upper()
             if key in self.slots:
                 self._fail(d.pos, f"{d.name} is declared twice (names ignore case)")
+            self._check_initial(d)
             self.slots[key] = len(self.decls)
             self.decls.append(d)
         self.inputs = [d for d in self.decls if d.section == "input"]
@@ -68,6 +70,22 @@ class Machine:
         self.body = self._block(program.body)
         self.values: list = []
         self.reset()
+
+    def _check_initial(self, d: s.VarDecl) -> None:
+        """A start value the declared type cannot hold is an error: engines would read it differently."""
+        values = d.initial if isinstance(d.initial, tuple) else () if d.initial is None else (d.initial,)
+        base = d.type.base
+        for value in values:
+            if base == "BOOL" and not isinstance(value, bool):
+                self._fail(d.pos, f"{d.name} is BOOL but starts at {value!r}; expected TRUE or FALSE")
+            if base in INT_RANGES and (isinstance(value, bool) or not isinstance(value, int)
+                                       or not INT_RANGES[base][0] <= value <= INT_RANGES[base][1]):
+                lo, hi = INT_RANGES[base]
+                self._fail(d.pos, f"{d.name} is {base} but starts at {value!r}; expected a whole number in {lo}..{hi}")
+            if base == "REAL" and isinstance(value, bool):
+                self._fail(d.pos, f"{d.name} is REAL but starts at {value!r}")
+        if d.type.bounds and len(values) > d.type.bounds[1] - d.type.bounds[0] + 1:
+            self._fail(d.pos, f"{d.name} has {len(values)} start values for {d.type.bounds[1] - d.type.bounds[0] + 1} items")
 
     # -- running -----------------------------------------------------------------------------
     def reset(self) -> None:
@@ -196,21 +214,23 @@ class Machine:
         step = self._int_expr(st.step) if st.step is not None else (lambda v: 1)
         body = self._block(st.body)
         fail = self._fail
+        check = self._int_range_check(decl.type.base, st.pos)  # the counter is stored: an INT that wraps never ends
 
         def run_for(v):
             i, end, inc = start(v), stop(v), step(v)
             if inc == 0:
                 fail(st.pos, "FOR step is 0")
-            count = 0
+            if self._loop_cycle != self.cycle:  # the budget is per call, over all loops (nested ones too)
+                self._loop_cycle, self._loop_count = self.cycle, 0
             while (i <= end) if inc > 0 else (i >= end):
-                count += 1
-                if count > MAX_LOOP_ITERATIONS:
-                    fail(st.pos, f"FOR loop exceeds {MAX_LOOP_ITERATIONS} iterations")
-                v[slot] = i
+                self._loop_count += 1
+                if self._loop_count > MAX_LOOP_ITERATIONS:
+                    fail(st.pos, f"FOR loops of one call exceed {MAX_LOOP_ITERATIONS} iterations")
+                v[slot] = check(i)
                 for stmt in body:
                     stmt(v)
                 i = v[slot] + inc
-            v[slot] = i
+            v[slot] = check(i)
         return run_for
 
     def _int_expr(self, e):
@@ -405,10 +425,12 @@ class Machine:
         if op in ("AND", "OR", "XOR"):
             if lk != "BOOL" or rk != "BOOL":
                 self._fail(e.pos, f"{op} needs BOOL operands, found {lk} and {rk}")
+            # both operands always: IEC 61131-3 leaves short-circuiting to the implementation (CODESYS
+            # evaluates both), so an error in either operand must be seen
             if op == "AND":
-                return (lambda v: lf(v) and rf(v)), "BOOL"
+                return (lambda v: all((lf(v), rf(v)))), "BOOL"
             if op == "OR":
-                return (lambda v: lf(v) or rf(v)), "BOOL"
+                return (lambda v: any((lf(v), rf(v)))), "BOOL"
             return (lambda v: lf(v) != rf(v)), "BOOL"
         if lk != rk and not (lk in INT_RANGES and rk in INT_RANGES):
             self._fail(e.pos, f"'{op}' mixes {lk} and {rk}; convert explicitly (e.g. INT_TO_REAL)")

@@ -121,7 +121,7 @@ class _Translator:
         (a, ka), (b, _) = self.expr(e.left), self.expr(e.right)
         op = e.op
         if op in ("AND", "OR", "XOR"):
-            return {"AND": f"({a} && {b})", "OR": f"({a} || {b})", "XOR": f"(({a}) != ({b}))"}[op], "BOOL"
+            return {"AND": f"(({a}) & ({b}))", "OR": f"(({a}) | ({b}))", "XOR": f"(({a}) != ({b}))"}[op], "BOOL"
         if op in ("=", "<>", "<", "<=", ">", ">="):
             if ka == "REAL":
                 quiet = {"<": "isless", "<=": "islessequal", ">": "isgreater", ">=": "isgreaterequal"}
@@ -189,7 +189,7 @@ class _Translator:
         lo, hi = INT_RANGES[d.type.base]
         lines = [f"{pad}{{ int64_t i_ = {start}, e_ = {stop}, s_ = {step}, n_ = 0; if (s_ == 0) goto fail;",
                  f"{pad}  while (s_ > 0 ? i_ <= e_ : i_ >= e_) {{",
-                 f"{pad}    if (++n_ > {MAX_LOOP_ITERATIONS}) goto fail;",
+                 f"{pad}    if (++n_ > {MAX_LOOP_ITERATIONS} || ++loops_ > {MAX_LOOP_ITERATIONS}) goto fail;",
                  f"{pad}    if (i_ < {lo}LL || i_ > {hi}LL) goto fail;",
                  f"{pad}    {c} = i_;" + (f" w_{c} = 1;" if d.section == "temp" else "")]
         lines += self.stmts(st.body, pad + "    ")
@@ -234,7 +234,7 @@ class _Translator:
                 lines.append(f"    {{ {self.ctype(d)} x_{size(d)} = {self.initial(d)}; memcpy(&s->{_cname(d.name)}, &x_, sizeof x_); }}")
         lines += ["}",
                   "int64_t run(state_t *s, int64_t rows, void **in, void **out, int64_t *status) {",
-                  "    int64_t j = 0;", "    feclearexcept(FE_ALL_EXCEPT);",
+                  "    int64_t j = 0, loops_ = 0;", "    feclearexcept(FE_ALL_EXCEPT);",
                   "#if defined(__SSE__)", "    _mm_setcsr(_mm_getcsr() & ~0x3Fu);", "#endif"]
         for d in constants:
             lines.append(f"    const {self.ctype(d)} {_cname(d.name)}{size(d)} = {self.initial(d)};")
@@ -247,6 +247,7 @@ class _Translator:
         for d in temps:
             lines.append(f"    {self.ctype(d)} {_cname(d.name)}{size(d)}; unsigned char w_{_cname(d.name)}{size(d)};")
         lines.append("    for (j = 0; j < rows; j++) {")
+        lines.append("        loops_ = 0;")
         for k, d in enumerate(inputs):
             lines.append(f"        {_cname(d.name)} = (({self._io_type(d)} *)in[{k}])[j];")
         for d in temps if self.checked else ():
@@ -343,10 +344,9 @@ class NativeBlock:
     def reset(self) -> None:
         self.lib.state_init(self.state)
 
-    def run(self, columns: dict) -> tuple[dict, bool] | None:
+    def run(self, columns: dict, rows: int) -> tuple[dict, bool] | None:
         """One call per row. Returns (outputs by name, FPU flags raised) or None when a row
         could not run natively (the caller replays with the interpreter)."""
-        rows = len(next(iter(columns.values()))) if columns else 0
         upper = {k.upper(): v for k, v in columns.items()}
         ins = [np.ascontiguousarray(upper[d.name.upper()], IO_DTYPES.get(d.type.base, np.int32)) for d in self.inputs]
         outs = [np.empty(rows, IO_DTYPES.get(d.type.base, np.int32)) for d in self.outputs]

@@ -1,6 +1,7 @@
 """Structured Text text -> AST (verifier/syntax.py), with file:line:col messages for anything else."""
 from __future__ import annotations
 
+import math
 import re
 from functools import lru_cache
 from importlib import resources
@@ -137,7 +138,10 @@ class _ToAst(Transformer):
 
     def signed_real(self, items):
         text = "".join(str(t) for t in items if t is not None).replace("_", "")
-        return decimal_to_f32(text)
+        value = decimal_to_f32(text)
+        if math.isinf(value):
+            self._fail(_at(items[-1]), f"REAL {text} is beyond the largest REAL (3.4028235e38)")
+        return value
 
     def signed_int(self, items):
         value = int("".join(str(t) for t in items if t is not None).replace("_", ""))
@@ -223,7 +227,10 @@ class _ToAst(Transformer):
     def real(self, items):
         token = items[0]
         text = re.sub(r"(?i)^REAL#", "", str(token)).replace("_", "")
-        return s.RealLit(str(token), decimal_to_f32(text), _at(token))
+        value = decimal_to_f32(text)
+        if math.isinf(value):
+            self._fail(_at(token), f"REAL literal {token} is beyond the largest REAL (3.4028235e38)")
+        return s.RealLit(str(token), value, _at(token))
 
     def int(self, items):
         value = int(str(items[0]).replace("_", ""))
@@ -251,7 +258,7 @@ class _ToAst(Transformer):
 
 def _blank_free_text(text: str) -> str:
     """Replace comments, strings, titles and region captions by spaces, keeping every position."""
-    pattern = re.compile(r"//[^\n]*|\(\*.*?\*\)|/\*.*?\*/|'[^'\n]*'|\"[^\"\n]*\"|\{[^{}]*\}"
+    pattern = re.compile(r"//[^\n]*|\(\*.*?\*\)|/\*.*?\*/|'(?:[^'$\n]|\$[^\n])*'|\"[^\"\n]*\"|\{[^{}]*\}"
                          r"|(?i:\bREGION\b[^\n]*)", re.S)
     return pattern.sub(lambda m: re.sub(r"[^\n]", " ", m.group()), text)
 
@@ -294,6 +301,9 @@ def parse_text(text: str, source: str = "<text>") -> s.Program:
     except VisitError as exc:
         if isinstance(exc.orig_exc, UserError):
             raise exc.orig_exc from None
+        if isinstance(exc.orig_exc, RecursionError):
+            raise StSyntaxError(f"{source}: statements or expressions nested too deeply to read "
+                                f"(thousands of levels)") from None
         raise
 
 

@@ -138,8 +138,19 @@ def _check_interface(machine, block: str, available: dict, what: str) -> None:
                         + (f"; {what} also has {', '.join(extra)}" if extra else ""))
 
 
+def known_overrides(overrides: dict | None, names, what: str) -> dict:
+    """--inputs keyed by the declared names (ST names ignore case); a key no input has is an error,
+    not a mapping silently ignored."""
+    by_key = {name.upper(): name for name in names}
+    unknown = [key for key in (overrides or {}) if key.upper() not in by_key]
+    if unknown:
+        raise UserError(f"--inputs maps {', '.join(unknown)}, but {what} has no such input; inputs are {', '.join(names)}")
+    return {by_key[key.upper()]: column for key, column in (overrides or {}).items()}
+
+
 def block_columns(inputs: list, table: Table, overrides: dict | None, block: str) -> dict:
     """The data column of each block input (by its name unless --inputs maps it), REAL as float32."""
+    overrides = known_overrides(overrides, [d.name for d in inputs], block)
     columns = {}
     for d in inputs:
         column = (overrides or {}).get(d.name, d.name)
@@ -160,17 +171,20 @@ def _first_mismatch(produced: dict, expected: dict, types: dict) -> tuple[int, s
     return first
 
 
-def _unsafe(produced: dict, types: dict, findings, table: Table, block: str) -> tuple[str, ...]:
+def _unsafe(produced: dict, types: dict, findings, table: Table, block: str, inputs: dict) -> tuple[str, ...]:
     """What must fail verification even where the reference agrees: a NaN or Inf reaching an
-    output, an integer overflow anywhere (IEC 61131-3: an error, not a wrap-around)."""
+    output, an integer overflow anywhere (IEC 61131-3: an error, not a wrap-around), and a NaN or
+    Inf in the block's arithmetic on finite inputs (NaN inputs, a broken sensor, legitimately
+    make the input guard compute NaN before it rejects the value)."""
+    finite_inputs = all(np.isfinite(np.asarray(v, np.float64)).all() for v in inputs.values())
+    kinds = (("int-overflow", "INT overflow"),) + ((("nan", "NaN"), ("inf", "Inf")) if finite_inputs else ())
     problems = []
     for name, values in produced.items():
         if types[name] == "REAL" and (row := first_non_finite(values)) is not None:
             problems.append(f"output {name} is {np.float32(values[row])} at cycle {row} "
                             f"(line {int(table.lines[row])} of the data)")
     problems += [f"{block}:{f.pos[0]}:{f.pos[1]}: {label} ({f.detail}), {f.count} time(s) from cycle {f.first_cycle}"
-                 for f in findings for kind, label in (("int-overflow", "INT overflow"), ("nan", "NaN"), ("inf", "Inf"))
-                 if f.kind == kind and f.first_cycle is not None]
+                 for f in findings for kind, label in kinds if f.kind == kind and f.first_cycle is not None]
     return tuple(problems)
 
 
@@ -197,7 +211,7 @@ def _replay_and_compare(replayer: Replayer, block: str, against: str, table: Tab
                             want.item() if hasattr(want, "item") else want, machine.snapshot())
     return Report(block, against, Path(table.path).name, rows, tuple(produced), mismatch, findings, seconds,
                   quantisation, engine=replayer.used, engine_note=replayer.note,
-                  unsafe=_unsafe(produced, types, findings, table, block))
+                  unsafe=_unsafe(produced, types, findings, table, block, inputs))
 
 
 def _check_period(model: Model, table: Table) -> None:
@@ -256,7 +270,7 @@ def verify_against_model(block: str, model: Model, model_path: str, table: Table
     program, machine = _load(block, engine)
     limits = block_limits(program, block)
     _check_period(model, table)
-    inputs = model_inputs(model, table, overrides)
+    inputs = model_inputs(model, table, known_overrides(overrides, [s.name for s in model.inputs], model_path))
     _check_interface(machine, block, inputs, f"the inputs of {Path(model_path).name}")
     block32 = block_outputs(model, inputs, "f32", limits)
     declared = [d.name for d in machine.outputs]
@@ -265,6 +279,12 @@ def verify_against_model(block: str, model: Model, model_path: str, table: Table
     if unknown or missing:
         raise UserError(f"{block}: block outputs {', '.join(declared)} do not match the outputs of "
                         f"{Path(model_path).name}: {', '.join(block32)}")
+    wanted = {name: "BOOL" if np.asarray(values).dtype == bool else "REAL" for name, values in block32.items()}
+    for d in (*machine.outputs, *machine.inputs):
+        expected = wanted.get(d.name, "REAL")
+        if d.type.base != expected or d.type.bounds:
+            raise UserError(f"{block}:{d.pos[0]}:{d.pos[1]}: {d.name} is declared {d.type.base}; the model's block "
+                            f"has it as {expected}")
     ideal = block_outputs(model, inputs, "f64", limits)
     quantisation = {model.target.name: float(np.max(np.abs(block32[model.target.name].astype(np.float64)
                                                           - ideal[model.target.name])))}
