@@ -236,3 +236,83 @@ def test_a_failed_compile_leaves_nothing(folder, tmp_path):
                        cwd=folder, env={"CC": "false", "TMPDIR": str(tmp_path)})
     assert result.returncode == 2 and "failed (exit 1)" in result.stderr, result.stdout + result.stderr
     assert not list(tmp_path.iterdir())
+
+
+FOR_OVERFLOW = """FUNCTION_BLOCK Blk
+VAR_INPUT n : DINT; END_VAR
+VAR_OUTPUT Cnt : DINT; END_VAR
+VAR i : INT; s : DINT; END_VAR
+s := 0;
+FOR i := 32760 TO 32767 DO
+  s := s + 1;
+END_FOR;
+Cnt := s + n;
+END_FUNCTION_BLOCK
+"""
+NO_INPUTS = """FUNCTION_BLOCK Blk
+VAR_OUTPUT Out : REAL; END_VAR
+VAR CONSTANT c1 : REAL := 1.0; END_VAR
+Out := Out + c1;
+END_FUNCTION_BLOCK
+"""
+
+
+def test_a_for_counter_that_wraps_is_an_overflow(folder):
+    (folder / "forov.st").write_text(FOR_OVERFLOW)
+    _trace(folder, "fo.csv", {"n": np.array([1.0, 2.0]), "c": np.array([9.0, 10.0])})
+    result = thermoplc("verify", "forov.st", "--data", "fo.csv", "--expect", "Cnt=c", cwd=folder)
+    assert result.returncode == 1 and "INT overflow (value 32768 outside INT)" in result.stdout
+
+
+def test_a_block_without_inputs_replays_every_row(folder):
+    (folder / "noin.st").write_text(NO_INPUTS)
+    _trace(folder, "no.csv", {"x": np.array([1.0, 2.0, 4.0])})
+    result = thermoplc("verify", "noin.st", "--data", "no.csv", "--expect", "Out=x", cwd=folder)
+    assert result.returncode == 1 and "first divergent cycle 2" in result.stdout, result.stdout + result.stderr
+
+
+@pytest.mark.parametrize("declaration, message", [
+    ("k : INT := 40000;", "k is INT but starts at 40000"), ("k : DINT := 2.5;", "k is DINT but starts at 2.5"),
+    ("k : BOOL := 256;", "k is BOOL but starts at 256"), ("k : REAL := 1.0E39;", "beyond the largest REAL")])
+def test_start_values_the_type_cannot_hold_are_errors(folder, declaration, message):
+    (folder / "init.st").write_text(NO_INPUTS.replace("VAR CONSTANT", f"VAR {declaration} END_VAR\nVAR CONSTANT"))
+    _trace(folder, "no.csv", {"x": np.array([1.0, 2.0, 3.0])})
+    result = thermoplc("verify", "init.st", "--data", "no.csv", "--expect", "Out=x", cwd=folder)
+    assert result.returncode == 2 and message in result.stderr, result.stderr
+
+
+def test_an_scl_escaped_quote_does_not_end_the_title(folder):
+    block = "FUNCTION_BLOCK Blk\nTITLE = 'Compensation$' (* '\n" + NO_INPUTS.split("\n", 1)[1].replace(
+        "Out := Out + c1;", "Out := Out + c1;\n// *)\nOut := Out + c1;")
+    (folder / "esc.st").write_text(block)
+    program = parse_text(block, "esc.st")
+    assert len(program.body) == 2 and program.header[0] == ("TITLE", "'Compensation$' (* '")
+
+
+def test_an_output_declared_with_another_type_than_the_models_is_refused(folder):
+    text = (GOLDEN / "mlr.tia.scl").read_text().replace("K0_1 : Real;", "K0_1 : DInt;")
+    text = "\n".join(line for line in text.splitlines() if not line.strip().startswith("#K0_1 :="))  # never written
+    (folder / "k0dint.scl").write_text(text)
+    result = thermoplc("verify", "k0dint.scl", "--model", GOLDEN / "mlr.json", "--data", "twin.csv", cwd=folder)
+    assert result.returncode == 2 and "K0_1 is declared DINT; the model's block has it as REAL" in result.stderr
+
+
+@pytest.mark.parametrize("argv, message", [
+    (("--expect", "Out=x,Out=y"), "names output 'Out' twice"), (("--expect", "Out=x", "--inputs", "bogus=x"), "--inputs maps bogus")])
+def test_ambiguous_mappings_are_refused(folder, argv, message):
+    (folder / "noin.st").write_text(NO_INPUTS)
+    _trace(folder, "two.csv", {"x": np.array([1.0, 2.0]), "y": np.array([1.0, 2.0])})
+    result = thermoplc("verify", "noin.st", "--data", "two.csv", *argv, cwd=folder)
+    assert result.returncode == 2 and message in result.stderr, result.stderr
+
+
+def test_diff_compares_integer_outputs_by_value_and_names_without_case(folder):
+    old = "FUNCTION_BLOCK B\nVAR_INPUT n : DINT; END_VAR\nVAR_OUTPUT Cnt : DINT; END_VAR\nCnt := n + n;\nEND_FUNCTION_BLOCK\n"
+    (folder / "old.st").write_text(old)
+    (folder / "new.st").write_text(old.replace("n + n", "n * n"))
+    (folder / "case.st").write_text(old.replace("Cnt", "CNT"))
+    _trace(folder, "n.csv", {"n": np.array([2.0, 3.0])})
+    changed = thermoplc("diff", "old.st", "new.st", "--data", "n.csv", cwd=folder)
+    assert changed.returncode == 1 and "Cnt: differs in 1 calls" in changed.stdout, changed.stdout
+    same = thermoplc("diff", "old.st", "case.st", "--data", "n.csv", cwd=folder)
+    assert same.returncode == 0, same.stdout
