@@ -97,6 +97,7 @@ def _progress(message: str) -> None:
 def cmd_fit(args) -> int:
     from thermoplc.models.fit import FitRequest, fit
     from thermoplc.models.kalman import FitOptions
+    from thermoplc.generator.lower import check_model_becomes_block
     from thermoplc.models.table import read_table
     check_overwrite(args.output, args.force)
     tables = [read_table(path, args.time, decimal=args.decimal) for path in args.data]
@@ -108,6 +109,7 @@ def cmd_fit(args) -> int:
     model = fit(tables, request, args.time, _progress if sys.stderr.isatty() else None)
     if sys.stderr.isatty():
         print(file=sys.stderr)
+    check_model_becomes_block(model, args.output)
     write_atomic(args.output, model.to_json())
     print(format_fit(model))
     print(f"wrote {args.output}")

@@ -12,6 +12,7 @@ from thermoplc.diagnosis.findings import document
 from thermoplc.diagnosis.search import diagnose
 from thermoplc.errors import UserError
 from thermoplc.fileio import write_atomic
+from thermoplc.generator.lower import check_model_becomes_block
 from thermoplc.models import lumped_model
 from thermoplc.models.fit import block_identifier, evaluate, sample_period
 from thermoplc.models.modelfile import Model, Signal, load_model
@@ -110,6 +111,7 @@ def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report
     model = augmented_model(d.final, d.added, request, table, dt, n_train)
     source = {"file": Path(table.path).name, "sha256": table.sha256}
     doc = document(d, series, n_train, source, model_path)
+    check_model_becomes_block(model, model_path)
     write_atomic(model_path, model.to_json())
     if json_path:
         write_atomic(json_path, json.dumps(doc, indent=2) + "\n")

@@ -2,13 +2,15 @@
 each kind's lowering lives in its own module, this one picks it and adds the safety logic."""
 from __future__ import annotations
 
-from thermoplc.generator.ir import Block
+from thermoplc.errors import UserError
+from thermoplc.generator.ir import Block, GenerationError
 from thermoplc.generator.lower_bayes import lower_bayes
 from thermoplc.generator.lower_bpnn import lower_bpnn
 from thermoplc.generator.lower_grey import lower_gm0n, lower_gm1n
 from thermoplc.generator.lower_kalman import lower_kalman
 from thermoplc.generator.lower_lumped import lower_lumped
 from thermoplc.generator.lower_regression import lower_dlag, lower_mlr, lower_piecewise
+from thermoplc.generator.printer import render
 from thermoplc.generator.safety import with_safety
 from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import Limits, axis_outputs, guards
@@ -27,3 +29,13 @@ def lower(model: Model, limits: Limits = Limits()) -> Block:
     core = lower_model(model)
     axes = axis_outputs(model, [v.name for v in core.outputs if v.type == "REAL"])
     return with_safety(core, guards(model), axes, limits)
+
+
+def check_model_becomes_block(model: Model, path: str) -> None:
+    """A model file must become a block: checked before it is written (a column named like one of
+    the block's own variables, `Ready` or `K0_1`, would otherwise only be refused by `generate`)."""
+    try:
+        render(lower(model), "tia")
+    except GenerationError as exc:
+        raise UserError(f"{path}: not written: the model could not become a block: {exc}; rename the column "
+                        f"or the block") from None

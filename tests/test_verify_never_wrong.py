@@ -316,3 +316,37 @@ def test_diff_compares_integer_outputs_by_value_and_names_without_case(folder):
     assert changed.returncode == 1 and "Cnt: differs in 1 calls" in changed.stdout, changed.stdout
     same = thermoplc("diff", "old.st", "case.st", "--data", "n.csv", cwd=folder)
     assert same.returncode == 0, same.stdout
+
+
+REGIONS = """FUNCTION_BLOCK B
+VAR_INPUT a : REAL; END_VAR
+VAR_OUTPUT y : REAL; END_VAR
+VAR x : REAL := 1.0; END_VAR
+REGION A
+  x := x + a;
+END_REGION
+REGION B
+  y := x;
+END_REGION
+END_FUNCTION_BLOCK
+"""
+
+
+def test_structure_diff_sees_reordered_regions_and_changed_start_values(folder):
+    (folder / "r_old.st").write_text(REGIONS)
+    order = REGIONS.replace("REGION A\n  x := x + a;\nEND_REGION\n", "").replace("END_REGION\nEND_FUNCTION",
+                                                                              "END_REGION\nREGION A\n  x := x + a;\nEND_REGION\nEND_FUNCTION")
+    (folder / "r_order.st").write_text(order)
+    (folder / "r_init.st").write_text(REGIONS.replace("x : REAL := 1.0;", "x : REAL := 1000.0;"))
+    reordered = thermoplc("diff", "r_old.st", "r_order.st", cwd=folder)
+    assert reordered.returncode == 1 and "regions reordered: B | A" in reordered.stdout, reordered.stdout
+    started = thermoplc("diff", "r_old.st", "r_init.st", cwd=folder)
+    assert started.returncode == 1 and "x: 1.0 -> 1000.0" in started.stdout, started.stdout
+
+
+def test_fit_refuses_a_column_named_like_the_blocks_own_variable(folder):
+    (folder / "ready.csv").write_text((folder / "twin.csv").read_text().replace("T_motor", "Ready", 1))
+    result = thermoplc("fit", "--data", "ready.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "Ready",
+                       "--train-until", 3600, "-o", "ready.json", cwd=folder)
+    assert result.returncode == 2 and "'Ready' and 'Ready' are the same identifier" in result.stderr
+    assert not (folder / "ready.json").exists()

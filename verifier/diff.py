@@ -112,10 +112,11 @@ def _header(old: s.Program, new: s.Program) -> list[str]:
 
 
 def _constants(old: s.Program, new: s.Program) -> list[ConstantChange]:
-    """Named constants and the start values of tables (read-only statics)."""
+    """Named constants and the start values of statics and outputs (tables, flags, counters): a
+    changed start value changes the first calls."""
     def values(p: s.Program) -> dict:
         return {d.name.upper(): (d.name, d.initial) for d in p.decls
-                if d.section == "constant" or (d.section == "static" and isinstance(d.initial, tuple))}
+                if d.section == "constant" or (d.section in ("static", "output") and d.initial is not None)}
     before, after = values(old), values(new)
     changes = []
     for key in sorted(before.keys() | after.keys()):
@@ -181,6 +182,8 @@ def _statements(old: s.Program, new: s.Program, old_lines: list[str], new_lines:
     if (WHOLE_BODY in a) != (WHOLE_BODY in b) or set(a) == {WHOLE_BODY} or set(b) == {WHOLE_BODY}:
         a, b = {WHOLE_BODY: tuple(_flat(old.body))}, {WHOLE_BODY: tuple(_flat(new.body))}  # one side has no REGIONs
     report = []
+    if [t for t in a if t in b] != [t for t in b if t in a]:  # the same regions run in another order
+        report.append("~ regions reordered: " + " | ".join(t for t in b if t in a))
     for title in [t for t in a if t not in b]:
         report.append(f"- region {title!r} removed ({len(a[title])} statements)")
     for title in [t for t in b if t not in a]:
