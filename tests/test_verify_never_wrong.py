@@ -350,3 +350,13 @@ def test_fit_refuses_a_column_named_like_the_blocks_own_variable(folder):
                        "--train-until", 3600, "-o", "ready.json", cwd=folder)
     assert result.returncode == 2 and "'Ready' and 'Ready' are the same identifier" in result.stderr
     assert not (folder / "ready.json").exists()
+
+
+def test_finding_counts_are_not_doubled_by_the_mismatch_report(folder):
+    block = NO_INPUTS.replace("VAR CONSTANT c1 : REAL := 1.0; END_VAR", "VAR CONSTANT c1 : REAL := 1.0; c0 : REAL := 0.0; END_VAR"
+                              ).replace("Out := Out + c1;", "Out := Out + c1;\nOut := Out + c1 / c0 - c1 / c0;")
+    (folder / "nan.st").write_text(block)
+    _trace(folder, "n4.csv", {"x": np.array([1.0, 2.0, 3.0, 4.0])})
+    result = thermoplc("verify", "nan.st", "--data", "n4.csv", "--expect", "Out=x", "--engine", "interp", cwd=folder)
+    assert result.returncode == 1 and "4 time(s) from cycle 0" in result.stdout and "8 time(s)" not in result.stdout, \
+        result.stdout
