@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from thermoplc.binary32 import FLT_MAX
 from thermoplc.errors import UserError
 from thermoplc.models import bayes, bpnn, dlag, grey, kalman, lumped_model, mlr, piecewise
 from thermoplc.models.modelfile import Model
@@ -42,11 +41,5 @@ def model_inputs(model: Model, table: Table, overrides: dict | None = None) -> d
         if column not in table.columns:
             raise UserError(f"{table.path}: no column {column!r} for model input {s.name!r} ({s.role}); "
                             f"map it with --inputs {s.name}=COLUMN")
-        too_big = np.isfinite(table.columns[column]) & (np.abs(table.columns[column]) > FLT_MAX)
-        if too_big.any():
-            row = int(np.flatnonzero(too_big)[0])
-            raise UserError(f"{table.path}: line {int(table.lines[row])}, column {column!r}: "
-                            f"{float(table.columns[column][row]):.17g} cannot be REAL input {s.name!r}; "
-                            f"expected a REAL within +-{FLT_MAX:.7g}")
-        inputs[s.name] = table.columns[column].astype(np.float32)
+        inputs[s.name] = table.real_column(column, f"model input {s.name!r}")
     return inputs

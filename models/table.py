@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from thermoplc.binary32 import FLT_MAX
 from thermoplc.errors import UserError
 
 
@@ -31,6 +32,20 @@ class Table:
         if name not in self.columns:
             raise UserError(f"{self.path}: no column {name!r}; the header has {', '.join(self.columns)}")
         return self.columns[name]
+
+    def refuse_cell(self, column: str, bad: np.ndarray, what: str, expected: str) -> None:
+        """The error for the first row where `bad` holds: file, line, column, the value, what it was for."""
+        row = int(np.flatnonzero(bad)[0])
+        raise UserError(f"{self.path}: line {int(self.lines[row])}, column {column!r}: "
+                        f"{float(self.columns[column][row]):.17g} cannot be {what}; expected {expected}")
+
+    def real_column(self, name: str, what: str) -> np.ndarray:
+        """Column `name` as binary32 values; a finite cell beyond FLT_MAX (it would become Inf) is an error."""
+        values = self.column(name)
+        too_big = np.isfinite(values) & (np.abs(values) > FLT_MAX)
+        if too_big.any():
+            self.refuse_cell(name, too_big, f"{what} of type REAL", f"a REAL within +-{FLT_MAX:.7g}")
+        return values.astype(np.float32)
 
 
 class _Hashing(io.RawIOBase):

@@ -214,28 +214,21 @@ def _behaviour(old_path: str, new_path: str, old: s.Program, new: s.Program, tab
     old_outputs = {d.name.upper(): d for d in old.decls if d.section == "output"}
     new_outputs = [d for d in new.decls if d.section == "output"]
     times = table.columns.get(time_column, np.arange(table.rows, dtype=float))
-    diffs = []
-    for d in new_outputs:  # an output only one block has, or of another type, differs on every call
-        was = old_outputs.get(d.name.upper())
-        if was is None or was.type != d.type:
-            diffs.append(OutputDifference(d.name, math.inf, 0, float(times[0]) if table.rows else 0.0, max(table.rows, 1),
-                                          d.type.base == "REAL"))
-    for key, was in old_outputs.items():
-        if key not in {d.name.upper() for d in new_outputs}:
-            diffs.append(OutputDifference(was.name, math.inf, 0, float(times[0]) if table.rows else 0.0, max(table.rows, 1),
-                                          was.type.base == "REAL"))
-    common = [d for d in new_outputs if (was := old_outputs.get(d.name.upper())) is not None and was.type == d.type]
-    for d in common:
+    new_keys = {d.name.upper() for d in new_outputs}
+    one_sided = [d for d in new_outputs if d.name.upper() not in old_outputs or old_outputs[d.name.upper()].type != d.type]
+    one_sided += [d for key, d in old_outputs.items() if key not in new_keys]
+    # an output only one block has, or of another type, differs on every call
+    diffs = [OutputDifference(d.name, math.inf, 0, float(times[0]) if table.rows else 0.0, max(table.rows, 1),
+                              d.type.base == "REAL") for d in one_sided]
+    for d in (d for d in new_outputs if d not in one_sided):
         a, b = before[old_outputs[d.name.upper()].name], after[d.name]
+        differ = np.zeros(len(a), bool)
+        differ[differing_rows(d.type.base, a, b)] = True
         if d.type.base == "REAL":
-            x, y = np.asarray(a, np.float32), np.asarray(b, np.float32)
-            differ = x.view(np.uint32) != y.view(np.uint32)
             with np.errstate(invalid="ignore"):
-                gap = np.abs(y.astype(np.float64) - x.astype(np.float64))
+                gap = np.abs(np.asarray(b, np.float32).astype(np.float64) - np.asarray(a, np.float32).astype(np.float64))
             gap = np.where(differ, np.nan_to_num(gap, nan=np.inf), 0.0)
         else:
-            differ = np.zeros(len(a), bool)
-            differ[differing_rows(d.type.base, a, b)] = True
             gap = differ.astype(float)
         worst = int(np.argmax(gap)) if differ.any() else 0
         diffs.append(OutputDifference(d.name, float(gap[worst]) if d.type.base == "REAL" else float(differ.sum()),

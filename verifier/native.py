@@ -187,9 +187,9 @@ class _Translator:
         stop, _ = self.expr(st.stop)
         step = self.expr(st.step)[0] if st.step is not None else "1"
         lo, hi = INT_RANGES[d.type.base]
-        lines = [f"{pad}{{ int64_t i_ = {start}, e_ = {stop}, s_ = {step}, n_ = 0; if (s_ == 0) goto fail;",
+        lines = [f"{pad}{{ int64_t i_ = {start}, e_ = {stop}, s_ = {step}; if (s_ == 0) goto fail;",
                  f"{pad}  while (s_ > 0 ? i_ <= e_ : i_ >= e_) {{",
-                 f"{pad}    if (++n_ > {MAX_LOOP_ITERATIONS} || ++loops_ > {MAX_LOOP_ITERATIONS}) goto fail;",
+                 f"{pad}    if (++loops_ > {MAX_LOOP_ITERATIONS}) goto fail;  /* one budget per call, as the interpreter */",
                  f"{pad}    if (i_ < {lo}LL || i_ > {hi}LL) goto fail;",
                  f"{pad}    {c} = i_;" + (f" w_{c} = 1;" if d.section == "temp" else "")]
         lines += self.stmts(st.body, pad + "    ")

@@ -153,11 +153,10 @@ def block_columns(inputs: list, table: Table, overrides: dict | None, block: str
     overrides = known_overrides(overrides, [d.name for d in inputs], block)
     columns = {}
     for d in inputs:
-        column = (overrides or {}).get(d.name, d.name)
+        column = overrides.get(d.name, d.name)
         if column not in table.columns:
             raise UserError(f"{table.path}: no column {column!r} for input {d.name} of {block}; "
                             f"map it with --inputs {d.name}=COLUMN")
-        values = table.columns[column]
         columns[d.name] = cells_as(table, column, d.type.base, f"input {d.name} of {block}")
     return columns
 
@@ -171,20 +170,27 @@ def _first_mismatch(produced: dict, expected: dict, types: dict) -> tuple[int, s
     return first
 
 
+def unsafe_findings(findings, finite_inputs: bool = True) -> list[tuple[Finding, str]]:
+    """Run-time findings that must never pass, with their label: INT overflow always, NaN and Inf
+    when the inputs were finite."""
+    kinds = ("int-overflow", "nan", "inf") if finite_inputs else ("int-overflow",)
+    return [(f, label) for f in findings for kind, label in FINDING_LABELS
+            if kind in kinds and f.kind == kind and f.first_cycle is not None]
+
+
 def _unsafe(produced: dict, types: dict, findings, table: Table, block: str, inputs: dict) -> tuple[str, ...]:
     """What must fail verification even where the reference agrees: a NaN or Inf reaching an
     output, an integer overflow anywhere (IEC 61131-3: an error, not a wrap-around), and a NaN or
     Inf in the block's arithmetic on finite inputs (NaN inputs, a broken sensor, legitimately
     make the input guard compute NaN before it rejects the value)."""
     finite_inputs = all(np.isfinite(np.asarray(v, np.float64)).all() for v in inputs.values())
-    kinds = (("int-overflow", "INT overflow"),) + ((("nan", "NaN"), ("inf", "Inf")) if finite_inputs else ())
     problems = []
     for name, values in produced.items():
         if types[name] == "REAL" and (row := first_non_finite(values)) is not None:
             problems.append(f"output {name} is {np.float32(values[row])} at cycle {row} "
                             f"(line {int(table.lines[row])} of the data)")
     problems += [f"{block}:{f.pos[0]}:{f.pos[1]}: {label} ({f.detail}), {f.count} time(s) from cycle {f.first_cycle}"
-                 for f in findings for kind, label in kinds if f.kind == kind and f.first_cycle is not None]
+                 for f, label in unsafe_findings(findings, finite_inputs)]
     return tuple(problems)
 
 

@@ -16,11 +16,11 @@ import numpy as np
 from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import Limits, guards
 from thermoplc.verifier.engines import Replayer
+from thermoplc.verifier.replay import unsafe_findings
 from thermoplc.verifier.syntax import Program
 
 STRESS_ROWS = 6000
 STRESS_SEED = 61131
-UNSAFE_KINDS = {"nan": "NaN", "inf": "Inf", "int-overflow": "INT overflow"}
 
 
 @dataclass(frozen=True)
@@ -55,8 +55,8 @@ def stress(program: Program, model: Model, limits: Limits, source: str) -> Stres
     inputs = stress_inputs(model, limits)
     outputs = tuple(d.name for d in replayer.outputs)
     produced = replayer.replay(inputs, STRESS_ROWS, outputs)
-    problems = tuple(f"{source}:{f.pos[0]}:{f.pos[1]}: {UNSAFE_KINDS[f.kind]} ({f.detail}) from stress call {f.first_cycle}"
-                     for f in replayer.machine.findings.values() if f.kind in UNSAFE_KINDS and f.first_cycle is not None)
+    problems = tuple(f"{source}:{f.pos[0]}:{f.pos[1]}: {label} ({f.detail}) from stress call {f.first_cycle}"
+                     for f, label in unsafe_findings(replayer.machine.findings.values()))
     ranges = {d.name: (float(np.min(produced[d.name])), float(np.max(produced[d.name])))
               for d in replayer.outputs if d.type.base == "REAL"}
     return StressResult(STRESS_ROWS, problems, ranges)

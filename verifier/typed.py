@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from thermoplc.binary32 import FLT_MAX
 from thermoplc.errors import UserError
 from thermoplc.models.table import Table
 from thermoplc.verifier.interpreter import INT_RANGES
@@ -16,17 +15,12 @@ from thermoplc.verifier.interpreter import INT_RANGES
 
 def cells_as(table: Table, column: str, base: str, what: str) -> np.ndarray:
     """Column `column` of `table` as values of ST type `base` (REAL float32, BOOL bool, integers int64)."""
+    if base == "REAL":
+        return table.real_column(column, what)
     values = table.column(column)
 
     def refuse(bad: np.ndarray, expected: str) -> None:
-        row = int(np.flatnonzero(bad)[0])
-        raise UserError(f"{table.path}: line {int(table.lines[row])}, column {column!r}: {float(values[row]):.17g} cannot "
-                        f"be {what} of type {base}; expected {expected}")
-    if base == "REAL":
-        too_big = np.isfinite(values) & (np.abs(values) > FLT_MAX)
-        if too_big.any():
-            refuse(too_big, f"a REAL within +-{FLT_MAX:.7g}")
-        return values.astype(np.float32)
+        table.refuse_cell(column, bad, f"{what} of type {base}", expected)
     if base == "BOOL":
         not_bool = ~np.isin(values, (0.0, 1.0))
         if not_bool.any():
