@@ -253,11 +253,11 @@ def _choose(passed: list[tuple]) -> tuple:
     return min(passed, key=lambda p: p[1].bic)
 
 
-def _rivals(passed: list[tuple], best: tuple) -> list[tuple]:
+def _rivals(passed: list[tuple], best: tuple, bic_before: float) -> list[tuple]:
     """Other supported effects that the BIC barely separates from its choice (slow structure and
     lagged ambient look alike when the temperatures follow the air): naming either would be a coin
     toss, whichever the held-out part prefers. The same effect on another sensor is no rival."""
-    best_gain = abs(best[1].bic - best[6])
+    best_gain = abs(best[1].bic - bic_before)
     return [p for p in passed if p[5] != best[5] and p[1].bic - best[1].bic < AMBIGUOUS_BIC_SHARE * best_gain]
 
 
@@ -303,17 +303,17 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             trials.append(Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False,
                                 why))
             if ok:
-                passed.append((trial, s, res, sim_out, len(trials) - 1, name, current_score.bic))
+                passed.append((trial, s, res, sim_out, len(trials) - 1, name))
         if not passed:
             rounds.append(trials)
             break
         best = _choose(passed)
-        rivals = _rivals(passed, best)
+        rivals = _rivals(passed, best, current_score.bic)
         if rivals:
             ambiguous = tuple(_label(p, series) for p in (best, *rivals))
             rounds.append(trials)
             break
-        trial, s, res, sim_out, index, name = best[:6]
+        trial, s, res, sim_out, index, name = best
         trials[index] = Trial(**{**trials[index].__dict__, "accepted": True})
         rounds.append(trials)
         added.append({"name": name, "parameters": describe(trial, name, series), "evidence": {
