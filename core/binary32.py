@@ -12,6 +12,7 @@ import struct
 from fractions import Fraction
 
 FLT_MAX = 3.4028234663852886e38
+INT_RANGES = {"INT": (-32768, 32767), "DINT": (-(2 ** 31), 2 ** 31 - 1)}  # the integer types blocks use
 FLT_MIN_NORMAL = 1.1754943508222875e-38
 
 _cell = array.array("f", [0.0])

@@ -147,6 +147,29 @@ def _stress(model, limits, text: str, args):
     return result
 
 
+def _prove(model, block, limits, args):
+    """Refuse a block in which any input inside its guard ranges can give Inf, NaN, a division by 0,
+    a subnormal product or an integer overflow, on any call (static range proof)."""
+    from thermoplc.generator.lower import prove
+    proof = prove(model, block, limits)
+    if proof.problems:
+        more = f" (and {len(proof.problems) - 3} more)" if len(proof.problems) > 3 else ""
+        raise UserError(f"{args.model}: the range proof fails with every input inside its guard range: "
+                        + "; ".join(proof.problems[:3]) + more + "; nothing written")
+    return proof
+
+
+def format_proof(proof, block) -> str:
+    from thermoplc.generator.safety import model_values
+    show = lambda name: f"{name} {proof.ranges[name][0]:.6g}..{proof.ranges[name][1]:.6g}"
+    values = model_values(block)
+    return (f"range proof: for every input inside its guard range and on every call (state bounds hold after "
+            f"{proof.steps} joined calls), no Inf, NaN, division by 0, subnormal product or integer overflow; "
+            f"model values before the limits: " + ", ".join(show(values[v.name]).replace(values[v.name], v.name, 1)
+                                                              for v in block.outputs if v.name in values)
+            + "; outputs: " + ", ".join(show(v.name) for v in block.outputs if v.type == "REAL"))
+
+
 def cmd_generate(args) -> int:
     from thermoplc.generator.lower import lower, lower_model
     from thermoplc.generator.printer import GenerationError, render, render_plcopen
@@ -164,6 +187,7 @@ def cmd_generate(args) -> int:
         text = render_plcopen(block, __version__) if args.format == "plcopen" else render(block, args.dialect)
     except GenerationError as exc:
         raise UserError(f"{args.model}: cannot generate a block: {exc}") from None
+    proof = _prove(model, block, limits, args)
     stressed = _stress(model, limits, render(block, "iec") if args.format == "plcopen" else text, args)
     write_atomic(args.output, text)
     print(f"wrote {args.output}: {model.kind} block {model.block_name!r}, dialect {args.dialect}"
@@ -173,6 +197,7 @@ def cmd_generate(args) -> int:
     if args.stats:
         from thermoplc.generator.stats import block_stats, format_stats
         print(format_stats(block_stats(block), block_stats(lower_model(model))))
+        print(format_proof(proof, block))
         print(f"stress replay: {stressed.rows} calls with every input at the ends of its guard range, no NaN, Inf or "
               f"INT overflow; outputs seen: " + ", ".join(f"{name} {low:.6g}..{high:.6g}"
                                                          for name, (low, high) in stressed.output_ranges.items()))

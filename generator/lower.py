@@ -11,6 +11,7 @@ from thermoplc.generator.lower_kalman import lower_kalman
 from thermoplc.generator.lower_lumped import lower_lumped
 from thermoplc.generator.lower_regression import lower_dlag, lower_mlr, lower_piecewise
 from thermoplc.generator.printer import render
+from thermoplc.generator.ranges import RangeProof, prove_ranges
 from thermoplc.generator.safety import with_safety
 from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import Limits, axis_outputs, guards
@@ -39,3 +40,10 @@ def check_model_becomes_block(model: Model, path: str) -> None:
     except GenerationError as exc:
         raise UserError(f"{path}: not written: the model could not become a block: {exc}; rename the column "
                         f"or the block") from None
+
+
+def prove(model: Model, block: Block, limits: Limits) -> RangeProof:
+    """The static range proof of `block` with every input anywhere in its guard range."""
+    constants = limits.constants()
+    return prove_ranges(block, {g.name: (constants[g.low], constants[g.high]) for g in guards(model)},
+                        partition=("Init", "Ready"))

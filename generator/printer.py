@@ -7,6 +7,7 @@ from importlib import resources
 
 import jinja2
 
+from thermoplc.binary32 import INT_RANGES
 from thermoplc.identifiers import check_unique, identifier_problem
 from thermoplc.generator.ir import (
     GenerationError,
@@ -20,7 +21,7 @@ _PRECEDENCE = {"OR": 1, "XOR": 2, "AND": 3, "=": 4, "<>": 4, "<": 5, "<=": 5, ">
 _UNARY_PRECEDENCE = 9
 
 
-INT_MIN, INT_MAX = -32768, 32767
+INT_MIN, INT_MAX = INT_RANGES["INT"]
 
 
 @dataclass(frozen=True)
@@ -211,6 +212,11 @@ def render_plcopen(block: Block, version: str) -> str:
     return _environment().get_template("plcopen.xml.j2").render(
         name=block.name, version=version, title=safe_string(block.title),
         header=[safe_comment(line) for line in block.header], sections=sections, body=printer.body(block.regions))
+
+
+def statement_text(s: Stmt) -> str:
+    """One statement as a message names it: an assignment whole, an IF or FOR by its first line."""
+    return " ".join(_Printer(DIALECTS["iec"]).stmts((s,), 0)[0].split())
 
 
 def render(block: Block, dialect: str = "tia") -> str:

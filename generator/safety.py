@@ -41,7 +41,7 @@ def _guard_region(g: Guard) -> Region:
     reset = (Assign(fault, BoolConst(True)), Assign(settle, IntConst(0)))
     steady = BinOp("<=", Call("ABS", (BinOp("-", x, Ref(last)),)), Ref("c_JumpMax"))
     count = (Assign(settle, BinOp("+", Ref(settle), Ref("c_OneCall"))),
-             If(((BinOp(">=", Ref(settle), Ref("c_SettleCalls")), (Assign(fault, BoolConst(False)),)),)))
+             If(((BinOp(">=", Ref(settle), Ref("c_SettleCalls")), (Assign(fault, BoolConst(False)), Assign(settle, IntConst(0)))),)))
     decide = If((
         (Unary("NOT", Ref("Ready")), (Assign(fault, Unary("NOT", ok)), Assign(settle, IntConst(0)))),
         (Unary("NOT", ok), reset),
@@ -70,6 +70,14 @@ def _limit(name: str, model_value: str) -> tuple:
         If(((BinOp(">", y, Ref("c_OutMax")), (Assign(name, Ref("c_OutMax")), Assign("Clamped", BoolConst(True)))),
             (BinOp("<", y, Ref("c_OutMin")), (Assign(name, Ref("c_OutMin")), Assign("Clamped", BoolConst(True)))))),
     )
+
+
+_MODEL_VALUE = "model value of "
+
+
+def model_values(block: Block) -> dict:
+    """Limited output -> the temporary holding the model's value before the rate limit and clamp."""
+    return {v.comment[len(_MODEL_VALUE):]: v.name for v in block.temps if v.comment.startswith(_MODEL_VALUE)}
 
 
 def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], limits: Limits) -> Block:
@@ -117,7 +125,7 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
         if g.kind != "fused":
             statics.append(Var(f"Good_{g.index}", "REAL", f"{g.name}: last good value"))
     temps = (*core.temps, *(Var(f"InOk_{g.index}", "BOOL", f"{g.name} reads in range") for g in plan),
-             *(Var(model_names[v.name], "REAL", f"model value of {v.name}") for v in limited),
+             *(Var(model_names[v.name], "REAL", f"{_MODEL_VALUE}{v.name}") for v in limited),
              Var("Delta", "REAL", "wanted output change"))
     referenced = {e.name for e in walk_exprs(tuple(regions)) if isinstance(e, Ref)}
     constants = (*core.constants, *(Const(name, value, _CONSTANT_COMMENTS[name], "INT" if isinstance(value, int) else "REAL")

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from thermoplc.binary32 import INT_RANGES
 from thermoplc.errors import UserError
 from thermoplc.models.mlr import least_squares
 from thermoplc.models.modelfile import Coefficient, Model
@@ -17,7 +18,7 @@ def lagged(x: np.ndarray, step: int) -> np.ndarray:
     return x[np.maximum(np.arange(len(x)) - step, 0)]
 
 
-MAX_BUFFER_SAMPLES = 32767  # a PLC INT indexes the ring buffer
+MAX_BUFFER_SAMPLES = INT_RANGES["INT"][1]  # a PLC INT indexes the ring buffer
 
 
 def fit_dlag(temps: np.ndarray, target: np.ndarray, names: list[str], lags: int, lag_step_s: float, dt: float):

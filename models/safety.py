@@ -129,8 +129,8 @@ def _hold(x: np.ndarray, valid: np.ndarray, guard: Guard, ready_row: int, limits
             fault, count = True, 0
         elif fault:
             count += 1
-            if count >= limits.settle_calls:
-                fault = False
+            if count >= limits.settle_calls:  # released: the count restarts, so it never exceeds the limit
+                fault, count = False, 0
         if ok and guard.kind != "range":
             last = x[j]
         if not fault:

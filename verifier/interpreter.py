@@ -12,12 +12,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from thermoplc.binary32 import FLT_MAX, FLT_MIN_NORMAL
+from thermoplc.binary32 import FLT_MAX, FLT_MIN_NORMAL, INT_RANGES
 from thermoplc.errors import UserError
 from thermoplc.verifier import syntax as s
 
 MAX_LOOP_ITERATIONS = 1_000_000
-INT_RANGES = {"INT": (-32768, 32767), "DINT": (-(2 ** 31), 2 ** 31 - 1)}
 PORTABLE_REAL_FUNCTIONS = {"ABS", "SQRT", "MIN", "MAX"}
 NON_PORTABLE_FUNCTIONS = {"EXP": np.exp, "LN": np.log, "LOG": np.log10, "SIN": np.sin, "COS": np.cos,
                           "TAN": np.tan, "ASIN": np.arcsin, "ACOS": np.arccos, "ATAN": np.arctan}

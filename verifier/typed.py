@@ -10,7 +10,7 @@ import numpy as np
 
 from thermoplc.errors import UserError
 from thermoplc.models.table import Table
-from thermoplc.verifier.interpreter import INT_RANGES
+from thermoplc.binary32 import INT_RANGES
 
 
 def cells_as(table: Table, column: str, base: str, what: str) -> np.ndarray:
