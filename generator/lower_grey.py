@@ -46,25 +46,19 @@ def lower_gm0n(model: Model) -> Block:
 
 def lower_gm1n(model: Model) -> Block:
     temps = model.signals("temperature")
-    forced = sum_of([BinOp("*", const(f"g_{i}"), Ref(f"S_{i}")) for i in range(1, len(temps) + 1)])
-    damping = If(((Unary("NOT", Ref("Init")), (Assign("Damp", const("One")), Assign("Init", BoolConst(True)))),),
-                 orelse=(Assign("Damp", BinOp("*", Ref("Damp"), const("Decay"))),
-                         If(((BinOp("<", Ref("Damp"), const("Tiny")), (Assign("Damp", const("Zero")),)),))))
+    forced = sum_of([BinOp("*", const(f"b_{i}"), Ref(f"S_{i}")) for i in range(1, len(temps) + 1)])
+    step = If(((Unary("NOT", Ref("Init")), (Assign("X", const("X1")), Assign("Init", BoolConst(True)))),),
+              orelse=(Assign("X", BinOp("+", BinOp("*", const("Keep"), Ref("Xprev")), BinOp("*", const("In"), Ref("F")))),))
     return _grey_block(
         model, "Thermal error compensation: grey model GM(1,N) (paper 003)",
-        statics=[INIT,
-                 Var("Damp", "REAL", "exp(-a*(k-1)) by recurrence"),
-                 Var("Xprev", "REAL", "accumulated error estimate of the previous call")],
-        temps_=[Var("F", "REAL", "sum of (b_i/a)*S_i"), Var("X", "REAL", "accumulated error estimate")],
+        statics=[INIT, Var("Xprev", "REAL", "accumulated error estimate of the previous call")],
+        temps_=[Var("F", "REAL", "sum of b_i*S_i"), Var("X", "REAL", "accumulated error estimate")],
         constants=[Const("c_X1", model.coef("X1"), "error at the first sample of the fit, um"),
-                   Const("c_Decay", model.coef("Decay"), "exp(-a)"),
-                   Const("c_Tiny", model.coef("Tiny"), "flush exp(-a*k) to 0 below this (no subnormals)"),
-                   Const("c_One", 1.0, "exp(0)"), Const("c_Zero", 0.0, "flushed damping")]
-        + [Const(f"c_g_{i}", model.coef(f"g_{i}"), f"b/a for {s.name}") for i, s in enumerate(temps, start=1)],
+                   Const("c_Keep", model.coef("Keep"), "(1 - a/2)/(1 + a/2), grey difference equation"),
+                   Const("c_In", model.coef("In"), "1/(1 + a/2), grey difference equation")]
+        + [Const(f"c_b_{i}", model.coef(f"b_{i}"), f"GM(1,N) coefficient of {s.name}") for i, s in enumerate(temps, start=1)],
         regions=[_accumulate(model),
-                 Region("GM(1,N) time response: damping exp(-a*(k-1)) by recurrence", (damping,)),
-                 Region("GM(1,N): accumulated estimate and its first difference",
-                        (Assign("F", forced),
-                         Assign("X", BinOp("+", BinOp("*", BinOp("-", const("X1"), Ref("F")), Ref("Damp")), Ref("F"))),
+                 Region("GM(1,N) grey difference equation: x1(k) + a*(X1(k) + X1(k-1))/2 = sum b_i*S_i(k)",
+                        (Assign("F", forced), step,
                          Assign(model.target.name, BinOp("-", Ref("X"), Ref("Xprev"))),
                          Assign("Xprev", Ref("X"))))])

@@ -3,23 +3,20 @@
 With S_i(k) = x_i(1) + ... + x_i(k) the running sums of the temperatures:
 - GM(0,N): X1(k) = a + sum_i b_i*S_i(k); the error estimate is X1(k) - X1(k-1), and x1(1) (the
   error at the first sample of the fit) at the first call, where X1(0) is not defined.
-- GM(1,N): dX1/dt + a*X1 = sum_i b_i*S_i, with the time response
-  X1(k) = (x1(1) - F(k))*exp(-a*(k-1)) + F(k),  F(k) = sum_i (b_i/a)*S_i(k),
-  and the error estimate X1(k) - X1(k-1). exp(-a*(k-1)) comes from the recurrence
-  D(k) = D(k-1)*exp(-a), flushed to 0 below 1e-30 so it never turns subnormal (DESIGN §4.5).
+- GM(1,N): the grey difference equation the parameters are estimated from,
+  x1(k) + a*z1(k) = sum_i b_i*S_i(k) with the background value z1(k) = (X1(k) + X1(k-1))/2,
+  run forward: X1(k) = Keep*X1(k-1) + In*sum_i b_i*S_i(k), Keep = (1 - a/2)/(1 + a/2),
+  In = 1/(1 + a/2), and the error estimate x1(k) = X1(k) - X1(k-1); x1(1) at the first call.
+  (The whitened time response, which treats sum_i b_i*S_i as constant, does not fit even the
+  training data when the sums grow and a is small; this recursion needs no exp either.)
 GM(1,1), the paper's baseline, is GM(1,N) without temperatures (a time trend only).
 """
 from __future__ import annotations
-
-import math
 
 import numpy as np
 
 from thermoplc.errors import UserError
 from thermoplc.models.modelfile import Coefficient, Model
-
-FLUSH_BELOW = 1e-30
-
 
 def accumulate(x: np.ndarray) -> np.ndarray:
     return np.cumsum(x, axis=0)
@@ -44,14 +41,15 @@ def _gm1n_parameters(sums: np.ndarray, target: np.ndarray) -> np.ndarray:
 def fit_gm1n(temps: np.ndarray, target: np.ndarray, names: list[str]):
     params = _gm1n_parameters(accumulate(temps), target)
     a, b = float(params[0]), params[1:]
-    if not a > 0:
-        raise UserError(f"GM(1,N) fit gives development coefficient a = {a:.4g}; the model only decays for a > 0 "
-                        f"(use --model gm0n, or other sensors)")
-    coefficients = {"X1": Coefficient.of(target[0]), "Decay": Coefficient.of(math.exp(-a)),
-                    "Tiny": Coefficient.of(FLUSH_BELOW),
-                    **{f"g_{i}": Coefficient.of(bi / a) for i, bi in enumerate(b, start=1)}}
+    if not 0 < a < 2:
+        raise UserError(f"GM(1,N) fit gives development coefficient a = {a:.4g}; the grey difference equation only "
+                        f"settles for 0 < a < 2 (use --model gm0n, or other sensors)")
+    coefficients = {"X1": Coefficient.of(target[0]), "Keep": Coefficient.of((1 - a / 2) / (1 + a / 2)),
+                    "In": Coefficient.of(1 / (1 + a / 2)),
+                    **{f"b_{i}": Coefficient.of(bi) for i, bi in enumerate(b, start=1)}}
     settings = {"a": a, "b": [float(x) for x in b]}
-    return coefficients, settings, {"method": "least squares on 1-AGO sequences (paper 003, GM(1,N))"}
+    return coefficients, settings, {"method": "least squares on 1-AGO sequences, run as the grey difference "
+                                              "equation (paper 003, GM(1,N))"}
 
 
 def gm11_predict(target_train: np.ndarray, rows: int) -> np.ndarray:
@@ -86,23 +84,18 @@ def predict_gm1n(model: Model, inputs: dict, precision: str) -> dict:
     f = np.float32 if precision == "f32" else np.float64
     temps = [np.asarray(inputs[s.name], f) for s in model.signals("temperature")]
     c = lambda name: f(model.coef(name, precision))
-    g = [c(f"g_{i}") for i in range(1, len(temps) + 1)]
-    x1, decay, tiny = c("X1"), c("Decay"), c("Tiny")
+    b = [c(f"b_{i}") for i in range(1, len(temps) + 1)]
+    x1, keep, gain = c("X1"), c("Keep"), c("In")
     sums = [f(0.0)] * len(temps)
-    damping = f(1.0)
     previous = f(0.0)
     out = np.empty(len(temps[0]), f)
     for k in range(len(out)):
         for i, x in enumerate(temps):
             sums[i] = sums[i] + x[k]
-        if k > 0:
-            damping = damping * decay
-            if damping < tiny:
-                damping = f(0.0)
-        forced = g[0] * sums[0]
+        forced = b[0] * sums[0]
         for i in range(1, len(temps)):
-            forced = forced + g[i] * sums[i]
-        level = (x1 - forced) * damping + forced
+            forced = forced + b[i] * sums[i]
+        level = x1 if k == 0 else keep * previous + gain * forced
         out[k] = level - previous
         previous = level
     return {model.target.name: out}
