@@ -105,7 +105,7 @@ def cmd_fit(args) -> int:
                          args.recover_limit)
     request = FitRequest(args.model, args.target[0], args.temps, args.speed, args.ambient, args.train_until,
                          args.train_rows, args.name, options, args.bins, args.precision_um, args.lags, args.lag_step,
-                         args.target[1:], args.tool_length)
+                         args.target[1:], args.tool_length, args.unseen)
     model = fit(tables, request, args.time, _progress if sys.stderr.isatty() else None)
     if sys.stderr.isatty():
         print(file=sys.stderr)
@@ -381,6 +381,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--bins", type=int, default=8, help="bayes: intervals per temperature (default: %(default)s)")
     p.add_argument("--precision-um", type=float, default=1.0,
                    help="bayes: interval width of the error, the precision requirement (default: %(default)s)")
+    p.add_argument("--unseen", choices=("nearest", "frequent"), default="nearest",
+                   help="bayes: a temperature configuration never seen in training answers as the nearest seen one, "
+                        "or the error interval most frequent overall (default: %(default)s)")
     p.add_argument("--lags", type=int, default=3, help="dlag: lagged terms per sensor (default: %(default)s)")
     p.add_argument("--lag-step", type=float, default=600.0, metavar="SECONDS",
                    help="dlag: time between lags (default: %(default)s)")
@@ -399,7 +402,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="fcm-grey: paper 001's fuzzy clustering + grey relational grade; "
                         "grey-cluster: paper 002's grey clustering + correlation")
     p.add_argument("--candidates", type=_columns, help="temperature columns to choose from (default: all but time and target)")
-    p.add_argument("--threshold", type=float, default=0.85, help="grey-cluster: degree that joins two sensors")
+    p.add_argument("--threshold", type=float, default=0.9,
+                   help="grey-cluster: comprehensive degree that joins two sensors (paper 002: %(default)s)")
     p.add_argument("--max-groups", type=int, default=5, help="fcm-grey: at most this many groups (default: %(default)s)")
     p.add_argument("--train-rows", type=int, help="use only the first N rows (the training part)")
     p.add_argument("--time", default="time_s")

@@ -4,8 +4,11 @@ Each temperature rise dT_i = T_i - T_i[first call] falls into one of K_i equal-w
 (values outside the training range go to the outer intervals); the error into intervals of the
 width the precision requirement asks for. The conditional probability table comes from counts
 with a Dirichlet prior N' = 1: P(D = k | config j) = (1 + N_jk) / (K_D + N_j). The prediction is
-the midpoint of the most probable interval (eq. 7). Ties - every configuration never seen in
-training - go to the interval most frequent overall. The block holds no probabilities: it finds
+the midpoint of the most probable interval (eq. 7). A configuration never seen in training has
+no evidence: by default (`unseen="nearest"`) it answers what the nearest seen configuration
+answers (fewest interval steps over all sensors; ties to the one seen most often, then the lower
+index), with `unseen="frequent"` the interval most frequent overall (the network's own answer:
+all its intervals tie). The block holds no probabilities: it finds
 each interval by comparisons and reads the prediction from a table indexed by the configuration.
 """
 from __future__ import annotations
@@ -36,10 +39,30 @@ def configuration(indices: list[np.ndarray], counts: list[int]) -> np.ndarray:
     return j
 
 
-def fit_bayes(temps: np.ndarray, target: np.ndarray, names: list[str], bins: int, precision_um: float):
+UNSEEN_RULES = ("nearest", "frequent")
+
+
+def _nearest_seen(rows_per_configuration: np.ndarray, counts: list[int]) -> np.ndarray:
+    """For each configuration, the seen configuration the fewest interval steps away."""
+    grid = np.array(np.unravel_index(np.arange(len(rows_per_configuration)), tuple(reversed(counts)))).T[:, ::-1]
+    seen = np.nonzero(rows_per_configuration)[0]
+    steps = np.abs(grid[:, None, :] - grid[None, seen, :]).sum(axis=2)
+    order = np.lexsort((seen[None, :].repeat(len(grid), 0), -rows_per_configuration[seen][None, :].repeat(len(grid), 0),
+                        steps), axis=1)
+    return seen[order[:, 0]]
+
+
+def fit_bayes(temps: np.ndarray, target: np.ndarray, names: list[str], bins: int, precision_um: float,
+              unseen: str = "nearest"):
+    """The network of one recording: the rises are taken from its first row, as the block does."""
+    return fit_rises(temps - temps[0], target, bins, precision_um, unseen)
+
+
+def fit_rises(rises: np.ndarray, target: np.ndarray, bins: int, precision_um: float, unseen: str = "nearest"):
+    """The network on temperature rises (rows, sensors), from any number of runs (paper 004 fits one
+    per time instant over repeated runs)."""
     if bins < 1 or precision_um <= 0:
         raise UserError("--bins must be at least 1 and --precision-um positive")
-    rises = temps - temps[0]
     edges, counts = [], []
     for i in range(rises.shape[1]):
         low, high = float(rises[:, i].min()), float(rises[:, i].max())
@@ -59,20 +82,31 @@ def fit_bayes(temps: np.ndarray, target: np.ndarray, names: list[str], bins: int
     marginal = np.bincount(target_class, minlength=classes)
     posterior = (1.0 + table) / (classes + table.sum(axis=1, keepdims=True))
     best = np.lexsort((-marginal[None, :].repeat(configurations, 0), -posterior), axis=1)[:, 0]
+    rows_per_configuration = table.sum(axis=1)
+    if unseen == "nearest":
+        best = best[_nearest_seen(rows_per_configuration, counts)]
     coefficients = {}
     for i, e in enumerate(edges, start=1):
         coefficients.update({f"edge_{i}_{m}": Coefficient.of(v) for m, v in enumerate(e)})
     coefficients.update({f"pred_{c}": Coefficient.of(low + (best[c] + 0.5) * precision_um)
                          for c in range(configurations)})
-    seen = int(np.count_nonzero(table.sum(axis=1)))
+    seen = int(np.count_nonzero(rows_per_configuration))
     settings = {"intervals": counts, "error_low_um": low, "error_width_um": precision_um, "error_classes": classes,
-                "configurations": configurations, "configurations_seen": seen}
+                "configurations": configurations, "configurations_seen": seen, "unseen": unseen}
     return coefficients, settings, {"method": "Dirichlet N'=1 counts, most probable interval (paper 004 eq. 5-7)"}
 
 
 def edges_of(model: Model, sensor: int, precision: str = "f32") -> list:
     count = model.settings["intervals"][sensor - 1] - 1
     return [model.coef(f"edge_{sensor}_{m}", precision) for m in range(count)]
+
+
+def predict_rises(coefficients: dict, settings: dict, rises: np.ndarray) -> np.ndarray:
+    """float64 predictions of a fitted network (fit_rises' output) for rises (rows, sensors)."""
+    counts = settings["intervals"]
+    edges = [[coefficients[f"edge_{i}_{m}"].f64 for m in range(counts[i - 1] - 1)] for i in range(1, len(counts) + 1)]
+    j = configuration([interval(rises[:, i], e) for i, e in enumerate(edges)], list(counts))
+    return np.array([coefficients[f"pred_{c}"].f64 for c in range(settings["configurations"])])[j]
 
 
 def predict(model: Model, inputs: dict, precision: str) -> dict:

@@ -8,10 +8,11 @@ with |act(x) - tanh(x)| <= 9.6e-5 for every x (measured on a 1e-5 grid over [0, 
 + - * / MIN MAX, so the block is portable (DESIGN §4.4). Training uses this same function, so the
 fitted network is the one the block computes.
 
-A genetic algorithm (paper 000's operators) first chooses the hidden-layer size (fitness: held-out
-error after a short training), then the initial weights and thresholds (fitness: error of the
-untrained network, paper eq. 17); back-propagation (batch gradient descent with momentum) trains
-from there. Paper 002's compensation equations with the tool length L (small tilt angles, axial
+A genetic algorithm with paper 002's operators (roulette, single-point crossover, one mutated
+position) first chooses the hidden-layer size (fitness eq. 16: 1/sum|y - Q| on held-back rows
+after a short training), then the initial weights and thresholds (fitness eq. 17: 1/sum(y - Q)^2
+of the untrained network); back-propagation (batch gradient descent with momentum) trains from
+there. Paper 002's compensation equations with the tool length L (small tilt angles, axial
 elongation far below L): Dx = L*yaw, Dy = L*pitch, Dz = elongation (um with L in mm, angles in urad).
 """
 from __future__ import annotations
@@ -29,6 +30,7 @@ PADE_Q = (1.0, 62370 / 135135, 3150 / 135135, 28 / 135135)
 CLIP = 4.97
 ACTIVATION_ERROR_BOUND = 9.6e-5
 HIDDEN_RANGE = (2, 12)
+PAPER_002_MUTATION = 0.1  # share of individuals mutated at one position (paper 002 gives no value)
 COMPENSATION = ("Dx_um", "Dy_um", "Dz_um")
 
 
@@ -132,12 +134,13 @@ def fit_bpnn(temps: np.ndarray, targets: np.ndarray, names: list[str], seed: int
             if n not in scores:
                 trial = _random_network(np.random.default_rng(seed + n), m, n, q)
                 trained, _, _ = train(trial, x[fit_rows], y[fit_rows], 150, 0.0)
-                scores[n] = float(np.mean((forward(trained, x[check_rows]) - y[check_rows]) ** 2))
+                scores[n] = float(np.sum(np.abs(forward(trained, x[check_rows]) - y[check_rows])))  # eq. 16
             out.append(scores[n])
         return np.array(out)
 
     hidden_ga = genetic_minimize(hidden_fitness, np.array([HIDDEN_RANGE[0]]), np.array([HIDDEN_RANGE[1] + 0.999]),
-                                 rng, population=max(6, population // 4), generations=max(3, generations // 4))
+                                 rng, population=max(6, population // 4), generations=max(3, generations // 4),
+                                 p_mutation=PAPER_002_MUTATION, operators="paper002")
     hidden = int(hidden_ga.x[0])
     length = hidden * m + hidden + q * hidden + q
     xs, ys = x[fit_rows], y[fit_rows]
@@ -148,7 +151,8 @@ def fit_bpnn(temps: np.ndarray, targets: np.ndarray, names: list[str], seed: int
             sse[p] = np.sum((forward(_unpack(genes, m, hidden, q), xs) - ys) ** 2)
         return sse
 
-    weight_ga = genetic_minimize(weight_fitness, -np.ones(length), np.ones(length), rng, population, generations)
+    weight_ga = genetic_minimize(weight_fitness, -np.ones(length), np.ones(length), rng, population, generations,
+                                 p_mutation=PAPER_002_MUTATION, operators="paper002")
     net, epochs_ga, mse_ga = train(_unpack(weight_ga.x, m, hidden, q), xs, ys, epochs, goal_mse)
     _, epochs_plain, mse_plain = train(_random_network(np.random.default_rng(seed), m, hidden, q), xs, ys,
                                        epochs, goal_mse)
@@ -175,7 +179,7 @@ def fit_bpnn(temps: np.ndarray, targets: np.ndarray, names: list[str], seed: int
     coefficients["act_nclip"] = Coefficient.of(-CLIP)
     settings = {"inputs": m, "hidden": hidden, "outputs": q, "activation": "Pade(7,6) tanh on clip(x, +-4.97)",
                 "activation_error_bound": ACTIVATION_ERROR_BOUND}
-    log = {"method": "GA (hidden size, initial weights) + back-propagation with momentum (paper 002)",
+    log = {"method": "GA with paper 002's operators (hidden size, initial weights) + back-propagation with momentum",
            "hidden_size_scores": {str(k): v for k, v in sorted(scores.items())},
            "weight_ga_history": list(weight_ga.history), "goal_mse": goal_mse, "epoch_limit": epochs,
            "ga_bp_epochs": epochs_ga, "ga_bp_mse": mse_ga, "plain_bp_epochs": epochs_plain, "plain_bp_mse": mse_plain}

@@ -34,6 +34,7 @@ class FitRequest:
     lag_step_s: float = 600.0  # dlag: time between lags
     extra_targets: tuple[str, ...] = ()  # bpnn: further outputs (elongation, yaw, pitch order for compensation)
     tool_length: str | None = None  # bpnn: tool length column, mm (enables the X/Y/Z compensation outputs)
+    unseen: str = "nearest"  # bayes: what a configuration never seen in training answers
 
 
 def block_identifier(column: str, what: str) -> str:
@@ -136,7 +137,7 @@ FITTERS = {"bpnn": _fit_bpnn, "lumped": _fit_lumped, "mlr": _fit_mlr, "kalman": 
            "gm0n": lambda parts, request, names, dt, progress: grey.fit_gm0n(parts[0].temps, parts[0].target, names),
            "gm1n": lambda parts, request, names, dt, progress: grey.fit_gm1n(parts[0].temps, parts[0].target, names),
            "bayes": lambda parts, request, names, dt, progress: bayes.fit_bayes(
-               parts[0].temps, parts[0].target, names, request.bins, request.precision_um),
+               parts[0].temps, parts[0].target, names, request.bins, request.precision_um, request.unseen),
            "dlag": lambda parts, request, names, dt, progress: dlag.fit_dlag(
                parts[0].temps, parts[0].target, names, request.lags, request.lag_step_s, dt)}
 

@@ -1,9 +1,12 @@
-"""The floating-point genetic algorithm of paper 000 §3.4.
+"""The floating-point genetic algorithms of paper 000 §3.4 and paper 002.
 
-Roulette selection (smaller objective, larger share), arithmetic crossover (eq. 14) with
-probability p_c, Gaussian mutation (eq. 15) with probability p_m per gene, re-drawn when it
-leaves the bounds. The best individual so far is carried into each generation (elitism), so the
-result never gets worse from one generation to the next.
+Both: roulette selection (fitness 1/objective: smaller objective, larger share), pairs crossed
+with probability p_c. Paper 000 (`operators="paper000"`, the Kalman fit): arithmetic crossover
+(eq. 14), Gaussian mutation (eq. 15) with probability p_m per gene, re-drawn when it leaves the
+bounds. Paper 002 (`operators="paper002"`, GA-BP): single-point crossover (the codes after a
+random cut are exchanged), and each individual mutates with probability p_m at one random
+position, re-drawn uniformly within its bounds. The best individual so far is carried into each
+generation (elitism), so the result never gets worse from one generation to the next.
 """
 from __future__ import annotations
 
@@ -34,8 +37,10 @@ def genetic_minimize(
     p_mutation: float = 0.02,
     mutation_scale: float = 0.1,
     progress: Callable[[int, float], None] | None = None,
+    operators: str = "paper000",
 ) -> GaResult:
     """Minimise `objective`, which maps a (population, genes) array to (population,) costs."""
+    crossover, mutate = OPERATORS[operators]
     lower = np.asarray(lower, float)
     upper = np.asarray(upper, float)
     span = upper - lower
@@ -49,11 +54,8 @@ def genetic_minimize(
         children = parents.copy()
         for i in range(0, population - 1, 2):
             if rng.random() < p_crossover:
-                sigma = rng.random()
-                a, b = parents[i], parents[i + 1]
-                children[i] = sigma * a + (1 - sigma) * b
-                children[i + 1] = (1 - sigma) * a + sigma * b
-        _mutate(children, lower, upper, span * mutation_scale, p_mutation, rng)
+                children[i], children[i + 1] = crossover(parents[i], parents[i + 1], rng)
+        mutate(children, lower, upper, span * mutation_scale, p_mutation, rng)
         cost = _evaluate(objective, children)
         worst = int(np.argmax(cost))
         children[worst], cost[worst] = best_x, best_cost
@@ -81,10 +83,32 @@ def _roulette(cost: np.ndarray, rng: np.random.Generator, count: int) -> np.ndar
     return rng.choice(len(cost), size=count, p=fitness / fitness.sum())
 
 
-def _mutate(pop, lower, upper, scale, p_mutation, rng) -> None:
+def _arithmetic_crossover(a: np.ndarray, b: np.ndarray, rng: np.random.Generator):
+    sigma = rng.random()
+    return sigma * a + (1 - sigma) * b, (1 - sigma) * a + sigma * b
+
+
+def _single_point_crossover(a: np.ndarray, b: np.ndarray, rng: np.random.Generator):
+    if len(a) < 2:
+        return a.copy(), b.copy()
+    cut = int(rng.integers(1, len(a)))
+    return np.concatenate([a[:cut], b[cut:]]), np.concatenate([b[:cut], a[cut:]])
+
+
+def _one_position_mutation(pop, lower, upper, scale, p_mutation, rng) -> None:
+    for i in np.nonzero(rng.random(len(pop)) < p_mutation)[0]:
+        k = int(rng.integers(0, pop.shape[1]))
+        pop[i, k] = lower[k] + rng.random() * (upper[k] - lower[k])
+
+
+def _gaussian_mutation(pop, lower, upper, scale, p_mutation, rng) -> None:
     for i, k in zip(*np.nonzero(rng.random(pop.shape) < p_mutation)):
         for _ in range(REDRAW_LIMIT):
             candidate = pop[i, k] + scale[k] * rng.standard_normal()
             if lower[k] <= candidate <= upper[k]:
                 pop[i, k] = candidate
                 break
+
+
+OPERATORS = {"paper000": (_arithmetic_crossover, _gaussian_mutation),
+             "paper002": (_single_point_crossover, _one_position_mutation)}

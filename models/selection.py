@@ -102,7 +102,7 @@ def grey_comprehensive_degree(a: np.ndarray, b: np.ndarray) -> float:
     return 0.5 * absolute(a, b) + 0.5 * absolute(scale(a), scale(b))
 
 
-def select_sensors(columns: dict, target: np.ndarray, method: str, threshold: float = 0.85,
+def select_sensors(columns: dict, target: np.ndarray, method: str, threshold: float = 0.9,
                    max_groups: int = 5) -> Selection:
     names = list(columns)
     if len(names) < 2:
