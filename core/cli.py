@@ -105,7 +105,7 @@ def cmd_fit(args) -> int:
                          args.recover_limit)
     request = FitRequest(args.model, args.target[0], args.temps, args.speed, args.ambient, args.train_until,
                          args.train_rows, args.name, options, args.bins, args.precision_um, args.lags, args.lag_step,
-                         args.target[1:], args.tool_length, args.unseen)
+                         args.target[1:], args.tool_length, args.unseen, args.time_bins)
     model = fit(tables, request, args.time, _progress if sys.stderr.isatty() else None)
     if sys.stderr.isatty():
         print(file=sys.stderr)
@@ -384,6 +384,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--unseen", choices=("nearest", "frequent"), default="nearest",
                    help="bayes: a temperature configuration never seen in training answers as the nearest seen one, "
                         "or the error interval most frequent overall (default: %(default)s)")
+    p.add_argument("--time-bins", type=int, default=0, metavar="N",
+                   help="bayes: the time since the first call is a parent too, in N intervals (paper 004's repeated "
+                        "runs: give one --data file per run; default: %(default)s, no time parent)")
     p.add_argument("--lags", type=int, default=3, help="dlag: lagged terms per sensor (default: %(default)s)")
     p.add_argument("--lag-step", type=float, default=600.0, metavar="SECONDS",
                    help="dlag: time between lags (default: %(default)s)")

@@ -1,6 +1,7 @@
 """The Bayesian-network block of paper 004: interval search and a table of expected errors."""
 from __future__ import annotations
 
+from thermoplc.binary32 import round_f32
 from thermoplc.generator.ir import Assign, BinOp, Block, Const, If, Index, IntConst, Ref, Region, Var
 from thermoplc.models.bayes import edges_of
 from thermoplc.models.modelfile import Model
@@ -12,23 +13,31 @@ from thermoplc.generator.lower_shared import (
 def lower_bayes(model: Model) -> Block:
     temps = model.signals("temperature")
     counts = model.settings["intervals"]
-    regions, statics, constants = [], [], []
-    for i, s in enumerate(temps, start=1):
+    timed = bool(model.settings.get("time_parent"))
+    clock, regions, statics, constants = [], [], [], []
+    # each parent: its label, the value its interval is found for, the unit of its edges
+    parents = [(f"the rise of {s.name}", BinOp("-", Ref(s.name), Ref(f"T0_{i}")), "K") for i, s in enumerate(temps, start=1)]
+    if timed:
+        parents.append(("the time since the first call", Ref("Elapsed"), "s"))
+        clock.append(Region("Time since the first call (a parent of the network), before Init is set", (
+            If(((Ref("Init"), (Assign("Elapsed", BinOp("+", Ref("Elapsed"), Ref("c_Dt"))),)),)),)))
+        statics.append(Var("Elapsed", "REAL", "seconds since the first call"))
+        constants.append(Const("c_Dt", round_f32(model.sample_period_s), "seconds per call"))
+    for i, (label, value, unit) in enumerate(parents, start=1):
         edges = tuple(edges_of(model, i))
         if edges:
-            statics.append(Var(f"tab_Edge_{i}", "REAL", f"interval edges of the rise of {s.name}, K (table, read only)",
+            statics.append(Var(f"tab_Edge_{i}", "REAL", f"interval edges of {label}, {unit} (table, read only)",
                                length=len(edges), initial=edges))
             chain = tuple((BinOp("<", Ref("Rise"), Index(f"tab_Edge_{i}", IntConst(m))), (Assign(f"J_{i}", IntConst(m)),))
                           for m in range(len(edges)))
             choose = If(chain, orelse=(Assign(f"J_{i}", IntConst(len(edges))),))
         else:
             choose = Assign(f"J_{i}", IntConst(0))
-        regions.append(Region(f"Interval of the rise of {s.name} ({counts[i - 1]} intervals)", (
-            Assign("Rise", BinOp("-", Ref(s.name), Ref(f"T0_{i}"))), choose)))
-        if i < len(temps):  # the last sensor's count does not enter the configuration index
-            constants.append(Const(f"c_K_{i}", counts[i - 1], f"intervals of {s.name}", type="INT"))
-    config = Ref(f"J_{len(temps)}")
-    for i in range(len(temps) - 1, 0, -1):
+        regions.append(Region(f"Interval of {label} ({counts[i - 1]} intervals)", (Assign("Rise", value), choose)))
+        if i < len(parents):  # the last parent's count does not enter the configuration index
+            constants.append(Const(f"c_K_{i}", counts[i - 1], f"intervals of {label}", type="INT"))
+    config = Ref(f"J_{len(parents)}")
+    for i in range(len(parents) - 1, 0, -1):
         config = BinOp("+", Ref(f"J_{i}"), BinOp("*", const(f"K_{i}"), config))
     table = tuple(model.coef(f"pred_{c}") for c in range(model.settings["configurations"]))
     return Block(
@@ -40,11 +49,12 @@ def lower_bayes(model: Model) -> Block:
         statics=(INIT, *reference_vars(temps), *statics,
                  Var("tab_Pred", "REAL", "midpoint of the most probable error interval per configuration, um "
                      "(table, read only)", length=len(table), initial=table)),
-        temps=(Var("Rise", "REAL", "temperature rise since the first call"),
-               *(Var(f"J_{i}", "INT", f"interval of {s.name}") for i, s in enumerate(temps, start=1)),
+        temps=(Var("Rise", "REAL", "value of the parent whose interval is sought"),
+               *(Var(f"J_{i}", "INT", f"interval of {label}") for i, (label, _, _) in enumerate(parents, start=1)),
                Var("Config", "INT", "configuration of all intervals")),
         constants=tuple(constants),
-        regions=(first_call("First call: latch reference temperatures", references(temps)),
+        regions=(*clock,
+                 first_call("First call: latch reference temperatures", references(temps)),
                  *regions,
                  Region("Look up the prediction of the configuration, eq. 7",
                         (Assign("Config", config), Assign(model.target.name, Index("tab_Pred", Ref("Config")))))),

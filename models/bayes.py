@@ -43,31 +43,54 @@ UNSEEN_RULES = ("nearest", "frequent")
 
 
 def _nearest_seen(rows_per_configuration: np.ndarray, counts: list[int]) -> np.ndarray:
-    """For each configuration, the seen configuration the fewest interval steps away."""
+    """For each configuration, the seen configuration the fewest interval steps away (ties: the one
+    seen most often, then the lower index); in chunks, so 4096 x 4096 stays a few MB."""
     grid = np.array(np.unravel_index(np.arange(len(rows_per_configuration)), tuple(reversed(counts)))).T[:, ::-1]
     seen = np.nonzero(rows_per_configuration)[0]
-    steps = np.abs(grid[:, None, :] - grid[None, seen, :]).sum(axis=2)
-    order = np.lexsort((seen[None, :].repeat(len(grid), 0), -rows_per_configuration[seen][None, :].repeat(len(grid), 0),
-                        steps), axis=1)
-    return seen[order[:, 0]]
+    most = int(rows_per_configuration.max())
+    tie = (most - rows_per_configuration[seen]).astype(np.int64)
+    nearest = np.empty(len(grid), np.int64)
+    for start in range(0, len(grid), 256):
+        steps = np.abs(grid[start:start + 256, None, :] - grid[None, seen, :]).sum(axis=2).astype(np.int64)
+        nearest[start:start + 256] = seen[np.argmin(steps * (most + 1) + tie[None, :], axis=1)]
+    return nearest
 
 
-def fit_bayes(temps: np.ndarray, target: np.ndarray, names: list[str], bins: int, precision_um: float,
+def elapsed_s(rows: int, dt: float, f=np.float64) -> np.ndarray:
+    """Seconds since the first call as the block counts them: 0, then + dt per call, in `f`."""
+    steps = np.full(rows, f(dt), f)
+    steps[0] = f(0.0)
+    return np.add.accumulate(steps, dtype=f)
+
+
+def fit_bayes(runs: list[tuple[np.ndarray, np.ndarray]], bins: int, precision_um: float, unseen: str = "nearest",
+              time_bins: int = 0, dt: float = 1.0):
+    """The network of one or more runs (temps, target), each run's rises taken from its first row as the
+    block does. With `time_bins`, the time since the first call is a parent too (paper 004 fits one
+    network per time instant over repeated runs; this is the form a block that runs continuously can
+    compute)."""
+    rises = [temps - temps[0] for temps, _ in runs]
+    if time_bins:
+        rises = [np.column_stack([r, elapsed_s(len(r), dt)]) for r in rises]
+    bins_per_parent = [bins] * runs[0][0].shape[1] + ([time_bins] if time_bins else [])
+    coefficients, settings, log = fit_rises(np.vstack(rises), np.concatenate([t for _, t in runs]), bins_per_parent,
+                                            precision_um, unseen)
+    settings["time_parent"] = bool(time_bins)
+    return coefficients, settings, log
+
+
+def fit_rises(rises: np.ndarray, target: np.ndarray, bins: int | list[int], precision_um: float,
               unseen: str = "nearest"):
-    """The network of one recording: the rises are taken from its first row, as the block does."""
-    return fit_rises(temps - temps[0], target, bins, precision_um, unseen)
-
-
-def fit_rises(rises: np.ndarray, target: np.ndarray, bins: int, precision_um: float, unseen: str = "nearest"):
-    """The network on temperature rises (rows, sensors), from any number of runs (paper 004 fits one
-    per time instant over repeated runs)."""
-    if bins < 1 or precision_um <= 0:
-        raise UserError("--bins must be at least 1 and --precision-um positive")
+    """The network on the parents' values (rows, parents): temperature rises, and the time since the
+    first call when it is a parent; from any number of runs (paper 004 fits one per time instant)."""
+    bins = [bins] * rises.shape[1] if isinstance(bins, int) else bins
+    if min(bins) < 1 or precision_um <= 0:
+        raise UserError("--bins and --time-bins must be at least 1 and --precision-um positive")
     edges, counts = [], []
     for i in range(rises.shape[1]):
         low, high = float(rises[:, i].min()), float(rises[:, i].max())
-        width = (high - low) / bins if high > low else 1.0
-        edges.append([low + m * width for m in range(1, bins)] if high > low else [])
+        width = (high - low) / bins[i] if high > low else 1.0
+        edges.append([low + m * width for m in range(1, bins[i])] if high > low else [])
         counts.append(len(edges[-1]) + 1)
     configurations = math.prod(counts)
     if configurations > MAX_CONFIGURATIONS:
@@ -113,6 +136,8 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     f = np.float32 if precision == "f32" else np.float64
     temps = model.signals("temperature")
     rises = [np.asarray(inputs[s.name], f) - np.asarray(inputs[s.name], f)[0] for s in temps]
+    if model.settings.get("time_parent"):
+        rises.append(elapsed_s(len(rises[0]), model.sample_period_s, f))
     indices = [interval(r, [f(e) for e in edges_of(model, i, precision)]) for i, r in enumerate(rises, start=1)]
     j = configuration(indices, list(model.settings["intervals"]))
     table = np.array([model.coef(f"pred_{c}", precision) for c in range(model.settings["configurations"])], f)

@@ -35,6 +35,7 @@ class FitRequest:
     extra_targets: tuple[str, ...] = ()  # bpnn: further outputs (elongation, yaw, pitch order for compensation)
     tool_length: str | None = None  # bpnn: tool length column, mm (enables the X/Y/Z compensation outputs)
     unseen: str = "nearest"  # bayes: what a configuration never seen in training answers
+    time_bins: int = 0  # bayes: intervals of the time since the first call, a parent when > 0 (repeated runs)
 
 
 def block_identifier(column: str, what: str) -> str:
@@ -137,7 +138,8 @@ FITTERS = {"bpnn": _fit_bpnn, "lumped": _fit_lumped, "mlr": _fit_mlr, "kalman": 
            "gm0n": lambda parts, request, names, dt, progress: grey.fit_gm0n(parts[0].temps, parts[0].target, names),
            "gm1n": lambda parts, request, names, dt, progress: grey.fit_gm1n(parts[0].temps, parts[0].target, names),
            "bayes": lambda parts, request, names, dt, progress: bayes.fit_bayes(
-               parts[0].temps, parts[0].target, names, request.bins, request.precision_um, request.unseen),
+               [(p.temps, p.target) for p in parts], request.bins, request.precision_um, request.unseen,
+               request.time_bins, dt),
            "dlag": lambda parts, request, names, dt, progress: dlag.fit_dlag(
                parts[0].temps, parts[0].target, names, request.lags, request.lag_step_s, dt)}
 
@@ -172,8 +174,12 @@ def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
 def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
         progress: Callable[[str], None] | None = None) -> Model:
     """Fit `request.kind` on the training part of each table (one table, or one per batch for piecewise)."""
-    if request.kind != "piecewise" and len(tables) != 1:
-        raise UserError(f"--model {request.kind} fits one --data file; only piecewise takes one file per batch")
+    repeated = request.kind == "bayes" and request.time_bins > 0
+    if request.kind != "piecewise" and not repeated and len(tables) != 1:
+        raise UserError(f"--model {request.kind} fits one --data file; only piecewise takes one file per batch, and "
+                        f"bayes with --time-bins one file per repeated run")
+    if request.time_bins and request.kind != "bayes":
+        raise UserError("--time-bins is for --model bayes only")
     signals = _signals(tables, request)
     target = Signal(block_identifier(request.target, "target"), request.target, "target", "um")
     duplicate = check_unique([s.name for s in signals] + [target.name, request.block_name])

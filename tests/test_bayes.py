@@ -31,3 +31,40 @@ def test_every_table_entry_of_the_bayes_block_is_checked(twin_table, tmp_path):
         entries += 1
     expected = sum(k - 1 for k in model.settings["intervals"]) + model.settings["configurations"]
     assert entries == expected
+
+
+def test_an_unseen_configuration_answers_as_the_nearest_seen_one():
+    from thermoplc.models.bayes import fit_rises, predict_rises
+    rises = np.array([[0.0, 0.0], [0.1, 0.0], [3.9, 0.0], [4.0, 4.0]])
+    target = np.array([1.0, 1.0, 9.0, 20.0])
+    nearest, settings, _ = fit_rises(rises, target, 4, 1.0, unseen="nearest")
+    frequent, _, _ = fit_rises(rises, target, 4, 1.0, unseen="frequent")
+    probe = np.array([[3.5, 1.5]])  # never seen: one interval step from (3.9, 0) and further from the others
+    assert predict_rises(nearest, settings, probe)[0] == 9.5
+    assert predict_rises(frequent, settings, probe)[0] == 1.5  # the interval most frequent overall
+
+
+def test_time_parent_over_repeated_runs_is_bit_exact_and_needs_the_option(tmp_path):
+    import subprocess
+    import sys
+    from thermoplc.models.table import write_table
+    from thermoplc.machines.cascade import simulate
+    rng = np.random.default_rng(4)
+    runs = []
+    for r in range(8):
+        path = tmp_path / f"run{r}.csv"
+        path.write_text(write_table(simulate(2.5, seed=700 + r, dt=60.0, constant_rpm=float(rng.uniform(2600, 3400)),
+                                             ambient_start=float(rng.uniform(18.0, 24.0)))))
+        runs.append(path.name)
+    cli = lambda *a: subprocess.run([sys.executable, "-m", "thermoplc.cli", *a], cwd=tmp_path, capture_output=True,
+                                    text=True, stdin=subprocess.DEVNULL)
+    data = [x for name in runs[:7] for x in ("--data", name)]
+    fitted = cli("fit", *data, "--model", "bayes", "--target", "E_z_um", "--temps", "T_env,T_bearing,T_motor",
+                 "--time-bins", "4", "--train-until", "99999", "-o", "bt.json")
+    assert fitted.returncode == 0, fitted.stderr
+    assert cli("generate", "bt.json", "-o", "bt.st", "--dialect", "iec").returncode == 0
+    verified = cli("verify", "bt.st", "--model", "bt.json", "--data", runs[7])
+    assert verified.returncode == 0 and "bit-exact" in verified.stdout, verified.stdout + verified.stderr
+    refused = cli("fit", *data, "--model", "bayes", "--target", "E_z_um", "--temps", "T_env", "--train-until", "99999",
+                  "-o", "no.json")
+    assert refused.returncode == 2 and "--time-bins" in refused.stderr
