@@ -72,3 +72,31 @@ def test_gm0n_recovers_its_equation():
     coefficients, _, _ = grey.fit_gm0n(temps, target, ["a", "b"])
     assert coefficients["b_1"].f64 == pytest.approx(b[0], rel=1e-6)
     assert coefficients["b_2"].f64 == pytest.approx(b[1], rel=1e-6)
+
+
+def test_piecewise_recovers_each_nodes_equation():
+    from thermoplc.models.piecewise import fit_piecewise
+    truth = {10.0: (0.5, [1.0, -0.4]), 20.0: (1.5, [2.0, 0.3]), 30.0: (-1.0, [0.7, 0.9])}
+    batches = []
+    for k, (ambient, (beta0, beta)) in enumerate(sorted(truth.items())):
+        for run in range(2):
+            temps = _temperatures(1500, 2, 10 + 2 * k + run) + ambient - 20.0
+            target = beta0 + (temps - temps[0]) @ np.array(beta)
+            batches.append((temps, np.full(len(temps), ambient + 0.3 * run), target))
+    coefficients, settings, _ = fit_piecewise(batches, ["a", "b"])
+    assert [n["node_C"] for n in settings["nodes"]] == sorted(truth)
+    for m, (beta0, beta) in enumerate((truth[a] for a in sorted(truth)), start=1):
+        assert coefficients[f"beta0_{m}"].f64 == pytest.approx(beta0, abs=1e-8)
+        assert [coefficients[f"beta_{i}_{m}"].f64 for i in (1, 2)] == pytest.approx(beta, abs=1e-8)
+
+
+def test_piecewise_fits_ambient_batches_of_the_twin(tmp_path):
+    tables = []
+    for k, ambient in enumerate((14.0, 19.0, 26.0, 31.0)):
+        path = tmp_path / f"batch{k}.csv"
+        path.write_text(write_table(simulate(8, seed=20 + k, ambient_start=ambient)))
+        tables.append(read_table(path))
+    model = fit(tables, FitRequest("piecewise", "E_z_um", ("T_motor", "T_bearing"), ambient="T_env",
+                                   train_until=6 * 3600.0))
+    spread = float(np.std(np.concatenate([t.columns["E_z_um"][:model.metrics["train"]["rows"] // 4] for t in tables])))
+    assert model.metrics["train"]["rmse_um"] < 0.5 * spread
