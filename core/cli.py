@@ -2,8 +2,10 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import os
+import signal
 import sys
 from pathlib import Path
 
@@ -12,7 +14,7 @@ from thermoplc.errors import UserError
 from thermoplc.machines import DEFAULT as DEFAULT_MACHINE, MACHINES as MACHINE_NAMES
 from thermoplc.models.effects import NAMES as EFFECT_NAMES
 from thermoplc.models.modelfile import KINDS
-from thermoplc.fileio import check_overwrite, write_atomic
+from thermoplc.fileio import check_output, check_report_folder, write_atomic
 
 
 MAX_TWIN_ROWS = 50_000_000  # about 1.6 years at 1 s; beyond it the arrays alone need tens of GB
@@ -75,7 +77,7 @@ def cmd_twin(args) -> int:
     names = [e.name for e in effects]
     if len(set(names)) != len(names):
         raise UserError("--effect: each effect can be switched on once")
-    check_overwrite(args.output, args.force)
+    check_output(args.output, args.force)
     options = {} if args.ambient_swing is None else {"ambient_swing": args.ambient_swing}
     columns = chosen.simulate(args.hours, args.seed, args.dt, args.ambient_start, faults=faults, effects=effects,
                               noise=args.noise, **options)
@@ -99,7 +101,7 @@ def cmd_fit(args) -> int:
     from thermoplc.models.kalman import FitOptions
     from thermoplc.generator.lower import check_model_becomes_block
     from thermoplc.models.table import read_table
-    check_overwrite(args.output, args.force)
+    check_output(args.output, args.force, inputs=args.data)
     tables = [read_table(path, args.time, decimal=args.decimal) for path in args.data]
     options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
                          args.recover_limit)
@@ -175,7 +177,7 @@ def cmd_generate(args) -> int:
     from thermoplc.generator.printer import GenerationError, render, render_plcopen
     from thermoplc.models.modelfile import load_model
     from thermoplc.models.safety import Limits
-    check_overwrite(args.output, args.force)
+    check_output(args.output, args.force, inputs=[args.model])
     model = load_model(args.model)
     low, high = args.temp_range
     limits = Limits(args.max_offset_um, args.max_step_um, low, high, max_jump_K=args.max_jump_k,
@@ -265,6 +267,8 @@ def cmd_diff(args) -> int:
 def cmd_select(args) -> int:
     from thermoplc.models.selection import select_sensors
     from thermoplc.models.table import read_table
+    if args.output:
+        check_output(args.output, args.force, inputs=[args.data])
     table = read_table(args.data, args.time, decimal=args.decimal)
     candidates = args.candidates or tuple(c for c in table.columns if c not in (args.time, args.target))
     rows = table.rows if args.train_rows is None else args.train_rows
@@ -280,7 +284,6 @@ def cmd_select(args) -> int:
         print(f"  group {k}: {members}")
     print(f"chosen: {','.join(selection.chosen)}")
     if args.output:
-        check_overwrite(args.output, args.force)
         write_atomic(args.output, f"# thermoplc select-sensors {selection.method} for {args.target}\n"
                      + ",".join(selection.chosen) + "\n")
         print(f"wrote {args.output} (use it as fit --temps @{args.output})")
@@ -295,19 +298,15 @@ def cmd_diagnose(args) -> int:
                               not args.no_structure_lag)
     if args.baseline and args.no_structure_lag:
         raise UserError("--no-structure-lag shapes a fitted baseline; with --baseline the model file decides")
-    outputs = [p for p in (args.output, args.json, args.report) if p]
     inputs = [p for p in (args.data, args.baseline) if p]
-    resolved = [Path(p).resolve() for p in outputs]
-    for path, where in zip(outputs, resolved):
-        if where in {Path(p).resolve() for p in inputs}:
-            raise UserError(f"{path}: is an input of this command; write the output elsewhere")
-        if resolved.count(where) > 1:
-            raise UserError(f"{path}: named for two outputs; give each output its own file")
-    if args.report and Path(args.report).exists() and not Path(args.report).is_dir():
-        raise UserError(f"--report {args.report}: exists and is not a folder")
-    for path in (args.output, args.json, args.report and str(Path(args.report) / "index.html")):
-        if path:
-            check_overwrite(path, args.force)
+    files = [p for p in (args.output, args.json) if p]
+    if len({Path(p).resolve() for p in files}) < len(files):
+        raise UserError(f"{args.output}: named for two outputs; give each output its own file")
+    for path in files:
+        check_output(path, args.force, inputs=inputs)
+    if args.report:
+        from thermoplc.diagnosis.report import report_files
+        check_report_folder(args.report, report_files(len(args.temps) + 1), inputs=inputs)
     doc = run(request, args.output, args.json, args.report, _progress if sys.stderr.isatty() else None)
     if sys.stderr.isatty():
         print(file=sys.stderr)
@@ -492,9 +491,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(BaseException):
+    """SIGTERM, raised where the program is so that temporary files are removed on the way out."""
+
+
+def _terminate(signum, frame):
+    raise Terminated()
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    signal.signal(signal.SIGTERM, _terminate)
     try:
+        return _run(argv)
+    finally:
+        try:
+            sys.stdout.flush()
+        except OSError:  # stdout is a full disk or a closed pipe: nothing more can be said there
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+
+
+def _run(argv: list[str] | None) -> int:
+    try:
+        args = build_parser().parse_args(argv)
         return args.func(args)
     except UserError as exc:
         print(f"thermoplc: error: {exc}", file=sys.stderr)
@@ -511,8 +529,17 @@ def main(argv: list[str] | None = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
     except KeyboardInterrupt:
-        print("thermoplc: interrupted", file=sys.stderr)
+        print("thermoplc: interrupted; nothing half-written left behind", file=sys.stderr)
         return 130
+    except Terminated:
+        print("thermoplc: terminated; nothing half-written left behind", file=sys.stderr)
+        return 143
+    except OSError as exc:  # writing the answer failed: stdout on a full disk, say
+        if exc.errno == errno.EPIPE:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            return 141
+        print(f"thermoplc: error: {exc.filename or 'standard output'}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

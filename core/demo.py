@@ -13,7 +13,7 @@ from importlib import resources
 from pathlib import Path
 
 from thermoplc import __version__
-from thermoplc.fileio import check_overwrite, write_atomic
+from thermoplc.fileio import check_output, write_atomic
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
 from thermoplc.models.fit import FitRequest, fit
@@ -42,14 +42,15 @@ def run_demo(out: Path, force: bool = False) -> int:
     print(f"  fit on the first 24 h, predict the remaining {hours - 24:.1f} h, generate TIA blocks, verify every row")
     rows = []
     written = []
+    for kind, block_name in BLOCKS.items():  # every output checked before the first is written
+        for path in (out / f"{kind}.json", out / f"{block_name}.scl", out / f"{block_name}.verify.txt"):
+            check_output(path, force)
     for kind, block_name in BLOCKS.items():
         request = FitRequest(kind, TARGET, TEMPS, SPEED if kind == "kalman" else None,
                              AMBIENT if kind == "kalman" else None, train_until=TRAIN_UNTIL_S, block_name=block_name)
         model = fit([table], request)
         model_path = out / f"{kind}.json"
         block_path = out / f"{block_name}.scl"
-        for path in (model_path, block_path, out / f"{block_name}.verify.txt"):
-            check_overwrite(path, force)
         write_atomic(model_path, model.to_json())
         write_atomic(block_path, render(lower(model), "tia"))
         report = verify_against_model(str(block_path), model, str(model_path), table)

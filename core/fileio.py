@@ -1,56 +1,128 @@
-"""Output files: written atomically, and never over a file thermoplc did not write unless forced."""
+"""Output files, by one rule anyone can predict (README "Files thermoplc writes"):
+
+- `-o FILE` never replaces an existing file unless `--force`;
+- never writes onto an input of the same command, even with `--force`;
+- never replaces anything but a regular file (a device, pipe, socket, folder or symbolic link stays);
+- a report folder must be new, empty, or a report thermoplc wrote: its `.thermoplc-report` lists
+  the files it owns, and only those are replaced;
+- every output is written to a temporary file beside it and renamed into place, all outputs of a
+  command together at the end (all or nothing); a new file gets the umask's mode, a replaced file
+  keeps its own; SIGINT and SIGTERM remove the temporary files.
+"""
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 from pathlib import Path
 
 from thermoplc.errors import UserError
 
-# What marks a file as thermoplc's own: blocks, model files, findings and reports name the tool in
-# their first bytes; twin recordings start with the twin's header; a sensor list is one line of names.
-OWN_MARKERS = (b"thermoplc", b"time_s,n_rpm,v_feed_mm_min,")
-HEAD_BYTES = 4096
+REPORT_MANIFEST = ".thermoplc-report"
 
 
-def written_by_us(path: Path) -> bool:
+def _same_file(a: Path, b: Path) -> bool:
     try:
-        with open(path, "rb") as f:
-            head = f.read(HEAD_BYTES)
+        return os.path.samefile(a, b)
     except OSError:
-        return False
-    return any(marker in head for marker in OWN_MARKERS)
+        return a.resolve() == b.resolve()
 
 
-def check_overwrite(path: str | Path, force: bool, own=written_by_us) -> None:
-    """Refuse to replace an existing file that thermoplc did not write, unless --force."""
+def check_output(path: str | Path, force: bool, inputs=()) -> None:
+    """Refuse an output path the rule does not allow (module docstring), before any work is done."""
     path = Path(path)
-    if path.is_dir():
+    for source in inputs:
+        if source and _same_file(path, Path(source)):
+            raise UserError(f"{path}: is also an input of this command; thermoplc never writes onto its input, "
+                            f"not even with --force: choose another output name")
+    if not os.path.lexists(path):
+        return
+    mode = os.lstat(path).st_mode
+    if stat.S_ISDIR(mode):
         raise UserError(f"{path}: is a folder; expected a file name for the output")
-    if path.exists() and not force and not own(path):
-        raise UserError(f"{path}: exists and was not written by thermoplc; refusing to replace it "
-                        f"(use --force to overwrite, or choose another name)")
+    if not stat.S_ISREG(mode):
+        raise UserError(f"{path}: exists and is not a regular file (a link, device, pipe or socket); thermoplc never "
+                        f"replaces one, not even with --force")
+    if not force:
+        raise UserError(f"{path}: exists; refusing to replace it (use --force to overwrite, or choose another name)")
+
+
+def check_report_folder(folder: str | Path, names: list[str], inputs=()) -> list[str]:
+    """The report folder must be new, empty or thermoplc's own report, and no file it would write may be
+    someone else's. Returns the files of the old report that the new one does not write (to remove)."""
+    folder = Path(folder)
+    for source in inputs:
+        if source and _same_file(folder, Path(source)):
+            raise UserError(f"--report {folder}: is also an input of this command")
+    if not os.path.lexists(folder):
+        return []
+    if not stat.S_ISDIR(os.lstat(folder).st_mode):
+        raise UserError(f"--report {folder}: exists and is not a folder")
+    present = set(os.listdir(folder))
+    if not present:
+        return []
+    manifest = folder / REPORT_MANIFEST
+    if REPORT_MANIFEST not in present or not stat.S_ISREG(os.lstat(manifest).st_mode):
+        raise UserError(f"--report {folder}: is not empty and is not a report thermoplc wrote (no {REPORT_MANIFEST}); "
+                        f"give a new or empty folder")
+    owned = {line.strip() for line in manifest.read_text(encoding="utf-8", errors="replace").splitlines()
+             if line.strip() and "/" not in line and line.strip() not in (".", "..")}
+    foreign = sorted(n for n in names if n in present and n not in owned)
+    if foreign:
+        raise UserError(f"--report {folder}: {', '.join(foreign)} exists and is not listed in {REPORT_MANIFEST}; "
+                        f"thermoplc replaces only its own files: give a new or empty folder")
+    for name in names:
+        if name in present and not stat.S_ISREG(os.lstat(folder / name).st_mode):
+            raise UserError(f"--report {folder}: {name} is not a regular file; thermoplc never replaces one")
+    return sorted(n for n in owned & present if n not in names and n != REPORT_MANIFEST
+                  and stat.S_ISREG(os.lstat(folder / n).st_mode))
+
+
+def report_manifest(names: list[str]) -> str:
+    return "\n".join(["# files of a thermoplc report; only these are replaced when it is written again", *names]) + "\n"
+
+
+def _new_file_mode() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+def write_outputs(items: list[tuple[str | Path, str | bytes]], remove: list[str | Path] = ()) -> None:
+    """Write every (path, data) to a temporary file beside it, then rename them all into place and
+    remove `remove`: the targets keep their old content or get the complete new one, never half,
+    and a failure before the renames leaves no output changed."""
+    staged: list[tuple[str, Path]] = []
+    try:
+        for path, data in items:
+            path = Path(path)
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+            except OSError as exc:
+                raise UserError(f"{path}: cannot write: {exc.strerror}; nothing written") from None
+            staged.append((tmp, path))
+            try:
+                with os.fdopen(fd, "wb") as handle:
+                    handle.write(data.encode("utf-8") if isinstance(data, str) else data)
+                    handle.flush()
+                    os.fsync(handle.fileno())
+                mode = os.stat(path).st_mode & 0o7777 if path.is_file() else _new_file_mode()
+                os.chmod(tmp, mode)
+            except OSError as exc:
+                raise UserError(f"{path}: cannot write: {exc.strerror}; nothing written") from None
+        for tmp, path in staged:
+            try:
+                os.replace(tmp, path)
+            except OSError as exc:
+                raise UserError(f"{path}: cannot write: {exc.strerror}") from None
+        staged = []
+        for path in remove:
+            Path(path).unlink(missing_ok=True)
+    finally:
+        for tmp, _ in staged:
+            Path(tmp).unlink(missing_ok=True)
 
 
 def write_atomic(path: str | Path, data: str | bytes) -> None:
-    """Write to a temp file beside the target and rename: the target keeps its old content or gets
-    the complete new one, never half."""
-    path = Path(path)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        payload = data.encode("utf-8") if isinstance(data, str) else data
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    except OSError as exc:
-        raise UserError(f"{path}: cannot write: {exc.strerror}") from None
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(payload)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except OSError as exc:
-        os.unlink(tmp)
-        raise UserError(f"{path}: cannot write: {exc.strerror}") from None
-    except BaseException:
-        os.unlink(tmp)
-        raise
+    write_outputs([(path, data)])

@@ -11,7 +11,7 @@ import numpy as np
 from thermoplc.diagnosis.findings import document
 from thermoplc.diagnosis.search import diagnose
 from thermoplc.errors import UserError
-from thermoplc.fileio import write_atomic
+from thermoplc.fileio import REPORT_MANIFEST, check_report_folder, report_manifest, write_outputs
 from thermoplc.generator.lower import check_model_becomes_block
 from thermoplc.models import lumped_model
 from thermoplc.models.fit import block_identifier, evaluate, sample_period
@@ -112,10 +112,15 @@ def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report
     source = {"file": Path(table.path).name, "sha256": table.sha256}
     doc = document(d, series, n_train, source, model_path)
     check_model_becomes_block(model, model_path)
-    write_atomic(model_path, model.to_json())
+    outputs = [(model_path, model.to_json())]
     if json_path:
-        write_atomic(json_path, json.dumps(doc, indent=2) + "\n")
+        outputs.append((json_path, json.dumps(doc, indent=2) + "\n"))
+    stale = []
     if report_dir:
-        from thermoplc.diagnosis.report import write_report
-        write_report(Path(report_dir), doc, d, series, n_train)
+        from thermoplc.diagnosis.report import report
+        files = report(doc, d, series, n_train)
+        stale = [Path(report_dir) / n for n in check_report_folder(report_dir, list(files), [request.data])]
+        outputs += [(Path(report_dir) / name, content) for name, content in files.items()]
+        outputs.append((Path(report_dir) / REPORT_MANIFEST, report_manifest(list(files))))
+    write_outputs(outputs, remove=stale)
     return doc

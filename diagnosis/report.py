@@ -9,7 +9,6 @@ import numpy as np
 
 from thermoplc.diagnosis.search import Diagnosis
 from thermoplc.diagnosis.findings import display
-from thermoplc.fileio import write_atomic
 from thermoplc.models.simulation import Series
 
 
@@ -52,16 +51,19 @@ def _cell(v) -> str:
     return display(v, braces=False)
 
 
-def write_report(folder: Path, doc: dict, d: Diagnosis, series: Series, n_train: int) -> list[Path]:
-    """index.html and one PNG per channel; every file written atomically."""
-    folder.mkdir(parents=True, exist_ok=True)
+def report_files(channels: int) -> list[str]:
+    """The files a report of this many channels consists of (its manifest lists them)."""
+    return [*(f"channel_{k}.png" for k in range(1, channels + 1)), "index.html"]
+
+
+def report(doc: dict, d: Diagnosis, series: Series, n_train: int) -> dict:
+    """File name -> content: index.html and one PNG per channel."""
     measured = {c: series.temps[:, i] for i, c in enumerate(series.names)}
     measured[d.channels[-1]] = series.target
-    written, figures = [], []
+    files, figures = {}, []
     for k, channel in enumerate(d.channels, start=1):
         name = f"channel_{k}.png"
-        write_atomic(folder / name, _plot(series, d, channel, measured[channel], n_train))
-        written.append(folder / name)
+        files[name] = _plot(series, d, channel, measured[channel], n_train)
         figures.append(f'<h3>{html.escape(channel)}</h3><img src="{name}" alt="{html.escape(channel)}">')
     effects = _table(["#", "effect", "parameters", "delta BIC", "held-out excess removed"],
                      [[k, e["name"], e["parameters"], e["evidence"]["delta_bic"], e["evidence"]["held_out_excess_removed"]]
@@ -91,6 +93,5 @@ td,th{{border:1px solid #bbb;padding:3px 6px;font-size:13px;text-align:left}}img
 <h2>Candidates tested</h2>{trials}
 </body></html>
 """
-    write_atomic(folder / "index.html", page)
-    written.append(folder / "index.html")
-    return written
+    files["index.html"] = page
+    return files

@@ -249,15 +249,52 @@ def _injection_cases() -> list[Case]:
 
 
 def _output_cases() -> list[Case]:
+    """Issue 15: one overwrite rule, never onto an input, never onto a non-regular file, report folders."""
     def foreign(folder: Path) -> None:
         (folder / "out.scl").write_text("my own notes\n")
+
+    def own(folder: Path) -> None:
+        (folder / "out.scl").write_text((folder / "block.scl").read_text())
+
+    def linked(folder: Path) -> None:
+        (folder / "notes.txt").write_text("my own notes\n")
+        (folder / "out.scl").symlink_to("notes.txt")
+
+    def foreign_report(folder: Path) -> None:
+        (folder / "rep").mkdir()
+        (folder / "rep" / "channel_1.png").write_text("my own picture")
+
+    def own_report_with_a_foreign_file(folder: Path) -> None:
+        (folder / "rep").mkdir()
+        (folder / "rep" / ".thermoplc-report").write_text("index.html\n")
+        (folder / "rep" / "channel_1.png").write_text("my own picture")
+
+    generate = ("generate", "mlr.json", "-o", "out.scl")
+    select = ("select-sensors", "--data", "good.csv", "--target", "E_z_um", "--candidates", "T_motor,T_bearing,T_env")
     return [
-        Case("output", "output exists, not written by thermoplc", "generate", ("generate", "mlr.json", "-o", "out.scl"),
-             foreign, "error", "out.scl: exists and was not written by thermoplc"),
-        Case("output", "same, with --force", "generate", ("generate", "mlr.json", "-o", "out.scl", "--force"),
-             foreign, "accepted", "wrote out.scl"),
+        Case("output", "output exists, not written by thermoplc", "generate", generate, foreign, "error",
+             "out.scl: exists; refusing to replace it"),
+        Case("output", "output exists, a block thermoplc wrote", "generate", generate, own, "error",
+             "out.scl: exists; refusing to replace it"),
+        Case("output", "same, with --force", "generate", (*generate, "--force"), foreign, "accepted", "wrote out.scl"),
         Case("output", "output is a folder", "generate", ("generate", "mlr.json", "-o", "."), lambda f: None, "error",
              ": is a folder"),
+        Case("output", "output is the model read, with --force", "generate",
+             ("generate", "mlr.json", "-o", "mlr.json", "--force"), lambda f: None, "error",
+             "mlr.json: is also an input of this command"),
+        Case("output", "output is the recording read, with --force", "fit", (*FIT[:-3], "-o", "good.csv", "--force",
+             "--data", "good.csv"), lambda f: None, "error", "good.csv: is also an input of this command"),
+        Case("output", "output is the recording read", "select-sensors", (*select, "-o", "good.csv", "--force"),
+             lambda f: None, "error", "good.csv: is also an input of this command"),
+        Case("output", "output is a device, with --force", "generate", ("generate", "mlr.json", "-o", "/dev/null",
+             "--force"), lambda f: None, "error", "/dev/null: exists and is not a regular file"),
+        Case("output", "output is a symbolic link, with --force", "generate", (*generate, "--force"), linked, "error",
+             "out.scl: exists and is not a regular file"),
+        Case("output", "report folder not empty and not a report", "diagnose", (*DIAGNOSE, "good.csv", "--report", "rep"),
+             foreign_report, "error", "--report rep: is not empty and is not a report thermoplc wrote"),
+        Case("output", "report folder of thermoplc holding a file it does not list", "diagnose",
+             (*DIAGNOSE, "good.csv", "--report", "rep"), own_report_with_a_foreign_file, "error",
+             "channel_1.png exists and is not listed"),
     ]
 
 

@@ -126,7 +126,7 @@ def test_verify_against_a_recorded_trace(workdir):
         lines.append(",".join([repr(float(v)) for v in row] + [repr(float(outputs["E_z_um"][j])),
                                                               str(int(outputs["Fault_1"][j])), str(int(outputs["Fault_2"][j]))]))
     (workdir / "trace.csv").write_text("\n".join(lines) + "\n")
-    thermoplc("generate", "a.json", "-o", "a.scl", cwd=workdir)
+    thermoplc("generate", "a.json", "-o", "a.scl", "--force", cwd=workdir)
     mapping = "T_motor=Tm,T_bearing=Tb,n_rpm=speed,T_env=amb"
     ok = thermoplc("verify", "a.scl", "--data", "trace.csv", "--expect", "E_z_um=plc_E,Fault_1=plc_F1",
                    "--inputs", mapping, cwd=workdir)

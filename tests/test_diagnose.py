@@ -240,7 +240,7 @@ def test_diagnose_is_deterministic(tmp_path, monkeypatch):
     (["twin", "--hours", "nan", "-o", "x.csv"], "--hours must be a positive finite number"),
     (["twin", "--hours", "1", "--ambient-swing", "-1", "-o", "x.csv"], "--ambient-swing must be a finite number >= 0"),
     (["diagnose", "--data", "d.csv", "--speed", "n_rpm", "--ambient", "T_env", "--temps", "T_motor",
-      "--target", "E_z_um", "-o", "d.csv"], "is an input of this command"),
+      "--target", "E_z_um", "-o", "d.csv"], "is also an input of this command"),
     (["diagnose", "--data", "d.csv", "--speed", "n_rpm", "--ambient", "T_env", "--temps", "T_motor",
       "--target", "E_z_um", "-o", "m.json", "--json", "m.json"], "named for two outputs"),
     (["diagnose", "--data", "d.csv", "--speed", "n_rpm", "--ambient", "T_env", "--temps", "T_motor",

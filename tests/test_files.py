@@ -1,0 +1,129 @@
+"""Issue 15: outputs never destroy a user's file. One overwrite rule, modes that follow the umask or
+the replaced file, all-or-nothing writes, and no temporary file left by SIGTERM or Ctrl-C."""
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from thermoplc.errors import UserError
+from thermoplc.fileio import check_output, check_report_folder, write_outputs
+
+PYTHON = [sys.executable, "-m", "thermoplc.cli"]
+
+
+def test_new_files_follow_the_umask_and_replaced_files_keep_their_mode(tmp_path):
+    old = os.umask(0o027)
+    try:
+        write_outputs([(tmp_path / "new.txt", "a")])
+        assert (tmp_path / "new.txt").stat().st_mode & 0o777 == 0o640
+        (tmp_path / "kept.txt").write_text("old")
+        os.chmod(tmp_path / "kept.txt", 0o604)
+        write_outputs([(tmp_path / "kept.txt", "new")])
+        assert (tmp_path / "kept.txt").stat().st_mode & 0o777 == 0o604 and (tmp_path / "kept.txt").read_text() == "new"
+    finally:
+        os.umask(old)
+
+
+def test_a_failed_write_changes_no_output_and_leaves_no_temporary_file(tmp_path):
+    (tmp_path / "a.txt").write_text("old a")
+    with pytest.raises(UserError, match="nothing written"):
+        write_outputs([(tmp_path / "a.txt", "new a"), (tmp_path / "a.txt" / "b.txt", "b")])  # b's folder is a file
+    assert (tmp_path / "a.txt").read_text() == "old a"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt"]
+
+
+def test_sigterm_while_writing_removes_the_temporary_files(tmp_path, monkeypatch):
+    from thermoplc.cli import Terminated, _terminate
+    previous = signal.signal(signal.SIGTERM, _terminate)
+    real_fsync = os.fsync
+
+    def fsync_then_terminated(fd):
+        real_fsync(fd)
+        os.kill(os.getpid(), signal.SIGTERM)
+    monkeypatch.setattr(os, "fsync", fsync_then_terminated)
+    try:
+        with pytest.raises(Terminated):
+            write_outputs([(tmp_path / "a.txt", "a" * 1000), (tmp_path / "b.txt", "b")])
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_sigterm_during_a_long_twin_run_leaves_nothing_half_written(tmp_path):
+    for delay in (0.5, 2.0):
+        process = subprocess.Popen([*PYTHON, "twin", "--hours", "3000", "-o", "big.csv"], cwd=tmp_path,
+                                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True)
+        time.sleep(delay)
+        process.send_signal(signal.SIGTERM)
+        _, err = process.communicate(timeout=120)
+        leftovers = [p.name for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
+        assert leftovers == [] and "Traceback" not in err
+        if process.returncode == 143:
+            assert not (tmp_path / "big.csv").exists() and "terminated" in err
+        else:
+            assert process.returncode == 0 and (tmp_path / "big.csv").exists()
+            (tmp_path / "big.csv").unlink()
+
+
+def test_ctrl_c_ends_quietly_with_130(tmp_path):
+    process = subprocess.Popen([*PYTHON, "twin", "--hours", "3000", "-o", "big.csv"], cwd=tmp_path,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True)
+    time.sleep(1.0)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 130 and "Traceback" not in err and "interrupted" in err
+    assert [p.name for p in tmp_path.iterdir()] == []
+
+
+def test_a_closed_pipe_and_a_full_disk_end_without_a_traceback(tmp_path):
+    piped = subprocess.run(f"{sys.executable} -m thermoplc.cli --help | head -1", shell=True, cwd=tmp_path,
+                           capture_output=True, text=True)
+    assert "Traceback" not in piped.stderr
+    with open("/dev/full", "w") as full:
+        result = subprocess.run([*PYTHON, "twin", "--hours", "1", "-o", "t.csv"], cwd=tmp_path, stdout=full,
+                                stderr=subprocess.PIPE, text=True)
+    assert result.returncode == 2 and "standard output: No space left on device" in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_the_report_folder_rule(tmp_path):
+    names = ["channel_1.png", "index.html"]
+    assert check_report_folder(tmp_path / "new", names) == []
+    (tmp_path / "empty").mkdir()
+    assert check_report_folder(tmp_path / "empty", names) == []
+    own = tmp_path / "own"
+    own.mkdir()
+    (own / ".thermoplc-report").write_text("channel_1.png\nchannel_2.png\nindex.html\n")
+    for name in ("channel_1.png", "channel_2.png", "index.html", "notes.txt"):
+        (own / name).write_text("x")
+    assert check_report_folder(own, names) == ["channel_2.png"]  # stale, its own: removed; notes.txt stays
+    with pytest.raises(UserError, match="notes.txt exists and is not listed"):
+        check_report_folder(own, [*names, "notes.txt"])
+
+
+def test_outputs_onto_inputs_are_refused_even_through_another_path(tmp_path):
+    (tmp_path / "data.csv").write_text("x")
+    os.link(tmp_path / "data.csv", tmp_path / "hard.csv")
+    for name in ("data.csv", "./data.csv", "hard.csv"):
+        with pytest.raises(UserError, match="is also an input"):
+            check_output(tmp_path / name, True, inputs=[tmp_path / "data.csv"])
+
+
+def test_diagnose_report_is_replaced_only_in_its_own_files(tmp_path):
+    run = lambda *a: subprocess.run([*PYTHON, *a], cwd=tmp_path, capture_output=True, text=True,
+                                    stdin=subprocess.DEVNULL)
+    assert run("twin", "--hours", "6", "--seed", "2", "-o", "t.csv").returncode == 0
+    diagnose = ("diagnose", "--data", "t.csv", "--speed", "n_rpm", "--ambient", "T_env", "--temps", "T_motor",
+                "--target", "E_z_um", "--train-rows", "1500", "--report", "rep", "--json", "f.json", "-o", "m.json")
+    first = run(*diagnose)
+    assert first.returncode == 0, first.stderr
+    (tmp_path / "rep" / "notes.txt").write_text("mine")
+    again = run(*diagnose, "--force")
+    assert again.returncode == 0, again.stderr
+    assert (tmp_path / "rep" / "notes.txt").read_text() == "mine"
+    assert sorted(p.name for p in (tmp_path / "rep").iterdir()) == [
+        ".thermoplc-report", "channel_1.png", "channel_2.png", "index.html", "notes.txt"]
