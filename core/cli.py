@@ -33,11 +33,32 @@ def _columns(text: str) -> tuple[str, ...]:
     return names
 
 
+def _number(kind, low: float, high: float, what: str = ""):
+    """An argparse type: a finite int or float within [low, high] (the option is named by argparse)."""
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {'an integer' if kind is int else 'a number'}, found {text!r}") from None
+        if not (math.isfinite(value) and low <= value <= high):
+            shown = (lambda v: f"{int(v):,}") if kind is int else (lambda v: f"{v:g}")
+            raise argparse.ArgumentTypeError(f"expected {what or 'a value'} from {shown(low)} to {shown(high)}, found {text}")
+        return value
+    return parse
+
+
+SEED = _number(int, 0, 2 ** 32 - 1, "a seed")
+SECONDS = _number(float, 0.0, 1e9, "seconds")
+ROWS = _number(int, 1, 10 ** 9, "a row count")
+
+
 def _range(text: str) -> tuple[float, float]:
     try:
         low, high = (float(x) for x in text.split(","))
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected LOW,HIGH (two numbers), found {text!r}") from None
+    if not (math.isfinite(low) and math.isfinite(high) and -1e6 <= low < high <= 1e6):
+        raise argparse.ArgumentTypeError(f"expected LOW,HIGH with LOW below HIGH, finite, within +-1e6, found {text!r}")
     return low, high
 
 
@@ -272,6 +293,9 @@ def cmd_select(args) -> int:
     table = read_table(args.data, args.time, decimal=args.decimal)
     candidates = args.candidates or tuple(c for c in table.columns if c not in (args.time, args.target))
     rows = table.rows if args.train_rows is None else args.train_rows
+    if not 3 <= rows <= table.rows:
+        raise UserError(f"{args.data}: --train-rows {rows}: the file has {table.rows} rows; grouping sensors needs "
+                        f"at least 3 of them")
     try:
         selection = select_sensors({c: table.column(c)[:rows] for c in candidates}, table.column(args.target)[:rows],
                                    args.method, args.threshold, args.max_groups)
@@ -342,17 +366,17 @@ def build_parser() -> argparse.ArgumentParser:
                    help="cascade: motor/bearing/ram/base network, run/stop at fixed speeds, daily sine ambient; "
                         "portal: three spindle-heated nodes and a lagging ram, random speeds, heated workshop "
                         "(default: %(default)s)")
-    p.add_argument("--hours", type=float, default=48.0)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--dt", type=float, default=10.0, help="sample period, s (default: %(default)s)")
-    p.add_argument("--ambient-start", type=float, default=20.0, help="ambient temperature at the start, degC")
-    p.add_argument("--ambient-swing", type=float, default=None,
+    p.add_argument("--hours", type=_number(float, 1e-3, 1e6, "hours"), default=48.0)
+    p.add_argument("--seed", type=SEED, default=0)
+    p.add_argument("--dt", type=_number(float, 1e-3, 86400.0, "seconds"), default=10.0, help="sample period, s (default: %(default)s)")
+    p.add_argument("--ambient-start", type=_number(float, -40.0, 60.0, "degC"), default=20.0, help="ambient temperature at the start, degC")
+    p.add_argument("--ambient-swing", type=_number(float, 0.0, 30.0, "kelvin"), default=None,
                    help="day/night amplitude of the ambient, K (default: the machine's own, 0.5 cascade, 1 portal)")
     p.add_argument("--sensor-fault", action="append", default=[], metavar="KIND:COLUMN[@START_S]",
                    help="add paper 000's sensor error: sin (eq. 18) or offset (eq. 19); repeatable")
     p.add_argument("--effect", action="append", default=[], metavar="NAME[:KEY=VALUE,...]",
                    help=f"hide a physical effect in the data; repeatable. Names: {', '.join(EFFECT_NAMES)}")
-    p.add_argument("--noise", type=float, default=1.0, help="scale of the sensor noise (default: %(default)s)")
+    p.add_argument("--noise", type=_number(float, 0.0, 100.0, "a scale"), default=1.0, help="scale of the sensor noise (default: %(default)s)")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("-o", "--output", required=True)
     p.set_defaults(func=cmd_twin)
@@ -368,26 +392,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ambient", help="ambient temperature column, degC (kalman, piecewise)")
     p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
     part = p.add_mutually_exclusive_group(required=True)
-    part.add_argument("--train-until", type=float, metavar="SECONDS", help="train on rows with time <= SECONDS")
-    part.add_argument("--train-rows", type=int, metavar="N", help="train on the first N rows")
+    part.add_argument("--train-until", type=SECONDS, metavar="SECONDS", help="train on rows with time <= SECONDS")
+    part.add_argument("--train-rows", type=ROWS, metavar="N", help="train on the first N rows")
     p.add_argument("--optimizer", choices=("ga", "de"), default="ga",
                    help="ga: paper 000's genetic algorithm; de: scipy differential evolution")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--generations", type=int, default=60)
-    p.add_argument("--population", type=int, default=40)
-    p.add_argument("--jump-limit", type=float, help="K per call that marks a sensor faulty (default from data)")
-    p.add_argument("--recover-limit", type=float, help="K between measurement and model to recover (default from data)")
-    p.add_argument("--bins", type=int, default=8, help="bayes: intervals per temperature (default: %(default)s)")
-    p.add_argument("--precision-um", type=float, default=1.0,
+    p.add_argument("--seed", type=SEED, default=0)
+    p.add_argument("--generations", type=_number(int, 1, 10000, "generations"), default=60)
+    p.add_argument("--population", type=_number(int, 2, 10000, "individuals"), default=40)
+    p.add_argument("--jump-limit", type=_number(float, 1e-6, 1e3, "kelvin"), help="K per call that marks a sensor faulty (default from data)")
+    p.add_argument("--recover-limit", type=_number(float, 1e-6, 1e3, "kelvin"), help="K between measurement and model to recover (default from data)")
+    p.add_argument("--bins", type=_number(int, 1, 4096, "intervals"), default=8, help="bayes: intervals per temperature (default: %(default)s)")
+    p.add_argument("--precision-um", type=_number(float, 1e-3, 1e6, "micrometres"), default=1.0,
                    help="bayes: interval width of the error, the precision requirement (default: %(default)s)")
     p.add_argument("--unseen", choices=("nearest", "frequent"), default="nearest",
                    help="bayes: a temperature configuration never seen in training answers as the nearest seen one, "
                         "or the error interval most frequent overall (default: %(default)s)")
-    p.add_argument("--time-bins", type=int, default=0, metavar="N",
+    p.add_argument("--time-bins", type=_number(int, 0, 4096, "intervals"), default=0, metavar="N",
                    help="bayes: the time since the first call is a parent too, in N intervals (paper 004's repeated "
                         "runs: give one --data file per run; default: %(default)s, no time parent)")
-    p.add_argument("--lags", type=int, default=3, help="dlag: lagged terms per sensor (default: %(default)s)")
-    p.add_argument("--lag-step", type=float, default=600.0, metavar="SECONDS",
+    p.add_argument("--lags", type=_number(int, 1, 1000, "lags"), default=3, help="dlag: lagged terms per sensor (default: %(default)s)")
+    p.add_argument("--lag-step", type=_number(float, 1e-3, 1e7, "seconds"), default=600.0, metavar="SECONDS",
                    help="dlag: time between lags (default: %(default)s)")
     p.add_argument("--tool-length", metavar="COLUMN",
                    help="bpnn: tool length column, mm; adds paper 002's X/Y/Z compensation outputs")
@@ -404,10 +428,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="fcm-grey: paper 001's fuzzy clustering + grey relational grade; "
                         "grey-cluster: paper 002's grey clustering + correlation")
     p.add_argument("--candidates", type=_columns, help="temperature columns to choose from (default: all but time and target)")
-    p.add_argument("--threshold", type=float, default=0.9,
+    p.add_argument("--threshold", type=_number(float, 0.0, 1.0, "a degree"), default=0.9,
                    help="grey-cluster: comprehensive degree that joins two sensors (paper 002: %(default)s)")
-    p.add_argument("--max-groups", type=int, default=5, help="fcm-grey: at most this many groups (default: %(default)s)")
-    p.add_argument("--train-rows", type=int, help="use only the first N rows (the training part)")
+    p.add_argument("--max-groups", type=_number(int, 1, 1000, "groups"), default=5, help="fcm-grey: at most this many groups (default: %(default)s)")
+    p.add_argument("--train-rows", type=ROWS, help="use only the first N rows (the training part)")
     p.add_argument("--time", default="time_s")
     p.add_argument("-o", "--output", help="write the chosen sensors for fit --temps @FILE")
     p.add_argument("--decimal", **DECIMAL)
@@ -426,8 +450,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="baseline displacement from the simulated temperatures alone (paper 000 eq. 10), without "
                         "the structure that lags them")
     part = p.add_mutually_exclusive_group()
-    part.add_argument("--train-until", type=float, metavar="SECONDS", help="training part: rows with time <= SECONDS")
-    part.add_argument("--train-rows", type=int, metavar="N", help="training part: the first N rows (default: 60%%)")
+    part.add_argument("--train-until", type=SECONDS, metavar="SECONDS", help="training part: rows with time <= SECONDS")
+    part.add_argument("--train-rows", type=ROWS, metavar="N", help="training part: the first N rows (default: 60%%)")
     p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
     p.add_argument("--name", default="ThermalComp", help="function block name of the augmented model")
     p.add_argument("--decimal", **DECIMAL)
@@ -445,15 +469,15 @@ def build_parser() -> argparse.ArgumentParser:
                         "iec: IEC 61131-3 for CODESYS/TwinCAT/OpenPLC (default: %(default)s)")
     p.add_argument("--format", choices=("st", "plcopen"), default="st",
                    help="st: source text; plcopen: PLCopen TC6 XML of the iec block (default: %(default)s)")
-    p.add_argument("--max-offset-um", type=float, default=300.0,
+    p.add_argument("--max-offset-um", type=_number(float, 1e-6, 1e12, "micrometres"), default=300.0,
                    help="clamp every output to +-this (um; urad for angles) (default: %(default)s)")
-    p.add_argument("--max-step-um", type=float, default=2.0,
+    p.add_argument("--max-step-um", type=_number(float, 1e-6, 1e12, "micrometres"), default=2.0,
                    help="largest change of an output per call (default: %(default)s)")
     p.add_argument("--temp-range", type=_range, default=(-40.0, 150.0), metavar="LOW,HIGH",
                    help="plausible temperatures, degC; outside = sensor fault (default: -40,150)")
-    p.add_argument("--max-jump-k", type=float, default=1.0,
+    p.add_argument("--max-jump-k", type=_number(float, 1e-6, 1e6, "kelvin"), default=1.0,
                    help="temperature change per call that marks a sensor faulty, K (default: %(default)s)")
-    p.add_argument("--settle-calls", type=int, default=30,
+    p.add_argument("--settle-calls", type=_number(int, 1, 10000, "calls"), default=30,
                    help="steady calls before a faulty sensor is trusted again (default: %(default)s)")
     p.add_argument("--stats", action="store_true", help="print operations per call and bytes of state")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
@@ -479,7 +503,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--expect", type=_columns, help="compare with recorded outputs: COLUMN or OUTPUT=COLUMN, comma-separated")
     p.add_argument("--inputs", type=_mapping, help="block input to column mapping NAME=COLUMN,...")
     p.add_argument("--manifest", help="CSV of pairs to verify (columns block,data and model or expect, optional inputs)")
-    p.add_argument("--jobs", type=int, default=1, help="with --manifest: pairs verified in parallel (default: %(default)s)")
+    p.add_argument("--jobs", type=_number(int, 1, 256, "processes"), default=1, help="with --manifest: pairs verified in parallel (default: %(default)s)")
     p.add_argument("--engine", choices=("auto", "interp", "fast"), default="auto",
                    help="interp: the reference interpreter; fast: the block compiled to C (same bits); "
                         "auto: fast when a C compiler is there (default: %(default)s)")

@@ -21,6 +21,7 @@ from thermoplc.errors import UserError
 from thermoplc.models.modelfile import Coefficient, Model
 
 MAX_CONFIGURATIONS = 4096  # table entries in the block
+MAX_TABLE_CELLS = 20_000_000  # configurations x error intervals counted while fitting (160 MB)
 
 
 def interval(values: np.ndarray, edges: list) -> np.ndarray:
@@ -97,7 +98,12 @@ def fit_rises(rises: np.ndarray, target: np.ndarray, bins: int | list[int], prec
         raise UserError(f"{configurations} temperature interval combinations exceed {MAX_CONFIGURATIONS}; "
                         f"use fewer --bins or fewer sensors")
     low = float(np.floor(target.min() / precision_um) * precision_um)
-    classes = max(1, int(np.ceil((float(target.max()) - low) / precision_um + 1e-9)))
+    span = (float(target.max()) - low) / precision_um
+    if not span < MAX_TABLE_CELLS / configurations:
+        raise UserError(f"the error spans {float(target.max()) - low:.4g} um: intervals of --precision-um {precision_um:g} "
+                        f"with {configurations} temperature configurations exceed {MAX_TABLE_CELLS:,} table cells; "
+                        f"use a larger --precision-um or fewer --bins")
+    classes = max(1, int(np.ceil(span + 1e-9)))
     target_class = np.clip(((target - low) // precision_um).astype(np.int64), 0, classes - 1)
     j = configuration([interval(rises[:, i], edges[i]) for i in range(len(counts))], counts)
     table = np.zeros((configurations, classes))

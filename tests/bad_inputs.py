@@ -298,6 +298,46 @@ def _output_cases() -> list[Case]:
     ]
 
 
+def _option_cases() -> list[Case]:
+    """Issue 15: every numeric option checked when the command line is read, naming option and range."""
+    fit = lambda *extra: ("fit", "--data", "good.csv", "--target", "E_z_um", "--temps", "T_motor,T_bearing", *extra,
+                          "-o", "out.json")
+    kalman = ("--model", "kalman", "--speed", "n_rpm", "--ambient", "T_env", "--train-rows", "200")
+    rows = [
+        ("--population 0", fit(*kalman, "--population", "0"), "argument --population: expected individuals from 2"),
+        ("--generations -1", fit(*kalman, "--generations", "-1"), "argument --generations: expected generations from 1"),
+        ("--precision-um nan", fit("--model", "bayes", "--train-rows", "200", "--precision-um", "nan"),
+         "argument --precision-um: expected micrometres from 0.001"),
+        ("--lag-step nan", fit("--model", "dlag", "--train-rows", "200", "--lag-step", "nan"),
+         "argument --lag-step: expected seconds"),
+        ("--lags 100000", fit("--model", "dlag", "--train-rows", "200", "--lags", "100000"),
+         "argument --lags: expected lags from 1 to 1000"),
+        ("--train-until nan", fit("--model", "mlr", "--train-until", "nan"), "argument --train-until: expected seconds"),
+        ("--train-rows 0", fit("--model", "mlr", "--train-rows", "0"), "argument --train-rows: expected a row count"),
+        ("--seed -1", fit(*kalman, "--seed", "-1"), "argument --seed: expected a seed"),
+    ]
+    cases = [Case("option", fault, "fit", argv, lambda f: None, "error", message) for fault, argv, message in rows]
+    generate = ("generate", "mlr.json", "-o", "out.scl")
+    for fault, extra, message in (
+            ("--temp-range 150,-40", ("--temp-range", "150,-40"), "argument --temp-range: expected LOW,HIGH with LOW below"),
+            ("--max-offset-um 1e39", ("--max-offset-um", "1e39"), "argument --max-offset-um: expected micrometres"),
+            ("--settle-calls 0", ("--settle-calls", "0"), "argument --settle-calls: expected calls from 1"),
+            ("--max-step-um inf", ("--max-step-um", "inf"), "argument --max-step-um: expected micrometres")):
+        cases.append(Case("option", fault, "generate", (*generate, *extra), lambda f: None, "error", message))
+    select = ("select-sensors", "--data", "good.csv", "--target", "E_z_um", "--candidates", "T_motor,T_bearing")
+    cases += [
+        Case("option", "--train-rows 0", "select-sensors", (*select, "--train-rows", "0"), lambda f: None, "error",
+             "argument --train-rows: expected a row count"),
+        Case("option", "--train-rows beyond the file", "select-sensors", (*select, "--train-rows", "99999"),
+             lambda f: None, "error", "--train-rows 99999: the file has"),
+        Case("option", "--hours nan", "twin", ("twin", "--hours", "nan", "-o", "out.csv"), lambda f: None, "error",
+             "argument --hours: expected hours"),
+        Case("option", "--jobs 0", "verify", ("verify", "--manifest", "m.csv", "--jobs", "0"), lambda f: None, "error",
+             "argument --jobs: expected processes from 1"),
+    ]
+    return cases
+
+
 GOLDEN = Path(__file__).resolve().parent / "golden"
 COUNTER = """FUNCTION_BLOCK Counter
 VAR_INPUT x : INT; END_VAR
@@ -378,7 +418,8 @@ def _verify_cases() -> list[Case]:
     ]
 
 
-CASES = [*_csv_cases(), *_model_cases(), *_st_cases(), *_injection_cases(), *_output_cases(), *_verify_cases()]
+CASES = [*_csv_cases(), *_model_cases(), *_st_cases(), *_injection_cases(), *_output_cases(), *_option_cases(),
+         *_verify_cases()]
 
 
 def setup_folder(folder: Path) -> None:
