@@ -52,8 +52,14 @@ def training_rows(table: Table, time_column: str, until: float | None, rows: int
         raise UserError("give exactly one of --train-until SECONDS and --train-rows N")
     if rows is None:
         rows = int(np.searchsorted(table.columns[time_column], until, side="right"))
-    if rows < 10 or rows > table.rows:
-        raise UserError(f"{table.path}: the training part has {rows} rows; need at least 10 and at most {table.rows}")
+    if table.rows < 10:
+        raise UserError(f"{table.path}: {table.rows} data row{'s' if table.rows != 1 else ''}; a fit needs at least 10")
+    if rows > table.rows:
+        asked = f"--train-rows {rows}" if until is None else f"--train-until {until:g}"
+        raise UserError(f"{table.path}: {asked} asks for {rows} training rows; the file has {table.rows}")
+    if rows < 10:
+        asked = f"--train-rows {rows}" if until is None else f"--train-until {until:g} (time starts at {table.columns[time_column][0]:g} s)"
+        raise UserError(f"{table.path}: {asked} gives {rows} training rows; a fit needs at least 10")
     return rows
 
 
@@ -163,11 +169,11 @@ def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
             signals[shared[0]] = Signal(s.name, s.column, f"{s.role},{role}", s.unit)
             continue
         signals.append(Signal(block_identifier(column, role), column, role, "rpm" if role == "speed" else "degC"))
-    for table in tables:
+    for table in tables:  # the block reads them as REAL: a cell beyond binary32 is refused with its line
         for s in signals:
-            table.column(s.column)
+            table.real_column(s.column, f"a {s.role} input")
         for column in (request.target, *request.extra_targets):
-            table.column(column)
+            table.real_column(column, "a target")
     return signals
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 import csv
 import hashlib
 import io
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -76,6 +77,18 @@ def _sha256(path: str) -> str:
     return digest.hexdigest()
 
 
+NUMBER = re.compile(r"\s*[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\s*$|\s*[+-]?(nan|inf|infinity)\s*$", re.IGNORECASE)
+
+
+def _fields(path: str, line: int, text: str, delimiter: str) -> list[str]:
+    """One line's fields; a quote that never closes or a field beyond the csv module's limit is named."""
+    try:
+        return next(csv.reader([text], delimiter=delimiter), [])
+    except csv.Error as exc:
+        raise UserError(f"{path}:{line}: cannot split the line into fields ({exc}); expected numbers separated by "
+                        f"{delimiter!r}") from None
+
+
 def _parse_cells(path: str, header: list[str], text_lines: list[str], numbers: list[int], delimiter: str,
                  comma_decimal: bool) -> np.ndarray:
     """Rows of numbers; the fast C parser first, the careful one for the message when it fails."""
@@ -83,24 +96,24 @@ def _parse_cells(path: str, header: list[str], text_lines: list[str], numbers: l
         text_lines = [text.replace(",", ".") for text in text_lines]
     try:
         with np.errstate(all="ignore"):
-            block = np.loadtxt(text_lines, delimiter=delimiter, dtype=np.float64, ndmin=2, quotechar='"')
+            block = np.loadtxt(text_lines, delimiter=delimiter, dtype=np.float64, ndmin=2, quotechar='"', comments=None)
     except ValueError:
         block = None
     if block is None or block.shape[1] != len(header):
-        for line, row in zip(numbers, csv.reader(text_lines, delimiter=delimiter)):
+        for line, text in zip(numbers, text_lines):
+            row = _fields(path, line, text, delimiter)
             if len(row) != len(header):
-                raise UserError(f"{path}:{line}: {len(row)} fields, expected {len(header)} as in the header")
+                quote = " (a '\"' opens a quoted field that runs to the end of the line)" if '"' in text else ""
+                raise UserError(f"{path}:{line}: {len(row)} fields, expected {len(header)} as in the header{quote}")
             for c, cell in enumerate(row):
-                try:
-                    float(cell)
-                except ValueError:
-                    raise UserError(f"{path}:{line}:{c + 1}: column {header[c]!r}: expected a number, "
-                                    f"found {cell.strip()!r}") from None
+                if not NUMBER.match(cell):
+                    shown = cell.strip() if len(cell) <= 40 else cell.strip()[:30] + f"... ({len(cell)} characters)"
+                    raise UserError(f"{path}:{line}:{c + 1}: column {header[c]!r}: expected a number, found {shown!r}")
         raise UserError(f"{path}:{numbers[0]}: cannot read the rows from here on as numbers")
     bad = np.argwhere(~np.isfinite(block))
     if len(bad):
         r, c = bad[0]
-        cell = next(csv.reader([text_lines[r]], delimiter=delimiter))[c]
+        cell = _fields(path, numbers[r], text_lines[r], delimiter)[c]
         raise UserError(f"{path}:{numbers[r]}:{c + 1}: column {header[c]!r}: expected a finite number, "
                         f"found {cell.strip()!r}")
     return block
@@ -108,6 +121,13 @@ def _parse_cells(path: str, header: list[str], text_lines: list[str], numbers: l
 
 def _read_npz(path: str, time_column: str | None) -> Table:
     """Columns stored with numpy.savez: the fast way in for very long recordings."""
+    try:
+        with open(path, "rb") as f:
+            magic = f.read(4)
+    except OSError as exc:
+        raise UserError(f"{path}: cannot read: {exc.strerror}") from None
+    if magic != b"PK\x03\x04":
+        raise UserError(f"{path}: not a .npz archive (it does not start as a zip file); a CSV file must not end in .npz")
     try:
         with np.load(path, allow_pickle=False) as archive:
             columns = {name: np.asarray(archive[name]) for name in archive.files}
@@ -187,9 +207,11 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
             first = handle.readline()
             line = 1
             if not first.strip():
+                if handle.read(1):
+                    raise UserError(f"{path}:1: the first line is blank; expected the header (the column names) there")
                 raise UserError(f"{path}: file is empty; expected a header line and data rows")
             delimiter, comma_decimal = _delimiter(path, first, decimal)
-            header = [h.strip() for h in next(csv.reader([first], delimiter=delimiter))]
+            header = [h.strip() for h in _fields(path, 1, first, delimiter)]
             seen = set()
             for col, name in enumerate(header, start=1):
                 if not name:

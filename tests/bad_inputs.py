@@ -128,6 +128,18 @@ def _csv_cases() -> list[Case]:
          "bad.csv:9: column 'time_s': time must increase strictly"),
         ("irregular sampling", lambda t: _time_step(t, 8, 4.0), "error",
          "bad.csv:9: column 'time_s': step 14 s, expected 10 s"),
+        ("a field over 131,072 characters", lambda t: _cell(t, 5, "T_motor", "1" * 200000), "error",
+         "bad.csv:6: cannot split the line into fields (field larger than field limit"),
+        ("a quote that never closes", lambda t: _cell(t, 5, "T_motor", '"20'), "error",
+         "fields, expected 13 as in the header (a '\"' opens a quoted field"),
+        ("a blank first line", lambda t: "\n" + t, "error", "bad.csv:1: the first line is blank"),
+        ("1_000 late in the file", lambda t: _cell(t, 600, "T_motor", "1_000"), "error",
+         "bad.csv:601:5: column 'T_motor': expected a number, found '1_000'"),
+        ("a '# pause' comment line", lambda t: "\n".join([*t.splitlines()[:300], "# pause", *t.splitlines()[300:]]) + "\n",
+         "error", "bad.csv:301: 1 fields, expected 13"),
+        ("one data row", lambda t: "\n".join(t.splitlines()[:2]) + "\n", "error", "bad.csv: 1 data row; a fit needs at least 10"),
+        ("a cell of 1e308 (beyond REAL)", lambda t: _cell(t, 100, "T_motor", "1e308"), "error",
+         "line 101, column 'T_motor': 1e+308 cannot be a temperature input of type REAL"),
         ("UTF-8 byte order mark", lambda t: "\ufeff" + t, "accepted", ""),
         ("Windows line endings", lambda t: t.replace("\n", "\r\n"), "accepted", ""),
         ("';' and decimal commas (German Excel)", _german, "accepted", ""),
@@ -143,6 +155,8 @@ def _csv_cases() -> list[Case]:
                 continue  # the reader is shared; fit and verify show acceptance
             if fault == "irregular sampling" and command == "select-sensors":
                 continue  # sensor selection does not depend on the sampling
+            if fault in ("one data row", "a cell of 1e308 (beyond REAL)") and command != "fit":
+                continue  # what the rows are for decides the message: shown for fit
             shown = message
             if fault == "missing column" and command == "verify":
                 shown = "bad.csv: no column 'T_motor' for model input 'T_motor'"
