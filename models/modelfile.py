@@ -1,10 +1,12 @@
 """The versioned model file: what was fitted, on which data, with exact binary32 coefficients."""
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import math
 from dataclasses import dataclass, field
+from importlib import resources
 from pathlib import Path
 
 from thermoplc import __version__
@@ -91,9 +93,14 @@ def _document(m: Model) -> dict:
     }
 
 
+MAX_MODEL_BYTES = 64 * 1024 * 1024  # far above the largest model (a bayes table of 4096 entries is ~1 MB)
+
+
 def load_model(path: str | Path) -> Model:
     path = str(path)
     try:
+        if Path(path).stat().st_size > MAX_MODEL_BYTES:
+            raise UserError(f"{path}: {Path(path).stat().st_size:,} bytes; a model file is at most {MAX_MODEL_BYTES:,}")
         text = Path(path).read_text("utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise UserError(f"{path}: cannot read model file: {exc}") from None
@@ -101,7 +108,62 @@ def load_model(path: str | Path) -> Model:
         doc = json.loads(text)
     except json.JSONDecodeError as exc:
         raise UserError(f"{path}:{exc.lineno}:{exc.colno}: malformed JSON: {exc.msg}") from None
-    return _parse(doc, path)
+    except RecursionError:
+        raise UserError(f"{path}: JSON nested thousands of levels deep; not a thermoplc model file") from None
+    except ValueError as exc:  # an integer of more than 4300 digits
+        raise UserError(f"{path}: cannot read a number: {exc}") from None
+    model = _parse(doc, path)  # the fields every kind has, with messages tuned for hand edits
+    _check_schema(doc, path)
+    _check_shape(model, path)
+    return model
+
+
+@functools.lru_cache(maxsize=1)
+def _schema_validator():
+    import jsonschema
+    schema = json.loads(resources.files("thermoplc.models").joinpath("model_schema_v1.json").read_text("utf-8"))
+    return jsonschema.Draft202012Validator(schema)
+
+
+def _check_schema(doc, path: str) -> None:
+    """The versioned JSON Schema shipped with the package (one settings schema per kind): the first
+    problem, named by its field."""
+    import jsonschema
+    error = jsonschema.exceptions.best_match(_schema_validator().iter_errors(doc))
+    if error is not None:
+        where = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in error.absolute_path).lstrip(".")
+        message = error.message if len(error.message) <= 200 else error.message[:200] + "..."
+        raise UserError(f"{path}: " + (f"field {where!r}: " if where else "") + message)
+
+
+def _check_shape(model: "Model", path: str) -> None:
+    """What the schema cannot say: sizes that must agree between fields."""
+    temps = len(model.signals("temperature"))
+    if not temps:
+        raise UserError(f"{path}: field 'inputs': no input has the role temperature")
+    s = model.settings
+    if model.kind == "bayes":
+        parents = temps + (1 if s.get("time_parent") else 0)
+        if len(s["intervals"]) != parents or math.prod(s["intervals"]) != s["configurations"]:
+            raise UserError(f"{path}: field 'settings': intervals {s['intervals']} and configurations "
+                            f"{s['configurations']} do not fit {parents} parents (the product of the intervals is "
+                            f"the number of configurations)")
+    if model.kind == "piecewise":
+        nodes = sum(1 for name in model.coefficients if name.startswith("node_"))
+        if nodes != len(s["nodes"]):
+            raise UserError(f"{path}: field 'coefficients': {nodes} node_* coefficients for {len(s['nodes'])} "
+                            f"settings.nodes; one per node")
+    if model.kind == "bpnn" and (s["inputs"] != temps or s["outputs"] != len(s["targets"])):
+        raise UserError(f"{path}: field 'settings': inputs {s['inputs']} and outputs {s['outputs']} must be the "
+                        f"{temps} temperature inputs and the {len(s['targets'])} targets")
+    if model.kind == "lumped":
+        if s.get("relay_sensor", 1) > temps:
+            raise UserError(f"{path}: field 'settings.relay_sensor': {s['relay_sensor']} but the model has {temps} "
+                            f"temperature inputs")
+        for i, effect in enumerate(s.get("effects", [])):
+            if effect.get("sensor") is not None and not 1 <= effect["sensor"] <= temps:
+                raise UserError(f"{path}: field 'settings.effects[{i}].sensor': {effect['sensor']} but the model has "
+                                f"{temps} temperature inputs (numbered from 1)")
 
 
 MAX_FOLDING_ULP = 8  # f32 folded in binary32 (A*A) may sit a few ULP from f64 rounded; more is an edit
