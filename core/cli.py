@@ -351,8 +351,15 @@ DECIMAL = {"choices": ("auto", ".", ","), "default": "auto",
                    "(default: %(default)s)"}
 
 
+class _Parser(argparse.ArgumentParser):
+    """Command-line mistakes in one line, like every other error (the usage is one --help away)."""
+
+    def error(self, message: str):
+        self.exit(2, f"thermoplc: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="thermoplc", description=__doc__.splitlines()[0] if __doc__ else None)
+    parser = _Parser(prog="thermoplc", description=__doc__.splitlines()[0] if __doc__ else None)
     parser.add_argument("--version", action="version", version=f"thermoplc {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 

@@ -325,7 +325,7 @@ def _option_cases() -> list[Case]:
         ("--lag-step nan", fit("--model", "dlag", "--train-rows", "200", "--lag-step", "nan"),
          "argument --lag-step: expected seconds"),
         ("--lags 100000", fit("--model", "dlag", "--train-rows", "200", "--lags", "100000"),
-         "argument --lags: expected lags from 1 to 1000"),
+         "argument --lags: expected lags from 1 to 1,000"),
         ("--train-until nan", fit("--model", "mlr", "--train-until", "nan"), "argument --train-until: expected seconds"),
         ("--train-rows 0", fit("--model", "mlr", "--train-rows", "0"), "argument --train-rows: expected a row count"),
         ("--seed -1", fit(*kalman, "--seed", "-1"), "argument --seed: expected a seed"),
