@@ -4,7 +4,9 @@ from __future__ import annotations
 import csv
 import hashlib
 import io
+import os
 import re
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -128,6 +130,15 @@ def _read_npz(path: str, time_column: str | None) -> Table:
         raise UserError(f"{path}: cannot read: {exc.strerror}") from None
     if magic != b"PK\x03\x04":
         raise UserError(f"{path}: not a .npz archive (it does not start as a zip file); a CSV file must not end in .npz")
+    try:
+        with zipfile.ZipFile(path) as archive:
+            unpacked = sum(info.file_size for info in archive.infolist())
+    except (OSError, zipfile.BadZipFile) as exc:
+        raise UserError(f"{path}: cannot read as .npz: {exc}") from None
+    memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    if 2 * unpacked > memory:  # the columns are held as float64: up to twice the stored size
+        raise UserError(f"{path}: the archive unpacks to {unpacked / 2 ** 30:.1f} GiB; this machine has "
+                        f"{memory / 2 ** 30:.1f} GiB of memory (a zip bomb, or split the recording)")
     try:
         with np.load(path, allow_pickle=False) as archive:
             columns = {name: np.asarray(archive[name]) for name in archive.files}

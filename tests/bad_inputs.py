@@ -312,6 +312,19 @@ def _output_cases() -> list[Case]:
     ]
 
 
+def _bounded_cases() -> list[Case]:
+    """Issue 15: inputs that would take the machine's memory or minutes are refused at once."""
+    huge_array = _block_edit(lambda t: t.replace("VAR_TEMP", "VAR_TEMP\n      Huge : Array[0..2000000000] of Real;", 1))
+    long_comment = _block_edit(lambda t: "(*" + "x" * 5_000_000 + "*)\n" + t)
+    bad_block = ("verify", "bad.scl", "--model", "mlr.json", "--data", "good.csv")
+    return [
+        Case("ST file", "ARRAY[0..2000000000]", "verify", bad_block, huge_array, "error",
+             "ARRAY[0..2000000000] has 2,000,000,001 elements"),
+        Case("ST file", "a 5 MB comment", "verify", bad_block, long_comment, "error",
+             "a function block source is at most 4,000,000 here"),
+    ]
+
+
 def _option_cases() -> list[Case]:
     """Issue 15: every numeric option checked when the command line is read, naming option and range."""
     fit = lambda *extra: ("fit", "--data", "good.csv", "--target", "E_z_um", "--temps", "T_motor,T_bearing", *extra,
@@ -433,7 +446,7 @@ def _verify_cases() -> list[Case]:
 
 
 CASES = [*_csv_cases(), *_model_cases(), *_st_cases(), *_injection_cases(), *_output_cases(), *_option_cases(),
-         *_verify_cases()]
+         *_bounded_cases(), *_verify_cases()]
 
 
 def setup_folder(folder: Path) -> None:

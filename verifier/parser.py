@@ -14,6 +14,9 @@ from thermoplc.binary32 import decimal_to_f32
 from thermoplc.errors import UserError
 from thermoplc.verifier import syntax as s
 
+MAX_SOURCE_CHARACTERS = 4_000_000  # 20x the largest generated block; bounds parse time and memory
+MAX_ARRAY_ELEMENTS = 1_000_000
+
 SUPPORTED_TYPES = {"REAL", "BOOL", "INT", "DINT"}
 # Constructs that are valid ST but outside the subset the verifier interprets.
 UNSUPPORTED_WORDS = {
@@ -122,6 +125,10 @@ class _ToAst(Transformer):
         return s.TypeRef(str(items[0]).upper())
 
     def array_type(self, items):
+        low, high = int(items[0]), int(items[1])
+        if not 0 <= high - low < MAX_ARRAY_ELEMENTS:
+            raise UserError(f"{self.source}: ARRAY[{low}..{high}] has {high - low + 1:,} elements; the verifier holds "
+                            f"at most {MAX_ARRAY_ELEMENTS:,} per array (a block's tables and ring buffers are far smaller)")
         return s.TypeRef(str(items[2]).upper(), (items[0], items[1]))
 
     def initial(self, items):
@@ -292,6 +299,9 @@ def _explain(text: str, source: str, exc: UnexpectedInput) -> str:
 
 
 def parse_text(text: str, source: str = "<text>") -> s.Program:
+    if len(text) > MAX_SOURCE_CHARACTERS:
+        raise StSyntaxError(f"{source}: {len(text):,} characters; a function block source is at most "
+                            f"{MAX_SOURCE_CHARACTERS:,} here (the largest generated block is about 200,000)")
     try:
         tree = _lark().parse(text)
     except UnexpectedInput as exc:
@@ -310,6 +320,9 @@ def parse_text(text: str, source: str = "<text>") -> s.Program:
 def parse_file(path: str | Path) -> s.Program:
     path = str(path)
     try:
+        if Path(path).stat().st_size > 4 * MAX_SOURCE_CHARACTERS:
+            raise StSyntaxError(f"{path}: {Path(path).stat().st_size:,} bytes; a function block source is at most "
+                                f"{MAX_SOURCE_CHARACTERS:,} here (characters)")
         text = Path(path).read_text("utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise UserError(f"{path}: cannot read Structured Text: {exc}") from None
