@@ -127,3 +127,31 @@ def test_diagnose_report_is_replaced_only_in_its_own_files(tmp_path):
     assert (tmp_path / "rep" / "notes.txt").read_text() == "mine"
     assert sorted(p.name for p in (tmp_path / "rep").iterdir()) == [
         ".thermoplc-report", "channel_1.png", "channel_2.png", "index.html", "notes.txt"]
+
+
+LOOP_BLOCK = """FUNCTION_BLOCK Loop
+VAR_INPUT x : REAL; END_VAR
+VAR_OUTPUT y : REAL; END_VAR
+VAR i : DINT; acc : REAL; END_VAR
+VAR CONSTANT c_tiny : REAL := 1.0E-39; c_zero : REAL := 0.0; END_VAR
+acc := c_zero;
+FOR i := 0 TO 999 DO
+  acc := acc + c_tiny;
+END_FOR;
+y := x;
+END_FUNCTION_BLOCK
+"""
+
+
+def test_the_interpreter_has_a_budget_for_the_whole_replay(tmp_path, monkeypatch, capsys):
+    import numpy as np
+    from thermoplc.cli import main
+    from thermoplc.models.table import write_table
+    from thermoplc.verifier import interpreter
+    monkeypatch.setattr(interpreter, "MAX_REPLAY_LOOP_ITERATIONS", 20_000)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "loop.st").write_text(LOOP_BLOCK)
+    (tmp_path / "d.csv").write_text(write_table({"time_s": np.arange(100) * 10.0, "x": np.ones(100),
+                                                 "y_plc": np.ones(100)}))
+    assert main(["verify", "loop.st", "--data", "d.csv", "--expect", "y=y_plc", "--engine", "interp"]) == 2
+    assert "FOR loops of this replay exceed 20,000 iterations" in capsys.readouterr().err

@@ -17,6 +17,7 @@ from thermoplc.errors import UserError
 from thermoplc.verifier import syntax as s
 
 MAX_LOOP_ITERATIONS = 1_000_000
+MAX_REPLAY_LOOP_ITERATIONS = 50_000_000  # the interpreter's whole replay: about a minute, never hours
 PORTABLE_REAL_FUNCTIONS = {"ABS", "SQRT", "MIN", "MAX"}
 NON_PORTABLE_FUNCTIONS = {"EXP": np.exp, "LN": np.log, "LOG": np.log10, "SIN": np.sin, "COS": np.cos,
                           "TAN": np.tan, "ASIN": np.arcsin, "ACOS": np.arccos, "ATAN": np.arctan}
@@ -52,7 +53,7 @@ class Machine:
         self.source = source
         self.cycle = 0
         self.findings: dict[tuple, Finding] = {}
-        self._loop_cycle, self._loop_count = -1, 0
+        self._loop_cycle, self._loop_count, self._loop_total = -1, 0, 0
         self._cell = array("f", [0.0])
         self.slots: dict[str, int] = {}
         self.decls: list[s.VarDecl] = []
@@ -220,7 +221,11 @@ class Machine:
             if inc == 0:
                 fail(st.pos, "FOR step is 0")
             if self._loop_cycle != self.cycle:  # the budget is per call, over all loops (nested ones too)
+                self._loop_total += self._loop_count
                 self._loop_cycle, self._loop_count = self.cycle, 0
+                if self._loop_total > MAX_REPLAY_LOOP_ITERATIONS:
+                    fail(st.pos, f"FOR loops of this replay exceed {MAX_REPLAY_LOOP_ITERATIONS:,} iterations in the "
+                                 f"interpreter (more than a minute); replay fewer rows or loop less per call")
             while (i <= end) if inc > 0 else (i >= end):
                 self._loop_count += 1
                 if self._loop_count > MAX_LOOP_ITERATIONS:
