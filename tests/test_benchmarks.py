@@ -6,7 +6,7 @@ def test_papers_benchmark_fills_its_table(capsys, monkeypatch):
     monkeypatch.setattr(papers, "PAPER_002_SEEDS", 2)  # the table's shape, not the medians
     papers.ROWS.clear()
     papers.main()
-    assert [r[0] for r in papers.ROWS] == ["000"] * 6 + ["001"] + ["002"] * 2 + ["003"] * 3 + ["004"] * 3
+    assert [r[0] for r in papers.ROWS] == ["000"] * 6 + ["001"] * 2 + ["002"] * 2 + ["003"] * 3 + ["004"] * 3
     assert all(r[3] and "nan" not in r[3] for r in papers.ROWS)
 
 
