@@ -14,7 +14,7 @@ from thermoplc.errors import UserError
 from thermoplc.machines import DEFAULT as DEFAULT_MACHINE, MACHINES as MACHINE_NAMES
 from thermoplc.models.effects import NAMES as EFFECT_NAMES
 from thermoplc.models.modelfile import KINDS
-from thermoplc.fileio import check_output, check_report_folder, write_atomic
+from thermoplc.fileio import REPORT_MANIFEST, check_output, check_report_folder, write_atomic
 
 
 MAX_TWIN_ROWS = 50_000_000  # about 1.6 years at 1 s; beyond it the arrays alone need tens of GB
@@ -57,8 +57,10 @@ def _range(text: str) -> tuple[float, float]:
         low, high = (float(x) for x in text.split(","))
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected LOW,HIGH (two numbers), found {text!r}") from None
-    if not (math.isfinite(low) and math.isfinite(high) and -1e6 <= low < high <= 1e6):
-        raise argparse.ArgumentTypeError(f"expected LOW,HIGH with LOW below HIGH, finite, within +-1e6, found {text!r}")
+    if not (math.isfinite(low) and math.isfinite(high) and -1e6 <= low < high <= 1e6) \
+            or any(0 < abs(end) < 1e-6 for end in (low, high)):
+        raise argparse.ArgumentTypeError(f"expected LOW,HIGH with LOW below HIGH, finite, within +-1e6 and each 0 or "
+                                         f"at least 1e-6 in size, found {text!r}")
     return low, high
 
 
@@ -207,6 +209,10 @@ def cmd_generate(args) -> int:
         raise UserError("--format plcopen wraps the iec dialect; add --dialect iec")
     try:
         block = lower(model, limits)
+    except UserError as exc:
+        raise UserError(str(exc).replace("model file:", f"{args.model}:", 1)) from None
+    try:
+        block = lower(model, limits)
         text = render_plcopen(block, __version__) if args.format == "plcopen" else render(block, args.dialect)
     except GenerationError as exc:
         raise UserError(f"{args.model}: cannot generate a block: {exc}") from None
@@ -330,7 +336,11 @@ def cmd_diagnose(args) -> int:
         check_output(path, args.force, inputs=inputs)
     if args.report:
         from thermoplc.diagnosis.report import report_files
-        check_report_folder(args.report, report_files(len(args.temps) + 1), inputs=inputs)
+        owned = [*report_files(len(args.temps) + 1), REPORT_MANIFEST]
+        for path in files:
+            if Path(path).resolve().parent == Path(args.report).resolve() and Path(path).name in owned:
+                raise UserError(f"{path}: is a file of the --report folder; give -o and --json names of their own")
+        check_report_folder(args.report, owned[:-1], inputs=inputs)
     doc = run(request, args.output, args.json, args.report, _progress if sys.stderr.isatty() else None)
     if sys.stderr.isatty():
         print(file=sys.stderr)

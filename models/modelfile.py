@@ -149,10 +149,12 @@ def _check_shape(model: "Model", path: str) -> None:
                             f"{s['configurations']} do not fit {parents} parents (the product of the intervals is "
                             f"the number of configurations)")
     if model.kind == "piecewise":
-        nodes = sum(1 for name in model.coefficients if name.startswith("node_"))
-        if nodes != len(s["nodes"]):
-            raise UserError(f"{path}: field 'coefficients': {nodes} node_* coefficients for {len(s['nodes'])} "
-                            f"settings.nodes; one per node")
+        nodes = [model.coefficients[f"node_{m}"].f64 for m in range(1, len(s["nodes"]) + 1)
+                 if f"node_{m}" in model.coefficients]
+        if len(nodes) != sum(1 for name in model.coefficients if name.startswith("node_")) \
+                or nodes != [n["node_C"] for n in s["nodes"]] or any(b <= a for a, b in zip(nodes, nodes[1:])):
+            raise UserError(f"{path}: field 'coefficients': node_1.. {nodes} must be the settings.nodes' node_C "
+                            f"{[n['node_C'] for n in s['nodes']]}, strictly increasing")
     if model.kind == "bpnn" and (s["inputs"] != temps or s["outputs"] != len(s["targets"])):
         raise UserError(f"{path}: field 'settings': inputs {s['inputs']} and outputs {s['outputs']} must be the "
                         f"{temps} temperature inputs and the {len(s['targets'])} targets")

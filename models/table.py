@@ -45,9 +45,10 @@ class Table:
     def real_column(self, name: str, what: str) -> np.ndarray:
         """Column `name` as binary32 values; a finite cell beyond FLT_MAX (it would become Inf) is an error."""
         values = self.column(name)
-        too_big = np.isfinite(values) & (np.abs(values) > FLT_MAX)
+        with np.errstate(over="ignore"):
+            too_big = np.isfinite(values) & np.isinf(values.astype(np.float32))  # rounds beyond the largest REAL
         if too_big.any():
-            self.refuse_cell(name, too_big, f"{what} of type REAL", f"a REAL within +-{FLT_MAX:.7g}")
+            self.refuse_cell(name, too_big, f"{what} of type REAL", f"a REAL within +-{FLT_MAX:.9g}")
         return values.astype(np.float32)
 
 
@@ -79,7 +80,8 @@ def _sha256(path: str) -> str:
     return digest.hexdigest()
 
 
-NUMBER = re.compile(r"\s*[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\s*$|\s*[+-]?(nan|inf|infinity)\s*$", re.IGNORECASE)
+NUMBER = re.compile(r"\s*[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\s*$|\s*[+-]?(nan|inf|infinity)\s*$",
+                    re.IGNORECASE | re.ASCII)
 
 
 def _fields(path: str, line: int, text: str, delimiter: str) -> list[str]:
@@ -221,6 +223,8 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
                 if handle.read(1):
                     raise UserError(f"{path}:1: the first line is blank; expected the header (the column names) there")
                 raise UserError(f"{path}: file is empty; expected a header line and data rows")
+            if first.lstrip().startswith("#"):
+                raise UserError(f"{path}:1: a comment line; expected the header (the column names) on the first line")
             delimiter, comma_decimal = _delimiter(path, first, decimal)
             header = [h.strip() for h in _fields(path, 1, first, delimiter)]
             seen = set()

@@ -306,10 +306,18 @@ def _output_cases() -> list[Case]:
              "out.scl: exists and is not a regular file"),
         Case("output", "report folder not empty and not a report", "diagnose", (*DIAGNOSE, "good.csv", "--report", "rep"),
              foreign_report, "error", "--report rep: is not empty and is not a report thermoplc wrote"),
+        Case("output", "-o naming the report's own index.html", "diagnose",
+             (*DIAGNOSE[:-3], "-o", "rep/index.html", "--data", "good.csv", "--report", "rep"), lambda f: None, "error",
+             "rep/index.html: is a file of the --report folder"),
         Case("output", "report folder of thermoplc holding a file it does not list", "diagnose",
              (*DIAGNOSE, "good.csv", "--report", "rep"), own_report_with_a_foreign_file, "error",
              "channel_1.png exists and is not listed"),
     ]
+
+
+def _swap_nodes(doc: dict) -> None:
+    first, last = doc["coefficients"]["node_1"], doc["coefficients"]["node_4"]
+    doc["coefficients"]["node_1"], doc["coefficients"]["node_4"] = last, first
 
 
 def _bounded_cases() -> list[Case]:
@@ -318,6 +326,8 @@ def _bounded_cases() -> list[Case]:
     long_comment = _block_edit(lambda t: "(*" + "x" * 5_000_000 + "*)\n" + t)
     bad_block = ("verify", "bad.scl", "--model", "mlr.json", "--data", "good.csv")
     return [
+        Case("model file", "piecewise nodes out of order", "generate", ("generate", "bad.json", "-o", "out.scl"),
+             _golden_edit("piecewise", _swap_nodes), "error", "strictly increasing"),
         Case("ST file", "ARRAY[0..2000000000]", "verify", bad_block, huge_array, "error",
              "ARRAY[0..2000000000] has 2,000,000,001 elements"),
         Case("ST file", "a 5 MB comment", "verify", bad_block, long_comment, "error",
