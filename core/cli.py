@@ -355,7 +355,7 @@ def cmd_demo(args) -> int:
     return run_demo(Path(args.out), args.force)
 
 
-FORCE_HELP = "replace an output file even if thermoplc did not write it"
+FORCE_HELP = "replace an existing output file (never an input of the command, never a non-regular file)"
 DECIMAL = {"choices": ("auto", ".", ","), "default": "auto",
            "help": "decimal separator of the CSV: auto (',' when ';' separates the columns), '.' or ',' "
                    "(default: %(default)s)"}
