@@ -209,13 +209,11 @@ def cmd_generate(args) -> int:
         raise UserError("--format plcopen wraps the iec dialect; add --dialect iec")
     try:
         block = lower(model, limits)
-    except UserError as exc:
-        raise UserError(str(exc).replace("model file:", f"{args.model}:", 1)) from None
-    try:
-        block = lower(model, limits)
         text = render_plcopen(block, __version__) if args.format == "plcopen" else render(block, args.dialect)
     except GenerationError as exc:
         raise UserError(f"{args.model}: cannot generate a block: {exc}") from None
+    except UserError as exc:  # a coefficient the kind needs is missing
+        raise UserError(str(exc).replace("model file:", f"{args.model}:", 1)) from None
     proof = _prove(model, block, limits, args)
     stressed = _stress(model, limits, render(block, "iec") if args.format == "plcopen" else text, args)
     write_atomic(args.output, text)
@@ -551,7 +549,17 @@ def main(argv: list[str] | None = None) -> int:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 
+def _named_inputs(args) -> str:
+    """The files a command read, for a message that cannot say which one was at fault."""
+    for keys in (("block",), ("old", "new"), ("model",), ("manifest",)):  # the ST source first: it is what nests
+        names = [getattr(args, key, None) for key in keys]
+        if all(isinstance(n, str) for n in names):
+            return ", ".join(names)
+    return "an input"
+
+
 def _run(argv: list[str] | None) -> int:
+    args = None
     try:
         args = build_parser().parse_args(argv)
         return args.func(args)
@@ -559,8 +567,8 @@ def _run(argv: list[str] | None) -> int:
         print(f"thermoplc: error: {exc}", file=sys.stderr)
         return 2
     except RecursionError:  # an expression or statement nesting deeper than Python's stack (thousands of levels)
-        print("thermoplc: error: an input nests expressions or statements too deeply to read (thousands of levels); "
-              "nothing written", file=sys.stderr)
+        print(f"thermoplc: error: {_named_inputs(args)}: expressions or statements nested too deeply to read "
+              f"(thousands of levels); nothing written", file=sys.stderr)
         return 2
     except MemoryError:
         print("thermoplc: error: an input needs more memory than this machine has (a huge array or table?); "

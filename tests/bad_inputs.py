@@ -320,6 +320,80 @@ def _swap_nodes(doc: dict) -> None:
     doc["coefficients"]["node_1"], doc["coefficients"]["node_4"] = last, first
 
 
+def _schema_cases() -> list[Case]:
+    """Issue 15: mistyped settings of every kind, caught by the schema or the shape checks, never a traceback."""
+    rows = [
+        ("dlag", "lags as text", ["settings", "lags"], "3", "field 'settings.lags': '3' is not of type 'integer'"),
+        ("dlag", "lags as a fraction", ["settings", "lags"], 3.5, "field 'settings.lags': 3.5 is not of type 'integer'"),
+        ("dlag", "lag step of 0 samples", ["settings", "lag_step_samples"], 0, "'settings.lag_step_samples': 0 is less"),
+        ("lumped", "effects as text", ["settings", "effects"], "abc", "field 'settings.effects' must be a list"),
+        ("lumped", "relay sensor that does not exist", ["settings", "relay_sensor"], 9,
+         "field 'settings.relay_sensor': 9 but the model has 2 temperature inputs"),
+        ("mlr", "no inputs", ["inputs"], [], "field 'inputs': [] should be non-empty"),
+        ("bayes", "configurations that do not fit the intervals", ["settings", "configurations"], 2,
+         "intervals [8, 8] and configurations 2 do not fit 2 parents"),
+        ("bayes", "an interval count as text", ["settings", "intervals"], [2, "x"],
+         "field 'settings.intervals[1]': 'x' is not of type 'integer'"),
+        ("bayes", "unknown unseen rule", ["settings", "unseen"], "guess", "field 'settings.unseen': 'guess' is not one of"),
+        ("bpnn", "no hidden neurons", ["settings", "hidden"], 0, "field 'settings.hidden': 0 is less than the minimum of 1"),
+        ("bpnn", "more network inputs than sensors", ["settings", "inputs"], 3,
+         "inputs 3 and outputs 3 must be the 2 temperature inputs"),
+        ("kalman", "negative sample period", ["sample_period_s"], -1, "field 'sample_period_s': -1 is less than or equal"),
+        ("piecewise", "nodes as an object", ["settings", "nodes"], {}, "field 'settings.nodes': {} is not of type 'array'"),
+        ("gm1n", "coefficient f32 not hex", ["coefficients", "Keep", "f32"], "0xZZZZZZZZ", "field 'coefficients.Keep.f32'"),
+    ]
+    cases = [Case("model file", f"{kind}: {fault}", "generate", ("generate", "bad.json", "-o", "out.scl"),
+                  _golden_edit(kind, _set(path, value)), "error", message) for kind, fault, path, value, message in rows]
+
+    def deep(folder: Path) -> None:
+        (folder / "bad.json").write_text("[" * 100000 + "]" * 100000)
+
+    def huge_number(folder: Path) -> None:
+        (folder / "bad.json").write_text((folder / "mlr.json").read_text().replace('"sample_period_s": 10.0',
+                                                                                     '"sample_period_s": ' + "9" * 5000))
+    cases += [Case("model file", "JSON nested 100,000 levels", "generate", ("generate", "bad.json", "-o", "out.scl"), deep,
+                   "error", "JSON nested thousands of levels deep"),
+              Case("model file", "a 5000-digit number", "generate", ("generate", "bad.json", "-o", "out.scl"), huge_number,
+                   "error", "cannot read a number: Exceeds the limit (4300 digits)")]
+    return cases
+
+
+def _nesting_cases() -> list[Case]:
+    """Issue 15: ST nested beyond any sensible block, named instead of a RecursionError traceback."""
+    def deep_expression(t: str) -> str:
+        return t.replace("#Init := TRUE;", "#Init := " + "NOT " * 20000 + "TRUE;", 1)
+
+    def long_sum(t: str) -> str:
+        return t.replace("#Init := TRUE;", "#Delta := " + " + ".join(["#Delta"] * 2000) + ";\n#Init := TRUE;", 1)
+
+    def nested_ifs(t: str) -> str:
+        return t.replace("#Init := TRUE;", "IF TRUE THEN " * 3000 + "#Init := TRUE;" + " END_IF;" * 3000, 1)
+    bad_block = ("verify", "bad.scl", "--model", "mlr.json", "--data", "good.csv")
+    return [Case("ST file", fault, "verify", bad_block, _block_edit(edit), "error", message) for fault, edit, message in (
+        ("20,000 NOTs", deep_expression, "bad.scl: expressions or statements nested too deeply"),
+        ("a sum of 2000 terms", long_sum, "bad.scl: expressions or statements nested too deeply"),
+        ("3000 nested IFs", nested_ifs, "nested too deeply"))]
+
+
+def _data_file_cases() -> list[Case]:
+    """Issue 15: .npz files that are not what they claim, and inputs a model does not have."""
+    def garbage_npz(folder: Path) -> None:
+        (folder / "bad.npz").write_bytes(b"PK\x03\x04" + b"garbage" * 10)
+
+    def csv_as_npz(folder: Path) -> None:
+        (folder / "bad.npz").write_text(good_csv(folder))
+
+    return [
+        Case("data file", ".npz with garbage after the zip magic", "verify", (*VERIFY, "bad.npz"), garbage_npz, "error",
+             "bad.npz: cannot read as .npz: File is not a zip file"),
+        Case("data file", "a CSV named .npz", "verify", (*VERIFY, "bad.npz"), csv_as_npz, "error",
+             "bad.npz: not a .npz archive (it does not start as a zip file)"),
+        Case("data file", "--inputs naming an input the model lacks", "verify",
+             (*VERIFY, "good.csv", "--inputs", "Nope=T_motor"), lambda f: None, "error",
+             "--inputs maps Nope, but mlr.json has no such input"),
+    ]
+
+
 def _bounded_cases() -> list[Case]:
     """Issue 15: inputs that would take the machine's memory or minutes are refused at once."""
     huge_array = _block_edit(lambda t: t.replace("VAR_TEMP", "VAR_TEMP\n      Huge : Array[0..2000000000] of Real;", 1))
@@ -456,7 +530,7 @@ def _verify_cases() -> list[Case]:
 
 
 CASES = [*_csv_cases(), *_model_cases(), *_st_cases(), *_injection_cases(), *_output_cases(), *_option_cases(),
-         *_bounded_cases(), *_verify_cases()]
+         *_bounded_cases(), *_schema_cases(), *_nesting_cases(), *_data_file_cases(), *_verify_cases()]
 
 
 def setup_folder(folder: Path) -> None:
