@@ -436,6 +436,27 @@ def _option_cases() -> list[Case]:
             ("--max-step-um inf", ("--max-step-um", "inf"), "argument --max-step-um: expected micrometres")):
         cases.append(Case("option", fault, "generate", (*generate, *extra), lambda f: None, "error", message))
     select = ("select-sensors", "--data", "good.csv", "--target", "E_z_um", "--candidates", "T_motor,T_bearing")
+    more = [
+        ("fit", "--jump-limit -1", fit(*kalman, "--jump-limit", "-1"), "argument --jump-limit: expected kelvin"),
+        ("fit", "--recover-limit nan", fit(*kalman, "--recover-limit", "nan"), "argument --recover-limit: expected kelvin"),
+        ("fit", "--bins 0", fit("--model", "bayes", "--train-rows", "200", "--bins", "0"), "argument --bins: expected intervals"),
+        ("fit", "--time-bins -1", fit("--model", "bayes", "--train-rows", "200", "--time-bins", "-1"),
+         "argument --time-bins: expected intervals from 0"),
+        ("fit", "--lags 0", fit("--model", "dlag", "--train-rows", "200", "--lags", "0"), "argument --lags: expected lags from 1"),
+        ("twin", "--dt 0", ("twin", "--dt", "0", "-o", "out.csv"), "argument --dt: expected seconds"),
+        ("twin", "--noise -1", ("twin", "--noise", "-1", "-o", "out.csv"), "argument --noise: expected a scale from 0"),
+        ("twin", "--ambient-start 100", ("twin", "--ambient-start", "100", "-o", "out.csv"),
+         "argument --ambient-start: expected degC from -40 to 60"),
+        ("twin", "--seed abc", ("twin", "--seed", "abc", "-o", "out.csv"), "argument --seed: expected an integer, found 'abc'"),
+        ("generate", "--max-jump-k 0", (*generate, "--max-jump-k", "0"), "argument --max-jump-k: expected kelvin"),
+        ("generate", "--temp-range 0,1e-40 (a subnormal end)", (*generate, "--temp-range", "0,1e-40"),
+         "each 0 or at least 1e-6 in size"),
+        ("generate", "--temp-range abc", (*generate, "--temp-range", "abc"), "expected LOW,HIGH (two numbers), found 'abc'"),
+        ("verify", "--jobs 1000", ("verify", "--manifest", "m.csv", "--jobs", "1000"), "argument --jobs: expected processes"),
+        ("select-sensors", "--max-groups 0", (*select, "--max-groups", "0"), "argument --max-groups: expected groups from 1"),
+        ("select-sensors", "--threshold 2", (*select, "--threshold", "2"), "argument --threshold: expected a degree from 0 to 1"),
+    ]
+    cases += [Case("option", fault, command, argv, lambda f: None, "error", message) for command, fault, argv, message in more]
     cases += [
         Case("option", "--train-rows 0", "select-sensors", (*select, "--train-rows", "0"), lambda f: None, "error",
              "argument --train-rows: expected a row count"),
