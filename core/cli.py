@@ -2,9 +2,11 @@
 from __future__ import annotations
 
 import argparse
+import datetime
 import errno
 import math
 import os
+import re
 import signal
 import sys
 from pathlib import Path
@@ -62,6 +64,38 @@ def _range(text: str) -> tuple[float, float]:
         raise argparse.ArgumentTypeError(f"expected LOW,HIGH with LOW below HIGH, finite, within +-1e6 and each 0 or "
                                          f"at least 1e-6 in size, found {text!r}")
     return low, high
+
+
+def _attribute(text: str) -> str:
+    if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]{0,7}", text):
+        raise argparse.ArgumentTypeError(f"expected a letter, then letters, digits or '_', 8 characters at most "
+                                         f"(STEP 7 header attribute), found {text!r}")
+    return text
+
+
+def _block_version(text: str) -> tuple[int, int]:
+    match = re.fullmatch(r"(\d{1,2})\.(\d{1,2})", text)
+    if not match or not all(0 <= int(part) <= 15 for part in match.groups()):
+        raise argparse.ArgumentTypeError(f"expected X.Y with each part 0 to 15, found {text!r}")
+    return int(match.group(1)), int(match.group(2))
+
+
+def _date(text: str) -> str:
+    try:
+        datetime.date.fromisoformat(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a date YYYY-MM-DD, found {text!r}") from None
+    if not re.fullmatch(r"\d{4}-\d{2}-\d{2}", text):
+        raise argparse.ArgumentTypeError(f"expected a date YYYY-MM-DD, found {text!r}")
+    return text
+
+
+def _today() -> str:
+    """Today in UTC, or the date of SOURCE_DATE_EPOCH (reproducible builds) when it is set."""
+    epoch = os.environ.get("SOURCE_DATE_EPOCH", "")
+    moment = datetime.datetime.fromtimestamp(int(epoch), datetime.timezone.utc) if epoch.isdigit() else \
+        datetime.datetime.now(datetime.timezone.utc)
+    return moment.date().isoformat()
 
 
 def _mapping(text: str) -> dict:
@@ -196,8 +230,9 @@ def format_proof(proof, block) -> str:
 
 
 def cmd_generate(args) -> int:
-    from thermoplc.generator.lower import lower, lower_model
-    from thermoplc.generator.printer import GenerationError, render, render_plcopen
+    from dataclasses import replace
+    from thermoplc.generator.lower import lower, lower_model, model_identity
+    from thermoplc.generator.printer import GenerationError, render, render_instance_db, render_plcopen
     from thermoplc.models.modelfile import load_model
     from thermoplc.models.safety import Limits
     check_output(args.output, args.force, inputs=[args.model])
@@ -207,9 +242,17 @@ def cmd_generate(args) -> int:
                     settle_calls=args.settle_calls)
     if args.format == "plcopen" and args.dialect != "iec":
         raise UserError("--format plcopen wraps the iec dialect; add --dialect iec")
+    if args.instance_db and args.dialect != "step7":
+        raise UserError("--instance-db writes a STEP 7 instance DB source; TIA and IEC targets create the instance "
+                        "when the block is called")
+    identity = model_identity(model, args.date)
+    identity = replace(identity, author=args.author, family=args.family,
+                       version=args.block_version or identity.version)
     try:
-        block = lower(model, limits)
+        block = lower(model, limits, identity, args.retain)
         text = render_plcopen(block, __version__) if args.format == "plcopen" else render(block, args.dialect)
+        if args.instance_db:
+            text += render_instance_db(block, args.instance_db)
     except GenerationError as exc:
         raise UserError(f"{args.model}: cannot generate a block: {exc}") from None
     except UserError as exc:  # a coefficient the kind needs is missing
@@ -290,18 +333,32 @@ def cmd_diff(args) -> int:
 
 
 def cmd_select(args) -> int:
+    from thermoplc.models.fit import training_rows
+    from thermoplc.models.leaks import TEMPERATURE_RULE, refuse_leaks, refuse_non_temperatures, temperature_columns
     from thermoplc.models.selection import select_sensors
     from thermoplc.models.table import read_table
     if args.output:
         check_output(args.output, args.force, inputs=[args.data])
     table = read_table(args.data, args.time, decimal=args.decimal)
-    candidates = args.candidates or tuple(c for c in table.columns if c not in (args.time, args.target))
-    rows = table.rows if args.train_rows is None else args.train_rows
-    if not 3 <= rows <= table.rows:
-        raise UserError(f"{args.data}: --train-rows {rows}: the file has {table.rows} rows; grouping sensors needs "
-                        f"at least 3 of them")
+    target = table.column(args.target)
+    if args.candidates:
+        candidates = args.candidates
+        refuse_non_temperatures(table, candidates, "--candidates")
+    else:
+        candidates = temperature_columns(table.columns, (args.time, args.target))
+        if not candidates:
+            raise UserError(f"{args.data}: no temperature columns recognised ({TEMPERATURE_RULE.format(low=-40, high=150)}); "
+                            f"name them with --candidates")
+    if args.train_until is None and args.train_rows is None:
+        rows = table.rows
+    else:
+        rows = training_rows(table, args.time, args.train_until, args.train_rows)
+    refuse_leaks({c: table.column(c)[:rows] for c in candidates}, args.target, target[:rows], args.data,
+                 "--candidates")
+    if rows < 3:
+        raise UserError(f"{args.data}: {rows} rows; grouping sensors needs at least 3 of them")
     try:
-        selection = select_sensors({c: table.column(c)[:rows] for c in candidates}, table.column(args.target)[:rows],
+        selection = select_sensors({c: table.column(c)[:rows] for c in candidates}, target[:rows],
                                    args.method, args.threshold, args.max_groups)
     except UserError as exc:
         raise UserError(str(exc) if str(exc).startswith(args.data) else f"{args.data}: {exc}") from None
@@ -359,6 +416,14 @@ DECIMAL = {"choices": ("auto", ".", ","), "default": "auto",
                    "(default: %(default)s)"}
 
 
+def _training_part(parser: argparse.ArgumentParser, required: bool, default: str = "") -> None:
+    """The training part, in the same words for every command that has one."""
+    part = parser.add_mutually_exclusive_group(required=required)
+    tail = f" (default: {default})" if default else ""
+    part.add_argument("--train-until", type=SECONDS, metavar="SECONDS", help=f"training part: rows with time <= SECONDS{tail}")
+    part.add_argument("--train-rows", type=ROWS, metavar="N", help=f"training part: the first N rows{tail}")
+
+
 class _Parser(argparse.ArgumentParser):
     """Command-line mistakes in one line, like every other error (the usage is one --help away)."""
 
@@ -406,9 +471,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--speed", help="spindle speed column, rpm (kalman)")
     p.add_argument("--ambient", help="ambient temperature column, degC (kalman, piecewise)")
     p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
-    part = p.add_mutually_exclusive_group(required=True)
-    part.add_argument("--train-until", type=SECONDS, metavar="SECONDS", help="train on rows with time <= SECONDS")
-    part.add_argument("--train-rows", type=ROWS, metavar="N", help="train on the first N rows")
+    _training_part(p, required=True)
     p.add_argument("--optimizer", choices=("ga", "de"), default="ga",
                    help="ga: paper 000's genetic algorithm; de: scipy differential evolution")
     p.add_argument("--seed", type=SEED, default=0)
@@ -442,12 +505,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=("fcm-grey", "grey-cluster"), default="fcm-grey",
                    help="fcm-grey: paper 001's fuzzy clustering + grey relational grade; "
                         "grey-cluster: paper 002's grey clustering + correlation")
-    p.add_argument("--candidates", type=_columns, help="temperature columns to choose from (default: all but time and target)")
+    p.add_argument("--candidates", type=_columns,
+                   help="temperature columns to choose from (default: the columns named like temperatures - T_..., "
+                        "T1, ...temp..., ..._C - whose values all lie in -40..150 degC)")
     p.add_argument("--threshold", type=_number(float, 0.0, 1.0, "a degree"), default=0.9,
                    help="grey-cluster: comprehensive degree that joins two sensors (paper 002: %(default)s)")
     p.add_argument("--max-groups", type=_number(int, 1, 1000, "groups"), default=5, help="fcm-grey: at most this many groups (default: %(default)s)")
-    p.add_argument("--train-rows", type=ROWS, help="use only the first N rows (the training part)")
-    p.add_argument("--time", default="time_s")
+    _training_part(p, required=False, default="all rows")
+    p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
     p.add_argument("-o", "--output", help="write the chosen sensors for fit --temps @FILE")
     p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
@@ -464,9 +529,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-structure-lag", action="store_true",
                    help="baseline displacement from the simulated temperatures alone (paper 000 eq. 10), without "
                         "the structure that lags them")
-    part = p.add_mutually_exclusive_group()
-    part.add_argument("--train-until", type=SECONDS, metavar="SECONDS", help="training part: rows with time <= SECONDS")
-    part.add_argument("--train-rows", type=ROWS, metavar="N", help="training part: the first N rows (default: 60%%)")
+    _training_part(p, required=False, default="the first 60%% of the rows")
     p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
     p.add_argument("--name", default="ThermalComp", help="function block name of the augmented model")
     p.add_argument("--decimal", **DECIMAL)
@@ -494,6 +557,20 @@ def build_parser() -> argparse.ArgumentParser:
                    help="temperature change per call that marks a sensor faulty, K (default: %(default)s)")
     p.add_argument("--settle-calls", type=_number(int, 1, 10000, "calls"), default=30,
                    help="steady calls before a faulty sensor is trusted again (default: %(default)s)")
+    p.add_argument("--retain", action="store_true",
+                   help="keep the state over a power cycle: statics and outputs declared RETAIN (tia, iec); step7: "
+                        "the header says to keep the instance DB retentive")
+    p.add_argument("--instance-db", metavar="NAME",
+                   help="step7: append the source of an instance DB NAME of the block (enter NAME in the symbol table)")
+    p.add_argument("--author", type=_attribute, default="thermopl",
+                   help="AUTHOR in the block header, at most 8 letters, digits or '_' (default: %(default)s)")
+    p.add_argument("--family", type=_attribute, default="ThermCmp",
+                   help="FAMILY in the block header, at most 8 letters, digits or '_' (default: %(default)s)")
+    p.add_argument("--block-version", type=_block_version, metavar="X.Y",
+                   help="VERSION in the block header, each part 0 to 15 (default: the first two hex digits of the "
+                        "model fingerprint, so a changed model changes the version)")
+    p.add_argument("--date", type=_date, default=_today(), metavar="YYYY-MM-DD",
+                   help="date in the header comment (default: today, or SOURCE_DATE_EPOCH when set)")
     p.add_argument("--stats", action="store_true", help="print operations per call and bytes of state")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--explain", action="store_true", help="print which region computes which model term, "

@@ -17,6 +17,7 @@ from thermoplc.models import lumped_model
 from thermoplc.models.fit import block_identifier, evaluate, sample_period
 from thermoplc.models.modelfile import Model, Signal, load_model
 from thermoplc.models.simulation import Series, Simulation
+from thermoplc.models.leaks import refuse_leaks, refuse_non_temperatures
 from thermoplc.models.table import Table, read_table
 
 DEFAULT_TRAIN_SHARE = 0.6
@@ -71,6 +72,12 @@ def series_of(table: Table, request: DiagnoseRequest, dt: float) -> Series:
     for column in (*request.temps, request.speed, request.ambient, request.target,
                    *((request.feed,) if request.feed else ())):
         table.column(column)
+    refuse_non_temperatures(table, request.temps, "--temps")
+    refuse_non_temperatures(table, [request.ambient], "--ambient")
+    for option, columns in (("--temps", request.temps), ("--speed", [request.speed]), ("--ambient", [request.ambient]),
+                            ("--feed", [request.feed] if request.feed else [])):
+        refuse_leaks({c: table.columns[c] for c in columns}, request.target, table.columns[request.target],
+                     table.path, option)
     return Series(dt, table.columns[request.time_column], table.columns[request.speed], table.columns[request.ambient],
                   np.column_stack([table.columns[c] for c in request.temps]), tuple(request.temps),
                   table.columns[request.target], table.columns[request.feed] if request.feed else None)

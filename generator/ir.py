@@ -96,7 +96,19 @@ class Var:
     type: str  # 'REAL' | 'BOOL' | 'INT'
     comment: str = ""
     length: int | None = None  # Array[0..length-1] of type
-    initial: tuple | None = None  # start values of a table (REAL binary32 values)
+    initial: tuple | bool | None = None  # start values of a table (REAL binary32 values), or a BOOL input's
+
+
+ENO = "ENO"  # the enable output: the dialect's system flag (TIA ENO, STEP 7 OK) or a declared output (IEC)
+
+
+@dataclass(frozen=True)
+class Identity:
+    """What the block header says about the block (TIA and STEP 7 attributes; comments in IEC)."""
+    author: str = "thermopl"
+    family: str = "ThermCmp"
+    version: tuple[int, int] = (0, 1)
+    date: str = ""
 
 
 @dataclass(frozen=True)
@@ -118,6 +130,8 @@ class Block:
     temps: tuple[Var, ...]
     constants: tuple[Const, ...]
     regions: tuple[Region, ...]
+    identity: Identity = Identity()
+    retain: bool = False  # state (statics and outputs) kept over a power cycle
 
 
 PORTABLE_FUNCTIONS = frozenset({"ABS", "SQRT", "MIN", "MAX"})

@@ -2,8 +2,11 @@
 each kind's lowering lives in its own module, this one picks it and adds the safety logic."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 from thermoplc.errors import UserError
-from thermoplc.generator.ir import Block, GenerationError
+from thermoplc.generator.commissioning import with_commissioning
+from thermoplc.generator.ir import Block, GenerationError, Identity
 from thermoplc.generator.lower_bayes import lower_bayes
 from thermoplc.generator.lower_bpnn import lower_bpnn
 from thermoplc.generator.lower_grey import lower_gm0n, lower_gm1n
@@ -25,11 +28,20 @@ def lower_model(model: Model) -> Block:
     return LOWERINGS[model.kind](model)
 
 
-def lower(model: Model, limits: Limits = Limits()) -> Block:
-    """The block for `model`, inside the input guards and output limits every block carries."""
+def lower(model: Model, limits: Limits = Limits(), identity: Identity | None = None, retain: bool = False) -> Block:
+    """The block for `model`, inside the input guards and output limits every block carries, with
+    Enable/ENO and Reset; `identity` defaults to the version the model's fingerprint gives."""
     core = lower_model(model)
     axes = axis_outputs(model, [v.name for v in core.outputs if v.type == "REAL"])
-    return with_safety(core, guards(model), axes, limits)
+    block = with_commissioning(with_safety(core, guards(model), axes, limits))
+    return replace(block, identity=identity or model_identity(model), retain=retain)
+
+
+def model_identity(model: Model, date: str = "") -> Identity:
+    """The block version tied to the model: the first two hex digits of its fingerprint (0.0 to 15.15,
+    the range TIA and STEP 7 take), so a changed model shows a changed version in the block properties."""
+    fingerprint = model.fingerprint()
+    return Identity(version=(int(fingerprint[0], 16), int(fingerprint[1], 16)), date=date)
 
 
 def check_model_becomes_block(model: Model, path: str) -> None:

@@ -42,7 +42,7 @@ def lower_bayes(model: Model) -> Block:
     table = tuple(model.coef(f"pred_{c}") for c in range(model.settings["configurations"]))
     return Block(
         name=model.block_name,
-        title="Thermal error compensation: Bayesian network, most probable error interval (paper 004)",
+        title="Thermal compensation: Bayesian network (paper 004)",
         header=header(model),
         inputs=inputs_of(temps),
         outputs=(error_output(model),),

@@ -54,7 +54,7 @@ def lower_bpnn(model: Model) -> Block:
         out_vars += [Var(n, "REAL", f"thermal error along {n[1]} at the tool tip, um") for n in ("Dx_um", "Dy_um", "Dz_um")]
     return Block(
         name=model.block_name,
-        title=f"Thermal error compensation: GA-BP neural network {m}-{hidden}-{q} (paper 002)",
+        title=f"Thermal compensation: GA-BP neural network {m}-{hidden}-{q} (paper 002)",
         header=header(model),
         inputs=tuple(inputs),
         outputs=tuple(out_vars),

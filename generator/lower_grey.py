@@ -27,7 +27,7 @@ def lower_gm0n(model: Model) -> Block:
     temps = model.signals("temperature")
     level = sum_of([const("a")] + [BinOp("*", const(f"b_{i}"), Ref(f"S_{i}")) for i in range(1, len(temps) + 1)])
     return _grey_block(
-        model, "Thermal error compensation: grey model GM(0,N) (paper 003)",
+        model, "Thermal compensation: grey model GM(0,N) (paper 003)",
         statics=[INIT,
                  Var("Xprev", "REAL", "accumulated error estimate of the previous call")],
         temps_=[Var("X", "REAL", "accumulated error estimate")],
@@ -50,7 +50,7 @@ def lower_gm1n(model: Model) -> Block:
     step = If(((Unary("NOT", Ref("Init")), (Assign("X", const("X1")), Assign("Init", BoolConst(True)))),),
               orelse=(Assign("X", BinOp("+", BinOp("*", const("Keep"), Ref("Xprev")), BinOp("*", const("In"), Ref("F")))),))
     return _grey_block(
-        model, "Thermal error compensation: grey model GM(1,N) (paper 003)",
+        model, "Thermal compensation: grey model GM(1,N) (paper 003)",
         statics=[INIT, Var("Xprev", "REAL", "accumulated error estimate of the previous call")],
         temps_=[Var("F", "REAL", "sum of b_i*S_i"), Var("X", "REAL", "accumulated error estimate")],
         constants=[Const("c_X1", model.coef("X1"), "error at the first sample of the fit, um"),

@@ -80,7 +80,7 @@ def lower_kalman(model: Model) -> Block:
                       for name in SENSOR_COEFFICIENTS]
     return Block(
         name=model.block_name,
-        title="Thermal error compensation: Kalman fusion of a lumped-mass model (paper 000)",
+        title="Thermal compensation: Kalman fusion, lumped mass (paper 000)",
         header=header(model),
         inputs=inputs_of((*temps, *model.signals("speed"), *model.signals("ambient"))),
         outputs=(error_output(model),)

@@ -114,8 +114,8 @@ def lower_lumped(model: Model) -> Block:
     effects = ", ".join(lumped_model.effect_names(model)) or "none"
     return Block(
         name=model.block_name,
-        title=f"Thermal error compensation: lumped-mass simulation (paper 000) with effects: {effects}",
-        header=header(model),
+        title="Thermal compensation: lumped-mass simulation (paper 000)",
+        header=(*header(model), f"Effects: {effects}."),
         inputs=inputs_of(inputs),
         outputs=(error_output(model),),
         statics=tuple(statics),

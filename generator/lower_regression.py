@@ -14,7 +14,7 @@ def lower_mlr(model: Model) -> Block:
     temps = model.signals("temperature")
     return Block(
         name=model.block_name,
-        title="Thermal error compensation: multiple linear regression",
+        title="Thermal compensation: multiple linear regression",
         header=header(model),
         inputs=inputs_of(temps),
         outputs=(error_output(model),),
@@ -61,7 +61,7 @@ def lower_piecewise(model: Model) -> Block:
                for i, s in enumerate(temps, start=1)]
     return Block(
         name=model.block_name,
-        title="Thermal error compensation: piecewise weighted model library over ambient temperature (paper 001)",
+        title="Thermal compensation: ambient model library (paper 001)",
         header=header(model),
         inputs=inputs_of(model.inputs),
         outputs=(error_output(model),),
@@ -111,7 +111,7 @@ def lower_dlag(model: Model) -> Block:
                   for lag in range(lags + 1) for i, s in enumerate(temps, start=1)]
     return Block(
         name=model.block_name,
-        title="Thermal error compensation: distributed-lag (DL) regression (paper 001)",
+        title="Thermal compensation: distributed-lag regression (paper 001)",
         header=header(model),
         inputs=inputs_of(temps),
         outputs=(error_output(model),),

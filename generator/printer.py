@@ -10,7 +10,7 @@ import jinja2
 from thermoplc.binary32 import INT_RANGES
 from thermoplc.identifiers import check_unique, identifier_problem
 from thermoplc.generator.ir import (
-    GenerationError,
+    ENO, GenerationError,
     PORTABLE_FUNCTIONS, Assign, BinOp, Block, BoolConst, Call, Expr, For, Index, IntConst, Ref, Region, Stmt,
     Unary, Var, assigned_names, walk_exprs,
 )
@@ -36,16 +36,18 @@ class Dialect:
     regions: str  # 'keyword': REGION ... END_REGION; 'comment': a comment line opens and closes a region
     array_initial: str  # 'brackets': := [a, b]; 'list': := a, b (classic STEP 7 SCL)
     suffix: str  # file name ending users expect
+    eno: str  # the enable output: a system flag written under this name (TIA ENO, STEP 7 OK), or '' if declared
+    retain: bool  # statics and outputs can be declared RETAIN (STEP 7: the instance DB is retentive as a whole)
     functions: frozenset = PORTABLE_FUNCTIONS  # functions the dialect's compiler offers
 
 
 DIALECTS = {
     "tia": Dialect("tia", "tia.scl.j2", "#", {"REAL": "Real", "BOOL": "Bool", "INT": "Int"}, "\t",
-                   "Array[0..{last}] of {type}", "keyword", "brackets", ".scl"),
+                   "Array[0..{last}] of {type}", "keyword", "brackets", ".scl", "ENO", True),
     "step7": Dialect("step7", "step7.scl.j2", "", {"REAL": "REAL", "BOOL": "BOOL", "INT": "INT"}, "    ",
-                     "ARRAY[0..{last}] OF {type}", "comment", "list", ".scl", frozenset({"ABS", "SQRT"})),
+                     "ARRAY[0..{last}] OF {type}", "comment", "list", ".scl", "OK", False, frozenset({"ABS", "SQRT"})),
     "iec": Dialect("iec", "iec.st.j2", "", {"REAL": "REAL", "BOOL": "BOOL", "INT": "INT"}, "    ",
-                   "ARRAY[0..{last}] OF {type}", "comment", "brackets", ".st"),
+                   "ARRAY[0..{last}] OF {type}", "comment", "brackets", ".st", "", True),
 }
 
 
@@ -64,9 +66,14 @@ class _Printer:
     def __init__(self, dialect: Dialect):
         self.d = dialect
 
+    def name(self, name: str) -> str:
+        if name == ENO and self.d.eno:
+            return self.d.eno
+        return self.d.local_prefix + name
+
     def expr(self, e: Expr) -> str:
         if isinstance(e, Ref):
-            return self.d.local_prefix + e.name
+            return self.name(e.name)
         if isinstance(e, BoolConst):
             return "TRUE" if e.value else "FALSE"
         if isinstance(e, IntConst):
@@ -94,7 +101,7 @@ class _Printer:
         lines: list[str] = []
         for s in body:
             if isinstance(s, Assign):
-                target = self.d.local_prefix + s.target
+                target = self.name(s.target)
                 if s.index is not None:
                     target += f"[{self.expr(s.index)}]"
                 lines.append(f"{pad}{target} := {self.expr(s.value)};")
@@ -142,7 +149,7 @@ def validate(block: Block) -> None:
     constants = {c.name: c for c in block.constants}
     names = [block.name, *(v.name for group in sections for v in group), *(c.name for c in block.constants)]
     for name in names:
-        problem = identifier_problem(name)
+        problem = None if name == ENO else identifier_problem(name)
         if problem:
             raise GenerationError(f"identifier {name!r} {problem}")
     duplicate = check_unique(names)
@@ -171,12 +178,39 @@ def validate(block: Block) -> None:
     for v in (*block.statics, *block.temps):
         for value in v.initial or ():
             real_literal(value)
+    _validate_identity(block)
+
+
+TITLE_MAX = 64  # STEP 7 SCL block attribute TITLE; TIA shows the same line in the block properties
+ATTRIBUTE = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,7}$")  # STEP 7 AUTHOR, FAMILY, NAME: at most 8 characters, no blanks
+
+
+def _validate_identity(block: Block) -> None:
+    """Header attributes within the limits of STEP 7 SCL (the stricter target), so no import truncates them."""
+    if len(safe_string(block.title)) > TITLE_MAX:
+        raise GenerationError(f"title has {len(block.title)} characters; STEP 7 takes at most {TITLE_MAX}: {block.title!r}")
+    identity = block.identity
+    for what, value in (("author", identity.author), ("family", identity.family)):
+        if not ATTRIBUTE.match(value):
+            raise GenerationError(f"{what} {value!r}: expected a letter, then letters, digits or '_', 8 characters "
+                                  f"at most (the STEP 7 limit)")
+    if not all(0 <= part <= 15 for part in identity.version):
+        raise GenerationError(f"version {identity.version[0]}.{identity.version[1]}: each part must be 0 to 15")
+    if identity.date and not re.fullmatch(r"\d{4}-\d{2}-\d{2}", identity.date):
+        raise GenerationError(f"date {identity.date!r}: expected YYYY-MM-DD")
+
+
+def header_name(block_name: str) -> str:
+    """The NAME attribute: the block name cut to the 8 characters STEP 7 allows."""
+    return block_name[:8]
 
 
 def _initial(v: Var, style: str) -> str:
     """Start values of a table, six per line so that review diffs stay readable."""
     if v.initial is None:
         return ""
+    if isinstance(v.initial, bool):
+        return " := TRUE" if v.initial else " := FALSE"
     items = [real_literal(x) for x in v.initial]
     rows = [", ".join(items[i:i + 6]) for i in range(0, len(items), 6)]
     if style == "list":
@@ -198,20 +232,48 @@ def render_plcopen(block: Block, version: str) -> str:
     printer = _Printer(DIALECTS["iec"])
 
     def decl(v: Var) -> dict:
-        items = [real_literal(x) for x in v.initial] if v.initial is not None else []
+        flag = isinstance(v.initial, bool)
+        items = [real_literal(x) for x in v.initial] if v.initial is not None and not flag else []
         return {"name": v.name, "type": v.type, "last": None if v.length is None else v.length - 1,
-                "simple": None, "array": items, "comment": safe_comment(v.comment)}
+                "simple": ("TRUE" if v.initial else "FALSE") if flag else None, "array": items,
+                "comment": safe_comment(v.comment)}
 
     constants = [{"name": c.name, "type": c.type, "last": None, "array": [], "comment": safe_comment(c.comment),
                   "simple": real_literal(c.value) if c.type == "REAL" else str(c.value)} for c in block.constants]
-    sections = [(element, "", [decl(v) for v in group]) for element, group in
-                (("inputVars", block.inputs), ("outputVars", block.outputs), ("localVars", block.statics),
-                 ("tempVars", block.temps)) if group]
+    retain = ' retain="true"' if block.retain else ""
+    sections = [(element, attributes, [decl(v) for v in group]) for element, attributes, group in
+                (("inputVars", "", block.inputs), ("outputVars", retain, block.outputs), ("localVars", retain, block.statics),
+                 ("tempVars", "", block.temps)) if group]
     if constants:
         sections.append(("localVars", ' constant="true"', constants))
     return _environment().get_template("plcopen.xml.j2").render(
         name=block.name, version=version, title=safe_string(block.title),
-        header=[safe_comment(line) for line in block.header], sections=sections, body=printer.body(block.regions))
+        header=[safe_comment(line) for line in _header(block, DIALECTS["iec"])], sections=sections,
+        body=printer.body(block.regions))
+
+
+def render_instance_db(block: Block, db_name: str) -> str:
+    """A classic STEP 7 instance DB source of the block, to append after the block's own source."""
+    problem = identifier_problem(db_name)
+    if problem:
+        raise GenerationError(f"instance DB name {db_name!r} {problem}")
+    if db_name.upper() == block.name.upper():
+        raise GenerationError(f"instance DB name {db_name!r} is the block's own name")
+    return _environment().get_template("step7_instance_db.scl.j2").render(
+        db=db_name, name=block.name, identity=block.identity, short_name=header_name(db_name))
+
+
+def _header(block: Block, d: Dialect) -> list[str]:
+    """The header comment: the block's own lines, the date, and how its state survives a power cycle."""
+    lines = list(block.header)
+    if block.identity.date:
+        lines.append(f"Generated on {block.identity.date}.")
+    if block.retain:
+        lines.append("State retentive: statics and outputs declared RETAIN." if d.retain else
+                     "State retentive: keep the instance DB retentive (S7-300: do not set 'Non Retain' on it).")
+    else:
+        lines.append("State not retentive: after a power cycle the block starts afresh (generate --retain keeps it).")
+    return lines
 
 
 def statement_text(s: Stmt) -> str:
@@ -237,13 +299,16 @@ def render(block: Block, dialect: str = "tia") -> str:
     def decls(group):
         return [(v.name, type_of(v), _initial(v, d.array_initial), safe_comment(v.comment)) for v in group]
 
+    retain = " RETAIN" if block.retain and d.retain else ""
+    outputs = tuple(v for v in block.outputs if not (v.name == ENO and d.eno))
     text = env.get_template(d.template).render(
         name=block.name,
         title=safe_string(block.title),
-        header=[safe_comment(line) for line in block.header],
+        header=[safe_comment(line) for line in _header(block, d)],
+        identity=block.identity, short_name=header_name(block.name),
         sections=[(kw, decls(group)) for kw, group in
-                  (("VAR_INPUT", block.inputs), ("VAR_OUTPUT", block.outputs),
-                   ("VAR", block.statics), ("VAR_TEMP", block.temps)) if group],
+                  (("VAR_INPUT", block.inputs), ("VAR_OUTPUT" + retain, outputs),
+                   ("VAR" + retain, block.statics), ("VAR_TEMP", block.temps)) if group],
         constants=[(c.name, d.type_names[c.type], real_literal(c.value) if c.type == "REAL" else str(c.value),
                     safe_comment(c.comment)) for c in block.constants],
         body=printer.body(block.regions),

@@ -12,6 +12,7 @@ from thermoplc.identifiers import check_unique, identifier_from_column, identifi
 from thermoplc.models import bayes, bpnn, dlag, grey, kalman, lumped_model, mlr, piecewise, simulation
 from thermoplc.models.modelfile import Coefficient, Model, Signal
 from thermoplc.models.reference import model_inputs, predict
+from thermoplc.models.leaks import refuse_leaks, refuse_non_temperatures
 from thermoplc.models.table import Table
 
 SAMPLING_TOLERANCE = 0.05  # relative deviation of a time step from the median step
@@ -195,6 +196,13 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
     if problem:
         raise UserError(f"block name {request.block_name!r} {problem}")
     n_train = [training_rows(t, time_column, request.train_until, request.train_rows) for t in tables]
+    for table, n in zip(tables, n_train):
+        for s in signals:
+            option = "--" + s.role.split(",")[-1].replace("temperature", "temps").replace("_", "-")
+            if s.unit == "degC":
+                refuse_non_temperatures(table, [s.column], option)
+            refuse_leaks({s.column: table.columns[s.column][:n]}, request.target, table.columns[request.target][:n],
+                         table.path, option)
     periods = [sample_period(t, time_column) for t in tables]
     dt = periods[0]
     for table, period in zip(tables, periods):

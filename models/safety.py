@@ -23,6 +23,10 @@ LIMIT_MAX = 1.0e12  # far beyond any machine, far below FLT_MAX
 K0_MM_PER_UM = -0.001  # K0 opposes the predicted error: the NC moves the axis back by it
 
 
+ENABLE, RESET, ENO = "Enable", "Reset", "ENO"  # the block's commissioning inputs and its enable output
+CONTROL_START = {ENABLE: True, RESET: False}  # their values when the PLC program leaves them unwired
+
+
 @dataclass(frozen=True)
 class Limits:
     """Commissioning settings of the safety logic (generate --max-offset-um ... )."""
@@ -139,8 +143,12 @@ def _hold(x: np.ndarray, valid: np.ndarray, guard: Guard, ready_row: int, limits
     return held, faults
 
 
-def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, core_predict) -> dict:
-    """Every block output, given raw inputs: guards, the model from the first all-valid call, limiter."""
+def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, core_predict,
+                    held: dict | None = None) -> dict:
+    """Every block output, given raw inputs: guards, the model from the first all-valid call, limiter.
+    `held`: the REAL outputs (limited values and K0) the block holds when it starts - zero for a new
+    instance, the last values after a Reset."""
+    held = held or {}
     f = np.float32 if precision == "f32" else np.float64
     constants = limits.constants()
     plan = guards(model)
@@ -168,8 +176,8 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     step_max, step_min = f(constants["c_StepMax"]), f(constants["c_StepMin"])
     out_max, out_min = f(constants["c_OutMax"]), f(constants["c_OutMin"])
     for name in names:
-        y = f(0)
-        series = np.zeros(rows, f)
+        y = f(held.get(name, 0))
+        series = np.full(rows, y, f)
         model_values = core[name] if core is not None else ()
         for j in range(ready_row, rows):
             m = model_values[j - ready_row]
@@ -190,7 +198,7 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
             series[j] = y
         out[name] = series
     for k, name in enumerate(axis_outputs(model, names), start=1):
-        k0 = np.zeros(rows, f)
+        k0 = np.full(rows, held.get(f"K0_{k}", 0), f)
         k0[ready_row:] = out[name][ready_row:] * f(constants["c_K0_mm"])
         out[f"K0_{k}"] = k0
     for g in plan:
@@ -212,3 +220,39 @@ def _real_outputs_of(model: Model, core_predict, precision: str) -> list[str]:
     """Output names when the model never starts (no call had every input in range)."""
     probe = {s.name: np.full(1, 20.0, np.float32) for s in model.inputs}
     return limited_outputs(core_predict(model, probe, precision, {}))
+
+
+def commissioned_predict(model: Model, inputs: dict, precision: str, limits: Limits, core_predict,
+                         control: dict | None = None) -> dict:
+    """Every block output with its Enable and Reset inputs per call (`control`, bool arrays; unwired
+    ones keep their start values). A disabled call is skipped: the outputs hold and ENO is FALSE. A
+    reset call starts the guards and the model afresh while the limited outputs hold their values."""
+    rows = len(next(iter(inputs.values())))
+    control = control or {}
+    enable = np.asarray(control.get(ENABLE, np.full(rows, CONTROL_START[ENABLE])), bool)
+    reset = np.asarray(control.get(RESET, np.full(rows, CONTROL_START[RESET])), bool)
+    if enable.all() and not reset[1:].any():
+        out = guarded_predict(model, inputs, precision, limits, core_predict)
+        out[ENO] = enable.copy()
+        return out
+    run = np.flatnonzero(enable)
+    if not len(run):  # never enabled: every output keeps its start value; one call tells their types
+        probe = guarded_predict(model, {k: np.asarray(v)[:1] for k, v in inputs.items()}, precision, limits, core_predict)
+        return {**{name: np.zeros(rows, values.dtype) for name, values in probe.items()}, ENO: enable.copy()}
+    starts = [0, *(int(k) for k in np.flatnonzero(reset[run]) if k > 0), len(run)]
+    pieces: list[dict] = []
+    held: dict = {}
+    for a, b in zip(starts[:-1], starts[1:]):
+        piece = guarded_predict(model, {k: np.asarray(v)[run[a:b]] for k, v in inputs.items()}, precision, limits,
+                                core_predict, held)
+        held = {name: values[-1] for name, values in piece.items() if values.dtype.kind == "f"}
+        pieces.append(piece)
+    shown = np.cumsum(enable) - 1  # per call, the enabled call whose outputs it shows (-1: none yet)
+    out = {}
+    for name in pieces[0]:
+        ran = np.concatenate([p[name] for p in pieces])
+        full = np.zeros(rows, ran.dtype)
+        full[shown >= 0] = ran[shown[shown >= 0]]
+        out[name] = full
+    out[ENO] = enable.copy()
+    return out

@@ -38,6 +38,40 @@ class _HeaderItem(tuple):
     """One header attribute, (key, text), told apart from declarations in the start rule."""
 
 
+class _InstanceDb(tuple):
+    """(DB name, FB name) of a STEP 7 instance DB source after the block."""
+
+
+_BEGIN = object()  # SCL's BEGIN: its blocks have the system flags ENO (TIA) and OK (STEP 7, copied to ENO)
+SYSTEM_FLAGS = {"ENO", "OK"}
+
+
+def _with_system_flag(name: str, body: tuple) -> tuple:
+    """Assignments to the SCL enable flag (ENO, or OK which STEP 7 copies to ENO) written to one name, ENO."""
+    def stmt(st):
+        if isinstance(st, s.Assign):
+            if isinstance(st.target, s.Name) and st.target.name.upper() in SYSTEM_FLAGS:
+                return s.Assign(s.Name(name, st.target.pos), st.value, st.pos)
+            return st
+        if isinstance(st, s.If):
+            return s.If(tuple((c, tuple(map(stmt, b))) for c, b in st.branches), tuple(map(stmt, st.orelse)), st.pos)
+        if isinstance(st, s.For):
+            return s.For(st.var, st.start, st.stop, st.step, tuple(map(stmt, st.body)), st.pos)
+        return s.Region(st.title, tuple(map(stmt, st.body)), st.pos)
+    return tuple(map(stmt, body))
+
+
+def _assigns_system_flag(body) -> bool:
+    for st in body:
+        if isinstance(st, s.Assign) and isinstance(st.target, s.Name) and st.target.name.upper() in SYSTEM_FLAGS:
+            return True
+        inner = ([b for _, branch in st.branches for b in branch] + list(st.orelse) if isinstance(st, s.If)
+                 else list(st.body) if isinstance(st, (s.For, s.Region)) else [])
+        if _assigns_system_flag(inner):
+            return True
+    return False
+
+
 class StSyntaxError(UserError):
     pass
 
@@ -66,6 +100,14 @@ class _ToAst(Transformer):
         decls = tuple(d for item in items[1:] if isinstance(item, list) for d in item)
         body = tuple(item for item in items[1:] if isinstance(item, _STATEMENTS))
         header = tuple(item for item in items[1:] if isinstance(item, _HeaderItem))
+        for item in items[1:]:
+            if isinstance(item, _InstanceDb) and item[1].upper() != name.upper():
+                raise StSyntaxError(f"{self.source}: DATA_BLOCK {item[0]!r} is an instance of {item[1]!r}, not of the "
+                                    f"block {name!r} before it")
+        declared = {d.name.upper() for d in decls}
+        if any(item is _BEGIN for item in items[1:]) and not declared & SYSTEM_FLAGS and _assigns_system_flag(body):
+            decls = (*decls, s.VarDecl("ENO", "output", s.TypeRef("BOOL")))
+            body = _with_system_flag("ENO", body)
         return s.Program(name, decls, body, header)
 
     def block_name(self, items):
@@ -87,8 +129,11 @@ class _ToAst(Transformer):
     def version(self, items):
         return _HeaderItem(("VERSION", str(items[0])))
 
+    def instance_db(self, items):
+        return _InstanceDb((items[0], items[1]))
+
     def begin(self, items):
-        return None
+        return _BEGIN
 
     sec_input = lambda self, _: "input"
     sec_output = lambda self, _: "output"

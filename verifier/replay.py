@@ -13,8 +13,8 @@ from thermoplc.generator.lower import lower
 from thermoplc.errors import UserError
 from thermoplc.models.fit import SAMPLING_TOLERANCE, sample_period
 from thermoplc.models.modelfile import Model
-from thermoplc.models.reference import block_outputs, model_inputs
-from thermoplc.models.safety import Limits
+from thermoplc.models.reference import block_outputs, control_inputs, model_inputs
+from thermoplc.models.safety import CONTROL_START, Limits
 from thermoplc.models.table import Table
 from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.interpreter import Finding
@@ -130,7 +130,7 @@ def _load(block_path: str, engine: str = "auto") -> tuple[Program, Replayer]:
 
 def _check_interface(machine, block: str, available: dict, what: str) -> None:
     names = {d.name.upper() for d in machine.inputs}
-    missing = sorted(d.name for d in machine.inputs if d.name not in available)
+    missing = sorted(d.name for d in machine.inputs if d.name not in available and d.initial is None)
     extra = sorted(n for n in available if n.upper() not in names)
     if missing or extra:
         raise UserError(f"{block}: block inputs {', '.join(d.name for d in machine.inputs)} do not match {what}"
@@ -154,6 +154,8 @@ def block_columns(inputs: list, table: Table, overrides: dict | None, block: str
     columns = {}
     for d in inputs:
         column = overrides.get(d.name, d.name)
+        if column not in table.columns and d.initial is not None and d.name not in overrides:
+            continue  # unwired: the input keeps its start value (Enable TRUE, Reset FALSE)
         if column not in table.columns:
             raise UserError(f"{table.path}: no column {column!r} for input {d.name} of {block}; "
                             f"map it with --inputs {d.name}=COLUMN")
@@ -276,26 +278,30 @@ def verify_against_model(block: str, model: Model, model_path: str, table: Table
     program, machine = _load(block, engine)
     limits = block_limits(program, block)
     _check_period(model, table)
-    inputs = model_inputs(model, table, known_overrides(overrides, [s.name for s in model.inputs], model_path))
-    _check_interface(machine, block, inputs, f"the inputs of {Path(model_path).name}")
-    block32 = block_outputs(model, inputs, "f32", limits)
+    overrides = known_overrides(overrides, [*(s.name for s in model.inputs), *CONTROL_START], model_path)
+    inputs = model_inputs(model, table, overrides)
+    control = control_inputs(table, overrides)
+    _check_interface(machine, block, {**inputs, **control}, f"the inputs of {Path(model_path).name}")
+    block32 = block_outputs(model, inputs, "f32", limits, control)
     declared = [d.name for d in machine.outputs]
     unknown = [name for name in declared if name not in block32]
     missing = [name for name in block32 if name not in declared]
     if unknown or missing:
         raise UserError(f"{block}: block outputs {', '.join(declared)} do not match the outputs of "
                         f"{Path(model_path).name}: {', '.join(block32)}")
-    wanted = {name: "BOOL" if np.asarray(values).dtype == bool else "REAL" for name, values in block32.items()}
+    wanted = {**{name: "BOOL" if np.asarray(values).dtype == bool else "REAL" for name, values in block32.items()},
+              **dict.fromkeys(CONTROL_START, "BOOL")}
     for d in (*machine.outputs, *machine.inputs):
         expected = wanted.get(d.name, "REAL")
         if d.type.base != expected or d.type.bounds:
             raise UserError(f"{block}:{d.pos[0]}:{d.pos[1]}: {d.name} is declared {d.type.base}; the model's block "
                             f"has it as {expected}")
-    ideal = block_outputs(model, inputs, "f64", limits)
+    ideal = block_outputs(model, inputs, "f64", limits, control)
     quantisation = {model.target.name: float(np.max(np.abs(block32[model.target.name].astype(np.float64)
                                                           - ideal[model.target.name])))}
     against = f"the float32 reference of {Path(model_path).name} ({model.kind})"
-    report = _replay_and_compare(machine, block, against, table, model.time_column, inputs, block32, quantisation)
+    report = _replay_and_compare(machine, block, against, table, model.time_column, {**inputs, **control}, block32,
+                                 quantisation)
     checked, errors = _compare_constants(program, model, limits)
     return replace(report, constants_checked=checked, constant_errors=errors, limits=limits)
 
