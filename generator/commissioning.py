@@ -15,8 +15,9 @@ from thermoplc.generator.ir import (
     ENO, Assign, BinOp, Block, BoolConst, Const, For, GenerationError, If, IntConst, Ref, Region, Stmt, Var,
     assigned_names,
 )
+from thermoplc.models.safety import ENABLE, RESET
 
-ENABLE, RESET, RESET_INDEX = "Enable", "Reset", "ResetIdx"
+RESET_INDEX = "ResetIdx"
 ZERO = "c_Zero"
 
 

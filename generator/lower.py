@@ -17,7 +17,7 @@ from thermoplc.generator.printer import render
 from thermoplc.generator.ranges import RangeProof, prove_ranges
 from thermoplc.generator.safety import with_safety
 from thermoplc.models.modelfile import Model
-from thermoplc.models.safety import Limits, axis_outputs, guards
+from thermoplc.models.safety import ENABLE, Limits, axis_outputs, guards
 
 LOWERINGS = {"bayes": lower_bayes, "bpnn": lower_bpnn, "dlag": lower_dlag, "mlr": lower_mlr, "kalman": lower_kalman,
              "piecewise": lower_piecewise, "gm0n": lower_gm0n, "gm1n": lower_gm1n, "lumped": lower_lumped}
@@ -55,7 +55,9 @@ def check_model_becomes_block(model: Model, path: str) -> None:
 
 
 def prove(model: Model, block: Block, limits: Limits) -> RangeProof:
-    """The static range proof of `block` with every input anywhere in its guard range."""
+    """The static range proof of `block` with every input anywhere in its guard range and Reset either
+    way. Enable is taken TRUE: a disabled call writes ENO and nothing else (with_commissioning gates
+    every other region), so it keeps any state the proof finds."""
     constants = limits.constants()
-    return prove_ranges(block, {g.name: (constants[g.low], constants[g.high]) for g in guards(model)},
-                        partition=("Init", "Ready"))
+    ranges = {g.name: (constants[g.low], constants[g.high]) for g in guards(model)}
+    return prove_ranges(block, {**ranges, ENABLE: True}, partition=("Init", "Ready"))

@@ -99,8 +99,8 @@ class _Proof:
         self.block = block
         self.partition = tuple(n for n in partition if any(v.name == n and v.type == "BOOL"
                                                            for v in (*block.outputs, *block.statics)))
-        self.inputs = {v.name: Bool(frozenset({False, True})) if v.type == "BOOL" else Real(*input_ranges[v.name])
-                       for v in block.inputs}
+        self.inputs = {v.name: Bool(frozenset({input_ranges[v.name]} if v.name in input_ranges else {False, True}))
+                       if v.type == "BOOL" else Real(*input_ranges[v.name]) for v in block.inputs}
         self.constants = {c.name: (Int(c.value, c.value) if c.type == "INT" else Real(c.value, c.value))
                           for c in block.constants}
         self.decls: dict[str, Var] = {v.name: v for v in (*block.inputs, *block.outputs, *block.statics, *block.temps)}

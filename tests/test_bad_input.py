@@ -11,6 +11,8 @@ import pytest
 
 from tests.bad_inputs import CASES, run, setup_folder, table_markdown
 
+pytestmark = pytest.mark.slow  # the whole table: about two minutes of subprocesses
+
 DOC = Path(__file__).resolve().parent.parent / "docs" / "bad_input.md"
 OUTPUTS = ("out.json", "out.scl", "out.txt")
 

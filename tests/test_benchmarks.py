@@ -1,7 +1,9 @@
 """The papers' comparison script runs and fills every row (its numbers are in the README)."""
+import pytest
 from benchmarks import papers
 
 
+@pytest.mark.slow
 def test_papers_benchmark_fills_its_table(capsys, monkeypatch):
     monkeypatch.setattr(papers, "PAPER_002_SEEDS", 2)  # the table's shape, not the medians
     papers.ROWS.clear()

@@ -168,4 +168,4 @@ def test_generate_stats_reports_cost(workdir):
         thermoplc(*FIT_KALMAN, "-o", "a.json", cwd=workdir)
     out = thermoplc("generate", "a.json", "-o", "s.scl", "--stats", cwd=workdir).stdout
     assert "cost per call (worst-case path): 51 REAL/INT arithmetic operations (model 44, input guards and output limits 7)" in out
-    assert "state: 63 bytes" in out
+    assert "state: 64 bytes" in out

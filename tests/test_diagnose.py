@@ -58,6 +58,7 @@ def _hidden(machine_name: str, name: str, seed: int, hours: float = HOURS):
     return diagnose(_series(columns, chosen.DIAGNOSED), rows, "E_z_um"), effect
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("machine_name", MACHINES)
 @pytest.mark.parametrize("name", NAMES)
 def test_a_hidden_effect_with_random_parameters_is_named_alone_and_the_gap_halves(machine_name, name):
@@ -84,6 +85,7 @@ def test_clean_data_of_either_machine_reads_no_missing_effect(machine_name):
     assert d.verdict == "no_missing_effect" and d.added == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_data_inside_paper_000s_class_with_random_parameters_reads_clean(seed):
     """Temperatures from the lumped-mass model driven by speed and ambient, displacement regressed on
@@ -134,6 +136,7 @@ def test_one_speed_leaves_the_speed_effects_untested():
     assert d.added == []
 
 
+@pytest.mark.slow
 def test_fitted_parameters_are_the_hidden_ones():
     d = _run(("gear_ratio_switch", "sensor_drift:column=T_bearing,rate_K_per_h=0.08"))
     found = {e["name"]: e["parameters"] for e in d.added}
@@ -149,6 +152,7 @@ def test_no_hidden_effect_means_no_missing_effect():
     assert d.added == [] and d.windows_before == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("pair", [("gear_ratio_switch", "ambient_coupling"), ("sensor_offset", "stop_convection")])
 def test_two_hidden_effects_are_both_named(pair):
     d = _run(pair, seed=8)
@@ -156,6 +160,7 @@ def test_two_hidden_effects_are_both_named(pair):
     assert sorted(e["name"] for e in d.added) == sorted(pair)
 
 
+@pytest.mark.slow
 def test_an_effect_outside_the_library_stays_unexplained():
     """Heat that steps up at a fixed time (a neighbouring machine switched on) is no named effect."""
     columns = simulate(HOURS, 5)
@@ -168,6 +173,7 @@ def test_an_effect_outside_the_library_stays_unexplained():
     assert d.windows_after
 
 
+@pytest.mark.slow
 def test_the_lumped_reference_is_the_simulation():
     """The model file's float64 reference replays exactly what the diagnosis simulated."""
     columns = simulate(24, 3, effects=(Effect.parse("nonlinear_speed_heat"), Effect.parse("coolant_switching")))
@@ -220,6 +226,7 @@ def test_diagnose_cli_end_to_end(tmp_path, monkeypatch, capsys):
     assert block.dtype == np.float32
 
 
+@pytest.mark.slow
 def test_diagnose_is_deterministic(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     assert main(["twin", "--hours", "24", "--seed", "2", "--effect", "sensor_offset", "-o", "d.csv"]) == 0

@@ -9,6 +9,7 @@ import json
 import os
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from scripts.regen_golden import GOLDEN, golden_block
@@ -79,6 +80,7 @@ def test_csv_reader_on_structured_junk(tmp_path, rows, delimiter):
         assert str(exc).startswith(str(path))
 
 
+@pytest.mark.slow
 @given(st.text(min_size=1, max_size=60))
 @settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 def test_text_from_user_data_cannot_change_the_program(tmp_path, hostile):

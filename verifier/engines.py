@@ -43,9 +43,6 @@ class Replayer:
     def replay(self, columns: dict, rows: int, outputs: tuple[str, ...]) -> dict:
         """Outputs by name, one value per row, the block starting from its initial state. An input
         without a column keeps its declared start value (an unwired Enable or Reset)."""
-        given = {name.upper() for name in columns}
-        columns = {**{d.name: np.full(rows, d.initial) for d in self.inputs
-                      if d.name.upper() not in given and d.initial is not None}, **columns}
         if self.native is not None:
             self.native.reset()
             result = self.native.run(columns, rows)

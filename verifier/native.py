@@ -348,6 +348,9 @@ class NativeBlock:
         """One call per row. Returns (outputs by name, FPU flags raised) or None when a row
         could not run natively (the caller replays with the interpreter)."""
         upper = {k.upper(): v for k, v in columns.items()}
+        unwired = {d.name.upper(): np.full(rows, d.initial) for d in self.inputs  # keeps its start value, as on a PLC
+                   if d.name.upper() not in upper and d.initial is not None}
+        upper.update(unwired)
         ins = [np.ascontiguousarray(upper[d.name.upper()], IO_DTYPES.get(d.type.base, np.int32)) for d in self.inputs]
         outs = [np.empty(rows, IO_DTYPES.get(d.type.base, np.int32)) for d in self.outputs]
         in_ptrs = (ctypes.c_void_p * max(len(ins), 1))(*[a.ctypes.data for a in ins])
