@@ -1,6 +1,7 @@
 """verify --faults: replay the data with sensor faults injected and check the block stays exact and safe.
 
-Each fault kind is injected on each temperature input in turn, starting a third into the data.
+Each fault kind is injected on each temperature input in turn, starting a third into the data;
+then the PLC program's side: Reset pulses, Reset held, Enable off for a while (with a Reset inside).
 For every case the block must still match the float32 reference bit for bit, keep every REAL
 output finite, inside the clamp and within the rate limit; the table also says whether the
 sensor's fault bit came up, whether it was clear again at the end, and how far the fault moved
@@ -14,7 +15,7 @@ import numpy as np
 
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import block_outputs, model_inputs
-from thermoplc.models.safety import Limits, guards
+from thermoplc.models.safety import ENABLE, ENO, RESET, Limits, guards
 from thermoplc.models.table import Table
 from thermoplc.verifier.replay import _check_interface, _load, _replay_and_compare, block_limits
 
@@ -41,6 +42,32 @@ FAULT_KINDS = (
     FaultKind("dead", "dies: NaN to the end", True, _constant(np.nan)),
     FaultKind("sine", "paper 000 eq. 18: +2 sin(t/350) degC", True, lambda x, t: x + 2.0 * np.sin(t / 350.0)),
     FaultKind("offset", "paper 000 eq. 19: -2 degC", True, lambda x, t: x - np.float32(2.0)),
+)
+
+
+def _pulses(rows: int, first: int, *offsets: int) -> np.ndarray:
+    flags = np.zeros(rows, bool)
+    flags[[r for r in (first + k for k in offsets) if r < rows]] = True
+    return flags
+
+
+def _window(rows: int, first: int, calls: int, value: bool) -> np.ndarray:
+    flags = np.full(rows, not value)
+    flags[first:first + calls] = value
+    return flags
+
+
+# what a PLC program does with the block's Enable and Reset: (kind, inputs per call, last row of the action)
+CONTROL_KINDS = (
+    (FaultKind("reset", "TRUE 1 call, again 30 calls on", False, None),
+     lambda rows, first: {RESET: _pulses(rows, first, 0, TRANSIENT_CALLS)}, TRANSIENT_CALLS),
+    (FaultKind("reset-held", "TRUE for 30 calls", False, None),
+     lambda rows, first: {RESET: _window(rows, first, TRANSIENT_CALLS, True)}, TRANSIENT_CALLS - 1),
+    (FaultKind("disable", "Enable FALSE 300 calls", False, None),
+     lambda rows, first: {ENABLE: _window(rows, first, 10 * TRANSIENT_CALLS, False)}, 10 * TRANSIENT_CALLS - 1),
+    (FaultKind("disable+reset", "off 300 calls, Reset in/after", False, None),
+     lambda rows, first: {ENABLE: _window(rows, first, 10 * TRANSIENT_CALLS, False),
+                          RESET: _pulses(rows, first, 5, 10 * TRANSIENT_CALLS)}, 10 * TRANSIENT_CALLS),
 )
 
 
@@ -98,18 +125,35 @@ def verify_faults(block: str, model: Model, table: Table, overrides: dict | None
             inputs[g.name], last = inject(clean[g.name], np.asarray(times), kind, first)
             expected = block_outputs(model, inputs, "f32", limits)
             report = _replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
-            real = [np.asarray(v, np.float32) for v in expected.values() if np.asarray(v).dtype.kind == "f"]
-            limited = [np.asarray(expected[v.name], np.float32) for v in machine.outputs
-                       if v.type.base == "REAL" and not v.name.startswith("K0_")]
-            flags = np.asarray(expected[f"Fault_{g.index}"], bool)
-            cases.append(FaultCase(
-                kind, g.name, first, last, report.mismatch is None,
-                all(bool(np.all(np.isfinite(v))) for v in real) and not any(f.kind in ("nan", "inf") for f in report.findings),
-                all(bool(np.all(np.abs(v) <= np.float32(limits.max_output))) for v in limited),
-                all(_within_rate(v, limits.max_step) for v in limited),
-                bool(flags[first:last + 1].any()), not bool(flags[-1]),
-                float(np.max(np.abs(expected[model.target.name].astype(np.float64) - baseline.astype(np.float64))))))
+            cases.append(_case(kind, g.name, first, last, expected, report, machine, limits, model, baseline,
+                               np.asarray(expected[f"Fault_{g.index}"], bool)))
+    declared = {d.name for d in machine.inputs}
+    for kind, control_of, length in CONTROL_KINDS:
+        control = control_of(table.rows, first)
+        if not set(control) <= declared:
+            continue  # a block generated before Enable and Reset existed
+        expected = block_outputs(model, clean, "f32", limits, control)
+        report = _replay_and_compare(machine, block, "reference", table, model.time_column, {**clean, **control},
+                                     expected, {})
+        cases.append(_case(kind, "/".join(control), first, min(first + length, table.rows - 1), expected, report,
+                           machine, limits, model, baseline, ~np.asarray(expected["Ready"], bool)
+                           | ~np.asarray(expected[ENO], bool)))
     return cases
+
+
+def _case(kind: FaultKind, what: str, first: int, last: int, expected: dict, report, machine, limits: Limits,
+          model: Model, baseline: np.ndarray, flags: np.ndarray) -> FaultCase:
+    """A case's row of the table from the reference outputs and the replay's report."""
+    real = [np.asarray(v, np.float32) for v in expected.values() if np.asarray(v).dtype.kind == "f"]
+    limited = [np.asarray(expected[v.name], np.float32) for v in machine.outputs
+               if v.type.base == "REAL" and not v.name.startswith("K0_")]
+    return FaultCase(
+        kind, what, first, last, report.mismatch is None,
+        all(bool(np.all(np.isfinite(v))) for v in real) and not any(f.kind in ("nan", "inf") for f in report.findings),
+        all(bool(np.all(np.abs(v) <= np.float32(limits.max_output))) for v in limited),
+        all(_within_rate(v, limits.max_step) for v in limited),
+        bool(flags[first:last + 1].any()), not bool(flags[-1]),
+        float(np.max(np.abs(expected[model.target.name].astype(np.float64) - baseline.astype(np.float64)))))
 
 
 def format_cases(cases: list[FaultCase], block: str, rows: int) -> str:
@@ -126,5 +170,6 @@ def format_cases(cases: list[FaultCase], block: str, rows: int) -> str:
     lines.append("all cases bit-exact, finite, inside the clamp and the rate limit" if not bad else
                  f"{len(bad)} case(s) FAILED: " + ", ".join(f"{c.sensor}/{c.kind.name}" for c in bad))
     lines.append("flagged/clear at end describe the block's behaviour, they are not pass criteria; max change "
-                 "is the largest |error with fault - error without| in the target's unit")
+                 "is the largest |error with fault - error without| in the target's unit; for Enable/Reset, "
+                 "flagged means Ready or ENO went FALSE")
     return "\n".join(lines)
