@@ -35,8 +35,12 @@ def folder(tmp_path_factory):
     return path
 
 
-@pytest.mark.parametrize("dialect", ["tia", "step7", "iec"])
-@pytest.mark.parametrize("kind", KINDS)
+QUICK = {("kalman", "tia"), ("dlag", "step7"), ("bayes", "iec"), ("lumped", "iec")}  # every dialect in the quick set
+
+
+@pytest.mark.parametrize("kind, dialect", [
+    pytest.param(kind, dialect, marks=() if (kind, dialect) in QUICK else pytest.mark.slow)
+    for kind in KINDS for dialect in ("tia", "step7", "iec")])
 def test_reset_and_enable_replay_bit_exact_and_are_exercised(folder, kind, dialect):
     block = f"{kind}.{dialect}.blk"
     thermoplc("generate", GOLDEN / f"{kind}.json", "--dialect", dialect, "--retain", "-o", block, "--force",

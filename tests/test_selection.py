@@ -43,3 +43,40 @@ def test_select_sensors_cli_feeds_fit(tmp_path, method):
     fitted = thermoplc("fit", "--data", "twin.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "@chosen.txt",
                        "--train-until", 10800, "-o", "m.json", cwd=tmp_path).stdout
     assert "prediction (held out)" in fitted
+
+
+def test_select_sensors_and_fit_refuse_the_answer_in_disguise(tmp_path):
+    """The issue's leak: default candidates were every column; now temperatures only, and the target under
+    another name, a column that alone predicts it, or a non-temperature given as one, is refused."""
+    from tests.test_cli import thermoplc
+    from thermoplc.models.table import read_table, write_table
+    thermoplc("twin", "--hours", 12, "--seed", 3, "-o", "twin.csv", cwd=tmp_path)
+    out = thermoplc("select-sensors", "--data", "twin.csv", "--target", "E_z_um", "--train-until", 21600,
+                    cwd=tmp_path).stdout
+    chosen = out.splitlines()[-1].split(": ", 1)[1].split(",")
+    assert chosen and all(c.startswith("T_") for c in chosen), out
+    assert "E_z_true_um" not in out and "v_feed" not in out and "tool_length" not in out and "2161 rows" in out
+    columns = dict(read_table(tmp_path / "twin.csv").columns)
+    columns["T_probe"] = 20.0 + 0.05 * columns["E_z_um"]  # a scaled copy of the target, named like a temperature
+    (tmp_path / "leaky.csv").write_text(write_table(columns))
+    cases = [
+        (("select-sensors", "--data", "twin.csv", "--target", "E_z_um", "--candidates", "T_motor,E_z_true_um"),
+         "--candidates column 'E_z_true_um' is named like the target 'E_z_um'"),
+        (("select-sensors", "--data", "twin.csv", "--target", "E_z_um", "--candidates", "T_motor,v_feed_mm_min"),
+         "column 'v_feed_mm_min': 2000 cannot be a temperature"),
+        (("select-sensors", "--data", "leaky.csv", "--target", "E_z_um"),
+         "--candidates column 'T_probe' predicts the target 'E_z_um' almost perfectly on its own"),
+        (("fit", "--data", "twin.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,v_feed_mm_min",
+          "--train-until", 21600, "-o", "m.json"), "cannot be a temperature (--temps;"),
+        (("fit", "--data", "twin.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,E_z_true_um",
+          "--train-until", 21600, "-o", "m.json"), "--temps column 'E_z_true_um' is named like the target"),
+        (("fit", "--data", "leaky.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_probe",
+          "--train-until", 21600, "-o", "m.json"), "--temps column 'T_probe' predicts the target"),
+        (("fit", "--data", "twin.csv", "--model", "kalman", "--target", "E_z_um", "--temps", "T_motor",
+          "--speed", "E_z_true_um", "--ambient", "T_env", "--train-until", 21600, "-o", "m.json"),
+         "--speed column 'E_z_true_um' is named like the target"),
+    ]
+    for argv, message in cases:
+        result = thermoplc(*argv, cwd=tmp_path, check=2)
+        assert message in result.stderr and len(result.stderr.strip().splitlines()) == 1, result.stderr
+        assert not (tmp_path / "m.json").exists()
