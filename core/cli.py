@@ -116,19 +116,9 @@ def cmd_twin(args) -> int:
     from thermoplc.models.table import write_table
     from thermoplc.models.effects import Effect
     chosen = machine(args.machine)
-    for option, value, low in (("--hours", args.hours, 0.0), ("--dt", args.dt, 0.0)):
-        if not (math.isfinite(value) and value > low):
-            raise UserError(f"{option} must be a positive finite number, found {value:g}")
-    if args.hours * 3600 / args.dt > MAX_TWIN_ROWS:
+    if args.hours * 3600 / args.dt > MAX_TWIN_ROWS:  # each option is checked by its type; their ratio here
         raise UserError(f"--hours {args.hours:g} at --dt {args.dt:g} gives more than {MAX_TWIN_ROWS:,} rows; "
                         f"use a longer --dt or fewer hours")
-    for option, value in (("--noise", args.noise), ("--ambient-start", args.ambient_start),
-                          ("--ambient-swing", 0.0 if args.ambient_swing is None else args.ambient_swing)):
-        if not math.isfinite(value) or (option != "--ambient-start" and value < 0):
-            raise UserError(f"{option} must be a finite number" + ("" if option == "--ambient-start" else " >= 0")
-                            + f", found {value:g}")
-    if args.seed < 0:
-        raise UserError(f"--seed must be zero or positive, found {args.seed}")
     faults = tuple(SensorFault.parse(f, chosen.SENSORS) for f in args.sensor_fault)
     effects = tuple(Effect.parse(e, chosen.COLUMN_DEFAULTS) for e in args.effect)
     names = [e.name for e in effects]
@@ -446,8 +436,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="cascade: motor/bearing/ram/base network, run/stop at fixed speeds, daily sine ambient; "
                         "portal: three spindle-heated nodes and a lagging ram, random speeds, heated workshop "
                         "(default: %(default)s)")
-    p.add_argument("--hours", type=_number(float, 1e-3, 1e6, "hours"), default=48.0)
-    p.add_argument("--seed", type=SEED, default=0)
+    p.add_argument("--hours", type=_number(float, 1e-3, 1e6, "hours"), default=48.0,
+                   help="length of the recording, h (default: %(default)s)")
+    p.add_argument("--seed", type=SEED, default=0, help="random seed of the schedule and the noise (default: %(default)s)")
     p.add_argument("--dt", type=_number(float, 1e-3, 86400.0, "seconds"), default=10.0, help="sample period, s (default: %(default)s)")
     p.add_argument("--ambient-start", type=_number(float, -40.0, 60.0, "degC"), default=20.0, help="ambient temperature at the start, degC")
     p.add_argument("--ambient-swing", type=_number(float, 0.0, 30.0, "kelvin"), default=None,
@@ -458,13 +449,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"hide a physical effect in the data; repeatable. Names: {', '.join(EFFECT_NAMES)}")
     p.add_argument("--noise", type=_number(float, 0.0, 100.0, "a scale"), default=1.0, help="scale of the sensor noise (default: %(default)s)")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
-    p.add_argument("-o", "--output", required=True)
+    p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.set_defaults(func=cmd_twin)
 
     p = sub.add_parser("fit", help="fit a thermal-error model to a CSV file")
     p.add_argument("--data", required=True, action="append",
                    help="CSV file; repeat for piecewise (one file per batch, initial ambient read from each)")
-    p.add_argument("--model", choices=KINDS, required=True)
+    p.add_argument("--model", choices=KINDS, required=True,
+                   help="kalman (paper 000), lumped, mlr, dlag and piecewise (paper 001), bpnn (paper 002), gm0n and "
+                        "gm1n (paper 003), bayes (paper 004)")
     p.add_argument("--target", type=_columns, required=True,
                    help="measured displacement column, um; bpnn takes several: elongation,yaw,pitch")
     p.add_argument("--temps", type=_columns, required=True, help="temperature columns, comma-separated")
@@ -474,9 +467,11 @@ def build_parser() -> argparse.ArgumentParser:
     _training_part(p, required=True)
     p.add_argument("--optimizer", choices=("ga", "de"), default="ga",
                    help="ga: paper 000's genetic algorithm; de: scipy differential evolution")
-    p.add_argument("--seed", type=SEED, default=0)
-    p.add_argument("--generations", type=_number(int, 1, 10000, "generations"), default=60)
-    p.add_argument("--population", type=_number(int, 2, 10000, "individuals"), default=40)
+    p.add_argument("--seed", type=SEED, default=0, help="random seed of the optimiser (default: %(default)s)")
+    p.add_argument("--generations", type=_number(int, 1, 10000, "generations"), default=60,
+                   help="generations of the GA or DE (default: %(default)s)")
+    p.add_argument("--population", type=_number(int, 2, 10000, "individuals"), default=40,
+                   help="individuals per generation (default: %(default)s)")
     p.add_argument("--jump-limit", type=_number(float, 1e-6, 1e3, "kelvin"), help="K per call that marks a sensor faulty (default from data)")
     p.add_argument("--recover-limit", type=_number(float, 1e-6, 1e3, "kelvin"), help="K between measurement and model to recover (default from data)")
     p.add_argument("--bins", type=_number(int, 1, 4096, "intervals"), default=8, help="bayes: intervals per temperature (default: %(default)s)")
@@ -496,12 +491,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--name", default="ThermalComp", help="function block name (default: %(default)s)")
     p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
-    p.add_argument("-o", "--output", required=True)
+    p.add_argument("-o", "--output", required=True, help="model file to write (JSON)")
     p.set_defaults(func=cmd_fit)
 
     p = sub.add_parser("select-sensors", help="group similar temperature sensors and choose one per group")
-    p.add_argument("--data", required=True)
-    p.add_argument("--target", required=True)
+    p.add_argument("--data", required=True, help="CSV file (or .npz of columns)")
+    p.add_argument("--target", required=True, help="measured displacement column, um")
     p.add_argument("--method", choices=("fcm-grey", "grey-cluster"), default="fcm-grey",
                    help="fcm-grey: paper 001's fuzzy clustering + grey relational grade; "
                         "grey-cluster: paper 002's grey clustering + correlation")
@@ -541,7 +536,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_diagnose)
 
     p = sub.add_parser("generate", help="compile a model file into a Structured Text function block")
-    p.add_argument("model")
+    p.add_argument("model", help="model file written by fit or diagnose")
     p.add_argument("--dialect", choices=("tia", "step7", "iec"), default="tia",
                    help="tia: S7-1500/SINUMERIK ONE (TIA Portal); step7: classic STEP 7 SCL (840D sl, S7-300); "
                         "iec: IEC 61131-3 for CODESYS/TwinCAT/OpenPLC (default: %(default)s)")
@@ -575,12 +570,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--explain", action="store_true", help="print which region computes which model term, "
                                                           "with its constants")
-    p.add_argument("-o", "--output", required=True)
+    p.add_argument("-o", "--output", required=True, help="source file to write (.scl, .st or .xml)")
     p.set_defaults(func=cmd_generate)
 
     p = sub.add_parser("diff", help="what changed between two blocks: constants, interface, statements, behaviour")
-    p.add_argument("old")
-    p.add_argument("new")
+    p.add_argument("old", help="the block as it was (ST source)")
+    p.add_argument("new", help="the block as it is now (ST source)")
     p.add_argument("--data", help="replay both blocks on this CSV and report the largest output difference")
     p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--inputs", type=_mapping, help="block input to column mapping NAME=COLUMN,...")
@@ -588,7 +583,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_diff)
 
     p = sub.add_parser("verify", help="replay data through a block and compare every output bit for bit")
-    p.add_argument("block", nargs="?")
+    p.add_argument("block", nargs="?", help="the block's ST source")
     p.add_argument("--data", help="the recording (CSV, or .npz of columns), one row per call")
     p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--model", help="compare with this model's float32 reference")

@@ -87,7 +87,7 @@ class Report:
         lines.extend(f"  UNSAFE: {u}" for u in self.unsafe)
         if self.constants_checked:
             lines.append(f"  constants and tables: {self.constants_checked} values checked against the model, "
-                         f"{len(self.constant_errors) or 'none'} differ")
+                         f"{_differ(len(self.constant_errors))}")
             lines.extend(f"    {e}" for e in self.constant_errors[:20])
         if self.limits is not None:
             lim = self.limits
@@ -110,6 +110,10 @@ class Report:
         if self.engine_note:
             lines.append(f"  note: {self.engine_note}")
         return "\n".join(lines)
+
+
+def _differ(count: int) -> str:
+    return "none differ" if count == 0 else "1 differs" if count == 1 else f"{count} differ"
 
 
 def _show(value) -> str:
