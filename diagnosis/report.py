@@ -12,17 +12,23 @@ from thermoplc.diagnosis.findings import display
 from thermoplc.models.simulation import Series
 
 
-def _plot(series: Series, d: Diagnosis, channel: str, measured: np.ndarray, n_train: int) -> bytes:
+def _unit(channel: str, target: str) -> str:
+    """Temperatures in degC (their residuals in K), the displacement in um."""
+    return "um" if channel == target else "degC"
+
+
+def _plot(series: Series, d: Diagnosis, channel: str, measured: np.ndarray, n_train: int, unit: str) -> bytes:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     hours = (series.t - series.t[0]) / 3600
+    difference = "um" if unit == "um" else "K"
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
-    top.plot(hours, measured, lw=0.6, color="0.6", label="measured")
-    top.plot(hours, d.simulated_before[channel], lw=1.0, color="tab:red", label="simulation before")
-    top.plot(hours, d.simulated_after[channel], lw=1.0, color="tab:blue", label="simulation after")
-    top.set_ylabel(channel)
+    top.plot(hours, d.simulated_before[channel], lw=1.0, color="tab:red", ls="--", label="simulation before", zorder=2)
+    top.plot(hours, d.simulated_after[channel], lw=1.0, color="tab:blue", ls="--", label="simulation after", zorder=3)
+    top.plot(hours, measured, lw=0.8, color="black", alpha=0.8, label="measured", zorder=4)  # on top: it is the truth
+    top.set_ylabel(f"{channel}, {unit}")
     top.legend(loc="upper left", fontsize=8)
     bottom.plot(hours, d.residual_before[channel], lw=0.5, color="tab:red", label="residual before")
     bottom.plot(hours, d.residual_after[channel], lw=0.5, color="tab:blue", label="residual after")
@@ -30,9 +36,10 @@ def _plot(series: Series, d: Diagnosis, channel: str, measured: np.ndarray, n_tr
         if w.channel == channel:
             bottom.axvspan(hours[w.start], hours[w.stop - 1], color="orange", alpha=0.25, lw=0)
     for ax in (top, bottom):
-        ax.axvline(hours[n_train - 1], color="k", lw=0.8, ls="--")
-    bottom.set_xlabel("hours (dashed: end of the training part; shaded: disagreement windows)")
-    bottom.set_ylabel("measured - simulated")
+        ax.axvline(hours[n_train - 1], color="k", lw=0.8, ls=":")
+        ax.grid(alpha=0.3)
+    bottom.set_xlabel("time, h (dotted: end of the training part; shaded: disagreement windows)")
+    bottom.set_ylabel(f"measured - simulated, {difference}")
     bottom.legend(loc="upper left", fontsize=8)
     fig.tight_layout()
     buffer = io.BytesIO()
@@ -48,7 +55,21 @@ def _table(header: list[str], rows: list[list]) -> str:
 
 
 def _cell(v) -> str:
+    if isinstance(v, bool):
+        return "yes" if v else "no"
     return display(v, braces=False)
+
+
+def _percent(share) -> str:
+    return "" if share is None else f"{share:.0%}"
+
+
+def _number(value, digits: int = 3) -> str:
+    return "" if value is None else f"{value:.{digits}f}"
+
+
+def _hours(seconds) -> str:
+    return "" if seconds is None else f"{seconds / 3600:.2f}"
 
 
 def report_files(channels: int) -> list[str]:
@@ -59,32 +80,44 @@ def report_files(channels: int) -> list[str]:
 def report(doc: dict, d: Diagnosis, series: Series, n_train: int) -> dict:
     """File name -> content: index.html and one PNG per channel."""
     measured = {c: series.temps[:, i] for i, c in enumerate(series.names)}
-    measured[d.channels[-1]] = series.target
+    target = d.channels[-1]
+    measured[target] = series.target
     files, figures = {}, []
     for k, channel in enumerate(d.channels, start=1):
         name = f"channel_{k}.png"
-        files[name] = _plot(series, d, channel, measured[channel], n_train)
+        files[name] = _plot(series, d, channel, measured[channel], n_train, _unit(channel, target))
         figures.append(f'<h3>{html.escape(channel)}</h3><img src="{name}" alt="{html.escape(channel)}">')
-    effects = _table(["#", "effect", "parameters", "delta BIC", "held-out excess removed"],
-                     [[k, e["name"], e["parameters"], e["evidence"]["delta_bic"], e["evidence"]["held_out_excess_removed"]]
+    effects = _table(["#", "effect", "parameters", "delta BIC", "held-out excess above noise removed"],
+                     [[k, e["name"], e["parameters"], _number(e["evidence"]["delta_bic"], 1),
+                       _percent(e["evidence"]["held_out_excess_removed"])]
                       for k, e in enumerate(doc["effects"], start=1)])
-    channels = _table(["channel", "noise", "held-out RMSE before", "after", "max |residual| before", "after"],
-                      [[c, v["noise_sigma"], v["held_out_rmse_before"], v["held_out_rmse_after"],
-                        v["held_out_max_abs_before"], v["held_out_max_abs_after"]] for c, v in doc["channels"].items()])
-    windows = _table(["channel", "start s", "end s", "RMS before", "RMS after", "conditions"],
-                     [[w["channel"], w["start_s"], w["end_s"], w["rms"], w["rms_after"], w["conditions"]]
+
+    def gap(c: str) -> str:
+        return "um" if c == target else "K"
+    channels = _table(["channel", "unit", "noise", "held-out RMSE before", "after", "max |residual| before", "after"],
+                      [[c, gap(c), _number(v["noise_sigma"]), _number(v["held_out_rmse_before"]),
+                        _number(v["held_out_rmse_after"]), _number(v["held_out_max_abs_before"]),
+                        _number(v["held_out_max_abs_after"])] for c, v in doc["channels"].items()])
+    windows = _table(["channel", "start, h from the first row", "end, h", "unit", "RMS before", "RMS after", "conditions"],
+                     [[w["channel"], _hours(w["start_s"] - series.t[0]), _hours(w["end_s"] - series.t[0]),
+                       gap(w["channel"]), _number(w["rms"]), _number(w.get("rms_after")), w["conditions"]]
                       for w in doc["disagreements"]])
-    trials = "".join(f"<h3>round {k}</h3>" + _table(["candidate", "sensor", "delta BIC", "held-out gain", "kept", "implausible"],
-                                                    [[t["name"], t["sensor"], t["delta_bic"], t["held_out_gain"], t["accepted"],
+    trials = "".join(f"<h3>round {k}</h3>" + _table(["candidate", "sensor", "delta BIC", "held-out excess removed",
+                                                     "kept", "implausible because"],
+                                                    [[t["name"], t["sensor"], _number(t["delta_bic"], 1),
+                                                      _percent(t["held_out_gain"]), bool(t["accepted"]),
                                                       t["rejected_because"]]
                                                      for t in trials])
                      for k, trials in enumerate(doc["tested"], start=1))
+    hours_total = (series.t[-1] - series.t[0]) / 3600
+    hours_train = (series.t[n_train - 1] - series.t[0]) / 3600
     page = f"""<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>thermoplc diagnosis</title>
 <style>body{{font-family:sans-serif;max-width:1100px;margin:auto}}table{{border-collapse:collapse;margin:8px 0}}
 td,th{{border:1px solid #bbb;padding:3px 6px;font-size:13px;text-align:left}}img{{max-width:100%}}</style></head>
 <body><h1>Where simulation and measurement disagree</h1>
-<p>Data: {html.escape(str(doc['data'].get('file')))} ({doc['data']['rows']} rows, training part {n_train} rows).</p>
+<p>Data: {html.escape(str(doc['data'].get('file')))} ({doc['data']['rows']} rows, {hours_total:.1f} h; training part
+{n_train} rows, the first {hours_train:.1f} h). Temperatures in degC and their residuals in K, the displacement in um.</p>
 <h2>Verdict: {html.escape(doc['verdict'])}</h2><p>{html.escape(doc['summary'])}</p>
 <h2>Effects added, in order</h2>{effects}
 <h2>Gap before and after (held-out part)</h2>{channels}
