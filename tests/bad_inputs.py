@@ -383,6 +383,11 @@ def _data_file_cases() -> list[Case]:
     def csv_as_npz(folder: Path) -> None:
         (folder / "bad.npz").write_text(good_csv(folder))
 
+    def reset_of_two(folder: Path) -> None:
+        lines = good_csv(folder).splitlines()
+        rows = [lines[0] + ",Reset", *(line + (",2" if k == 3 else ",0") for k, line in enumerate(lines[1:]))]
+        (folder / "bad.csv").write_text("\n".join(rows) + "\n")
+
     return [
         Case("data file", ".npz with garbage after the zip magic", "verify", (*VERIFY, "bad.npz"), garbage_npz, "error",
              "bad.npz: cannot read as .npz: File is not a zip file"),
@@ -391,6 +396,11 @@ def _data_file_cases() -> list[Case]:
         Case("data file", "--inputs naming an input the model lacks", "verify",
              (*VERIFY, "good.csv", "--inputs", "Nope=T_motor"), lambda f: None, "error",
              "--inputs maps Nope, but mlr.json has no such input"),
+        Case("data file", "a Reset column holding 2", "verify", (*VERIFY, "bad.csv"), reset_of_two, "error",
+             "bad.csv: line 5, column 'Reset': 2 cannot be the Reset input (BOOL); expected 0 or 1"),
+        Case("data file", "--inputs Enable= a column the file lacks", "verify",
+             (*VERIFY, "good.csv", "--inputs", "Enable=en_cmd"), lambda f: None, "error",
+             "good.csv: no column 'en_cmd' for block input 'Enable'"),
     ]
 
 
@@ -461,7 +471,27 @@ def _option_cases() -> list[Case]:
         Case("option", "--train-rows 0", "select-sensors", (*select, "--train-rows", "0"), lambda f: None, "error",
              "argument --train-rows: expected a row count"),
         Case("option", "--train-rows beyond the file", "select-sensors", (*select, "--train-rows", "99999"),
-             lambda f: None, "error", "--train-rows 99999: the file has"),
+             lambda f: None, "error", "--train-rows 99999 asks for 99999 training rows; the file has 721"),
+        Case("option", "--author with a blank", "generate", (*generate, "--author", "ACME Corp"), lambda f: None,
+             "error", "argument --author: expected a letter, then letters, digits or '_', 8 characters at most"),
+        Case("option", "--family longer than STEP 7 takes", "generate", (*generate, "--family", "ThermalFamily"),
+             lambda f: None, "error", "argument --family: expected a letter"),
+        Case("option", "--block-version 16.0", "generate", (*generate, "--block-version", "16.0"), lambda f: None,
+             "error", "argument --block-version: expected X.Y with each part 0 to 15"),
+        Case("option", "--date 2026-02-30", "generate", (*generate, "--date", "2026-02-30"), lambda f: None,
+             "error", "argument --date: expected a date YYYY-MM-DD"),
+        Case("option", "--instance-db for TIA", "generate", (*generate, "--instance-db", "ThermDB"), lambda f: None,
+             "error", "--instance-db writes a STEP 7 instance DB source"),
+        Case("option", "--instance-db named like the block", "generate",
+             (*generate, "--dialect", "step7", "--instance-db", "thermalcomp"), lambda f: None, "error",
+             "instance DB name 'thermalcomp' is the block's own name"),
+        Case("option", "select-sensors --candidates with the target's twin", "select-sensors",
+             (*select, "--candidates", "T_motor,E_z_true_um"), lambda f: None, "error",
+             "--candidates column 'E_z_true_um' is named like the target 'E_z_um'"),
+        Case("option", "fit --temps with a feed rate", "fit",
+             ("fit", "--data", "good.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,v_feed_mm_min",
+              "--train-rows", "200", "-o", "out.json"), lambda f: None, "error",
+             "cannot be a temperature (--temps;"),
         Case("option", "--hours nan", "twin", ("twin", "--hours", "nan", "-o", "out.csv"), lambda f: None, "error",
              "argument --hours: expected hours"),
         Case("option", "--jobs 0", "verify", ("verify", "--manifest", "m.csv", "--jobs", "0"), lambda f: None, "error",
