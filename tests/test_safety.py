@@ -10,7 +10,7 @@ from thermoplc.models.modelfile import load_model
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import K0_MM_PER_UM, Limits
 from thermoplc.models.table import read_table
-from thermoplc.verifier.faults import FAULT_KINDS, verify_faults
+from thermoplc.verifier.faults import CONTROL_KINDS, FAULT_KINDS, verify_faults
 from thermoplc.verifier.interpreter import Machine
 from thermoplc.verifier.parser import parse_text
 
@@ -25,7 +25,7 @@ def test_every_fault_on_every_golden_block_stays_exact_finite_and_limited(kind, 
     model = load_model(GOLDEN / f"{kind}.json")
     cases = verify_faults(str(golden_block(kind, "tia")), model, golden_table)
     temperatures = [s for s in model.inputs if {"temperature", "ambient"} & set(s.role.split(","))]
-    assert len(cases) == len(FAULT_KINDS) * len(temperatures)
+    assert len(cases) == len(FAULT_KINDS) * len(temperatures) + len(CONTROL_KINDS)  # sensors, then Enable/Reset
     failed = [(c.sensor, c.kind.name) for c in cases if not c.ok]
     assert failed == []
     for c in cases:
@@ -80,7 +80,7 @@ def test_verify_faults_from_the_command_line(tmp_path):
     thermoplc("generate", GOLDEN / "mlr.json", "--dialect", "iec", "-o", "b.st", cwd=tmp_path)
     data = golden_twin_csv(tmp_path)
     out = thermoplc("verify", "b.st", "--data", data, "--model", GOLDEN / "mlr.json", "--faults", cwd=tmp_path).stdout
-    assert "14 cases" in out and "all cases bit-exact, finite, inside the clamp and the rate limit" in out
+    assert "18 cases" in out and "all cases bit-exact, finite, inside the clamp and the rate limit" in out
     assert "offset: paper 000 eq. 19: -2 degC" in out
 
 
