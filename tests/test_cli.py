@@ -58,7 +58,8 @@ FIT_BPNN = ("fit", "--data", "twin.csv", "--model", "bpnn", "--target", "E_z_um,
             "--generations", 6, "--population", 10)
 
 
-@pytest.mark.parametrize("kind", ["mlr", "kalman", "dlag", "gm0n", "gm1n", "bayes", "bpnn"])
+@pytest.mark.parametrize("kind", ["mlr", "kalman", "dlag", "gm0n", "gm1n", "bayes",
+                                  pytest.param("bpnn", marks=pytest.mark.slow)])  # the GA-BP fit: 14 s
 def test_fit_generate_verify(workdir, kind):
     fit_args = {"kalman": FIT_KALMAN, "bpnn": FIT_BPNN}.get(kind, tuple(kind if a == "mlr" else a for a in FIT_MLR))
     out = thermoplc(*fit_args, "-o", f"{kind}.json", cwd=workdir).stdout
