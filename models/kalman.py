@@ -19,7 +19,7 @@ import numpy as np
 from scipy.optimize import differential_evolution
 
 from thermoplc.binary32 import round_f32
-from thermoplc.models import lumped
+from thermoplc.models import kernels, lumped
 from thermoplc.models.ga import genetic_minimize
 from thermoplc.models.mlr import least_squares
 from thermoplc.models.modelfile import Coefficient, Model
@@ -62,6 +62,12 @@ def predict(model: Model, inputs: dict, precision: str, valid: dict | None = Non
     faults = np.zeros((k, rows), bool)
     in_range = [np.ones(rows, bool) if valid is None or s.name not in valid else np.asarray(valid[s.name], bool)
                 for s in temps]
+    if kernels.enabled():  # the same loop, compiled (models/kernels.py)
+        sc = np.array([[s[c] for c in SENSOR_COEFFICIENTS] for s in sensor], f).reshape(k, len(SENSOR_COEFFICIENTS))
+        error, faults = kernels.kalman(te, n, measured, in_range, sc, np.array(betas, f), coef["beta0"], f)
+        out = {model.target.name: error}
+        out.update({f"Fault_{i + 1}": faults[i] for i in range(k)})
+        return out
     for j in range(rows):
         for i, s in enumerate(sensor):
             tm = measured[i][j]
