@@ -63,8 +63,7 @@ def predict(model: Model, inputs: dict, precision: str, valid: dict | None = Non
     in_range = [np.ones(rows, bool) if valid is None or s.name not in valid else np.asarray(valid[s.name], bool)
                 for s in temps]
     if kernels.enabled():  # the same loop, compiled (models/kernels.py)
-        sc = np.array([[s[c] for c in SENSOR_COEFFICIENTS] for s in sensor], f).reshape(k, len(SENSOR_COEFFICIENTS))
-        error, faults = kernels.kalman(te, n, measured, in_range, sc, np.array(betas, f), coef["beta0"], f)
+        error, faults = kernels.kalman(te, n, measured, in_range, *kernel_coefficients(model, precision), f)
         out = {model.target.name: error}
         out.update({f"Fault_{i + 1}": faults[i] for i in range(k)})
         return out
@@ -99,6 +98,16 @@ def predict(model: Model, inputs: dict, precision: str, valid: dict | None = Non
     for i in range(k):
         out[f"Fault_{i + 1}"] = faults[i]
     return out
+
+
+def kernel_coefficients(model: Model, precision: str) -> tuple:
+    """(sc, betas, beta0) for kernels.kalman: sc[i] holds SENSOR_COEFFICIENTS of sensor i+1."""
+    f = np.float32 if precision == "f32" else np.float64
+    k = len(model.signals("temperature"))
+    sc = np.array([[model.coef(f"{c}_{i}", precision) for c in SENSOR_COEFFICIENTS] for i in range(1, k + 1)],
+                  f).reshape(k, len(SENSOR_COEFFICIENTS))
+    betas = np.array([model.coef(f"beta_{i}", precision) for i in range(1, k + 1)], f)
+    return sc, betas, f(model.coef("beta0", precision))
 
 
 def _rms(residual: np.ndarray) -> np.ndarray:

@@ -1,0 +1,143 @@
+"""The block's reference (models/safety.py::guarded_predict around the model) computed chunk by
+chunk, with the block's memory carried from one chunk to the next, so a recording of any length
+is verified in bounded memory (issue 17).
+
+Same operations, same order, same results as block_outputs on the whole recording (the tests
+compare them bit for bit, chunk boundaries anywhere); it uses the compiled loops of
+models/kernels.py, whose state arrays carry over. Kinds whose model keeps no state the kernels
+can carry are not streamed (`streamable`); the caller then computes the reference in one piece.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from thermoplc.models import kernels
+from thermoplc.models.kalman import kernel_coefficients
+from thermoplc.models.modelfile import Model
+from thermoplc.models.safety import Limits, axis_outputs, guards
+
+NOT_YET = np.iinfo(np.int64).max  # the ready row before any call had every input in range
+STREAMED_KINDS = ("kalman", "mlr")
+
+
+def streamable(model: Model) -> bool:
+    return model.kind in STREAMED_KINDS and kernels.enabled()
+
+
+class _KalmanCore:
+    def __init__(self, model: Model, precision: str, f):
+        self.f = f
+        self.temps = model.signals("temperature")
+        self.ambient = model.signals("ambient")[0].name
+        self.speed = model.signals("speed")[0].name
+        self.args = kernel_coefficients(model, precision)
+        self.state = kernels.KalmanState(len(self.temps), f)
+        self.target = model.target.name
+
+    def __call__(self, running: dict, fused_valid: dict) -> dict:
+        rows = len(running[self.ambient])
+        in_range = [np.asarray(fused_valid[s.name], bool) if s.name in fused_valid else np.ones(rows, bool)
+                    for s in self.temps]
+        error, faults = kernels.kalman(running[self.ambient], running[self.speed],
+                                       [np.asarray(running[s.name], self.f) for s in self.temps], in_range,
+                                       *self.args, self.f, self.state)
+        out = {self.target: error}
+        out.update({f"Fault_{i + 1}": faults[i] for i in range(len(self.temps))})
+        return out
+
+
+class _MlrCore:
+    """models/mlr.py::predict, with T0 (the first call's temperatures) kept between chunks."""
+
+    def __init__(self, model: Model, precision: str, f):
+        self.f = f
+        self.temps = model.signals("temperature")
+        self.beta0 = model.coef("beta0", precision)
+        self.betas = [f(model.coef(f"beta_{i}", precision)) for i in range(1, len(self.temps) + 1)]
+        self.first = None
+        self.target = model.target.name
+
+    def __call__(self, running: dict, fused_valid: dict) -> dict:
+        f = self.f
+        xs = [np.asarray(running[s.name], f) for s in self.temps]
+        if self.first is None:
+            self.first = [x[0] for x in xs]
+        out = np.full(len(xs[0]), self.beta0, f)
+        for beta, x, x0 in zip(self.betas, xs, self.first):
+            out = out + beta * (x - x0)
+        return {self.target: out}
+
+
+class StreamingReference:
+    """block_outputs(model, inputs, precision, limits), one chunk of calls at a time."""
+
+    def __init__(self, model: Model, limits: Limits, precision: str):
+        if not streamable(model):
+            raise ValueError(f"{model.kind} models are not streamed")
+        self.model = model
+        self.f = f = np.float32 if precision == "f32" else np.float64
+        self.limits = limits
+        self.constants = limits.constants()
+        self.plan = guards(model)
+        self.core = (_KalmanCore if model.kind == "kalman" else _MlrCore)(model, precision, f)
+        self.names = [model.target.name]  # the REAL outputs of both streamed kinds
+        self.axes = axis_outputs(model, self.names)
+        self.holds = {g.name: kernels.HoldState(f) for g in self.plan if g.kind != "fused"}
+        self.y = {name: np.zeros(1, f) for name in self.names}
+        self.ready = NOT_YET
+        self.calls = 0
+
+    def step(self, inputs: dict) -> dict:
+        """Every block output for the next len(inputs) calls, as block_outputs would give them."""
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore"):
+            return self._step(inputs)
+
+    def _step(self, inputs: dict) -> dict:
+        f, constants, offset = self.f, self.constants, self.calls
+        rows = len(next(iter(inputs.values())))
+        raw = {g.name: np.asarray(inputs[g.name], f) for g in self.plan}
+        valid = {g.name: (raw[g.name] >= f(constants[g.low])) & (raw[g.name] <= f(constants[g.high]))
+                 for g in self.plan}
+        if self.ready == NOT_YET:
+            all_valid = np.logical_and.reduce([valid[g.name] for g in self.plan])
+            if all_valid.any():
+                self.ready = offset + int(np.argmax(all_valid))
+        local = int(min(max(self.ready - offset, 0), rows))
+        core_inputs, faults = {}, {}
+        for g in self.plan:
+            if g.kind == "fused":
+                core_inputs[g.name] = raw[g.name]
+            else:
+                core_inputs[g.name], faults[g.name] = kernels.hold(
+                    raw[g.name], valid[g.name], g.kind == "range", self.ready, self.limits.settle_calls,
+                    self.limits.max_jump_K, f, self.holds[g.name], offset)
+        core = None
+        if local < rows:
+            running = {name: values[local:] for name, values in core_inputs.items()}
+            fused_valid = {g.name: valid[g.name][local:] for g in self.plan if g.kind == "fused"}
+            core = self.core(running, fused_valid)
+        out = {}
+        limited, clamped, invalid = (np.zeros(rows, bool) for _ in range(3))
+        for name in self.names:
+            series = np.zeros(rows, f)
+            if core is not None:
+                kernels.limit(core[name], local, self.y[name], series, limited, clamped, invalid, constants, f)
+            out[name] = series
+        for k, name in enumerate(self.axes, start=1):
+            k0 = np.zeros(rows, f)
+            k0[local:] = out[name][local:] * f(constants["c_K0_mm"])
+            out[f"K0_{k}"] = k0
+        for g in self.plan:
+            if g.kind == "fused":
+                flags = ~valid[g.name]
+                if core is not None:
+                    flags[local:] = core[f"Fault_{g.index}"]
+                out[f"Fault_{g.index}"] = flags
+            else:
+                out[f"Fault_{g.index}"] = faults[g.name]
+        out["Ready"] = np.arange(offset, offset + rows) >= self.ready
+        out["Limited"] = limited
+        out["Clamped"] = clamped
+        out["Invalid"] = invalid
+        self.calls += rows
+        return out
