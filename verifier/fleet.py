@@ -80,12 +80,12 @@ def verify_pair(pair: Pair, engine: str) -> Outcome:
     """One pair, in a worker process; errors become an outcome, never an exception."""
     from thermoplc.models.modelfile import load_model
     from thermoplc.models.table import read_table
-    from thermoplc.verifier.replay import verify_against_model, verify_against_trace
+    from thermoplc.verifier.replay import verify_against_trace
+    from thermoplc.verifier.stream import verify_file_against_model
     try:
         if pair.model:
             model = load_model(pair.model)
-            table = read_table(pair.data, model.time_column)
-            report = verify_against_model(pair.block, model, pair.model, table, pair.inputs, engine)
+            report = verify_file_against_model(pair.block, model, pair.model, pair.data, pair.inputs, engine)
         else:
             table = read_table(pair.data)
             report = verify_against_trace(pair.block, table, pair.expect, pair.inputs, engine=engine)
