@@ -380,6 +380,13 @@ def _stream_csv(path: str, names: list[str], decimal: str):
                     carry = data
                     continue
                 data, carry = data[:cut], data[cut:]
+                body = data.rstrip(b" \t\r\n")  # trailing blank lines wait for the next block or the end
+                if not body:
+                    carry = data + carry
+                    continue
+                tail = data[len(body):]
+                cut = tail.find(b"\n") + 1
+                data, carry = body + tail[:cut], tail[cut:] + carry
             else:
                 data = data.rstrip(b" \t\r\n")  # blank lines at the end: read_table skips them too
                 if not data:

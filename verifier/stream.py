@@ -47,7 +47,10 @@ def verify_file_against_model(block: str, model: Model, model_path: str, data: s
         report = _verify_streaming(block, model, model_path, str(data), overrides, engine, decimal, progress)
         LAST_TIMINGS["route"] = "streamed"
         return report
-    except Exception as exc:  # _GiveUp, CannotStream, a UserError: the whole-recording path words it
+    except (RecursionError, MemoryError):  # as the whole path would: a bad recording is named first
+        read_table(data, model.time_column, None, decimal)
+        raise
+    except (_GiveUp, CannotStream, UserError) as exc:  # the whole-recording path words it
         LAST_TIMINGS.clear()
         LAST_TIMINGS["route"] = f"whole recording ({exc})"
         LAST_TIMINGS["streaming attempt"] = time.perf_counter() - started
