@@ -38,22 +38,30 @@ class _GiveUp(Exception):
     """The streaming route does not decide this case."""
 
 
-def verify_file_against_model(block: str, model: Model, model_path: str, data: str, overrides: dict | None = None,
-                              engine: str = "auto", decimal: str = "auto", progress=None) -> Report:
-    """verify_against_model on the file `data`: streamed when it can be, else read whole."""
+def verify_streaming(block: str, model: Model, model_path: str, data: str, overrides: dict | None = None,
+                     engine: str = "auto", decimal: str = "auto", progress=None) -> Report | None:
+    """The report when the streamed recording proves the block bit-exact; None when the streaming
+    route does not decide (the caller then runs read_table + verify_against_model itself, at the
+    call depth it always had, so every message -- even a RecursionError's -- stays as it was)."""
     LAST_TIMINGS.clear()
     started = time.perf_counter()
     try:
         report = _verify_streaming(block, model, model_path, str(data), overrides, engine, decimal, progress)
-        LAST_TIMINGS["route"] = "streamed"
-        return report
-    except (RecursionError, MemoryError):  # as the whole path would: a bad recording is named first
-        read_table(data, model.time_column, None, decimal)
-        raise
-    except (_GiveUp, CannotStream, UserError) as exc:  # the whole-recording path words it
+    except (_GiveUp, CannotStream, UserError, RecursionError, MemoryError) as exc:
         LAST_TIMINGS.clear()
-        LAST_TIMINGS["route"] = f"whole recording ({exc})"
+        LAST_TIMINGS["route"] = f"whole recording ({type(exc).__name__}: {str(exc)[:200]})"
         LAST_TIMINGS["streaming attempt"] = time.perf_counter() - started
+        return None
+    LAST_TIMINGS["route"] = "streamed"
+    return report
+
+
+def verify_file_against_model(block: str, model: Model, model_path: str, data: str, overrides: dict | None = None,
+                              engine: str = "auto", decimal: str = "auto", progress=None) -> Report:
+    """verify_against_model on the file `data`: streamed when it can be, else read whole."""
+    report = verify_streaming(block, model, model_path, data, overrides, engine, decimal, progress)
+    if report is not None:
+        return report
     t = time.perf_counter()
     table = read_table(data, model.time_column, progress, decimal)
     LAST_TIMINGS["read"] = time.perf_counter() - t
