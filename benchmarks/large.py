@@ -54,13 +54,11 @@ def write_recording(folder: Path, rows: int, sources=("csv", "npz")) -> dict:
         import pyarrow as pa
         import pyarrow.csv as pacsv
         paths["csv"] = folder / "long.csv"
-        writer = None
-        for names, piece in _pieces(rows):
-            table = pa.table(piece)
-            if writer is None:
-                writer = pacsv.CSVWriter(paths["csv"], table.schema, write_options=pacsv.WriteOptions(quoting_style="none"))
-            writer.write_table(table)
-        writer.close()
+        with open(paths["csv"], "wb") as f:
+            for names, piece in _pieces(rows):
+                if not f.tell():
+                    f.write((",".join(names) + "\n").encode())
+                pacsv.write_csv(pa.table(piece), f, pacsv.WriteOptions(include_header=False, quoting_style="none"))
     if "parquet" in sources:
         import pyarrow as pa
         import pyarrow.parquet as pq

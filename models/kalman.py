@@ -16,13 +16,18 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-from scipy.optimize import differential_evolution
 
 from thermoplc.binary32 import round_f32
 from thermoplc.models import kernels, lumped
 from thermoplc.models.ga import genetic_minimize
 from thermoplc.models.mlr import least_squares
 from thermoplc.models.modelfile import Coefficient, Model
+
+
+def differential_evolution(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
+    from scipy.optimize import differential_evolution as function
+    return function(*args, **kwargs)
+
 
 SENSOR_COEFFICIENTS = ("A", "AA", "B", "C", "D", "N", "R", "P0", "Jmp", "Agr")
 
