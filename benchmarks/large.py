@@ -84,16 +84,20 @@ def write_recording(folder: Path, rows: int, sources=("csv", "npz")) -> dict:
 
 CHILD = ("import json, resource, sys, time\nstart = time.perf_counter()\nfrom thermoplc.cli import main\n"
          "try:\n    code = main(sys.argv[1:])\nfinally:\n"
-         "    from thermoplc.verifier.stream import LAST_TIMINGS\n"
-         "    print('stages', json.dumps(LAST_TIMINGS), file=sys.stderr)\n"
+         "    try:\n        from thermoplc.verifier.stream import LAST_TIMINGS\n"
+         "        print('stages', json.dumps(LAST_TIMINGS), file=sys.stderr)\n"
+         "    except ImportError:\n        pass  # a thermoplc from before issue 17: no stages\n"
          "    print('peak-rss-kib', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr)\n"
          "sys.exit(code)\n")
+
+
+PYTHON = [sys.executable]
 
 
 def run(args: list[str]) -> tuple[float, float, str, dict, str]:
     """Wall time, the child's own peak RSS (MiB), the first line it printed, its stage times, stdout."""
     start = time.perf_counter()
-    result = subprocess.run([sys.executable, "-c", CHILD, *args], capture_output=True, text=True)
+    result = subprocess.run([*PYTHON, "-c", CHILD, *args], capture_output=True, text=True)
     seconds = time.perf_counter() - start
     lines = result.stderr.splitlines()
     peak = next(int(line.split()[1]) for line in lines if line.startswith("peak-rss-kib"))
@@ -112,18 +116,26 @@ def main() -> None:
     parser.add_argument("--sources", default="npz,csv", help="comma-separated: npz, csv, parquet")
     parser.add_argument("--fleet", type=int, default=0, help="machine-months to verify through --manifest")
     parser.add_argument("--folder", help="write the recordings here (default: a temporary folder)")
+    parser.add_argument("--data", nargs="+", help="verify these recordings (of --rows rows) instead of writing one")
+    parser.add_argument("--python", help="run the verify child with this interpreter (another install, for before/after)")
     args = parser.parse_args()
+    if args.python:
+        PYTHON[:] = [args.python]
     with tempfile.TemporaryDirectory(dir=args.folder) as tmp:
         folder = Path(tmp)
         block, model = golden_block(args.kind, "tia"), GOLDEN / f"{args.kind}.json"
         if args.fleet:
             fleet(folder, block, model, args.fleet)
             return
-        sources = tuple(args.sources.split(","))
-        start = time.perf_counter()
-        paths = write_recording(folder, args.rows, sources)
-        sizes = ", ".join(f"{p.stat().st_size / 2**20:,.0f} MiB {s}" for s, p in paths.items())
-        print(f"wrote {args.rows:,} rows ({sizes}) in {time.perf_counter() - start:.1f} s")
+        if args.data:
+            paths = {Path(p).suffix.lstrip("."): Path(p) for p in args.data}
+            sources = tuple(paths)
+        else:
+            sources = tuple(args.sources.split(","))
+            start = time.perf_counter()
+            paths = write_recording(folder, args.rows, sources)
+            sizes = ", ".join(f"{p.stat().st_size / 2**20:,.0f} MiB {s}" for s, p in paths.items())
+            print(f"wrote {args.rows:,} rows ({sizes}) in {time.perf_counter() - start:.1f} s")
         print(f"{'input':<8}{'rows':>12}{'seconds':>9}" + "".join(f"{s:>16}" for s in (*STAGES, "other"))
               + f"{'peak MiB':>10}{'calls/s':>13}  result")
         for source in sources:

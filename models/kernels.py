@@ -287,3 +287,112 @@ def gm1n(temps: list, x1, keep, gain, b: list, f) -> np.ndarray:
     out = np.empty(stacked.shape[1], f)
     _gm1n(stacked, f(x1), f(keep), f(gain), np.array(b, f), np.zeros(len(temps), f), f(0), out)
     return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Lumped-mass simulation with effects (models/lumped_model.py::predict).
+# flags: gear, cool_on, stop, slow, amb, structure, feed (0/1); per (k,): G, G2, K, As, Bs, A, B,
+# beta, gamma, delta, offset, has_offset; sc: Gear_rpm, Stop_rpm, AS, BS, A2, B2, AAm, BAm, AF, BF,
+# beta0, alpha, phi, CoolOn, CoolOff (absent ones 0; never used then); table: (segments, 3) node,
+# heat, slope.
+
+@_jit
+def _lumped(temps, te, n, feed, flags, per, has_offset, sc, table, relay, zero, out):
+    k = temps.shape[0]
+    gear, cool_on, stop, slow, amb, structure, with_feed = (flags[0], flags[1], flags[2], flags[3], flags[4],
+                                                             flags[5], flags[6])
+    sim = np.empty(k, temps.dtype)
+    ll = np.empty(k, temps.dtype)
+    mm = np.empty(k, temps.dtype)
+    t0 = np.empty(k, temps.dtype)
+    la = zero
+    te0 = zero
+    lf = zero
+    cool = False
+    segs = table.shape[0]
+    for j in range(out.shape[0]):
+        if j == 0:
+            for i in range(k):
+                if has_offset[i]:
+                    sim[i] = temps[i, j] - per[10, i]
+                else:
+                    sim[i] = temps[i, j]
+                ll[i] = sim[i]
+                mm[i] = sim[i]
+                t0[i] = sim[i]
+            la = te[j]
+            te0 = te[j]
+            lf = zero
+        s = n[j]
+        if segs > 0:
+            index = 0
+            for m in range(segs - 1, 0, -1):
+                if n[j] >= table[m, 0]:
+                    index = m
+                    break
+            s = table[index, 1] + (n[j] - table[index, 0]) * table[index, 2]
+        for i in range(k):
+            q = per[0, i] * s
+            if gear and n[j] > sc[0]:
+                q = q + per[1, i] * n[j]
+            if cool_on and cool:
+                q = q + per[2, i]
+            if stop and n[j] <= sc[1]:
+                sim[i] = per[3, i] * sim[i] + per[4, i] * (q + te[j])
+            else:
+                sim[i] = per[5, i] * sim[i] + per[6, i] * (q + te[j])
+            if structure:
+                ll[i] = sc[2] * ll[i] + sc[3] * sim[i]
+            if slow:
+                if structure:
+                    mm[i] = sc[4] * mm[i] + sc[5] * ll[i]
+                else:
+                    mm[i] = sc[4] * mm[i] + sc[5] * sim[i]
+        if amb:
+            la = sc[6] * la + sc[7] * te[j]
+        if with_feed:
+            lf = sc[8] * lf + sc[9] * feed[j]
+        e = sc[10]
+        for i in range(k):
+            e = e + per[7, i] * (sim[i] - t0[i])
+            if structure:
+                e = e + per[8, i] * (ll[i] - t0[i])
+            if slow:
+                e = e + per[9, i] * (mm[i] - t0[i])
+        if amb:
+            e = e + sc[11] * (la - te0)
+        if with_feed:
+            e = e + sc[12] * lf
+        out[j] = e
+        if cool_on:
+            t_switch = sim[relay]
+            if t_switch > sc[13]:
+                cool = True
+            elif t_switch < sc[14]:
+                cool = False
+
+
+LUMPED_PER_SENSOR = ("G", "G2", "K", "As", "Bs", "A", "B", "beta", "gamma", "delta", "O")
+LUMPED_SCALARS = ("Gear_rpm", "Stop_rpm", "AS", "BS", "A2", "B2", "AAm", "BAm", "AF", "BF", "beta0", "alpha", "phi",
+                  "CoolOn", "CoolOff")
+
+
+def lumped(temps: list, te, n, feed, flags: tuple, coef: dict, table: list, relay: int, f) -> np.ndarray:
+    """coef: name -> value of dtype f (absent coefficients are not in it)."""
+    k = len(temps)
+    per = np.zeros((len(LUMPED_PER_SENSOR), k), f)
+    for r, name in enumerate(LUMPED_PER_SENSOR):
+        for i in range(k):
+            per[r, i] = coef.get(f"{name}_{i + 1}", f(0))
+    has_offset = np.array([f"O_{i + 1}" in coef for i in range(k)], np.bool_)
+    sc = np.array([coef.get(name, f(0)) for name in LUMPED_SCALARS], f)
+    rows = len(te)
+    stacked = np.empty((k, rows), f)
+    for i, x in enumerate(temps):
+        stacked[i] = x
+    table_array = np.array(table, f).reshape(len(table), 3)
+    out = np.empty(rows, f)
+    _lumped(stacked, np.ascontiguousarray(te, f), np.ascontiguousarray(n, f),
+            np.ascontiguousarray(feed if feed is not None else te, f), np.array(flags, np.bool_), per, has_offset, sc,
+            table_array, np.int64(relay), f(0), out)
+    return out

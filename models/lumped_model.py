@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from thermoplc.models import simulation as sim_
+from thermoplc.models import kernels, simulation as sim_
 from thermoplc.models.modelfile import Coefficient, Model
 from thermoplc.models.simulation import Simulation
 
@@ -145,6 +145,9 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     offset = [coef.get(f"O_{i}") for i in range(1, k + 1)]
     relay_sensor = model.settings.get("relay_sensor", 1) - 1
+    if kernels.enabled() and rows:  # the same loop, compiled (models/kernels.py)
+        flags = (gear, cool_on, stop, slow, amb, structure, feed is not None)
+        return {model.target.name: kernels.lumped(temps, te, n, feed, flags, coef, table, relay_sensor, f)}
     sim = l_ = m_ = t0 = None
     la = te0 = lf = None
     cool = False
