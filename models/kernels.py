@@ -64,7 +64,10 @@ JIT_OPTIONS = dict(cache=True, fastmath=False, error_model="numpy", nogil=True, 
 def _jit(fn):
     if numba is None:
         return fn
-    return numba.njit(**JIT_OPTIONS)(fn)
+    try:
+        return numba.njit(**JIT_OPTIONS)(fn)
+    except RuntimeError:  # no writable cache folder anywhere: compile in every process instead
+        return numba.njit(**{**JIT_OPTIONS, "cache": False})(fn)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -175,7 +175,7 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
         series = np.zeros(rows, f)
         model_values = core[name] if core is not None else ()
         if kernels.enabled() and core is not None and np.asarray(model_values).dtype == f:
-            kernels.limit(model_values, ready_row, np.zeros(1, f), series, limited, clamped, invalid, constants, f)
+            kernels.limit(model_values, ready_row, np.array([y], f), series, limited, clamped, invalid, constants, f)
             out[name] = series
             continue
         for j in range(ready_row, rows):
