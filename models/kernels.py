@@ -247,48 +247,65 @@ def limit(model_values, start: int, y_state: np.ndarray, series, limited, clampe
 # Grey models (models/grey.py::predict_gm0n, predict_gm1n). temps: (k, rows).
 
 @_jit
-def _gm0n(temps, a, x1, b, sums, previous, out):
+def _gm0n(temps, a, x1, b, sums, prev, started, out):
     k = temps.shape[0]
+    previous = prev[0]
     for j in range(out.shape[0]):
         for i in range(k):
             sums[i] = sums[i] + temps[i, j]
         level = a
         for i in range(k):
             level = level + b[i] * sums[i]
-        if j == 0:
+        if started[0] == 0:
             previous = level - x1
+            started[0] = 1
         out[j] = level - previous
         previous = level
+    prev[0] = previous
 
 
 @_jit
-def _gm1n(temps, x1, keep, gain, b, sums, previous, out):
+def _gm1n(temps, x1, keep, gain, b, sums, prev, started, out):
     k = temps.shape[0]
+    previous = prev[0]
     for j in range(out.shape[0]):
         for i in range(k):
             sums[i] = sums[i] + temps[i, j]
         forced = b[0] * sums[0]
         for i in range(1, k):
             forced = forced + b[i] * sums[i]
-        if j == 0:
+        if started[0] == 0:
             level = x1
+            started[0] = 1
         else:
             level = keep * previous + gain * forced
         out[j] = level - previous
         previous = level
+    prev[0] = previous
 
 
-def gm0n(temps: list, a, x1, b: list, f) -> np.ndarray:
+class GreyState:
+    """Accumulated sums, the previous level and whether the first call happened."""
+
+    def __init__(self, k: int, f):
+        self.sums = np.zeros(k, f)
+        self.prev = np.zeros(1, f)
+        self.started = np.zeros(1, np.int64)
+
+
+def gm0n(temps: list, a, x1, b: list, f, state: GreyState | None = None) -> np.ndarray:
+    state = state or GreyState(len(temps), f)
     stacked = np.array(temps, f).reshape(len(temps), -1)
     out = np.empty(stacked.shape[1], f)
-    _gm0n(stacked, f(a), f(x1), np.array(b, f), np.zeros(len(temps), f), f(0), out)
+    _gm0n(stacked, f(a), f(x1), np.array(b, f), state.sums, state.prev, state.started, out)
     return out
 
 
-def gm1n(temps: list, x1, keep, gain, b: list, f) -> np.ndarray:
+def gm1n(temps: list, x1, keep, gain, b: list, f, state: GreyState | None = None) -> np.ndarray:
+    state = state or GreyState(len(temps), f)
     stacked = np.array(temps, f).reshape(len(temps), -1)
     out = np.empty(stacked.shape[1], f)
-    _gm1n(stacked, f(x1), f(keep), f(gain), np.array(b, f), np.zeros(len(temps), f), f(0), out)
+    _gm1n(stacked, f(x1), f(keep), f(gain), np.array(b, f), state.sums, state.prev, state.started, out)
     return out
 
 

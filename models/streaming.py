@@ -14,13 +14,19 @@ import numpy as np
 from thermoplc.models import kernels
 from thermoplc.models.kalman import kernel_coefficients
 from thermoplc.models.modelfile import Model
-from thermoplc.models.safety import Limits, axis_outputs, guards
+from thermoplc.models.reference import _core
+from thermoplc.models.safety import Limits, _real_outputs_of, axis_outputs, guards
 
 NOT_YET = np.iinfo(np.int64).max  # the ready row before any call had every input in range
-STREAMED_KINDS = ("kalman", "mlr")
+# kinds whose output at a call depends on that call and the first call only: the model's own
+# predict runs on [first call, chunk...] and the first value is dropped
+FIRST_CALL_KINDS = ("mlr", "piecewise", "bpnn", "bayes")
+STREAMED_KINDS = ("kalman", "gm0n", "gm1n", *FIRST_CALL_KINDS)
 
 
 def streamable(model: Model) -> bool:
+    if model.kind == "bayes" and model.settings.get("time_parent"):
+        return False  # elapsed time since the first call is an input: not a first-call-only model
     return model.kind in STREAMED_KINDS and kernels.enabled()
 
 
@@ -44,6 +50,43 @@ class _KalmanCore:
         out = {self.target: error}
         out.update({f"Fault_{i + 1}": faults[i] for i in range(len(self.temps))})
         return out
+
+
+class _FirstCallCore:
+    """The kind's own predict (models/reference.py::predict), on the first call and this chunk."""
+
+    def __init__(self, model: Model, precision: str, f):
+        from thermoplc.models.reference import predict
+        self.predict = lambda inputs: predict(model, inputs, precision)
+        self.first = None
+
+    def __call__(self, running: dict, fused_valid: dict) -> dict:
+        if self.first is None:
+            self.first = {name: np.asarray(values)[:1].copy() for name, values in running.items()}
+            return self.predict(running)
+        joined = {name: np.concatenate([self.first[name], np.asarray(values, self.first[name].dtype)])
+                  for name, values in running.items()}
+        return {name: values[1:] for name, values in self.predict(joined).items()}
+
+
+class _GreyCore:
+    """models/grey.py::predict_gm0n / predict_gm1n with the sums and the last level kept."""
+
+    def __init__(self, model: Model, precision: str, f):
+        self.f, self.kind, self.target = f, model.kind, model.target.name
+        self.temps = model.signals("temperature")
+        c = lambda name: f(model.coef(name, precision))
+        self.b = [c(f"b_{i}") for i in range(1, len(self.temps) + 1)]
+        self.scalars = (c("a"), c("X1")) if model.kind == "gm0n" else (c("X1"), c("Keep"), c("In"))
+        self.state = kernels.GreyState(len(self.temps), f)
+
+    def __call__(self, running: dict, fused_valid: dict) -> dict:
+        temps = [np.asarray(running[s.name], self.f) for s in self.temps]
+        if self.kind == "gm0n":
+            out = kernels.gm0n(temps, *self.scalars, self.b, self.f, self.state)
+        else:
+            out = kernels.gm1n(temps, *self.scalars, self.b, self.f, self.state)
+        return {self.target: out}
 
 
 class _MlrCore:
@@ -79,8 +122,9 @@ class StreamingReference:
         self.limits = limits
         self.constants = limits.constants()
         self.plan = guards(model)
-        self.core = (_KalmanCore if model.kind == "kalman" else _MlrCore)(model, precision, f)
-        self.names = [model.target.name]  # the REAL outputs of both streamed kinds
+        core = {"kalman": _KalmanCore, "gm0n": _GreyCore, "gm1n": _GreyCore, "mlr": _MlrCore}
+        self.core = core.get(model.kind, _FirstCallCore)(model, precision, f)
+        self.names = _real_outputs_of(model, _core, precision)  # what the limiter acts on, in order
         self.axes = axis_outputs(model, self.names)
         self.holds = {g.name: kernels.HoldState(f) for g in self.plan if g.kind != "fused"}
         self.y = {name: np.zeros(1, f) for name in self.names}

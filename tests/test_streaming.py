@@ -38,8 +38,8 @@ def _fast_engine_here() -> bool:
     return native_or_reason(parse_text(golden_block("mlr", "tia").read_text(), "b.scl"))[0] is not None
 
 
-@pytest.mark.parametrize("kind", ["kalman", "mlr"])
-@pytest.mark.parametrize("source", ["csv", "npz", "parquet"])
+@pytest.mark.parametrize("kind,source", [(kind, source) for kind in ("kalman", "mlr") for source in ("csv", "npz", "parquet")]
+                         + [(kind, "csv") for kind in ("gm0n", "gm1n", "piecewise", "bpnn", "bayes")])
 def test_streamed_verify_reports_what_the_whole_recording_path_reports(kind, source, recording, monkeypatch):
     if not _fast_engine_here():
         pytest.skip("no C compiler: nothing is streamed")
