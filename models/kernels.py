@@ -317,21 +317,17 @@ def gm1n(temps: list, x1, keep, gain, b: list, f, state: GreyState | None = None
 # heat, slope.
 
 @_jit
-def _lumped(temps, te, n, feed, flags, per, has_offset, sc, table, relay, zero, out):
+def _lumped(temps, te, n, feed, flags, per, has_offset, sc, table, relay, zero, sim, ll, mm, t0, carried, status, out):
     k = temps.shape[0]
     gear, cool_on, stop, slow, amb, structure, with_feed = (flags[0], flags[1], flags[2], flags[3], flags[4],
                                                              flags[5], flags[6])
-    sim = np.empty(k, temps.dtype)
-    ll = np.empty(k, temps.dtype)
-    mm = np.empty(k, temps.dtype)
-    t0 = np.empty(k, temps.dtype)
-    la = zero
-    te0 = zero
-    lf = zero
-    cool = False
+    la = carried[0]
+    te0 = carried[1]
+    lf = carried[2]
+    cool = status[1] != 0
     segs = table.shape[0]
     for j in range(out.shape[0]):
-        if j == 0:
+        if status[0] == 0:
             for i in range(k):
                 if has_offset[i]:
                     sim[i] = temps[i, j] - per[10, i]
@@ -343,6 +339,7 @@ def _lumped(temps, te, n, feed, flags, per, has_offset, sc, table, relay, zero, 
             la = te[j]
             te0 = te[j]
             lf = zero
+            status[0] = 1
         s = n[j]
         if segs > 0:
             index = 0
@@ -390,6 +387,20 @@ def _lumped(temps, te, n, feed, flags, per, has_offset, sc, table, relay, zero, 
                 cool = True
             elif t_switch < sc[14]:
                 cool = False
+    carried[0] = la
+    carried[1] = te0
+    carried[2] = lf
+    status[1] = 1 if cool else 0
+
+
+class LumpedState:
+    """Simulated temperatures, structure and slow lags, their start values, the ambient and feed
+    lags, the ambient at the first call; whether the first call happened and the coolant relay."""
+
+    def __init__(self, k: int, f):
+        self.sim, self.ll, self.mm, self.t0 = (np.zeros(k, f) for _ in range(4))
+        self.carried = np.zeros(3, f)  # LA, Te0, LF
+        self.status = np.zeros(2, np.int64)  # started, cool
 
 
 LUMPED_PER_SENSOR = ("G", "G2", "K", "As", "Bs", "A", "B", "beta", "gamma", "delta", "O")
@@ -397,9 +408,11 @@ LUMPED_SCALARS = ("Gear_rpm", "Stop_rpm", "AS", "BS", "A2", "B2", "AAm", "BAm", 
                   "CoolOn", "CoolOff")
 
 
-def lumped(temps: list, te, n, feed, flags: tuple, coef: dict, table: list, relay: int, f) -> np.ndarray:
+def lumped(temps: list, te, n, feed, flags: tuple, coef: dict, table: list, relay: int, f,
+           state: LumpedState | None = None) -> np.ndarray:
     """coef: name -> value of dtype f (absent coefficients are not in it)."""
     k = len(temps)
+    state = state or LumpedState(k, f)
     per = np.zeros((len(LUMPED_PER_SENSOR), k), f)
     for r, name in enumerate(LUMPED_PER_SENSOR):
         for i in range(k):
@@ -414,5 +427,6 @@ def lumped(temps: list, te, n, feed, flags: tuple, coef: dict, table: list, rela
     out = np.empty(rows, f)
     _lumped(stacked, np.ascontiguousarray(te, f), np.ascontiguousarray(n, f),
             np.ascontiguousarray(feed if feed is not None else te, f), np.array(flags, np.bool_), per, has_offset, sc,
-            table_array, np.int64(relay), f(0), out)
+            table_array, np.int64(relay), f(0), state.sim, state.ll, state.mm, state.t0, state.carried, state.status,
+            out)
     return out

@@ -146,8 +146,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     offset = [coef.get(f"O_{i}") for i in range(1, k + 1)]
     relay_sensor = model.settings.get("relay_sensor", 1) - 1
     if kernels.enabled() and rows:  # the same loop, compiled (models/kernels.py)
-        flags = (gear, cool_on, stop, slow, amb, structure, feed is not None)
-        return {model.target.name: kernels.lumped(temps, te, n, feed, flags, coef, table, relay_sensor, f)}
+        return {model.target.name: kernel_arguments(model, inputs, precision)[0]}
     sim = l_ = m_ = t0 = None
     la = te0 = lf = None
     cool = False
@@ -199,3 +198,19 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
             elif t_switch < coef["CoolOff"]:
                 cool = False
     return {model.target.name: out}
+
+
+def kernel_arguments(model: Model, inputs: dict, precision: str, state=None):
+    """(the compiled loop's output, its state) for these calls; predict's setup, for kernels.lumped."""
+    f = np.float32 if precision == "f32" else np.float64
+    coef = {name: f(model.coef(name, precision)) for name in model.coefficients}
+    temps = [np.asarray(inputs[s.name], f) for s in model.signals("temperature")]
+    te = np.asarray(inputs[model.signals("ambient")[0].name], f)
+    n = np.asarray(inputs[model.signals("speed")[0].name], f)
+    feed = np.asarray(inputs[model.signals("feed")[0].name], f) if has(model, "feed_axis_heat") else None
+    flags = (*(has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection", "slow_structure",
+                                       "ambient_coupling")), "AS" in coef, feed is not None)
+    table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
+    state = state or kernels.LumpedState(len(temps), f)
+    out = kernels.lumped(temps, te, n, feed, flags, coef, table, model.settings.get("relay_sensor", 1) - 1, f, state)
+    return out, state

@@ -3,9 +3,11 @@ chunk, with the block's memory carried from one chunk to the next, so a recordin
 is verified in bounded memory (issue 17).
 
 Same operations, same order, same results as block_outputs on the whole recording (the tests
-compare them bit for bit, chunk boundaries anywhere); it uses the compiled loops of
-models/kernels.py, whose state arrays carry over. Kinds whose model keeps no state the kernels
-can carry are not streamed (`streamable`); the caller then computes the reference in one piece.
+compare them bit for bit, chunk boundaries anywhere). Per kind the model's state carries over:
+the compiled loops' state arrays (kalman, grey, lumped), the first call's values and, for dlag,
+the last lags*step samples; mlr, piecewise, bpnn and bayes depend on the current and the first
+call only. A bayes model with the elapsed-time parent is not streamed (`streamable`); the caller
+then computes the reference in one piece.
 """
 from __future__ import annotations
 
@@ -21,7 +23,7 @@ NOT_YET = np.iinfo(np.int64).max  # the ready row before any call had every inpu
 # kinds whose output at a call depends on that call and the first call only: the model's own
 # predict runs on [first call, chunk...] and the first value is dropped
 FIRST_CALL_KINDS = ("mlr", "piecewise", "bpnn", "bayes")
-STREAMED_KINDS = ("kalman", "gm0n", "gm1n", *FIRST_CALL_KINDS)
+STREAMED_KINDS = ("kalman", "gm0n", "gm1n", "dlag", "lumped", *FIRST_CALL_KINDS)
 
 
 def streamable(model: Model) -> bool:
@@ -89,6 +91,57 @@ class _GreyCore:
         return {self.target: out}
 
 
+class _DlagCore:
+    """models/dlag.py::predict with the last lags*step samples of each sensor kept: a lagged value
+    before the first call is the first call's sample, as `lagged` holds it."""
+
+    def __init__(self, model: Model, precision: str, f):
+        self.f, self.target = f, model.target.name
+        self.temps = model.signals("temperature")
+        self.lags, self.step = model.settings["lags"], model.settings["lag_step_samples"]
+        self.beta0 = model.coef("beta0", precision)
+        self.beta = {(i, lag): f(model.coef(f"beta_{i}_{lag}", precision))
+                     for lag in range(self.lags + 1) for i in range(1, len(self.temps) + 1)}
+        self.history = None  # per sensor: the last lags*step samples before this chunk
+        self.first = None
+        self.calls = 0
+
+    def __call__(self, running: dict, fused_valid: dict) -> dict:
+        f = self.f
+        xs = [np.asarray(running[s.name], f) for s in self.temps]
+        rows = len(xs[0])
+        if self.first is None:
+            self.first = [x[0] for x in xs]
+            self.history = [x[:0] for x in xs]
+        joined = [np.concatenate([h, x]) for h, x in zip(self.history, xs)]
+        kept = len(self.history[0])
+        acc = np.full(rows, self.beta0, f)
+        for lag in range(self.lags + 1):
+            at = kept + np.arange(rows) - lag * self.step
+            before = self.calls + np.arange(rows) - lag * self.step < 0
+            for i, (x, x0) in enumerate(zip(joined, self.first), start=1):
+                lagged = np.where(before, x0, x[np.maximum(at, 0)])
+                acc = acc + self.beta[(i, lag)] * (lagged - x0)
+        span = self.lags * self.step
+        self.history = [x[max(len(x) - span, 0):].copy() for x in joined]
+        self.calls += rows
+        return {self.target: acc}
+
+
+class _LumpedCore:
+    """models/lumped_model.py::predict with the simulation's state kept (kernels.LumpedState)."""
+
+    def __init__(self, model: Model, precision: str, f):
+        from thermoplc.models.lumped_model import kernel_arguments
+        self.f, self.target, self.model, self.precision = f, model.target.name, model, precision
+        self.arguments = kernel_arguments
+        self.state = None
+
+    def __call__(self, running: dict, fused_valid: dict) -> dict:
+        out, self.state = self.arguments(self.model, running, self.precision, self.state)
+        return {self.target: out}
+
+
 class _MlrCore:
     """models/mlr.py::predict, with T0 (the first call's temperatures) kept between chunks."""
 
@@ -122,7 +175,8 @@ class StreamingReference:
         self.limits = limits
         self.constants = limits.constants()
         self.plan = guards(model)
-        core = {"kalman": _KalmanCore, "gm0n": _GreyCore, "gm1n": _GreyCore, "mlr": _MlrCore}
+        core = {"kalman": _KalmanCore, "gm0n": _GreyCore, "gm1n": _GreyCore, "mlr": _MlrCore, "dlag": _DlagCore,
+                "lumped": _LumpedCore}
         self.core = core.get(model.kind, _FirstCallCore)(model, precision, f)
         self.names = _real_outputs_of(model, _core, precision)  # what the limiter acts on, in order
         self.axes = axis_outputs(model, self.names)

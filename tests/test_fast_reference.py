@@ -146,7 +146,7 @@ def _streamed(model, inputs, precision, limits, sizes):
     return {name: np.concatenate([p[name] for p in parts]) for name in parts[0]}
 
 
-@pytest.mark.parametrize("kind", ["kalman", "mlr", "gm0n", "gm1n", "piecewise", "bpnn", "bayes"])
+@pytest.mark.parametrize("kind", ["kalman", "mlr", "gm0n", "gm1n", "piecewise", "bpnn", "bayes", "dlag", "lumped"])
 def test_streamed_reference_equals_the_whole_recording_at_any_chunk_boundary(kind, golden_table):
     from thermoplc.models.streaming import streamable
     model = load_model(GOLDEN / f"{kind}.json")

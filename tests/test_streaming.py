@@ -39,7 +39,7 @@ def _fast_engine_here() -> bool:
 
 
 @pytest.mark.parametrize("kind,source", [(kind, source) for kind in ("kalman", "mlr") for source in ("csv", "npz", "parquet")]
-                         + [(kind, "csv") for kind in ("gm0n", "gm1n", "piecewise", "bpnn", "bayes")])
+                         + [(kind, "csv") for kind in ("gm0n", "gm1n", "piecewise", "bpnn", "bayes", "dlag", "lumped")])
 def test_streamed_verify_reports_what_the_whole_recording_path_reports(kind, source, recording, monkeypatch):
     if not _fast_engine_here():
         pytest.skip("no C compiler: nothing is streamed")
