@@ -273,8 +273,8 @@ def cmd_verify(args) -> int:
         if args.block or args.data or args.model or args.expect or args.faults:
             raise UserError("--manifest lists the blocks, data and models itself; give no BLOCK, --data, --model, --expect or --faults")
         from thermoplc.verifier.fleet import format_fleet, read_manifest, verify_fleet
-        outcomes = verify_fleet(read_manifest(args.manifest), args.jobs, args.engine)
-        print(format_fleet(outcomes, args.manifest))
+        outcomes, seconds = verify_fleet(read_manifest(args.manifest), args.jobs, args.engine)
+        print(format_fleet(outcomes, args.manifest, seconds))
         if any(o.status == "error" for o in outcomes):
             return 2
         return 0 if all(o.status == "bit-exact" for o in outcomes) else 1
@@ -288,13 +288,20 @@ def cmd_verify(args) -> int:
     if args.model:
         from thermoplc.models.modelfile import load_model
         model = load_model(args.model)
-        table = read_table(args.data, model.time_column, _progress if sys.stderr.isatty() else None, args.decimal)
-        if args.faults:
-            from thermoplc.verifier.faults import format_cases, verify_faults
-            cases = verify_faults(args.block, model, table, args.inputs, args.engine)
-            print(format_cases(cases, args.block, table.rows))
-            return 0 if all(c.ok for c in cases) else 1
-        report = verify_against_model(args.block, model, args.model, table, args.inputs, args.engine)
+        progress = _progress if sys.stderr.isatty() else None
+        report = None
+        if not args.faults:  # streamed in bounded memory when the recording allows it (verifier/stream.py)
+            from thermoplc.verifier.stream import verify_streaming
+            report = verify_streaming(args.block, model, args.model, args.data, args.inputs, args.engine,
+                                      args.decimal, progress)
+        if report is None:
+            table = read_table(args.data, model.time_column, progress, args.decimal)
+            if args.faults:
+                from thermoplc.verifier.faults import format_cases, verify_faults
+                cases = verify_faults(args.block, model, table, args.inputs, args.engine)
+                print(format_cases(cases, args.block, table.rows))
+                return 0 if all(c.ok for c in cases) else 1
+            report = verify_against_model(args.block, model, args.model, table, args.inputs, args.engine)
     else:
         if args.faults:
             raise UserError("--faults needs --model: the faulty replay is compared with the model's reference")

@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.errors import UserError
+from thermoplc.models import kernels
 from thermoplc.models.modelfile import Coefficient, Model
 
 def accumulate(x: np.ndarray) -> np.ndarray:
@@ -64,6 +65,8 @@ def predict_gm0n(model: Model, inputs: dict, precision: str) -> dict:
     temps = [np.asarray(inputs[s.name], f) for s in model.signals("temperature")]
     a, x1 = f(model.coef("a", precision)), f(model.coef("X1", precision))
     b = [f(model.coef(f"b_{i}", precision)) for i in range(1, len(temps) + 1)]
+    if kernels.enabled():  # the same loop, compiled (models/kernels.py)
+        return {model.target.name: kernels.gm0n(temps, a, x1, b, f)}
     sums = [f(0.0)] * len(temps)
     previous = f(0.0)
     out = np.empty(len(temps[0]), f)
@@ -86,6 +89,8 @@ def predict_gm1n(model: Model, inputs: dict, precision: str) -> dict:
     c = lambda name: f(model.coef(name, precision))
     b = [c(f"b_{i}") for i in range(1, len(temps) + 1)]
     x1, keep, gain = c("X1"), c("Keep"), c("In")
+    if kernels.enabled():  # the same loop, compiled (models/kernels.py)
+        return {model.target.name: kernels.gm1n(temps, x1, keep, gain, b, f)}
     sums = [f(0.0)] * len(temps)
     previous = f(0.0)
     out = np.empty(len(temps[0]), f)

@@ -16,13 +16,18 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-from scipy.optimize import differential_evolution
 
 from thermoplc.binary32 import round_f32
-from thermoplc.models import lumped
+from thermoplc.models import kernels, lumped
 from thermoplc.models.ga import genetic_minimize
 from thermoplc.models.mlr import least_squares
 from thermoplc.models.modelfile import Coefficient, Model
+
+
+def differential_evolution(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
+    from scipy.optimize import differential_evolution as function
+    return function(*args, **kwargs)
+
 
 SENSOR_COEFFICIENTS = ("A", "AA", "B", "C", "D", "N", "R", "P0", "Jmp", "Agr")
 
@@ -62,6 +67,11 @@ def predict(model: Model, inputs: dict, precision: str, valid: dict | None = Non
     faults = np.zeros((k, rows), bool)
     in_range = [np.ones(rows, bool) if valid is None or s.name not in valid else np.asarray(valid[s.name], bool)
                 for s in temps]
+    if kernels.enabled():  # the same loop, compiled (models/kernels.py)
+        error, faults = kernels.kalman(te, n, measured, in_range, *kernel_coefficients(model, precision), f)
+        out = {model.target.name: error}
+        out.update({f"Fault_{i + 1}": faults[i] for i in range(k)})
+        return out
     for j in range(rows):
         for i, s in enumerate(sensor):
             tm = measured[i][j]
@@ -93,6 +103,16 @@ def predict(model: Model, inputs: dict, precision: str, valid: dict | None = Non
     for i in range(k):
         out[f"Fault_{i + 1}"] = faults[i]
     return out
+
+
+def kernel_coefficients(model: Model, precision: str) -> tuple:
+    """(sc, betas, beta0) for kernels.kalman: sc[i] holds SENSOR_COEFFICIENTS of sensor i+1."""
+    f = np.float32 if precision == "f32" else np.float64
+    k = len(model.signals("temperature"))
+    sc = np.array([[model.coef(f"{c}_{i}", precision) for c in SENSOR_COEFFICIENTS] for i in range(1, k + 1)],
+                  f).reshape(k, len(SENSOR_COEFFICIENTS))
+    betas = np.array([model.coef(f"beta_{i}", precision) for i in range(1, k + 1)], f)
+    return sc, betas, f(model.coef("beta0", precision))
 
 
 def _rms(residual: np.ndarray) -> np.ndarray:

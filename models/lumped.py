@@ -7,7 +7,12 @@ with A = tau/(tau+dt), B = 1-A, C = B*g_n (steady-state K per rpm), D = B*g_0 (K
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import lfilter
+
+
+def lfilter(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
+    from scipy.signal import lfilter as function
+    return function(*args, **kwargs)
+
 
 KALMAN_SETTLE = 1e-13  # relative change of the gain below which it is treated as constant
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from thermoplc.models import simulation as sim_
+from thermoplc.models import kernels, simulation as sim_
 from thermoplc.models.modelfile import Coefficient, Model
 from thermoplc.models.simulation import Simulation
 
@@ -145,6 +145,8 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     offset = [coef.get(f"O_{i}") for i in range(1, k + 1)]
     relay_sensor = model.settings.get("relay_sensor", 1) - 1
+    if kernels.enabled() and rows:  # the same loop, compiled (models/kernels.py)
+        return {model.target.name: kernel_arguments(model, inputs, precision)[0]}
     sim = l_ = m_ = t0 = None
     la = te0 = lf = None
     cool = False
@@ -196,3 +198,19 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
             elif t_switch < coef["CoolOff"]:
                 cool = False
     return {model.target.name: out}
+
+
+def kernel_arguments(model: Model, inputs: dict, precision: str, state=None):
+    """(the compiled loop's output, its state) for these calls; predict's setup, for kernels.lumped."""
+    f = np.float32 if precision == "f32" else np.float64
+    coef = {name: f(model.coef(name, precision)) for name in model.coefficients}
+    temps = [np.asarray(inputs[s.name], f) for s in model.signals("temperature")]
+    te = np.asarray(inputs[model.signals("ambient")[0].name], f)
+    n = np.asarray(inputs[model.signals("speed")[0].name], f)
+    feed = np.asarray(inputs[model.signals("feed")[0].name], f) if has(model, "feed_axis_heat") else None
+    flags = (*(has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection", "slow_structure",
+                                       "ambient_coupling")), "AS" in coef, feed is not None)
+    table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
+    state = state or kernels.LumpedState(len(temps), f)
+    out = kernels.lumped(temps, te, n, feed, flags, coef, table, model.settings.get("relay_sensor", 1) - 1, f, state)
+    return out, state

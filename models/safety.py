@@ -17,6 +17,7 @@ import numpy as np
 
 from thermoplc.binary32 import FLT_MAX
 from thermoplc.errors import UserError
+from thermoplc.models import kernels
 from thermoplc.models.modelfile import Model
 
 LIMIT_MAX = 1.0e12  # far beyond any machine, far below FLT_MAX
@@ -116,6 +117,8 @@ def axis_outputs(model: Model, names: list[str]) -> list[str]:
 
 def _hold(x: np.ndarray, valid: np.ndarray, guard: Guard, ready_row: int, limits: Limits, f):
     """Last good value and fault flag per call, as the guard region computes them."""
+    if kernels.enabled():  # the same loop, compiled (models/kernels.py)
+        return kernels.hold(x, valid, guard.kind == "range", ready_row, limits.settle_calls, limits.max_jump_K, f)
     rows = len(x)
     held = np.zeros(rows, f)
     faults = np.zeros(rows, bool)
@@ -179,6 +182,10 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
         y = f(held.get(name, 0))
         series = np.full(rows, y, f)
         model_values = core[name] if core is not None else ()
+        if kernels.enabled() and core is not None and np.asarray(model_values).dtype == f:
+            kernels.limit(model_values, ready_row, np.array([y], f), series, limited, clamped, invalid, constants, f)
+            out[name] = series
+            continue
         for j in range(ready_row, rows):
             m = model_values[j - ready_row]
             if not abs(m) <= real_max:  # NaN or Inf: hold the last output

@@ -19,8 +19,24 @@ import itertools
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.optimize import minimize, minimize_scalar
-from scipy.signal import lfilter, savgol_filter
+
+
+def minimize(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
+    from scipy.optimize import minimize as function
+    return function(*args, **kwargs)
+
+def minimize_scalar(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
+    from scipy.optimize import minimize_scalar as function
+    return function(*args, **kwargs)
+
+def lfilter(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
+    from scipy.signal import lfilter as function
+    return function(*args, **kwargs)
+
+def savgol_filter(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
+    from scipy.signal import savgol_filter as function
+    return function(*args, **kwargs)
+
 
 SENSOR_EFFECTS = ("gear_ratio_switch", "coolant_switching", "nonlinear_speed_heat", "sensor_offset",
                   "sensor_drift", "stop_convection")

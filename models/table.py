@@ -201,6 +201,8 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
     path = str(path)
     if path.lower().endswith(".npz"):
         return _read_npz(path, time_column)
+    if path.lower().endswith(".parquet"):
+        return _read_parquet(path, time_column)
     digest = hashlib.sha256()
     try:
         raw = open(path, "rb")
@@ -276,3 +278,233 @@ def _cell(v) -> str:
     if isinstance(v, (np.integer, int)):
         return str(int(v))
     return f"{float(v):.6f}".rstrip("0").rstrip(".") if float(v) != 0 else "0"
+
+
+# ---------------------------------------------------------------------------------------------
+# Streaming at disk speed (issue 17). The fast readers below hand out the columns chunk by chunk
+# and never word an error: anything they do not take in their stride (a cell that is not a
+# plain number, a blank line, a NaN, time not increasing, an odd line ending, a file they cannot
+# open) raises CannotStream, and the caller reads the file again with read_table, whose messages
+# name the file, line and column. So a file is accepted by the streaming path only when every
+# row parsed as a finite number, with the row count checked against the line count: no row is
+# ever dropped silently.
+
+STREAM_ROWS = 1 << 20  # rows per chunk
+STREAM_BYTES = 16 << 20  # CSV text read at once (larger blocks parse slower: caches)
+
+
+class CannotStream(Exception):
+    """The fast reader declines this file (the careful reader decides, and words any error)."""
+
+
+@dataclass(frozen=True)
+class Chunk:
+    start: int  # row number of the first row in the recording (0-based)
+    columns: dict  # name -> float64 array
+
+    @property
+    def rows(self) -> int:
+        return len(next(iter(self.columns.values())))
+
+
+def stream_kind(path: str | Path) -> str:
+    lower = str(path).lower()
+    return "npz" if lower.endswith(".npz") else "parquet" if lower.endswith(".parquet") else "csv"
+
+
+def stream_columns(path: str | Path, names: list[str], decimal: str = "auto", rows_per_chunk: int = STREAM_ROWS):
+    """Chunks of the named columns (float64), in order. Every column of the file is checked as
+    read_table checks it (finite numbers), so the file is accepted exactly when read_table accepts
+    it; only `names` are kept. Raises CannotStream instead of any error."""
+    kind = stream_kind(path)
+    try:
+        if kind == "npz":
+            yield from _stream_npz(str(path), names, rows_per_chunk)
+        elif kind == "parquet":
+            yield from _stream_parquet(str(path), names, rows_per_chunk)
+        else:
+            yield from _stream_csv(str(path), names, decimal)
+    except CannotStream:
+        raise
+    except (UserError, OSError, ValueError, EOFError, zipfile.BadZipFile, ImportError) as exc:
+        raise CannotStream(str(exc)) from None
+    except Exception as exc:  # pyarrow's own errors: the careful reader says what is wrong
+        raise CannotStream(f"{type(exc).__name__}: {exc}") from None
+
+
+def _finite_numbers(columns: dict) -> None:
+    for a in columns.values():
+        if a.dtype.kind not in "iuf" or a.ndim != 1:
+            raise CannotStream("not a column of numbers")
+        if a.dtype.kind == "f" and not np.isfinite(a).all():
+            raise CannotStream("a cell is not a finite number")
+
+
+def _keep(columns: dict, names: list[str], start: int) -> Chunk:
+    missing = [n for n in names if n not in columns]
+    if missing:
+        raise CannotStream(f"no column {missing[0]!r}")
+    return Chunk(start, {n: np.asarray(columns[n], np.float64) for n in names})
+
+
+def _stream_csv(path: str, names: list[str], decimal: str):
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    with open(path, "rb") as f:
+        head = f.readline()
+        if not head.endswith(b"\n"):
+            raise CannotStream("header only")
+        text = head.decode("utf-8-sig")
+        if not text.strip() or text.lstrip().startswith("#") or "\r" in text.rstrip("\r\n"):
+            raise CannotStream("not a plain header")
+        delimiter, comma_decimal = _delimiter(path, text, decimal)
+        header = [h.strip() for h in _fields(path, 1, text, delimiter)]
+        if not all(header) or len(set(header)) != len(header):
+            raise CannotStream("header needs the careful reader")
+        options = dict(
+            read_options=pacsv.ReadOptions(column_names=header, use_threads=False, block_size=STREAM_BYTES + (1 << 20)),
+            parse_options=pacsv.ParseOptions(delimiter=delimiter, quote_char='"', newlines_in_values=False,
+                                             ignore_empty_lines=False),
+            convert_options=pacsv.ConvertOptions(column_types={h: pa.float64() for h in header},
+                                                 decimal_point="," if comma_decimal else ".",
+                                                 quoted_strings_can_be_null=False))
+        start, carry, total = 0, b"", 0
+        while True:
+            block = f.read(STREAM_BYTES)
+            last = not block
+            data = carry + block
+            if not last:
+                cut = data.rfind(b"\n") + 1
+                if cut == 0:
+                    carry = data
+                    continue
+                data, carry = data[:cut], data[cut:]
+                body = data.rstrip(b" \t\r\n")  # trailing blank lines wait for the next block or the end
+                if not body:
+                    carry = data + carry
+                    continue
+                tail = data[len(body):]
+                cut = tail.find(b"\n") + 1
+                data, carry = body + tail[:cut], tail[cut:] + carry
+            else:
+                data = data.rstrip(b" \t\r\n")  # blank lines at the end: read_table skips them too
+                if not data:
+                    break
+                data += b"\n"
+            if b"\r" in data and data.count(b"\r") != data.count(b"\r\n"):
+                raise CannotStream("a line ends in a bare carriage return")
+            lines = data.count(b"\n")
+            table = pacsv.read_csv(io.BytesIO(data), **options)
+            if table.num_rows != lines or table.num_columns != len(header):
+                raise CannotStream("rows and lines differ")
+            if any(c.null_count for c in table.columns):
+                raise CannotStream("an empty cell or a blank line")
+            columns = {h: table.column(h).to_numpy() for h in header}
+            del table
+            _finite_numbers(columns)
+            for at in range(0, lines, STREAM_ROWS):  # bounded chunks, whatever the block held
+                yield _keep({h: c[at:at + STREAM_ROWS] for h, c in columns.items()}, names, start + total + at)
+            total += lines
+            if last:
+                break
+        if total == 0:
+            raise CannotStream("no data rows")
+
+
+def _npy_header(member) -> tuple[tuple, np.dtype]:
+    version = np.lib.format.read_magic(member)
+    if version == (1, 0):
+        shape, fortran, dtype = np.lib.format.read_array_header_1_0(member)
+    elif version == (2, 0):
+        shape, fortran, dtype = np.lib.format.read_array_header_2_0(member)
+    else:
+        raise CannotStream(f"npy format {version}")
+    if dtype.hasobject or dtype.kind not in "iuf" or len(shape) != 1:
+        raise CannotStream("not a column of numbers")
+    return shape, dtype
+
+
+def _stream_npz(path: str, names: list[str], rows_per_chunk: int):
+    with open(path, "rb") as f:
+        if f.read(4) != b"PK\x03\x04":
+            raise CannotStream("not a zip file")
+    with zipfile.ZipFile(path) as archive:
+        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+        if 2 * sum(info.file_size for info in archive.infolist()) > memory:
+            raise CannotStream("larger than memory")
+        members = {}
+        try:
+            for info in archive.infolist():
+                if not info.filename.endswith(".npy"):
+                    raise CannotStream("not an array")
+                member = archive.open(info)
+                members[info.filename[:-4]] = (member, *_npy_header(member))
+            if not members or len({shape for _, shape, _ in members.values()}) != 1:
+                raise CannotStream("columns of different lengths")
+            rows = next(iter(members.values()))[1][0]
+            if rows == 0:
+                raise CannotStream("no data rows")
+            for start in range(0, rows, rows_per_chunk):
+                n = min(rows_per_chunk, rows - start)
+                columns = {}
+                for name, (member, _, dtype) in members.items():
+                    raw = member.read(n * dtype.itemsize)
+                    if len(raw) != n * dtype.itemsize:
+                        raise CannotStream("truncated array")
+                    columns[name] = np.frombuffer(raw, dtype)
+                _finite_numbers(columns)
+                yield _keep(columns, names, start)
+        finally:
+            for member, *_ in members.values():
+                member.close()
+
+
+def _stream_parquet(path: str, names: list[str], rows_per_chunk: int):
+    import pyarrow.parquet as pq
+
+    with pq.ParquetFile(path, pre_buffer=False, buffer_size=1 << 20) as pf:
+        if pf.metadata.num_rows == 0:
+            raise CannotStream("no data rows")
+        start = 0
+        for batch in pf.iter_batches(batch_size=rows_per_chunk, use_threads=False):
+            if any(c.null_count for c in batch.columns):
+                raise CannotStream("an empty cell")
+            columns = {n: batch.column(n).to_numpy(zero_copy_only=False) for n in batch.schema.names}
+            _finite_numbers(columns)
+            yield _keep(columns, names, start)
+            start += batch.num_rows
+
+
+def _read_parquet(path: str, time_column: str | None) -> Table:
+    """Columns of a Parquet file (pyarrow): numbers only, no empty cells."""
+    try:
+        import pyarrow.parquet as pq
+    except ImportError:
+        raise UserError(f"{path}: reading Parquet needs pyarrow (pip install pyarrow)") from None
+    try:
+        table = pq.read_table(path)
+    except OSError as exc:
+        raise UserError(f"{path}: cannot read as Parquet: {exc}") from None
+    except Exception as exc:
+        raise UserError(f"{path}: cannot read as Parquet: {exc}") from None
+    if table.num_columns == 0:
+        raise UserError(f"{path}: the file holds no columns")
+    if table.num_rows == 0:
+        raise UserError(f"{path}: no data rows")
+    columns = {}
+    for name in table.column_names:
+        column = table.column(name)
+        if column.null_count:
+            row = int(np.flatnonzero(column.is_null().to_numpy(zero_copy_only=False))[0])
+            raise UserError(f"{path}: column {name!r} row {row + 1}: expected a finite number, found an empty cell")
+        a = column.to_numpy()
+        if a.dtype.kind not in "iuf":
+            raise UserError(f"{path}: column {name!r} holds {column.type}, expected numbers")
+        columns[name] = a.astype(np.float64)
+        bad = np.nonzero(~np.isfinite(columns[name]))[0]
+        if len(bad):
+            raise UserError(f"{path}: column {name!r} row {bad[0] + 1}: expected a finite number, found {a[bad[0]]!r}")
+    result = Table(path, columns, _sha256(path), np.arange(1, table.num_rows + 1))
+    _check_time(result, time_column, list(columns))
+    return result

@@ -8,6 +8,7 @@ Relative paths are taken from the manifest's folder. Results come back in manife
 from __future__ import annotations
 
 import csv
+import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -31,6 +32,8 @@ class Outcome:
     status: str  # 'bit-exact', 'NOT bit-exact', 'error'
     detail: str  # one line: cycles and rate, or the error message
     text: str  # the full report
+    cycles: int = 0  # calls replayed and compared
+    seconds: float = 0.0  # wall time of this pair (reading, reference, replay, compare)
 
 
 def _mapping(text: str, manifest: str, line: int, field: str) -> dict | None:
@@ -78,37 +81,50 @@ def read_manifest(path: str) -> list[Pair]:
 
 def verify_pair(pair: Pair, engine: str) -> Outcome:
     """One pair, in a worker process; errors become an outcome, never an exception."""
+    started = time.perf_counter()
     from thermoplc.models.modelfile import load_model
     from thermoplc.models.table import read_table
     from thermoplc.verifier.replay import verify_against_model, verify_against_trace
+    from thermoplc.verifier.stream import verify_streaming
     try:
         if pair.model:
             model = load_model(pair.model)
-            table = read_table(pair.data, model.time_column)
-            report = verify_against_model(pair.block, model, pair.model, table, pair.inputs, engine)
+            report = verify_streaming(pair.block, model, pair.model, pair.data, pair.inputs, engine)
+            if report is None:
+                table = read_table(pair.data, model.time_column)
+                report = verify_against_model(pair.block, model, pair.model, table, pair.inputs, engine)
         else:
             table = read_table(pair.data)
             report = verify_against_trace(pair.block, table, pair.expect, pair.inputs, engine=engine)
     except UserError as exc:
-        return Outcome(pair, "error", str(exc), str(exc))
+        return Outcome(pair, "error", str(exc), str(exc), 0, time.perf_counter() - started)
     status = "bit-exact" if report.ok else "NOT bit-exact"
     detail = f"{report.cycles} cycles, {report.engine}"
     if report.mismatch is not None:
         detail += f", first divergent cycle {report.mismatch.cycle} ({report.mismatch.output})"
-    return Outcome(pair, status, detail, report.text())
+    return Outcome(pair, status, detail, report.text(), report.cycles, time.perf_counter() - started)
 
 
-def verify_fleet(pairs: list[Pair], jobs: int, engine: str) -> list[Outcome]:
+def verify_fleet(pairs: list[Pair], jobs: int, engine: str) -> tuple[list[Outcome], float]:
+    """Outcomes in manifest order, and the wall time of the whole fleet."""
+    started = time.perf_counter()
     if jobs <= 1:
-        return [verify_pair(p, engine) for p in pairs]
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
-        return list(pool.map(verify_pair, pairs, [engine] * len(pairs)))
+        outcomes = [verify_pair(p, engine) for p in pairs]
+    else:
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
+            outcomes = list(pool.map(verify_pair, pairs, [engine] * len(pairs)))
+    return outcomes, time.perf_counter() - started
 
 
-def format_fleet(outcomes: list[Outcome], manifest: str) -> str:
+def format_fleet(outcomes: list[Outcome], manifest: str, seconds: float | None = None) -> str:
     lines = [f"{'line':>5}  {'status':<14}{'block':<28}{'data':<28}detail"]
     for o in outcomes:
         lines.append(f"{o.pair.line:>5}  {o.status:<14}{Path(o.pair.block).name:<28}{Path(o.pair.data).name:<28}{o.detail}")
     counts = {s: sum(o.status == s for o in outcomes) for s in ("bit-exact", "NOT bit-exact", "error")}
     lines.append(f"{manifest}: {len(outcomes)} pairs: " + ", ".join(f"{n} {s}" for s, n in counts.items()))
+    if seconds is not None:
+        cycles = sum(o.cycles for o in outcomes)
+        rate = cycles / seconds if seconds > 0 else float("inf")
+        lines.append(f"throughput: {cycles:,} calls verified in {seconds:.1f} s, {rate:,.0f} calls/s "
+                     f"({seconds / max(len(outcomes), 1):.2f} s per pair)")
     return "\n".join(lines)

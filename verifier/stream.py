@@ -1,0 +1,208 @@
+"""verify --model on a long recording in bounded memory, at disk speed (issue 17).
+
+The file is read chunk by chunk (models/table.py::stream_columns), the float32 and float64
+references are computed chunk by chunk by the compiled model loops (models/streaming.py, which
+never see the ST), the block runs chunk by chunk on the fast engine (its own ST -> C
+translation, state kept between chunks) and every output is compared bit for bit as it comes.
+
+This route only ever says "bit-exact". Whenever anything is not plain -- the file needs the
+careful reader, the data are sampled at another period, the block and the model disagree on an
+output, the fast engine meets a NaN/Inf/subnormal, an output is not finite -- it gives up and
+the caller runs the whole-recording path (read_table + verify_against_model), which words every
+error and every mismatch exactly as before. So the streaming route changes how fast a good
+recording is proven, never what is reported.
+"""
+from __future__ import annotations
+
+import time
+from collections import Counter
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from thermoplc.errors import UserError
+from thermoplc.models.fit import SAMPLING_TOLERANCE
+from thermoplc.models.modelfile import Model
+from thermoplc.models.streaming import StreamingReference, streamable
+from thermoplc.models.table import CannotStream, read_table, stream_columns
+from thermoplc.verifier.replay import (Report, _check_interface, _compare_constants, _load, block_limits,
+                                       known_overrides, unsafe_findings, verify_against_model)
+from thermoplc.verifier.typed import differing_rows, first_non_finite
+
+MAX_DISTINCT_STEPS = 1 << 20  # distinct time steps kept for the median; beyond: the whole-recording path
+LAST_TIMINGS: dict = {}  # stage -> seconds of the last verify_file_against_model (benchmarks/large.py prints it)
+
+
+class _GiveUp(Exception):
+    """The streaming route does not decide this case."""
+
+
+def verify_streaming(block: str, model: Model, model_path: str, data: str, overrides: dict | None = None,
+                     engine: str = "auto", decimal: str = "auto", progress=None) -> Report | None:
+    """The report when the streamed recording proves the block bit-exact; None when the streaming
+    route does not decide (the caller then runs read_table + verify_against_model itself, at the
+    call depth it always had, so every message -- even a RecursionError's -- stays as it was)."""
+    LAST_TIMINGS.clear()
+    started = time.perf_counter()
+    try:
+        report = _verify_streaming(block, model, model_path, str(data), overrides, engine, decimal, progress)
+    except (_GiveUp, CannotStream, UserError, RecursionError, MemoryError) as exc:
+        LAST_TIMINGS.clear()
+        LAST_TIMINGS["route"] = f"whole recording ({type(exc).__name__}: {str(exc)[:200]})"
+        LAST_TIMINGS["streaming attempt"] = time.perf_counter() - started
+        return None
+    LAST_TIMINGS["route"] = "streamed"
+    return report
+
+
+def verify_file_against_model(block: str, model: Model, model_path: str, data: str, overrides: dict | None = None,
+                              engine: str = "auto", decimal: str = "auto", progress=None) -> Report:
+    """verify_against_model on the file `data`: streamed when it can be, else read whole."""
+    report = verify_streaming(block, model, model_path, data, overrides, engine, decimal, progress)
+    if report is not None:
+        return report
+    t = time.perf_counter()
+    table = read_table(data, model.time_column, progress, decimal)
+    LAST_TIMINGS["read"] = time.perf_counter() - t
+    t = time.perf_counter()
+    report = verify_against_model(block, model, model_path, table, overrides, engine)
+    LAST_TIMINGS["reference + replay + compare"] = time.perf_counter() - t
+    return report
+
+
+class _Steps:
+    """Time steps of the whole recording, kept as distinct values with counts: the exact median
+    and the first step off it, as models/fit.py::sample_period computes them."""
+
+    def __init__(self):
+        self.counts = Counter()
+        self.last = None
+        self.rows = 0
+
+    def add(self, t: np.ndarray) -> None:
+        if self.last is not None:
+            t = np.concatenate([[self.last], t])
+        steps = np.diff(t)
+        if (steps <= 0).any():
+            raise _GiveUp("time does not increase")
+        values, counts = np.unique(steps, return_counts=True)
+        self.counts.update(dict(zip(values.tolist(), counts.tolist())))
+        if len(self.counts) > MAX_DISTINCT_STEPS:
+            raise _GiveUp("too many distinct time steps")
+        self.last = t[-1]
+
+    def median(self) -> float:
+        values = sorted(self.counts)
+        ends = np.cumsum([self.counts[v] for v in values])
+        n = int(ends[-1])
+
+        def at(i):
+            return values[int(np.searchsorted(ends, i, side="right"))]
+        if n % 2:
+            return float(at(n // 2))
+        return float(np.mean([at(n // 2 - 1), at(n // 2)]))
+
+    def check(self, period: float) -> None:
+        if not self.counts:
+            return  # fewer than two rows: verify_against_model does not check the period either
+        dt = self.median()
+        if any(abs(s - dt) > SAMPLING_TOLERANCE * dt for s in self.counts):
+            raise _GiveUp("a time step off the sampling period")
+        if abs(dt - period) > SAMPLING_TOLERANCE * period:
+            raise _GiveUp("sampled at another period")
+
+
+def _verify_streaming(block: str, model: Model, model_path: str, data: str, overrides, engine: str, decimal: str,
+                      progress) -> Report:
+    timings = {"setup": 0.0, "read": 0.0, "reference": 0.0, "replay": 0.0, "compare": 0.0}
+    t = time.perf_counter()
+    if engine == "interp" or not streamable(model):
+        raise _GiveUp(f"no streaming for {model.kind} models or engine {engine}")
+    program, replayer = _load(block, engine)
+    if replayer.native is None:
+        raise _GiveUp("no fast engine")
+    limits = block_limits(program, block)
+    mapping = known_overrides(overrides, [s.name for s in model.inputs], model_path)
+    column_of = {s.name: mapping.get(s.name, s.column) for s in model.inputs}
+    names = list(dict.fromkeys([model.time_column, *column_of.values()]))
+    _check_interface(replayer.machine, block, column_of, f"the inputs of {Path(model_path).name}")
+    ref32, ref64 = StreamingReference(model, limits, "f32"), StreamingReference(model, limits, "f64")
+    types, steps, rows, quantisation = None, _Steps(), 0, 0.0
+    target = model.target.name
+    replayer.native.reset()
+    timings["setup"] = time.perf_counter() - t
+    chunks = iter(stream_columns(data, names, decimal))
+    while True:
+        t = time.perf_counter()
+        chunk = next(chunks, None)
+        timings["read"] += time.perf_counter() - t
+        if chunk is None:
+            break
+        t = time.perf_counter()
+        steps.add(chunk.columns[model.time_column])
+        inputs = {}
+        for name, column in column_of.items():
+            values = chunk.columns[column]
+            with np.errstate(over="ignore"):
+                inputs[name] = values.astype(np.float32)
+            if np.isinf(inputs[name]).any():
+                raise _GiveUp("a cell beyond the largest REAL")
+        timings["read"] += time.perf_counter() - t
+        t = time.perf_counter()
+        expected = ref32.step(inputs)
+        ideal = ref64.step(inputs)
+        timings["reference"] += time.perf_counter() - t
+        if types is None:
+            types = _output_types(replayer, block, model_path, expected)
+        t = time.perf_counter()
+        result = replayer.native.run(inputs, chunk.rows)
+        timings["replay"] += time.perf_counter() - t
+        if result is None or result[1]:
+            raise _GiveUp("the fast engine met a value the interpreter reports")
+        t = time.perf_counter()
+        produced = result[0]
+        for name, want in expected.items():
+            if len(differing_rows(types[name], produced[name], want)):
+                raise _GiveUp("a mismatch (the whole-recording path reports it)")
+            if types[name] == "REAL" and first_non_finite(produced[name]) is not None:
+                raise _GiveUp("an output is not finite")
+        if len(expected[target]):
+            gap = float(np.max(np.abs(expected[target].astype(np.float64) - ideal[target])))
+            if not np.isfinite(gap):
+                raise _GiveUp("the quantisation error is not finite")
+            quantisation = max(quantisation, gap)
+        rows += chunk.rows
+        timings["compare"] += time.perf_counter() - t
+        if progress is not None:
+            progress(f"verified {rows:,} rows of {Path(data).name}")
+    if rows == 0 or types is None:
+        raise _GiveUp("no rows")
+    if rows >= 2:
+        steps.check(model.sample_period_s)
+    t = time.perf_counter()
+    findings = tuple(replace(f) for f in replayer.machine.findings.values())
+    if unsafe_findings(findings, True):
+        raise _GiveUp("unsafe findings")
+    against = f"the float32 reference of {Path(model_path).name} ({model.kind})"
+    report = Report(block, against, Path(data).name, rows, tuple(types), None, findings, timings["replay"],
+                    {target: quantisation}, engine="fast", engine_note=replayer.note)
+    checked, errors = _compare_constants(program, model, limits)
+    timings["compare"] += time.perf_counter() - t
+    LAST_TIMINGS.update(timings)
+    LAST_TIMINGS["rows"] = rows
+    return replace(report, constants_checked=checked, constant_errors=errors, limits=limits)
+
+
+def _output_types(replayer, block: str, model_path: str, expected: dict) -> dict:
+    """The checks verify_against_model makes on the block's outputs; any failure: the whole path words it."""
+    machine = replayer.machine
+    declared = [d.name for d in machine.outputs]
+    if sorted(declared) != sorted(expected):
+        raise _GiveUp("outputs differ")
+    wanted = {name: "BOOL" if np.asarray(values).dtype == bool else "REAL" for name, values in expected.items()}
+    for d in (*machine.outputs, *machine.inputs):
+        if d.type.base != wanted.get(d.name, "REAL") or d.type.bounds:
+            raise _GiveUp("an output or input of another type")
+    by_name = {d.name: d.type.base for d in machine.outputs}
+    return {name: by_name[name] for name in expected}
