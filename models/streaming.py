@@ -17,7 +17,7 @@ from thermoplc.models import kernels
 from thermoplc.models.kalman import kernel_coefficients
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import _core
-from thermoplc.models.safety import Limits, _real_outputs_of, axis_outputs, guards
+from thermoplc.models.safety import ENO, Limits, _real_outputs_of, axis_outputs, guards
 
 NOT_YET = np.iinfo(np.int64).max  # the ready row before any call had every input in range
 # kinds whose output at a call depends on that call and the first call only: the model's own
@@ -237,5 +237,6 @@ class StreamingReference:
         out["Limited"] = limited
         out["Clamped"] = clamped
         out["Invalid"] = invalid
+        out[ENO] = np.ones(rows, bool)  # enabled on every call: the whole-recording path replays Enable and Reset
         self.calls += rows
         return out

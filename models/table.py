@@ -312,18 +312,20 @@ def stream_kind(path: str | Path) -> str:
     return "npz" if lower.endswith(".npz") else "parquet" if lower.endswith(".parquet") else "csv"
 
 
-def stream_columns(path: str | Path, names: list[str], decimal: str = "auto", rows_per_chunk: int = STREAM_ROWS):
+def stream_columns(path: str | Path, names: list[str], decimal: str = "auto", rows_per_chunk: int = STREAM_ROWS,
+                   optional: tuple[str, ...] = ()):
     """Chunks of the named columns (float64), in order. Every column of the file is checked as
     read_table checks it (finite numbers), so the file is accepted exactly when read_table accepts
-    it; only `names` are kept. Raises CannotStream instead of any error."""
+    it; only `names` (and those of `optional` the file has) are kept. Raises CannotStream instead
+    of any error."""
     kind = stream_kind(path)
     try:
         if kind == "npz":
-            yield from _stream_npz(str(path), names, rows_per_chunk)
+            yield from _stream_npz(str(path), names, rows_per_chunk, optional)
         elif kind == "parquet":
-            yield from _stream_parquet(str(path), names, rows_per_chunk)
+            yield from _stream_parquet(str(path), names, rows_per_chunk, optional)
         else:
-            yield from _stream_csv(str(path), names, decimal)
+            yield from _stream_csv(str(path), names, decimal, optional)
     except CannotStream:
         raise
     except (UserError, OSError, ValueError, EOFError, zipfile.BadZipFile, ImportError) as exc:
@@ -340,14 +342,15 @@ def _finite_numbers(columns: dict) -> None:
             raise CannotStream("a cell is not a finite number")
 
 
-def _keep(columns: dict, names: list[str], start: int) -> Chunk:
+def _keep(columns: dict, names: list[str], start: int, optional: tuple[str, ...] = ()) -> Chunk:
     missing = [n for n in names if n not in columns]
     if missing:
         raise CannotStream(f"no column {missing[0]!r}")
-    return Chunk(start, {n: np.asarray(columns[n], np.float64) for n in names})
+    kept = [*names, *(n for n in optional if n in columns and n not in names)]
+    return Chunk(start, {n: np.asarray(columns[n], np.float64) for n in kept})
 
 
-def _stream_csv(path: str, names: list[str], decimal: str):
+def _stream_csv(path: str, names: list[str], decimal: str, optional: tuple[str, ...] = ()):
     import pyarrow as pa
     import pyarrow.csv as pacsv
 
@@ -404,7 +407,7 @@ def _stream_csv(path: str, names: list[str], decimal: str):
             del table
             _finite_numbers(columns)
             for at in range(0, lines, STREAM_ROWS):  # bounded chunks, whatever the block held
-                yield _keep({h: c[at:at + STREAM_ROWS] for h, c in columns.items()}, names, start + total + at)
+                yield _keep({h: c[at:at + STREAM_ROWS] for h, c in columns.items()}, names, start + total + at, optional)
             total += lines
             if last:
                 break
@@ -425,7 +428,7 @@ def _npy_header(member) -> tuple[tuple, np.dtype]:
     return shape, dtype
 
 
-def _stream_npz(path: str, names: list[str], rows_per_chunk: int):
+def _stream_npz(path: str, names: list[str], rows_per_chunk: int, optional: tuple[str, ...] = ()):
     with open(path, "rb") as f:
         if f.read(4) != b"PK\x03\x04":
             raise CannotStream("not a zip file")
@@ -454,13 +457,13 @@ def _stream_npz(path: str, names: list[str], rows_per_chunk: int):
                         raise CannotStream("truncated array")
                     columns[name] = np.frombuffer(raw, dtype)
                 _finite_numbers(columns)
-                yield _keep(columns, names, start)
+                yield _keep(columns, names, start, optional)
         finally:
             for member, *_ in members.values():
                 member.close()
 
 
-def _stream_parquet(path: str, names: list[str], rows_per_chunk: int):
+def _stream_parquet(path: str, names: list[str], rows_per_chunk: int, optional: tuple[str, ...] = ()):
     import pyarrow.parquet as pq
 
     with pq.ParquetFile(path, pre_buffer=False, buffer_size=1 << 20) as pf:
@@ -472,7 +475,7 @@ def _stream_parquet(path: str, names: list[str], rows_per_chunk: int):
                 raise CannotStream("an empty cell")
             columns = {n: batch.column(n).to_numpy(zero_copy_only=False) for n in batch.schema.names}
             _finite_numbers(columns)
-            yield _keep(columns, names, start)
+            yield _keep(columns, names, start, optional)
             start += batch.num_rows
 
 

@@ -24,6 +24,7 @@ import numpy as np
 from thermoplc.errors import UserError
 from thermoplc.models.fit import SAMPLING_TOLERANCE
 from thermoplc.models.modelfile import Model
+from thermoplc.models.safety import CONTROL_START
 from thermoplc.models.streaming import StreamingReference, streamable
 from thermoplc.models.table import CannotStream, read_table, stream_columns
 from thermoplc.verifier.replay import (Report, _check_interface, _compare_constants, _load, block_limits,
@@ -126,13 +127,14 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
     mapping = known_overrides(overrides, [s.name for s in model.inputs], model_path)
     column_of = {s.name: mapping.get(s.name, s.column) for s in model.inputs}
     names = list(dict.fromkeys([model.time_column, *column_of.values()]))
+    controls = tuple(c for c in CONTROL_START if c not in names)  # columns that would drive Enable or Reset
     _check_interface(replayer.machine, block, column_of, f"the inputs of {Path(model_path).name}")
     ref32, ref64 = StreamingReference(model, limits, "f32"), StreamingReference(model, limits, "f64")
     types, steps, rows, quantisation = None, _Steps(), 0, 0.0
     target = model.target.name
     replayer.native.reset()
     timings["setup"] = time.perf_counter() - t
-    chunks = iter(stream_columns(data, names, decimal))
+    chunks = iter(stream_columns(data, names, decimal, optional=controls))
     while True:
         t = time.perf_counter()
         chunk = next(chunks, None)
@@ -141,6 +143,9 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
             break
         t = time.perf_counter()
         steps.add(chunk.columns[model.time_column])
+        for name in controls:  # the streamed reference is the always-enabled, never-reset block
+            if name in chunk.columns and (chunk.columns[name] != CONTROL_START[name]).any():
+                raise _GiveUp(f"the data drive {name}")
         inputs = {}
         for name, column in column_of.items():
             values = chunk.columns[column]
@@ -200,7 +205,8 @@ def _output_types(replayer, block: str, model_path: str, expected: dict) -> dict
     declared = [d.name for d in machine.outputs]
     if sorted(declared) != sorted(expected):
         raise _GiveUp("outputs differ")
-    wanted = {name: "BOOL" if np.asarray(values).dtype == bool else "REAL" for name, values in expected.items()}
+    wanted = {**{name: "BOOL" if np.asarray(values).dtype == bool else "REAL" for name, values in expected.items()},
+              **dict.fromkeys(CONTROL_START, "BOOL")}
     for d in (*machine.outputs, *machine.inputs):
         if d.type.base != wanted.get(d.name, "REAL") or d.type.bounds:
             raise _GiveUp("an output or input of another type")
