@@ -20,11 +20,11 @@ def golden_table(tmp_path_factory):
     return read_table(golden_twin_csv(tmp_path_factory.mktemp("fastref")))
 
 
-def _both(model, inputs, precision, limits):
+def _both(model, inputs, precision, limits, control=None):
     with kernels.reference("slow"):
-        slow = block_outputs(model, inputs, precision, limits)
+        slow = block_outputs(model, inputs, precision, limits, control)
     with kernels.reference("fast"):
-        fast = block_outputs(model, inputs, precision, limits)
+        fast = block_outputs(model, inputs, precision, limits, control)
     return slow, fast
 
 
@@ -48,6 +48,23 @@ def test_fast_reference_equals_slow_on_every_golden_model(kind, precision, golde
     inputs = model_inputs(model, golden_table)
     slow, fast = _both(model, inputs, precision, Limits())
     _assert_same_bits(slow, fast, kind)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_fast_reference_equals_slow_with_enable_and_reset(kind, golden_table):
+    """Segments after each Reset start the guards afresh and the limiter from the held outputs."""
+    model = load_model(GOLDEN / f"{kind}.json")
+    inputs = {k: v[:2000] for k, v in model_inputs(model, golden_table).items()}
+    enable = np.ones(2000, bool)
+    enable[300:420] = False
+    reset = np.zeros(2000, bool)
+    reset[[0, 350, 420, 421, 900]] = True
+    reset[1500:1530] = True
+    limits = Limits(max_step=0.05, max_output=3.0)  # held outputs ramp: the limiter's carried state matters
+    for precision in ("f32", "f64"):
+        slow, fast = _both(model, inputs, precision, limits, {"Enable": enable, "Reset": reset})
+        _assert_same_bits(slow, fast, (kind, precision))
+        assert not slow["ENO"][300:420].any() and slow["ENO"][:300].all()
 
 
 @pytest.mark.parametrize("kind", KINDS)
