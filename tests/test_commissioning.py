@@ -150,3 +150,31 @@ def test_the_default_date_follows_source_date_epoch(folder, monkeypatch):
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1767225600")  # 2026-01-01T00:00:00Z
     thermoplc("generate", GOLDEN / "mlr.json", "-o", "dated.scl", "--force", cwd=folder)
     assert "// Generated on 2026-01-01." in (folder / "dated.scl").read_text()
+
+
+@pytest.mark.parametrize("dialect, assignment, edit, exact", [
+    ("tia", "ENO := #Enable;", "IF #Enable THEN ENO := TRUE; END_IF;", False),  # ENO stays TRUE when disabled
+    ("step7", "OK := Enable;", "IF Enable THEN OK := TRUE; END_IF;", False),
+    ("tia", "ENO := #Enable;", "IF NOT #Enable THEN ENO := FALSE; END_IF;", True),  # ENO starts TRUE at each call
+    ("step7", "OK := Enable;", "IF NOT Enable THEN OK := FALSE; END_IF;", True),
+    ("tia", "ENO := #Enable;", "", False),  # no ENO written: a TIA block's ENO is TRUE on every call
+    ("iec", "ENO := Enable;", "IF NOT Enable THEN ENO := FALSE; END_IF;", False),  # a declared ENO keeps its value
+])
+def test_the_scl_enable_flag_starts_each_call_true(folder, dialect, assignment, edit, exact):
+    source = render(lower(load_model(GOLDEN / "mlr.json")), dialect)
+    assert assignment in source
+    (folder / f"eno.{dialect}.blk").write_text(source.replace(assignment, edit, 1))
+    result = thermoplc("verify", f"eno.{dialect}.blk", "--data", "plc.csv", "--model", GOLDEN / "mlr.json",
+                       cwd=folder, check=0 if exact else 1)
+    assert result.stdout.startswith("bit-exact" if exact else "NOT bit-exact")
+
+
+def test_diff_sees_retain_and_the_instance_db(folder):
+    for name, extra in (("plain", ()), ("kept", ("--retain",)), ("db", ("--instance-db", "ThermDB"))):
+        thermoplc("generate", GOLDEN / "mlr.json", "--dialect", "step7" if name == "db" else "tia", *extra,
+                  "-o", f"{name}.scl", "--force", cwd=folder)
+    result = thermoplc("diff", "plain.scl", "kept.scl", cwd=folder, check=1)
+    assert "~ RETAIN: (none) -> 'output, static'" in result.stdout
+    thermoplc("generate", GOLDEN / "mlr.json", "--dialect", "step7", "-o", "nodb.scl", "--force", cwd=folder)
+    result = thermoplc("diff", "nodb.scl", "db.scl", cwd=folder, check=1)
+    assert "~ INSTANCE DB: (none) -> 'ThermDB'" in result.stdout

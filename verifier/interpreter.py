@@ -67,6 +67,7 @@ class Machine:
         self.inputs = [d for d in self.decls if d.section == "input"]
         self.outputs = [d for d in self.decls if d.section == "output"]
         self.temp_slots = [self.slots[d.name.upper()] for d in self.decls if d.section == "temp"]
+        self.per_call_slots = [self.slots[name.upper()] for name in program.per_call]
         self.body = self._block(program.body)
         self.values: list = []
         self.reset()
@@ -115,6 +116,8 @@ class Machine:
             v[self.slots[name.upper()]] = value
         for slot in self.temp_slots:
             v[slot] = [UNSET] * len(v[slot]) if isinstance(v[slot], list) else UNSET
+        for slot in self.per_call_slots:
+            v[slot] = True
         for stmt in self.body:
             stmt(v)
         self.cycle += 1
@@ -139,6 +142,8 @@ class Machine:
                 v[t] = UNSET
             for t in temp_arrays:
                 v[t] = [UNSET] * len(v[t])
+            for t in self.per_call_slots:
+                v[t] = True
             for stmt in body:
                 stmt(v)
             for name, slot in out_slots:

@@ -252,6 +252,8 @@ class _Translator:
             lines.append(f"        {_cname(d.name)} = (({self._io_type(d)} *)in[{k}])[j];")
         for d in temps if self.checked else ():
             lines.append(f"        memset(&w_{_cname(d.name)}, 0, sizeof w_{_cname(d.name)});")
+        for name in self.program.per_call:
+            lines.append(f"        {_cname(name)} = 1;")
         lines += self.stmts(self.program.body, "        ")
         for k, d in enumerate(outputs):
             lines.append(f"        (({self._io_type(d)} *)out[{k}])[j] = ({self._io_type(d)}){_cname(d.name)};")

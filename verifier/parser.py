@@ -42,6 +42,14 @@ class _InstanceDb(tuple):
     """(DB name, FB name) of a STEP 7 instance DB source after the block."""
 
 
+class _Section(list):
+    """The declarations of one VAR section; `retained` names the section when it is declared RETAIN."""
+
+    def __init__(self, decls, retained: str):
+        super().__init__(decls)
+        self.retained = retained
+
+
 _BEGIN = object()  # SCL's BEGIN: its blocks have the system flags ENO (TIA) and OK (STEP 7, copied to ENO)
 SYSTEM_FLAGS = {"ENO", "OK"}
 
@@ -59,17 +67,6 @@ def _with_system_flag(name: str, body: tuple) -> tuple:
             return s.For(st.var, st.start, st.stop, st.step, tuple(map(stmt, st.body)), st.pos)
         return s.Region(st.title, tuple(map(stmt, st.body)), st.pos)
     return tuple(map(stmt, body))
-
-
-def _assigns_system_flag(body) -> bool:
-    for st in body:
-        if isinstance(st, s.Assign) and isinstance(st.target, s.Name) and st.target.name.upper() in SYSTEM_FLAGS:
-            return True
-        inner = ([b for _, branch in st.branches for b in branch] + list(st.orelse) if isinstance(st, s.If)
-                 else list(st.body) if isinstance(st, (s.For, s.Region)) else [])
-        if _assigns_system_flag(inner):
-            return True
-    return False
 
 
 class StSyntaxError(UserError):
@@ -104,11 +101,18 @@ class _ToAst(Transformer):
             if isinstance(item, _InstanceDb) and item[1].upper() != name.upper():
                 raise StSyntaxError(f"{self.source}: DATA_BLOCK {item[0]!r} is an instance of {item[1]!r}, not of the "
                                     f"block {name!r} before it")
+        retained = sorted({item.retained for item in items[1:] if isinstance(item, _Section) and item.retained})
+        if retained:  # a diff shows it: what survives a power cycle is part of the block's behaviour
+            header += (("RETAIN", ", ".join(retained)),)
+        header += tuple(("INSTANCE DB", item[0]) for item in items[1:] if isinstance(item, _InstanceDb))
         declared = {d.name.upper() for d in decls}
-        if any(item is _BEGIN for item in items[1:]) and not declared & SYSTEM_FLAGS and _assigns_system_flag(body):
-            decls = (*decls, s.VarDecl("ENO", "output", s.TypeRef("BOOL")))
+        per_call = ()
+        if any(item is _BEGIN for item in items[1:]) and not declared & SYSTEM_FLAGS:
+            # SCL: every call starts with the enable flag TRUE (ENO in TIA, OK copied to ENO in STEP 7)
+            decls = (*decls, s.VarDecl("ENO", "output", s.TypeRef("BOOL"), True))
             body = _with_system_flag("ENO", body)
-        return s.Program(name, decls, body, header)
+            per_call = ("ENO",)
+        return s.Program(name, decls, body, header, per_call)
 
     def block_name(self, items):
         return str(items[0]).strip('"')
@@ -135,19 +139,20 @@ class _ToAst(Transformer):
     def begin(self, items):
         return _BEGIN
 
-    sec_input = lambda self, _: "input"
-    sec_output = lambda self, _: "output"
-    sec_inout = lambda self, _: "inout"
-    sec_temp = lambda self, _: "temp"
-    sec_constant = lambda self, _: "constant"
-    sec_static = lambda self, _: "static"
+    sec_input = lambda self, _: ("input", False)
+    sec_output = lambda self, items: ("output", bool(items))
+    sec_inout = lambda self, _: ("inout", False)
+    sec_temp = lambda self, _: ("temp", False)
+    sec_constant = lambda self, _: ("constant", False)
+    sec_static = lambda self, items: ("static", bool(items))
 
     @v_args(meta=True)
     def var_section(self, meta, items):
-        section, decls = items[0], items[1:]
+        (section, retained), decls = items[0], items[1:]
         if section == "inout":
             self._fail(_at(meta), "VAR_IN_OUT section is not supported")
-        return [s.VarDecl(d.name, section, d.type, d.initial, d.pos) for group in decls for d in group]
+        return _Section([s.VarDecl(d.name, section, d.type, d.initial, d.pos) for group in decls for d in group],
+                        section if retained else "")
 
     @v_args(meta=True)
     def var_decl(self, meta, items):

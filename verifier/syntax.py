@@ -122,7 +122,8 @@ class Program:
     name: str
     decls: tuple[VarDecl, ...]
     body: tuple[Stmt, ...]
-    header: tuple[tuple[str, str], ...] = ()  # (TITLE, AUTHOR, FAMILY, NAME or VERSION, its text) in order
+    header: tuple[tuple[str, str], ...] = ()  # (TITLE, AUTHOR, FAMILY, NAME, VERSION, RETAIN or INSTANCE DB, text)
+    per_call: tuple[str, ...] = ()  # BOOL outputs a call sets TRUE before the body runs (the SCL enable flag ENO)
 
     def section(self, section: str) -> tuple[VarDecl, ...]:
         return tuple(d for d in self.decls if d.section == section)
