@@ -92,10 +92,14 @@ def _date(text: str) -> str:
 
 def _today() -> str:
     """Today in UTC, or the date of SOURCE_DATE_EPOCH (reproducible builds) when it is set."""
-    epoch = os.environ.get("SOURCE_DATE_EPOCH", "")
-    moment = datetime.datetime.fromtimestamp(int(epoch), datetime.timezone.utc) if epoch.isdigit() else \
-        datetime.datetime.now(datetime.timezone.utc)
-    return moment.date().isoformat()
+    epoch = os.environ.get("SOURCE_DATE_EPOCH")
+    if epoch is None:
+        return datetime.datetime.now(datetime.timezone.utc).date().isoformat()
+    try:
+        return datetime.datetime.fromtimestamp(int(epoch), datetime.timezone.utc).date().isoformat()
+    except (ValueError, OverflowError, OSError):
+        raise UserError(f"SOURCE_DATE_EPOCH={epoch!r}: expected whole seconds since 1970-01-01 UTC, up to the "
+                        f"year 9999; or give --date YYYY-MM-DD") from None
 
 
 def _mapping(text: str) -> dict:
@@ -235,7 +239,7 @@ def cmd_generate(args) -> int:
     if args.instance_db and args.dialect != "step7":
         raise UserError("--instance-db writes a STEP 7 instance DB source; TIA and IEC targets create the instance "
                         "when the block is called")
-    identity = model_identity(model, args.date)
+    identity = model_identity(model, args.date or _today())
     identity = replace(identity, author=args.author, family=args.family,
                        version=args.block_version or identity.version)
     try:
@@ -571,7 +575,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--block-version", type=_block_version, metavar="X.Y",
                    help="VERSION in the block header, each part 0 to 15 (default: the first two hex digits of the "
                         "model fingerprint, so a changed model changes the version)")
-    p.add_argument("--date", type=_date, default=_today(), metavar="YYYY-MM-DD",
+    p.add_argument("--date", type=_date, metavar="YYYY-MM-DD",
                    help="date in the header comment (default: today, or SOURCE_DATE_EPOCH when set)")
     p.add_argument("--stats", action="store_true", help="print operations per call and bytes of state")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)

@@ -165,6 +165,10 @@ def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
         if column is None:
             raise UserError(f"--model {request.kind} needs --{role} COLUMN")
         shared = [i for i, s in enumerate(signals) if s.column == column]
+        if shared and (role == "speed" or request.kind == "kalman"):
+            raise UserError(f"--{role} {column}: the column is also in --temps; "
+                            + ("a speed is not a temperature" if role == "speed" else
+                               "the Kalman model fuses each --temps sensor and needs its ambient sensor apart"))
         if shared:  # e.g. the ambient sensor is also one of the regression temperatures (paper 001's T14)
             s = signals[shared[0]]
             signals[shared[0]] = Signal(s.name, s.column, f"{s.role},{role}", s.unit)

@@ -52,15 +52,44 @@ def leak_reason(name: str, values: np.ndarray, target: str, target_values: np.nd
     unit, target_unit = UNIT_SUFFIX.search(name), UNIT_SUFFIX.search(target)
     if unit and target_unit and unit.group(1).lower() == target_unit.group(1).lower():
         return f"is a displacement column (unit _{unit.group(1)}) like the target {target!r}"
-    x, y = np.asarray(values, np.float64), np.asarray(target_values, np.float64)
+    r2, how = _best_fit(np.asarray(values, np.float64), np.asarray(target_values, np.float64))
+    if r2 >= PERFECT_R2:
+        return (f"predicts the target {target!r} almost perfectly on its own ({how}: R^2 {r2:.5f}, it leaves "
+                f"{np.sqrt(max(1.0 - r2, 0.0)):.1%} of the target's spread): it is the answer, not a cause")
+    return None
+
+
+LAGS = (0, 1, 2, 3, 5, 10, 20, 30, 60, 120, 360)  # calls: a copy of the target recorded earlier or later
+
+
+def _r2(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """R^2 of a straight line and of a parabola through (x, y)."""
     finite = np.isfinite(x) & np.isfinite(y)
     x, y = x[finite], y[finite]
-    if len(x) >= 3 and np.std(x) > 0 and np.std(y) > 0:
-        r2 = float(np.corrcoef(x, y)[0, 1]) ** 2
-        if r2 >= PERFECT_R2:
-            return (f"predicts the target {target!r} almost perfectly on its own (R^2 {r2:.5f}, a straight line through "
-                    f"it leaves {np.sqrt(max(1.0 - r2, 0.0)):.1%} of the target's spread): it is the answer, not a cause")
-    return None
+    if len(x) < 4 or np.std(x) == 0 or np.std(y) == 0:
+        return 0.0, 0.0
+    line = float(np.corrcoef(x, y)[0, 1]) ** 2
+    z = (x - x.mean()) / x.std()
+    design = np.column_stack([np.ones_like(z), z, z * z])
+    coef = np.linalg.lstsq(design, y, rcond=None)[0]
+    parabola = 1.0 - float(np.mean((y - design @ coef) ** 2) / np.var(y))
+    return line, parabola
+
+
+def _best_fit(x: np.ndarray, y: np.ndarray) -> tuple[float, str]:
+    """The best R^2 of the target on the column alone: a line or a parabola, shifted by up to 360 calls."""
+    best, how = 0.0, ""
+    for lag in LAGS:
+        if lag >= len(x) - 3:
+            break
+        pairs = [(x, y, "same call")] if lag == 0 else [(x[:-lag], y[lag:], f"the column leading by {lag} calls"),
+                                                         (x[lag:], y[:-lag], f"the column lagging by {lag} calls")]
+        for a, b, when in pairs:
+            line, parabola = _r2(a, b)
+            for r2, shape in ((line, "a straight line"), (parabola, "a parabola")):
+                if r2 > best:
+                    best, how = r2, f"{shape}, {when}"
+    return best, how
 
 
 def refuse_leaks(columns: dict, target: str, target_values: np.ndarray, where: str, option: str) -> None:
