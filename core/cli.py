@@ -335,7 +335,8 @@ def cmd_diff(args) -> int:
 
 def cmd_select(args) -> int:
     from thermoplc.models.fit import training_rows
-    from thermoplc.models.leaks import TEMPERATURE_RULE, refuse_leaks, refuse_non_temperatures, temperature_columns
+    from thermoplc.models.leaks import (TEMPERATURE_RULE, leak_reason, refuse_leaks, refuse_non_temperatures,
+                                        temperature_columns)
     from thermoplc.models.selection import select_sensors
     from thermoplc.models.table import read_table
     if args.output:
@@ -354,6 +355,13 @@ def cmd_select(args) -> int:
         rows = table.rows
     else:
         rows = training_rows(table, args.time, args.train_until, args.train_rows)
+    skipped = {}
+    if not args.candidates:  # a recognised column that is the target in disguise is left out, with the reason
+        skipped = {c: why for c in candidates if (why := leak_reason(c, table.column(c)[:rows], args.target, target[:rows]))}
+        candidates = tuple(c for c in candidates if c not in skipped)
+        if not candidates:
+            raise UserError(f"{args.data}: every temperature column is the target in disguise: "
+                            + "; ".join(f"{c} {why}" for c, why in skipped.items()))
     refuse_leaks({c: table.column(c)[:rows] for c in candidates}, args.target, target[:rows], args.data,
                  "--candidates")
     if rows < 3:
@@ -365,6 +373,8 @@ def cmd_select(args) -> int:
         raise UserError(str(exc) if str(exc).startswith(args.data) else f"{args.data}: {exc}") from None
     print(f"sensor selection ({selection.method}) for {args.target} on {Path(args.data).name}, {rows} rows")
     print(f"  {selection.detail}")
+    for column, why in skipped.items():
+        print(f"  left out {column}: {why}")
     for k, group in enumerate(selection.groups, start=1):
         members = ", ".join(f"{s} ({selection.scores[s]:.3f})" for s in group)
         print(f"  group {k}: {members}")

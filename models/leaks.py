@@ -87,7 +87,7 @@ def _best_fit(x: np.ndarray, y: np.ndarray) -> tuple[float, str]:
         for a, b, when in pairs:
             line, parabola = _r2(a, b)
             for r2, shape in ((line, "a straight line"), (parabola, "a parabola")):
-                if r2 > best:
+                if r2 > best + 1e-9:  # the simpler shape and the smaller shift when they explain as much
                     best, how = r2, f"{shape}, {when}"
     return best, how
 
