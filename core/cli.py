@@ -67,9 +67,13 @@ def _range(text: str) -> tuple[float, float]:
 
 
 def _attribute(text: str) -> str:
+    from thermoplc.identifiers import identifier_problem
     if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]{0,7}", text):
         raise argparse.ArgumentTypeError(f"expected a letter, then letters, digits or '_', 8 characters at most "
                                          f"(STEP 7 header attribute), found {text!r}")
+    problem = identifier_problem(text)
+    if problem:  # AUTHOR : BEGIN would read as the start of the code to an SCL compiler
+        raise argparse.ArgumentTypeError(f"{text!r} {problem}")
     return text
 
 
@@ -236,7 +240,7 @@ def cmd_generate(args) -> int:
                     settle_calls=args.settle_calls)
     if args.format == "plcopen" and args.dialect != "iec":
         raise UserError("--format plcopen wraps the iec dialect; add --dialect iec")
-    if args.instance_db and args.dialect != "step7":
+    if args.instance_db is not None and args.dialect != "step7":
         raise UserError("--instance-db writes a STEP 7 instance DB source; TIA and IEC targets create the instance "
                         "when the block is called")
     identity = model_identity(model, args.date or _today())
@@ -245,7 +249,7 @@ def cmd_generate(args) -> int:
     try:
         block = lower(model, limits, identity, args.retain)
         text = render_plcopen(block, __version__) if args.format == "plcopen" else render(block, args.dialect)
-        if args.instance_db:
+        if args.instance_db is not None:
             text += render_instance_db(block, args.instance_db)
     except GenerationError as exc:
         raise UserError(f"{args.model}: cannot generate a block: {exc}") from None

@@ -68,6 +68,17 @@ def _number(value, digits: int = 3) -> str:
     return "" if value is None else f"{value:.{digits}f}"
 
 
+def _conditions(found: dict, unit: str) -> str:
+    """A window's operating conditions in an engineer's words and units."""
+    span = lambda pair, digits: f"{pair[0]:.{digits}f}..{pair[1]:.{digits}f}"
+    parts = [f"speed {span(found['speed_rpm'], 0)} rpm", f"spindle {found['spindle']}",
+             f"ambient {span(found['ambient_C'], 2)} degC", f"{span(found['hours_since_start'], 2)} h from the start",
+             f"measured - simulated {found['measured_minus_simulated_mean']:+.3f} {unit} on average"]
+    if "feed_mm_min" in found:
+        parts.append(f"feed {span(found['feed_mm_min'], 0)} mm/min")
+    return "; ".join(parts)
+
+
 def _hours(seconds) -> str:
     return "" if seconds is None else f"{seconds / 3600:.2f}"
 
@@ -90,7 +101,7 @@ def report(doc: dict, d: Diagnosis, series: Series, n_train: int) -> dict:
     effects = _table(["#", "effect", "parameters", "delta BIC", "held-out excess above noise removed"],
                      [[k, e["name"], e["parameters"], _number(e["evidence"]["delta_bic"], 1),
                        _percent(e["evidence"]["held_out_excess_removed"])]
-                      for k, e in enumerate(doc["effects"], start=1)])
+                      for k, e in enumerate(doc["effects"], start=1)] or [["", "none", "", "", ""]])
 
     def gap(c: str) -> str:
         return "um" if c == target else "K"
@@ -100,7 +111,8 @@ def report(doc: dict, d: Diagnosis, series: Series, n_train: int) -> dict:
                         _number(v["held_out_max_abs_after"])] for c, v in doc["channels"].items()])
     windows = _table(["channel", "start, h from the first row", "end, h", "unit", "RMS before", "RMS after", "conditions"],
                      [[w["channel"], _hours(w["start_s"] - series.t[0]), _hours(w["end_s"] - series.t[0]),
-                       gap(w["channel"]), _number(w["rms"]), _number(w.get("rms_after")), w["conditions"]]
+                       gap(w["channel"]), _number(w["rms"]), _number(w.get("rms_after")),
+                       _conditions(w["conditions"], gap(w["channel"]))]
                       for w in doc["disagreements"]])
     trials = "".join(f"<h3>round {k}</h3>" + _table(["candidate", "sensor", "delta BIC", "held-out excess removed",
                                                      "kept", "implausible because"],

@@ -152,7 +152,7 @@ def candidates(series: Series, present: Simulation, train: Series) -> tuple[list
         if present.has(name):
             continue
         if name == "feed_axis_heat" and series.feed is None:
-            skipped[name] = "needs --feed COLUMN (the feed-axis rate)"
+            skipped[name] = "needs --feed COLUMN, the feed-axis rate"
             continue
         why = sufficiency.untestable(train, name)
         if why:

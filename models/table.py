@@ -153,7 +153,7 @@ def _read_npz(path: str, time_column: str | None) -> Table:
         raise UserError(f"{path}: every array must be one column of the same length; found "
                         + ", ".join(f"{n} {s}" for n, s in lengths.items()))
     for name, a in columns.items():
-        if a.dtype.kind not in "iuf":
+        if a.dtype.kind not in "biuf":  # bool: the natural type of a recorded Enable or Reset
             raise UserError(f"{path}: column {name!r} holds {a.dtype}, expected numbers")
         columns[name] = a.astype(np.float64)
         bad = np.nonzero(~np.isfinite(columns[name]))[0]

@@ -14,7 +14,7 @@ from thermoplc.errors import UserError
 from thermoplc.models.fit import SAMPLING_TOLERANCE, sample_period
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import block_outputs, control_inputs, model_inputs
-from thermoplc.models.safety import CONTROL_START, Limits
+from thermoplc.models.safety import CONTROL_START, ENABLE, RESET, Limits
 from thermoplc.models.table import Table
 from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.interpreter import Finding
@@ -56,6 +56,7 @@ class Report:
     engine: str = "interp"  # the engine that produced the compared outputs
     engine_note: str = ""  # why the fast engine was not used, when asked for
     unsafe: tuple[str, ...] = ()  # a non-finite REAL output or an INT overflow: fails whatever the reference says
+    control: str = ""  # how the data drove Enable and Reset, when they did
 
     @property
     def ok(self) -> bool:
@@ -67,6 +68,8 @@ class Report:
             lines.append(f"bit-exact: {self.block} reproduces {self.against} on {self.data}")
             lines.append(f"  {self.cycles} cycles, {self.cycles * len(self.outputs)} outputs compared "
                          f"({', '.join(self.outputs)}): every bit equal")
+            if self.control:
+                lines.append(f"  {self.control}")
         elif self.mismatch is None and self.constant_errors:
             lines.append(f"NOT bit-exact: {self.block} holds constants that differ from the model "
                          f"(the {self.cycles} replayed cycles matched)")
@@ -307,7 +310,19 @@ def verify_against_model(block: str, model: Model, model_path: str, table: Table
     report = _replay_and_compare(machine, block, against, table, model.time_column, {**inputs, **control}, block32,
                                  quantisation)
     checked, errors = _compare_constants(program, model, limits)
-    return replace(report, constants_checked=checked, constant_errors=errors, limits=limits)
+    return replace(report, constants_checked=checked, constant_errors=errors, limits=limits,
+                   control=_control_summary(control, table.rows))
+
+
+def _control_summary(control: dict, rows: int) -> str:
+    """What the data asked of Enable and Reset; a recording in which the block never ran says so."""
+    if not control:
+        return ""
+    enabled = int(np.count_nonzero(control.get(ENABLE, np.ones(rows, bool))))
+    resets = int(np.count_nonzero(control.get(RESET, np.zeros(rows, bool)) & control.get(ENABLE, np.ones(rows, bool))))
+    if enabled == 0:
+        return "Enable is FALSE on every call: the block never ran, so only its held start values were compared"
+    return f"Enable and Reset from the data: enabled on {enabled} of {rows} calls, {resets} reset call(s)"
 
 
 def verify_against_trace(block: str, table: Table, expect: dict, overrides: dict | None = None,
