@@ -131,14 +131,20 @@ def simulation_of(model: Model) -> Simulation:
     return Simulation(effects, shared, sensors, displacement)
 
 
-def predict(model: Model, inputs: dict, precision: str) -> dict:
-    """Reference in binary32 ('f32', numpy float32 scalars) or float64 ('f64'), in the block's order."""
+def _arrays(model: Model, inputs: dict, precision: str) -> tuple:
+    """The precision's type, the coefficients and the input columns in it: what both loops start from."""
     f = np.float32 if precision == "f32" else np.float64
     coef = {name: f(model.coef(name, precision)) for name in model.coefficients}
     temps = [np.asarray(inputs[s.name], f) for s in model.signals("temperature")]
     te = np.asarray(inputs[model.signals("ambient")[0].name], f)
     n = np.asarray(inputs[model.signals("speed")[0].name], f)
     feed = np.asarray(inputs[model.signals("feed")[0].name], f) if has(model, "feed_axis_heat") else None
+    return f, coef, temps, te, n, feed
+
+
+def predict(model: Model, inputs: dict, precision: str) -> dict:
+    """Reference in binary32 ('f32', numpy float32 scalars) or float64 ('f64'), in the block's order."""
+    f, coef, temps, te, n, feed = _arrays(model, inputs, precision)
     k, rows = len(temps), len(n)
     gear, cool_on, stop = (has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection"))
     slow, amb, structure = has(model, "slow_structure"), has(model, "ambient_coupling"), "AS" in coef
@@ -202,12 +208,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
 
 def kernel_arguments(model: Model, inputs: dict, precision: str, state=None):
     """(the compiled loop's output, its state) for these calls; predict's setup, for kernels.lumped."""
-    f = np.float32 if precision == "f32" else np.float64
-    coef = {name: f(model.coef(name, precision)) for name in model.coefficients}
-    temps = [np.asarray(inputs[s.name], f) for s in model.signals("temperature")]
-    te = np.asarray(inputs[model.signals("ambient")[0].name], f)
-    n = np.asarray(inputs[model.signals("speed")[0].name], f)
-    feed = np.asarray(inputs[model.signals("feed")[0].name], f) if has(model, "feed_axis_heat") else None
+    f, coef, temps, te, n, feed = _arrays(model, inputs, precision)
     flags = (*(has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection", "slow_structure",
                                        "ambient_coupling")), "AS" in coef, feed is not None)
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]

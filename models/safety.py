@@ -146,6 +146,21 @@ def _hold(x: np.ndarray, valid: np.ndarray, guard: Guard, ready_row: int, limits
     return held, faults
 
 
+def fault_flags(plan, valid: dict, faults: dict, core: dict | None, start: int) -> dict:
+    """Fault_i per call: the guard's flag, or for a fused input its range check before the model
+    starts (call `start`) and the filter's verdict after."""
+    out = {}
+    for g in plan:
+        if g.kind == "fused":
+            flags = ~valid[g.name]
+            if core is not None:
+                flags[start:] = core[f"Fault_{g.index}"]
+            out[f"Fault_{g.index}"] = flags
+        else:
+            out[f"Fault_{g.index}"] = faults[g.name]
+    return out
+
+
 def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, core_predict,
                     held: dict | None = None) -> dict:
     """Every block output, given raw inputs: guards, the model from the first all-valid call, limiter.
@@ -208,14 +223,7 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
         k0 = np.full(rows, held.get(f"K0_{k}", 0), f)
         k0[ready_row:] = out[name][ready_row:] * f(constants["c_K0_mm"])
         out[f"K0_{k}"] = k0
-    for g in plan:
-        if g.kind == "fused":
-            flags = ~valid[g.name]
-            if core is not None:
-                flags[ready_row:] = core[f"Fault_{g.index}"]
-            out[f"Fault_{g.index}"] = flags
-        else:
-            out[f"Fault_{g.index}"] = faults[g.name]
+    out.update(fault_flags(plan, valid, faults, core, ready_row))
     out["Ready"] = np.arange(rows) >= ready_row
     out["Limited"] = limited
     out["Clamped"] = clamped

@@ -17,7 +17,7 @@ from thermoplc.models import kernels
 from thermoplc.models.kalman import kernel_coefficients
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import _core
-from thermoplc.models.safety import ENO, Limits, _real_outputs_of, axis_outputs, guards
+from thermoplc.models.safety import ENO, Limits, _real_outputs_of, axis_outputs, fault_flags, guards
 
 NOT_YET = np.iinfo(np.int64).max  # the ready row before any call had every input in range
 # kinds whose output at a call depends on that call and the first call only: the model's own
@@ -225,14 +225,7 @@ class StreamingReference:
             k0 = np.zeros(rows, f)
             k0[local:] = out[name][local:] * f(constants["c_K0_mm"])
             out[f"K0_{k}"] = k0
-        for g in self.plan:
-            if g.kind == "fused":
-                flags = ~valid[g.name]
-                if core is not None:
-                    flags[local:] = core[f"Fault_{g.index}"]
-                out[f"Fault_{g.index}"] = flags
-            else:
-                out[f"Fault_{g.index}"] = faults[g.name]
+        out.update(fault_flags(self.plan, valid, faults, core, local))
         out["Ready"] = np.arange(offset, offset + rows) >= self.ready
         out["Limited"] = limited
         out["Clamped"] = clamped
