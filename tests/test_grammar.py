@@ -101,5 +101,5 @@ begin
     end_region;
 end_function_block"""
     program = parse_text(text)
-    assert [d.name for d in program.decls] == ["a", "y"]
+    assert [d.name for d in program.decls] == ["a", "y", "ENO"]  # SCL (BEGIN): the system enable output
     assert program.body[0].title == "free text, with (brackets) and while words"

@@ -109,7 +109,7 @@ class _ToAst(Transformer):
         per_call = ()
         if any(item is _BEGIN for item in items[1:]) and not declared & SYSTEM_FLAGS:
             # SCL: every call starts with the enable flag TRUE (ENO in TIA, OK copied to ENO in STEP 7)
-            decls = (*decls, s.VarDecl("ENO", "output", s.TypeRef("BOOL"), True))
+            decls = (*decls, s.VarDecl("ENO", "output", s.TypeRef("BOOL")))  # TRUE at every call: per_call
             body = _with_system_flag("ENO", body)
             per_call = ("ENO",)
         return s.Program(name, decls, body, header, per_call)
