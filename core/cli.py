@@ -266,7 +266,8 @@ def cmd_generate(args) -> int:
         from thermoplc.generator.stats import block_stats, format_stats
         print(format_stats(block_stats(block), block_stats(lower_model(model))))
         print(format_proof(proof, block))
-        print(f"stress replay: {stressed.rows} calls with every input at the ends of its guard range, no NaN, Inf or "
+        print(f"stress replay: {stressed.rows} calls with every input at the ends, the middle or random points of its "
+              f"guard range and random Reset and Enable, no NaN, Inf or "
               f"INT overflow; outputs seen: " + ", ".join(f"{name} {low:.6g}..{high:.6g}"
                                                          for name, (low, high) in stressed.output_ranges.items()))
     if args.explain:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from thermoplc.models.modelfile import Model
-from thermoplc.models.safety import Limits, guards
+from thermoplc.models.safety import ENABLE, RESET, Limits, guards
 from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.replay import unsafe_findings
 from thermoplc.verifier.syntax import Program
@@ -32,7 +32,7 @@ class StressResult:
 
 def stress_inputs(model: Model, limits: Limits, rows: int = STRESS_ROWS, seed: int = STRESS_SEED) -> dict:
     """Per block input a float32 column: segments of 1..300 calls holding the low end, the high end,
-    the middle or a random value of the input's guard range (speed also at 0)."""
+    the middle or a random value of the input's guard range (speed also at 0); Reset and Enable at random."""
     rng = np.random.default_rng(seed)
     constants = limits.constants()
     columns = {}
@@ -47,12 +47,15 @@ def stress_inputs(model: Model, limits: Limits, rows: int = STRESS_ROWS, seed: i
             values[row:row + length] = choices[pick] if pick < len(choices) else rng.uniform(low, high)
             row += length
         columns[g.name] = values.astype(np.float32)
+    columns[RESET] = rng.random(rows) < 0.01  # about every 100 calls a restart
+    columns[ENABLE] = rng.random(rows) >= 0.05  # and a skipped call now and then
     return columns
 
 
 def stress(program: Program, model: Model, limits: Limits, source: str) -> StressResult:
     replayer = Replayer(program, source, "auto")
-    inputs = stress_inputs(model, limits)
+    declared = {d.name for d in replayer.inputs}
+    inputs = {name: column for name, column in stress_inputs(model, limits).items() if name in declared}
     outputs = tuple(d.name for d in replayer.outputs)
     produced = replayer.replay(inputs, STRESS_ROWS, outputs)
     problems = tuple(f"{source}:{f.pos[0]}:{f.pos[1]}: {label} ({f.detail}) from stress call {f.first_cycle}"
