@@ -229,12 +229,18 @@ def format_proof(proof, block) -> str:
 
 def cmd_generate(args) -> int:
     from dataclasses import replace
+    from thermoplc.identifiers import identifier_problem
     from thermoplc.generator.lower import lower, lower_model, model_identity
     from thermoplc.generator.printer import GenerationError, render, render_instance_db, render_plcopen
     from thermoplc.models.modelfile import load_model
     from thermoplc.models.safety import Limits
     check_output(args.output, args.force, inputs=[args.model])
     model = load_model(args.model)
+    if args.name is not None:
+        problem = identifier_problem(args.name)
+        if problem:
+            raise UserError(f"--name {args.name!r} {problem}")
+        model = replace(model, block_name=args.name)
     low, high = args.temp_range
     limits = Limits(args.max_offset_um, args.max_step_um, low, high, max_jump_K=args.max_jump_k,
                     settle_calls=args.settle_calls)
@@ -486,7 +492,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "gm1n (paper 003), bayes (paper 004)")
     p.add_argument("--target", type=_columns, required=True,
                    help="measured displacement column, um; bpnn takes several: elongation,yaw,pitch")
-    p.add_argument("--temps", type=_columns, required=True, help="temperature columns, comma-separated")
+    p.add_argument("--temps", type=_columns, required=True,
+                   help="temperature columns, comma-separated, or @FILE written by select-sensors -o")
     p.add_argument("--speed", help="spindle speed column, rpm (kalman)")
     p.add_argument("--ambient", help="ambient temperature column, degC (kalman, piecewise)")
     p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
@@ -514,7 +521,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="dlag: time between lags (default: %(default)s)")
     p.add_argument("--tool-length", metavar="COLUMN",
                    help="bpnn: tool length column, mm; adds paper 002's X/Y/Z compensation outputs")
-    p.add_argument("--name", default="ThermalComp", help="function block name (default: %(default)s)")
+    p.add_argument("--name", default="ThermalComp",
+                   help="function block name, kept in the model file (generate --name overrides it) (default: %(default)s)")
     p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("-o", "--output", required=True, help="model file to write (JSON)")
@@ -578,6 +586,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="temperature change per call that marks a sensor faulty, K (default: %(default)s)")
     p.add_argument("--settle-calls", type=_number(int, 1, 10000, "calls"), default=30,
                    help="steady calls before a faulty sensor is trusted again (default: %(default)s)")
+    p.add_argument("--name", help="function block name (default: the model file's, set by fit --name); one block "
+                                  "per axis needs one name each")
     p.add_argument("--retain", action="store_true",
                    help="keep the state over a power cycle: statics and outputs declared RETAIN (tia, iec); step7: "
                         "the header says to keep the instance DB retentive")
@@ -610,7 +620,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("verify", help="replay data through a block and compare every output bit for bit")
     p.add_argument("block", nargs="?", help="the block's ST source")
-    p.add_argument("--data", help="the recording (CSV, or .npz of columns), one row per call")
+    p.add_argument("--data", help="the recording (CSV, .npz or Parquet of columns), one row per call; columns "
+                                   "Enable and Reset (0/1), when present, drive those block inputs")
     p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--model", help="compare with this model's float32 reference")
     p.add_argument("--expect", type=_columns, help="compare with recorded outputs: COLUMN or OUTPUT=COLUMN, comma-separated")

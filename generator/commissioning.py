@@ -66,8 +66,8 @@ def with_commissioning(block: Block) -> Block:
         temps = (*temps, Var(RESET_INDEX, "INT", "array index while the state is reset"))
     inputs = (*block.inputs,
               Var(ENABLE, "BOOL", "FALSE: the call is skipped (state frozen, outputs held, ENO FALSE)", initial=True),
-              Var(RESET, "BOOL", "TRUE: restart the state and latch the references again (outputs ramp from "
-                                 "where they are)", initial=False))
+              Var(RESET, "BOOL", "TRUE: restart as a new instance, latching the temperatures as the cold reference - "
+                                 "only with the machine at ambient; not a fault acknowledge", initial=False))
     outputs = (*block.outputs, Var(ENO, "BOOL", "Enable of this call"))
     return replace(block, inputs=inputs, outputs=outputs, temps=temps, constants=constants,
                    regions=(commission, *(_gated(r) for r in block.regions)))

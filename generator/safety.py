@@ -23,7 +23,7 @@ _CONSTANT_COMMENTS = {
     "c_StepMax": "largest output change per call (--max-step-um)", "c_StepMin": "largest output change per call, downwards",
     "c_OutMax": "output clamp (--max-offset-um)", "c_OutMin": "output clamp, negative side",
     "c_K0_mm": "K0 in mm per um of error: the NC moves the axis back by the error",
-    "c_RealMax": "largest finite REAL: a model value beyond it (Inf) or unordered (NaN) is not passed on",
+    "c_RealMax": "largest REAL as S7 documents it: a model value beyond it (Inf) or unordered (NaN) is not passed on",
 }
 
 

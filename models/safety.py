@@ -15,12 +15,14 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from thermoplc.binary32 import FLT_MAX
 from thermoplc.errors import UserError
 from thermoplc.models import kernels
 from thermoplc.models.modelfile import Model
 
 LIMIT_MAX = 1.0e12  # far beyond any machine, far below FLT_MAX
+# the largest REAL as the S7 manuals write it (+-3.402823E+38): FLT_MAX's own shortest text, 3.4028235E38, lies
+# beyond that, and a compiler that range-checks the literal text may refuse it
+REAL_TEXT_MAX = 3.402823e38
 K0_MM_PER_UM = -0.001  # K0 opposes the predicted error: the NC moves the axis back by it
 
 
@@ -61,7 +63,7 @@ class Limits:
                 "c_JumpMax": f(self.max_jump_K), "c_SettleCalls": int(self.settle_calls), "c_OneCall": 1,
                 "c_StepMax": f(self.max_step), "c_StepMin": f(-self.max_step),
                 "c_OutMax": f(self.max_output), "c_OutMin": f(-self.max_output), "c_K0_mm": f(K0_MM_PER_UM),
-                "c_RealMax": f(FLT_MAX)}
+                "c_RealMax": f(REAL_TEXT_MAX)}
 
     @classmethod
     def from_constants(cls, declared: dict, source: str) -> "Limits":

@@ -125,10 +125,10 @@ def test_header_options_and_the_instance_db(folder):
                     "--block-version", "2.15", "--date", "2026-03-01", "--instance-db", "ThermalComp_DB", "-o",
                     "s7.scl", "--force", cwd=folder)
     text = (folder / "s7.scl").read_text()
-    assert "AUTHOR : ACME\nFAMILY : Spindle\nNAME : ThermalC" in text and "VERSION : '2.15'" in text
+    assert "AUTHOR : ACME\nNAME : ThermalC\nFAMILY : Spindle" in text and "VERSION : '2.15'" in text
     assert "// Generated on 2026-03-01." in text
     assert text.rstrip().endswith('DATA_BLOCK "ThermalComp_DB" "ThermalComp"\nTITLE = \'Instance DB of ThermalComp\'\n'
-                                  "VERSION : '2.15'\nAUTHOR : ACME\nFAMILY : Spindle\nNAME : ThermalC\n"
+                                  "VERSION : '2.15'\nAUTHOR : ACME\nNAME : ThermalC\nFAMILY : Spindle\n"
                                   '// The memory of "ThermalComp" between calls: enter "ThermalComp_DB" in the symbol '
                                   "table as a DB first.\nBEGIN\nEND_DATA_BLOCK")
     assert "wrote s7.scl" in out.stdout

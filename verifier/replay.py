@@ -56,7 +56,7 @@ class Report:
     engine: str = "interp"  # the engine that produced the compared outputs
     engine_note: str = ""  # why the fast engine was not used, when asked for
     unsafe: tuple[str, ...] = ()  # a non-finite REAL output or an INT overflow: fails whatever the reference says
-    control: str = ""  # how the data drove Enable and Reset, when they did
+    control: str = ""  # a note on the data: how it drove Enable and Reset, or what a trace must hold
 
     @property
     def ok(self) -> bool:
@@ -85,8 +85,10 @@ class Report:
             lines.append(f"    expected  {_show(m.expected_value)}")
             if isinstance(m.block_value, float) and isinstance(m.expected_value, float):
                 lines.append(f"    distance  {ulp_distance(m.block_value, m.expected_value)} ULP")
-            lines.append(f"  block variables at cycle {m.cycle}:")
+            lines.append(f"  block variables at cycle {m.cycle} (cycles count from 0):")
             lines.extend(f"    {name} = {_show(value)}" for name, value in m.variables.items())
+            if self.control:
+                lines.append(f"  {self.control}")
         lines.extend(f"  UNSAFE: {u}" for u in self.unsafe)
         if self.constants_checked:
             lines.append(f"  constants and tables: {self.constants_checked} values checked against the model, "
@@ -322,7 +324,8 @@ def _control_summary(control: dict, rows: int) -> str:
     resets = int(np.count_nonzero(control.get(RESET, np.zeros(rows, bool)) & control.get(ENABLE, np.ones(rows, bool))))
     if enabled == 0:
         return "Enable is FALSE on every call: the block never ran, so only its held start values were compared"
-    return f"Enable and Reset from the data: enabled on {enabled} of {rows} calls, {resets} reset call(s)"
+    return (f"Enable and Reset from the data: enabled on {enabled} of {rows} calls, {resets} reset call(s) "
+            f"(a Reset on a disabled call does nothing)")
 
 
 def verify_against_trace(block: str, table: Table, expect: dict, overrides: dict | None = None,
@@ -336,5 +339,9 @@ def verify_against_trace(block: str, table: Table, expect: dict, overrides: dict
         if output not in outputs:
             raise UserError(f"{block}: no output {output!r} to compare with column {column!r}; outputs are {', '.join(outputs)}")
         expected[output] = cells_as(table, column, outputs[output].type.base, f"the recorded output {output}")
-    return _replay_and_compare(machine, block, f"the recorded outputs ({', '.join(expect.values())})", table,
-                               time_column, inputs, expected, {})
+    report = _replay_and_compare(machine, block, f"the recorded outputs ({', '.join(expect.values())})", table,
+                                 time_column, inputs, expected, {})
+    if report.mismatch is not None and isinstance(report.mismatch.expected_value, float):
+        report = replace(report, control="a trace must hold every REAL to 9 significant digits (or as hex): exported "
+                                         "with fewer, a value differs by its rounding alone")
+    return report
