@@ -67,13 +67,10 @@ def _range(text: str) -> tuple[float, float]:
 
 
 def _attribute(text: str) -> str:
-    from thermoplc.identifiers import identifier_problem
-    if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]{0,7}", text):
-        raise argparse.ArgumentTypeError(f"expected a letter, then letters, digits or '_', 8 characters at most "
-                                         f"(STEP 7 header attribute), found {text!r}")
-    problem = identifier_problem(text)
-    if problem:  # AUTHOR : BEGIN would read as the start of the code to an SCL compiler
-        raise argparse.ArgumentTypeError(f"{text!r} {problem}")
+    from thermoplc.identifiers import header_attribute_problem
+    problem = header_attribute_problem(text)
+    if problem:
+        raise argparse.ArgumentTypeError(problem)
     return text
 
 
@@ -367,14 +364,15 @@ def cmd_select(args) -> int:
     else:
         rows = training_rows(table, args.time, args.train_until, args.train_rows)
     skipped = {}
-    if not args.candidates:  # a recognised column that is the target in disguise is left out, with the reason
+    if args.candidates:  # the user's list: a column that is the target in disguise is an error
+        refuse_leaks({c: table.column(c)[:rows] for c in candidates}, args.target, target[:rows], args.data,
+                     "--candidates")
+    else:  # a recognised column that is the target in disguise is left out, with the reason
         skipped = {c: why for c in candidates if (why := leak_reason(c, table.column(c)[:rows], args.target, target[:rows]))}
         candidates = tuple(c for c in candidates if c not in skipped)
         if not candidates:
             raise UserError(f"{args.data}: every temperature column is the target in disguise: "
                             + "; ".join(f"{c} {why}" for c, why in skipped.items()))
-    refuse_leaks({c: table.column(c)[:rows] for c in candidates}, args.target, target[:rows], args.data,
-                 "--candidates")
     if rows < 3:
         raise UserError(f"{args.data}: {rows} rows; grouping sensors needs at least 3 of them")
     try:

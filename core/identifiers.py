@@ -59,6 +59,19 @@ def identifier_problem(name: str) -> str | None:
     return None
 
 
+_ATTRIBUTE = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,7}\Z")  # STEP 7 AUTHOR, FAMILY, NAME: at most 8 characters
+
+
+def header_attribute_problem(text: str) -> str | None:
+    """Why `text` cannot be a STEP 7 header attribute (AUTHOR, FAMILY), or None: at most 8 characters
+    and an identifier (AUTHOR : BEGIN would read as the start of the code to an SCL compiler)."""
+    if not _ATTRIBUTE.match(text):
+        return (f"expected a letter, then letters, digits or '_', 8 characters at most (STEP 7 header attribute), "
+                f"found {text!r}")
+    problem = identifier_problem(text)
+    return f"{text!r} {problem}" if problem else None
+
+
 def identifier_from_column(column: str) -> str:
     """The block identifier for a CSV column: the column name itself when it is a valid identifier."""
     cleaned = re.sub(r"[^A-Za-z0-9]+", "_", column).strip("_")

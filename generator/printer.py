@@ -8,7 +8,7 @@ from importlib import resources
 import jinja2
 
 from thermoplc.binary32 import INT_RANGES
-from thermoplc.identifiers import check_unique, identifier_problem
+from thermoplc.identifiers import check_unique, header_attribute_problem, identifier_problem
 from thermoplc.generator.ir import (
     ENO, GenerationError,
     PORTABLE_FUNCTIONS, Assign, BinOp, Block, BoolConst, Call, Expr, For, Index, IntConst, Ref, Region, Stmt,
@@ -182,7 +182,6 @@ def validate(block: Block) -> None:
 
 
 TITLE_MAX = 64  # STEP 7 SCL block attribute TITLE; TIA shows the same line in the block properties
-ATTRIBUTE = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,7}$")  # STEP 7 AUTHOR, FAMILY, NAME: at most 8 characters, no blanks
 
 
 def _validate_identity(block: Block) -> None:
@@ -191,9 +190,9 @@ def _validate_identity(block: Block) -> None:
         raise GenerationError(f"title has {len(block.title)} characters; STEP 7 takes at most {TITLE_MAX}: {block.title!r}")
     identity = block.identity
     for what, value in (("author", identity.author), ("family", identity.family)):
-        if not ATTRIBUTE.match(value):
-            raise GenerationError(f"{what} {value!r}: expected a letter, then letters, digits or '_', 8 characters "
-                                  f"at most (the STEP 7 limit)")
+        problem = header_attribute_problem(value)
+        if problem:
+            raise GenerationError(f"{what}: {problem}")
     if not all(0 <= part <= 15 for part in identity.version):
         raise GenerationError(f"version {identity.version[0]}.{identity.version[1]}: each part must be 0 to 15")
     if identity.date and not re.fullmatch(r"\d{4}-\d{2}-\d{2}", identity.date):

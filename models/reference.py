@@ -48,7 +48,7 @@ def model_inputs(model: Model, table: Table, overrides: dict | None = None) -> d
 
 def control_inputs(table: Table, overrides: dict | None = None) -> dict:
     """Enable and Reset per call from the data: a column named like the input (or mapped with
-    --inputs Enable=COLUMN) holding 0/1 or TRUE/FALSE; an input without a column keeps its start value."""
+    --inputs Enable=COLUMN) holding 0 or 1; an input without a column keeps its start value."""
     overrides = overrides or {}
     control = {}
     for name in CONTROL_START:

@@ -282,6 +282,18 @@ def _compare_constants(program: Program, model: Model, limits: Limits) -> tuple[
     return checked, tuple(errors)
 
 
+def mistyped(machine, reference: dict):
+    """The first input or output the block declares with another type than the model's block has
+    (BOOL outputs and Enable/Reset, REAL the rest, no arrays), with that type; or None."""
+    wanted = {**{name: "BOOL" if np.asarray(values).dtype == bool else "REAL" for name, values in reference.items()},
+              **dict.fromkeys(CONTROL_START, "BOOL")}
+    for d in (*machine.outputs, *machine.inputs):
+        expected = wanted.get(d.name, "REAL")
+        if d.type.base != expected or d.type.bounds:
+            return d, expected
+    return None
+
+
 def verify_against_model(block: str, model: Model, model_path: str, table: Table,
                          overrides: dict | None = None, engine: str = "auto") -> Report:
     program, machine = _load(block, engine)
@@ -298,13 +310,11 @@ def verify_against_model(block: str, model: Model, model_path: str, table: Table
     if unknown or missing:
         raise UserError(f"{block}: block outputs {', '.join(declared)} do not match the outputs of "
                         f"{Path(model_path).name}: {', '.join(block32)}")
-    wanted = {**{name: "BOOL" if np.asarray(values).dtype == bool else "REAL" for name, values in block32.items()},
-              **dict.fromkeys(CONTROL_START, "BOOL")}
-    for d in (*machine.outputs, *machine.inputs):
-        expected = wanted.get(d.name, "REAL")
-        if d.type.base != expected or d.type.bounds:
-            raise UserError(f"{block}:{d.pos[0]}:{d.pos[1]}: {d.name} is declared {d.type.base}; the model's block "
-                            f"has it as {expected}")
+    wrong = mistyped(machine, block32)
+    if wrong:
+        d, expected = wrong
+        raise UserError(f"{block}:{d.pos[0]}:{d.pos[1]}: {d.name} is declared {d.type.base}; the model's block "
+                        f"has it as {expected}")
     ideal = block_outputs(model, inputs, "f64", limits, control)
     quantisation = {model.target.name: float(np.max(np.abs(block32[model.target.name].astype(np.float64)
                                                           - ideal[model.target.name])))}

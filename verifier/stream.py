@@ -28,7 +28,7 @@ from thermoplc.models.safety import CONTROL_START
 from thermoplc.models.streaming import StreamingReference, streamable
 from thermoplc.models.table import CannotStream, read_table, stream_columns
 from thermoplc.verifier.replay import (Report, _check_interface, _compare_constants, _load, block_limits,
-                                       known_overrides, unsafe_findings, verify_against_model)
+                                       known_overrides, mistyped, unsafe_findings, verify_against_model)
 from thermoplc.verifier.typed import differing_rows, first_non_finite
 
 MAX_DISTINCT_STEPS = 1 << 20  # distinct time steps kept for the median; beyond: the whole-recording path
@@ -205,10 +205,7 @@ def _output_types(replayer, block: str, model_path: str, expected: dict) -> dict
     declared = [d.name for d in machine.outputs]
     if sorted(declared) != sorted(expected):
         raise _GiveUp("outputs differ")
-    wanted = {**{name: "BOOL" if np.asarray(values).dtype == bool else "REAL" for name, values in expected.items()},
-              **dict.fromkeys(CONTROL_START, "BOOL")}
-    for d in (*machine.outputs, *machine.inputs):
-        if d.type.base != wanted.get(d.name, "REAL") or d.type.bounds:
-            raise _GiveUp("an output or input of another type")
+    if mistyped(machine, expected):
+        raise _GiveUp("an output or input of another type")
     by_name = {d.name: d.type.base for d in machine.outputs}
     return {name: by_name[name] for name in expected}
