@@ -49,7 +49,7 @@ def one(case: tuple[str, str, int, float, float]) -> dict:
     start = time.perf_counter()
     d = diagnose(series, train_rows, "E_z_um")
     seconds = time.perf_counter() - start
-    found = [e["name"] for e in d.added]
+    found = [e["name"] for e in d.named]
     excess = d.before.held_out_by_channel
     channel = max(excess, key=excess.get)
     return {"machine": machine_name, "effect": name, "seed": seed, "noise": noise, "hours": hours,

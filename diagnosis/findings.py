@@ -53,7 +53,8 @@ def document(d: Diagnosis, series: Series, n_train: int, source: dict, model_pat
         "verdict": d.verdict,
         "summary": summary(d),
         "reason": d.reason,
-        "effects": d.added,
+        "effects": d.named,
+        "fitted_not_named": [] if d.names_effects else [e["name"] for e in d.added],
         "disagreements": [_window(series, w, d, True) for w in d.windows_before],
         "remaining_disagreements": [_window(series, w, d, False) for w in d.windows_after],
         "rmse_before_um": d.before.rmse_held_out[target],
@@ -73,7 +74,7 @@ def summary(d: Diagnosis) -> str:
         return f"the data cannot decide: {d.insufficient}"
     if d.verdict == "no_missing_effect":
         return "no significant missing effect: simulation and measurement agree within the noise on every channel"
-    names = ", ".join(e["name"] for e in d.added)
+    names = ", ".join(e["name"] for e in d.named)
     left = len(d.windows_after)
     if d.verdict == "explained":
         return f"explained by {names}; no disagreement beyond the noise is left"

@@ -29,6 +29,14 @@ MIN_LOG_STOP_FACTOR = 0.05  # a standstill factor within 5 % of 1 is no effect
 MIN_SENSOR_ERROR_SIGMAS = 3.0  # an offset or a drift over the recording smaller than this many noise sigmas is noise
 MIN_TRAIN_EXCESS = 0.05  # ... and its training MSE by this share
 MIN_EXCESS = 0.1  # a channel counts as off when its held-out MSE exceeds its noise variance by this share
+MIN_GEAR_CHANGE = 0.05  # heat ratios above the threshold within 5 % of 1 on every sensor are no switch
+MIN_EXPONENT_CHANGE = 0.05  # an exponent within this of 1 is linear heat
+MIN_STAND_INS = 2  # this many effects added with windows still left: none is named
+POLISH_ROUNDS = 3
+MIN_POLISH_GAIN = 1.0  # BIC; a refit that gains less has converged
+MIN_HEAT_KEPT_SHARE = 0.5  # a slow structure must keep at least half as much of the heat as of the ambient
+# effects whose parameters are searched rather than solved: one fit can stop short of the optimum
+SEARCHED = ("gear_ratio_switch", "nonlinear_speed_heat", "coolant_switching", "stop_convection")
 HOUR = 3600.0
 
 
@@ -72,7 +80,8 @@ class Diagnosis:
     not_tested: dict = field(default_factory=dict)  # name -> why
     insufficient: str | None = None  # why the data cannot support a diagnosis at all
     unseen: dict = field(default_factory=dict)  # remaining window index -> conditions training never saw
-    ambiguous: tuple[str, ...] = ()  # supported effects the BIC cannot separate, none named
+    ambiguous: tuple[str, ...] = ()  # supported effects the data cannot separate, none named
+    ambiguity: str = ""  # why they cannot be separated
 
     @property
     def verdict(self) -> str:
@@ -81,6 +90,16 @@ class Diagnosis:
         if not self.windows_before:
             return "no_missing_effect"
         return "unexplained" if self.windows_after else "explained"
+
+    @property
+    def names_effects(self) -> bool:
+        """False when several effects were added and windows are still left: they bent the model
+        toward the data, but may stand in for what the library lacks, so none is named."""
+        return not (self.verdict == "unexplained" and len(self.added) >= MIN_STAND_INS)
+
+    @property
+    def named(self) -> list[dict]:
+        return self.added if self.names_effects else []
 
     @property
     def reason(self) -> str | None:
@@ -94,9 +113,11 @@ class Diagnosis:
             grouped.setdefault(text, []).append(k + 1)
         notes = [("window " if len(ks) == 1 else "windows ") + ", ".join(map(str, ks)) + f" ran at {text}"
                  for text, ks in grouped.items()]
+        if not self.names_effects:
+            notes.insert(0, f"{len(self.added)} effects were added ({', '.join(e['name'] for e in self.added)}) and "
+                            "disagreements are still left: they may stand in for what is missing, so none is named")
         if self.ambiguous:
-            notes.insert(0, "the data cannot tell " + " from ".join(self.ambiguous) + " (their information "
-                         f"criteria differ by less than {AMBIGUOUS_BIC_SHARE:.0%} of the gain)")
+            notes.insert(0, "the data cannot tell " + " from ".join(self.ambiguous) + f" ({self.ambiguity})")
         if self.not_tested:
             notes.append("not testable on this data: " + "; ".join(f"{k} ({v})" for k, v in self.not_tested.items()))
         return "; ".join(notes) or None
@@ -199,10 +220,29 @@ def describe(sim: Simulation, name: str, series: Series) -> dict:
     raise ValueError(name)
 
 
-def implausible(sim: Simulation, name: str) -> str | None:
+def kept_shares(sim: Simulation, train: Series) -> tuple[float, float]:
+    """How much of the machine's heat and of the ambient the fitted slow structure keeps: the RMS of
+    its weighted sum over the RMS of the same sum with every weight made positive (1 when the
+    sensors add up, near 0 when their weights cancel), for each part of the temperatures."""
+    ambient, heat, start = sim_.ambient_and_heat_parts(train, sim)
+    weights = np.asarray(sim.displacement.delta)
+    shares = []
+    for part, origin in ((heat, np.zeros_like(start)), (ambient, start)):
+        terms = sim_.slow_structure_terms(train, sim, part, origin)
+        whole = float(np.std(terms @ np.abs(weights)))
+        shares.append(float(np.std(terms @ weights)) / whole if whole > 0 else 1.0)
+    return shares[0], shares[1]
+
+
+def implausible(sim: Simulation, name: str, train: Series) -> str | None:
     """Why a fitted effect is not the named physics (a parameter at its search bound or with the
     wrong sign), or None. Such a fit only soaks up a mismatch; naming it would be made up."""
     s, d = sim.shared, sim.displacement
+    if name == "slow_structure":
+        heat_kept, ambient_kept = kept_shares(sim, train)
+        if heat_kept < MIN_HEAT_KEPT_SHARE * ambient_kept:  # a structure the machine heats follows that heat
+            return (f"its weights cancel the machine's heat between the sensors ({heat_kept:.0%} kept) and keep the "
+                    f"ambient ({ambient_kept:.0%}): a lag of the air, not a structure the machine heats")
     if name == "coolant_switching" and sim.sensors[s.relay[0]].cooling >= 0:
         return "the switched term heats the sensor that switches it"
     if name == "nonlinear_speed_heat" and not 0.25 < s.exponent < 3.4:
@@ -213,6 +253,10 @@ def implausible(sim: Simulation, name: str) -> str | None:
         return "standstill time constants equal to the running ones: no change"
     if name == "gear_ratio_switch" and any(p.gain + p.gear_gain < 0 for p in sim.sensors):
         return "negative heat above the threshold"
+    if name == "gear_ratio_switch" and all(abs(p.gear_gain) < MIN_GEAR_CHANGE * abs(p.gain) for p in sim.sensors):
+        return f"heat per rpm above the threshold within {MIN_GEAR_CHANGE:.0%} of below it: no switch"
+    if name == "nonlinear_speed_heat" and abs(s.exponent - 1.0) < MIN_EXPONENT_CHANGE:
+        return f"exponent {s.exponent:.3g}: linear heat"
     # the slow lag's lower limit relative to the structure's only keeps the two apart; a fit that
     # rests on it is a second structure time constant close to the first, still the named physics
     taus = {"slow_structure": (d.tau_slow_s, 1900.0, 90 * HOUR),
@@ -224,8 +268,16 @@ def implausible(sim: Simulation, name: str) -> str | None:
     return None
 
 
-def too_small(sim: Simulation, name: str, series: Series, sigma: dict) -> str | None:
-    """A sensor offset or drift below a few noise sigmas over the recording only soaks up the refit."""
+def too_small(sim: Simulation, name: str, series: Series, sigma: dict, target: str) -> str | None:
+    """A sensor offset or drift, or a displacement term, that moves less than a few noise sigmas over
+    the recording only soaks up the refit."""
+    if name in sim_.DISPLACEMENT_EFFECTS:
+        size = float(np.ptp(sim_.displacement_term(sim, series, name)))
+        noise = sigma[target]
+        if size < MIN_SENSOR_ERROR_SIGMAS * noise:
+            return (f"it moves the displacement {size:.3g} over the recording, under {MIN_SENSOR_ERROR_SIGMAS:g} times "
+                    f"its noise ({noise:.3g})")
+        return None
     if name not in ("sensor_offset", "sensor_drift"):
         return None
     i = sim.sensor_of(name)
@@ -267,6 +319,23 @@ def _label(p: tuple, series: Series) -> str:
     return name + (f" on {series.names[sensor]}" if sensor is not None else "")
 
 
+def polish(sim: Simulation, sim_score: Score, train: Series, series: Series, channels, sigma: dict, n_train: int
+           ) -> tuple[Simulation, Score]:
+    """Refit with the same effects, from where the last fit stopped, while the BIC falls. Searched
+    parameters (gear threshold, exponent, relay thresholds, standstill factors) are found with the
+    others held, so one fit stops short of its optimum; without this the next candidate's refit would be
+    credited with what refitting alone gains, and an effect of no size (a gear ratio of 1.00) named."""
+    if not any(sim.has(name) for name in SEARCHED):
+        return sim, sim_score
+    for _ in range(POLISH_ROUNDS):
+        again = sim_.fit(train, sim.effects, warm=sim, polish=True)
+        again_score = score(again, _simulate(again, series, channels)[1], sigma, n_train)
+        if again_score.bic > sim_score.bic - MIN_POLISH_GAIN:
+            break
+        sim, sim_score = again, again_score
+    return sim, sim_score
+
+
 def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulation | None = None,
              progress: Callable[[str], None] | None = None, structure_lag: bool = True) -> Diagnosis:
     """Search for missing effects; `structure_lag` keeps the displacement's structure lag in the
@@ -286,6 +355,7 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
     added, rounds = [], []
     skipped = {}
     ambiguous: tuple[str, ...] = ()
+    ambiguity = ""
     while windows and not insufficient:
         trials, passed = [], []
         options, skipped = candidates(series, current, train)
@@ -297,7 +367,7 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             s = score(trial, res, sigma, n_train)
             gain = held_out_gain(current_score, s)
             delta = s.bic - current_score.bic
-            why = implausible(trial, name) or too_small(trial, name, series, sigma) or (
+            why = implausible(trial, name, train) or too_small(trial, name, series, sigma, target_name) or (
                 sufficiency.relay_too_quiet(trial, train) if name == "coolant_switching" else None)
             ok = delta < -BIC_MARGIN and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out and why is None
             trials.append(Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False,
@@ -309,8 +379,11 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             break
         best = _choose(passed)
         rivals = _rivals(passed, best, current_score.bic)
-        if rivals:
-            ambiguous = tuple(_label(p, series) for p in (best, *rivals))
+        alike = sufficiency.look_alike(train, best[5])
+        if rivals or alike:
+            ambiguous = tuple(_label(p, series) for p in (best, *rivals)) if rivals else (_label(best, series), alike[0])
+            ambiguity = (f"their information criteria differ by less than {AMBIGUOUS_BIC_SHARE:.0%} of the gain"
+                         if rivals else alike[1])
             rounds.append(trials)
             break
         trial, s, res, sim_out, index, name = best
@@ -321,10 +394,11 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             "held_out_rmse_before": current_score.rmse_held_out, "held_out_rmse_after": s.rmse_held_out,
             "held_out_excess_removed": trials[index].held_out_gain,
             "windows": _window_change(windows0, residual, res)}})
-        current, current_score, residual, simulated = trial, s, res, sim_out
+        current, current_score = polish(trial, s, train, series, channels, sigma, n_train)
+        simulated, residual = (sim_out, res) if current is trial else _simulate(current, series, channels)
         windows = all_windows(residual, sigma, series.dt)
     if not windows0 or insufficient:
         skipped = candidates(series, base, train)[1]
     unseen = {k: text for k, w in enumerate(windows) if (text := sufficiency.unseen_conditions(series, n_train, w))}
     return Diagnosis(channels, sigma, base, current, before, current_score, windows0, windows, residual0, residual,
-                     simulated0, simulated, added, rounds, skipped, insufficient, unseen, ambiguous)
+                     simulated0, simulated, added, rounds, skipped, insufficient, unseen, ambiguous, ambiguity)

@@ -1,8 +1,8 @@
 """Can the data decide? Naming an effect the training part cannot show would be made up.
 
 A recording too short or without running says nothing about heat; an effect that needs speeds on
-both sides of a threshold, standstills after running or several coolant cycles is not tested where
-the training part lacks them; a held-out window at a speed the training part never ran is
+both sides of a threshold, standstills after running, several coolant cycles or a whole day of the
+hall air is not tested where the training part lacks them; a held-out window at a speed the training part never ran is
 reported as extrapolation rather than blamed on a missing effect.
 """
 from __future__ import annotations
@@ -18,6 +18,7 @@ MIN_TRAIN_S = 6 * HOUR  # the slowest sensor time constants are about an hour; l
 MIN_RUNNING_S = 1 * HOUR
 MIN_STANDSTILLS = 2  # stretches at rest of at least STANDSTILL_S, each after running
 STANDSTILL_S = 1800.0
+MIN_DAY_S = 24 * HOUR  # a slow structure or an ambient coupling: a whole daily cycle of the hall air
 MIN_RELAY_SWITCHES = 3  # on, off, on: one cycle and the start of another
 
 
@@ -42,17 +43,36 @@ def _standstills(train: Series, stopped_rpm: float) -> int:
                for start, stop in zip(edges[::2], edges[1::2]))
 
 
+def speed_groups(train: Series) -> int:
+    """How many groups of running speeds the training part has (standstill not counted)."""
+    return len(sim_.speed_levels(train.n, sim_.Shared(stopped_rpm=sim_.stopped_threshold(train.n))))
+
+
 def untestable(train: Series, name: str) -> str | None:
     """Why the training part cannot show this effect, or None."""
     shared = sim_.Shared(stopped_rpm=sim_.stopped_threshold(train.n))
-    groups = len(sim_.speed_levels(train.n, shared))
+    groups = speed_groups(train)
     if name == "gear_ratio_switch" and groups < 2:
         return f"the training part runs at {groups} speed group(s); a threshold needs speeds on both sides"
     if name == "nonlinear_speed_heat" and groups < 3:
         return f"the training part runs at {groups} speed group(s); a curve needs at least three"
+    span = train.rows * train.dt
+    if name in ("slow_structure", "ambient_coupling") and span < MIN_DAY_S:
+        return (f"the training part covers {span / HOUR:.1f} h; a lag of hours in the displacement is told from the "
+                f"sensors' own lags and from the ambient only over a whole day ({MIN_DAY_S / HOUR:g} h)")
     if name == "stop_convection" and _standstills(train, shared.stopped_rpm) < MIN_STANDSTILLS:
         return (f"the training part has fewer than {MIN_STANDSTILLS} standstills of {STANDSTILL_S / 60:g} min "
                 f"after running")
+    return None
+
+
+def look_alike(train: Series, name: str) -> tuple[str, str] | None:
+    """Another effect that fits the training part as well as `name` by construction, and why; or None.
+    Through two speed groups and standstill any heat curve is a switch between them."""
+    groups = speed_groups(train)
+    if name == "gear_ratio_switch" and groups < 3:
+        return "nonlinear_speed_heat", (f"the training part runs at {groups} speed groups: a switch between them "
+                                        "and a curve through them fit alike")
     return None
 
 

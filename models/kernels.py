@@ -61,7 +61,8 @@ def reference(which: str):
 JIT_OPTIONS = dict(cache=True, fastmath=False, error_model="numpy", nogil=True, boundscheck=False)
 
 
-def _jit(fn):
+def jit(fn):
+    """numba.njit with the house options (fast-math off, cached on disk); `fn` itself without numba."""
     if numba is None:
         return fn
     try:
@@ -74,7 +75,7 @@ def _jit(fn):
 # Kalman fusion (models/kalman.py::predict). sc[i] = A, AA, B, C, D, N, R, P0, Jmp, Agr of sensor i.
 # state: tf, pf, t0, tm_prev (float, per sensor); fault (bool, per sensor); started[0] (int).
 
-@_jit
+@jit
 def _kalman(te, n, measured, in_range, sc, betas, beta0, tf, pf, t0, tm_prev, fault, started, error, faults):
     k = measured.shape[0]
     rows = te.shape[0]
@@ -150,7 +151,7 @@ def kalman(te, n, measured: list, in_range: list, sc: np.ndarray, betas: np.ndar
 # ---------------------------------------------------------------------------------------------
 # Input guard (models/safety.py::_hold). state_f = last, good; state_i = fault, count.
 
-@_jit
+@jit
 def _hold(x, valid, is_range, ready_row, offset, settle, jump, state_f, state_i, held, faults):
     fault = state_i[0] != 0
     count = state_i[1]
@@ -209,7 +210,7 @@ def hold(x, valid, is_range: bool, ready_row: int, settle: int, jump, f, state: 
 # Output limiter (the loop over calls in models/safety.py::guarded_predict), one output.
 # y[0] is the output of the previous call.
 
-@_jit
+@jit
 def _limit(m, start, y_state, series, limited, clamped, invalid, real_max, step_max, step_min, out_max, out_min):
     y = y_state[0]
     for j in range(start, series.shape[0]):
@@ -246,7 +247,7 @@ def limit(model_values, start: int, y_state: np.ndarray, series, limited, clampe
 # ---------------------------------------------------------------------------------------------
 # Grey models (models/grey.py::predict_gm0n, predict_gm1n). temps: (k, rows).
 
-@_jit
+@jit
 def _gm0n(temps, a, x1, b, sums, prev, started, out):
     k = temps.shape[0]
     previous = prev[0]
@@ -264,7 +265,7 @@ def _gm0n(temps, a, x1, b, sums, prev, started, out):
     prev[0] = previous
 
 
-@_jit
+@jit
 def _gm1n(temps, x1, keep, gain, b, sums, prev, started, out):
     k = temps.shape[0]
     previous = prev[0]
@@ -316,7 +317,7 @@ def gm1n(temps: list, x1, keep, gain, b: list, f, state: GreyState | None = None
 # beta0, alpha, phi, CoolOn, CoolOff (absent ones 0; never used then); table: (segments, 3) node,
 # heat, slope.
 
-@_jit
+@jit
 def _lumped(temps, te, n, feed, flags, per, has_offset, sc, table, relay, zero, sim, ll, mm, t0, carried, status, out):
     k = temps.shape[0]
     gear, cool_on, stop, slow, amb, structure, with_feed = (flags[0], flags[1], flags[2], flags[3], flags[4],
