@@ -6,8 +6,10 @@ part (the noise-normalised squared error falls by at least `HELD_OUT_SHARE` of w
 above the noise), on a channel that is off on the held-out part by more than `MIN_EXCESS` and on
 the training part by more than `MIN_TRAIN_EXCESS`, so leftovers at the noise level and held-out
 extrapolation errors are never named. Of the supported candidates the one with the lowest BIC is
-added and the search repeats until no disagreement window is left or no candidate passes; what is
-left unexplained is reported as windows, never named.
+added, the model is refitted until its BIC stops falling, and the search repeats until no
+disagreement window is left or no candidate passes; what is left unexplained is reported as
+windows, never named, and when several effects were needed and windows are still left, none of
+them is named either.
 """
 from __future__ import annotations
 
