@@ -81,7 +81,7 @@ class Diagnosis:
     rounds: list[list[Trial]] = field(default_factory=list)
     not_tested: dict = field(default_factory=dict)  # name -> why
     insufficient: str | None = None  # why the data cannot support a diagnosis at all
-    unseen: dict = field(default_factory=dict)  # remaining window index -> conditions training never saw
+    unseen: dict = field(default_factory=dict)  # remaining window index -> why training cannot judge it
     ambiguous: tuple[str, ...] = ()  # supported effects the data cannot separate, none named
     ambiguity: str = ""  # why they cannot be separated
 
@@ -113,7 +113,7 @@ class Diagnosis:
         grouped: dict[str, list[int]] = {}
         for k, text in self.unseen.items():
             grouped.setdefault(text, []).append(k + 1)
-        notes = [("window " if len(ks) == 1 else "windows ") + ", ".join(map(str, ks)) + f" ran at {text}"
+        notes = [("window " if len(ks) == 1 else "windows ") + ", ".join(map(str, ks)) + f": {text}"
                  for text, ks in grouped.items()]
         if not self.names_effects:
             notes.insert(0, f"{len(self.added)} effects were added ({', '.join(e['name'] for e in self.added)}) and "
@@ -300,6 +300,15 @@ def all_windows(residual: dict, sigma: dict, dt: float) -> list[Window]:
     return [w for c, r in residual.items() for w in find_windows(c, r, sigma[c], dt)]
 
 
+def _extrapolated(window: Window, final: Score, n_train: int) -> str | None:
+    """A held-out window on a channel the training part fits within the noise: no refit on the
+    training part can be judged by it, so it says the model extrapolates, not which effect is missing."""
+    if window.start >= n_train and final.train_by_channel[window.channel] - 1.0 < MIN_TRAIN_EXCESS:
+        return (f"held out, on {window.channel}, which the training part fits within the noise (the model "
+                "extrapolates there; the training part cannot tell which effect is missing)")
+    return None
+
+
 def _choose(passed: list[tuple]) -> tuple:
     """Among the candidates both judges support, the one the information criterion prefers: the
     training part is the larger and its evidence grows with the data, while a held-out gain can be
@@ -401,6 +410,7 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
         windows = all_windows(residual, sigma, series.dt)
     if not windows0 or insufficient:
         skipped = candidates(series, base, train)[1]
-    unseen = {k: text for k, w in enumerate(windows) if (text := sufficiency.unseen_conditions(series, n_train, w))}
+    unseen = {k: text for k, w in enumerate(windows)
+              if (text := sufficiency.unseen_conditions(series, n_train, w) or _extrapolated(w, current_score, n_train))}
     return Diagnosis(channels, sigma, base, current, before, current_score, windows0, windows, residual0, residual,
                      simulated0, simulated, added, rounds, skipped, insufficient, unseen, ambiguous, ambiguity)

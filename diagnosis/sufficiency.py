@@ -108,4 +108,4 @@ def unseen_conditions(series: Series, n_train: int, window: Window) -> str | Non
     if len(te_window) and (te_window.min() < te_train.min() - 0.5 or te_window.max() > te_train.max() + 0.5):
         notes.append(f"ambient {te_window.min():.1f}..{te_window.max():.1f} degC outside the training part's "
                      f"{te_train.min():.1f}..{te_train.max():.1f} degC")
-    return "; ".join(notes) or None
+    return "ran at " + "; ".join(notes) if notes else None
