@@ -74,19 +74,24 @@ def wrong_name(r: dict) -> bool:
     return any(f != r["effect"] for f in r["found"])
 
 
+def _groups(results: list[dict]) -> list[tuple[str, float, float]]:
+    return sorted({(r["machine"], r["hours"], r["noise"]) for r in results},
+                  key=lambda k: (list(MACHINES).index(k[0]), k[1], k[2]))
+
+
 def table(results: list[dict]) -> list[str]:
-    lines = ["| machine | hours | effect | runs | right alone | right + others | missed | unexplained | wrong name "
-             "| RMSE before | after | s mean | s max |",
-             "| --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
-    keys = sorted({(r["machine"], r["hours"]) for r in results}, key=lambda k: (list(MACHINES).index(k[0]), k[1]))
-    for machine_name, hours in keys:
+    lines = ["| machine | hours | noise | effect | runs | right alone | right + others | missed | unexplained "
+             "| wrong name | RMSE before | after | s mean | s max |",
+             "| --- | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for machine_name, hours, noise in _groups(results):
         for name in (*NAMES, "none"):
-            rows = [r for r in results if (r["machine"], r["hours"], r["effect"]) == (machine_name, hours, name)]
+            rows = [r for r in results
+                    if (r["machine"], r["hours"], r["noise"], r["effect"]) == (machine_name, hours, noise, name)]
             if not rows:
                 continue
             kinds = [outcome(r) for r in rows]
             lines.append(
-                f"| {machine_name} | {hours:g} | `{name}` | {len(rows)} | {kinds.count('right')} | "
+                f"| {machine_name} | {hours:g} | x{noise:g} | `{name}` | {len(rows)} | {kinds.count('right')} | "
                 f"{kinds.count('right+others')} | {kinds.count('missed')} | {kinds.count('unexplained')} | "
                 f"{sum(wrong_name(r) for r in rows)} | {np.mean([r['before'] for r in rows]):.3f} | "
                 f"{np.mean([r['after'] for r in rows]):.3f} | {np.mean([r['seconds'] for r in rows]):.1f} | "
@@ -96,14 +101,14 @@ def table(results: list[dict]) -> list[str]:
 
 def summary(results: list[dict]) -> list[str]:
     lines = []
-    for machine_name, hours in sorted({(r["machine"], r["hours"]) for r in results}):
-        rows = [r for r in results if (r["machine"], r["hours"]) == (machine_name, hours)]
+    for machine_name, hours, noise in _groups(results):
+        rows = [r for r in results if (r["machine"], r["hours"], r["noise"]) == (machine_name, hours, noise)]
         clean = [r for r in rows if r["effect"] == "none"]
         hidden = [r for r in rows if r["effect"] != "none"]
         share = lambda part, whole: f"{len(part)}/{len(whole)} ({100 * len(part) / max(len(whole), 1):.0f} %)"
         target = TARGETS.get(hours, {})
         lines.append(
-            f"{machine_name} {hours:g} h: clean reads no_missing_effect "
+            f"{machine_name} {hours:g} h noise x{noise:g}: clean reads no_missing_effect "
             f"{share([r for r in clean if outcome(r) == 'right'], clean)}"
             + (f" [target >= {target['clean']:.0%}]" if "clean" in target else "")
             + f"; right name alone {share([r for r in hidden if outcome(r) == 'right'], hidden)}"

@@ -21,3 +21,23 @@ def test_replay_benchmark_reports_every_block_and_engine_as_json(capsys, monkeyp
     result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert set(result) == {"mlr", "kalman", "piecewise", "dlag", "gm0n", "gm1n", "bayes", "bpnn", "lumped"}
     assert all(set(r) == {"interp", "fast", "c_plain", "reference"} and min(r.values()) > 0 for r in result.values())
+
+
+def test_diagnose_benchmark_counts_outcomes_per_machine_length_and_noise():
+    from benchmarks import diagnose
+    base = {"machine": "portal", "hours": 72.0, "seed": 1, "parameters": {}, "reason": None, "channel": "E_z_um",
+            "before": 2.0, "after": 0.5, "seconds": 3.0}
+    runs = [{**base, "noise": 1.0, "effect": "sensor_offset", "verdict": "explained", "found": ["sensor_offset"]},
+            {**base, "noise": 1.0, "effect": "sensor_offset", "verdict": "unexplained", "found": ["sensor_drift"]},
+            {**base, "noise": 1.0, "effect": "none", "verdict": "no_missing_effect", "found": []},
+            {**base, "noise": 2.0, "effect": "sensor_offset", "verdict": "explained",
+             "found": ["sensor_offset", "stop_convection"]},
+            {**base, "noise": 2.0, "effect": "sensor_offset", "verdict": "no_missing_effect", "found": []}]
+    assert [diagnose.outcome(r) for r in runs] == ["right", "wrong", "right", "right+others", "missed"]
+    rows = [line for line in diagnose.table(runs) if "`sensor_offset`" in line]
+    assert rows == ["| portal | 72 | x1 | `sensor_offset` | 2 | 1 | 0 | 0 | 0 | 1 | 2.000 | 0.500 | 3.0 | 3.0 |",
+                    "| portal | 72 | x2 | `sensor_offset` | 2 | 0 | 1 | 1 | 0 | 1 | 2.000 | 0.500 | 3.0 | 3.0 |"]
+    first, second = diagnose.summary(runs)
+    assert first.startswith("portal 72 h noise x1: clean reads no_missing_effect 1/1 (100 %)")
+    assert "right name alone 1/2 (50 %)" in first and "a wrong name 1/3 (33 %) of all runs" in first
+    assert second.startswith("portal 72 h noise x2") and "a wrong name 1/2 (50 %)" in second
