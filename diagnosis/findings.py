@@ -78,6 +78,9 @@ def summary(d: Diagnosis) -> str:
     left = len(d.windows_after)
     if d.verdict == "explained":
         return f"explained by {names}; no disagreement beyond the noise is left"
+    if d.ambiguous:
+        return (f"{left} disagreement window(s) left; " + " or ".join(d.ambiguous) + " would fit, but the data cannot "
+                f"tell which ({d.reason})")
     found = f"found {names}, but " if names else ""
     because = f" ({d.reason})" if d.reason else ""
     return f"{found}{left} disagreement window(s) not explained by any known effect{because}"

@@ -123,6 +123,9 @@ def report(doc: dict, d: Diagnosis, series: Series, n_train: int) -> dict:
                      for k, trials in enumerate(doc["tested"], start=1))
     hours_total = (series.t[-1] - series.t[0]) / 3600
     hours_train = (series.t[n_train - 1] - series.t[0]) / 3600
+    not_named = (f"<p>Fitted but not named (disagreements are left after several effects; they may stand in for "
+                 f"what is missing): {html.escape(', '.join(doc['fitted_not_named']))}</p>"
+                 if doc["fitted_not_named"] else "")
     page = f"""<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>thermoplc diagnosis</title>
 <style>body{{font-family:sans-serif;max-width:1100px;margin:auto}}table{{border-collapse:collapse;margin:8px 0}}
@@ -131,7 +134,7 @@ td,th{{border:1px solid #bbb;padding:3px 6px;font-size:13px;text-align:left}}img
 <p>Data: {html.escape(str(doc['data'].get('file')))} ({doc['data']['rows']} rows, {hours_total:.1f} h; training part
 {n_train} rows, the first {hours_train:.1f} h). Temperatures in degC and their residuals in K, the displacement in um.</p>
 <h2>Verdict: {html.escape(doc['verdict'])}</h2><p>{html.escape(doc['summary'])}</p>
-<h2>Effects added, in order</h2>{effects}
+<h2>Effects named, in order</h2>{effects}{not_named}
 <h2>Gap before and after (held-out part)</h2>{channels}
 <h2>Disagreement windows of the baseline</h2>{windows}
 <h2>Plots</h2>{''.join(figures)}

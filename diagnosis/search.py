@@ -37,8 +37,6 @@ MIN_STAND_INS = 2  # this many effects added with windows still left: none is na
 POLISH_ROUNDS = 3
 MIN_POLISH_GAIN = 1.0  # BIC; a refit that gains less has converged
 MIN_HEAT_KEPT_SHARE = 0.5  # a slow structure must keep at least half as much of the heat as of the ambient
-# effects whose parameters are searched rather than solved: one fit can stop short of the optimum
-SEARCHED = ("gear_ratio_switch", "nonlinear_speed_heat", "coolant_switching", "stop_convection")
 HOUR = 3600.0
 
 
@@ -101,7 +99,10 @@ class Diagnosis:
 
     @property
     def named(self) -> list[dict]:
-        return self.added if self.names_effects else []
+        if not self.names_effects:
+            return []
+        doubtful = {label.split()[0] for label in self.ambiguous}
+        return [e for e in self.added if e["name"] not in doubtful]
 
     @property
     def reason(self) -> str | None:
@@ -120,8 +121,10 @@ class Diagnosis:
                             "disagreements are still left: they may stand in for what is missing, so none is named")
         if self.ambiguous:
             notes.insert(0, "the data cannot tell " + " from ".join(self.ambiguous) + f" ({self.ambiguity})")
-        if self.not_tested:
-            notes.append("not testable on this data: " + "; ".join(f"{k} ({v})" for k, v in self.not_tested.items()))
+        doubtful = {label.split()[0] for label in self.ambiguous}
+        untested = {k: v for k, v in self.not_tested.items() if k not in doubtful}  # the ambiguity says why
+        if untested:
+            notes.append("not testable on this data: " + "; ".join(f"{k} ({v})" for k, v in untested.items()))
         return "; ".join(notes) or None
 
 
@@ -236,15 +239,23 @@ def kept_shares(sim: Simulation, train: Series) -> tuple[float, float]:
     return shares[0], shares[1]
 
 
+def lag_of_the_air(sim: Simulation, train: Series) -> str | None:
+    """Why a fitted slow structure is a lag of the hall air rather than a structure the machine heats
+    (which follows that heat), or None."""
+    heat_kept, ambient_kept = kept_shares(sim, train)
+    if heat_kept < MIN_HEAT_KEPT_SHARE * ambient_kept:
+        return (f"its weights keep {heat_kept:.0%} of the machine's heat between the sensors and {ambient_kept:.0%} "
+                "of the ambient: a lag of the air, not a structure the machine heats")
+    return None
+
+
 def implausible(sim: Simulation, name: str, train: Series) -> str | None:
     """Why a fitted effect is not the named physics (a parameter at its search bound or with the
-    wrong sign), or None. Such a fit only soaks up a mismatch; naming it would be made up."""
+    wrong sign, of no size, or a slow structure that is a lag of the air), or None. Such a fit only
+    soaks up a mismatch; naming it would be made up."""
     s, d = sim.shared, sim.displacement
-    if name == "slow_structure":
-        heat_kept, ambient_kept = kept_shares(sim, train)
-        if heat_kept < MIN_HEAT_KEPT_SHARE * ambient_kept:  # a structure the machine heats follows that heat
-            return (f"its weights cancel the machine's heat between the sensors ({heat_kept:.0%} kept) and keep the "
-                    f"ambient ({ambient_kept:.0%}): a lag of the air, not a structure the machine heats")
+    if name == "slow_structure" and (why := lag_of_the_air(sim, train)):
+        return why
     if name == "coolant_switching" and sim.sensors[s.relay[0]].cooling >= 0:
         return "the switched term heats the sensor that switches it"
     if name == "nonlinear_speed_heat" and not 0.25 < s.exponent < 3.4:
@@ -255,7 +266,8 @@ def implausible(sim: Simulation, name: str, train: Series) -> str | None:
         return "standstill time constants equal to the running ones: no change"
     if name == "gear_ratio_switch" and any(p.gain + p.gear_gain < 0 for p in sim.sensors):
         return "negative heat above the threshold"
-    if name == "gear_ratio_switch" and all(abs(p.gear_gain) < MIN_GEAR_CHANGE * abs(p.gain) for p in sim.sensors):
+    largest_gain = max(abs(p.gain) for p in sim.sensors)
+    if name == "gear_ratio_switch" and all(abs(p.gear_gain) < MIN_GEAR_CHANGE * largest_gain for p in sim.sensors):
         return f"heat per rpm above the threshold within {MIN_GEAR_CHANGE:.0%} of below it: no switch"
     if name == "nonlinear_speed_heat" and abs(s.exponent - 1.0) < MIN_EXPONENT_CHANGE:
         return f"exponent {s.exponent:.3g}: linear heat"
@@ -332,12 +344,10 @@ def _label(p: tuple, series: Series) -> str:
 
 def polish(sim: Simulation, sim_score: Score, train: Series, series: Series, channels, sigma: dict, n_train: int
            ) -> tuple[Simulation, Score]:
-    """Refit with the same effects, from where the last fit stopped, while the BIC falls. Searched
-    parameters (gear threshold, exponent, relay thresholds, standstill factors) are found with the
-    others held, so one fit stops short of its optimum; without this the next candidate's refit would be
+    """Refit with the same effects, from where the last fit stopped, while the BIC falls. Time
+    constants, gear threshold, exponent, relay thresholds and standstill factors are searched with
+    the others held, so one fit stops short of its optimum; without this the next candidate's refit would be
     credited with what refitting alone gains, and an effect of no size (a gear ratio of 1.00) named."""
-    if not any(sim.has(name) for name in SEARCHED):
-        return sim, sim_score
     for _ in range(POLISH_ROUNDS):
         again = sim_.fit(train, sim.effects, warm=sim, polish=True)
         again_score = score(again, _simulate(again, series, channels)[1], sigma, n_train)
@@ -361,6 +371,10 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
     sigma = {c: noise_sigma(r) for c, r in residual0.items()}
     before = score(base, residual0, sigma, n_train)
     windows0 = all_windows(residual0, sigma, series.dt)
+    if windows0 and baseline is None and not insufficient:  # a candidate must not be credited with the refit
+        base, before = polish(base, before, train, series, channels, sigma, n_train)
+        simulated0, residual0 = _simulate(base, series, channels)
+        windows0 = all_windows(residual0, sigma, series.dt)
     current, current_score, residual, simulated = base, before, residual0, simulated0
     windows = windows0
     added, rounds = [], []
@@ -369,6 +383,7 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
     ambiguity = ""
     while windows and not insufficient:
         trials, passed = [], []
+        air_after_air = False
         options, skipped = candidates(series, current, train)
         for k, (name, sensor) in enumerate(options, start=1):
             say(f"round {len(rounds) + 1}: testing {name}" + (f" on {series.names[sensor]}" if sensor is not None else "")
@@ -380,11 +395,20 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             delta = s.bic - current_score.bic
             why = implausible(trial, name, train) or too_small(trial, name, series, sigma, target_name) or (
                 sufficiency.relay_too_quiet(trial, train) if name == "coolant_switching" else None)
-            ok = delta < -BIC_MARGIN and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out and why is None
+            judged = delta < -BIC_MARGIN and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
+            ok = judged and why is None
+            if judged and name == "slow_structure" and current.has("ambient_coupling") and lag_of_the_air(trial, train):
+                air_after_air = True
             trials.append(Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False,
                                 why))
             if ok:
                 passed.append((trial, s, res, sim_out, len(trials) - 1, name))
+        if air_after_air:  # the ambient lag added before leaves what a heat-cancelling structure still fits
+            ambiguous = ("ambient_coupling", "slow_structure")
+            ambiguity = ("after the ambient lag was added, a slow structure whose weights cancel the heat still "
+                         "improves the fit: the two are not told apart")
+            rounds.append(trials)
+            break
         if not passed:
             rounds.append(trials)
             break
@@ -408,6 +432,8 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
         current, current_score = polish(trial, s, train, series, channels, sigma, n_train)
         simulated, residual = (sim_out, res) if current is trial else _simulate(current, series, channels)
         windows = all_windows(residual, sigma, series.dt)
+    for effect in added:  # later refits move them: the parameters are those of the final model
+        effect["parameters"] = describe(current, effect["name"], series)
     if not windows0 or insufficient:
         skipped = candidates(series, base, train)[1]
     unseen = {k: text for k, w in enumerate(windows)

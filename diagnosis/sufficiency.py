@@ -58,7 +58,7 @@ def untestable(train: Series, name: str) -> str | None:
         return f"the training part runs at {groups} speed group(s); a curve needs at least three"
     span = train.rows * train.dt
     if name in ("slow_structure", "ambient_coupling") and span < MIN_DAY_S:
-        return (f"the training part covers {span / HOUR:.1f} h; a lag of hours in the displacement is told from the "
+        return (f"the training part covers {span / HOUR:.2f} h; a lag of hours in the displacement is told from the "
                 f"sensors' own lags and from the ambient only over a whole day ({MIN_DAY_S / HOUR:g} h)")
     if name == "stop_convection" and _standstills(train, shared.stopped_rpm) < MIN_STANDSTILLS:
         return (f"the training part has fewer than {MIN_STANDSTILLS} standstills of {STANDSTILL_S / 60:g} min "
@@ -71,8 +71,9 @@ def look_alike(train: Series, name: str) -> tuple[str, str] | None:
     Through two speed groups and standstill any heat curve is a switch between them."""
     groups = speed_groups(train)
     if name == "gear_ratio_switch" and groups < 3:
-        return "nonlinear_speed_heat", (f"the training part runs at {groups} speed groups: a switch between them "
-                                        "and a curve through them fit alike")
+        return "nonlinear_speed_heat", (f"a switch fits, but the training part runs at {groups} speed groups: a "
+                                        "switch between them and a curve through them fit alike, and a curve "
+                                        "is tested only from three groups")
     return None
 
 

@@ -177,8 +177,9 @@ def _lag_columns(x, a, y0):
 
 
 def lag_columns(x: np.ndarray, a: float, y0: np.ndarray) -> np.ndarray:
-    """`lag` of every column of `x` (rows, m) by one pole, column i from y0[i]; the same bits as
-    `lag` column by column (one product each, then one sum), and several times faster, since the
+    """`lag` of every column of `x` (rows, m) by one pole, column i from y0[i]; for finite values the
+    same bits as `lag` column by column (one product each, then one sum; lfilter turns an infinite
+    input into NaN one row later, this keeps it infinite), and several times faster, since the
     displacement fit lags every sensor thousands of times and the columns run side by side."""
     if kernels.numba is None:
         return np.column_stack([lag(x[:, i], a, y0[i]) for i in range(x.shape[1])])
