@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from thermoplc.diagnosis import search, sufficiency
+from thermoplc.diagnosis import findings, search, sufficiency
 from thermoplc.diagnosis.windows import Window
 from thermoplc.machines import machine
 from thermoplc.machines.random_effects import draw
@@ -65,6 +65,14 @@ def test_a_gear_switch_of_no_size_is_no_switch():
     assert search.implausible(_sim([("gear_ratio_switch", None)], real), "gear_ratio_switch", train) is None
 
 
+def test_a_barely_heated_sensor_does_not_make_a_switch_of_no_size_count():
+    """Gear gains are compared with the largest heat gain: a sensor that the spindle hardly heats
+    (a hall sensor) must not turn a tiny gear gain into a large relative change."""
+    train = _series(30)
+    hall = (SensorParams(3600.0, 2e-3, gear_gain=2e-5), SensorParams(3600.0, 2.5e-7, gear_gain=1e-6))
+    assert "no switch" in search.implausible(_sim([("gear_ratio_switch", None)], hall), "gear_ratio_switch", train)
+
+
 @pytest.mark.parametrize("exponent, linear", [(1.0, True), (1.04, True), (0.97, True), (1.3, False)])
 def test_an_exponent_near_one_is_linear_heat(exponent, linear):
     sim = _sim([("nonlinear_speed_heat", None)])
@@ -104,14 +112,14 @@ def test_through_two_speed_groups_a_switch_looks_like_a_curve(speeds, alike):
     assert sufficiency.look_alike(_series(30, speeds), "sensor_offset") is None
 
 
-@pytest.mark.parametrize("hours, testable", [(14.4, False), (23.9, False), (24.0, True), (43.0, True)])
-def test_slow_lags_need_a_whole_day(hours, testable):
-    train = _series(hours)
+@pytest.mark.parametrize("rows, testable", [(5184, False), (8639, False), (8640, True), (15552, True)])
+def test_slow_lags_need_a_whole_day(rows, testable):
+    train = _series(50).head(rows)
     for name in ("slow_structure", "ambient_coupling"):
         why = sufficiency.untestable(train, name)
-        assert (why is None) == testable, (hours, name, why)
+        assert (why is None) == testable, (rows, name, why)
         if why:
-            assert "whole day" in why
+            assert "whole day" in why and f"covers {rows * DT / HOUR:.2f} h" in why
     assert sufficiency.untestable(train, "sensor_offset") is None
 
 
@@ -126,6 +134,11 @@ def test_several_effects_with_disagreements_left_are_not_named():
     assert "2 effects were added (sensor_offset, stop_convection)" in left.reason and "none is named" in left.reason
     assert dataclasses.replace(left, added=[one]).named == [one]
     assert dataclasses.replace(left, windows_after=[]).named == [one, two]
+    air = {"name": "ambient_coupling", "parameters": {}, "evidence": {}}
+    doubted = dataclasses.replace(left, added=[air], ambiguous=("ambient_coupling", "slow_structure"),
+                                  ambiguity="after the ambient lag was added, ...")
+    assert doubted.named == []
+    assert "would fit, but the data cannot tell which" in findings.summary(doubted)
 
 
 @pytest.mark.slow
