@@ -346,8 +346,9 @@ def polish(sim: Simulation, sim_score: Score, train: Series, series: Series, cha
            ) -> tuple[Simulation, Score]:
     """Refit with the same effects, from where the last fit stopped, while the BIC falls. Time
     constants, gear threshold, exponent, relay thresholds and standstill factors are searched with
-    the others held, so one fit stops short of its optimum; without this the next candidate's refit would be
-    credited with what refitting alone gains, and an effect of no size (a gear ratio of 1.00) named."""
+    the others held, so one fit stops short of its optimum; without this the next candidate's
+    refit would be credited with what refitting alone gains, and an effect of no size (a gear
+    ratio of 1.00) named."""
     for _ in range(POLISH_ROUNDS):
         again = sim_.fit(train, sim.effects, warm=sim, polish=True)
         again_score = score(again, _simulate(again, series, channels)[1], sigma, n_train)
