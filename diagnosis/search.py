@@ -98,11 +98,15 @@ class Diagnosis:
         return not (self.verdict == "unexplained" and len(self.added) >= MIN_STAND_INS)
 
     @property
+    def doubtful(self) -> set[str]:
+        """Names of the effects the data cannot tell apart ("sensor_offset on T_motor" -> sensor_offset)."""
+        return {label.split()[0] for label in self.ambiguous}
+
+    @property
     def named(self) -> list[dict]:
         if not self.names_effects:
             return []
-        doubtful = {label.split()[0] for label in self.ambiguous}
-        return [e for e in self.added if e["name"] not in doubtful]
+        return [e for e in self.added if e["name"] not in self.doubtful]
 
     @property
     def reason(self) -> str | None:
@@ -121,8 +125,7 @@ class Diagnosis:
                             "disagreements are still left: they may stand in for what is missing, so none is named")
         if self.ambiguous:
             notes.insert(0, "the data cannot tell " + " from ".join(self.ambiguous) + f" ({self.ambiguity})")
-        doubtful = {label.split()[0] for label in self.ambiguous}
-        untested = {k: v for k, v in self.not_tested.items() if k not in doubtful}  # the ambiguity says why
+        untested = {k: v for k, v in self.not_tested.items() if k not in self.doubtful}  # the ambiguity says why
         if untested:
             notes.append("not testable on this data: " + "; ".join(f"{k} ({v})" for k, v in untested.items()))
         return "; ".join(notes) or None

@@ -50,7 +50,6 @@ def speed_groups(train: Series) -> int:
 
 def untestable(train: Series, name: str) -> str | None:
     """Why the training part cannot show this effect, or None."""
-    shared = sim_.Shared(stopped_rpm=sim_.stopped_threshold(train.n))
     groups = speed_groups(train)
     if name == "gear_ratio_switch" and groups < 2:
         return f"the training part runs at {groups} speed group(s); a threshold needs speeds on both sides"
@@ -60,7 +59,7 @@ def untestable(train: Series, name: str) -> str | None:
     if name in ("slow_structure", "ambient_coupling") and span < MIN_DAY_S:
         return (f"the training part covers {span / HOUR:.2f} h; a lag of hours in the displacement is told from the "
                 f"sensors' own lags and from the ambient only over a whole day ({MIN_DAY_S / HOUR:g} h)")
-    if name == "stop_convection" and _standstills(train, shared.stopped_rpm) < MIN_STANDSTILLS:
+    if name == "stop_convection" and _standstills(train, sim_.stopped_threshold(train.n)) < MIN_STANDSTILLS:
         return (f"the training part has fewer than {MIN_STANDSTILLS} standstills of {STANDSTILL_S / 60:g} min "
                 f"after running")
     return None

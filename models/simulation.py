@@ -501,14 +501,20 @@ def temperatures(series: Series, sim_shared: Shared, sensors, effects) -> tuple[
     physical temperature is their sum (and the form the block computes)."""
     readings = np.empty_like(series.temps)
     physical = np.empty_like(series.temps)
-    start = first_temperatures(series, sensors)
-    cooling = closed_loop_cooling(series, sim_shared, sensors, effects) if sim_shared.relay is not None else None
-    for i, p in enumerate(sensors):
-        a = _poles(series, sim_shared, p)
-        q = sum(getattr(p, name) * x for name, x in _heat_inputs(series, sim_shared, effects, cooling))
+    start, drives = _drives(series, sim_shared, sensors, effects)
+    for i, (p, (a, q)) in enumerate(zip(sensors, drives)):
         physical[:, i] = lag(series.te + q, a, start[i])
         readings[:, i] = physical[:, i] + p.offset_K + p.drift_K_per_s * (series.t - series.t[0])
     return readings, physical
+
+
+def _drives(series: Series, shared: Shared, sensors, effects) -> tuple[np.ndarray, list]:
+    """The physical start temperatures, and per sensor its pole(s) and heat input (the coolant relay
+    switched by the simulated temperature)."""
+    cooling = closed_loop_cooling(series, shared, sensors, effects) if shared.relay is not None else None
+    inputs = _heat_inputs(series, shared, effects, cooling)
+    return first_temperatures(series, sensors), [
+        (_poles(series, shared, p), sum(getattr(p, name) * x for name, x in inputs)) for p in sensors]
 
 
 def ambient_and_heat_parts(series: Series, sim: Simulation) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -517,11 +523,8 @@ def ambient_and_heat_parts(series: Series, sim: Simulation) -> tuple[np.ndarray,
     The two share each sensor's pole, so they add up to `temperatures` (to rounding)."""
     ambient = np.empty_like(series.temps)
     heat = np.empty_like(series.temps)
-    start = first_temperatures(series, sim.sensors)
-    cooling = closed_loop_cooling(series, sim.shared, sim.sensors, sim.effects) if sim.shared.relay is not None else None
-    for i, p in enumerate(sim.sensors):
-        a = _poles(series, sim.shared, p)
-        q = sum(getattr(p, name) * x for name, x in _heat_inputs(series, sim.shared, sim.effects, cooling))
+    start, drives = _drives(series, sim.shared, sim.sensors, sim.effects)
+    for i, (a, q) in enumerate(drives):
         ambient[:, i] = lag(series.te, a, start[i])
         heat[:, i] = lag(q, a, 0.0)
     return ambient, heat, start
