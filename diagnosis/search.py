@@ -4,9 +4,11 @@ An effect is kept only when both judges agree: the information criterion on the 
 (BIC, Gaussian with one variance per channel, falls by more than `BIC_MARGIN`) and the held-out
 part (the noise-normalised squared error falls by at least `HELD_OUT_SHARE` of what is left
 above the noise), on a channel that is off on the held-out part by more than `MIN_EXCESS` and on
-the training part by more than `MIN_TRAIN_EXCESS`, so leftovers at the noise level and held-out
+the training part by more than `MIN_TRAIN_EXCESS` (or that the candidate fits better on the training
+part by `MIN_TRAIN_EVIDENCE` noise variances), so leftovers at the noise level and held-out
 extrapolation errors are never named. Of the supported candidates the one with the lowest BIC is
-added, the model is refitted until its BIC stops falling, and the search repeats until no
+added, unless another plausible one gains nearly as much BIC (then the data cannot tell them apart,
+whichever the held-out part prefers); the model is refitted until its BIC stops falling, and the search repeats until no
 disagreement window is left or no candidate passes; what is left unexplained is reported as
 windows, never named, and when several effects were needed and windows are still left, none of
 them is named either.
@@ -30,6 +32,7 @@ HELD_OUT_SHARE = 0.2
 MIN_LOG_STOP_FACTOR = 0.05  # a standstill factor within 5 % of 1 is no effect
 MIN_SENSOR_ERROR_SIGMAS = 3.0  # an offset or a drift over the recording smaller than this many noise sigmas is noise
 MIN_TRAIN_EXCESS = 0.05  # ... and its training MSE by this share
+MIN_TRAIN_EVIDENCE = 100.0  # or a candidate cuts its training squared error by this many noise variances
 MIN_EXCESS = 0.1  # a channel counts as off when its held-out MSE exceeds its noise variance by this share
 MIN_GEAR_CHANGE = 0.05  # heat ratios above the threshold within 5 % of 1 on every sensor are no switch
 MIN_EXPONENT_CHANGE = 0.05  # an exponent within this of 1 is linear heat
@@ -163,13 +166,16 @@ def score(sim: Simulation, residual: dict, sigma: dict, n_train: int) -> Score:
     return Score(rmse_train, rmse_held, max_held, float(bic), held, normalised, train_normalised)
 
 
-def held_out_gain(before: Score, after: Score) -> float:
+def held_out_gain(before: Score, after: Score, n_train: int) -> float:
     """The largest share of a channel's excess above noise removed, over channels that are off on the
-    held-out part and visibly so on the training part: a held-out gap the training part does not show
-    is extrapolation error (of coefficients the data hardly separates), not a missing effect."""
+    held-out part and that the training part supports: visibly off there too, or fitted better by
+    the candidate beyond what chance allows. A held-out gap the training part gives no evidence on is
+    extrapolation error (of coefficients the data hardly separates), not a missing effect."""
+    def supported(c: str) -> bool:
+        visible = before.train_by_channel[c] - 1.0 >= MIN_TRAIN_EXCESS
+        return visible or n_train * (before.train_by_channel[c] - after.train_by_channel[c]) >= MIN_TRAIN_EVIDENCE
     gains = [(before.held_out_by_channel[c] - after.held_out_by_channel[c]) / (before.held_out_by_channel[c] - 1.0)
-             for c in before.held_out_by_channel if before.held_out_by_channel[c] - 1.0 >= MIN_EXCESS
-             and before.train_by_channel[c] - 1.0 >= MIN_TRAIN_EXCESS]
+             for c in before.held_out_by_channel if before.held_out_by_channel[c] - 1.0 >= MIN_EXCESS and supported(c)]
     return max(gains, default=0.0)
 
 
@@ -331,12 +337,13 @@ def _choose(passed: list[tuple]) -> tuple:
     return min(passed, key=lambda p: p[1].bic)
 
 
-def _rivals(passed: list[tuple], best: tuple, bic_before: float) -> list[tuple]:
-    """Other supported effects that the BIC barely separates from its choice (slow structure and
-    lagged ambient look alike when the temperatures follow the air): naming either would be a coin
-    toss, whichever the held-out part prefers. The same effect on another sensor is no rival."""
+def _rivals(credible: list[tuple], best: tuple, bic_before: float) -> list[tuple]:
+    """Other plausible effects that the BIC prefers or barely separates from its choice (slow
+    structure and lagged ambient look alike when the temperatures follow the air): naming either
+    would be a coin toss, whichever the held-out part prefers, so a rival need not pass the
+    held-out judge. The same effect on another sensor is no rival."""
     best_gain = abs(best[1].bic - bic_before)
-    return [p for p in passed if p[5] != best[5] and p[1].bic - best[1].bic < AMBIGUOUS_BIC_SHARE * best_gain]
+    return [p for p in credible if p[5] != best[5] and p[1].bic - best[1].bic < AMBIGUOUS_BIC_SHARE * best_gain]
 
 
 def _label(p: tuple, series: Series) -> str:
@@ -386,7 +393,7 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
     ambiguous: tuple[str, ...] = ()
     ambiguity = ""
     while windows and not insufficient:
-        trials, passed = [], []
+        trials, passed, credible = [], [], []
         air_after_air = False
         options, skipped = candidates(series, current, train)
         for k, (name, sensor) in enumerate(options, start=1):
@@ -395,18 +402,20 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             trial = sim_.fit(train, (*current.effects, (name, sensor)), warm=current)
             sim_out, res = _simulate(trial, series, channels)
             s = score(trial, res, sigma, n_train)
-            gain = held_out_gain(current_score, s)
+            gain = held_out_gain(current_score, s, n_train)
             delta = s.bic - current_score.bic
             why = implausible(trial, name, train) or too_small(trial, name, series, sigma, target_name) or (
                 sufficiency.relay_too_quiet(trial, train) if name == "coolant_switching" else None)
-            judged = delta < -BIC_MARGIN and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
-            ok = judged and why is None
+            by_bic = delta < -BIC_MARGIN
+            judged = by_bic and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
             if judged and name == "slow_structure" and current.has("ambient_coupling") and lag_of_the_air(trial, train):
                 air_after_air = True
             trials.append(Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False,
                                 why))
-            if ok:
-                passed.append((trial, s, res, sim_out, len(trials) - 1, name))
+            if by_bic and why is None:
+                credible.append((trial, s, res, sim_out, len(trials) - 1, name))
+                if judged:
+                    passed.append(credible[-1])
         if air_after_air:  # the ambient lag added before leaves what a heat-cancelling structure still fits
             ambiguous = ("ambient_coupling", "slow_structure")
             ambiguity = ("after the ambient lag was added, a slow structure whose weights cancel the heat still "
@@ -417,7 +426,7 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             rounds.append(trials)
             break
         best = _choose(passed)
-        rivals = _rivals(passed, best, current_score.bic)
+        rivals = _rivals(credible, best, current_score.bic)
         alike = sufficiency.look_alike(train, best[5])
         if rivals or alike:
             ambiguous = tuple(_label(p, series) for p in (best, *rivals)) if rivals else (_label(best, series), alike[0])

@@ -441,7 +441,7 @@ def _fit_relay(series, shared, effects, starts):
             break
         chosen = (on, off)
         shared = replace(shared, relay=(sensor, float(on), float(off)))
-        sensors = _fit_all_sensors(series, shared, effects, None)[0]
+        sensors = _fit_all_sensors(series, shared, effects, None, relay(temperature, on, off))[0]
     for _ in range(CLOSED_LOOP_ROUNDS):
         parts = prepared()
         for reach, points in ((4.0, 17), (0.5, 11)):  # coarse, then fine: the measured relay trips early
