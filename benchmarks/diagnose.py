@@ -4,10 +4,18 @@
                                   [--noise 1 2] [--jobs 2] [--json results.json]
 
 Per machine, recording length and effect: how often the hidden effect was named alone (right),
-named beside others, missed (verdict no_missing_effect or insufficient_data), left unexplained, and
-how many runs named something that was not hidden (wrong); the held-out RMSE before/after in the
+named beside others, missed (verdict no_missing_effect or insufficient_data), left unexplained,
+inside the baseline's class (see below), and how many runs named something that was not hidden
+(wrong); the held-out RMSE before/after in the
 channel that was off most; seconds per diagnosis. Parameters are drawn per seed from plausible
 ranges (thermoplc.machines.random_effects); "none" is clean data and must read no_missing_effect.
+
+Some draws hide an effect that the baseline's own class follows (an ambient lag as fast as the
+sensors' lags, a slow structure of a few µm): no method can see it missing. Each run therefore
+also fits the baseline to the same recording without noise; when that fit leaves less than
+`VISIBLE_EXCESS` of the noise variance on every channel, the effect is "inside the class". Such
+a run that names nothing is counted apart, not as a miss, and the "right name alone" share is
+taken over the other runs; a wrong name on it still counts as wrong.
 """
 from __future__ import annotations
 
@@ -25,10 +33,12 @@ import numpy as np  # noqa: E402
 from thermoplc.diagnosis.search import diagnose  # noqa: E402
 from thermoplc.machines import MACHINES, machine  # noqa: E402
 from thermoplc.machines.random_effects import draw  # noqa: E402
+from thermoplc.models import simulation  # noqa: E402
 from thermoplc.models.effects import NAMES  # noqa: E402
 from thermoplc.models.simulation import Series  # noqa: E402
 
 TRAIN_SHARE = 0.6
+VISIBLE_EXCESS = 0.1  # share of the noise variance the exact baseline fit must leave on some channel
 TARGETS = {72.0: {"clean": 0.95, "right": 0.90, "wrong": 0.02}, 24.0: {"wrong": 0.02}}
 
 
@@ -38,6 +48,17 @@ def series_of(chosen, columns: dict) -> Series:
                   np.column_stack([columns[c] for c in temps]), temps, columns["E_z_um"], columns["v_feed_mm_min"])
 
 
+def excess_inside_class(chosen, hours: float, seed: int, effects: tuple, train_rows: int, noisy: dict) -> float:
+    """The largest share of a channel's noise variance that the baseline, fitted to the recording
+    without noise, leaves as residual: near 0 when the hidden effect is one the baseline follows."""
+    exact = chosen.simulate(hours, seed, effects=effects, noise=0.0)
+    exact_series = series_of(chosen, {**exact, "E_z_um": exact["E_z_true_um"]})
+    simulated = simulation.run(simulation.fit(exact_series.head(train_rows)), exact_series)
+    pairs = [(exact[c], simulated[c], noisy[c]) for c in chosen.DIAGNOSED]
+    pairs.append((exact["E_z_true_um"], simulated["target"], noisy["E_z_um"]))
+    return max(float(np.mean((truth - fitted) ** 2) / np.var(measured - truth)) for truth, fitted, measured in pairs)
+
+
 def one(case: tuple[str, str, int, float, float]) -> dict:
     machine_name, name, seed, noise, hours = case
     chosen = machine(machine_name)
@@ -45,6 +66,7 @@ def one(case: tuple[str, str, int, float, float]) -> dict:
     train_rows = int(TRAIN_SHARE * len(clean["time_s"]))
     effect = None if name == "none" else draw(name, chosen, clean, train_rows, seed)
     columns = clean if effect is None else chosen.simulate(hours, seed, effects=(effect,), noise=noise)
+    inside = 0.0 if effect is None else excess_inside_class(chosen, hours, seed, (effect,), train_rows, columns)
     series = series_of(chosen, columns)
     start = time.perf_counter()
     d = diagnose(series, train_rows, "E_z_um")
@@ -55,7 +77,7 @@ def one(case: tuple[str, str, int, float, float]) -> dict:
     return {"machine": machine_name, "effect": name, "seed": seed, "noise": noise, "hours": hours,
             "parameters": dict(effect.parameters) if effect else {}, "verdict": d.verdict, "found": found,
             "reason": d.reason, "channel": channel, "before": d.before.rmse_held_out[channel],
-            "after": d.after.rmse_held_out[channel], "seconds": seconds}
+            "after": d.after.rmse_held_out[channel], "seconds": seconds, "excess_inside_class": inside}
 
 
 def outcome(r: dict) -> str:
@@ -67,6 +89,8 @@ def outcome(r: dict) -> str:
         return "right+others"
     if r["found"]:
         return "wrong"
+    if r.get("excess_inside_class", np.inf) < VISIBLE_EXCESS:
+        return "inside class"
     return "missed" if r["verdict"] in ("no_missing_effect", "insufficient_data") else "unexplained"
 
 
@@ -81,8 +105,8 @@ def _groups(results: list[dict]) -> list[tuple[str, float, float]]:
 
 def table(results: list[dict]) -> list[str]:
     lines = ["| machine | hours | noise | effect | runs | right alone | right + others | missed | unexplained "
-             "| wrong name | RMSE before | after | s mean | s max |",
-             "| --- | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+             "| inside class | wrong name | RMSE before | after | s mean | s max |",
+             "| --- | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for machine_name, hours, noise in _groups(results):
         for name in (*NAMES, "none"):
             rows = [r for r in results
@@ -93,6 +117,7 @@ def table(results: list[dict]) -> list[str]:
             lines.append(
                 f"| {machine_name} | {hours:g} | x{noise:g} | `{name}` | {len(rows)} | {kinds.count('right')} | "
                 f"{kinds.count('right+others')} | {kinds.count('missed')} | {kinds.count('unexplained')} | "
+                f"{kinds.count('inside class')} | "
                 f"{sum(wrong_name(r) for r in rows)} | {np.mean([r['before'] for r in rows]):.3f} | "
                 f"{np.mean([r['after'] for r in rows]):.3f} | {np.mean([r['seconds'] for r in rows]):.1f} | "
                 f"{np.max([r['seconds'] for r in rows]):.1f} |")
@@ -104,14 +129,16 @@ def summary(results: list[dict]) -> list[str]:
     for machine_name, hours, noise in _groups(results):
         rows = [r for r in results if (r["machine"], r["hours"], r["noise"]) == (machine_name, hours, noise)]
         clean = [r for r in rows if r["effect"] == "none"]
-        hidden = [r for r in rows if r["effect"] != "none"]
+        inside = [r for r in rows if outcome(r) == "inside class"]
+        hidden = [r for r in rows if r["effect"] != "none" and outcome(r) != "inside class"]
         share = lambda part, whole: f"{len(part)}/{len(whole)} ({100 * len(part) / max(len(whole), 1):.0f} %)"
         target = TARGETS.get(hours, {})
         lines.append(
             f"{machine_name} {hours:g} h noise x{noise:g}: clean reads no_missing_effect "
             f"{share([r for r in clean if outcome(r) == 'right'], clean)}"
             + (f" [target >= {target['clean']:.0%}]" if "clean" in target else "")
-            + f"; right name alone {share([r for r in hidden if outcome(r) == 'right'], hidden)}"
+            + f"; right name alone {share([r for r in hidden if outcome(r) == 'right'], hidden)} of the runs "
+            f"whose effect is outside the baseline's class ({len(inside)} inside it named nothing)"
             + (f" [target >= {target['right']:.0%}]" if "right" in target else "")
             + f"; a wrong name {share([r for r in rows if wrong_name(r)], rows)} of all runs"
             + (f" [target <= {target['wrong']:.0%}]" if "wrong" in target else "")

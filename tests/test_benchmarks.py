@@ -32,12 +32,19 @@ def test_diagnose_benchmark_counts_outcomes_per_machine_length_and_noise():
             {**base, "noise": 1.0, "effect": "none", "verdict": "no_missing_effect", "found": []},
             {**base, "noise": 2.0, "effect": "sensor_offset", "verdict": "explained",
              "found": ["sensor_offset", "stop_convection"]},
-            {**base, "noise": 2.0, "effect": "sensor_offset", "verdict": "no_missing_effect", "found": []}]
-    assert [diagnose.outcome(r) for r in runs] == ["right", "wrong", "right", "right+others", "missed"]
+            {**base, "noise": 2.0, "effect": "sensor_offset", "verdict": "no_missing_effect", "found": [],
+             "excess_inside_class": 0.5},
+            {**base, "noise": 2.0, "effect": "sensor_offset", "verdict": "no_missing_effect", "found": [],
+             "excess_inside_class": 0.02},
+            {**base, "noise": 2.0, "effect": "sensor_offset", "verdict": "explained", "found": ["sensor_drift"],
+             "excess_inside_class": 0.02}]
+    assert [diagnose.outcome(r) for r in runs] == ["right", "wrong", "right", "right+others", "missed",
+                                                   "inside class", "wrong"]
     rows = [line for line in diagnose.table(runs) if "`sensor_offset`" in line]
-    assert rows == ["| portal | 72 | x1 | `sensor_offset` | 2 | 1 | 0 | 0 | 0 | 1 | 2.000 | 0.500 | 3.0 | 3.0 |",
-                    "| portal | 72 | x2 | `sensor_offset` | 2 | 0 | 1 | 1 | 0 | 1 | 2.000 | 0.500 | 3.0 | 3.0 |"]
+    assert rows == ["| portal | 72 | x1 | `sensor_offset` | 2 | 1 | 0 | 0 | 0 | 0 | 1 | 2.000 | 0.500 | 3.0 | 3.0 |",
+                    "| portal | 72 | x2 | `sensor_offset` | 4 | 0 | 1 | 1 | 0 | 1 | 2 | 2.000 | 0.500 | 3.0 | 3.0 |"]
     first, second = diagnose.summary(runs)
     assert first.startswith("portal 72 h noise x1: clean reads no_missing_effect 1/1 (100 %)")
     assert "right name alone 1/2 (50 %)" in first and "a wrong name 1/3 (33 %) of all runs" in first
-    assert second.startswith("portal 72 h noise x2") and "a wrong name 1/2 (50 %)" in second
+    assert second.startswith("portal 72 h noise x2") and "a wrong name 2/4 (50 %)" in second
+    assert "right name alone 0/3 (0 %) of the runs whose effect is outside the baseline's class (1 inside" in second
