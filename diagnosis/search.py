@@ -21,7 +21,7 @@ from typing import Callable
 import numpy as np
 
 from thermoplc.diagnosis import sufficiency
-from thermoplc.diagnosis.windows import Window, find_windows, noise_sigma
+from thermoplc.diagnosis.windows import Window, find_windows, noise_sigma, settling_s
 from thermoplc.models import simulation as sim_
 from thermoplc.models.effects import NAMES
 from thermoplc.models.simulation import Series, Simulation
@@ -317,8 +317,11 @@ def _window_change(windows: list[Window], before: dict, after: dict) -> list[dic
              "rms_after": float(np.sqrt(np.mean(after[w.channel][w.start:w.stop] ** 2)))} for w in windows]
 
 
-def all_windows(residual: dict, sigma: dict, dt: float) -> list[Window]:
-    return [w for c, r in residual.items() for w in find_windows(c, r, sigma[c], dt)]
+def all_windows(sim: Simulation, residual: dict, sigma: dict, dt: float) -> list[Window]:
+    """Each sensor settles by its own time constant; the target, fed by every sensor, by the slowest."""
+    settling = [settling_s(p.tau_s) for p in sim.sensors]
+    return [w for k, (c, r) in enumerate(residual.items())
+            for w in find_windows(c, r, sigma[c], dt, settling[k] if k < len(settling) else max(settling))]
 
 
 def _extrapolated(window: Window, final: Score, n_train: int) -> str | None:
@@ -381,11 +384,11 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
     simulated0, residual0 = _simulate(base, series, channels)
     sigma = {c: noise_sigma(r) for c, r in residual0.items()}
     before = score(base, residual0, sigma, n_train)
-    windows0 = all_windows(residual0, sigma, series.dt)
+    windows0 = all_windows(base, residual0, sigma, series.dt)
     if windows0 and baseline is None and not insufficient:  # a candidate must not be credited with the refit
         base, before = polish(base, before, train, series, channels, sigma, n_train)
         simulated0, residual0 = _simulate(base, series, channels)
-        windows0 = all_windows(residual0, sigma, series.dt)
+        windows0 = all_windows(base, residual0, sigma, series.dt)
     current, current_score, residual, simulated = base, before, residual0, simulated0
     windows = windows0
     added, rounds = [], []
@@ -444,7 +447,7 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             "windows": _window_change(windows0, residual, res)}})
         current, current_score = polish(trial, s, train, series, channels, sigma, n_train)
         simulated, residual = (sim_out, res) if current is trial else _simulate(current, series, channels)
-        windows = all_windows(residual, sigma, series.dt)
+        windows = all_windows(current, residual, sigma, series.dt)
     for effect in added:  # later refits move them: the parameters are those of the final model
         effect["parameters"] = describe(current, effect["name"], series)
     if not windows0 or insufficient:

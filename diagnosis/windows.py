@@ -14,7 +14,9 @@ SMOOTHING_S = 1800.0
 BAND_SIGMAS = 6.0  # band on the smoothed residual, in standard errors of the mean over the smoothing time
 BAND_FLOOR = 1.0  # ... and never below the noise itself: a systematic gap smaller than the sensor noise is not worth a name
 MAD_TO_SIGMA = 1.4826
-SETTLING_S = 3600.0  # the simulation starts from one noisy sample; its first hour is not judged
+SETTLING_S = 3600.0  # the simulation starts from one noisy sample; its first hour is not judged ...
+SETTLING_TIME_CONSTANTS = 1.2  # ... nor, on a slow sensor, the time a start 3.3 sigmas off takes to fall to 1
+MAX_SETTLING_S = 3 * 3600.0
 
 
 @dataclass(frozen=True)
@@ -49,10 +51,18 @@ def band(sigma: float, width: int) -> float:
     return max(BAND_SIGMAS * sigma / np.sqrt(width), BAND_FLOOR * sigma)
 
 
-def find_windows(channel: str, residual: np.ndarray, sigma: float, dt: float) -> list[Window]:
+def settling_s(time_constant_s: float) -> float:
+    """How long a simulation started from one noisy reading is not judged: an hour, or on a sensor
+    slower than that the time its start error (a sample a few sigmas off) takes to decay into the
+    band, at most `MAX_SETTLING_S`."""
+    return float(np.clip(SETTLING_TIME_CONSTANTS * time_constant_s, SETTLING_S, MAX_SETTLING_S))
+
+
+def find_windows(channel: str, residual: np.ndarray, sigma: float, dt: float, settling: float = SETTLING_S
+                 ) -> list[Window]:
     width = smoothing_rows(dt)
     outside = np.abs(smooth(residual, width)) > band(sigma, width)
-    outside[:int(round(SETTLING_S / dt))] = False
+    outside[:int(round(settling / dt))] = False
     edges = np.flatnonzero(np.diff(np.r_[0, outside.astype(int), 0]))
     runs = list(zip(edges[::2], edges[1::2]))
     merged: list[list[int]] = []

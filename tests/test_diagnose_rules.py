@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from thermoplc.diagnosis import findings, search, sufficiency
+from thermoplc.diagnosis import findings, search, sufficiency, windows
 from thermoplc.diagnosis.windows import Window
 from thermoplc.machines import machine
 from thermoplc.machines.random_effects import draw
@@ -215,6 +215,17 @@ def test_a_noisy_switch_sensor_does_not_lose_the_relay_thresholds():
     _, on, off = fitted.shared.relay
     assert abs(on - effect.get("on_C")) < 0.15 and abs(off - effect.get("off_C")) < 0.15
     assert abs(fitted.sensors[0].cooling + effect.get("cooling_K")) < 0.25 * effect.get("cooling_K")
+
+
+def test_a_slow_sensor_started_from_a_noisy_reading_settles_by_its_own_time_constant():
+    """Portal, clean, seed 38: T_column (85 min) started 2.75 sigmas off; after the fixed hour its
+    start error was still above the band and made a window on clean data."""
+    sigma, tau = 0.08, 85 * 60.0
+    t = np.arange(0, 12 * HOUR, DT)
+    residual = 3.0 * sigma * np.exp(-t / tau) + np.random.default_rng(0).normal(0, sigma, t.size)
+    assert windows.find_windows("T_column", residual, sigma, DT) != []
+    assert windows.find_windows("T_column", residual, sigma, DT, windows.settling_s(tau)) == []
+    assert windows.settling_s(600.0) == windows.SETTLING_S and windows.settling_s(30 * HOUR) == windows.MAX_SETTLING_S
 
 
 @settings(max_examples=60, deadline=None)
