@@ -15,7 +15,7 @@ them is named either.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -41,6 +41,7 @@ POLISH_ROUNDS = 3
 MIN_POLISH_GAIN = 1.0  # BIC; a refit that gains less has converged
 MIN_HEAT_KEPT_SHARE = 0.5  # a slow structure must keep at least half as much of the heat as of the ambient
 HOUR = 3600.0
+MAX_FEED_TAU_S = 6 * HOUR  # a ball screw and its nut heat through in minutes to a couple of hours
 
 
 @dataclass(frozen=True)
@@ -280,6 +281,9 @@ def implausible(sim: Simulation, name: str, train: Series) -> str | None:
         return f"heat per rpm above the threshold within {MIN_GEAR_CHANGE:.0%} of below it: no switch"
     if name == "nonlinear_speed_heat" and abs(s.exponent - 1.0) < MIN_EXPONENT_CHANGE:
         return f"exponent {s.exponent:.3g}: linear heat"
+    if name == "feed_axis_heat" and d.tau_feed_s > MAX_FEED_TAU_S:
+        return (f"time constant {d.tau_feed_s / HOUR:.3g} h: slower than a feed axis heats (at most "
+                f"{MAX_FEED_TAU_S / HOUR:g} h), a stand-in for a slow structure or the air")
     # the slow lag's lower limit relative to the structure's only keeps the two apart; a fit that
     # rests on it is a second structure time constant close to the first, still the named physics
     taus = {"slow_structure": (d.tau_slow_s, 1900.0, 90 * HOUR),
@@ -310,6 +314,50 @@ def too_small(sim: Simulation, name: str, series: Series, sigma: dict, target: s
     if size < MIN_SENSOR_ERROR_SIGMAS * noise:
         return f"{size:.3g} K over the recording, under {MIN_SENSOR_ERROR_SIGMAS:g} times the sensor noise ({noise:.3g} K)"
     return None
+
+
+def follows_running(trial: Simulation, series: Series, channels, sigma: dict, n_train: int) -> str | None:
+    """Why a fitted feed-axis heat is a lag of the spindle's running rather than of the feed, or
+    None: refitted with the feed replaced by its mean while the spindle runs, the model must lose
+    more than `BIC_MARGIN`. Otherwise the feed only marks when the machine runs, and the lag stands
+    in for a slow structure or the air (which a training part under a day cannot test)."""
+    running = ~sim_.stopped(series, trial.shared)
+    feed = series.feed[:n_train][running[:n_train]]
+    level = float(np.mean(feed)) if len(feed) else 0.0
+    plain = replace(series, feed=np.where(running, level, 0.0))
+    refit = sim_.fit(plain.head(n_train), trial.effects, warm=trial)
+    as_running = score(refit, _simulate(refit, plain, channels)[1], sigma, n_train)
+    trial_score = score(trial, _simulate(trial, series, channels)[1], sigma, n_train)
+    if as_running.bic < trial_score.bic + BIC_MARGIN:
+        return ("a lag of the spindle's running fits as well (the feed rate replaced by its mean while running): "
+                "it does not follow the feed")
+    return None
+
+
+def worsens_own_sensor(trial: Simulation, name: str, series: Series, before: Score, after: Score) -> str | None:
+    """Why a fitted offset or drift is not an error of its sensor, or None: a real one makes that
+    sensor's reading fit better, so one that leaves its held-out part off by more than before
+    (by `MIN_EXCESS` of the noise variance) only bends the displacement through the sensor."""
+    if name not in ("sensor_offset", "sensor_drift"):
+        return None
+    channel = series.names[trial.sensor_of(name)]
+    was, now = before.held_out_by_channel.get(channel), after.held_out_by_channel.get(channel)
+    if was is not None and now - was > MIN_EXCESS:
+        return (f"it makes {channel}'s own held-out error worse ({was:.3g} -> {now:.3g} noise variances): "
+                "not an error of that sensor")
+    return None
+
+
+def not_the_named_physics(trial: Simulation, name: str, series: Series, train: Series, channels, sigma: dict,
+                          before: Score, after: Score, by_bic: bool) -> str | None:
+    """Why the fitted effect is not the physics its name says, or None: implausible parameters, no
+    size, an offset or drift that makes its own sensor worse, or (checked only when the BIC
+    supports it, as it costs a refit) a feed lag that merely marks when the spindle runs."""
+    why = (implausible(trial, name, train) or too_small(trial, name, series, sigma, channels[-1])
+           or worsens_own_sensor(trial, name, series, before, after))
+    if why is None and by_bic and name == "feed_axis_heat":
+        why = follows_running(trial, series, channels, sigma, train.rows)
+    return why
 
 
 def _window_change(windows: list[Window], before: dict, after: dict) -> list[dict]:
@@ -407,17 +455,18 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             s = score(trial, res, sigma, n_train)
             gain = held_out_gain(current_score, s, n_train)
             delta = s.bic - current_score.bic
-            why = implausible(trial, name, train) or too_small(trial, name, series, sigma, target_name) or (
-                sufficiency.relay_too_quiet(trial, train) if name == "coolant_switching" else None)
             by_bic = delta < -BIC_MARGIN
+            not_physics = not_the_named_physics(trial, name, series, train, channels, sigma, current_score, s, by_bic)
+            too_quiet = sufficiency.relay_too_quiet(trial, train) if name == "coolant_switching" else None
+            why = not_physics or too_quiet
             judged = by_bic and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
             if judged and name == "slow_structure" and current.has("ambient_coupling") and lag_of_the_air(trial, train):
                 air_after_air = True
             trials.append(Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False,
                                 why))
-            if by_bic and why is None:
+            if by_bic and not_physics is None:  # a relay too quiet to name still fits: no other name then
                 credible.append((trial, s, res, sim_out, len(trials) - 1, name))
-                if judged:
+                if judged and why is None:
                     passed.append(credible[-1])
         if air_after_air:  # the ambient lag added before leaves what a heat-cancelling structure still fits
             ambiguous = ("ambient_coupling", "slow_structure")
@@ -433,7 +482,8 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
         alike = sufficiency.look_alike(train, best[5])
         if rivals or alike:
             ambiguous = tuple(_label(p, series) for p in (best, *rivals)) if rivals else (_label(best, series), alike[0])
-            ambiguity = (f"their information criteria differ by less than {AMBIGUOUS_BIC_SHARE:.0%} of the gain"
+            ambiguity = ("the training part supports the others as well or better: information criteria lower "
+                         f"or within {AMBIGUOUS_BIC_SHARE:.0%} of the gain"
                          if rivals else alike[1])
             rounds.append(trials)
             break
