@@ -7,11 +7,11 @@ above the noise), on a channel that is off on the held-out part by more than `MI
 the training part by more than `MIN_TRAIN_EXCESS` (or that the candidate fits better on the training
 part by `MIN_TRAIN_EVIDENCE` noise variances), so leftovers at the noise level and held-out
 extrapolation errors are never named. Of the supported candidates the one with the lowest BIC is
-added, unless another plausible one gains nearly as much BIC (then the data cannot tell them apart,
-whichever the held-out part prefers); the model is refitted until its BIC stops falling, and the search repeats until no
-disagreement window is left or no candidate passes; what is left unexplained is reported as
-windows, never named, and when several effects were needed and windows are still left, none of
-them is named either.
+added, unless another plausible one gains nearly as much BIC (then the data cannot tell them
+apart, whichever the held-out part prefers); the model is refitted until its BIC stops falling,
+and the search repeats until no disagreement window is left or no candidate passes; what is left
+unexplained is reported as windows, never named, and when several effects were needed and
+windows are still left, none of them is named either.
 """
 from __future__ import annotations
 
@@ -316,7 +316,8 @@ def too_small(sim: Simulation, name: str, series: Series, sigma: dict, target: s
     return None
 
 
-def follows_running(trial: Simulation, series: Series, channels, sigma: dict, n_train: int) -> str | None:
+def follows_running(trial: Simulation, trial_score: Score, series: Series, channels, sigma: dict, n_train: int
+                    ) -> str | None:
     """Why a fitted feed-axis heat is a lag of the spindle's running rather than of the feed, or
     None: refitted with the feed replaced by its mean while the spindle runs, the model must lose
     more than `BIC_MARGIN`. Otherwise the feed only marks when the machine runs, and the lag stands
@@ -327,7 +328,6 @@ def follows_running(trial: Simulation, series: Series, channels, sigma: dict, n_
     plain = replace(series, feed=np.where(running, level, 0.0))
     refit = sim_.fit(plain.head(n_train), trial.effects, warm=trial)
     as_running = score(refit, _simulate(refit, plain, channels)[1], sigma, n_train)
-    trial_score = score(trial, _simulate(trial, series, channels)[1], sigma, n_train)
     if as_running.bic < trial_score.bic + BIC_MARGIN:
         return ("a lag of the spindle's running fits as well (the feed rate replaced by its mean while running): "
                 "it does not follow the feed")
@@ -356,7 +356,7 @@ def not_the_named_physics(trial: Simulation, name: str, series: Series, train: S
     why = (implausible(trial, name, train) or too_small(trial, name, series, sigma, channels[-1])
            or worsens_own_sensor(trial, name, series, before, after))
     if why is None and by_bic and name == "feed_axis_heat":
-        why = follows_running(trial, series, channels, sigma, train.rows)
+        why = follows_running(trial, after, series, channels, sigma, train.rows)
     return why
 
 
@@ -456,17 +456,16 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             gain = held_out_gain(current_score, s, n_train)
             delta = s.bic - current_score.bic
             by_bic = delta < -BIC_MARGIN
-            not_physics = not_the_named_physics(trial, name, series, train, channels, sigma, current_score, s, by_bic)
-            too_quiet = sufficiency.relay_too_quiet(trial, train) if name == "coolant_switching" else None
-            why = not_physics or too_quiet
+            why = not_the_named_physics(trial, name, series, train, channels, sigma, current_score, s, by_bic) or (
+                sufficiency.relay_too_quiet(trial, train) if name == "coolant_switching" else None)
             judged = by_bic and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
             if judged and name == "slow_structure" and current.has("ambient_coupling") and lag_of_the_air(trial, train):
                 air_after_air = True
             trials.append(Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False,
                                 why))
-            if by_bic and not_physics is None:  # a relay too quiet to name still fits: no other name then
+            if by_bic and why is None:
                 credible.append((trial, s, res, sim_out, len(trials) - 1, name))
-                if judged and why is None:
+                if judged:
                     passed.append(credible[-1])
         if air_after_air:  # the ambient lag added before leaves what a heat-cancelling structure still fits
             ambiguous = ("ambient_coupling", "slow_structure")
