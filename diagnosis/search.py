@@ -30,7 +30,8 @@ BIC_MARGIN = 10.0
 AMBIGUOUS_BIC_SHARE = 0.02  # another effect within this share of the winner's BIC gain: no name
 HELD_OUT_SHARE = 0.2
 MIN_LOG_STOP_FACTOR = 0.05  # a standstill factor within 5 % of 1 is no effect
-MIN_SENSOR_ERROR_SIGMAS = 3.0  # an offset or a drift over the recording smaller than this many noise sigmas is noise
+MIN_SENSOR_ERROR_SIGMAS = 1.5  # an offset or a drift over the recording smaller than this many noise sigmas is noise
+MIN_DISPLACEMENT_TERM_SIGMAS = 3.0  # a displacement term moving less than this many noise sigmas is noise
 MIN_TRAIN_EXCESS = 0.05  # ... and its training MSE by this share
 MIN_TRAIN_EVIDENCE = 100.0  # or a candidate cuts its training squared error by this many noise variances
 MIN_EXCESS = 0.1  # a channel counts as off when its held-out MSE exceeds its noise variance by this share
@@ -301,8 +302,8 @@ def too_small(sim: Simulation, name: str, series: Series, sigma: dict, target: s
     if name in sim_.DISPLACEMENT_EFFECTS:
         size = float(np.ptp(sim_.displacement_term(sim, series, name)))
         noise = sigma[target]
-        if size < MIN_SENSOR_ERROR_SIGMAS * noise:
-            return (f"it moves the displacement {size:.3g} over the recording, under {MIN_SENSOR_ERROR_SIGMAS:g} times "
+        if size < MIN_DISPLACEMENT_TERM_SIGMAS * noise:
+            return (f"it moves the displacement {size:.3g} over the recording, under {MIN_DISPLACEMENT_TERM_SIGMAS:g} times "
                     f"its noise ({noise:.3g})")
         return None
     if name not in ("sensor_offset", "sensor_drift"):

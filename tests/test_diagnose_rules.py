@@ -104,6 +104,17 @@ def test_a_displacement_term_under_the_noise_is_too_small():
     assert search.too_small(real, "ambient_coupling", series, sigma, "E") is None
 
 
+def test_an_offset_of_a_few_noise_sigmas_is_an_offset():
+    """Portal, 72 h, seed 48, noise x2: a hidden offset of 0.456 K on a 0.158 K sensor (2.9 sigmas,
+    its own BIC gain -14800) was refused as too small under the old 3-sigma rule, and a gear switch
+    was named in its place. A refit that soaks up noise moves a sensor by hundredths of a kelvin."""
+    series = _series(30)
+    sigma = {"T_a": 0.158, "T_b": 0.158, "E": 1.4}
+    offset = lambda k: _sim([("sensor_offset", 0)], (SensorParams(3600.0, 2e-3, offset_K=k), SensorParams(3600.0, 1e-3)))
+    assert search.too_small(offset(-0.456), "sensor_offset", series, sigma, "E") is None
+    assert "under 1.5 times the sensor noise" in search.too_small(offset(0.09), "sensor_offset", series, sigma, "E")
+
+
 @pytest.mark.parametrize("speeds, alike", [((1000.0, 2500.0), True), ((800.0, 1600.0, 2400.0), False)])
 def test_through_two_speed_groups_a_switch_looks_like_a_curve(speeds, alike):
     found = sufficiency.look_alike(_series(30, speeds), "gear_ratio_switch")
