@@ -191,6 +191,9 @@ def candidates(series: Series, present: Simulation, train: Series) -> tuple[list
         if name == "feed_axis_heat" and series.feed is None:
             skipped[name] = "needs --feed COLUMN, the feed-axis rate"
             continue
+        if name == "feed_axis_heat" and np.ptp(train.feed) == 0:
+            skipped[name] = "the feed rate never changes in the training part"
+            continue
         why = sufficiency.untestable(train, name)
         if why:
             skipped[name] = why

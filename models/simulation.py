@@ -413,7 +413,7 @@ def _fit_relay(series, shared, effects, starts):
     pairs = [(on, off) for on, off in itertools.product(levels, levels) if on - off >= 0.5]
     if not pairs:
         shared = replace(shared, relay=(sensor, float(levels[-1]), float(levels[0])))
-        return shared, _fit_all_sensors(series, shared, effects, starts)[0]
+        return shared, _fit_all_sensors(series, shared, effects, starts, relay(temperature, *shared.relay[1:]))[0]
     sensors = starts or _fit_all_sensors(series, shared, [e for e in effects if e[0] != "coolant_switching"], None)[0]
 
     def prepared():  # everything but the cooling column, per sensor, for the time constants held

@@ -35,16 +35,21 @@ def test_diagnose_benchmark_counts_outcomes_per_machine_length_and_noise():
             {**base, "noise": 2.0, "effect": "sensor_offset", "verdict": "no_missing_effect", "found": [],
              "excess_inside_class": 0.5},
             {**base, "noise": 2.0, "effect": "sensor_offset", "verdict": "no_missing_effect", "found": [],
-             "excess_inside_class": 0.02},
+             "excess_inside_class": 0.02, "windows_inside_class": 0},
             {**base, "noise": 2.0, "effect": "sensor_offset", "verdict": "explained", "found": ["sensor_drift"],
-             "excess_inside_class": 0.02}]
+             "excess_inside_class": 0.02, "windows_inside_class": 0},
+            {**base, "noise": 2.0, "effect": "sensor_offset", "verdict": "explained", "found": ["sensor_offset"],
+             "excess_inside_class": 0.02, "windows_inside_class": 0},
+            {**base, "noise": 2.0, "effect": "sensor_offset", "verdict": "no_missing_effect", "found": [],
+             "excess_inside_class": 0.02, "windows_inside_class": 1}]
     assert [diagnose.outcome(r) for r in runs] == ["right", "wrong", "right", "right+others", "missed",
-                                                   "inside class", "wrong"]
+                                                   "inside class", "wrong", "inside class", "missed"]
     rows = [line for line in diagnose.table(runs) if "`sensor_offset`" in line]
     assert rows == ["| portal | 72 | x1 | `sensor_offset` | 2 | 1 | 0 | 0 | 0 | 0 | 1 | 2.000 | 0.500 | 3.0 | 3.0 |",
-                    "| portal | 72 | x2 | `sensor_offset` | 4 | 0 | 1 | 1 | 0 | 1 | 2 | 2.000 | 0.500 | 3.0 | 3.0 |"]
+                    "| portal | 72 | x2 | `sensor_offset` | 6 | 0 | 1 | 2 | 0 | 2 | 2 | 2.000 | 0.500 | 3.0 | 3.0 |"]
     first, second = diagnose.summary(runs)
     assert first.startswith("portal 72 h noise x1: clean reads no_missing_effect 1/1 (100 %)")
     assert "right name alone 1/2 (50 %)" in first and "a wrong name 1/3 (33 %) of all runs" in first
-    assert second.startswith("portal 72 h noise x2") and "a wrong name 2/4 (50 %)" in second
-    assert "right name alone 0/3 (0 %) of the runs whose effect is outside the baseline's class (1 inside" in second
+    assert second.startswith("portal 72 h noise x2") and "a wrong name 2/6 (33 %)" in second
+    assert ("right name alone 0/4 (0 %) of the runs whose effect is outside the baseline's class "
+            "(2 inside it left out, 1 of them named anyway)") in second

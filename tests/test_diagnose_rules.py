@@ -115,6 +115,14 @@ def test_an_offset_of_a_few_noise_sigmas_is_an_offset():
     assert "under 1.5 times the sensor noise" in search.too_small(offset(0.09), "sensor_offset", series, sigma, "E")
 
 
+def test_a_feed_that_never_changes_is_not_a_candidate():
+    series = _series(30)
+    still = dataclasses.replace(series, feed=np.zeros(series.rows))
+    options, skipped = search.candidates(still, _sim(), still)
+    assert "feed_axis_heat" not in [name for name, _ in options]
+    assert skipped["feed_axis_heat"] == "the feed rate never changes in the training part"
+
+
 @pytest.mark.parametrize("speeds, alike", [((1000.0, 2500.0), True), ((800.0, 1600.0, 2400.0), False)])
 def test_through_two_speed_groups_a_switch_looks_like_a_curve(speeds, alike):
     found = sufficiency.look_alike(_series(30, speeds), "gear_ratio_switch")
