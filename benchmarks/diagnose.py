@@ -6,9 +6,9 @@
 Per machine, recording length and effect: how often the hidden effect was named alone (right),
 named beside others, missed (verdict no_missing_effect or insufficient_data), left unexplained,
 inside the baseline's class (see below), and how many runs named something that was not hidden
-(wrong); the held-out RMSE before/after in the
-channel that was off most; seconds per diagnosis. Parameters are drawn per seed from plausible
-ranges (thermoplc.machines.random_effects); "none" is clean data and must read no_missing_effect.
+(wrong); the held-out RMSE before/after in the channel that was off most; seconds per diagnosis.
+Parameters are drawn per seed from plausible ranges (thermoplc.machines.random_effects); "none"
+is clean data and must read no_missing_effect.
 
 Some draws hide an effect that the baseline's own class follows (an ambient lag as fast as the
 sensors' lags, a slow structure of a few µm): the data then shows nothing missing. Each run
@@ -40,7 +40,7 @@ from thermoplc.models.effects import NAMES  # noqa: E402
 from thermoplc.models.simulation import Series  # noqa: E402
 
 TRAIN_SHARE = 0.6
-VISIBLE_EXCESS = 0.1  # share of the noise variance the exact baseline fit must leave on some channel ...
+VISIBLE_EXCESS = 0.1  # share of the noise variance the exact baseline fit leaves on some channel (or a window)
 TARGETS = {72.0: {"clean": 0.95, "right": 0.90, "wrong": 0.02}, 24.0: {"wrong": 0.02}}
 
 

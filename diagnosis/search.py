@@ -42,6 +42,7 @@ POLISH_ROUNDS = 3
 MIN_POLISH_GAIN = 1.0  # BIC; a refit that gains less has converged
 MIN_HEAT_KEPT_SHARE = 0.5  # a slow structure must keep at least half as much of the heat as of the ambient
 HOUR = 3600.0
+SENSOR_ERRORS = ("sensor_offset", "sensor_drift")  # effects on one sensor's reading, not on the physics
 MAX_FEED_TAU_S = 6 * HOUR  # a ball screw and its nut heat through in minutes to a couple of hours
 
 
@@ -309,7 +310,7 @@ def too_small(sim: Simulation, name: str, series: Series, sigma: dict, target: s
             return (f"it moves the displacement {size:.3g} over the recording, under {MIN_DISPLACEMENT_TERM_SIGMAS:g} times "
                     f"its noise ({noise:.3g})")
         return None
-    if name not in ("sensor_offset", "sensor_drift"):
+    if name not in SENSOR_ERRORS:
         return None
     i = sim.sensor_of(name)
     p = sim.sensors[i]
@@ -342,7 +343,7 @@ def worsens_own_sensor(trial: Simulation, name: str, series: Series, before: Sco
     """Why a fitted offset or drift is not an error of its sensor, or None: a real one makes that
     sensor's reading fit better, so one that leaves its held-out part off by more than before
     (by `MIN_EXCESS` of the noise variance) only bends the displacement through the sensor."""
-    if name not in ("sensor_offset", "sensor_drift"):
+    if name not in SENSOR_ERRORS:
         return None
     channel = series.names[trial.sensor_of(name)]
     was, now = before.held_out_by_channel.get(channel), after.held_out_by_channel.get(channel)
@@ -372,8 +373,8 @@ def _window_change(windows: list[Window], before: dict, after: dict) -> list[dic
 def all_windows(sim: Simulation, residual: dict, sigma: dict, dt: float) -> list[Window]:
     """Each sensor settles by its own time constant; the target, fed by every sensor, by the slowest."""
     settling = [settling_s(p.tau_s) for p in sim.sensors]
-    return [w for k, (c, r) in enumerate(residual.items())
-            for w in find_windows(c, r, sigma[c], dt, settling[k] if k < len(settling) else max(settling))]
+    return [w for (c, r), settle in zip(residual.items(), [*settling, max(settling)])  # sensors, then target
+            for w in find_windows(c, r, sigma[c], dt, settle)]
 
 
 def _extrapolated(window: Window, final: Score, n_train: int) -> str | None:

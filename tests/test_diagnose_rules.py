@@ -45,17 +45,20 @@ def _sim(effects=(), sensors=None, **displacement) -> Simulation:
                       sensors, DisplacementParams(**{**base, **displacement}))
 
 
-def _hidden_in_cascade(name: str | None, seed: int, hours: float = 24, feed: bool = False) -> tuple[Series, int]:
-    """A cascade recording with `name` hidden (parameters drawn as the benchmark draws them), and its training rows."""
-    chosen = machine("cascade")
-    columns = chosen.simulate(hours, seed)
+def _hidden(machine_name: str, name: str | None, seed: int, hours: float = 24, noise: float = 1.0,
+            feed: bool = False) -> tuple[Series, int, object]:
+    """A recording with `name` hidden (parameters drawn as the benchmark draws them), its training
+    rows and the effect; the feed column only when asked for (it adds a candidate)."""
+    chosen = machine(machine_name)
+    columns = chosen.simulate(hours, seed, noise=noise)
     rows = int(0.6 * len(columns["time_s"]))
-    if name is not None:
-        columns = chosen.simulate(hours, seed, effects=(draw(name, chosen, columns, rows, seed),))
+    effect = None if name is None else draw(name, chosen, columns, rows, seed)
+    if effect is not None:
+        columns = chosen.simulate(hours, seed, effects=(effect,), noise=noise)
     temps = chosen.DIAGNOSED
     return Series(DT, columns["time_s"], columns["n_rpm"], columns["T_env"],
                   np.column_stack([columns[c] for c in temps]), temps, columns["E_z_um"],
-                  columns["v_feed_mm_min"] if feed else None), rows
+                  columns["v_feed_mm_min"] if feed else None), rows, effect
 
 
 def test_a_gear_switch_of_no_size_is_no_switch():
@@ -144,7 +147,7 @@ def test_slow_lags_need_a_whole_day(rows, testable):
 
 
 def test_several_effects_with_disagreements_left_are_not_named():
-    series, rows = _hidden_in_cascade(None, 1)
+    series, rows, _ = _hidden("cascade", None, 1)
     d = search.diagnose(series, rows, "E_z_um")
     window = Window("E_z_um", 6000, 6500, 2.0)
     one = {"name": "sensor_offset", "parameters": {}, "evidence": {}}
@@ -165,14 +168,14 @@ def test_several_effects_with_disagreements_left_are_not_named():
 def test_a_gear_switch_fitted_through_two_speed_groups_is_not_named():
     """Cascade, 24 h, seed 7: the training part runs at two speeds; the hidden nonlinear heat used to
     be named a gear switch. Now the verdict says the two cannot be told apart."""
-    series, rows = _hidden_in_cascade("nonlinear_speed_heat", 7)
+    series, rows, _ = _hidden("cascade", "nonlinear_speed_heat", 7)
     d = search.diagnose(series, rows, "E_z_um")
     assert d.named == []
     assert "cannot tell gear_ratio_switch from nonlinear_speed_heat" in d.reason
 
 
 def test_polishing_never_raises_the_criterion():
-    series, rows = _hidden_in_cascade("nonlinear_speed_heat", 5)
+    series, rows, _ = _hidden("cascade", "nonlinear_speed_heat", 5)
     train = series.head(rows)
     channels = (*series.names, "E_z_um")
     fitted = simulation.fit(train, [("nonlinear_speed_heat", None)], warm=simulation.fit(train))
@@ -204,24 +207,12 @@ def test_a_held_out_gain_counts_where_the_training_part_gives_evidence():
     assert search.held_out_gain(visible, only_held_out, 15552) > 0.9
 
 
-def _hidden_in_portal(name: str, seed: int, noise: float = 1.0, hours: float = 72) -> tuple[Series, int, object]:
-    chosen = machine("portal")
-    clean = chosen.simulate(hours, seed, noise=noise)
-    rows = int(0.6 * len(clean["time_s"]))
-    effect = draw(name, chosen, clean, rows, seed)
-    columns = chosen.simulate(hours, seed, effects=(effect,), noise=noise)
-    series = Series(DT, columns["time_s"], columns["n_rpm"], columns["T_env"],
-                    np.column_stack([columns[c] for c in chosen.DIAGNOSED]), chosen.DIAGNOSED, columns["E_z_um"],
-                    columns["v_feed_mm_min"])
-    return series, rows, effect
-
-
 @pytest.mark.slow
 def test_a_rival_the_held_out_part_rejects_still_makes_the_choice_a_coin_toss():
     """Portal, 72 h, seed 7: a hidden slow structure; slow structure and ambient lag gain the same
     BIC (-317 and -314) and only the held-out part preferred the ambient lag, which used to be
     named. Equal evidence on the training part is a coin toss, whichever the held-out part prefers."""
-    series, rows, _ = _hidden_in_portal("slow_structure", 7)
+    series, rows, _ = _hidden("portal", "slow_structure", 7, hours=72, feed=True)
     d = search.diagnose(series, rows, "E_z_um")
     assert d.named == []
     assert "cannot tell ambient_coupling from slow_structure" in d.reason
@@ -231,7 +222,7 @@ def test_a_noisy_switch_sensor_does_not_lose_the_relay_thresholds():
     """Portal, 72 h, seed 2, noise x2: the sensors used to be refitted with the relay switched by the
     raw reading while the thresholds were searched on the smoothed one; the chattering relay fitted
     no cooling and the thresholds drifted 0.7 K from the truth. Now both use the smoothed reading."""
-    series, rows, effect = _hidden_in_portal("coolant_switching", 2, noise=2.0)
+    series, rows, effect = _hidden("portal", "coolant_switching", 2, hours=72, noise=2.0, feed=True)
     fitted = simulation.fit(series.head(rows), [("coolant_switching", 0)])
     _, on, off = fitted.shared.relay
     assert abs(on - effect.get("on_C")) < 0.15 and abs(off - effect.get("off_C")) < 0.15
@@ -272,7 +263,7 @@ def test_an_offset_or_drift_that_makes_its_own_sensor_worse_is_not_one():
 def test_a_feed_lag_that_only_marks_the_running_is_not_named():
     """Cascade, 24 h, seed 1, a slow structure hidden (not testable under a day): a 0.7 h lag of
     the feed rate stood in for it. The feed replaced by its mean while running fits as well."""
-    series, rows = _hidden_in_cascade("slow_structure", 1, feed=True)
+    series, rows, _ = _hidden("cascade", "slow_structure", 1, feed=True)
     d = search.diagnose(series, rows, "E_z_um")
     assert d.named == []
     feed = [t for rnd in d.rounds for t in rnd if t.name == "feed_axis_heat"]
