@@ -1,8 +1,11 @@
 """Which columns may stand for temperatures in a fit or a sensor selection.
 
-A model fitted on the answer in disguise (the target under another name, a column that predicts
-it almost perfectly on its own, a feed rate behind a temperature guard) reports a tiny error and
-compensates nothing on the machine; these checks refuse such columns with the reason.
+A model fitted on the answer in disguise (the target under another name, a copy of it up to scale,
+offset and a shift in time, a displacement column, a feed rate behind a temperature guard) reports
+a tiny error and compensates nothing on the machine; these checks refuse such columns with the
+reason. A temperature that predicts the target well is not refused however well it does: a
+well-placed sensor is the best case of the physics, and it reaches the target through heat flow,
+which leaves a misfit far above the measurement noise where a copy leaves none.
 """
 from __future__ import annotations
 
@@ -17,7 +20,9 @@ from thermoplc.models.table import Table
 # T_env, T1, t1_C, Temp_spindle, spindle_temperature, bed_degC: the names recorders give temperatures
 TEMPERATURE_NAME = re.compile(r"^t(_|\d|$)|temp|(^|_)(deg_?c|c|celsius)$", re.IGNORECASE)
 UNIT_SUFFIX = re.compile(r"_(um|µm|mm|nm|m|urad|mrad|rad|arcsec)$", re.IGNORECASE)
-PERFECT_R2 = 0.995  # one column alone explaining 99.5 % of the target's variance is the target, not a cause
+COPY_NOISE_MULTIPLE = 3.0  # a copy's misfit stays within a few noise sigmas of the two columns
+WHITE_WINDOW = 30  # calls averaged to see the slow part of a misfit
+WHITE_STANDARD_ERRORS = 3.0  # a white misfit's average over the window stays within this many standard errors
 TEMPERATURE_RULE = ("names starting with T followed by '_', a digit or nothing, or containing 'temp', or ending "
                     "in _C/_degC, whose values all lie in {low:g}..{high:g} degC")
 
@@ -52,44 +57,64 @@ def leak_reason(name: str, values: np.ndarray, target: str, target_values: np.nd
     unit, target_unit = UNIT_SUFFIX.search(name), UNIT_SUFFIX.search(target)
     if unit and target_unit and unit.group(1).lower() == target_unit.group(1).lower():
         return f"is a displacement column (unit _{unit.group(1)}) like the target {target!r}"
-    r2, how = _best_fit(np.asarray(values, np.float64), np.asarray(target_values, np.float64))
-    if r2 >= PERFECT_R2:
-        return (f"predicts the target {target!r} almost perfectly on its own ({how}: R^2 {r2:.5f}, it leaves "
-                f"{np.sqrt(max(1.0 - r2, 0.0)):.1%} of the target's spread): it is the answer, not a cause")
+    copy = _copy_of(np.asarray(values, np.float64), np.asarray(target_values, np.float64))
+    if copy is not None:
+        misfit, noise = copy
+        return (f"is a copy of the target {target!r} (an affine map of it leaves {misfit:.3g} RMS, within "
+                f"{COPY_NOISE_MULTIPLE:g}x the measurement noise {noise:.3g} of the two): it is the answer, not a cause")
     return None
 
 
-LAGS = (0, 1, 2, 3, 5, 10, 20, 30, 60, 120, 360)  # calls: a copy of the target recorded earlier or later
 
 
-def _r2(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
-    """R^2 of a straight line and of a parabola through (x, y)."""
+def noise_sigma(x: np.ndarray) -> float:
+    """Measurement noise of a sampled signal: the robust spread of its second differences (a smooth
+    signal's slope and curvature barely reach them, white noise does with variance 6 sigma^2)."""
+    x = x[np.isfinite(x)]
+    if len(x) < 5:
+        return 0.0
+    second = np.diff(x, 2)
+    return float(1.4826 * np.median(np.abs(second - np.median(second))) / np.sqrt(6.0))
+
+
+def _affine_misfit(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float] | None:
+    """RMS of y less its best affine map of x, that map's slope and the misfit's slow part in standard
+    errors; None where x or y is constant."""
     finite = np.isfinite(x) & np.isfinite(y)
     x, y = x[finite], y[finite]
-    if len(x) < 4 or np.std(x) == 0 or np.std(y) == 0:
-        return 0.0, 0.0
-    line = float(np.corrcoef(x, y)[0, 1]) ** 2
-    z = (x - x.mean()) / x.std()
-    design = np.column_stack([np.ones_like(z), z, z * z])
+    if len(x) < 5 or np.ptp(x) == 0 or np.ptp(y) == 0:
+        return None
+    design = np.column_stack([np.ones_like(x), x - x.mean()])
     coef = np.linalg.lstsq(design, y, rcond=None)[0]
-    parabola = 1.0 - float(np.mean((y - design @ coef) ** 2) / np.var(y))
-    return line, parabola
+    misfit = y - design @ coef
+    return float(np.sqrt(np.mean(misfit ** 2))), float(coef[1]), _slow_part(misfit)
 
 
-def _best_fit(x: np.ndarray, y: np.ndarray) -> tuple[float, str]:
-    """The best R^2 of the target on the column alone: a line or a parabola, shifted by up to 360 calls."""
-    best, how = 0.0, ""
-    for lag in LAGS:
-        if lag >= len(x) - 3:
-            break
-        pairs = [(x, y, "same call")] if lag == 0 else [(x[:-lag], y[lag:], f"the column leading by {lag} calls"),
-                                                         (x[lag:], y[:-lag], f"the column lagging by {lag} calls")]
-        for a, b, when in pairs:
-            line, parabola = _r2(a, b)
-            for r2, shape in ((line, "a straight line"), (parabola, "a parabola")):
-                if r2 > best + 1e-9:  # the simpler shape and the smaller shift when they explain as much
-                    best, how = r2, f"{shape}, {when}"
-    return best, how
+def _slow_part(misfit: np.ndarray) -> float:
+    """The misfit's RMS after averaging over `WHITE_WINDOW` calls, in standard errors of white noise
+    of its own sample-to-sample sigma: about 1 for noise, large where heat flow shaped it."""
+    window = min(WHITE_WINDOW, max(len(misfit) // 10, 1))
+    sigma = noise_sigma(misfit)
+    slow = np.convolve(misfit, np.full(window, 1.0 / window), mode="valid")
+    rms = float(np.sqrt(np.mean(slow ** 2)))
+    return rms / (sigma / np.sqrt(window)) if sigma > 0 else (0.0 if rms == 0 else np.inf)
+
+
+def _copy_of(x: np.ndarray, y: np.ndarray) -> tuple[float, float] | None:
+    """(misfit, noise) if the column is the target up to an affine map at the same call, within the
+    noise of the two, else None. A displacement that follows a temperature some time later is what
+    a structure does, so no shift in time is searched. A temperature that drives the target, however well,
+    reaches it through heat flow (and beside other heat paths): its misfit is slow and stands above
+    the sample-to-sample noise. A copy's misfit is the noise itself: small and white."""
+    fitted = _affine_misfit(x, y)
+    if fitted is None:
+        return None
+    misfit, slope, slow = fitted
+    noise = float(np.hypot(noise_sigma(y), slope * noise_sigma(x)))
+    exact = misfit <= 1e-9 * float(np.ptp(y[np.isfinite(y)]))
+    if exact or (misfit <= COPY_NOISE_MULTIPLE * noise and slow <= WHITE_STANDARD_ERRORS):
+        return misfit, noise
+    return None
 
 
 def refuse_leaks(columns: dict, target: str, target_values: np.ndarray, where: str, option: str) -> None:
