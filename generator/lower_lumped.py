@@ -52,6 +52,8 @@ def lower_lumped(model: Model) -> Block:
             init.append(Assign(f"M_{i}", Ref(f"Tsim_{i}")))
             statics.append(Var(f"M_{i}", "REAL", f"slow structure lagging {s.name}, degC"))
         heat = [Assign("Q", BinOp("*", const(f"G_{i}"), Ref("S")))]
+        if f"H_{i}" in model.coefficients:
+            heat.append(Assign("Q", BinOp("+", Ref("Q"), const(f"H_{i}"))))
         if has("gear_ratio_switch"):
             heat.append(If(((BinOp(">", speed, const("Gear_rpm")),
                              (Assign("Q", BinOp("+", Ref("Q"), BinOp("*", const(f"G2_{i}"), speed))),)),)))
@@ -128,7 +130,8 @@ def lower_lumped(model: Model) -> Block:
 _LUMPED_COMMENTS = {
     "A": "decay per call while running", "B": "1 - A", "As": "decay per call at standstill (stop_convection)",
     "Bs": "1 - As", "G": "steady rise per unit of speed heat, K", "G2": "extra rise per rpm above the gear threshold, K",
-    "K": "rise while the coolant runs, K", "O": "sensor offset, K", "Stop": "standstill at or below, rpm",
+    "K": "rise while the coolant runs, K", "H": "rise above the air at standstill (heat load), K",
+    "O": "sensor offset, K", "Stop": "standstill at or below, rpm",
     "Gear": "gear threshold, rpm", "CoolOn": "coolant on above, degC", "CoolOff": "coolant off below, degC",
     "AS": "structure decay per call", "BS": "1 - AS", "A2": "slow structure decay per call", "B2": "1 - A2",
     "AAm": "ambient coupling decay per call", "BAm": "1 - AAm", "AF": "feed heat decay per call", "BF": "1 - AF",

@@ -312,16 +312,16 @@ def gm1n(temps: list, x1, keep, gain, b: list, f, state: GreyState | None = None
 
 # ---------------------------------------------------------------------------------------------
 # Lumped-mass simulation with effects (models/lumped_model.py::predict).
-# flags: gear, cool_on, stop, slow, amb, structure, feed (0/1); per (k,): G, G2, K, As, Bs, A, B,
-# beta, gamma, delta, offset, has_offset; sc: Gear_rpm, Stop_rpm, AS, BS, A2, B2, AAm, BAm, AF, BF,
+# flags: gear, cool_on, stop, slow, amb, structure, feed, load (0/1); per (k,): G, G2, K, As, Bs, A, B,
+# beta, gamma, delta, offset, H (standstill load), has_offset; sc: Gear_rpm, Stop_rpm, AS, BS, A2, B2, AAm, BAm, AF, BF,
 # beta0, alpha, phi, CoolOn, CoolOff (absent ones 0; never used then); table: (segments, 3) node,
 # heat, slope.
 
 @jit
 def _lumped(temps, te, n, feed, flags, per, has_offset, sc, table, relay, zero, sim, ll, mm, t0, carried, status, out):
     k = temps.shape[0]
-    gear, cool_on, stop, slow, amb, structure, with_feed = (flags[0], flags[1], flags[2], flags[3], flags[4],
-                                                             flags[5], flags[6])
+    gear, cool_on, stop, slow, amb, structure, with_feed, load = (flags[0], flags[1], flags[2], flags[3], flags[4],
+                                                                   flags[5], flags[6], flags[7])
     la = carried[0]
     te0 = carried[1]
     lf = carried[2]
@@ -351,6 +351,8 @@ def _lumped(temps, te, n, feed, flags, per, has_offset, sc, table, relay, zero, 
             s = table[index, 1] + (n[j] - table[index, 0]) * table[index, 2]
         for i in range(k):
             q = per[0, i] * s
+            if load:
+                q = q + per[11, i]
             if gear and n[j] > sc[0]:
                 q = q + per[1, i] * n[j]
             if cool_on and cool:
@@ -404,7 +406,7 @@ class LumpedState:
         self.status = np.zeros(2, np.int64)  # started, cool
 
 
-LUMPED_PER_SENSOR = ("G", "G2", "K", "As", "Bs", "A", "B", "beta", "gamma", "delta", "O")
+LUMPED_PER_SENSOR = ("G", "G2", "K", "As", "Bs", "A", "B", "beta", "gamma", "delta", "O", "H")
 LUMPED_SCALARS = ("Gear_rpm", "Stop_rpm", "AS", "BS", "A2", "B2", "AAm", "BAm", "AF", "BF", "beta0", "alpha", "phi",
                   "CoolOn", "CoolOff")
 

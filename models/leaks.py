@@ -21,6 +21,7 @@ from thermoplc.models.table import Table
 TEMPERATURE_NAME = re.compile(r"^t(_|\d|$)|temp|(^|_)(deg_?c|c|celsius)$", re.IGNORECASE)
 UNIT_SUFFIX = re.compile(r"_(um|µm|mm|nm|m|urad|mrad|rad|arcsec)$", re.IGNORECASE)
 COPY_NOISE_MULTIPLE = 3.0  # a copy's misfit stays within a few noise sigmas of the two columns
+COPY_MIN_R2 = 0.9  # and it explains the target: a column of mostly noise maps to anything "within its noise"
 WHITE_WINDOW = 30  # calls averaged to see the slow part of a misfit
 WHITE_STANDARD_ERRORS = 3.0  # a white misfit's average over the window stays within this many standard errors
 TEMPERATURE_RULE = ("names starting with T followed by '_', a digit or nothing, or containing 'temp', or ending "
@@ -112,7 +113,8 @@ def _copy_of(x: np.ndarray, y: np.ndarray) -> tuple[float, float] | None:
     misfit, slope, slow = fitted
     noise = float(np.hypot(noise_sigma(y), slope * noise_sigma(x)))
     exact = misfit <= 1e-9 * float(np.ptp(y[np.isfinite(y)]))
-    if exact or (misfit <= COPY_NOISE_MULTIPLE * noise and slow <= WHITE_STANDARD_ERRORS):
+    explains = misfit ** 2 <= (1.0 - COPY_MIN_R2) * float(np.var(y[np.isfinite(y)]))
+    if exact or (explains and misfit <= COPY_NOISE_MULTIPLE * noise and slow <= WHITE_STANDARD_ERRORS):
         return misfit, noise
     return None
 

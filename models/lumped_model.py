@@ -3,13 +3,15 @@
 Open loop: the block simulates the temperatures from speed, ambient (and feed) alone; measured
 temperatures only set the start. Per call, in this order:
     S := n, or the n^p table interpolated at n                          (nonlinear_speed_heat)
-    per sensor i:  Q := G_i*S [+ G2_i*n if n > Gear] [+ K_i if Cool]
+    per sensor i:  Q := G_i*S [+ H_i] [+ G2_i*n if n > Gear] [+ K_i if Cool]
                    Tsim_i := A_i*Tsim_i + B_i*(Q + Te)   (As_i, Bs_i while n <= Stop: stop_convection)
                    [L_i := AS*L_i + BS*Tsim_i]  [M_i := A2*M_i + B2*(L_i or Tsim_i)]  (structure, slow_structure)
     [LA := AAm*LA + BAm*Te]  [LF := AF*LF + BF*feed]
     E := beta0 + sum_i beta_i*(Tsim_i-T0_i) [+ gamma_i*(L_i-T0_i)] [+ delta_i*(M_i-T0_i)] [+ alpha*(LA-Te0)] [+ phi*LF]
     [relay: Cool := TRUE above CoolOn, FALSE below CoolOff, from the simulated temperature of the switching sensor]
 First call: Tsim_i = L_i = M_i = T0_i := T_i [- O_i], LA = Te0 := Te, LF := 0, Cool := FALSE.
+H_i is the standstill heat load (K above the air with the spindle still); model files written
+before it existed have none and their blocks compute without it.
 The displacement follows the simulated temperatures with their ambient-driven part (paper 000
 eq. 10); the structure lag is absent when the model was fitted without one.
 """
@@ -47,6 +49,7 @@ def coefficients(sim: Simulation, dt: float) -> tuple[dict[str, Coefficient], di
         if sim.has("stop_convection"):
             c[f"As_{i}"], c[f"Bs_{i}"] = _pair(sim_.pole(p.tau_s * p.stop_factor, dt))
         c[f"G_{i}"] = Coefficient.of(p.gain)
+        c[f"H_{i}"] = Coefficient.of(p.load_K)
         if sim.has("gear_ratio_switch"):
             c[f"G2_{i}"] = Coefficient.of(p.gear_gain)
         if sim.has("coolant_switching"):
@@ -109,7 +112,7 @@ def simulation_of(model: Model) -> Simulation:
     k = len(model.signals("temperature"))
     drift = [s.get("drift_K_per_h", 0.0) / 3600 for s in st.get("sensors", [{}] * k)]
     sensors = tuple(sim_.SensorParams(
-        tau_s=tau(c(f"A_{i}")), gain=c(f"G_{i}"),
+        tau_s=tau(c(f"A_{i}")), gain=c(f"G_{i}"), load_K=c(f"H_{i}"),
         stop_factor=tau(c(f"As_{i}")) / tau(c(f"A_{i}")) if f"As_{i}" in model.coefficients else 1.0,
         gear_gain=c(f"G2_{i}"), cooling=c(f"K_{i}"), offset_K=c(f"O_{i}"), drift_K_per_s=drift[i - 1])
         for i in range(1, k + 1))
@@ -148,6 +151,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     k, rows = len(temps), len(n)
     gear, cool_on, stop = (has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection"))
     slow, amb, structure = has(model, "slow_structure"), has(model, "ambient_coupling"), "AS" in coef
+    load = "H_1" in coef
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     offset = [coef.get(f"O_{i}") for i in range(1, k + 1)]
     relay_sensor = model.settings.get("relay_sensor", 1) - 1
@@ -169,6 +173,8 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
             s = heat + (n[j] - node) * slope
         for i in range(1, k + 1):
             q = coef[f"G_{i}"] * s
+            if load:
+                q = q + coef[f"H_{i}"]
             if gear and n[j] > coef["Gear_rpm"]:
                 q = q + coef[f"G2_{i}"] * n[j]
             if cool_on and cool:
@@ -210,7 +216,7 @@ def kernel_arguments(model: Model, inputs: dict, precision: str, state=None):
     """(the compiled loop's output, its state) for these calls; predict's setup, for kernels.lumped."""
     f, coef, temps, te, n, feed = _arrays(model, inputs, precision)
     flags = (*(has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection", "slow_structure",
-                                       "ambient_coupling")), "AS" in coef, feed is not None)
+                                       "ambient_coupling")), "AS" in coef, feed is not None, "H_1" in coef)
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     state = state or kernels.LumpedState(len(temps), f)
     out = kernels.lumped(temps, te, n, feed, flags, coef, table, model.settings.get("relay_sensor", 1) - 1, f, state)

@@ -2,8 +2,9 @@
 
 Per temperature sensor i the simulation runs open loop from speed and ambient alone:
     T_i[j] = a_i T_i[j-1] + (1-a_i) (Te[j] + q_i[j])                       (starts at T_i[0] - offset_i)
-    q_i = g_i s(n) + [gear] g2_i n [n > threshold] + [coolant] k_i cool
-with a_i = exp(-dt/tau_i) (tau_i times a factor while the spindle stands, stop_convection) and
+    q_i = h_i + g_i s(n) + [gear] g2_i n [n > threshold] + [coolant] k_i cool
+with h_i the heat load of a machine that is powered with the spindle still (drives, hydraulics, a
+chiller: a real machine is rarely at the air's temperature at standstill), a_i = exp(-dt/tau_i) (tau_i times a factor while the spindle stands, stop_convection) and
 s(n) = n, or n^p through a node table (nonlinear_speed_heat). The sensor reads T_i plus
 offset_i and drift_i * t. The displacement is regressed on the simulated temperatures, the
 ambient-driven part included (paper 000 eq. 10/16), and on a structure that lags them:
@@ -100,6 +101,7 @@ class SensorParams:
     tau_s: float
     gain: float
     stop_factor: float = 1.0
+    load_K: float = 0.0  # standstill heat load: how far above the air the sensor settles with the spindle still
     gear_gain: float = 0.0
     cooling: float = 0.0
     offset_K: float = 0.0
@@ -134,7 +136,7 @@ class Simulation:
         return next((s for e, s in self.effects if e == name), None)
 
     def parameter_count(self) -> int:
-        per_sensor = 2 + sum(self.has(e) for e in ("stop_convection", "gear_ratio_switch", "coolant_switching"))
+        per_sensor = 3 + sum(self.has(e) for e in ("stop_convection", "gear_ratio_switch", "coolant_switching"))
         structure = self.displacement.tau_struct_s is not None
         count = len(self.sensors) * per_sensor + 1 + len(self.sensors) + (1 + len(self.sensors)) * structure
         count += sum(self.has(e) for e in ("gear_ratio_switch", "nonlinear_speed_heat", "sensor_offset", "sensor_drift"))
@@ -252,7 +254,7 @@ def _heat_inputs(series: Series, shared: Shared, effects, cooling: np.ndarray | 
     """Heat input columns; the coolant relay state is `cooling` when given (the closed loop),
     else switched by the measured temperature (a fast stand-in while its thresholds are searched)."""
     names = {e for e, _ in effects}
-    inputs = [("gain", speed_heat(series.n, shared))]
+    inputs = [("gain", speed_heat(series.n, shared)), ("load_K", np.ones(series.rows))]
     if "gear_ratio_switch" in names:
         inputs.append(("gear_gain", np.where(series.n > shared.gear_rpm, series.n, 0.0)))
     if "coolant_switching" in names and shared.relay is not None:  # None while the thresholds are unknown

@@ -143,7 +143,13 @@ def test_slow_lags_need_a_whole_day(rows, testable):
         assert (why is None) == testable, (rows, name, why)
         if why:
             assert "whole day" in why and f"covers {rows * DT / HOUR:.2f} h" in why
-    assert sufficiency.untestable(train, "sensor_offset") is None
+    assert sufficiency.untestable(train, "sensor_drift") is None
+
+
+def test_a_constant_sensor_offset_is_not_testable_beside_a_standstill_heat_load():
+    """The baseline fits a heat load per sensor; an offset on the reading is the same column."""
+    why = sufficiency.untestable(_series(50), "sensor_offset")
+    assert why is not None and "standstill heat load" in why
 
 
 def test_several_effects_with_disagreements_left_are_not_named():
