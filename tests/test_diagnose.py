@@ -70,6 +70,9 @@ _STAND_IN_AFTER = pytest.mark.xfail(strict=True, reason=(
     for m in MACHINES for n in NAMES])
 def test_a_hidden_effect_with_random_parameters_is_named_alone_and_the_gap_halves(machine_name, name):
     d, effect = _hidden(machine_name, name, seed=1)
+    if name == "sensor_offset":  # the same column as the standstill heat load the baseline fits
+        assert "sensor_offset" in d.not_tested and "sensor_offset" not in [e["name"] for e in d.named]
+        return
     if d.ambiguous:  # lagged ambient and a slow structure can fit alike: then neither may be named
         assert {name, *(a.split()[0] for a in d.ambiguous)} == set(LOOK_ALIKE) and not d.added, (effect, d.ambiguous)
         assert d.verdict == "unexplained" and "cannot tell" in d.reason
@@ -160,7 +163,7 @@ def test_no_hidden_effect_means_no_missing_effect():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("pair", [("gear_ratio_switch", "ambient_coupling"), ("sensor_offset", "stop_convection")])
+@pytest.mark.parametrize("pair", [("gear_ratio_switch", "ambient_coupling"), ("sensor_drift", "stop_convection")])
 def test_two_hidden_effects_are_both_named(pair):
     d = _run(pair, seed=8)
     assert d.verdict == "explained"

@@ -173,11 +173,14 @@ def test_several_effects_with_disagreements_left_are_not_named():
 @pytest.mark.slow
 def test_a_gear_switch_fitted_through_two_speed_groups_is_not_named():
     """Cascade, 24 h, seed 7: the training part runs at two speeds; the hidden nonlinear heat used to
-    be named a gear switch. Now the verdict says the two cannot be told apart."""
+    be named a gear switch. Now nothing is named: the reason says the two cannot be told apart, or
+    (with the standstill heat load, which fits a third level at standstill) that the gaps are at
+    speeds the training part never ran."""
     series, rows, _ = _hidden("cascade", "nonlinear_speed_heat", 7)
     d = search.diagnose(series, rows, "E_z_um")
     assert d.named == []
-    assert "cannot tell gear_ratio_switch from nonlinear_speed_heat" in d.reason
+    assert ("cannot tell gear_ratio_switch from nonlinear_speed_heat" in d.reason
+            or "ran at speeds outside the training part's 2000..3000 rpm: 500, 1000 rpm" in d.reason)
 
 
 def test_polishing_never_raises_the_criterion():
