@@ -53,3 +53,39 @@ def test_diagnose_benchmark_counts_outcomes_per_machine_length_and_noise():
     assert second.startswith("portal 72 h noise x2") and "a wrong name 2/6 (33 %)" in second
     assert ("right name alone 0/4 (0 %) of the runs whose effect is outside the baseline's class "
             "(2 inside it left out, 1 of them named anyway)") in second
+
+
+def test_diagnose_real_benchmark_counts_names_verdicts_and_visible_runs_per_channel():
+    from benchmarks import diagnose_real
+    from thermoplc.models.effects import NAMES
+    assert set(diagnose_real.LIBRARY) | set(diagnose_real.SKIPPED) == set(NAMES)
+    base = {"channel": "ch3_um", "seed": 1, "parameters": {}, "reason": None, "before": 20.0, "after": 10.0,
+            "seconds": 15.0}
+    big, small = {"ch3_um": 5.0, "t5_C": 1.0}, {"ch3_um": 2.0}
+    runs = [{**base, "effect": "sensor_drift", "verdict": "explained", "found": ["sensor_drift"], "size_sigmas": big},
+            {**base, "effect": "sensor_drift", "verdict": "unexplained", "found": [], "size_sigmas": big},
+            {**base, "effect": "sensor_drift", "verdict": "explained", "found": ["sensor_drift", "slow_structure"],
+             "size_sigmas": big},
+            {**base, "effect": "sensor_drift", "verdict": "explained", "found": ["sensor_drift"], "size_sigmas": small},
+            {**base, "effect": "sensor_offset", "verdict": "no_missing_effect", "found": [],
+             "size_sigmas": {"t5_C": 0.0}},
+            {**base, "effect": "step", "verdict": "explained", "found": ["slow_structure"], "size_sigmas": big},
+            {**base, "effect": "step", "verdict": "unexplained", "found": [], "size_sigmas": big},
+            {**base, "effect": "none", "verdict": "unexplained", "found": ["sensor_drift"], "size_sigmas": {}},
+            {**base, "channel": "ch5_um", "effect": "periodic", "verdict": "insufficient_data", "found": [],
+             "size_sigmas": small}]
+    assert [diagnose_real.visible(r) for r in runs] == [True, True, True, False, False, True, True, False, False]
+    assert [diagnose_real.wrong_name(r) for r in runs] == [False, False, True, False, False, True, False, True, False]
+    assert [line for line in diagnose_real.table(runs) if "`" in line] == [
+        "| ch3_um | `sensor_offset` | 1 | 0 | 0 | 0 | 0 | 1 | 0 | 0 | 0 | 20.000 | 10.000 | 15.0 | 15.0 |",
+        "| ch3_um | `sensor_drift` | 4 | 3 | 2 | 1 | 1 | 0 | 3 | 1 | 0 | 20.000 | 10.000 | 15.0 | 15.0 |",
+        "| ch3_um | `step` | 2 | 2 | 0 | 0 | 1 | 0 | 1 | 1 | 0 | 20.000 | 10.000 | 15.0 | 15.0 |",
+        "| ch3_um | `none` | 1 | 0 | 0 | 0 | 1 | 0 | 0 | 1 | 0 | 20.000 | 10.000 | 15.0 | 15.0 |",
+        "| ch5_um | `periodic` | 1 | 0 | 0 | 0 | 0 | 0 | 0 | 0 | 1 | 20.000 | 10.000 | 15.0 | 15.0 |"]
+    ch3, ch5 = diagnose_real.summary(runs)
+    assert ch3.startswith("ch3_um: right name alone 1/3 (33 %) of the library runs whose effect exceeds 3 noise sigmas")
+    assert "1 of them a name the clean recording gives too (2/5 (40 %) of all library runs)" in ch3
+    assert "a wrong name 3/8 (38 %) of all runs" in ch3
+    assert ch3.endswith("clean recording: unexplained naming sensor_drift; step: explained naming slow_structure; "
+                        "unexplained; periodic: not run")
+    assert ch5.startswith("ch5_um: right name alone 0/0 (0 %)") and ch5.endswith("periodic: insufficient_data")
