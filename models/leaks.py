@@ -22,6 +22,8 @@ TEMPERATURE_NAME = re.compile(r"^t(_|\d|$)|temp|(^|_)(deg_?c|c|celsius)$", re.IG
 UNIT_SUFFIX = re.compile(r"_(um|µm|mm|nm|m|urad|mrad|rad|arcsec)$", re.IGNORECASE)
 COPY_NOISE_MULTIPLE = 3.0  # a copy's misfit stays within a few noise sigmas of the two columns
 COPY_MIN_R2 = 0.9  # and it explains the target: a column of mostly noise maps to anything "within its noise"
+SHARED_NOISE_MIN = 0.2  # a copy with 3x the target's noise of its own still correlates 0.3 sample to sample
+SHARED_NOISE_SIGMAS = 5.0
 WHITE_WINDOW = 30  # calls averaged to see the slow part of a misfit
 WHITE_STANDARD_ERRORS = 3.0  # a white misfit's average over the window stays within this many standard errors
 TEMPERATURE_RULE = ("names starting with T followed by '_', a digit or nothing, or containing 'temp', or ending "
@@ -91,6 +93,19 @@ def _affine_misfit(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float] |
     return float(np.sqrt(np.mean(misfit ** 2))), float(coef[1]), _slow_part(misfit)
 
 
+def _shares_noise(x: np.ndarray, y: np.ndarray) -> bool:
+    """Whether the column carries the target's own sample-to-sample noise: a copy does, a
+    temperature sensor has noise of its own. Rank correlation of the second differences, above
+    `SHARED_NOISE_MIN` and above chance (`SHARED_NOISE_SIGMAS` standard errors)."""
+    finite = np.isfinite(x) & np.isfinite(y)
+    dx, dy = np.diff(x[finite], 2), np.diff(y[finite], 2)
+    if len(dx) < 5 or np.ptp(dx) == 0 or np.ptp(dy) == 0:
+        return False
+    rank = lambda v: np.argsort(np.argsort(v)).astype(float)
+    r = abs(float(np.corrcoef(rank(dx), rank(dy))[0, 1]))
+    return r >= max(SHARED_NOISE_MIN, SHARED_NOISE_SIGMAS / np.sqrt(len(dx)))
+
+
 def _slow_part(misfit: np.ndarray) -> float:
     """The misfit's RMS after averaging over `WHITE_WINDOW` calls, in standard errors of white noise
     of its own sample-to-sample sigma: about 1 for noise, large where heat flow shaped it."""
@@ -114,7 +129,8 @@ def _copy_of(x: np.ndarray, y: np.ndarray) -> tuple[float, float] | None:
     noise = float(np.hypot(noise_sigma(y), slope * noise_sigma(x)))
     exact = misfit <= 1e-9 * float(np.ptp(y[np.isfinite(y)]))
     explains = misfit ** 2 <= (1.0 - COPY_MIN_R2) * float(np.var(y[np.isfinite(y)]))
-    if exact or (explains and misfit <= COPY_NOISE_MULTIPLE * noise and slow <= WHITE_STANDARD_ERRORS):
+    if exact or (explains and misfit <= COPY_NOISE_MULTIPLE * noise and slow <= WHITE_STANDARD_ERRORS
+                 and _shares_noise(x, y)):
         return misfit, noise
     return None
 
