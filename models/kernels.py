@@ -312,10 +312,10 @@ def gm1n(temps: list, x1, keep, gain, b: list, f, state: GreyState | None = None
 
 # ---------------------------------------------------------------------------------------------
 # Lumped-mass simulation with effects (models/lumped_model.py::predict).
-# flags: gear, cool_on, stop, slow, amb, structure, feed, load (0/1); per (k,): G, G2, K, As, Bs, A, B,
-# beta, gamma, delta, offset, H (standstill load), has_offset; sc: Gear_rpm, Stop_rpm, AS, BS, A2, B2, AAm, BAm, AF, BF,
-# beta0, alpha, phi, CoolOn, CoolOff (absent ones 0; never used then); table: (segments, 3) node,
-# heat, slope.
+# flags: gear, cool_on, stop, slow, amb, structure, feed, load (0/1); per (k,): G, G2, K, As, Bs, A,
+# B, beta, gamma, delta, offset, H (standstill load); has_offset (k,); sc: Gear_rpm, Stop_rpm, AS, BS,
+# A2, B2, AAm, BAm, AF, BF, beta0, alpha, phi, CoolOn, CoolOff (absent ones 0; never used then);
+# table: (segments, 3) node, heat, slope.
 
 @jit
 def _lumped(temps, te, n, feed, flags, per, has_offset, sc, table, relay, zero, sim, ll, mm, t0, carried, status, out):

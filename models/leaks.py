@@ -1,11 +1,11 @@
 """Which columns may stand for temperatures in a fit or a sensor selection.
 
-A model fitted on the answer in disguise (the target under another name, a copy of it up to scale,
-offset and a shift in time, a displacement column, a feed rate behind a temperature guard) reports
-a tiny error and compensates nothing on the machine; these checks refuse such columns with the
-reason. A temperature that predicts the target well is not refused however well it does: a
-well-placed sensor is the best case of the physics, and it reaches the target through heat flow,
-which leaves a misfit far above the measurement noise where a copy leaves none.
+A model fitted on the answer in disguise (the target under another name, a copy of it up to scale
+and offset, a displacement column, a feed rate behind a temperature guard) reports a tiny error
+and compensates nothing on the machine; these checks refuse such columns with the reason. A
+temperature that predicts the target well is not refused however well it does: a well-placed
+sensor is the best case of the physics; it reaches the target through heat flow and has noise of
+its own, where a copy leaves only the noise it shares with the target.
 """
 from __future__ import annotations
 
@@ -64,10 +64,9 @@ def leak_reason(name: str, values: np.ndarray, target: str, target_values: np.nd
     if copy is not None:
         misfit, noise = copy
         return (f"is a copy of the target {target!r} (an affine map of it leaves {misfit:.3g} RMS, within "
-                f"{COPY_NOISE_MULTIPLE:g}x the measurement noise {noise:.3g} of the two): it is the answer, not a cause")
+                f"{COPY_NOISE_MULTIPLE:g}x the measurement noise {noise:.3g} of the two): it is the answer, "
+                "not a cause")
     return None
-
-
 
 
 def noise_sigma(x: np.ndarray) -> float:
@@ -80,13 +79,9 @@ def noise_sigma(x: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(second - np.median(second))) / np.sqrt(6.0))
 
 
-def _affine_misfit(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float] | None:
+def _affine_misfit(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
     """RMS of y less its best affine map of x, that map's slope and the misfit's slow part in standard
-    errors; None where x or y is constant."""
-    finite = np.isfinite(x) & np.isfinite(y)
-    x, y = x[finite], y[finite]
-    if len(x) < 5 or np.ptp(x) == 0 or np.ptp(y) == 0:
-        return None
+    errors (finite, non-constant x and y)."""
     design = np.column_stack([np.ones_like(x), x - x.mean()])
     coef = np.linalg.lstsq(design, y, rcond=None)[0]
     misfit = y - design @ coef
@@ -97,9 +92,8 @@ def _shares_noise(x: np.ndarray, y: np.ndarray) -> bool:
     """Whether the column carries the target's own sample-to-sample noise: a copy does, a
     temperature sensor has noise of its own. Rank correlation of the second differences, above
     `SHARED_NOISE_MIN` and above chance (`SHARED_NOISE_SIGMAS` standard errors)."""
-    finite = np.isfinite(x) & np.isfinite(y)
-    dx, dy = np.diff(x[finite], 2), np.diff(y[finite], 2)
-    if len(dx) < 5 or np.ptp(dx) == 0 or np.ptp(dy) == 0:
+    dx, dy = np.diff(x, 2), np.diff(y, 2)
+    if np.ptp(dx) == 0 or np.ptp(dy) == 0:
         return False
     rank = lambda v: np.argsort(np.argsort(v)).astype(float)
     r = abs(float(np.corrcoef(rank(dx), rank(dy))[0, 1]))
@@ -119,16 +113,17 @@ def _slow_part(misfit: np.ndarray) -> float:
 def _copy_of(x: np.ndarray, y: np.ndarray) -> tuple[float, float] | None:
     """(misfit, noise) if the column is the target up to an affine map at the same call, within the
     noise of the two, else None. A displacement that follows a temperature some time later is what
-    a structure does, so no shift in time is searched. A temperature that drives the target, however well,
-    reaches it through heat flow (and beside other heat paths): its misfit is slow and stands above
-    the sample-to-sample noise. A copy's misfit is the noise itself: small and white."""
-    fitted = _affine_misfit(x, y)
-    if fitted is None:
+    a structure does, so no shift in time is searched. A temperature that drives the target, however
+    well, reaches it through heat flow (and beside other heat paths): its misfit is slow and stands
+    above the sample-to-sample noise. A copy's misfit is the noise itself: small and white."""
+    finite = np.isfinite(x) & np.isfinite(y)
+    x, y = x[finite], y[finite]
+    if len(x) < 5 or np.ptp(x) == 0 or np.ptp(y) == 0:
         return None
-    misfit, slope, slow = fitted
+    misfit, slope, slow = _affine_misfit(x, y)
     noise = float(np.hypot(noise_sigma(y), slope * noise_sigma(x)))
-    exact = misfit <= 1e-9 * float(np.ptp(y[np.isfinite(y)]))
-    explains = misfit ** 2 <= (1.0 - COPY_MIN_R2) * float(np.var(y[np.isfinite(y)]))
+    exact = misfit <= 1e-9 * float(np.ptp(y))
+    explains = misfit ** 2 <= (1.0 - COPY_MIN_R2) * float(np.var(y))
     if exact or (explains and misfit <= COPY_NOISE_MULTIPLE * noise and slow <= WHITE_STANDARD_ERRORS
                  and _shares_noise(x, y)):
         return misfit, noise

@@ -4,7 +4,8 @@ Per temperature sensor i the simulation runs open loop from speed and ambient al
     T_i[j] = a_i T_i[j-1] + (1-a_i) (Te[j] + q_i[j])                       (starts at T_i[0] - offset_i)
     q_i = h_i + g_i s(n) + [gear] g2_i n [n > threshold] + [coolant] k_i cool
 with h_i the heat load of a machine that is powered with the spindle still (drives, hydraulics, a
-chiller: a real machine is rarely at the air's temperature at standstill), a_i = exp(-dt/tau_i) (tau_i times a factor while the spindle stands, stop_convection) and
+chiller: a real machine is rarely at the air's temperature at standstill), a_i = exp(-dt/tau_i)
+(tau_i times a factor while the spindle stands, stop_convection) and
 s(n) = n, or n^p through a node table (nonlinear_speed_heat). The sensor reads T_i plus
 offset_i and drift_i * t. The displacement is regressed on the simulated temperatures, the
 ambient-driven part included (paper 000 eq. 10/16), and on a structure that lags them:

@@ -25,6 +25,14 @@ def test_a_sensor_that_predicts_the_target_through_physics_is_accepted(recording
     assert leak_reason("T_bearing", np.asarray(recording["T_bearing"]), "E_z_um", target) is None
 
 
+def test_a_sensor_over_a_short_warm_up_is_accepted():
+    """200 calls of warm-up: the displacement barely leaves its noise and the motor temperature
+    explains it within that noise, but the sensor's noise is its own, so it is no copy."""
+    columns = simulate(2, seed=4)
+    motor, target = np.asarray(columns["T_motor"])[:200], np.asarray(columns["E_z_um"])[:200]
+    assert leak_reason("T_motor", motor, "E_z_um", target) is None
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_a_noisy_scaled_copy_of_the_target_is_refused(recording, seed):
     rng = np.random.default_rng(seed)
@@ -36,7 +44,8 @@ def test_a_noisy_scaled_copy_of_the_target_is_refused(recording, seed):
 
 def test_fit_and_diagnose_take_the_good_sensor_and_refuse_the_copy(recording, tmp_path):
     columns = dict(recording)
-    columns["T_probe"] = 20.0 + 0.05 * (columns["E_z_um"] + np.random.default_rng(9).normal(0, 0.5, len(columns["E_z_um"])))
+    noise = np.random.default_rng(9).normal(0, 0.5, len(columns["E_z_um"]))
+    columns["T_probe"] = 20.0 + 0.05 * (columns["E_z_um"] + noise)
     (tmp_path / "good.csv").write_text(write_table(columns))
     thermoplc("fit", "--data", "good.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor",
               "--train-until", 43200, "-o", "m.json", cwd=tmp_path)
