@@ -1,4 +1,4 @@
-"""The lumped-mass simulation block with the effects diagnose found (DESIGN §8)."""
+"""The lumped-mass simulation block: the identified baseline `fit` writes, or the effects `diagnose` found."""
 from __future__ import annotations
 
 from thermoplc.generator.ir import Assign, BinOp, Block, BoolConst, Const, If, Index, IntConst, Ref, Region, Var
@@ -65,11 +65,16 @@ def lower_lumped(model: Model) -> Block:
             step = If(((BinOp("<=", speed, const("Stop_rpm")), (_lag(f"Tsim_{i}", f"As_{i}", f"Bs_{i}", drive),)),),
                       orelse=(step,))
         body = [*heat, step]
+        if f"KF_{i}" in model.coefficients:
+            body.append(Assign(f"Tsim_{i}", BinOp("+", Ref(f"Tsim_{i}"), BinOp(
+                "*", const(f"KF_{i}"), BinOp("-", Ref(s.name), Ref(f"Tsim_{i}"))))))
         if structure:
             body.append(_lag(f"L_{i}", "AS", "BS", Ref(f"Tsim_{i}")))
         if has("slow_structure"):
             body.append(_lag(f"M_{i}", "A2", "B2", Ref(f"L_{i}" if structure else f"Tsim_{i}")))
         sensor_regions.append(Region(f"Sensor {i} {s.name}: heat input and lumped-mass temperature, paper 000 eq. 4"
+                                     + ("; corrected by the reading (steady-state Kalman filter)"
+                                        if f"KF_{i}" in model.coefficients else "")
                                      + ("; structure lag" if structure else ""), tuple(body)))
     init += [Assign("Te0", ambient)]
     statics.append(Var("Te0", "REAL", "ambient at the first call, degC"))
@@ -131,7 +136,7 @@ _LUMPED_COMMENTS = {
     "A": "decay per call while running", "B": "1 - A", "As": "decay per call at standstill (stop_convection)",
     "Bs": "1 - As", "G": "steady rise per unit of speed heat, K", "G2": "extra rise per rpm above the gear threshold, K",
     "K": "rise while the coolant runs, K", "H": "rise above the air at standstill (heat load), K",
-    "O": "sensor offset, K", "Stop": "standstill at or below, rpm",
+    "O": "sensor offset, K", "KF": "share of the reading's disagreement taken each call (Kalman gain)", "Stop": "standstill at or below, rpm",
     "Gear": "gear threshold, rpm", "CoolOn": "coolant on above, degC", "CoolOff": "coolant off below, degC",
     "AS": "structure decay per call", "BS": "1 - AS", "A2": "slow structure decay per call", "B2": "1 - A2",
     "AAm": "ambient coupling decay per call", "BAm": "1 - AAm", "AF": "feed heat decay per call", "BF": "1 - AF",

@@ -9,7 +9,7 @@ import numpy as np
 
 from thermoplc.errors import UserError
 from thermoplc.identifiers import check_unique, identifier_from_column, identifier_problem
-from thermoplc.models import bayes, bpnn, dlag, grey, kalman, lumped_model, mlr, piecewise, simulation
+from thermoplc.models import bayes, bpnn, dlag, grey, identify, kalman, lumped_model, mlr, piecewise, simulation
 from thermoplc.models.modelfile import Coefficient, Model, Signal
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.leaks import refuse_leaks, refuse_non_temperatures
@@ -110,13 +110,16 @@ def _fit_kalman(parts, request, names, dt, progress):
 
 
 def _fit_lumped(parts, request, names, dt, progress):
-    """The baseline simulation (no effects); `thermoplc diagnose` adds the effects."""
+    """The identified baseline (no effects): models/identify.py."""
     part = parts[0]
     series = simulation.Series(dt, np.arange(len(part.target)) * dt, part.speed, part.ambient, part.temps,
                                tuple(names), part.target)
-    fitted = simulation.fit(series)
+    fitted, measured = identify.fit(series)
     coefficients, settings = lumped_model.coefficients(fitted, dt)
-    return coefficients, settings, {"method": "lumped-mass simulation, time constants searched, gains by least squares"}
+    return coefficients, settings, {
+        "method": "lumped-mass model identified by least one-step prediction error (steady-state Kalman filter on "
+                  "the readings); displacement map with structure lag and ridge weight chosen by forward validation",
+        **measured}
 
 
 def _fit_piecewise(parts, request, names, dt, progress):

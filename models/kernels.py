@@ -312,8 +312,8 @@ def gm1n(temps: list, x1, keep, gain, b: list, f, state: GreyState | None = None
 
 # ---------------------------------------------------------------------------------------------
 # Lumped-mass simulation with effects (models/lumped_model.py::predict).
-# flags: gear, cool_on, stop, slow, amb, structure, feed, load (0/1); per (k,): G, G2, K, As, Bs, A,
-# B, beta, gamma, delta, offset, H (standstill load); has_offset (k,); sc: Gear_rpm, Stop_rpm, AS, BS,
+# flags: gear, cool_on, stop, slow, amb, structure, feed, load, filtered (0/1); per (k,): G, G2, K,
+# As, Bs, A, B, beta, gamma, delta, offset, H (standstill load), KF (filter gain); has_offset (k,); sc: Gear_rpm, Stop_rpm, AS, BS,
 # A2, B2, AAm, BAm, AF, BF, beta0, alpha, phi, CoolOn, CoolOff (absent ones 0; never used then);
 # table: (segments, 3) node, heat, slope.
 
@@ -322,6 +322,7 @@ def _lumped(temps, te, n, feed, flags, per, has_offset, sc, table, relay, zero, 
     k = temps.shape[0]
     gear, cool_on, stop, slow, amb, structure, with_feed, load = (flags[0], flags[1], flags[2], flags[3], flags[4],
                                                                    flags[5], flags[6], flags[7])
+    filtered = flags[8]
     la = carried[0]
     te0 = carried[1]
     lf = carried[2]
@@ -361,6 +362,8 @@ def _lumped(temps, te, n, feed, flags, per, has_offset, sc, table, relay, zero, 
                 sim[i] = per[3, i] * sim[i] + per[4, i] * (q + te[j])
             else:
                 sim[i] = per[5, i] * sim[i] + per[6, i] * (q + te[j])
+            if filtered:
+                sim[i] = sim[i] + per[12, i] * (temps[i, j] - sim[i])
             if structure:
                 ll[i] = sc[2] * ll[i] + sc[3] * sim[i]
             if slow:
@@ -406,7 +409,7 @@ class LumpedState:
         self.status = np.zeros(2, np.int64)  # started, cool
 
 
-LUMPED_PER_SENSOR = ("G", "G2", "K", "As", "Bs", "A", "B", "beta", "gamma", "delta", "O", "H")
+LUMPED_PER_SENSOR = ("G", "G2", "K", "As", "Bs", "A", "B", "beta", "gamma", "delta", "O", "H", "KF")
 LUMPED_SCALARS = ("Gear_rpm", "Stop_rpm", "AS", "BS", "A2", "B2", "AAm", "BAm", "AF", "BF", "beta0", "alpha", "phi",
                   "CoolOn", "CoolOff")
 

@@ -1,10 +1,13 @@
 """The `lumped` model kind: paper 000's lumped-mass simulation with named effects, as a block.
 
-Open loop: the block simulates the temperatures from speed, ambient (and feed) alone; measured
-temperatures only set the start. Per call, in this order:
+The block simulates the temperatures from speed, ambient (and feed); the measured temperatures
+set the start and, in a model identified by `fit` (models/identify.py), correct the simulation
+each call by a fixed share KF_i (the steady-state Kalman filter); a model `diagnose` fitted runs
+open loop. Per call, in this order:
     S := n, or the n^p table interpolated at n                          (nonlinear_speed_heat)
     per sensor i:  Q := G_i*S [+ H_i] [+ G2_i*n if n > Gear] [+ K_i if Cool]
                    Tsim_i := A_i*Tsim_i + B_i*(Q + Te)   (As_i, Bs_i while n <= Stop: stop_convection)
+                   [Tsim_i := Tsim_i + KF_i*(T_i - Tsim_i)]  (filtered)
                    [L_i := AS*L_i + BS*Tsim_i]  [M_i := A2*M_i + B2*(L_i or Tsim_i)]  (structure, slow_structure)
     [LA := AAm*LA + BAm*Te]  [LF := AF*LF + BF*feed]
     E := beta0 + sum_i beta_i*(Tsim_i-T0_i) [+ gamma_i*(L_i-T0_i)] [+ delta_i*(M_i-T0_i)] [+ alpha*(LA-Te0)] [+ phi*LF]
@@ -50,6 +53,8 @@ def coefficients(sim: Simulation, dt: float) -> tuple[dict[str, Coefficient], di
             c[f"As_{i}"], c[f"Bs_{i}"] = _pair(sim_.pole(p.tau_s * p.stop_factor, dt))
         c[f"G_{i}"] = Coefficient.of(p.gain)
         c[f"H_{i}"] = Coefficient.of(p.load_K)
+        if p.filter_gain:
+            c[f"KF_{i}"] = Coefficient.of(p.filter_gain)
         if sim.has("gear_ratio_switch"):
             c[f"G2_{i}"] = Coefficient.of(p.gear_gain)
         if sim.has("coolant_switching"):
@@ -114,7 +119,8 @@ def simulation_of(model: Model) -> Simulation:
     sensors = tuple(sim_.SensorParams(
         tau_s=tau(c(f"A_{i}")), gain=c(f"G_{i}"), load_K=c(f"H_{i}"),
         stop_factor=tau(c(f"As_{i}")) / tau(c(f"A_{i}")) if f"As_{i}" in model.coefficients else 1.0,
-        gear_gain=c(f"G2_{i}"), cooling=c(f"K_{i}"), offset_K=c(f"O_{i}"), drift_K_per_s=drift[i - 1])
+        gear_gain=c(f"G2_{i}"), cooling=c(f"K_{i}"), offset_K=c(f"O_{i}"), drift_K_per_s=drift[i - 1],
+        filter_gain=c(f"KF_{i}"))
         for i in range(1, k + 1))
     shared = sim_.Shared(
         stopped_rpm=float(st.get("stopped_rpm", 0.0)), gear_rpm=c("Gear_rpm", None),
@@ -151,7 +157,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     k, rows = len(temps), len(n)
     gear, cool_on, stop = (has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection"))
     slow, amb, structure = has(model, "slow_structure"), has(model, "ambient_coupling"), "AS" in coef
-    load = "H_1" in coef
+    load, filtered = "H_1" in coef, "KF_1" in coef
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     offset = [coef.get(f"O_{i}") for i in range(1, k + 1)]
     relay_sensor = model.settings.get("relay_sensor", 1) - 1
@@ -183,6 +189,8 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
                 sim[i - 1] = coef[f"As_{i}"] * sim[i - 1] + coef[f"Bs_{i}"] * (q + te[j])
             else:
                 sim[i - 1] = coef[f"A_{i}"] * sim[i - 1] + coef[f"B_{i}"] * (q + te[j])
+            if filtered:
+                sim[i - 1] = sim[i - 1] + coef[f"KF_{i}"] * (temps[i - 1][j] - sim[i - 1])
             if structure:
                 l_[i - 1] = coef["AS"] * l_[i - 1] + coef["BS"] * sim[i - 1]
             if slow:
@@ -216,7 +224,7 @@ def kernel_arguments(model: Model, inputs: dict, precision: str, state=None):
     """(the compiled loop's output, its state) for these calls; predict's setup, for kernels.lumped."""
     f, coef, temps, te, n, feed = _arrays(model, inputs, precision)
     flags = (*(has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection", "slow_structure",
-                                       "ambient_coupling")), "AS" in coef, feed is not None, "H_1" in coef)
+                                       "ambient_coupling")), "AS" in coef, feed is not None, "H_1" in coef, "KF_1" in coef)
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     state = state or kernels.LumpedState(len(temps), f)
     out = kernels.lumped(temps, te, n, feed, flags, coef, table, model.settings.get("relay_sensor", 1) - 1, f, state)

@@ -107,6 +107,7 @@ class SensorParams:
     cooling: float = 0.0
     offset_K: float = 0.0
     drift_K_per_s: float = 0.0
+    filter_gain: float = 0.0  # steady-state Kalman gain on the reading (0: open loop, the simulation alone)
 
 
 @dataclass(frozen=True)
@@ -506,9 +507,23 @@ def temperatures(series: Series, sim_shared: Shared, sensors, effects) -> tuple[
     physical = np.empty_like(series.temps)
     start, drives = _drives(series, sim_shared, sensors, effects)
     for i, (p, (a, q)) in enumerate(zip(sensors, drives)):
+        if p.filter_gain:  # the reading's one-step prediction and the filtered temperature
+            readings[:, i], physical[:, i] = filtered(series.temps[:, i], a, series.te + q, p.filter_gain, start[i])
+            continue
         physical[:, i] = lag(series.te + q, a, start[i])
         readings[:, i] = physical[:, i] + p.offset_K + p.drift_K_per_s * (series.t - series.t[0])
     return readings, physical
+
+
+def filtered(reading: np.ndarray, a, drive: np.ndarray, gain: float, start: float) -> tuple[np.ndarray, np.ndarray]:
+    """One sensor under the steady-state Kalman filter with gain `gain`: the simulation predicts
+    x[j|j-1] = a x[j-1|j-1] + (1-a) drive[j], the reading corrects it, x[j|j] = x[j|j-1] +
+    gain (y[j] - x[j|j-1]), from x[-1|-1] = start. Returns (predictions, filtered temperatures).
+    Both are one lag of pole a (1 - gain), which runs at lfilter speed; gain 0 is the open loop."""
+    pole_ = a * (1.0 - gain)
+    previous = np.r_[start, reading[:-1]]
+    predicted = lag((a * gain * previous + (1.0 - a) * drive) / (1.0 - pole_), pole_, start)
+    return predicted, predicted + gain * (reading - predicted)
 
 
 def _drives(series: Series, shared: Shared, sensors, effects) -> tuple[np.ndarray, list]:
