@@ -187,6 +187,14 @@ def format_fit(model) -> str:
         if m[key]["rows"]:
             lines.append(f"  {label:<22}{m[key]['rmse_um']:>10.3f}{m[key]['max_abs_um']:>20.3f}")
     lines.append(f"  float32 block vs float64 model: max {m['float32_vs_float64_max_um']:.3g} um")
+    if "one_step_rmse_K" in model.fit:  # an identified model: how far its temperatures are from the readings
+        names = [s.name for s in model.signals("temperature")]
+        each = lambda key: ", ".join(f"{n} {v:.3f}" for n, v in zip(names, model.fit[key]))
+        gains = ", ".join(f"{n} {model.coef(f'KF_{i}', 'f64'):.3g}" if f"KF_{i}" in model.coefficients else f"{n} 0"
+                          for i, n in enumerate(names, start=1))
+        lines += [f"  temperatures (training), RMSE K: filtered one step ahead: {each('one_step_rmse_K')}; "
+                  f"open loop: {each('open_loop_rmse_K')}",
+                  f"  filter gain (share of the reading taken each call): {gains}"]
     return "\n".join(lines)
 
 
@@ -552,7 +560,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ambient", required=True, help="ambient temperature column, degC")
     p.add_argument("--target", required=True, help="measured displacement column, um")
     p.add_argument("--feed", help="feed-axis rate column, mm/min (enables the feed_axis_heat candidate)")
-    p.add_argument("--baseline", help="a lumped model file to start from instead of fitting the baseline")
+    p.add_argument("--baseline", help="a lumped model file written by diagnose to start from instead of fitting the baseline")
     p.add_argument("--no-structure-lag", action="store_true",
                    help="baseline displacement from the simulated temperatures alone (paper 000 eq. 10), without "
                         "the structure that lags them")

@@ -56,8 +56,11 @@ def _training_rows(table: Table, request: DiagnoseRequest) -> int:
 
 def _check_baseline(model: Model, request: DiagnoseRequest, path: str) -> None:
     if model.kind != "lumped":
-        raise UserError(f"{path}: --baseline needs a lumped model (thermoplc fit --model lumped, or a model written "
-                        f"by diagnose), found kind {model.kind!r}")
+        raise UserError(f"{path}: --baseline needs a lumped model written by diagnose, found kind {model.kind!r}")
+    if any(name.startswith("KF_") for name in model.coefficients):
+        raise UserError(f"{path}: --baseline is an identified model (`fit --model lumped`: its temperatures follow the "
+                        f"readings through the filter gains KF_i), but diagnose compares an open-loop simulation with "
+                        f"the readings; leave out --baseline and diagnose fits its own")
     expected = {"temperature": list(request.temps), "speed": [request.speed], "ambient": [request.ambient]}
     for role, columns in expected.items():
         found = [s.column for s in model.signals(role)]

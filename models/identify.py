@@ -35,17 +35,25 @@ RIDGE_WEIGHTS = (0.0, *10.0 ** np.arange(-6.0, 0.5, 0.5))  # per row, on standar
 MIN_VALIDATION_ROWS = 12
 
 
+MIN_GAIN = 1e-6  # below this the filter is off (0.0): a constant the block can carry without a word
+
+
 def _gain(logit: float) -> float:
-    return float(1.0 / (1.0 + np.exp(-np.clip(logit, -30.0, 30.0))))
+    gain = float(1.0 / (1.0 + np.exp(-np.clip(logit, -30.0, 30.0))))
+    return gain if gain >= MIN_GAIN else 0.0
 
 
 def _prediction_design(series: Series, i: int, heat: list[np.ndarray], a: float, gain: float):
-    """The part of sensor i's one-step prediction the gains do not scale, and one column per gain."""
+    """The part of sensor i's one-step prediction the gains do not scale, one column per gain and
+    a last one for the initial state's departure from the first reading (a nuisance parameter: a
+    machine is rarely in equilibrium when the recording starts, and left out its decay would
+    bias the pole and the gain; the block starts from the reading and its filter takes it up)."""
     y = series.temps[:, i]
+    zero = np.zeros_like(y)
     predicted_known, _ = sim_.filtered(y, a, series.te, gain, y[0])
-    columns = [sim_.filtered(np.zeros_like(y), a, x, gain, 0.0)[0] for x in heat]
     # a zero reading drops the correction from the columns: what stays is each gain's own share
-    return predicted_known, columns
+    columns = [sim_.filtered(zero, a, x, gain, 0.0)[0] for x in heat]
+    return predicted_known, [*columns, sim_.filtered(zero, a, zero, gain, 1.0)[0]]
 
 
 def _cost(series: Series, i: int, heat: list[np.ndarray], tau_s: float, gain: float):
@@ -66,7 +74,7 @@ def fit_sensor(series: Series, i: int, shared: Shared) -> SensorParams:
     x = sim_.minimize(cost, list(start), method="Nelder-Mead",
                       options={"xatol": 1e-5, "fatol": 1e-12, "maxiter": 600}).x
     tau_s, gain = unpack(x)
-    _, (g, h) = _cost(series, i, heat, tau_s, gain)
+    _, (g, h, _initial) = _cost(series, i, heat, tau_s, gain)
     return SensorParams(tau_s=tau_s, gain=float(g), load_K=float(h), filter_gain=gain)
 
 

@@ -53,7 +53,7 @@ def coefficients(sim: Simulation, dt: float) -> tuple[dict[str, Coefficient], di
             c[f"As_{i}"], c[f"Bs_{i}"] = _pair(sim_.pole(p.tau_s * p.stop_factor, dt))
         c[f"G_{i}"] = Coefficient.of(p.gain)
         c[f"H_{i}"] = Coefficient.of(p.load_K)
-        if p.filter_gain:
+        if any(sensor.filter_gain for sensor in sim.sensors):  # every sensor or none: one flag in the block
             c[f"KF_{i}"] = Coefficient.of(p.filter_gain)
         if sim.has("gear_ratio_switch"):
             c[f"G2_{i}"] = Coefficient.of(p.gear_gain)

@@ -19,7 +19,7 @@ def test_replay_benchmark_reports_every_block_and_engine_as_json(capsys, monkeyp
     monkeypatch.setattr(sys, "argv", ["replay.py", "--cycles", "20000", "--interp-cycles", "300", "--json"])
     replay.main()
     result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
-    assert set(result) == {"mlr", "kalman", "piecewise", "dlag", "gm0n", "gm1n", "bayes", "bpnn", "lumped"}
+    assert set(result) == {"mlr", "kalman", "piecewise", "dlag", "gm0n", "gm1n", "bayes", "bpnn", "lumped", "lumped_identified"}
     assert all(set(r) == {"interp", "fast", "c_plain", "reference"} and min(r.values()) > 0 for r in result.values())
 
 
