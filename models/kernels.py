@@ -313,12 +313,13 @@ def gm1n(temps: list, x1, keep, gain, b: list, f, state: GreyState | None = None
 # ---------------------------------------------------------------------------------------------
 # Lumped-mass simulation with effects (models/lumped_model.py::predict).
 # flags: gear, cool_on, stop, slow, amb, structure, feed, load, filtered (0/1); per (k,): G, G2, K,
-# As, Bs, A, B, beta, gamma, delta, offset, H (standstill load), KF (filter gain); has_offset (k,); sc: Gear_rpm, Stop_rpm, AS, BS,
-# A2, B2, AAm, BAm, AF, BF, beta0, alpha, phi, CoolOn, CoolOff (absent ones 0; never used then);
+# As, Bs, A, B, beta, gamma, delta, offset, H (standstill load), KF (filter gain); present (2, k):
+# whether each sensor has an offset, a filter gain; sc: Gear_rpm, Stop_rpm, AS, BS, A2, B2, AAm,
+# BAm, AF, BF, beta0, alpha, phi, CoolOn, CoolOff (absent ones 0; never used then);
 # table: (segments, 3) node, heat, slope.
 
 @jit
-def _lumped(temps, te, n, feed, flags, per, has_offset, sc, table, relay, zero, sim, ll, mm, t0, carried, status, out):
+def _lumped(temps, te, n, feed, flags, per, present, sc, table, relay, zero, sim, ll, mm, t0, carried, status, out):
     k = temps.shape[0]
     gear, cool_on, stop, slow, amb, structure, with_feed, load = (flags[0], flags[1], flags[2], flags[3], flags[4],
                                                                    flags[5], flags[6], flags[7])
@@ -331,7 +332,7 @@ def _lumped(temps, te, n, feed, flags, per, has_offset, sc, table, relay, zero, 
     for j in range(out.shape[0]):
         if status[0] == 0:
             for i in range(k):
-                if has_offset[i]:
+                if present[0, i]:
                     sim[i] = temps[i, j] - per[10, i]
                 else:
                     sim[i] = temps[i, j]
@@ -362,7 +363,7 @@ def _lumped(temps, te, n, feed, flags, per, has_offset, sc, table, relay, zero, 
                 sim[i] = per[3, i] * sim[i] + per[4, i] * (q + te[j])
             else:
                 sim[i] = per[5, i] * sim[i] + per[6, i] * (q + te[j])
-            if filtered:
+            if filtered and present[1, i]:
                 sim[i] = sim[i] + per[12, i] * (temps[i, j] - sim[i])
             if structure:
                 ll[i] = sc[2] * ll[i] + sc[3] * sim[i]
@@ -423,7 +424,7 @@ def lumped(temps: list, te, n, feed, flags: tuple, coef: dict, table: list, rela
     for r, name in enumerate(LUMPED_PER_SENSOR):
         for i in range(k):
             per[r, i] = coef.get(f"{name}_{i + 1}", f(0))
-    has_offset = np.array([f"O_{i + 1}" in coef for i in range(k)], np.bool_)
+    present = np.array([[f"{stem}_{i + 1}" in coef for i in range(k)] for stem in ("O", "KF")], np.bool_)
     sc = np.array([coef.get(name, f(0)) for name in LUMPED_SCALARS], f)
     rows = len(te)
     stacked = np.empty((k, rows), f)
@@ -432,7 +433,7 @@ def lumped(temps: list, te, n, feed, flags: tuple, coef: dict, table: list, rela
     table_array = np.array(table, f).reshape(len(table), 3)
     out = np.empty(rows, f)
     _lumped(stacked, np.ascontiguousarray(te, f), np.ascontiguousarray(n, f),
-            np.ascontiguousarray(feed if feed is not None else te, f), np.array(flags, np.bool_), per, has_offset, sc,
+            np.ascontiguousarray(feed if feed is not None else te, f), np.array(flags, np.bool_), per, present, sc,
             table_array, np.int64(relay), f(0), state.sim, state.ll, state.mm, state.t0, state.carried, state.status,
             out)
     return out

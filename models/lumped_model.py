@@ -157,7 +157,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     k, rows = len(temps), len(n)
     gear, cool_on, stop = (has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection"))
     slow, amb, structure = has(model, "slow_structure"), has(model, "ambient_coupling"), "AS" in coef
-    load, filtered = "H_1" in coef, "KF_1" in coef
+    load = "H_1" in coef
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     offset = [coef.get(f"O_{i}") for i in range(1, k + 1)]
     relay_sensor = model.settings.get("relay_sensor", 1) - 1
@@ -189,7 +189,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
                 sim[i - 1] = coef[f"As_{i}"] * sim[i - 1] + coef[f"Bs_{i}"] * (q + te[j])
             else:
                 sim[i - 1] = coef[f"A_{i}"] * sim[i - 1] + coef[f"B_{i}"] * (q + te[j])
-            if filtered:
+            if f"KF_{i}" in coef:
                 sim[i - 1] = sim[i - 1] + coef[f"KF_{i}"] * (temps[i - 1][j] - sim[i - 1])
             if structure:
                 l_[i - 1] = coef["AS"] * l_[i - 1] + coef["BS"] * sim[i - 1]
@@ -224,7 +224,8 @@ def kernel_arguments(model: Model, inputs: dict, precision: str, state=None):
     """(the compiled loop's output, its state) for these calls; predict's setup, for kernels.lumped."""
     f, coef, temps, te, n, feed = _arrays(model, inputs, precision)
     flags = (*(has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection", "slow_structure",
-                                       "ambient_coupling")), "AS" in coef, feed is not None, "H_1" in coef, "KF_1" in coef)
+                                       "ambient_coupling")), "AS" in coef, feed is not None, "H_1" in coef,
+             any(name.startswith("KF_") for name in coef))
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     state = state or kernels.LumpedState(len(temps), f)
     out = kernels.lumped(temps, te, n, feed, flags, coef, table, model.settings.get("relay_sensor", 1) - 1, f, state)
