@@ -112,6 +112,7 @@ def _fit_kalman(parts, request, names, dt, progress):
 def _fit_lumped(parts, request, names, dt, progress):
     """The identified baseline (no effects): models/identify.py."""
     part = parts[0]
+    mlr.refuse_flat(part.temps, names)
     series = simulation.Series(dt, np.arange(len(part.target)) * dt, part.speed, part.ambient, part.temps,
                                tuple(names), part.target)
     fitted, measured = identify.fit(series)
@@ -168,10 +169,11 @@ def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
         if column is None:
             raise UserError(f"--model {request.kind} needs --{role} COLUMN")
         shared = [i for i, s in enumerate(signals) if s.column == column]
-        if shared and (role == "speed" or request.kind == "kalman"):
+        if shared and (role == "speed" or request.kind in ("kalman", "lumped")):
             raise UserError(f"--{role} {column}: the column is also in --temps; "
                             + ("a speed is not a temperature" if role == "speed" else
-                               "the Kalman model fuses each --temps sensor and needs its ambient sensor apart"))
+                               f"the {request.kind} model drives each --temps sensor by the ambient and needs its "
+                               f"ambient sensor apart"))
         if shared:  # e.g. the ambient sensor is also one of the regression temperatures (paper 001's T14)
             s = signals[shared[0]]
             signals[shared[0]] = Signal(s.name, s.column, f"{s.role},{role}", s.unit)

@@ -84,7 +84,11 @@ def _ridge(design: np.ndarray, y: np.ndarray, weight: float) -> tuple[float, np.
     spread[spread == 0.0] = 1.0
     z = (design - mean) / spread
     offset = float(y.mean())
-    slopes = np.linalg.solve(z.T @ z + weight * len(y) * np.eye(z.shape[1]), z.T @ (y - offset)) / spread
+    k = z.shape[1]
+    # the penalty as rows under the design: least squares on that stack is the ridge solution, and
+    # with weight 0 on two identical sensors it is the minimum-norm one instead of a singular solve
+    stacked = np.vstack([z, np.sqrt(weight * len(y)) * np.eye(k)])
+    slopes = np.linalg.lstsq(stacked, np.r_[y - offset, np.zeros(k)], rcond=None)[0] / spread
     return offset - float(mean @ slopes), slopes
 
 

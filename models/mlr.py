@@ -12,16 +12,22 @@ from thermoplc.models.modelfile import Model
 CONDITION_LIMIT = 1e6
 
 
-def least_squares(features: np.ndarray, target: np.ndarray, names: list[str]) -> np.ndarray:
-    """Intercept + slopes by least squares; refuses constant or collinear columns, naming them,
-    instead of returning huge slopes (the papers' multicollinearity problem)."""
-    features = np.asarray(features, float).reshape(len(target), -1)
-    centred = features - features.mean(axis=0)
-    spread = centred.std(axis=0)
+def refuse_flat(features: np.ndarray, names: list[str]) -> None:
+    """A column that does not move on the training rows has no slope to fit: refuse it by name."""
+    spread = (features - features.mean(axis=0)).std(axis=0)
     flat = [names[i] for i in np.nonzero(spread <= 1e-12 * np.maximum(np.abs(features).max(axis=0), 1.0))[0]]
     if flat:
         raise UserError(f"{', '.join(flat)} does not change on the training rows: its slope cannot be fitted; "
                         f"drop it or train on data where it moves")
+
+
+def least_squares(features: np.ndarray, target: np.ndarray, names: list[str]) -> np.ndarray:
+    """Intercept + slopes by least squares; refuses constant or collinear columns, naming them,
+    instead of returning huge slopes (the papers' multicollinearity problem)."""
+    features = np.asarray(features, float).reshape(len(target), -1)
+    refuse_flat(features, names)
+    centred = features - features.mean(axis=0)
+    spread = centred.std(axis=0)
     if features.shape[1] > 1:
         _, singular, vt = np.linalg.svd(centred / spread, full_matrices=False)
         condition = singular[0] / max(singular[-1], 1e-300)

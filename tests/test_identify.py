@@ -84,3 +84,37 @@ def test_diagnose_refuses_an_identified_baseline(tmp_path):
     refused = thermoplc("diagnose", "--data", FL_THERMAL, *columns, "--baseline", "base.json", cwd=tmp_path, check=2)
     assert "base.json: --baseline is an identified model" in refused.stderr
     assert "Traceback" not in refused.stderr
+
+
+def test_verify_refuses_a_block_with_a_filter_the_model_lacks(tmp_path):
+    """A block constant the model has no counterpart for is a computation the model lacks, even
+    where the replayed data cannot tell (a gain so small its correction rounds away)."""
+    from scripts.regen_golden import GOLDEN
+    model = json.loads((GOLDEN / "lumped_identified.json").read_text())
+    for name in [n for n in model["coefficients"] if n.startswith("KF_")]:
+        del model["coefficients"][name]
+    (tmp_path / "open_loop.json").write_text(json.dumps(model))
+    thermoplc("twin", "--hours", 12, "--seed", 7, "-o", "twin.csv", cwd=tmp_path)
+    block = GOLDEN / "lumped_identified.tia.scl"
+    result = thermoplc("verify", block, "--model", "open_loop.json", "--data", "twin.csv", cwd=tmp_path, check=1)
+    assert "c_KF_1: declared in the block, but the model has no such constant" in result.stdout
+
+
+@pytest.mark.skipif(not FL_THERMAL.exists(), reason="FL_THERMAL is not beside the repository")
+def test_fit_lumped_refuses_a_flat_sensor_and_the_ambient_as_a_sensor_and_takes_twin_sensors(tmp_path):
+    import csv
+    rows = list(csv.reader(FL_THERMAL.open()))[:3000]
+    header = rows[0]
+    t5, t4 = header.index("t5_C"), header.index("t4_C")
+    flat = [header] + [[*r[:t5], "30.0", *r[t5 + 1:]] for r in rows[1:]]
+    twin = [header] + [[*r[:t5], r[t4], *r[t5 + 1:]] for r in rows[1:]]
+    for name, table in (("flat.csv", flat), ("twin.csv", twin)):
+        (tmp_path / name).write_text("\n".join(",".join(r) for r in table) + "\n")
+    args = ("--model", "lumped", "--ambient", "t6_C", "--speed", "spindle_rpm", "--target", "ch3_um",
+            "--train-until", 30000, "-o")
+    refused = thermoplc("fit", "--data", "flat.csv", "--temps", "t5_C,t4_C", *args, "a.json", cwd=tmp_path, check=2)
+    assert "t5_C does not change on the training rows" in refused.stderr
+    refused = thermoplc("fit", "--data", FL_THERMAL, "--temps", "t5_C,t6_C", *args, "b.json", cwd=tmp_path, check=2)
+    assert "--ambient t6_C: the column is also in --temps" in refused.stderr
+    thermoplc("fit", "--data", "twin.csv", "--temps", "t5_C,t4_C", *args, "c.json", cwd=tmp_path)  # ridge, no singular solve
+    assert not (tmp_path / "a.json").exists() and not (tmp_path / "b.json").exists()

@@ -279,6 +279,11 @@ def _compare_constants(program: Program, model: Model, limits: Limits) -> tuple[
                 where = f"{name}[{k}]" if len(values) > 1 or decl.type.bounds else name
                 errors.append(f"{where}: block {_show(got)}, model {_show(float(want))} "
                               f"({ulp_distance(got, want) if isinstance(got, float) else '?'} ULP)")
+    # a constant the model does not have is a computation it does not have (a filter gain, an extra
+    # term), which data may not reach: the block is not the model's
+    known = {name.upper() for name, _ in wanted}
+    errors += [f"{d.name}: declared in the block, but the model has no such constant"
+               for d in program.decls if d.section == "constant" and d.name.upper() not in known]
     return checked, tuple(errors)
 
 
