@@ -169,6 +169,31 @@ def score(sim: Simulation, residual: dict, sigma: dict, n_train: int) -> Score:
     return Score(rmse_train, rmse_held, max_held, float(bic), held, normalised, train_normalised)
 
 
+def effective_rows(residual: np.ndarray) -> float:
+    """How many independent rows a residual is worth: n (1 - rho) / (1 + rho), rho its lag-1
+    autocorrelation (not centred, so a bias counts as memory). A white residual counts every row;
+    a residual that is a slow misfit (a real machine the model does not follow) counts a handful,
+    however many samples it has: the Gaussian BIC treats rows as independent and otherwise credits
+    any extra parameter that bends the model toward a slow misfit with thousands of units."""
+    energy = float(residual @ residual)
+    rho = float(residual[1:] @ residual[:-1]) / energy if energy > 0 and len(residual) > 1 else 0.0
+    rho = min(max(rho, 0.0), 1.0 - 1e-9)
+    return max(len(residual) * (1.0 - rho) / (1.0 + rho), 1.0)
+
+
+def white_delta_bic(before: dict, after: dict, added_parameters: int, n_train: int) -> float:
+    """The BIC change with each channel's likelihood counted over the effective rows of the
+    candidate's training residual (`effective_rows`): on white residuals the plain change, on
+    residuals that keep a slow misfit a small fraction of it. An effect that explains what is
+    missing leaves white residuals behind; one that only bends the model toward a misfit it cannot
+    follow does not (residual whiteness as the stopping rule, as in CTSM's model selection)."""
+    change = 0.0
+    for c, r in after.items():
+        new, old = r[:n_train], before[c][:n_train]
+        change += effective_rows(new) * np.log(max(float(new @ new), 1e-300) / max(float(old @ old), 1e-300))
+    return float(change + added_parameters * np.log(n_train * len(after)))
+
+
 def held_out_gain(before: Score, after: Score, n_train: int) -> float:
     """The largest share of a channel's excess above noise removed, over channels that are off on the
     held-out part and that the training part supports: visibly off there too, or fitted better by
@@ -460,9 +485,13 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             s = score(trial, res, sigma, n_train)
             gain = held_out_gain(current_score, s, n_train)
             delta = s.bic - current_score.bic
-            by_bic = delta < -BIC_MARGIN
+            white = white_delta_bic(residual, res, trial.parameter_count() - current.parameter_count(), n_train)
+            by_bic = delta < -BIC_MARGIN and white < -BIC_MARGIN
             why = not_the_named_physics(trial, name, series, train, channels, sigma, current_score, s, by_bic) or (
                 sufficiency.relay_too_quiet(trial, train) if name == "coolant_switching" else None)
+            if why is None and delta < -BIC_MARGIN <= white:
+                why = (f"the residual it leaves is still a slow misfit, not noise: counted over its effective rows "
+                       f"(lag-1 autocorrelation) the BIC changes by {white:+.1f}, not below -{BIC_MARGIN:g}")
             judged = by_bic and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
             if judged and name == "slow_structure" and current.has("ambient_coupling") and lag_of_the_air(trial, train):
                 air_after_air = True
@@ -496,6 +525,8 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
         rounds.append(trials)
         added.append({"name": name, "parameters": describe(trial, name, series), "evidence": {
             "bic_before": current_score.bic, "bic_after": s.bic, "delta_bic": s.bic - current_score.bic,
+            "delta_bic_white": white_delta_bic(residual, res, trial.parameter_count() - current.parameter_count(),
+                                               n_train),
             "held_out_rmse_before": current_score.rmse_held_out, "held_out_rmse_after": s.rmse_held_out,
             "held_out_excess_removed": trials[index].held_out_gain,
             "windows": _window_change(windows0, residual, res)}})

@@ -289,3 +289,25 @@ def test_columns_lagged_together_have_the_bits_of_one_by_one(columns, rows, pole
     for i in range(columns):
         alone = simulation.lag(x[:, i], pole, y0[i])
         assert together[:, i].view(np.uint64).tolist() == alone.view(np.uint64).tolist()
+
+
+def test_a_white_residual_counts_every_row_and_a_slow_misfit_a_handful():
+    rng = np.random.default_rng(11)
+    white = rng.normal(0.0, 0.05, 5000)
+    slow = 3.0 * np.sin(np.linspace(0.0, 3.0, 5000)) + white
+    assert search.effective_rows(white) > 0.9 * 5000
+    assert search.effective_rows(slow) < 5
+    assert search.effective_rows(np.zeros(10)) == 10.0
+
+
+def test_an_effect_that_only_bends_toward_a_slow_misfit_earns_no_bic():
+    """Halving a slow misfit (a real machine the model cannot follow) is worth a few units; leaving
+    white noise behind is worth thousands, as the plain BIC says."""
+    rng = np.random.default_rng(12)
+    noise = rng.normal(0.0, 0.05, 4000)
+    misfit = 2.0 * np.sin(np.linspace(0.0, 4.0, 4000))
+    before = {"E": misfit + noise}
+    bent = search.white_delta_bic(before, {"E": 0.5 * misfit + noise}, 2, 4000)
+    explained = search.white_delta_bic(before, {"E": noise}, 2, 4000)
+    assert bent > -search.BIC_MARGIN
+    assert explained < -1000.0
