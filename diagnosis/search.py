@@ -1,7 +1,8 @@
 """Find the missing effect (DESIGN §8): fit, compare, test each named effect, keep what is supported.
 
 An effect is kept only when both judges agree: the information criterion on the training part
-(BIC, Gaussian with one variance per channel, falls by more than `BIC_MARGIN`) and the held-out
+(BIC, Gaussian with one variance per channel, falls by more than `BIC_MARGIN`, also with each
+channel counted over the effective rows of the residual the candidate leaves) and the held-out
 part (the noise-normalised squared error falls by at least `HELD_OUT_SHARE` of what is left
 above the noise), on a channel that is off on the held-out part by more than `MIN_EXCESS` and on
 the training part by more than `MIN_TRAIN_EXCESS` (or that the candidate fits better on the training
@@ -170,8 +171,10 @@ def score(sim: Simulation, residual: dict, sigma: dict, n_train: int) -> Score:
 
 
 def effective_rows(residual: np.ndarray) -> float:
-    """How many independent rows a residual is worth: n (1 - rho) / (1 + rho), rho its lag-1
-    autocorrelation (not centred, so a bias counts as memory). A white residual counts every row;
+    """Rows a residual counts for in the BIC: n (1 - rho) / (1 + rho), rho its lag-1 autocorrelation
+    (not centred, so a bias counts as memory); the AR(1) effective size of a mean, fewer than the
+    n (1 - rho^2) / (1 + rho^2) of a sum of squares, so the count errs toward refusing. A white
+    residual counts every row;
     a residual that is a slow misfit (a real machine the model does not follow) counts a handful,
     however many samples it has: the Gaussian BIC treats rows as independent and otherwise credits
     any extra parameter that bends the model toward a slow misfit with thousands of units."""
@@ -181,12 +184,13 @@ def effective_rows(residual: np.ndarray) -> float:
     return max(len(residual) * (1.0 - rho) / (1.0 + rho), 1.0)
 
 
-def white_delta_bic(before: dict, after: dict, added_parameters: int, n_train: int) -> float:
+def effective_delta_bic(before: dict, after: dict, added_parameters: int, n_train: int) -> float:
     """The BIC change with each channel's likelihood counted over the effective rows of the
     candidate's training residual (`effective_rows`): on white residuals the plain change, on
     residuals that keep a slow misfit a small fraction of it. An effect that explains what is
     missing leaves white residuals behind; one that only bends the model toward a misfit it cannot
-    follow does not (residual whiteness as the stopping rule, as in CTSM's model selection)."""
+    follow does not (residual whiteness as the stopping rule; CTSM judges the filter's innovations,
+    this judges the open-loop residual the diagnosis compares)."""
     change = 0.0
     for c, r in after.items():
         new, old = r[:n_train], before[c][:n_train]
@@ -485,13 +489,14 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             s = score(trial, res, sigma, n_train)
             gain = held_out_gain(current_score, s, n_train)
             delta = s.bic - current_score.bic
-            white = white_delta_bic(residual, res, trial.parameter_count() - current.parameter_count(), n_train)
-            by_bic = delta < -BIC_MARGIN and white < -BIC_MARGIN
+            effective = effective_delta_bic(residual, res, trial.parameter_count() - current.parameter_count(),
+                                            n_train)
+            by_bic = delta < -BIC_MARGIN and effective < -BIC_MARGIN
             why = not_the_named_physics(trial, name, series, train, channels, sigma, current_score, s, by_bic) or (
                 sufficiency.relay_too_quiet(trial, train) if name == "coolant_switching" else None)
-            if why is None and delta < -BIC_MARGIN <= white:
+            if why is None and delta < -BIC_MARGIN and not effective < -BIC_MARGIN:
                 why = (f"the residual it leaves is still a slow misfit, not noise: counted over its effective rows "
-                       f"(lag-1 autocorrelation) the BIC changes by {white:+.1f}, not below -{BIC_MARGIN:g}")
+                       f"(lag-1 autocorrelation) the BIC changes by {effective:+.1f}, not below -{BIC_MARGIN:g}")
             judged = by_bic and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
             if judged and name == "slow_structure" and current.has("ambient_coupling") and lag_of_the_air(trial, train):
                 air_after_air = True
@@ -525,7 +530,7 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
         rounds.append(trials)
         added.append({"name": name, "parameters": describe(trial, name, series), "evidence": {
             "bic_before": current_score.bic, "bic_after": s.bic, "delta_bic": s.bic - current_score.bic,
-            "delta_bic_white": white_delta_bic(residual, res, trial.parameter_count() - current.parameter_count(),
+            "delta_bic_white": effective_delta_bic(residual, res, trial.parameter_count() - current.parameter_count(),
                                                n_train),
             "held_out_rmse_before": current_score.rmse_held_out, "held_out_rmse_after": s.rmse_held_out,
             "held_out_excess_removed": trials[index].held_out_gain,

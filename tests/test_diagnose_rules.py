@@ -307,7 +307,7 @@ def test_an_effect_that_only_bends_toward_a_slow_misfit_earns_no_bic():
     noise = rng.normal(0.0, 0.05, 4000)
     misfit = 2.0 * np.sin(np.linspace(0.0, 4.0, 4000))
     before = {"E": misfit + noise}
-    bent = search.white_delta_bic(before, {"E": 0.5 * misfit + noise}, 2, 4000)
-    explained = search.white_delta_bic(before, {"E": noise}, 2, 4000)
+    bent = search.effective_delta_bic(before, {"E": 0.5 * misfit + noise}, 2, 4000)
+    explained = search.effective_delta_bic(before, {"E": noise}, 2, 4000)
     assert bent > -search.BIC_MARGIN
     assert explained < -1000.0
