@@ -21,13 +21,13 @@ as wrong.
 from __future__ import annotations
 
 import argparse
-import json
-import os
+import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
 
-for _threads in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):  # one core per job: small
-    os.environ.setdefault(_threads, "1")  # matrices in several processes slow down 5x with threaded BLAS
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from benchmarks.runs import run_and_print  # noqa: E402  (before numpy: one BLAS thread per job)
 
 import numpy as np  # noqa: E402
 
@@ -175,14 +175,7 @@ def main() -> None:
     args = parser.parse_args()
     cases = [(m, name, seed, noise, hours) for m in args.machines for hours in args.hours for name in args.effects
              for noise in args.noise for seed in range(args.first_seed, args.first_seed + args.seeds)]
-    with ProcessPoolExecutor(args.jobs) as pool:
-        results = list(pool.map(one, cases))
-    if args.json:
-        with open(args.json, "w", encoding="utf-8") as out:
-            json.dump(results, out, indent=1)
-    print("\n".join(table(results)))
-    print()
-    print("\n".join(summary(results)))
+    results = run_and_print(one, cases, args.jobs, args.json, table, summary)
     for r in results:
         if outcome(r) not in ("right",):
             print(f"  {r['machine']} {r['hours']:g} h {r['effect']} seed {r['seed']} noise {r['noise']:g}: "

@@ -45,14 +45,14 @@ recording and of the step and periodic runs. Deterministic for the same argument
 from __future__ import annotations
 
 import argparse
-import json
-import os
+import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from functools import lru_cache
+from pathlib import Path
 
-for _threads in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):  # one core per job: small
-    os.environ.setdefault(_threads, "1")  # matrices in several processes slow down 5x with threaded BLAS
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from benchmarks.runs import run_and_print  # noqa: E402  (before numpy: one BLAS thread per job)
 
 import numpy as np  # noqa: E402
 from scipy.signal import lfilter  # noqa: E402
@@ -278,14 +278,7 @@ def main() -> None:
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     cases = [(channel, name, seed) for channel in args.channels for name in args.effects
              for seed in (seeds[:1] if name == "none" else seeds)]
-    with ProcessPoolExecutor(args.jobs) as pool:
-        results = list(pool.map(one, cases))
-    if args.json:
-        with open(args.json, "w", encoding="utf-8") as out:
-            json.dump(results, out, indent=1)
-    print("\n".join(table(results)))
-    print()
-    print("\n".join(summary(results)))
+    results = run_and_print(one, cases, args.jobs, args.json, table, summary)
     for r in results:
         if not right_alone(r):
             print(f"  {r['channel']} {r['effect']} seed {r['seed']}: {r['verdict']} {r['found']} {r['reason'] or ''} "

@@ -120,12 +120,11 @@ def fit(series: Series) -> tuple[Simulation, dict]:
     """The identified baseline (no effects) on `series`, the training part; and what was measured."""
     shared = Shared(stopped_rpm=sim_.stopped_threshold(series.n))
     sensors = tuple(fit_sensor(series, i, shared) for i in range(len(series.names)))
-    _, temps = sim_.temperatures(series, shared, sensors, ())
+    predicted, temps = sim_.temperatures(series, shared, sensors, ())  # one step ahead, and filtered
     displacement, chosen = fit_displacement(series, temps, sim_.first_temperatures(series, sensors))
     sim = Simulation((), shared, sensors, displacement)
     open_loop = tuple(replace(p, filter_gain=0.0) for p in sensors)
     simulated, _ = sim_.temperatures(series, shared, open_loop, ())
-    predicted, _ = sim_.temperatures(series, shared, sensors, ())
     rms = lambda x: [float(v) for v in np.sqrt(np.mean(x ** 2, axis=0))]
     return sim, {**chosen, "one_step_rmse_K": rms(series.temps - predicted),
                  "open_loop_rmse_K": rms(series.temps - simulated)}

@@ -47,13 +47,14 @@ def _pair(a: float) -> tuple[Coefficient, Coefficient]:
 def coefficients(sim: Simulation, dt: float) -> tuple[dict[str, Coefficient], dict]:
     """Model-file coefficients (block order) and settings of a fitted simulation."""
     c: dict[str, Coefficient] = {}
+    filtered = any(p.filter_gain for p in sim.sensors)  # every sensor carries a gain or none: one flag in the block
     for i, p in enumerate(sim.sensors, start=1):
         c[f"A_{i}"], c[f"B_{i}"] = _pair(sim_.pole(p.tau_s, dt))
         if sim.has("stop_convection"):
             c[f"As_{i}"], c[f"Bs_{i}"] = _pair(sim_.pole(p.tau_s * p.stop_factor, dt))
         c[f"G_{i}"] = Coefficient.of(p.gain)
         c[f"H_{i}"] = Coefficient.of(p.load_K)
-        if any(sensor.filter_gain for sensor in sim.sensors):  # every sensor or none: one flag in the block
+        if filtered:
             c[f"KF_{i}"] = Coefficient.of(p.filter_gain)
         if sim.has("gear_ratio_switch"):
             c[f"G2_{i}"] = Coefficient.of(p.gear_gain)
