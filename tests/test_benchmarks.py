@@ -1,4 +1,5 @@
 """The papers' comparison script runs and fills every row (its numbers are in the README)."""
+import numpy as np
 import pytest
 from benchmarks import papers
 
@@ -89,3 +90,20 @@ def test_diagnose_real_benchmark_counts_names_verdicts_and_visible_runs_per_chan
     assert ch3.endswith("clean recording: unexplained naming sensor_drift; step: explained naming slow_structure; "
                         "unexplained; periodic: not run")
     assert ch5.startswith("ch5_um: right name alone 0/0 (0 %)") and ch5.endswith("periodic: insufficient_data")
+
+
+def test_evidence_bound_credits_a_shape_in_white_noise_not_in_a_slow_misfit_and_names_only_past_clean():
+    from benchmarks import evidence_real
+    rng = np.random.default_rng(5)
+    rows = 4000
+    shape = np.sin(np.linspace(0.0, 12.0, rows))
+    white = 0.5 * rng.standard_normal(rows)
+    walk = np.cumsum(0.05 * rng.standard_normal(rows))
+    assert evidence_real._lr(white + 0.2 * shape, shape) > 100.0
+    assert evidence_real._lr(white, shape) < 10.0
+    assert evidence_real._lr(walk + 0.2 * shape, shape) < 20.0  # a few effective rows, however many samples
+    bar = evidence_real.penalty(rows)
+    assert bar == pytest.approx(np.log(rows) + 10.0)
+    run = {"rows": rows, "injected": {"levels": bar + 1, "innovations": bar + 1, "temperatures": 0.0},
+           "clean": {"levels": 0.0, "innovations": bar + 5, "temperatures": 0.0}}
+    assert evidence_real.nameable(run) == "levels"
