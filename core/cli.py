@@ -167,11 +167,10 @@ def cmd_fit(args) -> int:
     write_atomic(args.output, model.to_json())
     print(format_fit(model))
     print(f"wrote {args.output}")
-    held = model.metrics["held_out"]
-    if held["rows"] and held["rmse_um"] > held.get("zero_rmse_um", float("inf")):
-        print(f"thermoplc: WARNING: on the held-out rows this model is worse than no compensation at all: "
-              f"RMSE {held['rmse_um']:.3f} um with the model, {held['zero_rmse_um']:.3f} um predicting 0. "
-              f"Do not put it on a machine.", file=sys.stderr)
+    from thermoplc.models.acceptance import problem, quantisation_problem
+    refused = quantisation_problem(model) or problem(model)
+    if refused:
+        print(f"thermoplc: WARNING: generate will refuse this model: {refused}", file=sys.stderr)
     return 0
 
 
@@ -232,15 +231,32 @@ def format_proof(proof, block) -> str:
             + "; outputs: " + ", ".join(show(v.name) for v in block.outputs if v.type == "REAL"))
 
 
+def _accepted(model, args) -> str | None:
+    """Refuse a model that has not earned a block (no held-out evidence, or not clearly better than
+    no compensation) unless --accept-unvalidated; refuse, always, a float32 block that is not the
+    model that was judged. Returns why the model is unvalidated when the flag let it through."""
+    from thermoplc.models.acceptance import problem, quantisation_problem
+    drift = quantisation_problem(model)
+    if drift:
+        raise UserError(f"{args.model}: {drift}; nothing written")
+    why = problem(model)
+    if why and not args.accept_unvalidated:
+        raise UserError(f"{args.model}: {why}; nothing written (--accept-unvalidated writes it anyway, and the "
+                        "header says so)")
+    return why
+
+
 def cmd_generate(args) -> int:
     from dataclasses import replace
     from thermoplc.identifiers import identifier_problem
     from thermoplc.generator.lower import lower, lower_model, model_identity
     from thermoplc.generator.printer import GenerationError, render, render_instance_db, render_plcopen
+    from thermoplc.models.acceptance import evidence
     from thermoplc.models.modelfile import load_model
     from thermoplc.models.safety import Limits
     check_output(args.output, args.force, inputs=[args.model])
     model = load_model(args.model)
+    unvalidated = _accepted(model, args)
     if args.name is not None:
         problem = identifier_problem(args.name)
         if problem:
@@ -273,6 +289,8 @@ def cmd_generate(args) -> int:
           f"{', PLCopen XML' if args.format == 'plcopen' else ''}, model fingerprint {model.fingerprint()}")
     print(f"  outputs within +-{limits.max_output:g}, at most {limits.max_step:g} per call; temperatures "
           f"{limits.temp_min_C:g}..{limits.temp_max_C:g} degC, jump {limits.max_jump_K:g} K per call")
+    print("  " + (f"NOT VALIDATED (--accept-unvalidated): {unvalidated}" if unvalidated
+                  else f"accepted on {evidence(model).summary()}"))
     if args.stats:
         from thermoplc.generator.stats import block_stats, format_stats
         print(format_stats(block_stats(block), block_stats(lower_model(model))))
@@ -609,6 +627,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--date", type=_date, metavar="YYYY-MM-DD",
                    help="date in the header comment (default: today, or SOURCE_DATE_EPOCH when set)")
     p.add_argument("--stats", action="store_true", help="print operations per call and bytes of state")
+    p.add_argument("--accept-unvalidated", action="store_true",
+                   help="write the block although the model file has no held-out evidence that it beats no "
+                        "compensation (or has evidence that it does not); the header says so")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--explain", action="store_true", help="print which region computes which model term, "
                                                           "with its constants")

@@ -5,6 +5,7 @@ from functools import reduce
 
 from thermoplc import __version__
 from thermoplc.generator.ir import Assign, BinOp, BoolConst, Const, If, Ref, Region, Unary, Var
+from thermoplc.models.acceptance import header_lines
 from thermoplc.models.modelfile import Model
 
 
@@ -25,6 +26,7 @@ def header(model: Model) -> tuple[str, ...]:
         f"Output {model.target.name} in {model.target.unit}. Call once every {model.sample_period_s:g} s.",
         "Proven bit-exact assuming each REAL operation is rounded to binary32: no fused multiply-add,",
         "no extended precision. Check a controller: record inputs and outputs, run thermoplc verify --expect.",
+        *header_lines(model),
     )
 
 

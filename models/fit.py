@@ -254,5 +254,6 @@ def evaluate(model: Model, tables: list[Table], n_train: list[int]) -> dict:
         quantisation = max(quantisation, float(np.max(np.abs(block.astype(np.float64) - ideal))))
     held = _metrics(np.concatenate(held_out))
     if held["rows"]:
-        held["zero_rmse_um"] = _metrics(np.concatenate(zero))["rmse_um"]  # the error of compensating nothing
+        nothing = _metrics(np.concatenate(zero))  # the error of compensating nothing
+        held["zero_rmse_um"], held["zero_max_abs_um"] = nothing["rmse_um"], nothing["max_abs_um"]
     return {"train": _metrics(np.concatenate(train)), "held_out": held, "float32_vs_float64_max_um": quantisation}

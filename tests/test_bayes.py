@@ -62,7 +62,7 @@ def test_time_parent_over_repeated_runs_is_bit_exact_and_needs_the_option(tmp_pa
     fitted = cli("fit", *data, "--model", "bayes", "--target", "E_z_um", "--temps", "T_env,T_bearing,T_motor",
                  "--time-bins", "4", "--train-until", "99999", "-o", "bt.json")
     assert fitted.returncode == 0, fitted.stderr
-    assert cli("generate", "bt.json", "-o", "bt.st", "--dialect", "iec").returncode == 0
+    assert cli("generate", "bt.json", "-o", "bt.st", "--dialect", "iec", "--accept-unvalidated").returncode == 0
     verified = cli("verify", "bt.st", "--model", "bt.json", "--data", runs[7])
     assert verified.returncode == 0 and "bit-exact" in verified.stdout, verified.stdout + verified.stderr
     refused = cli("fit", *data, "--model", "bayes", "--target", "E_z_um", "--temps", "T_env", "--train-until", "99999",

@@ -1,0 +1,100 @@
+"""The physics gate at generate: a block only for a model with held-out evidence that it compensates."""
+import json
+from pathlib import Path
+
+import pytest
+
+from tests.test_cli import thermoplc
+from thermoplc.models import acceptance
+from thermoplc.models.modelfile import load_model
+
+GOLDEN = Path(__file__).resolve().parent / "golden"
+FL_THERMAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "fl_thermal" / "fl_thermal.csv"
+
+
+def _edited(tmp_path: Path, name: str, **held_out) -> Path:
+    """The golden mlr model with its held-out metrics changed (None removes a key)."""
+    doc = json.loads((GOLDEN / "mlr.json").read_text())
+    for key, value in held_out.items():
+        if value is None:
+            doc["metrics"]["held_out"].pop(key)
+        else:
+            doc["metrics"]["held_out"][key] = value
+    path = tmp_path / name
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_a_model_clearly_better_than_no_compensation_is_accepted_and_its_header_says_on_what(tmp_path):
+    result = thermoplc("generate", GOLDEN / "mlr.json", "-o", "m.scl", cwd=tmp_path)
+    assert "accepted on 2160 held-out rows: RMSE 11.37 um, max |error| 21.91 um; no compensation: RMSE 34.44 um" \
+        in result.stdout
+    text = (tmp_path / "m.scl").read_text()
+    assert "// Accepted on 2160 held-out rows: RMSE 11.37 um" in text and "NOT VALIDATED" not in text
+
+
+@pytest.mark.parametrize("rmse, refused", [(34.0, True), (31.1, True), (30.9, False)])
+def test_a_model_not_clearly_better_than_no_compensation_is_refused_with_the_numbers(tmp_path, rmse, refused):
+    model = _edited(tmp_path, "m.json", rmse_um=rmse, zero_rmse_um=34.5)  # the bar: 90 % of 34.5 = 31.05
+    result = thermoplc("generate", model, "-o", "m.scl", cwd=tmp_path, check=2 if refused else 0)
+    assert (tmp_path / "m.scl").exists() is not refused
+    if refused:
+        assert f"m.json: 2160 held-out rows: RMSE {rmse:g} um" in result.stderr
+        assert "no compensation: RMSE 34.5 um" in result.stderr and "not clearly better" in result.stderr
+        assert "nothing written" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_the_flag_writes_a_refused_model_and_the_header_and_output_say_it_is_not_validated(tmp_path):
+    model = _edited(tmp_path, "worse.json", rmse_um=40.0, zero_rmse_um=34.5)
+    result = thermoplc("generate", model, "-o", "w.scl", "--accept-unvalidated", cwd=tmp_path)
+    assert "NOT VALIDATED (--accept-unvalidated): 2160 held-out rows: RMSE 40 um" in result.stdout
+    said = acceptance.header_lines(load_model(model))
+    assert said[0].startswith("NOT VALIDATED - generated with --accept-unvalidated: 2160 held-out rows")
+    assert len(said) > 1 and all(len(line) <= acceptance.HEADER_WIDTH for line in said)
+    text = (tmp_path / "w.scl").read_text()
+    assert "\n".join(f"// {line}" for line in said) in text
+
+
+@pytest.mark.parametrize("edit", [{"rows": 0}, {"zero_rmse_um": None}])
+def test_a_model_without_held_out_evidence_is_refused_unless_accepted(tmp_path, edit):
+    model = _edited(tmp_path, "bare.json", **edit)
+    refused = thermoplc("generate", model, "-o", "b.scl", cwd=tmp_path, check=2)
+    assert "carries no held-out evidence" in refused.stderr and not (tmp_path / "b.scl").exists()
+    thermoplc("generate", model, "-o", "b.scl", "--accept-unvalidated", cwd=tmp_path)
+    assert "NOT VALIDATED" in (tmp_path / "b.scl").read_text()
+
+
+def test_fit_without_held_out_rows_warns_that_generate_will_refuse(tmp_path):
+    thermoplc("twin", "--hours", 4, "--seed", 2, "-o", "twin.csv", cwd=tmp_path)
+    fitted = thermoplc("fit", "--data", "twin.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing",
+                       "--train-until", 999999, "-o", "all.json", cwd=tmp_path)
+    assert "WARNING: generate will refuse this model: the model file carries no held-out evidence" in fitted.stderr
+    thermoplc("generate", "all.json", "-o", "all.scl", cwd=tmp_path, check=2)
+
+
+def test_a_float32_block_far_from_its_float64_model_is_refused_even_with_the_flag(tmp_path):
+    doc = json.loads((GOLDEN / "mlr.json").read_text())
+    doc["metrics"]["float32_vs_float64_max_um"] = 2.0  # 18 % of the held-out RMSE of 11.37 um
+    (tmp_path / "q.json").write_text(json.dumps(doc))
+    refused = thermoplc("generate", "q.json", "-o", "q.scl", "--accept-unvalidated", cwd=tmp_path, check=2)
+    assert "the float32 block differs from the float64 model by up to 2 um" in refused.stderr
+    assert "more than 10% of its held-out RMSE (11.37 um)" in refused.stderr and not (tmp_path / "q.scl").exists()
+
+
+def test_evidence_reads_the_model_file_and_problem_is_none_only_past_the_bar():
+    model = load_model(GOLDEN / "lumped_identified.json")
+    found = acceptance.evidence(model)
+    assert found.rows == 2160 and found.zero_rmse > found.rmse / acceptance.CLEAR_SHARE
+    assert acceptance.problem(model) is None and acceptance.quantisation_problem(model) is None
+
+
+@pytest.mark.skipif(not FL_THERMAL.exists(), reason="FL_THERMAL is not beside the repository")
+def test_on_real_data_the_gate_refuses_gm1n_on_ch5_and_accepts_dlag(tmp_path):
+    """README table: gm1n predicts ch5 held out at 38.5 um against 24.2 um with no compensation."""
+    common = ("--data", FL_THERMAL, "--target", "ch5_um", "--temps", "t8_C,t4_C,t5_C,t11_C", "--train-until", 86400)
+    for kind in ("gm1n", "dlag"):
+        thermoplc("fit", *common, "--model", kind, "-o", f"{kind}.json", cwd=tmp_path)
+    refused = thermoplc("generate", "gm1n.json", "-o", "g.scl", cwd=tmp_path, check=2)
+    assert "RMSE 38.49 um" in refused.stderr and "no compensation: RMSE 24.19 um" in refused.stderr
+    accepted = thermoplc("generate", "dlag.json", "-o", "d.scl", cwd=tmp_path)
+    assert "accepted on 5354 held-out rows: RMSE 5.531 um" in accepted.stdout
