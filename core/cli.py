@@ -362,9 +362,9 @@ def cmd_diff(args) -> int:
     table = read_table(args.data, args.time, decimal=args.decimal) if args.data else None
     result = diff_blocks(args.old, args.new, table, args.inputs, args.time)
     print(format_diff(result))
-    if table is not None:
-        return 0 if result.behaviour_equal else 1
-    return 0 if result.structurally_equal else 1
+    if table is not None and not result.behaviour_equal:
+        return 1
+    return 0 if result.structurally_equal else 1  # the data never excuses a structural change
 
 
 def cmd_select(args) -> int:

@@ -451,6 +451,17 @@ def _contains(outer: dict, inner: dict) -> bool:
     return all(k in outer and all(join(outer[k][n], v) == outer[k][n] for n, v in st.items()) for k, st in inner.items())
 
 
+def subnormal_values(block: Block) -> list[str]:
+    """Declared REAL values a PLC that flushes subnormals to zero reads as 0: the block would compute
+    with 0 where the reference computes with the tiny value, so no bit-exact claim could hold."""
+    tiny = lambda v: isinstance(v, float) and v != 0.0 and abs(v) < FLT_MIN_NORMAL
+    found = [f"constant {c.name} = {c.value!r} is subnormal" for c in block.constants if c.type == "REAL" and tiny(c.value)]
+    for var in (*block.statics, *block.outputs):
+        if var.type == "REAL" and isinstance(var.initial, tuple):
+            found += [f"start value {var.name}[{k}] = {v!r} is subnormal" for k, v in enumerate(var.initial) if tiny(v)]
+    return [f"{what} (a PLC that flushes subnormals reads 0; set it to 0 in the model or refit)" for what in found]
+
+
 def prove_ranges(block: Block, input_ranges: dict, partition: tuple[str, ...] = ()) -> RangeProof:
     """The invariant of the block's state and the problems of the call over it (module docstring).
     `partition`: BOOL statics or outputs whose values keep separate states (latches such as the
@@ -466,5 +477,6 @@ def prove_ranges(block: Block, input_ranges: dict, partition: tuple[str, ...] = 
                 for (region, stmt), what in proof.problems.items()]
     if unbounded:
         problems.append("state " + ", ".join(unbounded) + " can grow without bound")
+    problems += subnormal_values(block)
     ranges = {k: (v.lo, v.hi) for k, v in proof.seen.items() if isinstance(v, Real) and k not in proof.inputs}
     return RangeProof(tuple(problems), ranges, steps)

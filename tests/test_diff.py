@@ -61,3 +61,29 @@ def test_changed_statement_and_interface_are_named(tmp_path):
     assert d.statements[0] == "~ region 'Regression on temperature rises, eq. 10': 1 statement(s) replaced by 1"
     assert "#c_beta0 - #c_beta_1" in d.statements[2]
     assert thermoplc("diff", old, new, cwd=tmp_path, check=1).returncode == 1
+
+
+@pytest.mark.parametrize("old_text, new_text, shown", [
+    ("Enable : Bool := TRUE;", "Enable : Bool := FALSE;", "Enable: True -> False"),  # an unwired Enable never runs
+    ("c_TempMax : Real := 150.0;", "c_TempMax : Real := 1500.0;", "c_TempMax: 150.0 -> 1500.0"),  # a widened guard
+    ("c_OneCall : Int := 1;", "c_OneCall : Int := 0;", "c_OneCall: 1 -> 0"),
+])
+def test_a_change_that_reaches_the_plc_fails_the_diff_with_or_without_data(tmp_path, data, old_text, new_text, shown):
+    """Issue 28 items 1-2: the data never excuses a structural change it does not reach."""
+    old = golden_block("mlr", "tia")
+    text = old.read_text()
+    assert text.count(old_text) == 1
+    new = tmp_path / "new.scl"
+    new.write_text(text.replace(old_text, new_text))
+    for extra in ((), ("--data", data)):
+        out = thermoplc("diff", old, new, *extra, cwd=tmp_path, check=1).stdout
+        assert "constants: 1 changed" in out and shown in out
+
+
+def test_an_added_statement_the_data_does_not_tell_apart_still_fails_the_diff(tmp_path, data):
+    old = golden_block("mlr", "tia")
+    text = old.read_text()
+    new = tmp_path / "new.scl"
+    new.write_text(text.replace("BEGIN\n", "BEGIN\n    ENO := TRUE;\n", 1))
+    out = thermoplc("diff", old, new, "--data", data, cwd=tmp_path, check=1).stdout
+    assert "statements: changed" in out and "identical, every output bit equal" in out

@@ -70,7 +70,7 @@ def test_header_attributes_are_compared(folder):
     (folder / "b.scl").write_text(clean.replace(version, "VERSION : '15.15'"))
     result = thermoplc("diff", "a.scl", "b.scl", cwd=folder)
     old = version.split(":", 1)[1].strip()
-    assert result.returncode == 1 and f"~ VERSION: \"{old}\" -> \"'15.15'\"" in result.stdout, result.stdout
+    assert result.returncode == 1 and f"~ VERSION: '{old.strip(chr(39))}' -> '15.15'" in result.stdout, result.stdout
 
 
 def test_every_user_string_is_escaped_in_the_title():
@@ -362,3 +362,20 @@ def test_finding_counts_are_not_doubled_by_the_mismatch_report(folder):
     result = thermoplc("verify", "nan.st", "--data", "n4.csv", "--expect", "Out=x", "--engine", "interp", cwd=folder)
     assert result.returncode == 1 and "4 time(s) from cycle 0" in result.stdout and "8 time(s)" not in result.stdout, \
         result.stdout
+
+
+def test_a_subnormal_constant_is_refused_at_generate_and_fails_verify(folder):
+    """Issue 28 item 3: a PLC that flushes subnormals to zero computes with 0 where the model has 1e-40."""
+    doc = json.loads((GOLDEN / "mlr.json").read_text())
+    doc["coefficients"]["beta_1"] = {"f64": 1e-40, "f32": f32_hex(1e-40)}
+    (folder / "tiny.json").write_text(json.dumps(doc))
+    refused = thermoplc("generate", "tiny.json", "-o", "tiny.scl", cwd=folder)
+    assert refused.returncode == 2 and "constant c_beta_1 = 9.99994610111476e-41 is subnormal" in refused.stderr
+    assert not (folder / "tiny.scl").exists()
+    thermoplc("generate", GOLDEN / "mlr.json", "-o", "plain.scl", "--force", cwd=folder)
+    text = (folder / "plain.scl").read_text()
+    start = text.index("c_beta_1 : Real := ")
+    (folder / "tiny.scl").write_text(text[:start] + "c_beta_1 : Real := 1.0E-40" + text[text.index(";", start):])
+    result = thermoplc("verify", "tiny.scl", "--model", "tiny.json", "--data", "twin.csv", cwd=folder)
+    assert result.returncode == 1 and result.stdout.startswith("NOT verified")
+    assert "c_beta_1 is declared with the subnormal value 9.99994610111476e-41" in result.stdout

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import difflib
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, is_dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -97,9 +97,18 @@ def _interface(old: s.Program, new: s.Program) -> list[str]:
     return sorted(lines, key=lambda line: line[2:])
 
 
+def _unquoted(value):
+    text = value.strip() if isinstance(value, str) else value
+    return text[1:-1] if isinstance(text, str) and len(text) >= 2 and text[0] == text[-1] == "'" else text
+
+
 def _header(old: s.Program, new: s.Program) -> list[str]:
-    """Block name, TITLE, AUTHOR, FAMILY, NAME and VERSION: shown to whoever opens the block."""
-    before, after = [("block name", old.name), *old.header], [("block name", new.name), *new.header]
+    """Block name, TITLE, AUTHOR, FAMILY, NAME and VERSION: shown to whoever opens the block. The
+    attributes are compared when both blocks have some (plain IEC text declares none)."""
+    def attributes(p: s.Program) -> list[tuple[str, str]]:  # STEP 7 quotes TITLE and VERSION, TIA does not
+        shown = p.header if old.header and new.header else ()  # IEC has none: a dialect, not a change
+        return [("block name", p.name), *((k, _unquoted(v)) for k, v in shown)]
+    before, after = attributes(old), attributes(new)
     if before == after:
         return []
     keys = dict.fromkeys(k for k, _ in before + after)
@@ -112,14 +121,15 @@ def _header(old: s.Program, new: s.Program) -> list[str]:
 
 
 def _constants(old: s.Program, new: s.Program) -> list[ConstantChange]:
-    """Named constants and the start values of statics and outputs (tables, flags, counters): a
-    changed start value changes the first calls."""
+    """Named constants and every declared start value (tables, flags, counters, and inputs: an
+    Enable that starts FALSE never runs on a PLC that does not wire it), each keyed by its section,
+    so a value that moves from one section to another is a change too."""
     def values(p: s.Program) -> dict:
-        return {d.name.upper(): (d.name, d.initial) for d in p.decls
-                if d.section == "constant" or (d.section in ("static", "output") and d.initial is not None)}
+        return {(d.section, d.name.upper()): (d.name, d.initial) for d in p.decls
+                if d.section == "constant" or d.initial is not None}
     before, after = values(old), values(new)
     changes = []
-    for key in sorted(before.keys() | after.keys()):
+    for key in sorted(before.keys() | after.keys(), key=lambda k: (k[1], k[0])):
         name_old, value_old = before.get(key, (None, None))
         name_new, value_new = after.get(key, (None, None))
         if key in before and key in after and _same_value(value_old, value_new):
@@ -153,6 +163,19 @@ def _flat(body: tuple) -> list:
     return out
 
 
+def _folded(node):
+    """The node with every variable name in upper case: ST names are case-insensitive, so `Cnt`
+    and `CNT` are one variable and changing the case is not a change."""
+    if isinstance(node, tuple):
+        return tuple(_folded(item) for item in node)
+    if not is_dataclass(node):
+        return node
+    changed = {f.name: _folded(getattr(node, f.name)) for f in fields(node) if f.compare}
+    if isinstance(node, (s.Name, s.Index)):
+        changed["name"] = node.name.upper()
+    return replace(node, **changed)
+
+
 def _leaves(body) -> list[tuple[object, int]]:
     """Statements as a flat list of (comparable key, source line): an IF contributes its conditions
     and the leaves of its branches, so a change deep inside an IF is reported at its own line."""
@@ -162,18 +185,18 @@ def _leaves(body) -> list[tuple[object, int]]:
             out += _leaves(st.body)
         elif isinstance(st, s.If):
             for k, (cond, branch) in enumerate(st.branches):
-                out.append((("IF" if k == 0 else "ELSIF", cond), getattr(cond, "pos", st.pos)[0] or st.pos[0]))
+                out.append((("IF" if k == 0 else "ELSIF", _folded(cond)), getattr(cond, "pos", st.pos)[0] or st.pos[0]))
                 out += _leaves(branch)
             if st.orelse:
                 out.append((("ELSE",), st.orelse[0].pos[0]))
                 out += _leaves(st.orelse)
             out.append((("END_IF",), 0))
         elif isinstance(st, s.For):
-            out.append((("FOR", st.var, st.start, st.stop, st.step), st.pos[0]))
+            out.append((("FOR", st.var.upper(), _folded(st.start), _folded(st.stop), _folded(st.step)), st.pos[0]))
             out += _leaves(st.body)
             out.append((("END_FOR",), 0))
         else:
-            out.append((st, st.pos[0]))
+            out.append((_folded(st), st.pos[0]))
     return out
 
 

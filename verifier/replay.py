@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from thermoplc.binary32 import f32_bits, f32_hex, ulp_distance
+from thermoplc.binary32 import f32_bits, f32_hex, is_subnormal, ulp_distance
 from thermoplc.generator.ir import GenerationError
 from thermoplc.generator.lower import lower
 from thermoplc.errors import UserError
@@ -182,11 +182,24 @@ def _first_mismatch(produced: dict, expected: dict, types: dict) -> tuple[int, s
 
 
 def unsafe_findings(findings, finite_inputs: bool = True) -> list[tuple[Finding, str]]:
-    """Run-time findings that must never pass, with their label: INT overflow always, NaN and Inf
-    when the inputs were finite."""
-    kinds = ("int-overflow", "nan", "inf") if finite_inputs else ("int-overflow",)
+    """Run-time findings that must never pass, with their label: INT overflow and subnormal values
+    (a PLC that flushes them to zero computes otherwise) always, NaN and Inf when the inputs were
+    finite."""
+    kinds = ("int-overflow", "subnormal", "nan", "inf") if finite_inputs else ("int-overflow", "subnormal")
     return [(f, label) for f in findings for kind, label in FINDING_LABELS
             if kind in kinds and f.kind == kind and f.first_cycle is not None]
+
+
+def _subnormal_declarations(decls, block: str) -> list[str]:
+    """Declared REAL values (constants, start values, table entries) that are subnormal: a PLC that
+    flushes them to zero computes with 0, whatever the replay here shows."""
+    found = []
+    for d in decls:
+        values = d.initial if isinstance(d.initial, tuple) else (d.initial,)
+        found += [f"{block}:{d.pos[0]}:{d.pos[1]}: {d.name}{f'[{k}]' if len(values) > 1 else ''} is declared "
+                  f"with the subnormal value {v!r} (a PLC that flushes subnormals reads 0)"
+                  for k, v in enumerate(values) if d.type.base == "REAL" and isinstance(v, float) and is_subnormal(v)]
+    return found
 
 
 def _unsafe(produced: dict, types: dict, findings, table: Table, block: str, inputs: dict) -> tuple[str, ...]:
@@ -228,7 +241,8 @@ def _replay_and_compare(replayer: Replayer, block: str, against: str, table: Tab
                             want.item() if hasattr(want, "item") else want, machine.snapshot())
     return Report(block, against, Path(table.path).name, rows, tuple(produced), mismatch, findings, seconds,
                   quantisation, engine=replayer.used, engine_note=replayer.note,
-                  unsafe=_unsafe(produced, types, findings, table, block, inputs))
+                  unsafe=(*_subnormal_declarations(machine.decls, block),
+                          *_unsafe(produced, types, findings, table, block, inputs)))
 
 
 def _check_period(model: Model, table: Table) -> None:
