@@ -149,7 +149,7 @@ def _progress(message: str) -> None:
 
 
 def cmd_fit(args) -> int:
-    from thermoplc.models.fit import FitRequest, fit
+    from thermoplc.models.fit import FitRequest, fit, fit_cross_validated
     from thermoplc.models.kalman import FitOptions
     from thermoplc.generator.lower import check_model_becomes_block
     from thermoplc.models.table import read_table
@@ -160,7 +160,9 @@ def cmd_fit(args) -> int:
     request = FitRequest(args.model, args.target[0], args.temps, args.speed, args.ambient, args.train_until,
                          args.train_rows, args.name, options, args.bins, args.precision_um, args.lags, args.lag_step,
                          args.target[1:], args.tool_length, args.unseen, args.time_bins)
-    model = fit(tables, request, args.time, _progress if sys.stderr.isatty() else None)
+    progress = _progress if sys.stderr.isatty() else None
+    model = (fit_cross_validated(tables, request, args.folds, args.time, progress) if args.folds
+             else fit(tables, request, args.time, progress))
     if sys.stderr.isatty():
         print(file=sys.stderr)
     check_model_becomes_block(model, args.output)
@@ -180,11 +182,14 @@ def format_fit(model) -> str:
     files = ", ".join(t["file"] for t in batches)
     lines = [f"fitted {model.kind} on {files}: {m['train']['rows']} training rows "
              f"(until {batches[0]['until_s']:g} s{' in each file' if len(batches) > 1 else ''}), "
-             f"{m['held_out']['rows']} held out",
+             f"{m['held_out']['rows']} held out" + (" in cross-validation" if "cross_validation" in m else ""),
              f"  {'':<22}{'RMSE um':>10}{'max |residual| um':>20}"]
-    for label, key in (("fit (training)", "train"), ("prediction (held out)", "held_out")):
+    held_label = "prediction (all folds)" if "cross_validation" in m else "prediction (held out)"
+    for label, key in (("fit (training)", "train"), (held_label, "held_out")):
         if m[key]["rows"]:
             lines.append(f"  {label:<22}{m[key]['rmse_um']:>10.3f}{m[key]['max_abs_um']:>20.3f}")
+    if "cross_validation" in m:
+        lines += _format_folds(m)
     lines.append(f"  float32 block vs float64 model: max {m['float32_vs_float64_max_um']:.3g} um")
     if "one_step_rmse_K" in model.fit:  # an identified model: how far its temperatures are from the readings
         names = [s.name for s in model.signals("temperature")]
@@ -195,6 +200,20 @@ def format_fit(model) -> str:
                   f"open loop: {each('open_loop_rmse_K')}",
                   f"  filter gain (share of the reading taken each call): {gains}"]
     return "\n".join(lines)
+
+
+def _format_folds(m: dict) -> list[str]:
+    """Each fold's held-out errors beside no compensation, and the pooled line with the spread."""
+    held = m["held_out"]
+    lines = [f"  {held['protocol']}: each fold predicted by a fit that never saw it",
+             f"  {'fold (rows predicted)':<26}{'fitted rows':>12}{'RMSE um':>10}{'max um':>9}{'none RMSE um':>14}{'none max um':>13}"]
+    lines += [f"  {f['label']:<26}{f['train_rows']:>12}{f['rmse']:>10.3f}{f['max_abs']:>9.3f}{f['zero_rmse']:>14.3f}"
+              f"{f['zero_max_abs']:>13.3f}" for f in m["cross_validation"]]
+    low, high = held["fold_rmse_um"]
+    lines.append(f"  {'all folds':<26}{held['rows']:>12}{held['rmse_um']:>10.3f}{held['max_abs_um']:>9.3f}"
+                 f"{held['zero_rmse_um']:>14.3f}{held['zero_max_abs_um']:>13.3f}")
+    lines.append(f"  spread: fold RMSE {low:.3f} to {high:.3f} um")
+    return lines
 
 
 def _stress(model, limits, text: str, args):
@@ -462,12 +481,13 @@ DECIMAL = {"choices": ("auto", ".", ","), "default": "auto",
                    "(default: %(default)s)"}
 
 
-def _training_part(parser: argparse.ArgumentParser, required: bool, default: str = "") -> None:
+def _training_part(parser: argparse.ArgumentParser, required: bool, default: str = ""):
     """The training part, in the same words for every command that has one."""
     part = parser.add_mutually_exclusive_group(required=required)
     tail = f" (default: {default})" if default else ""
     part.add_argument("--train-until", type=SECONDS, metavar="SECONDS", help=f"training part: rows with time <= SECONDS{tail}")
     part.add_argument("--train-rows", type=ROWS, metavar="N", help=f"training part: the first N rows{tail}")
+    return part
 
 
 class _Parser(argparse.ArgumentParser):
@@ -521,7 +541,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--speed", help="spindle speed column, rpm (kalman)")
     p.add_argument("--ambient", help="ambient temperature column, degC (kalman, piecewise)")
     p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
-    _training_part(p, required=True)
+    _training_part(p, required=True).add_argument(
+        "--folds", type=_number(int, 2, 20, "blocks"), metavar="K",
+        help="fit on every row, with held-out evidence from blocked cross-validation: K contiguous blocks (cut at "
+             "standstills where the speed is read), each predicted by a fit on the blocks before it; with several "
+             "--data files, each file predicted by a fit on the others")
     p.add_argument("--optimizer", choices=("ga", "de"), default="ga",
                    help="ga: paper 000's genetic algorithm; de: scipy differential evolution")
     p.add_argument("--seed", type=SEED, default=0, help="random seed of the optimiser (default: %(default)s)")

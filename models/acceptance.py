@@ -29,11 +29,13 @@ class Evidence:
     zero_max_abs: float | None
     quantisation: float | None  # max |float32 block - float64 model| over the fitted recording
     unit: str
+    protocol: str | None = None  # how the held-out rows were predicted, when not by the fit written
 
     def summary(self) -> str:
         u = self.unit
         worst = f", max |error| {self.zero_max_abs:.4g} {u}" if self.zero_max_abs is not None else ""
-        return (f"{self.rows} held-out rows: RMSE {self.rmse:.4g} {u}, max |error| {self.max_abs:.4g} {u}; "
+        how = f" ({self.protocol})" if self.protocol else ""
+        return (f"{self.rows} held-out rows{how}: RMSE {self.rmse:.4g} {u}, max |error| {self.max_abs:.4g} {u}; "
                 f"no compensation: RMSE {self.zero_rmse:.4g} {u}{worst}")
 
 
@@ -45,7 +47,7 @@ def evidence(model: Model) -> Evidence | None:
         return None
     return Evidence(int(held["rows"]), float(held["rmse_um"]), float(held["max_abs_um"]), float(held["zero_rmse_um"]),
                     held.get("zero_max_abs_um"), (model.metrics or {}).get("float32_vs_float64_max_um"),
-                    model.target.unit)
+                    model.target.unit, held.get("protocol"))
 
 
 def problem(model: Model) -> str | None:

@@ -1,0 +1,110 @@
+"""Blocked cross-validation: how well a kind, fitted as `fit` fits it, predicts data it never saw.
+
+One recording is cut into whole contiguous blocks of equal duration (never random rows: the
+rows of a thermal recording are hours-long correlated, and a row beside a training row is not
+held out). A cut moves to the nearest standstill of the spindle within a quarter block when
+the kind reads the speed, so a block is a run between standstills where the recording has them.
+The folds run forward: fold k fits on blocks 1..k-1 and predicts block k, continuing from the
+end of the training part as the block on the PLC would (a model with state cannot be started in
+the middle of a day without its history, and the past never learns from the future). Several
+recordings (`--data` repeated) are folds of their own: each is predicted from its first row by
+a fit on the others.
+
+The model `fit` writes is then fitted on every row; its held-out evidence is the pooled error of
+the folds, beside no compensation on the same rows, so `generate`'s acceptance rule judges the
+procedure on data it was not fitted to.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from thermoplc.errors import UserError
+from thermoplc.models.table import Table
+
+MIN_FOLDS, MAX_FOLDS = 2, 20
+STANDSTILL_REACH = 0.25  # a cut moves to a standstill at most this share of a block away
+
+
+@dataclass(frozen=True)
+class Fold:
+    label: str  # "rows 2881..5760" or the recording's file name
+    train_rows: int
+    rows: int  # held out
+    rmse: float
+    max_abs: float
+    zero_rmse: float
+    zero_max_abs: float
+
+    def as_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+def cuts(table: Table, time_column: str, folds: int, speed: str | None) -> list[int]:
+    """Row indices where blocks 2..folds start: equal durations, each moved to the nearest row where
+    the spindle stands (within `STANDSTILL_REACH` of a block) when a speed column is given."""
+    if not MIN_FOLDS <= folds <= MAX_FOLDS:
+        raise UserError(f"--folds {folds}: expected {MIN_FOLDS} to {MAX_FOLDS} blocks")
+    t = table.columns[time_column]
+    span = (t[-1] - t[0]) / folds
+    starts = [int(np.searchsorted(t, t[0] + k * span)) for k in range(1, folds)]
+    if speed is not None:
+        stands = np.flatnonzero(table.columns[speed] == 0.0)
+        reach = STANDSTILL_REACH * table.rows / folds
+        for k, start in enumerate(starts):
+            if len(stands):
+                nearest = int(stands[np.argmin(np.abs(stands - start))])
+                starts[k] = nearest if abs(nearest - start) <= reach else start
+    bounds = [0, *starts, table.rows]
+    if any(b - a < 10 for a, b in zip(bounds, bounds[1:])):
+        raise UserError(f"{table.path}: --folds {folds} leaves a block of fewer than 10 rows; use fewer folds")
+    return starts
+
+
+def _head(table: Table, rows: int) -> Table:
+    return replace(table, columns={c: v[:rows] for c, v in table.columns.items()}, lines=table.lines[:rows])
+
+
+def _fold(label: str, train_rows: int, held: dict) -> Fold:
+    return Fold(label, train_rows, held["rows"], held["rmse_um"], held["max_abs_um"], held["zero_rmse_um"],
+                held["zero_max_abs_um"])
+
+
+def cross_validate(tables: list[Table], request, time_column: str, folds: int, fit_one) -> list[Fold]:
+    """Every fold's held-out errors. `fit_one(tables, request)` is `fit` itself, so each fold runs
+    the very procedure whose model is written."""
+    from thermoplc.models.fit import evaluate  # fit imports this module
+    results = []
+    if len(tables) > 1:
+        for k, table in enumerate(tables):
+            others = tables[:k] + tables[k + 1:]
+            model = _guarded(lambda: fit_one(others, replace(request, train_until=math.inf, train_rows=None)),
+                             f"fold {k + 1} (fitted without {table.path})")
+            held = evaluate(model, [table], [0])["held_out"]
+            results.append(_fold(table.path.rsplit("/", 1)[-1], sum(t.rows for t in others), held))
+        return results
+    table = tables[0]
+    starts = cuts(table, time_column, folds, request.speed)
+    for k, (start, stop) in enumerate(zip(starts, [*starts[1:], table.rows]), start=2):
+        model = _guarded(lambda: fit_one([_head(table, stop)], replace(request, train_until=None, train_rows=start)),
+                         f"fold {k} (fitted on rows 1..{start})")
+        results.append(_fold(f"rows {start + 1}..{stop}", start, model.metrics["held_out"]))
+    return results
+
+
+def _guarded(run, where: str):
+    try:
+        return run()
+    except UserError as exc:
+        raise UserError(f"cross-validation, {where}: {exc}") from None
+
+
+def pooled(folds: list[Fold]) -> dict:
+    """The held-out metrics of all folds together, in the model file's form, and the spread."""
+    rows = sum(f.rows for f in folds)
+    mean_square = lambda key: sum(f.rows * getattr(f, key) ** 2 for f in folds) / rows
+    return {"rows": rows, "rmse_um": math.sqrt(mean_square("rmse")), "max_abs_um": max(f.max_abs for f in folds),
+            "zero_rmse_um": math.sqrt(mean_square("zero_rmse")), "zero_max_abs_um": max(f.zero_max_abs for f in folds),
+            "folds": len(folds), "fold_rmse_um": [min(f.rmse for f in folds), max(f.rmse for f in folds)]}

@@ -1,0 +1,93 @@
+"""Blocked cross-validation: whole contiguous blocks, folds that run forward, recordings as folds."""
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.test_cli import thermoplc
+from thermoplc.errors import UserError
+from thermoplc.models import crossval
+from thermoplc.models.table import Table
+
+FL_THERMAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "fl_thermal" / "fl_thermal.csv"
+
+
+def _table(rows: int, speed: np.ndarray | None = None) -> Table:
+    columns = {"time_s": 10.0 * np.arange(rows)}
+    if speed is not None:
+        columns["n"] = speed
+    return Table("t.csv", columns, "0", np.arange(1, rows + 1))
+
+
+def test_blocks_have_equal_durations_and_cuts_move_to_the_nearest_standstill():
+    assert crossval.cuts(_table(1000), "time_s", 4, None) == [250, 500, 750]
+    speed = np.full(1000, 3000.0)
+    speed[[230, 540, 600, 990]] = 0.0  # standstills near the first two cuts; none within reach of the third
+    assert crossval.cuts(_table(1000, speed), "time_s", 4, "n") == [230, 540, 750]
+
+
+@pytest.mark.parametrize("folds, rows", [(1, 1000), (21, 1000), (5, 40)])
+def test_too_few_or_too_many_blocks_are_refused(folds, rows):
+    with pytest.raises(UserError, match="--folds"):
+        crossval.cuts(_table(rows), "time_s", folds, None)
+
+
+def test_pooled_errors_weigh_each_fold_by_its_rows():
+    folds = [crossval.Fold("a", 10, 100, 1.0, 2.0, 4.0, 5.0), crossval.Fold("b", 110, 300, 3.0, 7.0, 4.0, 9.0)]
+    pooled = crossval.pooled(folds)
+    assert pooled["rows"] == 400 and pooled["rmse_um"] == pytest.approx(np.sqrt((100 * 1 + 300 * 9) / 400))
+    assert pooled["max_abs_um"] == 7.0 and pooled["zero_rmse_um"] == pytest.approx(4.0)
+    assert pooled["fold_rmse_um"] == [1.0, 3.0]
+
+
+def test_fit_with_folds_fits_every_row_and_no_fold_predicts_rows_it_was_fitted_on(tmp_path):
+    thermoplc("twin", "--hours", 12, "--seed", 4, "-o", "twin.csv", cwd=tmp_path)
+    fitted = thermoplc("fit", "--data", "twin.csv", "--model", "lumped", "--target", "E_z_um", "--temps",
+                       "T_motor,T_bearing", "--speed", "n_rpm", "--ambient", "T_env", "--folds", 3, "-o", "m.json",
+                       cwd=tmp_path)
+    assert "forward cross-validation over 3 blocks: each fold predicted by a fit that never saw it" in fitted.stdout
+    model = json.loads((tmp_path / "m.json").read_text())
+    assert model["training"]["rows"] == model["training"]["total_rows"] == 4321
+    folds = model["metrics"]["cross_validation"]
+    assert len(folds) == 2
+    previous_end = None
+    for fold in folds:
+        first, last = map(int, fold["label"].removeprefix("rows ").split(".."))
+        assert fold["train_rows"] == first - 1 and fold["rows"] == last - first + 1  # fitted strictly before
+        assert previous_end is None or first == previous_end + 1  # blocks follow each other, never overlap
+        previous_end = last
+    held = model["metrics"]["held_out"]
+    assert held["rows"] == sum(f["rows"] for f in folds) and held["protocol"] == "forward cross-validation over 3 blocks"
+    accepted = thermoplc("generate", "m.json", "-o", "m.scl", cwd=tmp_path)
+    assert "(forward cross-validation over 3 blocks)" in accepted.stdout
+
+
+def test_folds_exclude_a_training_part_and_a_count_out_of_range(tmp_path):
+    thermoplc("twin", "--hours", 2, "--seed", 4, "-o", "twin.csv", cwd=tmp_path)
+    common = ("fit", "--data", "twin.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing")
+    both = thermoplc(*common, "--folds", 3, "--train-until", 3600, "-o", "m.json", cwd=tmp_path, check=2)
+    assert "not allowed with argument" in both.stderr
+    for count in (1, 21, "x"):
+        refused = thermoplc(*common, "--folds", count, "-o", "m.json", cwd=tmp_path, check=2)
+        assert "argument --folds: expected" in refused.stderr and "Traceback" not in refused.stderr
+    assert not (tmp_path / "m.json").exists()
+
+
+def test_several_recordings_are_folds_of_their_own(tmp_path):
+    from scripts.regen_golden import batch_csvs
+    paths = batch_csvs(tmp_path)
+    data = [x for p in paths for x in ("--data", p.name)]
+    thermoplc("fit", *data, "--model", "piecewise", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "--ambient",
+              "T_env", "--folds", 2, "-o", "p.json", cwd=tmp_path)
+    model = json.loads((tmp_path / "p.json").read_text())
+    assert [f["label"] for f in model["metrics"]["cross_validation"]] == [p.name for p in paths]
+    assert model["metrics"]["held_out"]["protocol"] == "leave-one-recording-out cross-validation"
+
+
+@pytest.mark.skipif(not FL_THERMAL.exists(), reason="FL_THERMAL is not beside the repository")
+def test_on_fl_thermal_forward_folds_show_the_spread_a_single_split_hides(tmp_path):
+    fitted = thermoplc("fit", "--data", FL_THERMAL, "--model", "dlag", "--target", "ch5_um", "--temps",
+                       "t8_C,t4_C,t5_C,t11_C", "--folds", 4, "-o", "d.json", cwd=tmp_path)
+    assert "  spread: fold RMSE 4.028 to 17.338 um" in fitted.stdout
+    assert "  all folds                         8336    10.838   35.916        23.769       39.134" in fitted.stdout
