@@ -47,9 +47,11 @@ def check_output(path: str | Path, force: bool, inputs=()) -> None:
         raise UserError(f"{path}: exists; refusing to replace it (use --force to overwrite, or choose another name)")
 
 
-def check_report_folder(folder: str | Path, names: list[str], inputs=()) -> list[str]:
+def check_report_folder(folder: str | Path, names: list[str], inputs=(), recognised=None) -> list[str]:
     """The report folder must be new, empty or thermoplc's own report, and no file it would write may be
-    someone else's. Returns the files of the old report that the new one does not write (to remove)."""
+    someone else's. Returns the files of the old report that the new one does not write (to remove):
+    listed in the manifest and named as a report names its files (`recognised`, by default only the
+    names written now), so a hand-edited manifest cannot make thermoplc delete a file of the user's."""
     folder = Path(folder)
     for source in inputs:
         if source and _same_file(folder, Path(source)):
@@ -74,7 +76,8 @@ def check_report_folder(folder: str | Path, names: list[str], inputs=()) -> list
     for name in names:
         if name in present and not stat.S_ISREG(os.lstat(folder / name).st_mode):
             raise UserError(f"--report {folder}: {name} is not a regular file; thermoplc never replaces one")
-    return sorted(n for n in owned & present if n not in names and n != REPORT_MANIFEST
+    ours = recognised or (lambda name: name in names)
+    return sorted(n for n in owned & present if n not in names and n != REPORT_MANIFEST and ours(n)
                   and stat.S_ISREG(os.lstat(folder / n).st_mode))
 
 

@@ -127,9 +127,10 @@ def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report
         outputs.append((json_path, json.dumps(doc, indent=2) + "\n"))
     stale = []
     if report_dir:
-        from thermoplc.diagnosis.report import report
+        from thermoplc.diagnosis.report import is_report_file, report
         files = report(doc, d, series, n_train)
-        stale = [Path(report_dir) / n for n in check_report_folder(report_dir, list(files), [request.data])]
+        stale = [Path(report_dir) / n for n in check_report_folder(report_dir, list(files), [request.data],
+                                                                   is_report_file)]
         outputs += [(Path(report_dir) / name, content) for name, content in files.items()]
         outputs.append((Path(report_dir) / REPORT_MANIFEST, report_manifest(list(files))))
     write_outputs(outputs, remove=stale)

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import html
 import io
+import re
 from pathlib import Path
 
 import numpy as np
@@ -86,6 +87,12 @@ def _hours(seconds) -> str:
 def report_files(channels: int) -> list[str]:
     """The files a report of this many channels consists of (its manifest lists them)."""
     return [*(f"channel_{k}.png" for k in range(1, channels + 1)), "index.html"]
+
+
+def is_report_file(name: str) -> bool:
+    """Named as a report of any number of channels names its files: only such a file of an older
+    report is removed when a new one leaves it out."""
+    return name == "index.html" or re.fullmatch(r"channel_[1-9][0-9]*\.png", name) is not None
 
 
 def report(doc: dict, d: Diagnosis, series: Series, n_train: int) -> dict:

@@ -12,7 +12,7 @@ from thermoplc.errors import UserError
 from thermoplc.identifiers import check_unique, identifier_from_column, identifier_problem
 from thermoplc.models import (bayes, bpnn, crossval, dlag, grey, identify, kalman, lumped_model, mlr, piecewise,
                              simulation)
-from thermoplc.models.modelfile import Coefficient, Model, Signal
+from thermoplc.models.modelfile import ROLES_NEEDED, Coefficient, Model, Signal
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.leaks import refuse_leaks, refuse_non_temperatures
 from thermoplc.models.table import Table
@@ -85,9 +85,6 @@ def _metrics(residual: np.ndarray) -> dict:
     return {"rows": int(len(residual)), "rmse_um": float(np.sqrt(np.mean(residual ** 2))),
             "max_abs_um": float(np.max(np.abs(residual)))}
 
-
-ROLES_NEEDED = {"mlr": (), "kalman": ("speed", "ambient"), "lumped": ("speed", "ambient"), "piecewise": ("ambient",), "gm0n": (), "gm1n": (),
-                "bayes": (), "dlag": (), "bpnn": ()}
 
 
 @dataclass(frozen=True)

@@ -18,6 +18,9 @@ from thermoplc.errors import UserError
 FORMAT = "thermoplc-model"
 SCHEMA_VERSION = 1
 KINDS = ("mlr", "kalman", "piecewise", "dlag", "gm0n", "gm1n", "bayes", "bpnn", "lumped")
+# the input roles each kind's block reads beside its temperatures
+ROLES_NEEDED = {"mlr": (), "kalman": ("speed", "ambient"), "lumped": ("speed", "ambient"), "piecewise": ("ambient",), "gm0n": (), "gm1n": (),
+                "bayes": (), "dlag": (), "bpnn": ()}
 ROLES = ("temperature", "speed", "ambient", "tool_length", "feed")
 
 
@@ -96,6 +99,19 @@ def _document(m: Model) -> dict:
 MAX_MODEL_BYTES = 64 * 1024 * 1024  # far above the largest model (a bayes table of 4096 entries is ~1 MB)
 
 
+class _DuplicateKey(ValueError):
+    pass
+
+
+def _refuse_duplicate_keys(pairs: list) -> dict:
+    """A key given twice: JSON readers keep one or the other, so the file means two things."""
+    keys = [k for k, _ in pairs]
+    twice = next((k for k in keys if keys.count(k) > 1), None)
+    if twice is not None:
+        raise _DuplicateKey(twice)
+    return dict(pairs)
+
+
 def load_model(path: str | Path) -> Model:
     path = str(path)
     try:
@@ -105,11 +121,13 @@ def load_model(path: str | Path) -> Model:
     except (OSError, UnicodeDecodeError) as exc:
         raise UserError(f"{path}: cannot read model file: {exc}") from None
     try:
-        doc = json.loads(text)
+        doc = json.loads(text, object_pairs_hook=_refuse_duplicate_keys)
     except json.JSONDecodeError as exc:
         raise UserError(f"{path}:{exc.lineno}:{exc.colno}: malformed JSON: {exc.msg}") from None
     except RecursionError:
         raise UserError(f"{path}: JSON nested thousands of levels deep; not a thermoplc model file") from None
+    except _DuplicateKey as exc:
+        raise UserError(f"{path}: key {str(exc)!r} appears twice in one object; a model file gives each field once") from None
     except ValueError as exc:  # an integer of more than 4300 digits
         raise UserError(f"{path}: cannot read a number: {exc}") from None
     model = _parse(doc, path)  # the fields every kind has, with messages tuned for hand edits
@@ -222,6 +240,11 @@ def _parse(doc, path: str) -> Model:
     for i, s in enumerate(inputs):
         if not s.role or any(role not in ROLES for role in s.role.split(",")):
             raise UserError(f"{path}: field 'inputs[{i}].role' must be one of {', '.join(ROLES)}, found {s.role!r}")
+    present = {role for s in inputs for role in s.role.split(",")}
+    for role in ("temperature", *ROLES_NEEDED[kind]):
+        if role not in present:
+            raise UserError(f"{path}: a {kind} model reads an input of role {role!r}, and field 'inputs' has none "
+                            f"(roles {', '.join(sorted(present)) or 'none'}); is 'kind' right?")
     coefficients = {}
     for name, entry in _field(doc, "coefficients", dict, path).items():
         where = f"coefficients.{name}"

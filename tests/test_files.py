@@ -100,9 +100,13 @@ def test_the_report_folder_rule(tmp_path):
     (own / ".thermoplc-report").write_text("channel_1.png\nchannel_2.png\nindex.html\n")
     for name in ("channel_1.png", "channel_2.png", "index.html", "notes.txt"):
         (own / name).write_text("x")
-    assert check_report_folder(own, names) == ["channel_2.png"]  # stale, its own: removed; notes.txt stays
+    from thermoplc.diagnosis.report import is_report_file
+    assert check_report_folder(own, names, recognised=is_report_file) == ["channel_2.png"]  # stale, its own: removed
+    assert check_report_folder(own, names) == []  # nothing recognised as a report's own: nothing removed
     with pytest.raises(UserError, match="notes.txt exists and is not listed"):
         check_report_folder(own, [*names, "notes.txt"])
+    (own / ".thermoplc-report").write_text("channel_1.png\nchannel_2.png\nindex.html\nnotes.txt\n")  # tampered
+    assert check_report_folder(own, names, recognised=is_report_file) == ["channel_2.png"]  # notes.txt stays
 
 
 def test_outputs_onto_inputs_are_refused_even_through_another_path(tmp_path):
@@ -122,6 +126,8 @@ def test_diagnose_report_is_replaced_only_in_its_own_files(tmp_path):
     first = run(*diagnose)
     assert first.returncode == 0, first.stderr
     (tmp_path / "rep" / "notes.txt").write_text("mine")
+    manifest = tmp_path / "rep" / ".thermoplc-report"
+    manifest.write_text(manifest.read_text() + "notes.txt\n")  # a hand-edited index must not make it ours
     again = run(*diagnose, "--force")
     assert again.returncode == 0, again.stderr
     assert (tmp_path / "rep" / "notes.txt").read_text() == "mine"
