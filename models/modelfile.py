@@ -241,10 +241,10 @@ def _parse(doc, path: str) -> Model:
         if not s.role or any(role not in ROLES for role in s.role.split(",")):
             raise UserError(f"{path}: field 'inputs[{i}].role' must be one of {', '.join(ROLES)}, found {s.role!r}")
     present = {role for s in inputs for role in s.role.split(",")}
-    for role in ("temperature", *ROLES_NEEDED[kind]):
+    for role in ("temperature", *ROLES_NEEDED[kind]) if inputs else ():  # none at all: the schema says so
         if role not in present:
-            raise UserError(f"{path}: a {kind} model reads an input of role {role!r}, and field 'inputs' has none "
-                            f"(roles {', '.join(sorted(present)) or 'none'}); is 'kind' right?")
+            raise UserError(f"{path}: kind {kind!r} reads an input of role {role!r}, and field 'inputs' has none "
+                            f"(roles {', '.join(sorted(present))}); is 'kind' right?")
     coefficients = {}
     for name, entry in _field(doc, "coefficients", dict, path).items():
         where = f"coefficients.{name}"

@@ -189,7 +189,7 @@ def _model_cases() -> list[Case]:
         ("hostile block name", _model_edit(_set(["block_name"], 'X" END_FUNCTION_BLOCK')), "field 'block_name'"),
         ("hostile input name", _model_edit(_set(["inputs", 0, "name"], "T1*) END_VAR")), "field 'inputs[0].name'"),
         ("kind that does not match the inputs", _model_edit(_set(["kind"], "kalman")),
-         "a kalman model reads an input of role 'speed', and field 'inputs' has none"),
+         "kind 'kalman' reads an input of role 'speed', and field 'inputs' has none"),
         ("key given twice", _model_edit(lambda d: None, lambda t: t.replace('"kind": "mlr"', '"kind": "kalman", "kind": "mlr"', 1)),
          "key 'kind' appears twice in one object"),
     ]
