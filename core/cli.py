@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import datetime
 import errno
+import functools
 import math
 import os
 import re
@@ -273,7 +274,10 @@ def cmd_generate(args) -> int:
     from thermoplc.models.acceptance import evidence
     from thermoplc.models.modelfile import load_model
     from thermoplc.models.safety import Limits
-    check_output(args.output, args.force, inputs=[args.model])
+    to_stdout = args.output == "-"  # the block on standard output, what generate says on standard error
+    if not to_stdout:
+        check_output(args.output, args.force, inputs=[args.model])
+    say = functools.partial(print, file=sys.stderr if to_stdout else sys.stdout)
     model = load_model(args.model)
     unvalidated = _accepted(model, args)
     if args.name is not None:
@@ -303,24 +307,27 @@ def cmd_generate(args) -> int:
         raise UserError(str(exc).replace("model file:", f"{args.model}:", 1)) from None
     proof = _prove(model, block, limits, args)
     stressed = _stress(model, limits, render(block, "iec") if args.format == "plcopen" else text, args)
-    write_atomic(args.output, text)
-    print(f"wrote {args.output}: {model.kind} block {model.block_name!r}, dialect {args.dialect}"
+    if to_stdout:
+        sys.stdout.write(text)
+    else:
+        write_atomic(args.output, text)
+    say(f"wrote {'standard output' if to_stdout else args.output}: {model.kind} block {model.block_name!r}, dialect {args.dialect}"
           f"{', PLCopen XML' if args.format == 'plcopen' else ''}, model fingerprint {model.fingerprint()}")
-    print(f"  outputs within +-{limits.max_output:g}, at most {limits.max_step:g} per call; temperatures "
+    say(f"  outputs within +-{limits.max_output:g}, at most {limits.max_step:g} per call; temperatures "
           f"{limits.temp_min_C:g}..{limits.temp_max_C:g} degC, jump {limits.max_jump_K:g} K per call")
-    print("  " + (f"NOT VALIDATED (--accept-unvalidated): {unvalidated}" if unvalidated
+    say("  " + (f"NOT VALIDATED (--accept-unvalidated): {unvalidated}" if unvalidated
                   else f"accepted on {evidence(model).summary()}"))
     if args.stats:
         from thermoplc.generator.stats import block_stats, format_stats
-        print(format_stats(block_stats(block), block_stats(lower_model(model))))
-        print(format_proof(proof, block))
-        print(f"stress replay: {stressed.rows} calls with every input at the ends, the middle or random points of its "
+        say(format_stats(block_stats(block), block_stats(lower_model(model))))
+        say(format_proof(proof, block))
+        say(f"stress replay: {stressed.rows} calls with every input at the ends, the middle or random points of its "
               f"guard range and random Reset and Enable, no NaN, Inf or "
               f"INT overflow; outputs seen: " + ", ".join(f"{name} {low:.6g}..{high:.6g}"
                                                          for name, (low, high) in stressed.output_ranges.items()))
     if args.explain:
         from thermoplc.generator.explain import explain
-        print(explain(block))
+        say(explain(block))
     return 0
 
 

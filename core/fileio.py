@@ -30,6 +30,9 @@ def _same_file(a: Path, b: Path) -> bool:
 
 def check_output(path: str | Path, force: bool, inputs=()) -> None:
     """Refuse an output path the rule does not allow (module docstring), before any work is done."""
+    if str(path) == "-":
+        raise UserError("-o -: this command writes a file (only generate writes its block to standard output); "
+                        "give a file name")
     path = Path(path)
     for source in inputs:
         if source and _same_file(path, Path(source)):

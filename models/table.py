@@ -6,6 +6,7 @@ import hashlib
 import io
 import os
 import re
+import sys
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -205,9 +206,10 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
         return _read_parquet(path, time_column)
     digest = hashlib.sha256()
     try:
-        raw = open(path, "rb")
+        raw = sys.stdin.buffer if path == "-" else open(path, "rb")  # `--data -`: the CSV on standard input
     except OSError as exc:
         raise UserError(f"{path}: cannot read: {exc.strerror}") from None
+    path = "<stdin>" if path == "-" else path
     handle = io.TextIOWrapper(io.BufferedReader(_Hashing(raw, digest)), encoding="utf-8-sig", newline=None)
     blocks, numbers_all = [], []
     text_lines, numbers = [], []

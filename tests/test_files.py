@@ -161,3 +161,21 @@ def test_the_interpreter_has_a_budget_for_the_whole_replay(tmp_path, monkeypatch
                                                  "y_plc": np.ones(100)}))
     assert main(["verify", "loop.st", "--data", "d.csv", "--expect", "y=y_plc", "--engine", "interp"]) == 2
     assert "FOR loops of this replay exceed 20,000 iterations" in capsys.readouterr().err
+
+
+def test_a_dash_is_standard_input_or_output_where_one_stream_makes_sense(tmp_path):
+    """Issue 28 item 8: `-o -` and `--data -` named files called '-'."""
+    golden = Path(__file__).resolve().parent / "golden" / "mlr.json"
+    run = lambda *a, stdin=None: subprocess.run([*PYTHON, *a], cwd=tmp_path, capture_output=True, text=True,
+                                                input=stdin if stdin is not None else "")
+    block = run("generate", golden, "-o", "-")
+    assert block.returncode == 0 and block.stdout.startswith('FUNCTION_BLOCK "ThermalComp"')
+    assert block.stderr.startswith("wrote standard output: mlr block") and not (tmp_path / "-").exists()
+    assert run("twin", "--hours", "2", "--seed", "3", "-o", "t.csv").returncode == 0
+    (tmp_path / "b.scl").write_text(block.stdout)
+    verified = run("verify", "b.scl", "--model", golden, "--data", "-", stdin=(tmp_path / "t.csv").read_text())
+    assert verified.returncode == 0 and "reproduces the float32 reference of mlr.json (mlr) on <stdin>" in verified.stdout
+    fitted = run("fit", "--data", "t.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor",
+                 "--train-rows", "300", "-o", "-")
+    assert fitted.returncode == 2 and "-o -: this command writes a file" in fitted.stderr
+    assert not (tmp_path / "-").exists()
