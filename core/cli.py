@@ -473,7 +473,7 @@ def cmd_diagnose(args) -> int:
         print(file=sys.stderr)
     print(text(doc))
     print(f"wrote {args.output}" + (f", {args.json}" if args.json else "")
-          + (f", {args.report}/index.html" if args.report else ""))
+          + (f", {Path(args.report) / 'index.html'}" if args.report else ""))
     return 0
 
 
