@@ -162,8 +162,11 @@ def cmd_fit(args) -> int:
                          args.train_rows, args.name, options, args.bins, args.precision_um, args.lags, args.lag_step,
                          args.target[1:], args.tool_length, args.unseen, args.time_bins)
     progress = _progress if sys.stderr.isatty() else None
-    model = (fit_cross_validated(tables, request, args.folds, args.time, progress) if args.folds
-             else fit(tables, request, args.time, progress))
+    if args.model == "auto":
+        model = _fit_auto(tables, request, args, progress)
+    else:
+        model = (fit_cross_validated(tables, request, args.folds, args.time, progress) if args.folds
+                 else fit(tables, request, args.time, progress))
     if sys.stderr.isatty():
         print(file=sys.stderr)
     check_model_becomes_block(model, args.output)
@@ -175,6 +178,42 @@ def cmd_fit(args) -> int:
     if refused:
         print(f"thermoplc: WARNING: generate will refuse this model: {refused}", file=sys.stderr)
     return 0
+
+
+AUTO_TOLERANCE = 0.1  # a cheaper model within this share of the best held-out RMSE is named beside it
+
+
+def _fit_auto(tables, request, args, progress):
+    """`fit --model auto`: the ranking printed with each candidate's PLC cost; the best returned."""
+    from thermoplc.generator.lower import lower_model
+    from thermoplc.generator.stats import block_stats
+    from thermoplc.models.auto import rank
+    ranked = rank(tables, request, args.folds, args.time, say=progress)
+    if sys.stderr.isatty():
+        print(file=sys.stderr)
+    fitted = [c for c in ranked if c.model is not None]
+    if not fitted:
+        raise UserError("--model auto: no kind could be fitted: " + "; ".join(f"{c.kind} ({c.refused})" for c in ranked))
+    cost = {id(c): block_stats(lower_model(c.model))["arithmetic_per_call"] for c in fitted}
+    none = fitted[0].model.metrics["held_out"].get("zero_rmse_um")
+    print(f"auto: {len(ranked)} candidates ranked by held-out RMSE"
+          + (f" (no compensation {none:.3f} um)" if none is not None else ""))
+    print(f"  {'rank':<6}{'kind':<8}{'sensors':<32}{'RMSE um':>9}{'max um':>9}{'ops/call':>10}")
+    for k, c in enumerate(ranked, start=1):
+        if c.model is None:
+            print(f"  {'-':<6}{c.kind:<8}{','.join(c.sensors):<32}  refused: {c.refused}")
+            continue
+        held = c.model.metrics["held_out"]
+        print(f"  {k:<6}{c.kind:<8}{','.join(c.sensors):<32}{held['rmse_um']:>9.3f}{held['max_abs_um']:>9.3f}"
+              f"{cost[id(c)]:>10}")
+    best = fitted[0]
+    cheaper = min((c for c in fitted if c.rmse <= (1 + AUTO_TOLERANCE) * best.rmse), key=lambda c: cost[id(c)])
+    if cheaper is not best:
+        print(f"  cheapest within {AUTO_TOLERANCE:.0%} of the best: {cheaper.kind} on {','.join(cheaper.sensors)}, "
+              f"{cheaper.rmse:.3f} um, {cost[id(cheaper)]} operations per call (fit it with --model {cheaper.kind} "
+              f"--temps {','.join(cheaper.sensors)})")
+    print(f"  writing the best: {best.kind} on {','.join(best.sensors)}")
+    return best.model
 
 
 def format_fit(model) -> str:
@@ -538,9 +577,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("fit", help="fit a thermal-error model to a CSV file")
     p.add_argument("--data", required=True, action="append",
                    help="CSV file; repeat for piecewise (one file per batch, initial ambient read from each)")
-    p.add_argument("--model", choices=KINDS, required=True,
+    p.add_argument("--model", choices=(*KINDS, "auto"), required=True,
                    help="kalman (paper 000), lumped, mlr, dlag and piecewise (paper 001), bpnn (paper 002), gm0n and "
-                        "gm1n (paper 003), bayes (paper 004)")
+                        "gm1n (paper 003), bayes (paper 004); auto: every kind the given roles allow on fcm-grey "
+                        "sensor sets from --temps, ranked by held-out RMSE, the best written")
     p.add_argument("--target", type=_columns, required=True,
                    help="measured displacement column, um; bpnn takes several: elongation,yaw,pitch")
     p.add_argument("--temps", type=_columns, required=True,
@@ -551,7 +591,7 @@ def build_parser() -> argparse.ArgumentParser:
     _training_part(p, required=True).add_argument(
         "--folds", type=_number(int, 2, 20, "blocks"), metavar="K",
         help="fit on every row, with held-out evidence from blocked cross-validation: K contiguous blocks (cut at "
-             "standstills where the speed is read), each predicted by a fit on the blocks before it; with several "
+             "standstills when --speed is given), each predicted by a fit on the blocks before it; with several "
              "--data files, each file predicted by a fit on the others")
     p.add_argument("--optimizer", choices=("ga", "de"), default="ga",
                    help="ga: paper 000's genetic algorithm; de: scipy differential evolution")

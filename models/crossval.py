@@ -3,7 +3,8 @@
 One recording is cut into whole contiguous blocks of equal duration (never random rows: the
 rows of a thermal recording are hours-long correlated, and a row beside a training row is not
 held out). A cut moves to the nearest standstill of the spindle within a quarter block when
-the kind reads the speed, so a block is a run between standstills where the recording has them.
+the speed column is given (`--speed`), so a block is a run between standstills where the
+recording has them.
 The folds run forward: fold k fits on blocks 1..k-1 and predicts block k, continuing from the
 end of the training part as the block on the PLC would (a model with state cannot be started in
 the middle of a day without its history, and the past never learns from the future). Several

@@ -1,0 +1,39 @@
+"""fit --model auto: every applicable kind ranked by held-out error, the best written."""
+import json
+import re
+
+import pytest
+
+from tests.test_cli import thermoplc
+
+
+def _ranked(stdout: str) -> list[tuple[str, float]]:
+    return [(m.group(2), float(m.group(3))) for m in re.finditer(r"^  (\d+)\s+(\w+)\s+\S+\s+([\d.]+)", stdout, re.M)]
+
+
+def test_auto_ranks_the_kinds_the_roles_allow_and_writes_the_first(tmp_path):
+    thermoplc("twin", "--hours", 6, "--seed", 8, "-o", "t.csv", cwd=tmp_path)
+    result = thermoplc("fit", "--data", "t.csv", "--model", "auto", "--target", "E_z_um", "--temps",
+                       "T_motor,T_bearing", "--train-until", 14400, "-o", "a.json", cwd=tmp_path)
+    ranked = _ranked(result.stdout)
+    kinds = [k for k, _ in ranked]
+    assert "kalman" not in result.stdout and "lumped" not in kinds  # no --speed, --ambient: not applicable
+    assert set(kinds) | set(re.findall(r"^  -\s+(\w+)", result.stdout, re.M)) == {"mlr", "dlag", "gm0n", "gm1n",
+                                                                                    "bayes", "bpnn"}
+    assert [r for _, r in ranked] == sorted(r for _, r in ranked)
+    model = json.loads((tmp_path / "a.json").read_text())
+    assert model["kind"] == kinds[0] and model["metrics"]["held_out"]["rmse_um"] == pytest.approx(ranked[0][1], abs=5e-4)
+    assert f"writing the best: {kinds[0]} on T_motor,T_bearing" in result.stdout
+
+
+@pytest.mark.slow  # eight kinds, three folds each, a genetic algorithm among them: about 25 s
+def test_auto_picks_the_lumped_model_on_a_machine_made_of_lumped_masses(tmp_path):
+    thermoplc("twin", "--hours", 24, "--seed", 11, "-o", "t.csv", cwd=tmp_path)
+    result = thermoplc("fit", "--data", "t.csv", "--model", "auto", "--target", "E_z_um", "--temps",
+                       "T_motor,T_bearing", "--speed", "n_rpm", "--ambient", "T_env", "--folds", 3, "-o", "a.json",
+                       cwd=tmp_path)
+    ranked = _ranked(result.stdout)
+    assert len(ranked) + result.stdout.count("refused:") == 8
+    assert ranked[0][0] == "lumped" and ranked[0][1] < 0.5 * ranked[1][1]
+    assert json.loads((tmp_path / "a.json").read_text())["kind"] == "lumped"
+    thermoplc("generate", "a.json", "-o", "a.scl", cwd=tmp_path)  # the best passes the acceptance rule
