@@ -295,10 +295,12 @@ def _accepted(model, args) -> str | None:
     no compensation) unless --accept-unvalidated; refuse, always, a float32 block that is not the
     model that was judged. Returns why the model is unvalidated when the flag let it through."""
     from thermoplc.models.acceptance import problem, quantisation_problem
-    drift = quantisation_problem(model)
+    try:
+        drift, why = quantisation_problem(model), problem(model)
+    except UserError as exc:  # a malformed metrics field
+        raise UserError(f"{args.model}: {exc}") from None
     if drift:
         raise UserError(f"{args.model}: {drift}; nothing written")
-    why = problem(model)
     if why and not args.accept_unvalidated:
         raise UserError(f"{args.model}: {why}; nothing written (--accept-unvalidated writes it anyway, and the "
                         "header says so)")
@@ -371,6 +373,13 @@ def cmd_generate(args) -> int:
 
 
 def cmd_verify(args) -> int:
+    try:
+        return _verify(args)
+    except UserError as exc:  # a model file that lacks what its kind needs: name the file
+        raise UserError(str(exc).replace("model file:", f"{args.model}:", 1) if args.model else str(exc)) from None
+
+
+def _verify(args) -> int:
     from thermoplc.models.table import read_table
     if args.manifest:
         if args.block or args.data or args.model or args.expect or args.faults:
@@ -401,9 +410,13 @@ def cmd_verify(args) -> int:
             table = read_table(args.data, model.time_column, progress, args.decimal)
             if args.faults:
                 from thermoplc.verifier.faults import format_cases, verify_faults
+                from thermoplc.verifier.parser import parse_file
+                from thermoplc.verifier.replay import subnormal_declarations
                 cases = verify_faults(args.block, model, table, args.inputs, args.engine)
                 print(format_cases(cases, args.block, table.rows))
-                return 0 if all(c.ok for c in cases) else 1
+                declared = subnormal_declarations(parse_file(args.block).decls, args.block)
+                print("\n".join(f"UNSAFE: {line}" for line in declared))
+                return 0 if all(c.ok for c in cases) and not declared else 1
             report = verify_against_model(args.block, model, args.model, table, args.inputs, args.engine)
     else:
         if args.faults:

@@ -9,11 +9,14 @@ states the evidence. Both judged on the target output, the one the model was fit
 """
 from __future__ import annotations
 
+import math
 import textwrap
 from dataclasses import dataclass
 
+from thermoplc.errors import UserError
 from thermoplc.models.modelfile import Model
 
+MIN_HELD_OUT_ROWS = 100  # fewer predicted rows than this say nothing of a thermal model
 CLEAR_SHARE = 0.9  # the held-out RMSE must be at most this share of no compensation's
 HEADER_WIDTH = 96
 QUANTISATION_SHARE = 0.1  # the float32 block may move the output by at most this share of the held-out RMSE
@@ -27,7 +30,7 @@ class Evidence:
     max_abs: float
     zero_rmse: float  # predicting 0: the error left when nothing is compensated
     zero_max_abs: float | None
-    quantisation: float | None  # max |float32 block - float64 model| over the fitted recording
+    quantisation: float  # max |float32 block - float64 model| over the fitted recording
     unit: str
     protocol: str | None = None  # how the held-out rows were predicted, when not by the fit written
 
@@ -39,40 +42,97 @@ class Evidence:
                 f"no compensation: RMSE {self.zero_rmse:.4g} {u}{worst}")
 
 
+def _number(value, field: str, optional: bool = False) -> float | None:
+    """A finite number >= 0 from the model file's metrics, or an error naming the field."""
+    if value is None and optional:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+        raise UserError(f"field 'metrics.{field}' must be a finite number >= 0, found {value!r}")
+    return float(value)
+
+
+def _section(metrics: dict, key: str) -> dict:
+    value = metrics.get(key) or {}
+    if not isinstance(value, dict):
+        raise UserError(f"field 'metrics.{key}' must be an object, found {type(value).__name__}")
+    return value
+
+
+def _rows(section: dict, key: str) -> int:
+    rows = section.get("rows", 0)
+    if isinstance(rows, bool) or not isinstance(rows, int) or rows < 0:
+        raise UserError(f"field 'metrics.{key}.rows' must be a whole number >= 0, found {rows!r}")
+    return rows
+
+
 def evidence(model: Model) -> Evidence | None:
     """The held-out evidence in the model file, or None when it has none (no held-out rows, or a
-    file written without the error of compensating nothing)."""
-    held = (model.metrics or {}).get("held_out") or {}
-    if not held.get("rows") or held.get("zero_rmse_um") is None:
+    file written without the error of compensating nothing); a malformed value is an error."""
+    metrics = model.metrics or {}
+    held = _section(metrics, "held_out")
+    rows = _rows(held, "held_out")
+    if not rows or held.get("zero_rmse_um") is None:
         return None
-    return Evidence(int(held["rows"]), float(held["rmse_um"]), float(held["max_abs_um"]), float(held["zero_rmse_um"]),
-                    held.get("zero_max_abs_um"), (model.metrics or {}).get("float32_vs_float64_max_um"),
-                    model.target.unit, held.get("protocol"))
+    protocol = held.get("protocol")
+    if protocol is not None and not isinstance(protocol, str):
+        raise UserError(f"field 'metrics.held_out.protocol' must be text, found {protocol!r}")
+    return Evidence(rows, _number(held.get("rmse_um"), "held_out.rmse_um"),
+                    _number(held.get("max_abs_um"), "held_out.max_abs_um"),
+                    _number(held.get("zero_rmse_um"), "held_out.zero_rmse_um"),
+                    _number(held.get("zero_max_abs_um"), "held_out.zero_max_abs_um", optional=True),
+                    _number(metrics.get("float32_vs_float64_max_um"), "float32_vs_float64_max_um"),
+                    model.target.unit, protocol)
+
+
+def _worse_fold(model: Model) -> str | None:
+    """A cross-validation fold in which the model did worse than no compensation."""
+    folds = (model.metrics or {}).get("cross_validation") or []
+    if not isinstance(folds, list) or not all(isinstance(f, dict) for f in folds):
+        raise UserError("field 'metrics.cross_validation' must be a list of folds")
+    for k, fold in enumerate(folds):
+        rmse = _number(fold.get("rmse"), f"cross_validation[{k}].rmse")
+        zero = _number(fold.get("zero_rmse"), f"cross_validation[{k}].zero_rmse")
+        if rmse > zero:
+            return f"fold {fold.get('label', k + 1)}: RMSE {rmse:.4g} against {zero:.4g} with no compensation"
+    return None
 
 
 def problem(model: Model) -> str | None:
     """Why the model has not earned a block, with the numbers; None when it has."""
     found = evidence(model)
     if found is None:
-        return ("the model file carries no held-out evidence (fit with --train-until or --train-rows so rows are "
-                "left to predict, and with a thermoplc that records the error of no compensation)")
+        return ("the model file carries no held-out evidence (fit with --train-until, --train-rows or --folds so rows "
+                "are left to predict, and with a thermoplc that records the error of no compensation)")
+    if found.rows < MIN_HELD_OUT_ROWS:
+        return f"{found.summary()}: fewer than {MIN_HELD_OUT_ROWS} held-out rows are no evidence"
     if not found.rmse <= CLEAR_SHARE * found.zero_rmse:
         return (f"{found.summary()}: not clearly better than no compensation (at most {CLEAR_SHARE:.0%} of it "
                 f"is required); this block would not make the part better")
+    worse = _worse_fold(model)
+    if worse:
+        return f"{found.summary()}, but in {worse}: worse than no compensation in part of the recording"
     return None
 
 
 def quantisation_problem(model: Model) -> str | None:
     """Why the float32 block is not the model that was judged, or None: its output moves from the
-    float64 model's by more than a share of the model's own held-out error."""
+    float64 model's by more than a share of the model's own error (held out, else on the training
+    rows)."""
+    metrics = model.metrics or {}
+    train = _section(metrics, "train")
     found = evidence(model)
-    if found is None or found.quantisation is None:
+    if found is not None:
+        error, where = found.rmse, "held-out"
+    elif _rows(train, "train"):
+        error, where = _number(train.get("rmse_um"), "train.rmse_um"), "training"
+    else:
         return None
-    if found.quantisation > QUANTISATION_SHARE * found.rmse:
-        return (f"the float32 block differs from the float64 model by up to {found.quantisation:.4g} {found.unit} "
-                f"on the fitted recording, more than {QUANTISATION_SHARE:.0%} of its held-out RMSE "
-                f"({found.rmse:.4g} {found.unit}): the block is not the model that was judged; refit with fewer or "
-                "better-conditioned inputs")
+    drift = _number(metrics.get("float32_vs_float64_max_um"), "float32_vs_float64_max_um")
+    if drift > QUANTISATION_SHARE * error:
+        unit = model.target.unit
+        return (f"the float32 block differs from the float64 model by up to {drift:.4g} {unit} on the fitted "
+                f"recording, more than {QUANTISATION_SHARE:.0%} of its {where} RMSE ({error:.4g} {unit}): the block "
+                "is not the model that was judged; refit with fewer or better-conditioned inputs")
     return None
 
 

@@ -79,6 +79,15 @@ def cross_validate(tables: list[Table], request, time_column: str, folds: int, f
     from thermoplc.models.fit import evaluate  # fit imports this module
     results = []
     if len(tables) > 1:
+        if folds != len(tables):
+            raise UserError(f"--folds {folds}: with {len(tables)} --data files each file is a fold; give --folds "
+                            f"{len(tables)}")
+        seen = {}
+        for table in tables:
+            if table.sha256 in seen:
+                raise UserError(f"{table.path}: the same recording as {seen[table.sha256]}; a fold predicted by a fit "
+                                "on its own copy is not held out")
+            seen[table.sha256] = table.path
         for k, table in enumerate(tables):
             others = tables[:k] + tables[k + 1:]
             model = _guarded(lambda: fit_one(others, replace(request, train_until=math.inf, train_rows=None)),

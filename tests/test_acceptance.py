@@ -98,3 +98,48 @@ def test_on_real_data_the_gate_refuses_gm1n_on_ch5_and_accepts_dlag(tmp_path):
     assert "RMSE 38.49 um" in refused.stderr and "no compensation: RMSE 24.19 um" in refused.stderr
     accepted = thermoplc("generate", "dlag.json", "-o", "d.scl", cwd=tmp_path)
     assert "accepted on 5354 held-out rows: RMSE 5.531 um" in accepted.stdout
+
+
+@pytest.mark.parametrize("edit, field", [
+    ({"zero_rmse_um": float("inf")}, "held_out.zero_rmse_um"), ({"zero_rmse_um": "1e9"}, "held_out.zero_rmse_um"),
+    ({"rows": -1}, "held_out.rows"), ({"rows": 0.5}, "held_out.rows"), ({"rows": True}, "held_out.rows"),
+    ({"rmse_um": -5.0}, "held_out.rmse_um"), ({"rmse_um": None}, "held_out.rmse_um"),
+    ({"max_abs_um": None}, "held_out.max_abs_um"), ({"zero_max_abs_um": "x"}, "held_out.zero_max_abs_um"),
+    ({"protocol": 5}, "held_out.protocol"),
+])
+def test_malformed_evidence_is_an_error_naming_its_field(tmp_path, edit, field):
+    doc = json.loads((GOLDEN / "mlr.json").read_text())
+    doc["metrics"]["held_out"].update(edit)
+    (tmp_path / "m.json").write_text(json.dumps(doc))  # Infinity is what Python writes for inf
+    refused = thermoplc("generate", "m.json", "-o", "m.scl", "--accept-unvalidated", cwd=tmp_path, check=2)
+    assert f"m.json: field 'metrics.{field}'" in refused.stderr and "Traceback" not in refused.stderr
+    assert not (tmp_path / "m.scl").exists()
+
+
+@pytest.mark.parametrize("value", [None, float("nan"), -1.0, "5"])
+def test_a_missing_or_malformed_float32_drift_is_an_error_not_a_pass(tmp_path, value):
+    doc = json.loads((GOLDEN / "mlr.json").read_text())
+    doc["metrics"]["float32_vs_float64_max_um"] = value
+    (tmp_path / "m.json").write_text(json.dumps(doc))
+    refused = thermoplc("generate", "m.json", "-o", "m.scl", cwd=tmp_path, check=2)
+    assert "field 'metrics.float32_vs_float64_max_um'" in refused.stderr
+
+
+def test_the_float32_drift_is_judged_against_the_training_error_when_nothing_was_held_out(tmp_path):
+    doc = json.loads((GOLDEN / "mlr.json").read_text())
+    doc["metrics"]["held_out"] = {"rows": 0, "rmse_um": None, "max_abs_um": None}
+    doc["metrics"]["float32_vs_float64_max_um"] = 0.5  # 45 % of the training RMSE of 1.1 um
+    (tmp_path / "m.json").write_text(json.dumps(doc))
+    refused = thermoplc("generate", "m.json", "-o", "m.scl", "--accept-unvalidated", cwd=tmp_path, check=2)
+    assert "more than 10% of its training RMSE" in refused.stderr
+
+
+def test_too_few_held_out_rows_or_a_fold_worse_than_nothing_is_no_acceptance(tmp_path):
+    few = _edited(tmp_path, "few.json", rows=99)
+    assert "fewer than 100 held-out rows are no evidence" in thermoplc("generate", few, "-o", "f.scl", cwd=tmp_path,
+                                                                       check=2).stderr
+    doc = json.loads((GOLDEN / "mlr.json").read_text())
+    doc["metrics"]["cross_validation"] = [{"label": "rows 2..3", "rmse": 40.0, "zero_rmse": 30.0}]
+    (tmp_path / "fold.json").write_text(json.dumps(doc))
+    refused = thermoplc("generate", "fold.json", "-o", "g.scl", cwd=tmp_path, check=2)
+    assert "but in fold rows 2..3: RMSE 40 against 30 with no compensation" in refused.stderr

@@ -79,7 +79,7 @@ def test_several_recordings_are_folds_of_their_own(tmp_path):
     paths = batch_csvs(tmp_path)
     data = [x for p in paths for x in ("--data", p.name)]
     thermoplc("fit", *data, "--model", "piecewise", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "--ambient",
-              "T_env", "--folds", 2, "-o", "p.json", cwd=tmp_path)
+              "T_env", "--folds", len(paths), "-o", "p.json", cwd=tmp_path)
     model = json.loads((tmp_path / "p.json").read_text())
     assert [f["label"] for f in model["metrics"]["cross_validation"]] == [p.name for p in paths]
     assert model["metrics"]["held_out"]["protocol"] == "leave-one-recording-out cross-validation"
@@ -91,3 +91,16 @@ def test_on_fl_thermal_forward_folds_show_the_spread_a_single_split_hides(tmp_pa
                        "t8_C,t4_C,t5_C,t11_C", "--folds", 4, "-o", "d.json", cwd=tmp_path)
     assert "  spread: fold RMSE 4.028 to 17.338 um" in fitted.stdout
     assert "  all folds                         8336    10.838   35.916        23.769       39.134" in fitted.stdout
+
+
+def test_several_recordings_need_one_fold_each_and_no_copies(tmp_path):
+    from scripts.regen_golden import batch_csvs
+    paths = batch_csvs(tmp_path)
+    common = ("fit", "--model", "piecewise", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "--ambient",
+              "T_env", "-o", "p.json")
+    data = [x for p in paths for x in ("--data", p.name)]
+    wrong = thermoplc(*common, *data, "--folds", 7, cwd=tmp_path, check=2)
+    assert f"with {len(paths)} --data files each file is a fold" in wrong.stderr
+    (tmp_path / "copy.csv").write_text(paths[0].read_text())
+    copied = thermoplc(*common, *data, "--data", "copy.csv", "--folds", len(paths) + 1, cwd=tmp_path, check=2)
+    assert f"copy.csv: the same recording as {paths[0].name}" in copied.stderr

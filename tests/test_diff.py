@@ -87,3 +87,24 @@ def test_an_added_statement_the_data_does_not_tell_apart_still_fails_the_diff(tm
     new.write_text(text.replace("BEGIN\n", "BEGIN\n    ENO := TRUE;\n", 1))
     out = thermoplc("diff", old, new, "--data", data, cwd=tmp_path, check=1).stdout
     assert "statements: changed" in out and "identical, every output bit equal" in out
+
+
+def test_retain_counts_in_every_dialect_and_literal_spelling_or_name_case_do_not(tmp_path):
+    from scripts.regen_golden import GOLDEN
+    blocks = {}
+    for dialect in ("iec", "tia"):
+        for retain in ((), ("--retain",)):
+            name = f"{dialect}{'_retain' if retain else ''}.st"
+            thermoplc("generate", GOLDEN / "kalman.json", "--dialect", dialect, *retain, "-o", name, cwd=tmp_path)
+            blocks[name] = tmp_path / name
+    out = thermoplc("diff", blocks["iec.st"], blocks["iec_retain.st"], cwd=tmp_path, check=1).stdout
+    assert "~ RETAIN: (none) -> " in out  # plain IEC declares no other attribute: RETAIN is still compared
+    thermoplc("diff", blocks["iec.st"], blocks["tia_retain.st"], cwd=tmp_path, check=1)
+    thermoplc("diff", blocks["iec_retain.st"], blocks["tia_retain.st"], cwd=tmp_path)
+    text = blocks["iec.st"].read_text()
+    spelled = tmp_path / "spelled.st"
+    spelled.write_text(text.replace("FUNCTION_BLOCK ThermalComp", "FUNCTION_BLOCK THERMALCOMP", 1)
+                       .replace("END_IF;", "END_IF;\n    Init := Init AND 1.0 > 0.0;", 1))
+    other = tmp_path / "other.st"
+    other.write_text(text.replace("END_IF;", "END_IF;\n    Init := Init AND 1.00 > 0.0E0;", 1))
+    thermoplc("diff", spelled, other, cwd=tmp_path)

@@ -21,6 +21,7 @@ from thermoplc.verifier.parser import parse_file
 from thermoplc.verifier.replay import block_columns
 from thermoplc.verifier.typed import differing_rows
 
+SIEMENS_ATTRIBUTES = frozenset({"TITLE", "AUTHOR", "FAMILY", "NAME", "VERSION"})
 SECTIONS = (("input", "inputs"), ("output", "outputs"), ("static", "state"), ("temp", "temporaries"))
 WHOLE_BODY = "(body)"
 
@@ -103,11 +104,15 @@ def _unquoted(value):
 
 
 def _header(old: s.Program, new: s.Program) -> list[str]:
-    """Block name, TITLE, AUTHOR, FAMILY, NAME and VERSION: shown to whoever opens the block. The
-    attributes are compared when both blocks have some (plain IEC text declares none)."""
+    """Block name (case-insensitive, as ST names are), TITLE, AUTHOR, FAMILY, NAME and VERSION: shown
+    to whoever opens the block; these attributes are compared when both blocks declare some (plain
+    IEC text declares none). RETAIN sections and an instance DB are compared always."""
+    both = all(any(k in SIEMENS_ATTRIBUTES for k, _ in p.header) for p in (old, new))
+
     def attributes(p: s.Program) -> list[tuple[str, str]]:  # STEP 7 quotes TITLE and VERSION, TIA does not
-        shown = p.header if old.header and new.header else ()  # IEC has none: a dialect, not a change
-        return [("block name", p.name), *((k, _unquoted(v)) for k, v in shown)]
+        # IEC declares no attributes (a dialect, not a change); RETAIN and an instance DB count always
+        shown = [(k, _unquoted(v)) for k, v in p.header if both or k not in SIEMENS_ATTRIBUTES]
+        return [("block name", p.name.upper()), *shown]
     before, after = attributes(old), attributes(new)
     if before == after:
         return []
@@ -164,8 +169,8 @@ def _flat(body: tuple) -> list:
 
 
 def _folded(node):
-    """The node with every variable name in upper case: ST names are case-insensitive, so `Cnt`
-    and `CNT` are one variable and changing the case is not a change."""
+    """The node with every variable name in upper case (ST names are case-insensitive, so `Cnt` and
+    `CNT` are one variable) and every REAL literal by its binary32 value, not its spelling."""
     if isinstance(node, tuple):
         return tuple(_folded(item) for item in node)
     if not is_dataclass(node):
@@ -173,6 +178,8 @@ def _folded(node):
     changed = {f.name: _folded(getattr(node, f.name)) for f in fields(node) if f.compare}
     if isinstance(node, (s.Name, s.Index)):
         changed["name"] = node.name.upper()
+    if isinstance(node, s.RealLit):  # 1.0 and 1.00 are one binary32 value on the PLC
+        changed.update(text="", value=float(f32_bits(node.value)))
     return replace(node, **changed)
 
 

@@ -190,7 +190,7 @@ def unsafe_findings(findings, finite_inputs: bool = True) -> list[tuple[Finding,
             if kind in kinds and f.kind == kind and f.first_cycle is not None]
 
 
-def _subnormal_declarations(decls, block: str) -> list[str]:
+def subnormal_declarations(decls, block: str) -> list[str]:
     """Declared REAL values (constants, start values, table entries) that are subnormal: a PLC that
     flushes them to zero computes with 0, whatever the replay here shows."""
     found = []
@@ -241,7 +241,7 @@ def _replay_and_compare(replayer: Replayer, block: str, against: str, table: Tab
                             want.item() if hasattr(want, "item") else want, machine.snapshot())
     return Report(block, against, Path(table.path).name, rows, tuple(produced), mismatch, findings, seconds,
                   quantisation, engine=replayer.used, engine_note=replayer.note,
-                  unsafe=(*_subnormal_declarations(machine.decls, block),
+                  unsafe=(*subnormal_declarations(machine.decls, block),
                           *_unsafe(produced, types, findings, table, block, inputs)))
 
 

@@ -28,7 +28,8 @@ from thermoplc.models.safety import CONTROL_START
 from thermoplc.models.streaming import StreamingReference, streamable
 from thermoplc.models.table import CannotStream, read_table, stream_columns
 from thermoplc.verifier.replay import (Report, _check_interface, _compare_constants, _load, block_limits,
-                                       known_overrides, mistyped, unsafe_findings, verify_against_model)
+                                       known_overrides, mistyped, subnormal_declarations, unsafe_findings,
+                                       verify_against_model)
 from thermoplc.verifier.typed import differing_rows, first_non_finite
 
 MAX_DISTINCT_STEPS = 1 << 20  # distinct time steps kept for the median; beyond: the whole-recording path
@@ -123,6 +124,8 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
     program, replayer = _load(block, engine)
     if replayer.native is None:
         raise _GiveUp("no fast engine")
+    if subnormal_declarations(program.decls, block):
+        raise _GiveUp("a subnormal declared value (the whole-recording path reports it)")
     limits = block_limits(program, block)
     mapping = known_overrides(overrides, [s.name for s in model.inputs], model_path)
     column_of = {s.name: mapping.get(s.name, s.column) for s in model.inputs}
