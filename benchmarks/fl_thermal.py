@@ -19,8 +19,8 @@ import numpy as np
 
 from thermoplc.demo import AMBIENT, SPEED, TRAIN_UNTIL_S, recording
 from thermoplc.errors import UserError
-from thermoplc.models.crossval import cuts
-from thermoplc.models.fit import FitRequest, fit, fit_cross_validated
+from thermoplc.models.crossval import cuts, fit_cross_validated
+from thermoplc.models.fit import FitRequest, fit
 from thermoplc.models.kalman import FitOptions
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.selection import select_sensors

@@ -150,7 +150,8 @@ def _progress(message: str) -> None:
 
 
 def cmd_fit(args) -> int:
-    from thermoplc.models.fit import FitRequest, fit, fit_cross_validated
+    from thermoplc.models.crossval import fit_cross_validated
+    from thermoplc.models.fit import FitRequest, fit
     from thermoplc.models.kalman import FitOptions
     from thermoplc.generator.lower import check_model_becomes_block
     from thermoplc.models.table import read_table

@@ -15,7 +15,7 @@ from typing import Callable
 
 from thermoplc.errors import UserError
 from thermoplc.models import crossval
-from thermoplc.models.fit import FitRequest, fit, fit_cross_validated, training_rows
+from thermoplc.models.fit import FitRequest, fit, training_rows
 from thermoplc.models.modelfile import ROLES_NEEDED, Model
 from thermoplc.models.selection import select_sensors
 from thermoplc.models.table import Table
@@ -66,7 +66,7 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
                 say(f"auto: {kind} on {', '.join(sensors)}")
             wanted = replace(request, kind=kind, temps=sensors)  # the speed read or not, folds cut alike
             try:
-                model = (fit_cross_validated(tables, wanted, folds, time_column) if folds
+                model = (crossval.fit_cross_validated(tables, wanted, folds, time_column) if folds
                          else fit(tables, wanted, time_column))
             except UserError as exc:
                 found.append(Candidate(kind, sensors, None, _without_paths(str(exc), tables)))

@@ -19,10 +19,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
 from thermoplc.errors import UserError
+from thermoplc.models.fit import FitRequest, evaluate, fit
+from thermoplc.models.modelfile import Model
 from thermoplc.models.table import Table
 
 MIN_FOLDS, MAX_FOLDS = 2, 20
@@ -73,10 +77,9 @@ def _fold(label: str, train_rows: int, held: dict) -> Fold:
                 held["zero_max_abs_um"])
 
 
-def cross_validate(tables: list[Table], request, time_column: str, folds: int, fit_one) -> list[Fold]:
-    """Every fold's held-out errors. `fit_one(tables, request)` is `fit` itself, so each fold runs
-    the very procedure whose model is written."""
-    from thermoplc.models.fit import evaluate  # fit imports this module
+def cross_validate(tables: list[Table], request: FitRequest, time_column: str, folds: int) -> list[Fold]:
+    """Every fold's held-out errors, each fold fitted by `fit` itself: the very procedure whose
+    model is written."""
     results = []
     if len(tables) > 1:
         if folds != len(tables):
@@ -90,15 +93,16 @@ def cross_validate(tables: list[Table], request, time_column: str, folds: int, f
             seen[table.sha256] = table.path
         for k, table in enumerate(tables):
             others = tables[:k] + tables[k + 1:]
-            model = _guarded(lambda: fit_one(others, replace(request, train_until=math.inf, train_rows=None)),
+            model = _guarded(lambda: fit(others, replace(request, train_until=math.inf, train_rows=None), time_column),
                              f"fold {k + 1} (fitted without {table.path})")
             held = evaluate(model, [table], [0])["held_out"]
-            results.append(_fold(table.path.rsplit("/", 1)[-1], sum(t.rows for t in others), held))
+            results.append(_fold(Path(table.path).name, sum(t.rows for t in others), held))
         return results
     table = tables[0]
     starts = cuts(table, time_column, folds, request.speed)
     for k, (start, stop) in enumerate(zip(starts, [*starts[1:], table.rows]), start=2):
-        model = _guarded(lambda: fit_one([_head(table, stop)], replace(request, train_until=None, train_rows=start)),
+        model = _guarded(lambda: fit([_head(table, stop)], replace(request, train_until=None, train_rows=start),
+                                     time_column),
                          f"fold {k} (fitted on rows 1..{start})")
         results.append(_fold(f"rows {start + 1}..{stop}", start, model.metrics["held_out"]))
     return results
@@ -118,3 +122,16 @@ def pooled(folds: list[Fold]) -> dict:
     return {"rows": rows, "rmse_um": math.sqrt(mean_square("rmse")), "max_abs_um": max(f.max_abs for f in folds),
             "zero_rmse_um": math.sqrt(mean_square("zero_rmse")), "zero_max_abs_um": max(f.zero_max_abs for f in folds),
             "folds": len(folds), "fold_rmse_um": [min(f.rmse for f in folds), max(f.rmse for f in folds)]}
+
+
+def fit_cross_validated(tables: list[Table], request: FitRequest, folds: int, time_column: str = "time_s",
+                        progress: Callable[[str], None] | None = None) -> Model:
+    """Blocked cross-validation, then the fit on every row, carrying the folds' pooled errors as its
+    held-out evidence and each fold's beside them."""
+    found = cross_validate(tables, request, time_column, folds)
+    model = fit(tables, replace(request, train_until=math.inf, train_rows=None), time_column, progress)
+    protocol = ("leave-one-recording-out cross-validation" if len(tables) > 1
+                else f"forward cross-validation over {folds} blocks")
+    held_out = {**pooled(found), "protocol": protocol}
+    return Model(**{**model.__dict__, "metrics": {**model.metrics, "held_out": held_out,
+                                                   "cross_validation": [f.as_dict() for f in found]}})

@@ -1,8 +1,7 @@
 """Fitting a model from a table: pick the training rows, fit, measure, package as a model file."""
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
@@ -10,8 +9,7 @@ import numpy as np
 
 from thermoplc.errors import UserError
 from thermoplc.identifiers import check_unique, identifier_from_column, identifier_problem
-from thermoplc.models import (bayes, bpnn, crossval, dlag, grey, identify, kalman, lumped_model, mlr, piecewise,
-                             simulation)
+from thermoplc.models import bayes, bpnn, dlag, grey, identify, kalman, lumped_model, mlr, piecewise, simulation
 from thermoplc.models.modelfile import ROLES_NEEDED, Coefficient, Model, Signal
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.leaks import refuse_leaks, refuse_non_temperatures
@@ -235,19 +233,6 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
         training=training[0] if len(training) == 1 else {"batches": training}, fit=log,
     )
     return Model(**{**model.__dict__, "metrics": evaluate(model, tables, n_train)})
-
-
-def fit_cross_validated(tables: list[Table], request: FitRequest, folds: int, time_column: str = "time_s",
-                        progress: Callable[[str], None] | None = None) -> Model:
-    """Blocked cross-validation (`crossval`), then the fit on every row, carrying the folds' pooled
-    errors as its held-out evidence and each fold's beside them."""
-    found = crossval.cross_validate(tables, request, time_column, folds, lambda ts, r: fit(ts, r, time_column))
-    model = fit(tables, replace(request, train_until=math.inf, train_rows=None), time_column, progress)
-    protocol = ("leave-one-recording-out cross-validation" if len(tables) > 1
-                else f"forward cross-validation over {folds} blocks")
-    held_out = {**crossval.pooled(found), "protocol": protocol}
-    return Model(**{**model.__dict__, "metrics": {**model.metrics, "held_out": held_out,
-                                                   "cross_validation": [f.as_dict() for f in found]}})
 
 
 def evaluate(model: Model, tables: list[Table], n_train: list[int]) -> dict:
