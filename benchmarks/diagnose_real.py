@@ -264,15 +264,20 @@ def summary(results: list[dict]) -> list[str]:
     return lines
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def arguments(description: str, effects: tuple[str, ...]) -> argparse.Namespace:
+    """The options every FL_THERMAL injection benchmark takes: channels, effects, seeds, jobs, JSON."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--channels", nargs="+", choices=CHANNELS, default=list(CHANNELS))
-    parser.add_argument("--effects", nargs="+", choices=EFFECTS, default=list(EFFECTS))
+    parser.add_argument("--effects", nargs="+", choices=effects, default=list(effects))
     parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--first-seed", type=int, default=1)
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--json", help="also write every run's result here")
-    args = parser.parse_args()
+    return parser.parse_args()
+
+
+def main() -> None:
+    args = arguments(__doc__.splitlines()[0], EFFECTS)
     for name, why in SKIPPED.items():
         print(f"not injected: {name}: {why}")
     seeds = range(args.first_seed, args.first_seed + args.seeds)

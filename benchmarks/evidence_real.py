@@ -24,7 +24,6 @@ injected run and below it on the clean one. Deterministic for the same arguments
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -35,7 +34,7 @@ from benchmarks.runs import run_and_print  # noqa: E402  (before numpy: one BLAS
 import numpy as np  # noqa: E402
 
 from benchmarks.diagnose_real import (AMBIENT, CHANNELS, DT, LIBRARY, OUTSIDE, SPEED, TEMPS,  # noqa: E402
-                                      TRAIN_UNTIL_S, columns, inject)
+                                      TRAIN_UNTIL_S, arguments, columns, inject)
 from thermoplc.diagnosis.search import BIC_MARGIN, effective_rows  # noqa: E402
 from thermoplc.models import identify  # noqa: E402
 from thermoplc.models import simulation as sim_  # noqa: E402
@@ -130,14 +129,7 @@ def summary(results: list[dict]) -> list[str]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--channels", nargs="+", choices=CHANNELS, default=list(CHANNELS))
-    parser.add_argument("--effects", nargs="+", choices=EFFECTS, default=list(EFFECTS))
-    parser.add_argument("--seeds", type=int, default=3)
-    parser.add_argument("--first-seed", type=int, default=1)
-    parser.add_argument("--jobs", type=int, default=2)
-    parser.add_argument("--json", help="also write every run's result here")
-    args = parser.parse_args()
+    args = arguments(__doc__.splitlines()[0], EFFECTS)
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     cases = [(channel, name, seed) for channel in args.channels for name in args.effects for seed in seeds]
     run_and_print(one, cases, args.jobs, args.json, table, summary)

@@ -174,8 +174,8 @@ def cmd_fit(args) -> int:
     write_atomic(args.output, model.to_json())
     print(format_fit(model))
     print(f"wrote {args.output}")
-    from thermoplc.models.acceptance import problem, quantisation_problem
-    refused = quantisation_problem(model) or problem(model)
+    from thermoplc.models.acceptance import refusal
+    refused = refusal(model)
     if refused:
         print(f"thermoplc: WARNING: generate will refuse this model: {refused}", file=sys.stderr)
     return 0

@@ -16,7 +16,7 @@ from thermoplc import __version__
 from thermoplc.fileio import check_output, write_atomic
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
-from thermoplc.models.acceptance import problem, quantisation_problem
+from thermoplc.models.acceptance import refusal
 from thermoplc.models.fit import FitRequest, fit
 from thermoplc.models.table import read_table
 from thermoplc.verifier.replay import verify_against_model
@@ -54,7 +54,7 @@ def run_demo(out: Path, force: bool = False) -> int:
         block_path = out / f"{block_name}.scl"
         write_atomic(model_path, model.to_json())
         written.append(model_path)
-        refused = quantisation_problem(model) or problem(model)
+        refused = refusal(model)
         if refused:  # the gate `generate` applies: no block for a model that does not compensate
             print(f"  {kind}: no block: {refused}")
             continue

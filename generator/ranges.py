@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from thermoplc.binary32 import FLT_MAX, FLT_MIN_NORMAL, INT_RANGES, round_f32
+from thermoplc.binary32 import FLT_MAX, FLT_MIN_NORMAL, INT_RANGES, is_subnormal, round_f32
 from thermoplc.generator.printer import statement_text
 from thermoplc.generator.ir import (
     Assign, BinOp, Block, BoolConst, Call, Expr, For, If, Index, IntConst, Ref, Region, Stmt, Unary, Var,
@@ -454,7 +454,7 @@ def _contains(outer: dict, inner: dict) -> bool:
 def subnormal_values(block: Block) -> list[str]:
     """Declared REAL values a PLC that flushes subnormals to zero reads as 0: the block would compute
     with 0 where the reference computes with the tiny value, so no bit-exact claim could hold."""
-    tiny = lambda v: isinstance(v, float) and v != 0.0 and abs(v) < FLT_MIN_NORMAL
+    tiny = lambda v: isinstance(v, float) and is_subnormal(v)
     found = [f"constant {c.name} = {c.value!r} is subnormal" for c in block.constants if c.type == "REAL" and tiny(c.value)]
     for var in (*block.statics, *block.outputs):
         if var.type == "REAL" and isinstance(var.initial, tuple):

@@ -122,18 +122,23 @@ def quantisation_problem(model: Model) -> str | None:
     train = _section(metrics, "train")
     found = evidence(model)
     if found is not None:
-        error, where = found.rmse, "held-out"
+        error, where, drift = found.rmse, "held-out", found.quantisation
     elif _rows(train, "train"):
         error, where = _number(train.get("rmse_um"), "train.rmse_um"), "training"
+        drift = _number(metrics.get("float32_vs_float64_max_um"), "float32_vs_float64_max_um")
     else:
         return None
-    drift = _number(metrics.get("float32_vs_float64_max_um"), "float32_vs_float64_max_um")
     if drift > QUANTISATION_SHARE * error:
         unit = model.target.unit
         return (f"the float32 block differs from the float64 model by up to {drift:.4g} {unit} on the fitted "
                 f"recording, more than {QUANTISATION_SHARE:.0%} of its {where} RMSE ({error:.4g} {unit}): the block "
                 "is not the model that was judged; refit with fewer or better-conditioned inputs")
     return None
+
+
+def refusal(model: Model) -> str | None:
+    """Why `generate` refuses the model without --accept-unvalidated, or None."""
+    return quantisation_problem(model) or problem(model)
 
 
 def header_lines(model: Model) -> tuple[str, ...]:
