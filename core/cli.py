@@ -158,7 +158,7 @@ def cmd_fit(args) -> int:
     check_output(args.output, args.force, inputs=args.data)
     tables = [read_table(path, args.time, decimal=args.decimal) for path in args.data]
     options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
-                         args.recover_limit)
+                         args.recover_limit, args.ga_operators)
     request = FitRequest(args.model, args.target[0], args.temps, args.speed, args.ambient, args.train_until,
                          args.train_rows, args.name, options, args.bins, args.precision_um, args.lags, args.lag_step,
                          args.target[1:], args.tool_length, args.unseen, args.time_bins)
@@ -206,9 +206,10 @@ def _fit_auto(tables, request, args, progress):
             continue
         held = c.model.metrics["held_out"]
         print(f"  {k:<6}{c.kind:<8}{','.join(c.sensors):<32}{held['rmse_um']:>9.3f}{held['max_abs_um']:>9.3f}"
-              f"{cost[id(c)]:>10}")
+              f"{cost[id(c)]:>10}" + (f"  generate refuses: {c.not_accepted}" if c.not_accepted else ""))
     best = fitted[0]
-    cheaper = min((c for c in fitted if c.rmse <= (1 + AUTO_TOLERANCE) * best.rmse), key=lambda c: cost[id(c)])
+    cheaper = min((c for c in fitted if c.rmse <= (1 + AUTO_TOLERANCE) * best.rmse and
+                   (c.not_accepted is None) == (best.not_accepted is None)), key=lambda c: cost[id(c)])
     if cheaper is not best:
         print(f"  cheapest within {AUTO_TOLERANCE:.0%} of the best: {cheaper.kind} on {','.join(cheaper.sensors)}, "
               f"{cheaper.rmse:.3f} um, {cost[id(cheaper)]} operations per call (fit it with --model {cheaper.kind} "
@@ -614,6 +615,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="generations of the GA or DE (default: %(default)s)")
     p.add_argument("--population", type=_number(int, 2, 10000, "individuals"), default=40,
                    help="individuals per generation (default: %(default)s)")
+    p.add_argument("--ga-operators", choices=("paper002", "paper000"), default="paper002",
+                   help="bpnn: the GA's crossover and mutation, paper 002's single-point crossover and one mutated "
+                        "position, or paper 000's arithmetic crossover and Gaussian mutation (default: %(default)s; "
+                        "benchmarks/ga_operators.py compares them held out)")
     p.add_argument("--jump-limit", type=_number(float, 1e-6, 1e3, "kelvin"), help="K per call that marks a sensor faulty (default from data)")
     p.add_argument("--recover-limit", type=_number(float, 1e-6, 1e3, "kelvin"), help="K between measurement and model to recover (default from data)")
     p.add_argument("--bins", type=_number(int, 1, 4096, "intervals"), default=8, help="bayes: intervals per temperature (default: %(default)s)")

@@ -3,10 +3,18 @@
 A commissioning engineer has one recording and asks which model, which sensors, and whether it
 helps. Each candidate is fitted exactly as `fit --model KIND` would fit it, with the same
 held-out protocol (`--folds K` blocked cross-validation, or the `--train-until` split), so the
-ranking is by error on rows the candidate never saw. Sensor sets come from paper 000's fuzzy
-clustering with grey relational grades on the training rows only (`select-sensors --method
-fcm-grey`), one set per number of groups up to `max_sensors`; a kind the data does not allow is
-listed with its reason. The models themselves are the ordinary model files of their kinds.
+ranking is by error on rows the candidate never saw.
+
+Sensor sets: forward selection (sensors added one at a time, each the one that lowers MLR's
+held-out error most, up to `max_sensors`) and paper 000's fuzzy clustering with grey relational
+grades on the training rows only (`select-sensors --method fcm-grey`). The sets are chosen with
+the same held-out rows that rank the kinds, so the winner's error is a slightly optimistic
+estimate (as for any choice among candidates by one validation). The closed-form kinds run on
+every set; the iterative ones (genetic algorithm, differential evolution, likelihood search) on
+the set of the best closed-form model, to keep the search near a minute. A kind the data does not
+allow is listed with its reason, and a model whose block `generate` would refuse
+(models/acceptance.py) ranks after every model it accepts. The models are the ordinary model
+files of their kinds.
 """
 from __future__ import annotations
 
@@ -14,13 +22,15 @@ from dataclasses import dataclass, replace
 from typing import Callable
 
 from thermoplc.errors import UserError
-from thermoplc.models import crossval
+from thermoplc.models import acceptance, crossval
 from thermoplc.models.fit import FitRequest, fit, training_rows
 from thermoplc.models.modelfile import ROLES_NEEDED, Model
 from thermoplc.models.selection import select_sensors
 from thermoplc.models.table import Table
 
-KINDS = ("mlr", "dlag", "gm0n", "gm1n", "bayes", "bpnn", "kalman", "lumped")  # piecewise needs batches
+CLOSED_FORM = ("mlr", "dlag", "gm0n", "gm1n", "bayes")  # fitted in well under a second: tried on every set
+ITERATIVE = ("bpnn", "kalman", "lumped")  # searches of seconds each: tried on the best set of the others
+KINDS = CLOSED_FORM + ITERATIVE  # piecewise needs batches
 MAX_SENSORS = 4
 
 
@@ -29,11 +39,43 @@ class Candidate:
     kind: str
     sensors: tuple[str, ...]
     model: Model | None
-    refused: str | None = None
+    refused: str | None = None  # why the kind could not be fitted
+    not_accepted: str | None = None  # why generate would refuse the fitted model's block
 
     @property
     def rmse(self) -> float:
         return self.model.metrics["held_out"]["rmse_um"] if self.model else float("inf")
+
+    def order(self) -> tuple:
+        return self.model is None, self.not_accepted is not None, self.rmse
+
+
+def _held_out(tables: list[Table], request: FitRequest, folds: int | None, time_column: str) -> Model:
+    return (crossval.fit_cross_validated(tables, request, folds, time_column) if folds
+            else fit(tables, request, time_column))
+
+
+def forward_selection(tables: list[Table], request: FitRequest, folds: int | None, time_column: str,
+                      max_sensors: int) -> list[tuple[str, ...]]:
+    """Sensors added one at a time, each the one that lowers the held-out RMSE of MLR (the cheapest
+    kind, same protocol) the most: the sets of 1..`max_sensors` sensors it passes through."""
+    chosen: list[str] = []
+    sets = []
+    for _ in range(min(max_sensors, len(request.temps))):
+        scored = []
+        for column in request.temps:
+            if column in chosen:
+                continue
+            try:
+                model = _held_out(tables, replace(request, kind="mlr", temps=(*chosen, column)), folds, time_column)
+            except UserError:
+                continue  # a flat sensor, or one that fails a fold: the next one
+            scored.append((model.metrics["held_out"]["rmse_um"], request.temps.index(column), column))
+        if not scored:
+            break
+        chosen.append(min(scored)[2])
+        sets.append(tuple(chosen))
+    return sets
 
 
 def sensor_sets(table: Table, request: FitRequest, train_rows: int, max_sensors: int) -> list[tuple[str, ...]]:
@@ -53,26 +95,38 @@ def sensor_sets(table: Table, request: FitRequest, train_rows: int, max_sensors:
 
 def rank(tables: list[Table], request: FitRequest, folds: int | None, time_column: str,
          max_sensors: int = MAX_SENSORS, say: Callable[[str], None] | None = None) -> list[Candidate]:
-    """Every applicable kind on every sensor set, best held-out RMSE first (refusals last). Sensors
-    are chosen on rows every candidate trains on: the first block with folds, else the training part."""
+    """Every applicable kind, best first: the models generate accepts by held-out RMSE, then those it
+    would refuse, then the kinds that could not be fitted.
+
+    Sensor sets: forward selection by MLR's held-out error, and paper 000's fcm-grey choice on rows
+    every candidate trains on (the first block with folds, else the training part). The closed-form
+    kinds run on every set; the iterative ones on the set of the best closed-form model."""
     train_rows = (crossval.cuts(tables[0], time_column, folds, request.speed)[0] if folds
                   else training_rows(tables[0], time_column, request.train_until, request.train_rows))
     have = {"speed": request.speed, "ambient": request.ambient}
     kinds = [k for k in KINDS if all(have[role] for role in ROLES_NEEDED[k])]
-    found = []
-    for sensors in sensor_sets(tables[0], request, train_rows, max_sensors):
-        for kind in kinds:
-            if say:
-                say(f"auto: {kind} on {', '.join(sensors)}")
-            wanted = replace(request, kind=kind, temps=sensors)  # the speed read or not, folds cut alike
-            try:
-                model = (crossval.fit_cross_validated(tables, wanted, folds, time_column) if folds
-                         else fit(tables, wanted, time_column))
-            except UserError as exc:
-                found.append(Candidate(kind, sensors, None, _without_paths(str(exc), tables)))
-                continue
-            found.append(Candidate(kind, sensors, model))
-    return sorted(found, key=lambda c: (c.model is None, c.rmse))
+    if say:
+        say("auto: forward selection of sensors")
+    sets = forward_selection(tables, request, folds, time_column, max_sensors)
+    sets += [s for s in sensor_sets(tables[0], request, train_rows, max_sensors) if s not in sets]
+    found = [_candidate(tables, request, folds, time_column, kind, sensors, say)
+             for sensors in sets for kind in kinds if kind in CLOSED_FORM]
+    fitted = sorted((c for c in found if c.model is not None), key=Candidate.order)
+    best_set = fitted[0].sensors if fitted else sets[0]
+    found += [_candidate(tables, request, folds, time_column, kind, best_set, say)
+              for kind in kinds if kind in ITERATIVE]
+    return sorted(found, key=Candidate.order)
+
+
+def _candidate(tables, request, folds, time_column, kind, sensors, say) -> Candidate:
+    if say:
+        say(f"auto: {kind} on {', '.join(sensors)}")
+    wanted = replace(request, kind=kind, temps=sensors)  # the speed read or not, folds cut alike
+    try:
+        model = _held_out(tables, wanted, folds, time_column)
+    except UserError as exc:
+        return Candidate(kind, sensors, None, _without_paths(str(exc), tables))
+    return Candidate(kind, sensors, model, not_accepted=acceptance.refusal(model))
 
 
 def _without_paths(text: str, tables: list[Table]) -> str:

@@ -102,6 +102,10 @@ def train(net: Network, x: np.ndarray, y: np.ndarray, epochs: int, goal_mse: flo
     return Network(w1, b1, w2, b2), epochs, mse
 
 
+OPERATOR_NAMES = {"paper002": "paper 002's operators (single-point crossover, one mutated position)",
+                  "paper000": "paper 000's operators (arithmetic crossover, Gaussian mutation)"}
+
+
 def _scale(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per column (scale, shift) mapping the training range onto [-1, 1]."""
     low, high = values.min(axis=0), values.max(axis=0)
@@ -110,7 +114,8 @@ def _scale(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def fit_bpnn(temps: np.ndarray, targets: np.ndarray, names: list[str], seed: int, population: int,
-             generations: int, epochs: int = 3000, goal_mse: float = 2e-3) -> tuple[dict, dict, dict]:
+             generations: int, epochs: int = 3000, goal_mse: float = 2e-3,
+             operators: str = "paper002") -> tuple[dict, dict, dict]:
     """temps (rows, sensors), targets (rows, outputs): the training rows."""
     rng = np.random.default_rng(seed)
     rises = temps - temps[0]
@@ -140,7 +145,7 @@ def fit_bpnn(temps: np.ndarray, targets: np.ndarray, names: list[str], seed: int
 
     hidden_ga = genetic_minimize(hidden_fitness, np.array([HIDDEN_RANGE[0]]), np.array([HIDDEN_RANGE[1] + 0.999]),
                                  rng, population=max(6, population // 4), generations=max(3, generations // 4),
-                                 p_mutation=PAPER_002_MUTATION, operators="paper002")
+                                 p_mutation=PAPER_002_MUTATION, operators=operators)
     hidden = int(hidden_ga.x[0])
     length = hidden * m + hidden + q * hidden + q
     xs, ys = x[fit_rows], y[fit_rows]
@@ -152,7 +157,7 @@ def fit_bpnn(temps: np.ndarray, targets: np.ndarray, names: list[str], seed: int
         return sse
 
     weight_ga = genetic_minimize(weight_fitness, -np.ones(length), np.ones(length), rng, population, generations,
-                                 p_mutation=PAPER_002_MUTATION, operators="paper002")
+                                 p_mutation=PAPER_002_MUTATION, operators=operators)
     net, epochs_ga, mse_ga = train(_unpack(weight_ga.x, m, hidden, q), xs, ys, epochs, goal_mse)
     _, epochs_plain, mse_plain = train(_random_network(np.random.default_rng(seed), m, hidden, q), xs, ys,
                                        epochs, goal_mse)
@@ -179,7 +184,8 @@ def fit_bpnn(temps: np.ndarray, targets: np.ndarray, names: list[str], seed: int
     coefficients["act_nclip"] = Coefficient.of(-CLIP)
     settings = {"inputs": m, "hidden": hidden, "outputs": q, "activation": "Pade(7,6) tanh on clip(x, +-4.97)",
                 "activation_error_bound": ACTIVATION_ERROR_BOUND}
-    log = {"method": "GA with paper 002's operators (hidden size, initial weights) + back-propagation with momentum",
+    log = {"method": f"GA with {OPERATOR_NAMES[operators]} (hidden size, initial weights) + back-propagation with "
+                     f"momentum",
            "hidden_size_scores": {str(k): v for k, v in sorted(scores.items())},
            "weight_ga_history": list(weight_ga.history), "goal_mse": goal_mse, "epoch_limit": epochs,
            "ga_bp_epochs": epochs_ga, "ga_bp_mse": mse_ga, "plain_bp_epochs": epochs_plain, "plain_bp_mse": mse_plain}

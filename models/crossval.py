@@ -68,10 +68,6 @@ def cuts(table: Table, time_column: str, folds: int, speed: str | None) -> list[
     return starts
 
 
-def _head(table: Table, rows: int) -> Table:
-    return replace(table, columns={c: v[:rows] for c, v in table.columns.items()}, lines=table.lines[:rows])
-
-
 def _fold(label: str, train_rows: int, held: dict) -> Fold:
     return Fold(label, train_rows, held["rows"], held["rmse_um"], held["max_abs_um"], held["zero_rmse_um"],
                 held["zero_max_abs_um"])
@@ -101,7 +97,7 @@ def cross_validate(tables: list[Table], request: FitRequest, time_column: str, f
     table = tables[0]
     starts = cuts(table, time_column, folds, request.speed)
     for k, (start, stop) in enumerate(zip(starts, [*starts[1:], table.rows]), start=2):
-        model = _guarded(lambda: fit([_head(table, stop)], replace(request, train_until=None, train_rows=start),
+        model = _guarded(lambda: fit([table.head(stop)], replace(request, train_until=None, train_rows=start),
                                      time_column),
                          f"fold {k} (fitted on rows 1..{start})")
         results.append(_fold(f"rows {start + 1}..{stop}", start, model.metrics["held_out"]))

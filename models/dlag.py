@@ -34,7 +34,7 @@ def fit_dlag(temps: np.ndarray, target: np.ndarray, names: list[str], lags: int,
         for lag in range(lags + 1):
             columns.append(lagged(temps[:, i], lag * step) - temps[0, i])
             labels.append(f"{names[i]}(t-{lag * step * dt:g}s)")
-    beta = least_squares(np.column_stack(columns), target, labels)
+    beta, log = least_squares(np.column_stack(columns), target, labels)
     coefficients = {"beta0": Coefficient.of(beta[0])}
     k = 1
     for i in range(temps.shape[1]):
@@ -42,7 +42,8 @@ def fit_dlag(temps: np.ndarray, target: np.ndarray, names: list[str], lags: int,
             coefficients[f"beta_{i + 1}_{lag}"] = Coefficient.of(beta[k])
             k += 1
     settings = {"lags": lags, "lag_step_samples": step, "lag_step_s": step * dt}
-    return coefficients, settings, {"method": "least squares on current and lagged temperature rises"}
+    return coefficients, settings, {"method": "least squares on current and lagged temperature rises, ridge weight by "
+                                              "forward validation", **log}
 
 
 def predict(model: Model, inputs: dict, precision: str) -> dict:

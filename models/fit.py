@@ -9,7 +9,7 @@ import numpy as np
 
 from thermoplc.errors import UserError
 from thermoplc.identifiers import check_unique, identifier_from_column, identifier_problem
-from thermoplc.models import bayes, bpnn, dlag, grey, identify, kalman, lumped_model, mlr, piecewise, simulation
+from thermoplc.models import bayes, bpnn, dlag, grey, identify, kalman, lumped_model, mlr, piecewise, ridge, simulation
 from thermoplc.models.modelfile import ROLES_NEEDED, Coefficient, Model, Signal
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.leaks import refuse_leaks, refuse_non_temperatures
@@ -97,8 +97,9 @@ class Part:
 
 def _fit_mlr(parts, request, names, dt, progress):
     part = parts[0]
-    coefficients = {k: Coefficient.of(v) for k, v in mlr.fit_mlr(part.temps, part.target, names).items()}
-    return coefficients, {}, {"method": "least squares (eq. 11)"}
+    values, log = mlr.fit_mlr(part.temps, part.target, names)
+    coefficients = {k: Coefficient.of(v) for k, v in values.items()}
+    return coefficients, {}, {"method": "least squares (eq. 11), ridge weight by forward validation", **log}
 
 
 def _fit_kalman(parts, request, names, dt, progress):
@@ -109,7 +110,7 @@ def _fit_kalman(parts, request, names, dt, progress):
 def _fit_lumped(parts, request, names, dt, progress):
     """The identified baseline (no effects): models/identify.py."""
     part = parts[0]
-    mlr.refuse_flat(part.temps, names)
+    ridge.refuse_flat(part.temps, names)
     series = simulation.Series(dt, np.arange(len(part.target)) * dt, part.speed, part.ambient, part.temps,
                                tuple(names), part.target)
     fitted, measured = identify.fit(series)
@@ -128,7 +129,8 @@ def _fit_bpnn(parts, request, names, dt, progress):
     part = parts[0]
     targets = np.column_stack([part.target, part.extra])
     coefficients, settings, log = bpnn.fit_bpnn(part.temps, targets, names, request.options.seed,
-                                                request.options.population, request.options.generations)
+                                                request.options.population, request.options.generations,
+                                                operators=request.options.ga_operators)
     settings["targets"] = [{"name": block_identifier(c, "target"), "column": c, "unit": _unit_of(c)}
                            for c in (request.target, *request.extra_targets)]
     if request.tool_length:
@@ -144,7 +146,7 @@ def _unit_of(column: str) -> str:
 
 FITTERS = {"bpnn": _fit_bpnn, "lumped": _fit_lumped, "mlr": _fit_mlr, "kalman": _fit_kalman, "piecewise": _fit_piecewise,
            "gm0n": lambda parts, request, names, dt, progress: grey.fit_gm0n(parts[0].temps, parts[0].target, names),
-           "gm1n": lambda parts, request, names, dt, progress: grey.fit_gm1n(parts[0].temps, parts[0].target, names),
+           "gm1n": lambda parts, request, names, dt, progress: grey.fit_gm1n(parts[0].temps, parts[0].target, names, dt),
            "bayes": lambda parts, request, names, dt, progress: bayes.fit_bayes(
                [(p.temps, p.target) for p in parts], request.bins, request.precision_um, request.unseen,
                request.time_bins, dt),

@@ -7,6 +7,12 @@ With S_i(k) = x_i(1) + ... + x_i(k) the running sums of the temperatures:
   x1(k) + a*z1(k) = sum_i b_i*S_i(k) with the background value z1(k) = (X1(k) + X1(k-1))/2,
   run forward: X1(k) = Keep*X1(k-1) + In*sum_i b_i*S_i(k), Keep = (1 - a/2)/(1 + a/2),
   In = 1/(1 + a/2), and the error estimate x1(k) = X1(k) - X1(k-1); x1(1) at the first call.
+  The paper estimates a with the b_i by least squares, and that is the model whenever its time
+  constant dt/a is positive and within the training span. On real recordings it often is not:
+  a <= 0 (FL_THERMAL ch3: -9.4e-5), where the recursion never settles, or a time constant of 73 h
+  fitted on 24 h (ch5), which extrapolates (38 um held out against 24 um with no compensation).
+  Then a is chosen with a ridge weight for the b_i by forward validation among time constants from
+  two samples to the training span, instead of refusing.
   (The whitened time response, which treats sum_i b_i*S_i as constant, does not fit even the
   training data when the sums grow and a is small; this recursion needs no exp either.)
 GM(1,1), the paper's baseline, is GM(1,N) without temperatures (a time trend only).
@@ -16,41 +22,101 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.errors import UserError
-from thermoplc.models import kernels
+from thermoplc.models import kernels, ridge
 from thermoplc.models.modelfile import Coefficient, Model
+
+DEVELOPMENT_GRID = 16  # candidate development coefficients a, log-spaced in time constant
 
 def accumulate(x: np.ndarray) -> np.ndarray:
     return np.cumsum(x, axis=0)
 
 
 def fit_gm0n(temps: np.ndarray, target: np.ndarray, names: list[str]):
-    sums, target_sums = accumulate(temps), accumulate(target)
-    design = np.column_stack([np.ones(len(target) - 1), sums[1:]])
-    beta = np.linalg.lstsq(design, target_sums[1:], rcond=None)[0]
-    coefficients = {"a": Coefficient.of(beta[0]), "X1": Coefficient.of(target[0]),
-                    **{f"b_{i}": Coefficient.of(b) for i, b in enumerate(beta[1:], start=1)}}
-    return coefficients, {}, {"method": "least squares on 1-AGO sequences (paper 003, GM(0,N))"}
+    """X1(k) = a + sum_i b_i*S_i(k) on k = 2..n by least squares (paper 003). Shrinking the b_i by a
+    forward-validated ridge made the held-out error worse on FL_THERMAL (ch3 7.1 -> 10.2 um) and on
+    the twin, so only sums too collinear for binary32 get it."""
+    sums, target_sums = accumulate(temps)[1:], accumulate(target)[1:]
+    steps, errors = temps[1:], target[1:]
+    fitted = ridge.fit_linear(sums, target_sums, names, weights=(0.0,),
+                              output_error=lambda offset, b, rows: errors[rows] - steps[rows] @ b)
+    coefficients = {"a": Coefficient.of(fitted.intercept), "X1": Coefficient.of(target[0]),
+                    **{f"b_{i}": Coefficient.of(b) for i, b in enumerate(fitted.slopes, start=1)}}
+    return coefficients, {}, {"method": "least squares on 1-AGO sequences (paper 003, GM(0,N))", **fitted.log()}
+
+
+def _background(target: np.ndarray) -> np.ndarray:
+    """z1(k) = (X1(k) + X1(k-1))/2, k = 2..n."""
+    target_sums = accumulate(target)
+    return 0.5 * (target_sums[1:] + target_sums[:-1])
 
 
 def _gm1n_parameters(sums: np.ndarray, target: np.ndarray) -> np.ndarray:
     """[a, b_1..b_N] by least squares: x1(k) = -a*z1(k) + sum_i b_i*S_i(k), k = 2..n."""
-    target_sums = accumulate(target)
-    background = 0.5 * (target_sums[1:] + target_sums[:-1])
-    return np.linalg.lstsq(np.column_stack([-background, sums[1:]]), target[1:], rcond=None)[0]
+    return np.linalg.lstsq(np.column_stack([-_background(target), sums[1:]]), target[1:], rcond=None)[0]
 
 
-def fit_gm1n(temps: np.ndarray, target: np.ndarray, names: list[str]):
-    params = _gm1n_parameters(accumulate(temps), target)
-    a, b = float(params[0]), params[1:]
-    if not 0 < a < 2:
-        raise UserError(f"GM(1,N) fit gives development coefficient a = {a:.4g}; the grey difference equation only "
-                        f"settles for 0 < a < 2 (use --model gm0n, or other sensors)")
+def run_gm1n(sums: np.ndarray, first: float, a: float, b: np.ndarray) -> np.ndarray:
+    """The grey difference equation run forward in float64, as the block runs it: the error estimates."""
+    from scipy.signal import lfilter  # on first use: verify never fits, and importing scipy costs about 1 s
+    keep, gain = (1 - a / 2) / (1 + a / 2), 1 / (1 + a / 2)
+    level = np.empty(len(sums))
+    level[0] = first
+    level[1:] = lfilter([gain], [1.0, -keep], sums[1:] @ b, zi=[keep * first])[0]
+    return np.diff(level, prepend=0.0)
+
+
+def _gm1n_slopes(sums: np.ndarray, target: np.ndarray, a: float, weight: float) -> np.ndarray:
+    """b for a given a: x1(k) + a*z1(k) = sum_i b_i*S_i(k), ridge with no intercept (the equation has none)."""
+    return ridge.ridge(sums[1:], target[1:] + a * _background(target), weight, intercept=False)[1]
+
+
+def development_candidates(dt: float, rows: int) -> np.ndarray:
+    """a = dt/tau for time constants from two samples to the training span (at most 48 h)."""
+    longest = max(min(rows * dt, 48 * 3600.0), 4 * dt)
+    return dt / np.exp(np.linspace(np.log(2 * dt), np.log(longest), DEVELOPMENT_GRID))
+
+
+def fit_gm1n(temps: np.ndarray, target: np.ndarray, names: list[str], dt: float):
+    """The paper's least-squares a and b when a settles within the training span; else a working
+    alternative: a among the time constants the span can show, with a ridge weight for b, both
+    chosen by forward validation of what the block outputs."""
+    sums = accumulate(temps)
+    ridge.refuse_flat(temps, names)
+    params = _gm1n_parameters(sums, target)
+    paper_a = float(params[0])
+    span_s = len(target) * dt
+    if 0 < paper_a < 2 and dt / paper_a <= span_s:
+        a, b, weight, rmse = paper_a, params[1:], 0.0, None
+        chosen = "the paper's least-squares a and b"
+    else:
+        cut = ridge.validation_cut(len(target))
+        if cut is None:
+            raise UserError(f"GM(1,N) fit gives development coefficient a = {paper_a:.4g}: " + _unsettled(paper_a, dt)
+                            + f"; {len(target)} rows are too few to choose another a by validation (use --model "
+                              f"gm0n, or more rows)")
+        scored = []
+        for candidate in development_candidates(dt, cut):
+            for candidate_weight in ridge.WEIGHTS:
+                slopes = _gm1n_slopes(sums[:cut], target[:cut], candidate, candidate_weight)
+                out = run_gm1n(sums, target[0], candidate, slopes)
+                scored.append((ridge.rms(target[cut:] - out[cut:]), float(candidate), candidate_weight))
+        rmse, a, weight = min(scored)
+        b = _gm1n_slopes(sums, target, a, weight)
+        chosen = (f"the paper's least-squares a = {paper_a:.4g} {_unsettled(paper_a, dt)}, so a and a ridge weight "
+                  f"for b were chosen by forward validation")
     coefficients = {"X1": Coefficient.of(target[0]), "Keep": Coefficient.of((1 - a / 2) / (1 + a / 2)),
                     "In": Coefficient.of(1 / (1 + a / 2)),
                     **{f"b_{i}": Coefficient.of(bi) for i, bi in enumerate(b, start=1)}}
-    settings = {"a": a, "b": [float(x) for x in b]}
-    return coefficients, settings, {"method": "least squares on 1-AGO sequences, run as the grey difference "
-                                              "equation (paper 003, GM(1,N))"}
+    settings = {"a": a, "b": [float(x) for x in b], "time_constant_s": dt / a}
+    return coefficients, settings, {
+        "method": f"grey difference equation on 1-AGO sequences (paper 003, GM(1,N)), {chosen}",
+        "least_squares_a": paper_a, "ridge_weight": weight, "ridge_validation_rmse": rmse}
+
+
+def _unsettled(a: float, dt: float) -> str:
+    if not 0 < a < 2:
+        return "never settles (the grey difference equation settles only for 0 < a < 2)"
+    return f"settles with a time constant of {dt / a / 3600:.3g} h, longer than the training rows span"
 
 
 def gm11_predict(target_train: np.ndarray, rows: int) -> np.ndarray:

@@ -25,14 +25,12 @@ from dataclasses import replace
 
 import numpy as np
 
+from thermoplc.models import ridge
 from thermoplc.models import simulation as sim_
 from thermoplc.models.simulation import DisplacementParams, Series, SensorParams, Shared, Simulation
 
 TAU_GRID = 12
 GAIN_GRID = np.linspace(-6.0, 6.0, 9)  # logit of the filter gain
-FIT_SHARE = 2 / 3  # forward validation: fitted on this share of the training rows, scored on the rest
-RIDGE_WEIGHTS = (0.0, *10.0 ** np.arange(-6.0, 0.5, 0.5))  # per row, on standardised columns
-MIN_VALIDATION_ROWS = 12
 
 
 MIN_GAIN = 1e-6  # below this the filter is off (0.0): a constant the block can carry without a word
@@ -78,38 +76,23 @@ def fit_sensor(series: Series, i: int, shared: Shared) -> SensorParams:
     return SensorParams(tau_s=tau_s, gain=float(g), load_K=float(h), filter_gain=gain)
 
 
-def _ridge(design: np.ndarray, y: np.ndarray, weight: float) -> tuple[float, np.ndarray]:
-    """Intercept and slopes of a ridge fit on standardised columns (the intercept not shrunk)."""
-    mean, spread = design.mean(axis=0), design.std(axis=0)
-    spread[spread == 0.0] = 1.0
-    z = (design - mean) / spread
-    offset = float(y.mean())
-    k = z.shape[1]
-    # the penalty as rows under the design: least squares on that stack is the ridge solution, and
-    # with weight 0 on two identical sensors it is the minimum-norm one instead of a singular solve
-    stacked = np.vstack([z, np.sqrt(weight * len(y)) * np.eye(k)])
-    slopes = np.linalg.lstsq(stacked, np.r_[y - offset, np.zeros(k)], rcond=None)[0] / spread
-    return offset - float(mean @ slopes), slopes
-
-
 def fit_displacement(series: Series, temps: np.ndarray, t0: np.ndarray) -> tuple[DisplacementParams, dict]:
     """Structure time constant and ridge weight by forward validation, then the map on all rows."""
     rows = series.rows
-    cut = int(round(FIT_SHARE * rows))
+    cut = ridge.validation_cut(rows)
     taus = np.exp(np.linspace(np.log(600.0), np.log(48 * sim_.HOUR), sim_.GRID_POINTS))
     design_of = lambda tau: np.column_stack(sim_._displacement_columns(series, temps, {"t0": t0, "struct": tau}, ()))
-    if rows - cut < MIN_VALIDATION_ROWS or cut < MIN_VALIDATION_ROWS:  # too short to validate: least squares
+    if cut is None:  # too short to validate: least squares
         params, _ = sim_.fit_displacement(series, temps, t0, ())
         return params, {"validation": "none (too few rows)"}
     scored = []
     for tau in taus:
         design = design_of(tau)
-        for weight in RIDGE_WEIGHTS:
-            offset, slopes = _ridge(design[:cut], series.target[:cut], weight)
-            error = series.target[cut:] - offset - design[cut:] @ slopes
-            scored.append((float(np.sqrt(np.mean(error ** 2))), float(tau), float(weight)))
+        for weight in ridge.WEIGHTS:
+            offset, slopes = ridge.ridge(design[:cut], series.target[:cut], weight)
+            scored.append((ridge.rms(series.target[cut:] - offset - design[cut:] @ slopes), float(tau), float(weight)))
     rmse, tau, weight = min(scored)
-    offset, slopes = _ridge(design_of(tau), series.target, weight)
+    offset, slopes = ridge.ridge(design_of(tau), series.target, weight)
     k = temps.shape[1]
     params = DisplacementParams(tau_struct_s=tau, beta0=offset, beta=tuple(float(b) for b in slopes[:k]),
                                 gamma=tuple(float(b) for b in slopes[k:]))

@@ -40,6 +40,7 @@ class FitOptions:
     generations: int = 60
     jump_limit: float | None = None  # K; default from the training data
     recover_limit: float | None = None
+    ga_operators: str = "paper002"  # bpnn: the GA's crossover and mutation, models/ga.py OPERATORS
 
 
 def predict(model: Model, inputs: dict, precision: str, valid: dict | None = None) -> dict:
@@ -200,7 +201,8 @@ def fit_kalman(temps: np.ndarray, te: np.ndarray, n: np.ndarray, target: np.ndar
                          "history": list(history)})
     series = fused_all(x[None, :])
     features = np.column_stack([s[0] - temps[0, i] for i, s in enumerate(series)])
-    beta = least_squares(features, target, names)
+    beta, map_log = least_squares(features, target, names)
+    log.update(map_log)
 
     coefficients: dict[str, Coefficient] = {}
     settings = {"sensors": []}

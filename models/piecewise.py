@@ -31,14 +31,14 @@ def fit_piecewise(batches: list[tuple[np.ndarray, np.ndarray, np.ndarray]], name
     settings = {"nodes": []}
     for m, node in enumerate(sorted(groups), start=1):
         members = groups[node]
-        beta = least_squares(np.vstack([d for d, _, _ in members]), np.concatenate([y for _, y, _ in members]), names)
+        beta, fitted = least_squares(np.vstack([d for d, _, _ in members]), np.concatenate([y for _, y, _ in members]), names)
         coefficients[f"node_{m}"] = Coefficient.of(node)
         coefficients[f"beta0_{m}"] = Coefficient.of(beta[0])
         for i, b in enumerate(beta[1:], start=1):
             coefficients[f"beta_{i}_{m}"] = Coefficient.of(b)
         settings["nodes"].append({"node_C": node, "batches": len(members),
-                                  "initial_ambient_C": [a for _, _, a in members]})
-    log = {"method": "least squares per ambient node (paper 001 eq. 1)", "node_spacing_C": NODE_SPACING_C}
+                                  "initial_ambient_C": [a for _, _, a in members], **fitted})
+    log = {"method": "least squares per ambient node (paper 001 eq. 1), ridge weight by forward validation", "node_spacing_C": NODE_SPACING_C}
     return coefficients, settings, log
 
 

@@ -8,7 +8,7 @@ import os
 import re
 import sys
 import zipfile
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +36,10 @@ class Table:
         if name not in self.columns:
             raise UserError(f"{self.path}: no column {name!r}; the header has {', '.join(self.columns)}")
         return self.columns[name]
+
+    def head(self, rows: int) -> Table:
+        """The first `rows` rows, as a recording that stopped there (a fold's training part)."""
+        return replace(self, columns={c: v[:rows] for c, v in self.columns.items()}, lines=self.lines[:rows])
 
     def refuse_cell(self, column: str, bad: np.ndarray, what: str, expected: str) -> None:
         """The error for the first row where `bad` holds: file, line, column, the value, what it was for."""
