@@ -594,8 +594,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="CSV file; repeat for piecewise (one file per batch, initial ambient read from each)")
     p.add_argument("--model", choices=(*KINDS, "auto"), required=True,
                    help="kalman (paper 000), lumped, mlr, dlag and piecewise (paper 001), bpnn (paper 002), gm0n and "
-                        "gm1n (paper 003), bayes (paper 004); auto: every kind the given roles allow on fcm-grey "
-                        "sensor sets from --temps, ranked by held-out RMSE, the best written")
+                        "gm1n (paper 003), bayes (paper 004); auto: every kind the given roles allow on sensor "
+                        "sets from --temps (forward selection and fcm-grey), ranked by held-out RMSE, the best written")
     p.add_argument("--target", type=_columns, required=True,
                    help="measured displacement column, um; bpnn takes several: elongation,yaw,pitch")
     p.add_argument("--temps", type=_columns, required=True,

@@ -6,7 +6,7 @@ held-out protocol (`--folds K` blocked cross-validation, or the `--train-until` 
 ranking is by error on rows the candidate never saw.
 
 Sensor sets: forward selection (sensors added one at a time, each the one that lowers MLR's
-held-out error most, up to `max_sensors`) and paper 000's fuzzy clustering with grey relational
+held-out error most - or raises it least - up to `max_sensors`) and paper 000's fuzzy clustering with grey relational
 grades on the training rows only (`select-sensors --method fcm-grey`). The sets are chosen with
 the same held-out rows that rank the kinds, so the winner's error is a slightly optimistic
 estimate (as for any choice among candidates by one validation). The closed-form kinds run on
@@ -57,8 +57,8 @@ def _held_out(tables: list[Table], request: FitRequest, folds: int | None, time_
 
 def forward_selection(tables: list[Table], request: FitRequest, folds: int | None, time_column: str,
                       max_sensors: int) -> list[tuple[str, ...]]:
-    """Sensors added one at a time, each the one that lowers the held-out RMSE of MLR (the cheapest
-    kind, same protocol) the most: the sets of 1..`max_sensors` sensors it passes through."""
+    """Sensors added one at a time, each the one that gives MLR (the cheapest kind, same protocol) the
+    lowest held-out RMSE with those before it: the sets of 1..`max_sensors` sensors it passes through."""
     chosen: list[str] = []
     sets = []
     for _ in range(min(max_sensors, len(request.temps))):
@@ -108,7 +108,8 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
     if say:
         say("auto: forward selection of sensors")
     sets = forward_selection(tables, request, folds, time_column, max_sensors)
-    sets += [s for s in sensor_sets(tables[0], request, train_rows, max_sensors) if s not in sets]
+    sets += [s for s in sensor_sets(tables[0], request, train_rows, max_sensors)
+             if frozenset(s) not in {frozenset(t) for t in sets}]
     found = [_candidate(tables, request, folds, time_column, kind, sensors, say)
              for sensors in sets for kind in kinds if kind in CLOSED_FORM]
     fitted = sorted((c for c in found if c.model is not None), key=Candidate.order)

@@ -31,6 +31,8 @@ CLIP = 4.97
 ACTIVATION_ERROR_BOUND = 9.6e-5
 HIDDEN_RANGE = (2, 12)
 PAPER_002_MUTATION = 0.1  # share of individuals mutated at one position (paper 002 gives no value)
+# paper 000's Gaussian mutation draws per gene: its rate as in the Kalman fit (models/ga.py's default)
+MUTATION = {"paper002": PAPER_002_MUTATION, "paper000": 0.02}
 COMPENSATION = ("Dx_um", "Dy_um", "Dz_um")
 
 
@@ -145,7 +147,7 @@ def fit_bpnn(temps: np.ndarray, targets: np.ndarray, names: list[str], seed: int
 
     hidden_ga = genetic_minimize(hidden_fitness, np.array([HIDDEN_RANGE[0]]), np.array([HIDDEN_RANGE[1] + 0.999]),
                                  rng, population=max(6, population // 4), generations=max(3, generations // 4),
-                                 p_mutation=PAPER_002_MUTATION, operators=operators)
+                                 p_mutation=MUTATION[operators], operators=operators)
     hidden = int(hidden_ga.x[0])
     length = hidden * m + hidden + q * hidden + q
     xs, ys = x[fit_rows], y[fit_rows]
@@ -157,7 +159,7 @@ def fit_bpnn(temps: np.ndarray, targets: np.ndarray, names: list[str], seed: int
         return sse
 
     weight_ga = genetic_minimize(weight_fitness, -np.ones(length), np.ones(length), rng, population, generations,
-                                 p_mutation=PAPER_002_MUTATION, operators=operators)
+                                 p_mutation=MUTATION[operators], operators=operators)
     net, epochs_ga, mse_ga = train(_unpack(weight_ga.x, m, hidden, q), xs, ys, epochs, goal_mse)
     _, epochs_plain, mse_plain = train(_random_network(np.random.default_rng(seed), m, hidden, q), xs, ys,
                                        epochs, goal_mse)

@@ -85,13 +85,14 @@ def fit_gm1n(temps: np.ndarray, target: np.ndarray, names: list[str], dt: float)
     params = _gm1n_parameters(sums, target)
     paper_a = float(params[0])
     span_s = len(target) * dt
-    if 0 < paper_a < 2 and dt / paper_a <= span_s:
+    resolvable = ridge.condition(sums[1:], intercept=False) <= ridge.CONDITION_LIMIT
+    if 0 < paper_a < 2 and dt / paper_a <= span_s and resolvable:
         a, b, weight, rmse = paper_a, params[1:], 0.0, None
         chosen = "the paper's least-squares a and b"
     else:
         cut = ridge.validation_cut(len(target))
         if cut is None:
-            raise UserError(f"GM(1,N) fit gives development coefficient a = {paper_a:.4g}: " + _unsettled(paper_a, dt)
+            raise UserError(f"GM(1,N) fit gives development coefficient a = {paper_a:.4g}: " + _unsettled(paper_a, dt, resolvable)
                             + f"; {len(target)} rows are too few to choose another a by validation (use --model "
                               f"gm0n, or more rows)")
         scored = []
@@ -102,7 +103,7 @@ def fit_gm1n(temps: np.ndarray, target: np.ndarray, names: list[str], dt: float)
                 scored.append((ridge.rms(target[cut:] - out[cut:]), float(candidate), candidate_weight))
         rmse, a, weight = min(scored)
         b = _gm1n_slopes(sums, target, a, weight)
-        chosen = (f"the paper's least-squares a = {paper_a:.4g} {_unsettled(paper_a, dt)}, so a and a ridge weight "
+        chosen = (f"the paper's least-squares a = {paper_a:.4g} {_unsettled(paper_a, dt, resolvable)}, so a and a ridge weight "
                   f"for b were chosen by forward validation")
     coefficients = {"X1": Coefficient.of(target[0]), "Keep": Coefficient.of((1 - a / 2) / (1 + a / 2)),
                     "In": Coefficient.of(1 / (1 + a / 2)),
@@ -113,7 +114,9 @@ def fit_gm1n(temps: np.ndarray, target: np.ndarray, names: list[str], dt: float)
         "least_squares_a": paper_a, "ridge_weight": weight, "ridge_validation_rmse": rmse}
 
 
-def _unsettled(a: float, dt: float) -> str:
+def _unsettled(a: float, dt: float, resolvable: bool) -> str:
+    if not resolvable:
+        return "comes with sensor sums too collinear for binary32 to resolve their slopes"
     if not 0 < a < 2:
         return "never settles (the grey difference equation settles only for 0 < a < 2)"
     return f"settles with a time constant of {dt / a / 3600:.3g} h, longer than the training rows span"

@@ -62,7 +62,7 @@ def ridge(design: np.ndarray, y: np.ndarray, weight: float, intercept: bool = Tr
     return offset - float(mean @ slopes), slopes
 
 
-def _condition(design: np.ndarray, intercept: bool) -> float:
+def condition(design: np.ndarray, intercept: bool) -> float:
     centred = design - (design.mean(axis=0) if intercept else 0.0)
     spread = np.sqrt(np.mean(centred ** 2, axis=0))
     if design.shape[1] < 2:
@@ -84,7 +84,7 @@ def fit_linear(features: np.ndarray, target: np.ndarray, names: list[str], inter
     refuse_flat(features, names)
     if output_error is None:
         output_error = lambda offset, slopes, rows: target[rows] - offset - features[rows] @ slopes
-    if _condition(features, intercept) > CONDITION_LIMIT:
+    if condition(features, intercept) > CONDITION_LIMIT:
         weights = tuple(w for w in weights if w > 0.0) or WEIGHTS[1:]
     cut = validation_cut(len(target))
     if cut is None:
