@@ -37,3 +37,17 @@ def test_auto_picks_the_lumped_model_on_a_machine_made_of_lumped_masses(tmp_path
     assert ranked[0][0] == "lumped" and ranked[0][1] < 0.5 * ranked[1][1]
     assert json.loads((tmp_path / "a.json").read_text())["kind"] == "lumped"
     thermoplc("generate", "a.json", "-o", "a.scl", cwd=tmp_path)  # the best passes the acceptance rule
+
+
+def test_ga_operators_reach_the_bpnn_fit_from_the_command_line(tmp_path):
+    thermoplc("twin", "--hours", 4, "--seed", 5, "-o", "t.csv", cwd=tmp_path)
+    methods = {}
+    for operators in ("paper002", "paper000"):
+        thermoplc("fit", "--data", "t.csv", "--model", "bpnn", "--target", "E_z_um", "--temps", "T_motor,T_bearing",
+                  "--train-until", 7200, "--generations", 4, "--population", 8, "--ga-operators", operators,
+                  "-o", f"{operators}.json", cwd=tmp_path)
+        methods[operators] = json.loads((tmp_path / f"{operators}.json").read_text())["fit"]["method"]
+    assert "single-point crossover" in methods["paper002"] and "Gaussian mutation" in methods["paper000"]
+    assert thermoplc("fit", "--data", "t.csv", "--model", "bpnn", "--target", "E_z_um", "--temps", "T_motor",
+                     "--train-until", 7200, "--ga-operators", "roulette", "-o", "x.json", cwd=tmp_path,
+                     check=2).stderr.count("invalid choice") == 1
