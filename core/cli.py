@@ -150,8 +150,8 @@ def _progress(message: str) -> None:
 
 
 def cmd_fit(args) -> int:
-    from thermoplc.models.crossval import fit_cross_validated
-    from thermoplc.models.fit import FitRequest, fit
+    from thermoplc.models.crossval import fit_held_out
+    from thermoplc.models.fit import FitRequest
     from thermoplc.models.kalman import FitOptions
     from thermoplc.generator.lower import check_model_becomes_block
     from thermoplc.models.table import read_table
@@ -166,8 +166,7 @@ def cmd_fit(args) -> int:
     if args.model == "auto":
         model = _fit_auto(tables, request, args, progress)
     else:
-        model = (fit_cross_validated(tables, request, args.folds, args.time, progress) if args.folds
-                 else fit(tables, request, args.time, progress))
+        model = fit_held_out(tables, request, args.folds, args.time, progress)
     if sys.stderr.isatty():
         print(file=sys.stderr)
     check_model_becomes_block(model, args.output)

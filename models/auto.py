@@ -23,7 +23,7 @@ from typing import Callable
 
 from thermoplc.errors import UserError
 from thermoplc.models import acceptance, crossval
-from thermoplc.models.fit import FitRequest, fit, training_rows
+from thermoplc.models.fit import FitRequest, training_rows
 from thermoplc.models.modelfile import ROLES_NEEDED, Model
 from thermoplc.models.selection import select_sensors
 from thermoplc.models.table import Table
@@ -50,11 +50,6 @@ class Candidate:
         return self.model is None, self.not_accepted is not None, self.rmse
 
 
-def _held_out(tables: list[Table], request: FitRequest, folds: int | None, time_column: str) -> Model:
-    return (crossval.fit_cross_validated(tables, request, folds, time_column) if folds
-            else fit(tables, request, time_column))
-
-
 def forward_selection(tables: list[Table], request: FitRequest, folds: int | None, time_column: str,
                       max_sensors: int) -> list[tuple[str, ...]]:
     """Sensors added one at a time, each the one that gives MLR (the cheapest kind, same protocol) the
@@ -67,7 +62,7 @@ def forward_selection(tables: list[Table], request: FitRequest, folds: int | Non
             if column in chosen:
                 continue
             try:
-                model = _held_out(tables, replace(request, kind="mlr", temps=(*chosen, column)), folds, time_column)
+                model = crossval.fit_held_out(tables, replace(request, kind="mlr", temps=(*chosen, column)), folds, time_column)
             except UserError:
                 continue  # a flat sensor, or one that fails a fold: the next one
             scored.append((model.metrics["held_out"]["rmse_um"], request.temps.index(column), column))
@@ -108,12 +103,11 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
     if say:
         say("auto: forward selection of sensors")
     sets = forward_selection(tables, request, folds, time_column, max_sensors)
-    sets += [s for s in sensor_sets(tables[0], request, train_rows, max_sensors)
-             if frozenset(s) not in {frozenset(t) for t in sets}]
+    seen = {frozenset(s) for s in sets}
+    sets += [s for s in sensor_sets(tables[0], request, train_rows, max_sensors) if frozenset(s) not in seen]
     found = [_candidate(tables, request, folds, time_column, kind, sensors, say)
              for sensors in sets for kind in kinds if kind in CLOSED_FORM]
-    fitted = sorted((c for c in found if c.model is not None), key=Candidate.order)
-    best_set = fitted[0].sensors if fitted else sets[0]
+    best_set = min(found, key=Candidate.order).sensors
     found += [_candidate(tables, request, folds, time_column, kind, best_set, say)
               for kind in kinds if kind in ITERATIVE]
     return sorted(found, key=Candidate.order)
@@ -124,7 +118,7 @@ def _candidate(tables, request, folds, time_column, kind, sensors, say) -> Candi
         say(f"auto: {kind} on {', '.join(sensors)}")
     wanted = replace(request, kind=kind, temps=sensors)  # the speed read or not, folds cut alike
     try:
-        model = _held_out(tables, wanted, folds, time_column)
+        model = crossval.fit_held_out(tables, wanted, folds, time_column)
     except UserError as exc:
         return Candidate(kind, sensors, None, _without_paths(str(exc), tables))
     return Candidate(kind, sensors, model, not_accepted=acceptance.refusal(model))

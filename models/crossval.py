@@ -131,3 +131,11 @@ def fit_cross_validated(tables: list[Table], request: FitRequest, folds: int, ti
     held_out = {**pooled(found), "protocol": protocol}
     return Model(**{**model.__dict__, "metrics": {**model.metrics, "held_out": held_out,
                                                    "cross_validation": [f.as_dict() for f in found]}})
+
+
+def fit_held_out(tables: list[Table], request: FitRequest, folds: int | None, time_column: str = "time_s",
+                 progress: Callable[[str], None] | None = None) -> Model:
+    """`fit` with its held-out evidence: blocked cross-validation over `folds` blocks, or the
+    request's own training split when `folds` is None."""
+    return (fit_cross_validated(tables, request, folds, time_column, progress) if folds
+            else fit(tables, request, time_column, progress))

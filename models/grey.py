@@ -27,6 +27,7 @@ from thermoplc.models.modelfile import Coefficient, Model
 
 DEVELOPMENT_GRID = 16  # candidate development coefficients a, log-spaced in time constant
 
+
 def accumulate(x: np.ndarray) -> np.ndarray:
     return np.cumsum(x, axis=0)
 
@@ -58,11 +59,16 @@ def _gm1n_parameters(sums: np.ndarray, target: np.ndarray) -> np.ndarray:
 def run_gm1n(sums: np.ndarray, first: float, a: float, b: np.ndarray) -> np.ndarray:
     """The grey difference equation run forward in float64, as the block runs it: the error estimates."""
     from scipy.signal import lfilter  # on first use: verify never fits, and importing scipy costs about 1 s
-    keep, gain = (1 - a / 2) / (1 + a / 2), 1 / (1 + a / 2)
+    keep, gain = _keep_and_gain(a)
     level = np.empty(len(sums))
     level[0] = first
     level[1:] = lfilter([gain], [1.0, -keep], sums[1:] @ b, zi=[keep * first])[0]
     return np.diff(level, prepend=0.0)
+
+
+def _keep_and_gain(a: float) -> tuple[float, float]:
+    """Keep = (1 - a/2)/(1 + a/2) and In = 1/(1 + a/2) of X1(k) = Keep*X1(k-1) + In*sum_i b_i*S_i(k)."""
+    return (1 - a / 2) / (1 + a / 2), 1 / (1 + a / 2)
 
 
 def _gm1n_slopes(sums: np.ndarray, target: np.ndarray, a: float, weight: float) -> np.ndarray:
@@ -92,9 +98,9 @@ def fit_gm1n(temps: np.ndarray, target: np.ndarray, names: list[str], dt: float)
     else:
         cut = ridge.validation_cut(len(target))
         if cut is None:
-            raise UserError(f"GM(1,N) fit gives development coefficient a = {paper_a:.4g}: " + _unsettled(paper_a, dt, resolvable)
-                            + f"; {len(target)} rows are too few to choose another a by validation (use --model "
-                              f"gm0n, or more rows)")
+            raise UserError(f"GM(1,N) fit gives development coefficient a = {paper_a:.4g}: "
+                            f"{_unsettled(paper_a, dt, resolvable)}; {len(target)} rows are too few to choose another "
+                            f"a by validation (use --model gm0n, or more rows)")
         scored = []
         for candidate in development_candidates(dt, cut):
             for candidate_weight in ridge.WEIGHTS:
@@ -103,10 +109,10 @@ def fit_gm1n(temps: np.ndarray, target: np.ndarray, names: list[str], dt: float)
                 scored.append((ridge.rms(target[cut:] - out[cut:]), float(candidate), candidate_weight))
         rmse, a, weight = min(scored)
         b = _gm1n_slopes(sums, target, a, weight)
-        chosen = (f"the paper's least-squares a = {paper_a:.4g} {_unsettled(paper_a, dt, resolvable)}, so a and a ridge weight "
-                  f"for b were chosen by forward validation")
-    coefficients = {"X1": Coefficient.of(target[0]), "Keep": Coefficient.of((1 - a / 2) / (1 + a / 2)),
-                    "In": Coefficient.of(1 / (1 + a / 2)),
+        chosen = (f"the paper's least-squares a = {paper_a:.4g} {_unsettled(paper_a, dt, resolvable)}, so a and "
+                  f"a ridge weight for b were chosen by forward validation")
+    keep, gain = _keep_and_gain(a)
+    coefficients = {"X1": Coefficient.of(target[0]), "Keep": Coefficient.of(keep), "In": Coefficient.of(gain),
                     **{f"b_{i}": Coefficient.of(bi) for i, bi in enumerate(b, start=1)}}
     settings = {"a": a, "b": [float(x) for x in b], "time_constant_s": dt / a}
     return coefficients, settings, {

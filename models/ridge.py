@@ -47,12 +47,17 @@ def refuse_flat(features: np.ndarray, names: list[str]) -> None:
                         f"drop it or train on data where it moves")
 
 
-def ridge(design: np.ndarray, y: np.ndarray, weight: float, intercept: bool = True) -> tuple[float, np.ndarray]:
-    """Intercept and slopes of a ridge fit on standardised columns (the intercept not shrunk)."""
+def _standardised(design: np.ndarray, intercept: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Columns centred (when there is an intercept) and scaled to unit RMS; the mean and scale used."""
     mean = design.mean(axis=0) if intercept else np.zeros(design.shape[1])
     spread = np.sqrt(np.mean((design - mean) ** 2, axis=0))
     spread[spread == 0.0] = 1.0
-    z = (design - mean) / spread
+    return (design - mean) / spread, mean, spread
+
+
+def ridge(design: np.ndarray, y: np.ndarray, weight: float, intercept: bool = True) -> tuple[float, np.ndarray]:
+    """Intercept and slopes of a ridge fit on standardised columns (the intercept not shrunk)."""
+    z, mean, spread = _standardised(design, intercept)
     offset = float(y.mean()) if intercept else 0.0
     k = z.shape[1]
     # the penalty as rows under the design: least squares on that stack is the ridge solution, and
@@ -63,11 +68,11 @@ def ridge(design: np.ndarray, y: np.ndarray, weight: float, intercept: bool = Tr
 
 
 def condition(design: np.ndarray, intercept: bool) -> float:
-    centred = design - (design.mean(axis=0) if intercept else 0.0)
-    spread = np.sqrt(np.mean(centred ** 2, axis=0))
+    """Condition number of the standardised columns: above CONDITION_LIMIT binary32 cannot resolve
+    their least-squares slopes."""
     if design.shape[1] < 2:
         return 1.0
-    singular = np.linalg.svd(centred / np.where(spread == 0.0, 1.0, spread), compute_uv=False)
+    singular = np.linalg.svd(_standardised(design, intercept)[0], compute_uv=False)
     return float(singular[0] / max(singular[-1], 1e-300))
 
 
