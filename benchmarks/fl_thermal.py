@@ -21,7 +21,7 @@ from dataclasses import replace
 import numpy as np
 
 from thermoplc.demo import AMBIENT, SPEED, TRAIN_UNTIL_S, recording
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.models.auto import rank
 from thermoplc.models.crossval import cuts, fit_cross_validated
 from thermoplc.models.fit import FitRequest, fit

@@ -21,7 +21,7 @@ from thermoplc.models.kalman import FitOptions
 from thermoplc.models.modelfile import Coefficient
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.table import read_table, write_table
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.machines.cascade import simulate
 from thermoplc.machines.faults import SensorFault
 

@@ -10,8 +10,8 @@ import numpy as np
 
 from thermoplc.diagnosis.findings import document
 from thermoplc.diagnosis.search import diagnose
-from thermoplc.errors import UserError
-from thermoplc.fileio import REPORT_MANIFEST, check_report_folder, report_manifest, write_outputs
+from thermoplc.base.errors import UserError
+from thermoplc.base.fileio import REPORT_MANIFEST, check_report_folder, report_manifest, write_outputs
 from thermoplc.generator.lower import check_model_becomes_block
 from thermoplc.models import lumped_model
 from thermoplc.models.fit import block_identifier, evaluate, sample_period

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 
-from thermoplc.binary32 import decimal_to_f32, f32_bits, is_f32, round_f32
+from thermoplc.base.binary32 import decimal_to_f32, f32_bits, is_f32, round_f32
 
 MAX_DIGITS = 9  # nine significant digits always identify a binary32 value
 

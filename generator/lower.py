@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.generator.commissioning import with_commissioning
 from thermoplc.generator.ir import Block, GenerationError, Identity
 from thermoplc.generator.lower_bayes import lower_bayes

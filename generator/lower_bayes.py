@@ -1,7 +1,7 @@
 """The Bayesian-network block of paper 004: interval search and a table of expected errors."""
 from __future__ import annotations
 
-from thermoplc.binary32 import round_f32
+from thermoplc.base.binary32 import round_f32
 from thermoplc.generator.ir import Assign, BinOp, Block, Const, If, Index, IntConst, Ref, Region, Var
 from thermoplc.models.bayes import edges_of
 from thermoplc.models.modelfile import Model

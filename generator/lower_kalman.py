@@ -1,7 +1,7 @@
 """The Kalman fusion block of paper 000: per sensor a lumped-mass prediction, a fault test and an update."""
 from __future__ import annotations
 
-from thermoplc.binary32 import FLT_MIN_NORMAL
+from thermoplc.base.binary32 import FLT_MIN_NORMAL
 from thermoplc.generator.ir import (
     Assign, BinOp, Block, BoolConst, Call, Const, GenerationError, If, Ref, Region, Unary, Var,
 )

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from functools import reduce
 
-from thermoplc import __version__
+from thermoplc.base.version import __version__
 from thermoplc.generator.ir import Assign, BinOp, BoolConst, Const, If, Ref, Region, Unary, Var
 from thermoplc.models.acceptance import header_lines
 from thermoplc.models.modelfile import Model

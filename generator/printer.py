@@ -7,8 +7,8 @@ from importlib import resources
 
 import jinja2
 
-from thermoplc.binary32 import INT_RANGES
-from thermoplc.identifiers import check_unique, header_attribute_problem, identifier_problem
+from thermoplc.base.binary32 import INT_RANGES
+from thermoplc.base.identifiers import check_unique, header_attribute_problem, identifier_problem
 from thermoplc.generator.ir import (
     ENO, GenerationError,
     PORTABLE_FUNCTIONS, Assign, BinOp, Block, BoolConst, Call, Expr, For, Index, IntConst, Ref, Region, Stmt,

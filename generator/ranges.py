@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from thermoplc.binary32 import FLT_MAX, FLT_MIN_NORMAL, INT_RANGES, is_subnormal, round_f32
+from thermoplc.base.binary32 import FLT_MAX, FLT_MIN_NORMAL, INT_RANGES, is_subnormal, round_f32
 from thermoplc.generator.printer import statement_text
 from thermoplc.generator.ir import (
     Assign, BinOp, Block, BoolConst, Call, Expr, For, If, Index, IntConst, Ref, Region, Stmt, Unary, Var,

@@ -12,7 +12,7 @@ from __future__ import annotations
 from importlib import import_module
 from types import ModuleType
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 
 MACHINES = {"cascade": "thermoplc.machines.cascade", "portal": "thermoplc.machines.portal"}
 DEFAULT = "cascade"

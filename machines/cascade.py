@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import expm
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.machines.faults import SensorFault
 from thermoplc.models.effects import Effect
 

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 
 FAULT_KINDS = ("sin", "offset")
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import lfilter
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.models.effects import EFFECTS
 
 NAME = "portal"

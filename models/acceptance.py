@@ -13,7 +13,7 @@ import math
 import textwrap
 from dataclasses import dataclass
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.models.modelfile import Model
 
 MIN_HELD_OUT_ROWS = 100  # fewer predicted rows than this say nothing of a thermal model

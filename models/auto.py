@@ -21,7 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Callable
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.models import acceptance, crossval
 from thermoplc.models.fit import FitRequest, training_rows
 from thermoplc.models.modelfile import ROLES_NEEDED, Model

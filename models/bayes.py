@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.models.modelfile import Coefficient, Model
 
 MAX_CONFIGURATIONS = 4096  # table entries in the block

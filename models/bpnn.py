@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.models.ga import genetic_minimize
 from thermoplc.models.modelfile import Coefficient, Model
 

@@ -24,7 +24,7 @@ from typing import Callable
 
 import numpy as np
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.models.fit import FitRequest, evaluate, fit
 from thermoplc.models.modelfile import Model
 from thermoplc.models.table import Table

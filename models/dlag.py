@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from thermoplc.binary32 import INT_RANGES
-from thermoplc.errors import UserError
+from thermoplc.base.binary32 import INT_RANGES
+from thermoplc.base.errors import UserError
 from thermoplc.models.mlr import least_squares
 from thermoplc.models.modelfile import Coefficient, Model
 

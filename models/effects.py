@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 
 # name -> (what it is, the twin's default parameters)
 EFFECTS: dict[str, tuple[str, dict]] = {

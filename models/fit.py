@@ -7,8 +7,8 @@ from typing import Callable
 
 import numpy as np
 
-from thermoplc.errors import UserError
-from thermoplc.identifiers import check_unique, identifier_from_column, identifier_problem
+from thermoplc.base.errors import UserError
+from thermoplc.base.identifiers import check_unique, identifier_from_column, identifier_problem
 from thermoplc.models import bayes, bpnn, dlag, grey, identify, kalman, lumped_model, mlr, piecewise, ridge, simulation
 from thermoplc.models.modelfile import ROLES_NEEDED, Coefficient, Model, Signal
 from thermoplc.models.reference import model_inputs, predict

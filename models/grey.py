@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.models import kernels, ridge
 from thermoplc.models.modelfile import Coefficient, Model
 

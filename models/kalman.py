@@ -17,7 +17,7 @@ from typing import Callable
 
 import numpy as np
 
-from thermoplc.binary32 import round_f32
+from thermoplc.base.binary32 import round_f32
 from thermoplc.models import kernels, lumped
 from thermoplc.models.ga import genetic_minimize
 from thermoplc.models.mlr import least_squares

@@ -13,7 +13,7 @@ import re
 
 import numpy as np
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.models.safety import Limits
 from thermoplc.models.table import Table
 

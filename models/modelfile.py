@@ -9,11 +9,11 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
-from thermoplc import __version__
-from thermoplc.identifiers import identifier_problem
+from thermoplc.base.version import __version__
+from thermoplc.base.identifiers import identifier_problem
 from thermoplc.models.effects import NAMES as EFFECT_NAMES
-from thermoplc.binary32 import FLT_MAX, f32_hex, parse_f32_hex, round_f32, ulp_distance
-from thermoplc.errors import UserError
+from thermoplc.base.binary32 import FLT_MAX, f32_hex, parse_f32_hex, round_f32, ulp_distance
+from thermoplc.base.errors import UserError
 
 FORMAT = "thermoplc-model"
 SCHEMA_VERSION = 1

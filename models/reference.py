@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.models import bayes, bpnn, dlag, grey, kalman, lumped_model, mlr, piecewise
 from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import CONTROL_START, Limits, commissioned_predict

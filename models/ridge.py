@@ -16,7 +16,7 @@ from typing import Callable
 
 import numpy as np
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 
 WEIGHTS = (0.0, *10.0 ** np.arange(-6.0, 0.5, 0.5))  # per row, on standardised columns
 FIT_SHARE = 2 / 3  # forward validation: fitted on this share of the training rows, scored on the rest

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 
 RESOLUTION = 0.5
 

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from thermoplc.binary32 import FLT_MAX
-from thermoplc.errors import UserError
+from thermoplc.base.binary32 import FLT_MAX
+from thermoplc.base.errors import UserError
 
 
 CHUNK_ROWS = 65536  # rows parsed at once: bounds the memory of the text being parsed

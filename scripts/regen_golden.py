@@ -14,7 +14,7 @@ import numpy as np
 
 from thermoplc.diagnosis.command import DiagnoseRequest, augmented_model, series_of
 from thermoplc.generator.lower import lower
-from thermoplc import __version__
+from thermoplc.base.version import __version__
 from thermoplc.generator.printer import DIALECTS as PRINTER_DIALECTS, render, render_plcopen
 from thermoplc.models import simulation
 from thermoplc.models.fit import FitRequest, fit, sample_period

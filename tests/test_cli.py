@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from thermoplc.binary32 import f32_bits, f32_from_bits, f32_hex
+from thermoplc.base.binary32 import f32_bits, f32_from_bits, f32_hex
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
 from thermoplc.models.modelfile import Coefficient, Model, load_model

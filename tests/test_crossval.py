@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tests.test_cli import thermoplc
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.models import crossval
 from thermoplc.models.table import Table
 

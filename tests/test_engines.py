@@ -5,7 +5,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 from scripts.regen_golden import DIALECTS, GOLDEN, KINDS, golden_block, golden_twin_csv
 from tests.strategies import real_exprs
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.generator.printer import DIALECTS as PRINTERS, _Printer
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.reference import model_inputs

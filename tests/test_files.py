@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from thermoplc.errors import UserError
-from thermoplc.fileio import check_output, check_report_folder, write_outputs
+from thermoplc.base.errors import UserError
+from thermoplc.base.fileio import check_output, check_report_folder, write_outputs
 
 PYTHON = [sys.executable, "-m", "thermoplc.cli"]
 

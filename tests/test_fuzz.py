@@ -13,7 +13,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from scripts.regen_golden import GOLDEN, golden_block
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
 from thermoplc.models.modelfile import load_model

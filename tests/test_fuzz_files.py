@@ -9,7 +9,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from thermoplc.cli import build_parser
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.generator.ir import GenerationError
 from thermoplc.generator.lower import lower, prove
 from thermoplc.generator.printer import render

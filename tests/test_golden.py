@@ -9,7 +9,7 @@ import pytest
 from blark.parse import parse_source_code
 
 from scripts.regen_golden import DIALECTS, GOLDEN, KINDS, golden_block, golden_twin_csv, rendered
-from thermoplc.identifiers import identifier_problem
+from thermoplc.base.identifiers import identifier_problem
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.table import read_table
 from thermoplc.verifier.parser import parse_file

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from thermoplc.binary32 import f32_bits, f32_from_bits
+from thermoplc.base.binary32 import f32_bits, f32_from_bits
 from thermoplc.generator import ir
 from thermoplc.generator.literals import real_literal
 from thermoplc.generator.printer import DIALECTS, _Printer

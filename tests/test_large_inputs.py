@@ -4,7 +4,7 @@ import pytest
 
 from scripts.regen_golden import GOLDEN, golden_block, golden_twin_csv
 from tests.test_cli import thermoplc
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.models import table as table_module
 from thermoplc.models.table import read_table
 

@@ -4,7 +4,7 @@ import math
 import numpy as np
 from hypothesis import given, settings, strategies as st
 
-from thermoplc.binary32 import decimal_to_f32, f32_bits, f32_from_bits, round_f32
+from thermoplc.base.binary32 import decimal_to_f32, f32_bits, f32_from_bits, round_f32
 from thermoplc.generator.literals import real_literal
 from thermoplc.verifier.parser import parse_text
 

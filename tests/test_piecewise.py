@@ -5,7 +5,7 @@ import pytest
 
 from scripts.regen_golden import batch_csvs
 from tests.test_cli import thermoplc
-from thermoplc.binary32 import f32_bits, f32_from_bits
+from thermoplc.base.binary32 import f32_bits, f32_from_bits
 from thermoplc.generator.literals import real_literal
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.piecewise import node_of, select

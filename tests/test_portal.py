@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.machines import portal
 from thermoplc.models.effects import EFFECTS, Effect
 

@@ -5,7 +5,7 @@ import json
 
 import pytest
 
-from thermoplc.binary32 import f32_hex
+from thermoplc.base.binary32 import f32_hex
 from thermoplc.generator.ir import Assign, BinOp, Block, Const, If, IntConst, Ref, Region, Var
 from thermoplc.generator.lower import lower, prove
 from thermoplc.generator.printer import render

@@ -4,7 +4,7 @@ the paper's least-squares development coefficient does not settle."""
 import numpy as np
 import pytest
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.models import grey, ridge
 from thermoplc.models.fit import FitRequest, fit
 from thermoplc.models.reference import model_inputs, predict

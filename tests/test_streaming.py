@@ -9,7 +9,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from scripts.regen_golden import GOLDEN, golden_block, golden_twin_csv
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.models import kernels, table as table_module
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.table import CannotStream, read_table, stream_columns

@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from thermoplc.binary32 import f32_hex
-from thermoplc.identifiers import identifier_problem
+from thermoplc.base.binary32 import f32_hex
+from thermoplc.base.identifiers import identifier_problem
 from thermoplc.models.table import write_table
 from thermoplc.verifier.parser import StSyntaxError, parse_text
 from tests.test_golden import GOLDEN

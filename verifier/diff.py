@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from thermoplc.binary32 import f32_bits
+from thermoplc.base.binary32 import f32_bits
 from thermoplc.models.table import Table
 from thermoplc.verifier import syntax as s
 from thermoplc.verifier.engines import Replayer

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.verifier import syntax as s
 from thermoplc.verifier.interpreter import Machine
 from thermoplc.verifier.native import native_or_reason

@@ -13,7 +13,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 
 
 @dataclass(frozen=True)

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from thermoplc.binary32 import FLT_MAX, FLT_MIN_NORMAL, INT_RANGES
-from thermoplc.errors import UserError
+from thermoplc.base.binary32 import FLT_MAX, FLT_MIN_NORMAL, INT_RANGES
+from thermoplc.base.errors import UserError
 from thermoplc.verifier import syntax as s
 
 MAX_LOOP_ITERATIONS = 1_000_000

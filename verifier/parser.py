@@ -10,8 +10,8 @@ from pathlib import Path
 from lark import Lark, Token, Transformer, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken, VisitError
 
-from thermoplc.binary32 import decimal_to_f32
-from thermoplc.errors import UserError
+from thermoplc.base.binary32 import decimal_to_f32
+from thermoplc.base.errors import UserError
 from thermoplc.verifier import syntax as s
 
 MAX_SOURCE_CHARACTERS = 4_000_000  # 20x the largest generated block; bounds parse time and memory

@@ -7,10 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from thermoplc.binary32 import f32_bits, f32_hex, is_subnormal, ulp_distance
+from thermoplc.base.binary32 import f32_bits, f32_hex, is_subnormal, ulp_distance
 from thermoplc.generator.ir import GenerationError
 from thermoplc.generator.lower import lower
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.models.fit import SAMPLING_TOLERANCE, sample_period
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import block_outputs, control_inputs, model_inputs

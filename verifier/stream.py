@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.models.fit import SAMPLING_TOLERANCE
 from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import CONTROL_START

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 from thermoplc.models.table import Table
-from thermoplc.binary32 import INT_RANGES
+from thermoplc.base.binary32 import INT_RANGES
 
 
 def cells_as(table: Table, column: str, base: str, what: str) -> np.ndarray:

@@ -12,8 +12,8 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
-from thermoplc import __version__
-from thermoplc.fileio import check_output, write_atomic
+from thermoplc.base.version import __version__
+from thermoplc.base.fileio import check_output, write_atomic
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
 from thermoplc.models.acceptance import refusal

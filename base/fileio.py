@@ -16,7 +16,7 @@ import stat
 import tempfile
 from pathlib import Path
 
-from thermoplc.errors import UserError
+from thermoplc.base.errors import UserError
 
 REPORT_MANIFEST = ".thermoplc-report"
 

@@ -27,4 +27,4 @@ def _pin_blas_kernels() -> None:
 
 _pin_blas_kernels()
 
-__version__ = "0.1.0"
+from thermoplc.base.version import __version__  # noqa: E402,F401  (after the BLAS settings)

@@ -12,12 +12,12 @@ import signal
 import sys
 from pathlib import Path
 
-from thermoplc import __version__
-from thermoplc.errors import UserError
+from thermoplc.base.version import __version__
+from thermoplc.base.errors import UserError
 from thermoplc.machines import DEFAULT as DEFAULT_MACHINE, MACHINES as MACHINE_NAMES
 from thermoplc.models.effects import NAMES as EFFECT_NAMES
 from thermoplc.models.modelfile import KINDS
-from thermoplc.fileio import REPORT_MANIFEST, check_output, check_report_folder, write_atomic
+from thermoplc.base.fileio import REPORT_MANIFEST, check_output, check_report_folder, write_atomic
 
 
 MAX_TWIN_ROWS = 50_000_000  # about 1.6 years at 1 s; beyond it the arrays alone need tens of GB
@@ -68,7 +68,7 @@ def _range(text: str) -> tuple[float, float]:
 
 
 def _attribute(text: str) -> str:
-    from thermoplc.identifiers import header_attribute_problem
+    from thermoplc.base.identifiers import header_attribute_problem
     problem = header_attribute_problem(text)
     if problem:
         raise argparse.ArgumentTypeError(problem)
@@ -310,7 +310,7 @@ def _accepted(model, args) -> str | None:
 
 def cmd_generate(args) -> int:
     from dataclasses import replace
-    from thermoplc.identifiers import identifier_problem
+    from thermoplc.base.identifiers import identifier_problem
     from thermoplc.generator.lower import lower, lower_model, model_identity
     from thermoplc.generator.printer import GenerationError, render, render_instance_db, render_plcopen
     from thermoplc.models.acceptance import evidence
