@@ -16,7 +16,8 @@ from thermoplc.base.version import __version__
 from thermoplc.base.errors import UserError
 from thermoplc.machines import DEFAULT as DEFAULT_MACHINE, MACHINES as MACHINE_NAMES
 from thermoplc.models.effects import NAMES as EFFECT_NAMES
-from thermoplc.models.modelfile import KINDS
+from thermoplc.models.bayes import UNSEEN_RULES
+from thermoplc.models.kinds import names as kind_names
 from thermoplc.base.fileio import REPORT_MANIFEST, check_output, check_report_folder, write_atomic
 
 
@@ -159,9 +160,11 @@ def cmd_fit(args) -> int:
     tables = [read_table(path, args.time, decimal=args.decimal) for path in args.data]
     options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
                          args.recover_limit, args.ga_operators)
-    request = FitRequest(args.model, args.target[0], args.temps, args.speed, args.ambient, args.train_until,
-                         args.train_rows, args.name, options, args.bins, args.precision_um, args.lags, args.lag_step,
-                         args.target[1:], args.tool_length, args.unseen, args.time_bins)
+    request = FitRequest(kind=args.model, target=args.target[0], temps=args.temps, speed=args.speed,
+                         ambient=args.ambient, train_until=args.train_until, train_rows=args.train_rows,
+                         block_name=args.name, options=options, bins=args.bins, precision_um=args.precision_um,
+                         lags=args.lags, lag_step_s=args.lag_step, extra_targets=args.target[1:],
+                         tool_length=args.tool_length, unseen=args.unseen, time_bins=args.time_bins)
     progress = _progress if sys.stderr.isatty() else None
     if args.model == "auto":
         model = _fit_auto(tables, request, args, progress)
@@ -591,7 +594,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("fit", help="fit a thermal-error model to a CSV file")
     p.add_argument("--data", required=True, action="append",
                    help="CSV file; repeat for piecewise (one file per batch, initial ambient read from each)")
-    p.add_argument("--model", choices=(*KINDS, "auto"), required=True,
+    p.add_argument("--model", choices=(*kind_names(), "auto"), required=True,
                    help="kalman (paper 000), lumped, mlr, dlag and piecewise (paper 001), bpnn (paper 002), gm0n and "
                         "gm1n (paper 003), bayes (paper 004); auto: every kind the given roles allow on sensor "
                         "sets from --temps (forward selection and fcm-grey), ranked by held-out RMSE, the best written")
@@ -623,7 +626,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--bins", type=_number(int, 1, 4096, "intervals"), default=8, help="bayes: intervals per temperature (default: %(default)s)")
     p.add_argument("--precision-um", type=_number(float, 1e-3, 1e6, "micrometres"), default=1.0,
                    help="bayes: interval width of the error, the precision requirement (default: %(default)s)")
-    p.add_argument("--unseen", choices=("nearest", "frequent"), default="nearest",
+    p.add_argument("--unseen", choices=UNSEEN_RULES, default=UNSEEN_RULES[0],
                    help="bayes: a temperature configuration never seen in training answers as the nearest seen one, "
                         "or the error interval most frequent overall (default: %(default)s)")
     p.add_argument("--time-bins", type=_number(int, 0, 4096, "intervals"), default=0, metavar="N",

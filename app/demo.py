@@ -18,6 +18,7 @@ from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
 from thermoplc.models.acceptance import refusal
 from thermoplc.models.fit import FitRequest, fit
+from thermoplc.models.kinds import kind_of
 from thermoplc.models.table import read_table
 from thermoplc.verifier.replay import verify_against_model
 
@@ -47,8 +48,9 @@ def run_demo(out: Path, force: bool = False) -> int:
         for path in (out / f"{kind}.json", out / f"{block_name}.scl", out / f"{block_name}.verify.txt"):
             check_output(path, force)
     for kind, block_name in BLOCKS.items():
-        request = FitRequest(kind, TARGET, TEMPS, SPEED if kind == "kalman" else None,
-                             AMBIENT if kind == "kalman" else None, train_until=TRAIN_UNTIL_S, block_name=block_name)
+        roles = kind_of(kind).roles
+        request = FitRequest(kind, TARGET, TEMPS, SPEED if "speed" in roles else None,
+                             AMBIENT if "ambient" in roles else None, train_until=TRAIN_UNTIL_S, block_name=block_name)
         model = fit([table], request)
         model_path = out / f"{kind}.json"
         block_path = out / f"{block_name}.scl"

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import re
 
+from thermoplc.base.errors import UserError
+
 MAX_LENGTH = 24  # STEP 7 classic symbol limit
 _SHAPE = re.compile(r"[A-Za-z](?:_?[A-Za-z0-9])*\Z")
 
@@ -76,6 +78,16 @@ def identifier_from_column(column: str) -> str:
     """The block identifier for a CSV column: the column name itself when it is a valid identifier."""
     cleaned = re.sub(r"[^A-Za-z0-9]+", "_", column).strip("_")
     return cleaned
+
+
+def block_identifier(column: str, what: str) -> str:
+    """The block name for a recorded column, or a UserError that says why the column cannot give one."""
+    name = identifier_from_column(column)
+    problem = identifier_problem(name)
+    if problem:
+        shown = lambda text: repr(text) if len(text) <= 40 else repr(text[:30]) + f"... ({len(text)} characters)"
+        raise UserError(f"{what} column {shown(column)} gives block name {shown(name)}, which {problem}; rename the column")
+    return name
 
 
 def check_unique(names: list[str]) -> str | None:

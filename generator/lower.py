@@ -2,30 +2,40 @@
 each kind's lowering lives in its own module, this one picks it and adds the safety logic."""
 from __future__ import annotations
 
+import functools
+import importlib
+import pkgutil
 from dataclasses import replace
 
 from thermoplc.base.errors import UserError
 from thermoplc.generator.commissioning import with_commissioning
 from thermoplc.generator.ir import Block, GenerationError, Identity
-from thermoplc.generator.lower_bayes import lower_bayes
-from thermoplc.generator.lower_bpnn import lower_bpnn
-from thermoplc.generator.lower_grey import lower_gm0n, lower_gm1n
-from thermoplc.generator.lower_kalman import lower_kalman
-from thermoplc.generator.lower_lumped import lower_lumped
-from thermoplc.generator.lower_regression import lower_dlag, lower_mlr, lower_piecewise
 from thermoplc.generator.printer import render
 from thermoplc.generator.ranges import RangeProof, prove_ranges
 from thermoplc.generator.safety import with_safety
 from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import ENABLE, Limits, axis_outputs, guards
 
-LOWERINGS = {"bayes": lower_bayes, "bpnn": lower_bpnn, "dlag": lower_dlag, "mlr": lower_mlr, "kalman": lower_kalman,
-             "piecewise": lower_piecewise, "gm0n": lower_gm0n, "gm1n": lower_gm1n, "lumped": lower_lumped}
+
+
+@functools.cache
+def lowerings() -> dict:
+    """Model kind -> lowering, from every `generator/lower_*.py` that declares LOWERINGS: a new kind's
+    lowering is a new module, registered beside its code."""
+    import thermoplc.generator as package
+    found = {}
+    for module in pkgutil.iter_modules(package.__path__):
+        if module.name.startswith("lower_"):
+            found.update(getattr(importlib.import_module(f"{package.__name__}.{module.name}"), "LOWERINGS", {}))
+    return found
 
 
 def lower_model(model: Model) -> Block:
     """What the model computes, without the safety logic (its cost is reported apart)."""
-    return LOWERINGS[model.kind](model)
+    lowering = lowerings().get(model.kind)
+    if lowering is None:
+        raise GenerationError(f"no lowering for model kind {model.kind!r}")
+    return lowering(model)
 
 
 def lower(model: Model, limits: Limits = Limits(), identity: Identity | None = None, retain: bool = False) -> Block:

@@ -59,3 +59,6 @@ def lower_bayes(model: Model) -> Block:
                  Region("Look up the prediction of the configuration, eq. 7",
                         (Assign("Config", config), Assign(model.target.name, Index("tab_Pred", Ref("Config")))))),
     )
+
+
+LOWERINGS = {"bayes": lower_bayes}  # model kind -> its lowering, collected by generator/lower.py

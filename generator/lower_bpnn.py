@@ -66,3 +66,6 @@ def lower_bpnn(model: Model) -> Block:
         constants=tuple(Const(f"c_{name}", model.coef(name), "") for name in model.coefficients),
         regions=tuple(regions),
     )
+
+
+LOWERINGS = {"bpnn": lower_bpnn}  # model kind -> its lowering, collected by generator/lower.py

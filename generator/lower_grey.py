@@ -62,3 +62,6 @@ def lower_gm1n(model: Model) -> Block:
                         (Assign("F", forced), step,
                          Assign(model.target.name, BinOp("-", Ref("X"), Ref("Xprev"))),
                          Assign("Xprev", Ref("X"))))])
+
+
+LOWERINGS = {"gm0n": lower_gm0n, "gm1n": lower_gm1n}  # model kind -> its lowering, collected by generator/lower.py

@@ -93,3 +93,6 @@ def lower_kalman(model: Model) -> Block:
                  *regions,
                  regression(model, lambda i, s: Ref(f"TF_{i}"))),
     )
+
+
+LOWERINGS = {"kalman": lower_kalman}  # model kind -> its lowering, collected by generator/lower.py

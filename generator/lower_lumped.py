@@ -144,3 +144,6 @@ _LUMPED_COMMENTS = {
     "delta": "um per K of the slow structure", "alpha": "um per K of the lagged ambient",
     "phi": "um per mm/min of lagged feed",
 }
+
+
+LOWERINGS = {"lumped": lower_lumped}  # model kind -> its lowering, collected by generator/lower.py

@@ -126,3 +126,6 @@ def lower_dlag(model: Model) -> Block:
                  Region("Regression on current and lagged temperature rises", tuple(terms)
                         + (Assign(model.target.name, Ref("Acc")),))),
     )
+
+
+LOWERINGS = {"mlr": lower_mlr, "dlag": lower_dlag, "piecewise": lower_piecewise}  # model kind -> its lowering, collected by generator/lower.py

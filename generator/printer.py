@@ -18,7 +18,6 @@ from thermoplc.generator.literals import real_literal
 
 _PRECEDENCE = {"OR": 1, "XOR": 2, "AND": 3, "=": 4, "<>": 4, "<": 5, "<=": 5, ">": 5, ">=": 5,
                "+": 6, "-": 6, "*": 7, "/": 7}
-_UNARY_PRECEDENCE = 9
 
 
 INT_MIN, INT_MAX = INT_RANGES["INT"]

@@ -57,7 +57,6 @@ class Bool:
 
 
 Value = Real | Int | Bool
-BOTH = Bool(frozenset({False, True}))
 
 
 @dataclass(frozen=True)

@@ -24,13 +24,11 @@ from typing import Callable
 from thermoplc.base.errors import UserError
 from thermoplc.models import acceptance, crossval
 from thermoplc.models.fit import FitRequest, training_rows
-from thermoplc.models.modelfile import ROLES_NEEDED, Model
+from thermoplc.models.kinds import registry
+from thermoplc.models.modelfile import Model
 from thermoplc.models.selection import select_sensors
 from thermoplc.models.table import Table
 
-CLOSED_FORM = ("mlr", "dlag", "gm0n", "gm1n", "bayes")  # fitted in well under a second: tried on every set
-ITERATIVE = ("bpnn", "kalman", "lumped")  # searches of seconds each: tried on the best set of the others
-KINDS = CLOSED_FORM + ITERATIVE  # piecewise needs batches
 MAX_SENSORS = 4
 
 
@@ -99,17 +97,19 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
     train_rows = (crossval.cuts(tables[0], time_column, folds, request.speed)[0] if folds
                   else training_rows(tables[0], time_column, request.train_until, request.train_rows))
     have = {"speed": request.speed, "ambient": request.ambient}
-    kinds = [k for k in KINDS if all(have[role] for role in ROLES_NEEDED[k])]
+    # closed-form kinds are fitted in well under a second, so tried on every set; iterative ones search
+    # for seconds each, so only on the best set of the others; a kind without `auto` (piecewise) needs batches
+    kinds = [k for k in registry().values() if k.auto and all(have[role] for role in k.roles)]
     if say:
         say("auto: forward selection of sensors")
     sets = forward_selection(tables, request, folds, time_column, max_sensors)
     seen = {frozenset(s) for s in sets}
     sets += [s for s in sensor_sets(tables[0], request, train_rows, max_sensors) if frozenset(s) not in seen]
-    found = [_candidate(tables, request, folds, time_column, kind, sensors, say)
-             for sensors in sets for kind in kinds if kind in CLOSED_FORM]
+    found = [_candidate(tables, request, folds, time_column, kind.name, sensors, say)
+             for sensors in sets for kind in kinds if kind.auto == "closed-form"]
     best_set = min(found, key=Candidate.order).sensors
-    found += [_candidate(tables, request, folds, time_column, kind, best_set, say)
-              for kind in kinds if kind in ITERATIVE]
+    found += [_candidate(tables, request, folds, time_column, kind.name, best_set, say)
+              for kind in kinds if kind.auto == "iterative"]
     return sorted(found, key=Candidate.order)
 
 

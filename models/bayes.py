@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from thermoplc.base.errors import UserError
+from thermoplc.models.kind import Kind
 from thermoplc.models.modelfile import Coefficient, Model
 
 MAX_CONFIGURATIONS = 4096  # table entries in the block
@@ -148,3 +149,38 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     j = configuration(indices, list(model.settings["intervals"]))
     table = np.array([model.coef(f"pred_{c}", precision) for c in range(model.settings["configurations"])], f)
     return {model.target.name: table[j]}
+
+
+def _fit(parts, request, names, dt, progress):
+    return fit_bayes([(p.temps, p.target) for p in parts], request.bins, request.precision_um, request.unseen,
+                     request.time_bins, dt)
+
+
+def check_settings(model: Model, path: str) -> None:
+    """One interval count per parent, whose product is the number of configurations."""
+    s = model.settings
+    parents = len(model.signals("temperature")) + (1 if s.get("time_parent") else 0)
+    if len(s["intervals"]) != parents or math.prod(s["intervals"]) != s["configurations"]:
+        raise UserError(f"{path}: field 'settings': intervals {s['intervals']} and configurations "
+                        f"{s['configurations']} do not fit {parents} parents (the product of the intervals is "
+                        f"the number of configurations)")
+
+
+SETTINGS_SCHEMA = {
+    "type": "object",
+    "required": ["intervals", "configurations"],
+    "properties": {"intervals": {"type": "array", "minItems": 1, "maxItems": 65,
+                                 "items": {"type": "integer", "minimum": 1, "maximum": 4096}},
+                   "configurations": {"type": "integer", "minimum": 1, "maximum": 4096},
+                   "configurations_seen": {"type": "integer", "minimum": 0},
+                   "error_low_um": {"type": "number"},
+                   "error_width_um": {"type": "number", "exclusiveMinimum": 0},
+                   "error_classes": {"type": "integer", "minimum": 1},
+                   "unseen": {"enum": list(UNSEEN_RULES)},
+                   "time_parent": {"type": "boolean"}}}
+
+KIND = Kind("bayes", 7, _fit, predict, owns_options=(("time_bins", "--time-bins"),),
+            several_files=lambda request: request.time_bins > 0,
+            several_files_text="bayes with --time-bins one file per repeated run", auto="closed-form",
+            settings_schema=SETTINGS_SCHEMA, check_settings=check_settings,
+            streamable=lambda model: not model.settings.get("time_parent"))

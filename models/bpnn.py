@@ -23,6 +23,8 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.models.ga import genetic_minimize
+from thermoplc.base.identifiers import block_identifier
+from thermoplc.models.kind import Kind
 from thermoplc.models.modelfile import Coefficient, Model
 
 PADE_P = (1.0, 17325 / 135135, 378 / 135135, 1 / 135135)
@@ -33,7 +35,6 @@ HIDDEN_RANGE = (2, 12)
 PAPER_002_MUTATION = 0.1  # share of individuals mutated at one position (paper 002 gives no value)
 # paper 000's Gaussian mutation draws per gene: its rate as in the Kalman fit (models/ga.py's default)
 MUTATION = {"paper002": PAPER_002_MUTATION, "paper000": 0.02}
-COMPENSATION = ("Dx_um", "Dy_um", "Dz_um")
 
 
 @dataclass(frozen=True)
@@ -239,3 +240,47 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
         out["Dy_um"] = length * out[names[2]] * milli
         out["Dz_um"] = out[names[0]]
     return out
+
+
+def _unit_of(column: str) -> str:
+    return "urad" if column.lower().endswith("urad") else "um"
+
+
+def _fit(parts, request, names, dt, progress):
+    part = parts[0]
+    targets = np.column_stack([part.target, part.extra])
+    coefficients, settings, log = fit_bpnn(part.temps, targets, names, request.options.seed,
+                                           request.options.population, request.options.generations,
+                                           operators=request.options.ga_operators)
+    settings["targets"] = [{"name": block_identifier(c, "target"), "column": c, "unit": _unit_of(c)}
+                           for c in (request.target, *request.extra_targets)]
+    if request.tool_length:
+        if len(settings["targets"]) < 3:
+            raise UserError("--tool-length needs three targets: axial elongation (um), yaw and pitch (urad)")
+        coefficients["um_per_mm_urad"] = Coefficient.of(1e-3)
+    return coefficients, settings, log
+
+
+def check_settings(model: Model, path: str) -> None:
+    """One network input per temperature, one output per target."""
+    s, temps = model.settings, len(model.signals("temperature"))
+    if s["inputs"] != temps or s["outputs"] != len(s["targets"]):
+        raise UserError(f"{path}: field 'settings': inputs {s['inputs']} and outputs {s['outputs']} must be the "
+                        f"{temps} temperature inputs and the {len(s['targets'])} targets")
+
+
+SETTINGS_SCHEMA = {
+    "type": "object",
+    "required": ["inputs", "hidden", "outputs", "targets"],
+    "properties": {"inputs": {"type": "integer", "minimum": 1, "maximum": 64},
+                   "hidden": {"type": "integer", "minimum": 1, "maximum": 100},
+                   "outputs": {"type": "integer", "minimum": 1, "maximum": 16},
+                   "targets": {"type": "array", "minItems": 1, "maxItems": 16,
+                               "items": {"type": "object", "required": ["name", "column", "unit"],
+                                         "properties": {"name": {"type": "string", "minLength": 1, "maxLength": 24},
+                                                        "column": {"type": "string"},
+                                                        "unit": {"enum": ["um", "urad"]}}}}}}
+
+KIND = Kind("bpnn", 8, _fit, predict, owns_options=(("extra_targets", "several targets"),
+                                                   ("tool_length", "--tool-length")),
+            auto="iterative", settings_schema=SETTINGS_SCHEMA, check_settings=check_settings)

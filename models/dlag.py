@@ -9,6 +9,7 @@ import numpy as np
 
 from thermoplc.base.binary32 import INT_RANGES
 from thermoplc.base.errors import UserError
+from thermoplc.models.kind import Kind
 from thermoplc.models.mlr import least_squares
 from thermoplc.models.modelfile import Coefficient, Model
 
@@ -55,3 +56,54 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
         for i, x in enumerate(temps, start=1):
             acc = acc + f(model.coef(f"beta_{i}_{lag}", precision)) * (lagged(x, lag * step) - x[0])
     return {model.target.name: acc}
+
+
+def _fit(parts, request, names, dt, progress):
+    return fit_dlag(parts[0].temps, parts[0].target, names, request.lags, request.lag_step_s, dt)
+
+
+class StreamCore:
+    """predict with the last lags*step samples of each sensor kept: a lagged value before the
+    first call is the first call's sample, as `lagged` holds it."""
+
+    def __init__(self, model: Model, precision: str, f):
+        self.f, self.target = f, model.target.name
+        self.temps = model.signals("temperature")
+        self.lags, self.step = model.settings["lags"], model.settings["lag_step_samples"]
+        self.beta0 = model.coef("beta0", precision)
+        self.beta = {(i, lag): f(model.coef(f"beta_{i}_{lag}", precision))
+                     for lag in range(self.lags + 1) for i in range(1, len(self.temps) + 1)}
+        self.history = None  # per sensor: the last lags*step samples before this chunk
+        self.first = None
+        self.calls = 0
+
+    def __call__(self, running: dict, fused_valid: dict) -> dict:
+        f = self.f
+        xs = [np.asarray(running[s.name], f) for s in self.temps]
+        rows = len(xs[0])
+        if self.first is None:
+            self.first = [x[0] for x in xs]
+            self.history = [x[:0] for x in xs]
+        joined = [np.concatenate([h, x]) for h, x in zip(self.history, xs)]
+        kept = len(self.history[0])
+        acc = np.full(rows, self.beta0, f)
+        for lag in range(self.lags + 1):
+            at = kept + np.arange(rows) - lag * self.step
+            before = self.calls + np.arange(rows) - lag * self.step < 0
+            for i, (x, x0) in enumerate(zip(joined, self.first), start=1):
+                lagged_values = np.where(before, x0, x[np.maximum(at, 0)])
+                acc = acc + self.beta[(i, lag)] * (lagged_values - x0)
+        span = self.lags * self.step
+        self.history = [x[max(len(x) - span, 0):].copy() for x in joined]
+        self.calls += rows
+        return {self.target: acc}
+
+
+SETTINGS_SCHEMA = {
+    "type": "object",
+    "required": ["lags", "lag_step_samples"],
+    "properties": {"lags": {"type": "integer", "minimum": 1, "maximum": 1000},
+                   "lag_step_samples": {"type": "integer", "minimum": 1, "maximum": 10000000},
+                   "lag_step_s": {"type": "number", "exclusiveMinimum": 0}}}
+
+KIND = Kind("dlag", 4, _fit, predict, auto="closed-form", settings_schema=SETTINGS_SCHEMA, stream_core=StreamCore)

@@ -8,9 +8,11 @@ from typing import Callable
 import numpy as np
 
 from thermoplc.base.errors import UserError
-from thermoplc.base.identifiers import check_unique, identifier_from_column, identifier_problem
-from thermoplc.models import bayes, bpnn, dlag, grey, identify, kalman, lumped_model, mlr, piecewise, ridge, simulation
-from thermoplc.models.modelfile import ROLES_NEEDED, Coefficient, Model, Signal
+from thermoplc.base.identifiers import block_identifier, check_unique, identifier_problem
+from thermoplc.models import kalman
+from thermoplc.models.kind import Part
+from thermoplc.models.kinds import kind_of, registry
+from thermoplc.models.modelfile import Model, Signal
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.leaks import refuse_leaks, refuse_non_temperatures
 from thermoplc.models.table import Table
@@ -37,15 +39,6 @@ class FitRequest:
     tool_length: str | None = None  # bpnn: tool length column, mm (enables the X/Y/Z compensation outputs)
     unseen: str = "nearest"  # bayes: what a configuration never seen in training answers
     time_bins: int = 0  # bayes: intervals of the time since the first call, a parent when > 0 (repeated runs)
-
-
-def block_identifier(column: str, what: str) -> str:
-    name = identifier_from_column(column)
-    problem = identifier_problem(name)
-    if problem:
-        shown = lambda text: repr(text) if len(text) <= 40 else repr(text[:30]) + f"... ({len(text)} characters)"
-        raise UserError(f"{what} column {shown(column)} gives block name {shown(name)}, which {problem}; rename the column")
-    return name
 
 
 def training_rows(table: Table, time_column: str, until: float | None, rows: int | None) -> int:
@@ -85,90 +78,24 @@ def _metrics(residual: np.ndarray) -> dict:
 
 
 
-@dataclass(frozen=True)
-class Part:
-    """The training rows of one file, by role."""
-    temps: np.ndarray  # (rows, sensors)
-    target: np.ndarray
-    extra: np.ndarray  # (rows, further targets)
-    speed: np.ndarray | None
-    ambient: np.ndarray | None
-
-
-def _fit_mlr(parts, request, names, dt, progress):
-    part = parts[0]
-    values, log = mlr.fit_mlr(part.temps, part.target, names)
-    coefficients = {k: Coefficient.of(v) for k, v in values.items()}
-    return coefficients, {}, {"method": "least squares (eq. 11), ridge weight by forward validation", **log}
-
-
-def _fit_kalman(parts, request, names, dt, progress):
-    part = parts[0]
-    return kalman.fit_kalman(part.temps, part.ambient, part.speed, part.target, dt, names, request.options, progress)
-
-
-def _fit_lumped(parts, request, names, dt, progress):
-    """The identified baseline (no effects): models/identify.py."""
-    part = parts[0]
-    ridge.refuse_flat(part.temps, names)
-    series = simulation.Series(dt, np.arange(len(part.target)) * dt, part.speed, part.ambient, part.temps,
-                               tuple(names), part.target)
-    fitted, measured = identify.fit(series)
-    coefficients, settings = lumped_model.coefficients(fitted, dt)
-    return coefficients, settings, {
-        "method": "lumped-mass model identified by least one-step prediction error (steady-state Kalman filter on "
-                  "the readings); displacement map with structure lag and ridge weight chosen by forward validation",
-        **measured}
-
-
-def _fit_piecewise(parts, request, names, dt, progress):
-    return piecewise.fit_piecewise([(p.temps, p.ambient, p.target) for p in parts], names)
-
-
-def _fit_bpnn(parts, request, names, dt, progress):
-    part = parts[0]
-    targets = np.column_stack([part.target, part.extra])
-    coefficients, settings, log = bpnn.fit_bpnn(part.temps, targets, names, request.options.seed,
-                                                request.options.population, request.options.generations,
-                                                operators=request.options.ga_operators)
-    settings["targets"] = [{"name": block_identifier(c, "target"), "column": c, "unit": _unit_of(c)}
-                           for c in (request.target, *request.extra_targets)]
-    if request.tool_length:
-        if len(settings["targets"]) < 3:
-            raise UserError("--tool-length needs three targets: axial elongation (um), yaw and pitch (urad)")
-        coefficients["um_per_mm_urad"] = Coefficient.of(1e-3)
-    return coefficients, settings, log
-
-
-def _unit_of(column: str) -> str:
-    return "urad" if column.lower().endswith("urad") else "um"
-
-
-FITTERS = {"bpnn": _fit_bpnn, "lumped": _fit_lumped, "mlr": _fit_mlr, "kalman": _fit_kalman, "piecewise": _fit_piecewise,
-           "gm0n": lambda parts, request, names, dt, progress: grey.fit_gm0n(parts[0].temps, parts[0].target, names),
-           "gm1n": lambda parts, request, names, dt, progress: grey.fit_gm1n(parts[0].temps, parts[0].target, names, dt),
-           "bayes": lambda parts, request, names, dt, progress: bayes.fit_bayes(
-               [(p.temps, p.target) for p in parts], request.bins, request.precision_um, request.unseen,
-               request.time_bins, dt),
-           "dlag": lambda parts, request, names, dt, progress: dlag.fit_dlag(
-               parts[0].temps, parts[0].target, names, request.lags, request.lag_step_s, dt)}
-
-
 def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
     if not request.temps:
         raise UserError("--temps needs at least one column")
     signals = [Signal(block_identifier(c, "temperature"), c, "temperature", "degC") for c in request.temps]
-    if request.kind != "bpnn" and (request.extra_targets or request.tool_length):
-        raise UserError("several targets and --tool-length are for --model bpnn only")
+    for owner in registry().values():
+        for option, text in owner.owns_options:
+            if getattr(request, option) and owner.name != request.kind:
+                raise UserError(f"{text} {'are' if text.startswith('several') else 'is'} for --model {owner.name} only")
     if request.tool_length:
         signals.append(Signal(block_identifier(request.tool_length, "tool length"), request.tool_length,
                               "tool_length", "mm"))
-    for role in ROLES_NEEDED[request.kind]:
+    kind = kind_of(request.kind)
+    for role in kind.roles:
         column = getattr(request, role)
         if column is None:
             raise UserError(f"--model {request.kind} needs --{role} COLUMN")
         shared = [i for i, s in enumerate(signals) if s.column == column]
-        if shared and (role == "speed" or request.kind in ("kalman", "lumped")):
+        if shared and (role == "speed" or kind.ambient_apart):
             raise UserError(f"--{role} {column}: the column is also in --temps; "
                             + ("a speed is not a temperature" if role == "speed" else
                                f"the {request.kind} model drives each --temps sensor by the ambient and needs its "
@@ -189,12 +116,10 @@ def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
 def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
         progress: Callable[[str], None] | None = None) -> Model:
     """Fit `request.kind` on the training part of each table (one table, or one per batch for piecewise)."""
-    repeated = request.kind == "bayes" and request.time_bins > 0
-    if request.kind != "piecewise" and not repeated and len(tables) != 1:
-        raise UserError(f"--model {request.kind} fits one --data file; only piecewise takes one file per batch, and "
-                        f"bayes with --time-bins one file per repeated run")
-    if request.time_bins and request.kind != "bayes":
-        raise UserError("--time-bins is for --model bayes only")
+    kind = kind_of(request.kind)
+    if not kind.several_files(request) and len(tables) != 1:
+        several = ", and ".join(k.several_files_text for k in registry().values() if k.several_files_text)
+        raise UserError(f"--model {request.kind} fits one --data file; only {several}")
     signals = _signals(tables, request)
     target = Signal(block_identifier(request.target, "target"), request.target, "target", "um")
     duplicate = check_unique([s.name for s in signals] + [target.name, request.block_name])
@@ -224,7 +149,7 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
              for t, n in zip(tables, n_train)]
     names = [s.name for s in signals if s.role == "temperature"]
     try:
-        coefficients, settings, log = FITTERS[request.kind](parts, request, names, dt, progress)
+        coefficients, settings, log = kind.fit(parts, request, names, dt, progress)
     except UserError as exc:
         raise UserError(f"{', '.join(t.path for t in tables)}: {exc}") from None
     training = [{"file": Path(t.path).name, "sha256": t.sha256, "rows": n, "total_rows": t.rows,

@@ -23,6 +23,7 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.models import kernels, ridge
+from thermoplc.models.kind import Kind
 from thermoplc.models.modelfile import Coefficient, Model
 
 DEVELOPMENT_GRID = 16  # candidate development coefficients a, log-spaced in time constant
@@ -179,3 +180,32 @@ def predict_gm1n(model: Model, inputs: dict, precision: str) -> dict:
         out[k] = level - previous
         previous = level
     return {model.target.name: out}
+
+
+class StreamCore:
+    """predict_gm0n / predict_gm1n with the sums and the last level kept."""
+
+    def __init__(self, model: Model, precision: str, f):
+        self.f, self.kind, self.target = f, model.kind, model.target.name
+        self.temps = model.signals("temperature")
+        c = lambda name: f(model.coef(name, precision))
+        self.b = [c(f"b_{i}") for i in range(1, len(self.temps) + 1)]
+        self.scalars = (c("a"), c("X1")) if model.kind == "gm0n" else (c("X1"), c("Keep"), c("In"))
+        self.state = kernels.GreyState(len(self.temps), f)
+
+    def __call__(self, running: dict, fused_valid: dict) -> dict:
+        temps = [np.asarray(running[s.name], self.f) for s in self.temps]
+        if self.kind == "gm0n":
+            out = kernels.gm0n(temps, *self.scalars, self.b, self.f, self.state)
+        else:
+            out = kernels.gm1n(temps, *self.scalars, self.b, self.f, self.state)
+        return {self.target: out}
+
+
+GM0N = Kind("gm0n", 5, lambda parts, request, names, dt, progress: fit_gm0n(parts[0].temps, parts[0].target, names),
+            predict_gm0n, auto="closed-form", stream_core=StreamCore)
+GM1N = Kind("gm1n", 6, lambda parts, request, names, dt, progress: fit_gm1n(parts[0].temps, parts[0].target, names, dt),
+            predict_gm1n, auto="closed-form",
+            settings_schema={"type": "object", "properties": {"a": {"type": "number"},
+                                                              "b": {"type": "array", "items": {"type": "number"}}}},
+            stream_core=StreamCore)

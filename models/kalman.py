@@ -21,6 +21,7 @@ from thermoplc.base.binary32 import round_f32
 from thermoplc.models import kernels, lumped
 from thermoplc.models.ga import genetic_minimize
 from thermoplc.models.mlr import least_squares
+from thermoplc.models.kind import Kind
 from thermoplc.models.modelfile import Coefficient, Model
 
 
@@ -232,3 +233,37 @@ def fit_kalman(temps: np.ndarray, te: np.ndarray, n: np.ndarray, target: np.ndar
     for i in range(k):
         coefficients[f"beta_{i + 1}"] = Coefficient.of(beta[i + 1])
     return coefficients, settings, log
+
+
+def _fit(parts, request, names, dt, progress):
+    part = parts[0]
+    return fit_kalman(part.temps, part.ambient, part.speed, part.target, dt, names, request.options, progress)
+
+
+class StreamCore:
+    """predict, with the filter's state (kernels.KalmanState) kept between chunks."""
+
+    def __init__(self, model: Model, precision: str, f):
+        self.f = f
+        self.temps = model.signals("temperature")
+        self.ambient = model.signals("ambient")[0].name
+        self.speed = model.signals("speed")[0].name
+        self.args = kernel_coefficients(model, precision)
+        self.state = kernels.KalmanState(len(self.temps), f)
+        self.target = model.target.name
+
+    def __call__(self, running: dict, fused_valid: dict) -> dict:
+        rows = len(running[self.ambient])
+        in_range = [np.asarray(fused_valid[s.name], bool) if s.name in fused_valid else np.ones(rows, bool)
+                    for s in self.temps]
+        error, faults = kernels.kalman(running[self.ambient], running[self.speed],
+                                       [np.asarray(running[s.name], self.f) for s in self.temps], in_range,
+                                       *self.args, self.f, self.state)
+        out = {self.target: error}
+        out.update({f"Fault_{i + 1}": faults[i] for i in range(len(self.temps))})
+        return out
+
+
+KIND = Kind("kalman", 2, _fit, predict, roles=("speed", "ambient"), fused_guards=True, ambient_apart=True,
+            auto="iterative", settings_schema={"type": "object", "properties": {"sensors": {"type": "array"}}},
+            stream_core=StreamCore)

@@ -22,7 +22,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from thermoplc.models import kernels, simulation as sim_
+from thermoplc.base.errors import UserError
+from thermoplc.models import identify, kernels, ridge, simulation as sim_
+from thermoplc.models.kind import Kind
 from thermoplc.models.modelfile import Coefficient, Model
 from thermoplc.models.simulation import Simulation
 
@@ -231,3 +233,54 @@ def kernel_arguments(model: Model, inputs: dict, precision: str, state=None):
     state = state or kernels.LumpedState(len(temps), f)
     out = kernels.lumped(temps, te, n, feed, flags, coef, table, model.settings.get("relay_sensor", 1) - 1, f, state)
     return out, state
+
+
+def _fit(parts, request, names, dt, progress):
+    """The identified baseline (no effects): models/identify.py."""
+    part = parts[0]
+    ridge.refuse_flat(part.temps, names)
+    series = sim_.Series(dt, np.arange(len(part.target)) * dt, part.speed, part.ambient, part.temps,
+                         tuple(names), part.target)
+    fitted, measured = identify.fit(series)
+    coefficients_, settings = coefficients(fitted, dt)
+    return coefficients_, settings, {
+        "method": "lumped-mass model identified by least one-step prediction error (steady-state Kalman filter on "
+                  "the readings); displacement map with structure lag and ridge weight chosen by forward validation",
+        **measured}
+
+
+def check_settings(model: Model, path: str) -> None:
+    """The relay's sensor and each effect's sensor are temperature inputs of the model."""
+    s, temps = model.settings, len(model.signals("temperature"))
+    if s.get("relay_sensor", 1) > temps:
+        raise UserError(f"{path}: field 'settings.relay_sensor': {s['relay_sensor']} but the model has {temps} "
+                        f"temperature inputs")
+    for i, effect in enumerate(s.get("effects", [])):
+        if effect.get("sensor") is not None and not 1 <= effect["sensor"] <= temps:
+            raise UserError(f"{path}: field 'settings.effects[{i}].sensor': {effect['sensor']} but the model has "
+                            f"{temps} temperature inputs (numbered from 1)")
+
+
+class StreamCore:
+    """predict with the simulation's state kept (kernels.LumpedState)."""
+
+    def __init__(self, model: Model, precision: str, f):
+        self.f, self.target, self.model, self.precision = f, model.target.name, model, precision
+        self.state = None
+
+    def __call__(self, running: dict, fused_valid: dict) -> dict:
+        out, self.state = kernel_arguments(self.model, running, self.precision, self.state)
+        return {self.target: out}
+
+
+SETTINGS_SCHEMA = {
+    "type": "object",
+    "properties": {"effects": {"type": "array", "maxItems": 32,
+                               "items": {"type": "object", "required": ["name"],
+                                         "properties": {"name": {"type": "string"},
+                                                        "sensor": {"type": ["integer", "null"], "minimum": 1}}}},
+                   "relay_sensor": {"type": "integer", "minimum": 1},
+                   "speed_table_segments": {"type": "integer", "minimum": 0, "maximum": 4096}}}
+
+KIND = Kind("lumped", 9, _fit, predict, roles=("speed", "ambient"), ambient_apart=True, auto="iterative",
+            settings_schema=SETTINGS_SCHEMA, check_settings=check_settings, stream_core=StreamCore)

@@ -4,7 +4,8 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.models import ridge
-from thermoplc.models.modelfile import Model
+from thermoplc.models.kind import Kind
+from thermoplc.models.modelfile import Coefficient, Model
 
 
 def least_squares(features: np.ndarray, target: np.ndarray, names: list[str]) -> tuple[np.ndarray, dict]:
@@ -32,3 +33,35 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
         x = np.asarray(inputs[s.name], dtype)
         out = out + dtype(model.coef(f"beta_{i}", precision)) * (x - x[0])
     return {model.target.name: out}
+
+
+def _fit(parts, request, names, dt, progress):
+    part = parts[0]
+    values, log = fit_mlr(part.temps, part.target, names)
+    coefficients = {k: Coefficient.of(v) for k, v in values.items()}
+    return coefficients, {}, {"method": "least squares (eq. 11), ridge weight by forward validation", **log}
+
+
+class StreamCore:
+    """predict, with T0 (the first call's temperatures) kept between chunks."""
+
+    def __init__(self, model: Model, precision: str, f):
+        self.f = f
+        self.temps = model.signals("temperature")
+        self.beta0 = model.coef("beta0", precision)
+        self.betas = [f(model.coef(f"beta_{i}", precision)) for i in range(1, len(self.temps) + 1)]
+        self.first = None
+        self.target = model.target.name
+
+    def __call__(self, running: dict, fused_valid: dict) -> dict:
+        f = self.f
+        xs = [np.asarray(running[s.name], f) for s in self.temps]
+        if self.first is None:
+            self.first = [x[0] for x in xs]
+        out = np.full(len(xs[0]), self.beta0, f)
+        for beta, x, x0 in zip(self.betas, xs, self.first):
+            out = out + beta * (x - x0)
+        return {self.target: out}
+
+
+KIND = Kind("mlr", 1, _fit, predict, auto="closed-form", stream_core=StreamCore)

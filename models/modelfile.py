@@ -12,15 +12,12 @@ from pathlib import Path
 from thermoplc.base.version import __version__
 from thermoplc.base.identifiers import identifier_problem
 from thermoplc.models.effects import NAMES as EFFECT_NAMES
+from thermoplc.models.kinds import kind_of, registry
 from thermoplc.base.binary32 import FLT_MAX, f32_hex, parse_f32_hex, round_f32, ulp_distance
 from thermoplc.base.errors import UserError
 
 FORMAT = "thermoplc-model"
 SCHEMA_VERSION = 1
-KINDS = ("mlr", "kalman", "piecewise", "dlag", "gm0n", "gm1n", "bayes", "bpnn", "lumped")
-# the input roles each kind's block reads beside its temperatures
-ROLES_NEEDED = {"mlr": (), "kalman": ("speed", "ambient"), "lumped": ("speed", "ambient"), "piecewise": ("ambient",), "gm0n": (), "gm1n": (),
-                "bayes": (), "dlag": (), "bpnn": ()}
 ROLES = ("temperature", "speed", "ambient", "tool_length", "feed")
 
 
@@ -139,8 +136,20 @@ def load_model(path: str | Path) -> Model:
 @functools.lru_cache(maxsize=1)
 def _schema_validator():
     import jsonschema
-    schema = json.loads(resources.files("thermoplc.models").joinpath("model_schema_v1.json").read_text("utf-8"))
-    return jsonschema.Draft202012Validator(schema)
+    return jsonschema.Draft202012Validator(schema())
+
+
+def schema() -> dict:
+    """The model file's JSON Schema: the part every kind shares (model_schema_v1.json) with the
+    kind enum and one settings schema per kind from the kinds' records."""
+    doc = json.loads(resources.files("thermoplc.models").joinpath("model_schema_v1.json").read_text("utf-8"))
+    doc["properties"]["kind"] = {"enum": list(registry())}
+    for name, kind in registry().items():
+        if kind.settings_schema is not None:
+            doc["$defs"][name] = kind.settings_schema
+            doc["allOf"].append({"if": {"properties": {"kind": {"const": name}}},
+                                 "then": {"properties": {"settings": {"$ref": f"#/$defs/{name}"}}}})
+    return doc
 
 
 def _check_schema(doc, path: str) -> None:
@@ -155,35 +164,10 @@ def _check_schema(doc, path: str) -> None:
 
 
 def _check_shape(model: "Model", path: str) -> None:
-    """What the schema cannot say: sizes that must agree between fields."""
-    temps = len(model.signals("temperature"))
-    if not temps:
+    """What the schema cannot say: sizes that must agree between fields (the kind's own rules)."""
+    if not model.signals("temperature"):
         raise UserError(f"{path}: field 'inputs': no input has the role temperature")
-    s = model.settings
-    if model.kind == "bayes":
-        parents = temps + (1 if s.get("time_parent") else 0)
-        if len(s["intervals"]) != parents or math.prod(s["intervals"]) != s["configurations"]:
-            raise UserError(f"{path}: field 'settings': intervals {s['intervals']} and configurations "
-                            f"{s['configurations']} do not fit {parents} parents (the product of the intervals is "
-                            f"the number of configurations)")
-    if model.kind == "piecewise":
-        nodes = [model.coefficients[f"node_{m}"].f64 for m in range(1, len(s["nodes"]) + 1)
-                 if f"node_{m}" in model.coefficients]
-        if len(nodes) != sum(1 for name in model.coefficients if name.startswith("node_")) \
-                or nodes != [n["node_C"] for n in s["nodes"]] or any(b <= a for a, b in zip(nodes, nodes[1:])):
-            raise UserError(f"{path}: field 'coefficients': node_1.. {nodes} must be the settings.nodes' node_C "
-                            f"{[n['node_C'] for n in s['nodes']]}, strictly increasing")
-    if model.kind == "bpnn" and (s["inputs"] != temps or s["outputs"] != len(s["targets"])):
-        raise UserError(f"{path}: field 'settings': inputs {s['inputs']} and outputs {s['outputs']} must be the "
-                        f"{temps} temperature inputs and the {len(s['targets'])} targets")
-    if model.kind == "lumped":
-        if s.get("relay_sensor", 1) > temps:
-            raise UserError(f"{path}: field 'settings.relay_sensor': {s['relay_sensor']} but the model has {temps} "
-                            f"temperature inputs")
-        for i, effect in enumerate(s.get("effects", [])):
-            if effect.get("sensor") is not None and not 1 <= effect["sensor"] <= temps:
-                raise UserError(f"{path}: field 'settings.effects[{i}].sensor': {effect['sensor']} but the model has "
-                                f"{temps} temperature inputs (numbered from 1)")
+    kind_of(model.kind).check_settings(model, path)
 
 
 MAX_FOLDING_ULP = 8  # f32 folded in binary32 (A*A) may sit a few ULP from f64 rounded; more is an edit
@@ -234,14 +218,14 @@ def _parse(doc, path: str) -> Model:
     if version != SCHEMA_VERSION:
         raise UserError(f"{path}: schema_version {version} is not supported; this thermoplc reads version {SCHEMA_VERSION}")
     kind = _field(doc, "kind", str, path)
-    if kind not in KINDS:
-        raise UserError(f"{path}: field 'kind' must be one of {', '.join(KINDS)}, found {kind!r}")
+    if kind not in registry():
+        raise UserError(f"{path}: field 'kind' must be one of {', '.join(registry())}, found {kind!r}")
     inputs = tuple(_signal(s, path, f"inputs[{i}]") for i, s in enumerate(_field(doc, "inputs", list, path)))
     for i, s in enumerate(inputs):
         if not s.role or any(role not in ROLES for role in s.role.split(",")):
             raise UserError(f"{path}: field 'inputs[{i}].role' must be one of {', '.join(ROLES)}, found {s.role!r}")
     present = {role for s in inputs for role in s.role.split(",")}
-    for role in ("temperature", *ROLES_NEEDED[kind]) if inputs else ():  # none at all: the schema says so
+    for role in ("temperature", *kind_of(kind).roles) if inputs else ():  # none at all: the schema says so
         if role not in present:
             raise UserError(f"{path}: kind {kind!r} reads an input of role {role!r}, and field 'inputs' has none "
                             f"(roles {', '.join(sorted(present))}); is 'kind' right?")

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from thermoplc.base.errors import UserError
+from thermoplc.models.kind import Kind
 from thermoplc.models.mlr import least_squares
 from thermoplc.models.modelfile import Coefficient, Model
 
@@ -79,3 +81,30 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
             y = y + coef(f"beta_{i}_{m + 1}") * rise
         return y
     return {model.target.name: wa * node_model(a) + wb * node_model(b)}
+
+
+def _fit(parts, request, names, dt, progress):
+    return fit_piecewise([(p.temps, p.ambient, p.target) for p in parts], names)
+
+
+def check_settings(model: Model, path: str) -> None:
+    """The nodes of the settings are the node_m coefficients, strictly increasing."""
+    s = model.settings
+    nodes = [model.coefficients[f"node_{m}"].f64 for m in range(1, len(s["nodes"]) + 1)
+             if f"node_{m}" in model.coefficients]
+    if len(nodes) != sum(1 for name in model.coefficients if name.startswith("node_")) \
+            or nodes != [n["node_C"] for n in s["nodes"]] or any(b <= a for a, b in zip(nodes, nodes[1:])):
+        raise UserError(f"{path}: field 'coefficients': node_1.. {nodes} must be the settings.nodes' node_C "
+                        f"{[n['node_C'] for n in s['nodes']]}, strictly increasing")
+
+
+SETTINGS_SCHEMA = {
+    "type": "object",
+    "required": ["nodes"],
+    "properties": {"nodes": {"type": "array", "minItems": 1, "maxItems": 64,
+                             "items": {"type": "object", "required": ["node_C"],
+                                       "properties": {"node_C": {"type": "number"}}}}}}
+
+KIND = Kind("piecewise", 3, _fit, predict, roles=("ambient",), several_files=lambda request: True,
+            several_files_text="piecewise takes one file per batch", settings_schema=SETTINGS_SCHEMA,
+            check_settings=check_settings)

@@ -4,25 +4,23 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.base.errors import UserError
-from thermoplc.models import bayes, bpnn, dlag, grey, kalman, lumped_model, mlr, piecewise
+from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import CONTROL_START, Limits, commissioned_predict
 from thermoplc.models.table import Table
 
-_PREDICTORS = {"mlr": mlr.predict, "kalman": kalman.predict, "piecewise": piecewise.predict,
-               "gm0n": grey.predict_gm0n, "gm1n": grey.predict_gm1n, "bayes": bayes.predict,
-               "dlag": dlag.predict, "bpnn": bpnn.predict, "lumped": lumped_model.predict}
-
-
 def predict(model: Model, inputs: dict, precision: str) -> dict:
     """What the model computes, by output name; REAL outputs as float32 ('f32') or float64 ('f64') arrays."""
-    return _PREDICTORS[model.kind](model, inputs, precision)
+    return kind_of(model.kind).predict(model, inputs, precision)
 
 
-def _core(model: Model, inputs: dict, precision: str, fused_valid: dict) -> dict:
-    if model.kind == "kalman":
-        return kalman.predict(model, inputs, precision, fused_valid)
-    return predict(model, inputs, precision)
+def guarded_core(model: Model, inputs: dict, precision: str, fused_valid: dict) -> dict:
+    """The model as the safety logic calls it: a kind with fused guards gets each temperature's
+    per-call validity (its filter ignores a faulty sensor), every other kind held inputs."""
+    kind = kind_of(model.kind)
+    if kind.fused_guards:
+        return kind.predict(model, inputs, precision, fused_valid)
+    return kind.predict(model, inputs, precision)
 
 
 def block_outputs(model: Model, inputs: dict, precision: str, limits: Limits, control: dict | None = None) -> dict:
@@ -30,7 +28,7 @@ def block_outputs(model: Model, inputs: dict, precision: str, limits: Limits, co
     called with Enable and Reset as `control` gives them per call (default: enabled, never reset).
     IEEE overflow and NaN are part of the reference (the replay reports where the block meets them)."""
     with np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore"):
-        return commissioned_predict(model, inputs, precision, limits, _core, control)
+        return commissioned_predict(model, inputs, precision, limits, guarded_core, control)
 
 
 def model_inputs(model: Model, table: Table, overrides: dict | None = None) -> dict:

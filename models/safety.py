@@ -17,6 +17,7 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.models import kernels
+from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
 
 LIMIT_MAX = 1.0e12  # far beyond any machine, far below FLT_MAX
@@ -96,7 +97,7 @@ def guards(model: Model) -> tuple[Guard, ...]:
     for k, s in enumerate(model.inputs, start=1):
         roles = set(s.role.split(","))
         if roles & {"temperature", "ambient"}:
-            kind = "fused" if model.kind == "kalman" and "temperature" in roles else "temperature"
+            kind = "fused" if kind_of(model.kind).fused_guards and "temperature" in roles else "temperature"
             out.append(Guard(s.name, k, kind, "c_TempMin", "c_TempMax"))
         elif "speed" in roles:
             out.append(Guard(s.name, k, "range", "c_SpeedMin", "c_SpeedMax"))

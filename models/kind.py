@@ -1,0 +1,63 @@
+"""The record of one model kind: everything the generic code (fit, model file, references,
+streaming, auto) needs to know about a kind, declared once in the kind's own module.
+
+A kind module ends with `KIND = Kind(...)` (grey.py declares two); `models/kinds.py` finds them.
+The block lowering is the generator's side of the same kind and is registered there
+(`generator/lower_*.py::LOWERINGS`), so the models know nothing of ST.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Callable
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from thermoplc.models.modelfile import Model
+
+
+@dataclass(frozen=True)
+class Part:
+    """The training rows of one file, by role: what a kind's fitter receives."""
+    temps: np.ndarray  # (rows, sensors)
+    target: np.ndarray
+    extra: np.ndarray  # (rows, further targets)
+    speed: np.ndarray | None
+    ambient: np.ndarray | None
+
+
+# fit(parts, request, temperature names, sample period s, progress) -> (coefficients, settings, fit log)
+Fitter = Callable[[list[Part], Any, list[str], float, Any], tuple[dict, dict, dict]]
+# predict(model, inputs by name, "f32" | "f64"[, fused_valid]) -> outputs by name
+Predictor = Callable[..., dict]
+
+
+def _always(model: "Model") -> bool:
+    return True
+
+
+def _no_settings_check(model: "Model", path: str) -> None:
+    """Kinds whose settings the JSON schema describes completely."""
+
+
+@dataclass(frozen=True)
+class Kind:
+    name: str  # the model file's `kind` and `fit --model NAME`
+    order: int  # position in listings (help, errors, the schema enum): the papers' order, not the alphabet
+    fit: Fitter
+    predict: Predictor  # the reference: float64 (ideal) or binary32 (what the block computes), per call
+    roles: tuple[str, ...] = ()  # input roles the block reads beside its temperatures
+    # with fused_guards the Kalman filter itself handles a faulty temperature (its gain goes to 0): the
+    # predictor takes the per-call validity of each temperature, and no hold is put in front of it
+    fused_guards: bool = False
+    ambient_apart: bool = False  # the ambient drives every temperature, so it may not be one of them
+    owns_options: tuple[str, ...] = ()  # FitRequest fields no other kind may set: (field, option text)
+    several_files: Callable[[Any], bool] = lambda request: False  # fit takes one file per batch or run
+    several_files_text: str = ""  # when it does, in words, for the error of a kind that does not
+    auto: str | None = None  # "closed-form" (tried on every sensor set), "iterative" (on the best), None
+    settings_schema: dict | None = None  # JSON schema of the model file's `settings` for this kind
+    check_settings: Callable[["Model", str], None] = _no_settings_check  # what the schema cannot say
+    # the streamed reference: a class (model, precision, dtype) -> callable(running, fused_valid) keeping the
+    # kind's memory between chunks; None: the kind depends on the current and the first call only
+    stream_core: type | None = None
+    streamable: Callable[["Model"], bool] = _always

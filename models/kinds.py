@@ -1,0 +1,33 @@
+"""Every model kind, found in the modules that declare one (`models/kind.py`): the single list the
+schema enum, the CLI choices, the golden files and every dispatch are derived from. Adding a
+kind is a new module here (and its lowering in the generator), nothing else."""
+from __future__ import annotations
+
+import functools
+import importlib
+import pkgutil
+
+from thermoplc.base.errors import UserError
+from thermoplc.models.kind import Kind
+
+
+@functools.cache
+def registry() -> dict[str, Kind]:
+    """Kind name -> record, in the papers' order."""
+    import thermoplc.models as package
+    found = []
+    for module in pkgutil.iter_modules(package.__path__):
+        loaded = importlib.import_module(f"{package.__name__}.{module.name}")
+        found += [value for value in vars(loaded).values() if isinstance(value, Kind)]
+    found = sorted({kind.name: kind for kind in found}.values(), key=lambda kind: kind.order)
+    return {kind.name: kind for kind in found}
+
+
+def names() -> tuple[str, ...]:
+    return tuple(registry())
+
+
+def kind_of(name: str) -> Kind:
+    if name not in registry():
+        raise UserError(f"no model kind {name!r}; the kinds are {', '.join(registry())}")
+    return registry()[name]
