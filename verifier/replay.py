@@ -8,8 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from thermoplc.base.binary32 import f32_bits, f32_hex, is_subnormal, ulp_distance
-from thermoplc.generator.ir import GenerationError
-from thermoplc.generator.lower import lower
+from thermoplc.contract.constants import TABLE_PREFIX, constant_name, expected
 from thermoplc.base.errors import UserError
 from thermoplc.models.fit import SAMPLING_TOLERANCE, sample_period
 from thermoplc.models.modelfile import Model
@@ -260,25 +259,19 @@ def block_limits(program: Program, source: str) -> Limits:
     return Limits.from_constants({d.name: d.initial for d in program.decls if d.section == "constant"}, source)
 
 
-def _compare_constants(program: Program, model: Model, limits: Limits) -> tuple[int, tuple[str, ...]]:
-    """Every constant and read-only table the model asks for, against the block's declarations.
+def compare_constants(program: Program, model: Model, limits: Limits) -> tuple[int, tuple[str, ...]]:
+    """Every constant and read-only table the block declares, against the model's own values
+    (contract/constants.py names them), and every coefficient of the model somewhere in the block.
 
     Replay proves behaviour on the data; table entries the data never reaches (a Bayes
     configuration never seen, an edge no sample lies next to) are only covered by this check.
     """
-    try:
-        expected = lower(model, limits)
-    except GenerationError as exc:
-        raise UserError(f"{model.block_name}: the model cannot become a block, so no block reproduces it: {exc}") from None
-    declared = {d.name.upper(): d for d in program.decls}
-    wanted = [(c.name, (c.value,)) for c in expected.constants]
-    wanted += [(v.name, v.initial) for v in expected.statics if v.initial is not None]
+    decls = {d.name: d for d in program.decls
+             if d.section == "constant" or d.name.upper().startswith(TABLE_PREFIX.upper()) and d.initial is not None}
+    wanted, unknown, missing = expected(model, limits, list(decls))
     errors, checked = [], 0
-    for name, values in wanted:
-        decl = declared.get(name.upper())
-        if decl is None:
-            errors.append(f"{name}: missing from the block")
-            continue
+    for name, values in wanted.items():
+        decl = decls[name]
         found = decl.initial if isinstance(decl.initial, tuple) else (decl.initial,)
         if len(found) != len(values):
             errors.append(f"{name}: {len(found)} values in the block, the model has {len(values)}")
@@ -286,18 +279,20 @@ def _compare_constants(program: Program, model: Model, limits: Limits) -> tuple[
         for k, (got, want) in enumerate(zip(found, values)):
             checked += 1
             if isinstance(want, int) and not isinstance(want, bool):
-                same = got == want
+                same = got == want and not isinstance(got, (bool, float))
             else:
                 same = isinstance(got, float) and f32_bits(got) == f32_bits(want)
             if not same:
                 where = f"{name}[{k}]" if len(values) > 1 or decl.type.bounds else name
-                errors.append(f"{where}: block {_show(got)}, model {_show(float(want))} "
+                errors.append(f"{where}: block {_show(got)}, model {_show(want if isinstance(want, int) else float(want))} "
                               f"({ulp_distance(got, want) if isinstance(got, float) else '?'} ULP)")
     # a constant the model does not have is a computation it does not have (a filter gain, an extra
     # term), which data may not reach: the block is not the model's
-    known = {name.upper() for name, _ in wanted}
-    errors += [f"{d.name}: declared in the block, but the model has no such constant"
-               for d in program.decls if d.section == "constant" and d.name.upper() not in known]
+    errors += [f"{name}: declared in the block, but the model has no such constant" for name in unknown]
+    if missing:
+        shown = ", ".join(constant_name(k) for k in missing[:5]) + (f" and {len(missing) - 5} more" if len(missing) > 5 else "")
+        errors.append(f"{shown}: missing from the block (the model's coefficients {', '.join(missing[:5])}"
+                      f"{' ...' if len(missing) > 5 else ''} are in no constant or table)")
     return checked, tuple(errors)
 
 
@@ -340,7 +335,7 @@ def verify_against_model(block: str, model: Model, model_path: str, table: Table
     against = f"the float32 reference of {Path(model_path).name} ({model.kind})"
     report = _replay_and_compare(machine, block, against, table, model.time_column, {**inputs, **control}, block32,
                                  quantisation)
-    checked, errors = _compare_constants(program, model, limits)
+    checked, errors = compare_constants(program, model, limits)
     return replace(report, constants_checked=checked, constant_errors=errors, limits=limits,
                    control=_control_summary(control, table.rows))
 

@@ -27,7 +27,7 @@ from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import CONTROL_START
 from thermoplc.models.streaming import StreamingReference, streamable
 from thermoplc.models.table import CannotStream, read_table, stream_columns
-from thermoplc.verifier.replay import (Report, _check_interface, _compare_constants, _load, block_limits,
+from thermoplc.verifier.replay import (Report, _check_interface, compare_constants, _load, block_limits,
                                        known_overrides, mistyped, subnormal_declarations, unsafe_findings,
                                        verify_against_model)
 from thermoplc.verifier.typed import differing_rows, first_non_finite
@@ -195,7 +195,7 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
     against = f"the float32 reference of {Path(model_path).name} ({model.kind})"
     report = Report(block, against, Path(data).name, rows, tuple(types), None, findings, timings["replay"],
                     {target: quantisation}, engine="fast", engine_note=replayer.note)
-    checked, errors = _compare_constants(program, model, limits)
+    checked, errors = compare_constants(program, model, limits)
     timings["compare"] += time.perf_counter() - t
     LAST_TIMINGS.update(timings)
     LAST_TIMINGS["rows"] = rows

@@ -1,0 +1,41 @@
+"""The contract the verifier reads constants by (contract/constants.py) says, for every golden model,
+exactly what the generator writes: same names, same bits, nothing unknown, nothing missing. The
+two are written independently; this is where they must agree."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from thermoplc.contract.constants import expected, table_coefficients
+from thermoplc.generator.lower import lower
+from thermoplc.models.modelfile import load_model
+from thermoplc.models.safety import Limits
+
+GOLDEN = Path(__file__).parent / "golden"
+MODELS = sorted(p.stem for p in GOLDEN.glob("*.json"))
+
+
+def _bits(values) -> list:
+    return [v if isinstance(v, int) else int(np.float32(v).view(np.uint32)) for v in values]
+
+
+@pytest.mark.parametrize("kind", MODELS)
+def test_the_contract_names_every_constant_and_table_the_generator_writes(kind):
+    model = load_model(GOLDEN / f"{kind}.json")
+    limits = Limits(max_output=250.0, max_step=1.5, temp_max_C=120.0)
+    block = lower(model, limits)
+    written = {c.name: (c.value,) for c in block.constants}
+    written.update({v.name: v.initial for v in block.statics if v.initial is not None})
+    wanted, unknown, missing = expected(model, limits, list(written))
+    assert unknown == [] and missing == []
+    assert {name: _bits(values) for name, values in wanted.items()} == \
+           {name: _bits(values) for name, values in written.items()}
+
+
+def test_a_table_reads_its_coefficients_in_order_from_zero_or_one():
+    model = load_model(GOLDEN / "bayes.json")
+    edges = table_coefficients(model, "tab_Edge_1")
+    assert edges[0] == "edge_1_0" and edges == tuple(f"edge_1_{m}" for m in range(len(edges)))
+    assert table_coefficients(model, "tab_Nothing") is None and table_coefficients(model, "c_beta0") is None
+    piecewise = load_model(GOLDEN / "piecewise.json")
+    assert table_coefficients(piecewise, "tab_Beta_2")[0] == "beta_2_1"
