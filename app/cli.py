@@ -260,29 +260,6 @@ def _format_folds(m: dict) -> list[str]:
     return lines
 
 
-def _stress(model, limits, text: str, args):
-    """Refuse a block that reaches NaN, Inf or an INT overflow on inputs inside their guard ranges."""
-    from thermoplc.verifier.parser import parse_text
-    from thermoplc.verifier.stress import stress
-    result = stress(parse_text(text, args.output), model, limits, args.output)
-    if result.problems:
-        raise UserError(f"{args.model}: the block reaches a value that must not reach the NC with every input inside its "
-                        f"guard range (stress replay): " + "; ".join(result.problems[:3]) + "; nothing written")
-    return result
-
-
-def _prove(model, block, limits, args):
-    """Refuse a block in which any input inside its guard ranges can give Inf, NaN, a division by 0,
-    a subnormal product or an integer overflow, on any call (static range proof)."""
-    from thermoplc.generator.lower import prove
-    proof = prove(model, block, limits)
-    if proof.problems:
-        more = f" (and {len(proof.problems) - 3} more)" if len(proof.problems) > 3 else ""
-        raise UserError(f"{args.model}: the range proof fails with every input inside its guard range: "
-                        + "; ".join(proof.problems[:3]) + more + "; nothing written")
-    return proof
-
-
 def format_proof(proof, block) -> str:
     from thermoplc.generator.safety import model_values
     show = lambda name: f"{name} {proof.ranges[name][0]:.6g}..{proof.ranges[name][1]:.6g}"
@@ -294,37 +271,19 @@ def format_proof(proof, block) -> str:
             + "; outputs: " + ", ".join(show(v.name) for v in block.outputs if v.type == "REAL"))
 
 
-def _accepted(model, args) -> str | None:
-    """Refuse a model that has not earned a block (no held-out evidence, or not clearly better than
-    no compensation) unless --accept-unvalidated; refuse, always, a float32 block that is not the
-    model that was judged. Returns why the model is unvalidated when the flag let it through."""
-    from thermoplc.models.acceptance import problem, quantisation_problem
-    try:
-        drift, why = quantisation_problem(model), problem(model)
-    except UserError as exc:  # a malformed metrics field
-        raise UserError(f"{args.model}: {exc}") from None
-    if drift:
-        raise UserError(f"{args.model}: {drift}; nothing written")
-    if why and not args.accept_unvalidated:
-        raise UserError(f"{args.model}: {why}; nothing written (--accept-unvalidated writes it anyway, and the "
-                        "header says so)")
-    return why
-
-
 def cmd_generate(args) -> int:
     from dataclasses import replace
     from thermoplc.base.identifiers import identifier_problem
-    from thermoplc.generator.lower import lower, lower_model, model_identity
-    from thermoplc.generator.printer import GenerationError, render, render_instance_db, render_plcopen
+    from thermoplc.generator.lower import lower_model, model_identity
     from thermoplc.models.acceptance import evidence
     from thermoplc.models.modelfile import load_model
     from thermoplc.models.safety import Limits
+    from thermoplc.pipeline import generate
     to_stdout = args.output == "-"  # the block on standard output, what generate says on standard error
     if not to_stdout:
         check_output(args.output, args.force, inputs=[args.model])
     say = functools.partial(print, file=sys.stderr if to_stdout else sys.stdout)
     model = load_model(args.model)
-    unvalidated = _accepted(model, args)
     if args.name is not None:
         problem = identifier_problem(args.name)
         if problem:
@@ -333,25 +292,13 @@ def cmd_generate(args) -> int:
     low, high = args.temp_range
     limits = Limits(args.max_offset_um, args.max_step_um, low, high, max_jump_K=args.max_jump_k,
                     settle_calls=args.settle_calls)
-    if args.format == "plcopen" and args.dialect != "iec":
-        raise UserError("--format plcopen wraps the iec dialect; add --dialect iec")
-    if args.instance_db is not None and args.dialect != "step7":
-        raise UserError("--instance-db writes a STEP 7 instance DB source; TIA and IEC targets create the instance "
-                        "when the block is called")
     identity = model_identity(model, args.date or _today())
     identity = replace(identity, author=args.author, family=args.family,
                        version=args.block_version or identity.version)
-    try:
-        block = lower(model, limits, identity, args.retain)
-        text = render_plcopen(block, __version__) if args.format == "plcopen" else render(block, args.dialect)
-        if args.instance_db is not None:
-            text += render_instance_db(block, args.instance_db)
-    except GenerationError as exc:
-        raise UserError(f"{args.model}: cannot generate a block: {exc}") from None
-    except UserError as exc:  # a coefficient the kind needs is missing
-        raise UserError(str(exc).replace("model file:", f"{args.model}:", 1)) from None
-    proof = _prove(model, block, limits, args)
-    stressed = _stress(model, limits, render(block, "iec") if args.format == "plcopen" else text, args)
+    generated = generate(model, args.model, limits, args.dialect, args.format == "plcopen", identity, args.retain,
+                         args.instance_db, args.accept_unvalidated, args.output)
+    text, block, proof, stressed, unvalidated = (generated.text, generated.block, generated.proof, generated.stressed,
+                                                 generated.unvalidated)
     if to_stdout:
         sys.stdout.write(text)
     else:

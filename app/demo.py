@@ -14,12 +14,11 @@ from pathlib import Path
 
 from thermoplc.base.version import __version__
 from thermoplc.base.fileio import check_output, write_atomic
-from thermoplc.generator.lower import lower
-from thermoplc.generator.printer import render
 from thermoplc.models.acceptance import refusal
 from thermoplc.models.fit import FitRequest, fit
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.table import read_table
+from thermoplc.pipeline import generate
 from thermoplc.verifier.replay import verify_against_model
 
 TARGET = "ch3_um"
@@ -60,7 +59,7 @@ def run_demo(out: Path, force: bool = False) -> int:
         if refused:  # the gate `generate` applies: no block for a model that does not compensate
             print(f"  {kind}: no block: {refused}")
             continue
-        write_atomic(block_path, render(lower(model), "tia"))
+        write_atomic(block_path, generate(model, str(model_path), output=str(block_path)).text)
         report = verify_against_model(str(block_path), model, str(model_path), table)
         report_path = out / f"{block_name}.verify.txt"
         write_atomic(report_path, f"thermoplc {__version__} verify {block_path.name} --model {model_path.name}\n"
