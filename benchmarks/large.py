@@ -28,7 +28,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from scripts.regen_golden import GOLDEN, golden_block  # noqa: E402
+from tests.golden_models import GOLDEN, golden_block  # noqa: E402
 from thermoplc.machines.cascade import simulate  # noqa: E402
 
 MONTH_ROWS = 30 * 24 * 3600

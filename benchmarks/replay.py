@@ -22,7 +22,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from scripts.regen_golden import GOLDEN, KINDS, golden_block  # noqa: E402
+from tests.golden_models import GOLDEN, KINDS, golden_block  # noqa: E402
 from thermoplc.models.modelfile import load_model  # noqa: E402
 from thermoplc.models.reference import block_outputs, model_inputs  # noqa: E402
 from thermoplc.models.safety import Limits  # noqa: E402

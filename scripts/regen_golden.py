@@ -7,26 +7,24 @@
 from __future__ import annotations
 
 import argparse
+import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from thermoplc.diagnosis.command import DiagnoseRequest, augmented_model, series_of
-from thermoplc.generator.lower import lower
-from thermoplc.base.version import __version__
-from thermoplc.generator.printer import DIALECTS as PRINTER_DIALECTS, render, render_plcopen
-from thermoplc.models import simulation
-from thermoplc.models.fit import FitRequest, fit, sample_period
-from thermoplc.models.kalman import FitOptions
-from thermoplc.models.modelfile import Model, load_model
-from thermoplc.models.table import read_table, write_table
-from thermoplc.machines.cascade import simulate
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-GOLDEN = Path(__file__).resolve().parent.parent / "tests" / "golden"
-TWIN = {"hours": 12, "seed": 7}
-BATCH_AMBIENTS_C = (14.0, 19.0, 26.0, 31.0)  # piecewise library batches, one per node region
-KINDS = ("mlr", "kalman", "piecewise", "dlag", "gm0n", "gm1n", "bayes", "bpnn", "lumped", "lumped_identified")
+from tests.golden_models import (  # noqa: E402
+    DIALECTS, GOLDEN, KINDS, batch_csvs, golden_block, golden_twin_csv, rendered,
+)
+from thermoplc.diagnosis.command import DiagnoseRequest, augmented_model, series_of  # noqa: E402
+from thermoplc.models import simulation  # noqa: E402
+from thermoplc.models.fit import FitRequest, fit, sample_period  # noqa: E402
+from thermoplc.models.kalman import FitOptions  # noqa: E402
+from thermoplc.models.modelfile import Model  # noqa: E402
+from thermoplc.models.table import read_table  # noqa: E402
+
 # golden name -> the model kind `fit` writes for it: the identified baseline `fit --model lumped` writes
 # (filtered by the readings) beside the open-loop block with every effect diagnose can add
 FIT_KIND = {"lumped_identified": "lumped"}
@@ -34,23 +32,6 @@ FIT_KIND = {"lumped_identified": "lumped"}
 LUMPED_EFFECTS = (("gear_ratio_switch", None), ("nonlinear_speed_heat", None), ("stop_convection", None),
                   ("sensor_offset", 1), ("coolant_switching", 0), ("slow_structure", None), ("ambient_coupling", None),
                   ("feed_axis_heat", None))
-DIALECTS = tuple(PRINTER_DIALECTS)
-
-
-def golden_twin_csv(folder: Path) -> Path:
-    path = folder / "golden_twin.csv"
-    path.write_text(write_table(simulate(TWIN["hours"], seed=TWIN["seed"])))
-    return path
-
-
-def batch_csvs(folder: Path) -> list[Path]:
-    """Short runs started at different ambient temperatures (the piecewise model's batches)."""
-    paths = []
-    for k, ambient in enumerate(BATCH_AMBIENTS_C):
-        path = folder / f"batch_{ambient:g}C.csv"
-        path.write_text(write_table(simulate(8, seed=20 + k, ambient_start=ambient)))
-        paths.append(path)
-    return paths
 
 
 def lumped_golden(path: Path) -> Model:
@@ -76,17 +57,6 @@ def refit(folder: Path, kinds: tuple[str, ...]) -> None:
                              tool_length="tool_length_mm" if bpnn else None)
         tables = batches if kind == "piecewise" else [table]
         (GOLDEN / f"{kind}.json").write_text(fit(tables, request).to_json())
-
-
-def golden_block(kind: str, dialect: str) -> Path:
-    """tests/golden/<kind>.<dialect><suffix>; dialect 'plcopen' is the iec block as PLCopen XML."""
-    suffix = ".xml" if dialect == "plcopen" else PRINTER_DIALECTS[dialect].suffix
-    return GOLDEN / f"{kind}.{dialect}{suffix}"
-
-
-def rendered(kind: str, dialect: str) -> str:
-    block = lower(load_model(GOLDEN / f"{kind}.json"))
-    return render_plcopen(block, __version__) if dialect == "plcopen" else render(block, dialect)
 
 
 def render_all() -> list[Path]:

@@ -11,11 +11,12 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
+from tests.cli_runner import thermoplc
+from tests.golden_models import GOLDEN
 from thermoplc.models.table import write_table
 from thermoplc.machines.cascade import simulate
 
@@ -504,7 +505,6 @@ def _option_cases() -> list[Case]:
     return cases
 
 
-GOLDEN = Path(__file__).resolve().parent / "golden"
 COUNTER = """FUNCTION_BLOCK Counter
 VAR_INPUT x : INT; END_VAR
 VAR_OUTPUT i : DINT; flag : BOOL; END_VAR
@@ -609,14 +609,9 @@ CASES = [*_csv_cases(), *_model_cases(), *_st_cases(), *_injection_cases(), *_ou
 def setup_folder(folder: Path) -> None:
     """good.csv (2 h twin), mlr.json fitted on it, block.scl generated from it."""
     (folder / "good.csv").write_text(write_table(simulate(2, seed=4)))
-    run(folder, ("fit", "--data", "good.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing",
-                 "--train-rows", "200", "-o", "mlr.json"))
-    run(folder, ("generate", "mlr.json", "-o", "block.scl"))
-
-
-def run(folder: Path, argv: tuple[str, ...]) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "thermoplc.cli", *argv], cwd=folder, capture_output=True, text=True,
-                          stdin=subprocess.DEVNULL)
+    thermoplc("fit", "--data", "good.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing",
+              "--train-rows", "200", "-o", "mlr.json", cwd=folder, check=None)
+    thermoplc("generate", "mlr.json", "-o", "block.scl", cwd=folder, check=None)
 
 
 def outcome(result: subprocess.CompletedProcess) -> str:

@@ -4,11 +4,11 @@ from pathlib import Path
 
 import pytest
 
-from tests.test_cli import thermoplc
+from tests.cli_runner import thermoplc
+from tests.golden_models import GOLDEN
 from thermoplc.models import acceptance
 from thermoplc.models.modelfile import load_model
 
-GOLDEN = Path(__file__).resolve().parent / "golden"
 FL_THERMAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "fl_thermal" / "fl_thermal.csv"
 
 

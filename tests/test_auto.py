@@ -4,7 +4,7 @@ import re
 
 import pytest
 
-from tests.test_cli import thermoplc
+from tests.cli_runner import thermoplc
 
 
 def _ranked(stdout: str) -> list[tuple[str, float]]:

@@ -9,7 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.bad_inputs import CASES, run, setup_folder, table_markdown
+from tests.bad_inputs import CASES, setup_folder, table_markdown
+from tests.cli_runner import thermoplc
 
 pytestmark = pytest.mark.slow  # the whole table: about two minutes of subprocesses
 
@@ -24,7 +25,7 @@ def run_all(base: Path, work: Path) -> list:
         shutil.copytree(base, folder)
         case.prepare(folder)
         before = {name: (folder / name).exists() for name in OUTPUTS}
-        return case, run(folder, case.argv), folder, before
+        return case, thermoplc(*case.argv, cwd=folder, check=None), folder, before
     with ThreadPoolExecutor(4) as pool:
         return list(pool.map(one, enumerate(CASES)))
 

@@ -45,8 +45,7 @@ def test_an_unseen_configuration_answers_as_the_nearest_seen_one():
 
 
 def test_time_parent_over_repeated_runs_is_bit_exact_and_needs_the_option(tmp_path):
-    import subprocess
-    import sys
+    from tests.cli_runner import thermoplc
     from thermoplc.models.table import write_table
     from thermoplc.machines.cascade import simulate
     rng = np.random.default_rng(4)
@@ -56,8 +55,7 @@ def test_time_parent_over_repeated_runs_is_bit_exact_and_needs_the_option(tmp_pa
         path.write_text(write_table(simulate(2.5, seed=700 + r, dt=60.0, constant_rpm=float(rng.uniform(2600, 3400)),
                                              ambient_start=float(rng.uniform(18.0, 24.0)))))
         runs.append(path.name)
-    cli = lambda *a: subprocess.run([sys.executable, "-m", "thermoplc.cli", *a], cwd=tmp_path, capture_output=True,
-                                    text=True, stdin=subprocess.DEVNULL)
+    cli = lambda *a: thermoplc(*a, cwd=tmp_path, check=None)
     data = [x for name in runs[:7] for x in ("--data", name)]
     fitted = cli("fit", *data, "--model", "bayes", "--target", "E_z_um", "--temps", "T_env,T_bearing,T_motor",
                  "--time-bins", "4", "--train-until", "99999", "-o", "bt.json")

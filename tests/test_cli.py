@@ -1,26 +1,16 @@
 """The commands as a user types them, in a temporary folder."""
 import json
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from tests.cli_runner import thermoplc
 from thermoplc.base.binary32 import f32_bits, f32_from_bits, f32_hex
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
 from thermoplc.models.modelfile import Coefficient, Model, load_model
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.table import read_table
-
-
-def thermoplc(*args, cwd: Path, check: int | None = 0) -> subprocess.CompletedProcess:
-    result = subprocess.run([sys.executable, "-m", "thermoplc.cli", *map(str, args)], cwd=cwd,
-                            capture_output=True, text=True, stdin=subprocess.DEVNULL)
-    if check is not None:
-        assert result.returncode == check, result.stdout + result.stderr
-    return result
 
 
 @pytest.fixture(scope="module")

@@ -4,8 +4,8 @@ import re
 import numpy as np
 import pytest
 
-from scripts.regen_golden import GOLDEN, golden_block
-from tests.test_cli import thermoplc
+from tests.golden_models import GOLDEN, golden_block
+from tests.cli_runner import thermoplc
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
 from thermoplc.machines.cascade import simulate

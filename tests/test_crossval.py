@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.test_cli import thermoplc
+from tests.cli_runner import thermoplc
 from thermoplc.base.errors import UserError
 from thermoplc.models import crossval
 from thermoplc.models.table import Table
@@ -75,7 +75,7 @@ def test_folds_exclude_a_training_part_and_a_count_out_of_range(tmp_path):
 
 
 def test_several_recordings_are_folds_of_their_own(tmp_path):
-    from scripts.regen_golden import batch_csvs
+    from tests.golden_models import batch_csvs
     paths = batch_csvs(tmp_path)
     data = [x for p in paths for x in ("--data", p.name)]
     thermoplc("fit", *data, "--model", "piecewise", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "--ambient",
@@ -94,7 +94,7 @@ def test_on_fl_thermal_forward_folds_show_the_spread_a_single_split_hides(tmp_pa
 
 
 def test_several_recordings_need_one_fold_each_and_no_copies(tmp_path):
-    from scripts.regen_golden import batch_csvs
+    from tests.golden_models import batch_csvs
     paths = batch_csvs(tmp_path)
     common = ("fit", "--model", "piecewise", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "--ambient",
               "T_env", "-o", "p.json")

@@ -4,8 +4,8 @@ import re
 import numpy as np
 import pytest
 
-from scripts.regen_golden import golden_block, golden_twin_csv
-from tests.test_cli import thermoplc
+from tests.golden_models import golden_block, golden_twin_csv
+from tests.cli_runner import thermoplc
 from thermoplc.generator.literals import real_literal
 from thermoplc.models.table import read_table
 from thermoplc.verifier.diff import diff_blocks
@@ -90,7 +90,7 @@ def test_an_added_statement_the_data_does_not_tell_apart_still_fails_the_diff(tm
 
 
 def test_retain_counts_in_every_dialect_and_literal_spelling_or_name_case_do_not(tmp_path):
-    from scripts.regen_golden import GOLDEN
+    from tests.golden_models import GOLDEN
     blocks = {}
     for dialect in ("iec", "tia"):
         for retain in ((), ("--retain",)):

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from scripts.regen_golden import DIALECTS, GOLDEN, KINDS, golden_block, golden_twin_csv
+from tests.golden_models import DIALECTS, GOLDEN, KINDS, golden_block, golden_twin_csv
 from tests.strategies import real_exprs
 from thermoplc.base.errors import UserError
 from thermoplc.generator.printer import DIALECTS as PRINTERS, _Printer

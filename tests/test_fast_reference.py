@@ -4,7 +4,7 @@ precisions; and the compiled loops carry no FMA or fast-math flag."""
 import numpy as np
 import pytest
 
-from scripts.regen_golden import GOLDEN, KINDS, golden_twin_csv
+from tests.golden_models import GOLDEN, KINDS, golden_twin_csv
 from thermoplc.models import kernels
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.reference import block_outputs, model_inputs

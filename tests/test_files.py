@@ -1,18 +1,17 @@
 """Issue 15: outputs never destroy a user's file. One overwrite rule, modes that follow the umask or
 the replaced file, all-or-nothing writes, and no temporary file left by SIGTERM or Ctrl-C."""
 import os
+import shlex
 import signal
 import subprocess
-import sys
 import time
-from pathlib import Path
 
 import pytest
 
+from tests.cli_runner import CLI, thermoplc
+from tests.golden_models import GOLDEN
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_output, check_report_folder, write_outputs
-
-PYTHON = [sys.executable, "-m", "thermoplc.cli"]
 
 
 def test_new_files_follow_the_umask_and_replaced_files_keep_their_mode(tmp_path):
@@ -55,7 +54,7 @@ def test_sigterm_while_writing_removes_the_temporary_files(tmp_path, monkeypatch
 
 def test_sigterm_during_a_long_twin_run_leaves_nothing_half_written(tmp_path):
     for delay in (0.5, 2.0):
-        process = subprocess.Popen([*PYTHON, "twin", "--hours", "3000", "-o", "big.csv"], cwd=tmp_path,
+        process = subprocess.Popen([*CLI, "twin", "--hours", "3000", "-o", "big.csv"], cwd=tmp_path,
                                    stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True)
         time.sleep(delay)
         process.send_signal(signal.SIGTERM)
@@ -70,7 +69,7 @@ def test_sigterm_during_a_long_twin_run_leaves_nothing_half_written(tmp_path):
 
 
 def test_ctrl_c_ends_quietly_with_130(tmp_path):
-    process = subprocess.Popen([*PYTHON, "twin", "--hours", "3000", "-o", "big.csv"], cwd=tmp_path,
+    process = subprocess.Popen([*CLI, "twin", "--hours", "3000", "-o", "big.csv"], cwd=tmp_path,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True)
     time.sleep(1.0)
     process.send_signal(signal.SIGINT)
@@ -80,11 +79,11 @@ def test_ctrl_c_ends_quietly_with_130(tmp_path):
 
 
 def test_a_closed_pipe_and_a_full_disk_end_without_a_traceback(tmp_path):
-    piped = subprocess.run(f"{sys.executable} -m thermoplc.cli --help | head -1", shell=True, cwd=tmp_path,
+    piped = subprocess.run(f"{shlex.join(CLI)} --help | head -1", shell=True, cwd=tmp_path,
                            capture_output=True, text=True)
     assert "Traceback" not in piped.stderr
     with open("/dev/full", "w") as full:
-        result = subprocess.run([*PYTHON, "twin", "--hours", "1", "-o", "t.csv"], cwd=tmp_path, stdout=full,
+        result = subprocess.run([*CLI, "twin", "--hours", "1", "-o", "t.csv"], cwd=tmp_path, stdout=full,
                                 stderr=subprocess.PIPE, text=True)
     assert result.returncode == 2 and "standard output: No space left on device" in result.stderr
     assert "Traceback" not in result.stderr
@@ -118,8 +117,7 @@ def test_outputs_onto_inputs_are_refused_even_through_another_path(tmp_path):
 
 
 def test_diagnose_report_is_replaced_only_in_its_own_files(tmp_path):
-    run = lambda *a: subprocess.run([*PYTHON, *a], cwd=tmp_path, capture_output=True, text=True,
-                                    stdin=subprocess.DEVNULL)
+    run = lambda *a: thermoplc(*a, cwd=tmp_path, check=None)
     assert run("twin", "--hours", "6", "--seed", "2", "-o", "t.csv").returncode == 0
     diagnose = ("diagnose", "--data", "t.csv", "--speed", "n_rpm", "--ambient", "T_env", "--temps", "T_motor",
                 "--target", "E_z_um", "--train-rows", "1500", "--report", "rep", "--json", "f.json", "-o", "m.json")
@@ -165,9 +163,8 @@ def test_the_interpreter_has_a_budget_for_the_whole_replay(tmp_path, monkeypatch
 
 def test_a_dash_is_standard_input_or_output_where_one_stream_makes_sense(tmp_path):
     """Issue 28 item 8: `-o -` and `--data -` named files called '-'."""
-    golden = Path(__file__).resolve().parent / "golden" / "mlr.json"
-    run = lambda *a, stdin=None: subprocess.run([*PYTHON, *a], cwd=tmp_path, capture_output=True, text=True,
-                                                input=stdin if stdin is not None else "")
+    golden = GOLDEN / "mlr.json"
+    run = lambda *a, stdin=None: thermoplc(*a, cwd=tmp_path, check=None, stdin=stdin)
     block = run("generate", golden, "-o", "-")
     assert block.returncode == 0 and block.stdout.startswith('FUNCTION_BLOCK "ThermalComp"')
     assert block.stderr.startswith("wrote standard output: mlr block") and not (tmp_path / "-").exists()

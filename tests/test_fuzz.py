@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from scripts.regen_golden import GOLDEN, golden_block
+from tests.golden_models import GOLDEN, golden_block
 from thermoplc.base.errors import UserError
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render

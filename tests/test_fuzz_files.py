@@ -15,7 +15,7 @@ from thermoplc.generator.lower import lower, prove
 from thermoplc.generator.printer import render
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.safety import Limits
-from tests.test_golden import GOLDEN
+from tests.golden_models import GOLDEN
 
 EXAMPLES = int(os.environ.get("THERMOPLC_FUZZ_EXAMPLES", "150"))
 KINDS = sorted(p.stem for p in GOLDEN.glob("*.json"))

@@ -8,7 +8,7 @@ import xml.etree.ElementTree as ET
 import pytest
 from blark.parse import parse_source_code
 
-from scripts.regen_golden import DIALECTS, GOLDEN, KINDS, golden_block, golden_twin_csv, rendered
+from tests.golden_models import DIALECTS, GOLDEN, KINDS, golden_block, golden_twin_csv, rendered
 from thermoplc.base.identifiers import identifier_problem
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.table import read_table

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.test_cli import thermoplc
+from tests.cli_runner import thermoplc
 from thermoplc.models import identify
 from thermoplc.models.simulation import Series, Shared
 
@@ -89,7 +89,7 @@ def test_diagnose_refuses_an_identified_baseline(tmp_path):
 def test_verify_refuses_a_block_with_a_filter_the_model_lacks(tmp_path):
     """A block constant the model has no counterpart for is a computation the model lacks, even
     where the replayed data cannot tell (a gain so small its correction rounds away)."""
-    from scripts.regen_golden import GOLDEN
+    from tests.golden_models import GOLDEN
     model = json.loads((GOLDEN / "lumped_identified.json").read_text())
     for name in [n for n in model["coefficients"] if n.startswith("KF_")]:
         del model["coefficients"][name]

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from scripts.regen_golden import GOLDEN, golden_block, golden_twin_csv
-from tests.test_cli import thermoplc
+from tests.golden_models import GOLDEN, golden_block, golden_twin_csv
+from tests.cli_runner import thermoplc
 from thermoplc.base.errors import UserError
 from thermoplc.models import table as table_module
 from thermoplc.models.table import read_table

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from tests.test_cli import thermoplc
+from tests.cli_runner import thermoplc
 from thermoplc.machines.cascade import simulate
 from thermoplc.models.leaks import leak_reason
 from thermoplc.models.table import write_table

@@ -3,8 +3,8 @@ import re
 
 import pytest
 
-from scripts.regen_golden import batch_csvs
-from tests.test_cli import thermoplc
+from tests.golden_models import batch_csvs
+from tests.cli_runner import thermoplc
 from thermoplc.base.binary32 import f32_bits, f32_from_bits
 from thermoplc.generator.literals import real_literal
 from thermoplc.models.modelfile import load_model

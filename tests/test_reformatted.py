@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from scripts.regen_golden import GOLDEN, golden_block, golden_twin_csv
+from tests.golden_models import GOLDEN, golden_block, golden_twin_csv
 from thermoplc.base.errors import UserError
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.table import read_table

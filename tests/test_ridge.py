@@ -9,7 +9,7 @@ from thermoplc.models import grey, ridge
 from thermoplc.models.fit import FitRequest, fit
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.table import read_table, write_table
-from tests.test_cli import thermoplc
+from tests.cli_runner import thermoplc
 
 
 def _drifting(rows: int, columns: int, seed: int, spread: float) -> np.ndarray:

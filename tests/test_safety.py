@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from scripts.regen_golden import GOLDEN, KINDS, golden_block, golden_twin_csv
-from tests.test_cli import thermoplc
+from tests.golden_models import GOLDEN, KINDS, golden_block, golden_twin_csv
+from tests.cli_runner import thermoplc
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
 from thermoplc.models.modelfile import load_model

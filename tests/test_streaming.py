@@ -8,7 +8,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from scripts.regen_golden import GOLDEN, golden_block, golden_twin_csv
+from tests.golden_models import GOLDEN, golden_block, golden_twin_csv
 from thermoplc.base.errors import UserError
 from thermoplc.models import kernels, table as table_module
 from thermoplc.models.modelfile import load_model

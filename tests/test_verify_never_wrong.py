@@ -3,9 +3,8 @@ case found by a hostile review: injection past the parser, values compared by th
 engines that disagree on integers, integer constants that overflow, NaN through the limiter,
 names that collide, a planted native library."""
 import json
-import os
 import subprocess
-import sys
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -15,14 +14,11 @@ from thermoplc.base.binary32 import f32_hex
 from thermoplc.base.identifiers import identifier_problem
 from thermoplc.models.table import write_table
 from thermoplc.verifier.parser import StSyntaxError, parse_text
-from tests.test_golden import GOLDEN
+from tests.cli_runner import thermoplc as run_cli
+from tests.golden_models import GOLDEN
 
 HERE = Path(__file__).parent
-
-
-def thermoplc(*args, cwd: Path, env: dict | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "thermoplc.cli", *map(str, args)], cwd=cwd, capture_output=True,
-                          text=True, stdin=subprocess.DEVNULL, env={**os.environ, **(env or {})})
+thermoplc = partial(run_cli, check=None)  # every test here reads the exit code itself
 
 
 @pytest.fixture(scope="module")

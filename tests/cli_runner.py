@@ -1,0 +1,28 @@
+"""The command line as a user runs it: `python -m thermoplc.cli ...` in a child process, in a folder.
+
+Every test that runs the CLI goes through `thermoplc`; a test that needs the process itself
+(signals, a shell pipe, stdout onto a device) starts `CLI` with its own subprocess call.
+"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+CLI = (sys.executable, "-m", "thermoplc.cli")
+
+
+def thermoplc(*args, cwd: Path, check: int | None = 0, stdin: str | None = None, env: dict | None = None,
+              timeout: float | None = None) -> subprocess.CompletedProcess:
+    """Run the CLI with `args` (each passed through str) in `cwd`, output captured as text.
+
+    check: the exit code asserted (None: not checked). stdin: text fed to standard input (otherwise
+    it is /dev/null). env: variables set on top of this process's environment.
+    """
+    result = subprocess.run([*CLI, *map(str, args)], cwd=cwd, capture_output=True, text=True, timeout=timeout,
+                            input=stdin, stdin=subprocess.DEVNULL if stdin is None else None,
+                            env=None if env is None else {**os.environ, **env})
+    if check is not None:
+        assert result.returncode == check, result.stdout + result.stderr
+    return result

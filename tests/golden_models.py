@@ -1,0 +1,47 @@
+"""The golden models the tests (and benchmarks) read: tests/golden/<kind>.json, their blocks in every
+dialect, and the twin data they were fitted on. `python scripts/regen_golden.py` rewrites the blocks
+(and with --refit the model files) from these same definitions.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from thermoplc.base.version import __version__
+from thermoplc.generator.lower import lower
+from thermoplc.generator.printer import DIALECTS as PRINTER_DIALECTS, render, render_plcopen
+from thermoplc.machines.cascade import simulate
+from thermoplc.models.modelfile import load_model
+from thermoplc.models.table import write_table
+
+GOLDEN = Path(__file__).resolve().parent / "golden"
+TWIN = {"hours": 12, "seed": 7}
+BATCH_AMBIENTS_C = (14.0, 19.0, 26.0, 31.0)  # piecewise library batches, one per node region
+KINDS = ("mlr", "kalman", "piecewise", "dlag", "gm0n", "gm1n", "bayes", "bpnn", "lumped", "lumped_identified")
+DIALECTS = tuple(PRINTER_DIALECTS)
+
+
+def golden_twin_csv(folder: Path) -> Path:
+    path = folder / "golden_twin.csv"
+    path.write_text(write_table(simulate(TWIN["hours"], seed=TWIN["seed"])))
+    return path
+
+
+def batch_csvs(folder: Path) -> list[Path]:
+    """Short runs started at different ambient temperatures (the piecewise model's batches)."""
+    paths = []
+    for k, ambient in enumerate(BATCH_AMBIENTS_C):
+        path = folder / f"batch_{ambient:g}C.csv"
+        path.write_text(write_table(simulate(8, seed=20 + k, ambient_start=ambient)))
+        paths.append(path)
+    return paths
+
+
+def golden_block(kind: str, dialect: str) -> Path:
+    """tests/golden/<kind>.<dialect><suffix>; dialect 'plcopen' is the iec block as PLCopen XML."""
+    suffix = ".xml" if dialect == "plcopen" else PRINTER_DIALECTS[dialect].suffix
+    return GOLDEN / f"{kind}.{dialect}{suffix}"
+
+
+def rendered(kind: str, dialect: str) -> str:
+    block = lower(load_model(GOLDEN / f"{kind}.json"))
+    return render_plcopen(block, __version__) if dialect == "plcopen" else render(block, dialect)
