@@ -10,13 +10,15 @@ from thermoplc.base.version import __version__
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import DIALECTS as PRINTER_DIALECTS, render, render_plcopen
 from thermoplc.machines.cascade import simulate
+from thermoplc.models.kinds import names as kind_names
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.table import write_table
 
 GOLDEN = Path(__file__).resolve().parent / "golden"
 TWIN = {"hours": 12, "seed": 7}
 BATCH_AMBIENTS_C = (14.0, 19.0, 26.0, 31.0)  # piecewise library batches, one per node region
-KINDS = ("mlr", "kalman", "piecewise", "dlag", "gm0n", "gm1n", "bayes", "bpnn", "lumped", "lumped_identified")
+# every kind of the registry, and the lumped model as `fit` identifies it (the `lumped` golden is diagnose's)
+KINDS = (*kind_names(), "lumped_identified")
 DIALECTS = tuple(PRINTER_DIALECTS)
 
 
