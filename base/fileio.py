@@ -1,4 +1,4 @@
-"""Output files, by one rule anyone can predict (README "Files thermoplc writes"):
+"""Output files, by one rule anyone can predict (docs/reliability.md, "Nothing is lost"):
 
 - `-o FILE` never replaces an existing file unless `--force`;
 - never writes onto an input of the same command, even with `--force`;

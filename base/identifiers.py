@@ -1,4 +1,4 @@
-"""Identifier rules of DESIGN §4.6, applied to every name that reaches emitted ST: one neutral module
+"""Identifier rules of numeric contract rule 6, applied to every name that reaches emitted ST: one neutral module
 that the models (checking a model file) and the generator (checking a block) both read."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Find the missing effect (DESIGN §8): fit, compare, test each named effect, keep what is supported.
+"""Find the missing effect (docs/diagnosis.md): fit, compare, test each named effect, keep what is supported.
 
 An effect is kept only when both judges agree: the information criterion on the training part
 (BIC, Gaussian with one variance per channel, falls by more than `BIC_MARGIN`, also with each

@@ -27,7 +27,7 @@ class BoolConst:
 @dataclass(frozen=True)
 class IntConst:
     """An INT literal: only as an array index, a loop bound or a value given to an INT variable
-    (integer arithmetic is exact, so DESIGN §4.2 does not apply)."""
+    (integer arithmetic is exact, so numeric contract rule 2 does not apply)."""
     value: int
 
 

@@ -1,4 +1,4 @@
-"""The one function that prints REAL literals (DESIGN §4.3).
+"""The one function that prints REAL literals (numeric contract rule 3).
 
 A literal must name the same binary32 whether a compiler parses it straight to binary32 or
 parses it to binary64 first and rounds again, and it should be the shortest text doing so,

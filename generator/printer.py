@@ -141,7 +141,7 @@ class _Printer:
 
 
 def validate(block: Block) -> None:
-    """Refuse a block that breaks DESIGN §4.2/§4.6: bad or duplicate names, undeclared references,
+    """Refuse a block that breaks numeric contract rules 2 and 6, docs/numeric_contract.md: bad or duplicate names, undeclared references,
     non-portable functions, assignments to inputs or constants."""
     sections = (block.inputs, block.outputs, block.statics, block.temps)
     declared = {v.name: v for group in sections for v in group}
@@ -161,7 +161,7 @@ def validate(block: Block) -> None:
         if isinstance(e, BinOp) and e.op in "+-*/" and any(isinstance(x, IntConst) for x in (e.left, e.right)):
             raise GenerationError(f"integer literal inside arithmetic ({e.op}); declare a named INT constant")
         if isinstance(e, Call) and e.func not in PORTABLE_FUNCTIONS:
-            raise GenerationError(f"{e.func} is not a portable operation (DESIGN §4.4)")
+            raise GenerationError(f"{e.func} is not a portable operation (numeric contract rule 4)")
     writable = {v.name for group in (block.outputs, block.statics, block.temps) for v in group if v.initial is None}
     for target in assigned_names(body):
         if target not in writable:

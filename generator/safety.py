@@ -1,4 +1,4 @@
-"""Wrap a model's block in the safety logic of DESIGN §6: input guards, start gate, output limiter.
+"""Wrap a model's block in the safety logic of docs/reliability.md: input guards, start gate, output limiter.
 
 Knows the IR, not the models: the caller says how each input is guarded (models/safety.py) and
 which outputs carry a K0. The statements mirror models/safety.py operation for operation.

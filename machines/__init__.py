@@ -1,4 +1,4 @@
-"""Synthetic machines with known truth (DESIGN §7): tests, demos and benchmarks run on them.
+"""Synthetic machines with known truth (docs/diagnosis.md): tests, demos and benchmarks run on them.
 
 Each machine is a module with NAME, DESCRIPTION, SENSORS (its temperature columns), DIAGNOSED
 (the ones a diagnosis is given), COOLANT_SENSOR (the node the coolant relay reads),

@@ -1,4 +1,4 @@
-"""The synthetic machine (DESIGN §7): a lumped-mass network whose truth is known.
+"""The synthetic machine (docs/diagnosis.md): a lumped-mass network whose truth is known.
 
 Nodes: spindle motor and front bearing (heated by the spindle speed, cooled to ambient, each a
 first-order lumped mass as in paper 000 eq. 4), the ram structure (fed by the motor and bearing

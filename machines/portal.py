@@ -1,4 +1,4 @@
-"""A gantry/portal milling machine with a vertical ram: the second synthetic machine (DESIGN §7).
+"""A gantry/portal milling machine with a vertical ram: the second synthetic machine (docs/diagnosis.md).
 
 Written apart from the cascade machine so that a diagnosis tuned on one is judged on the other.
 What differs: three measured nodes (front spindle bearing, headstock gearbox, crossbeam surface)
@@ -7,7 +7,7 @@ a crossbeam that bends the tool *up* (negative µm/K), a random speed schedule o
 range (200-4000 rpm, both sides of paper 000's 750 rpm), a feed-rate column, and a workshop
 whose heating schedule (night setback, warm-up ramp, door openings, slow wander) is no sine.
 
-What stays inside paper 000's class (DESIGN §8) when no effect is on: each measured temperature
+What stays inside paper 000's class (docs/diagnosis.md) when no effect is on: each measured temperature
 is exactly eq. 4's first-order lag of ambient + gain·speed, T[j] = a·T[j-1] + (1 − a)·u[j] with
 a = exp(−dt/τ) (the exact step for an input held over the sample), and the displacement is linear
 in the measured temperatures plus the ram node (eq. 10/16 through a structure lag). Every named

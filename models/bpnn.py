@@ -5,7 +5,7 @@ outputs scaled back to their units (axial elongation um, yaw and pitch tilt urad
 hidden activation is tanh approximated by the Pade (7,6) rational function on a clipped input:
     act(x) = r(min(max(x, -4.97), 4.97)),  r(x) = x*(1 + p1 x^2 + p2 x^4 + p3 x^6)/(1 + q1 x^2 + q2 x^4 + q3 x^6)
 with |act(x) - tanh(x)| <= 9.6e-5 for every x (measured on a 1e-5 grid over [0, 8]); only
-+ - * / MIN MAX, so the block is portable (DESIGN §4.4). Training uses this same function, so the
++ - * / MIN MAX, so the block is portable (numeric contract rule 4). Training uses this same function, so the
 fitted network is the one the block computes.
 
 A genetic algorithm with paper 002's operators (roulette, single-point crossover, one mutated

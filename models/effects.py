@@ -1,4 +1,4 @@
-"""The named physical effects (DESIGN §7-8): one list shared by the twin and the diagnosis.
+"""The named physical effects (docs/diagnosis.md): one list shared by the twin and the diagnosis.
 
 The twin switches an effect on with its parameters (`--effect NAME[:key=value,...]`); the
 diagnosis tests each name as an extension of the lumped-mass simulation. Names are the

@@ -1,4 +1,4 @@
-"""What every block does around its model so that it is safe on a machine (DESIGN §6).
+"""What every block does around its model so that it is safe on a machine (docs/reliability.md).
 
 Input guards: a reading that is NaN or outside its range (a broken PT100 reads 3276.7 or -3276.8)
 or, for temperatures, jumps by more than a limit in one call marks its sensor faulty; the block

@@ -42,8 +42,6 @@ def savgol_filter(*args, **kwargs):  # scipy on first use: verify never fits, an
     return function(*args, **kwargs)
 
 
-SENSOR_EFFECTS = ("gear_ratio_switch", "coolant_switching", "nonlinear_speed_heat", "sensor_offset",
-                  "sensor_drift", "stop_convection")
 DISPLACEMENT_EFFECTS = ("slow_structure", "ambient_coupling", "feed_axis_heat")
 PER_SENSOR = ("sensor_offset", "sensor_drift", "coolant_switching")  # tried on each sensor in turn
 TABLE_SEGMENTS = 16

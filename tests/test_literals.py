@@ -1,4 +1,4 @@
-"""DESIGN §4.3: a literal names the same binary32 by both parse routes and is as short as possible."""
+"""numeric contract rule 3: a literal names the same binary32 by both parse routes and is as short as possible."""
 import math
 
 import numpy as np

@@ -361,7 +361,7 @@ class Machine:
     def _operand(self, e, where: str):
         fn, kind = self._expr(e)
         if isinstance(e, s.RealLit):
-            self._note("literal", e.pos, f"REAL literal {e.text} inside {where} (DESIGN §4.2: use a named constant)",
+            self._note("literal", e.pos, f"REAL literal {e.text} inside {where} (numeric contract rule 2: use a named constant)",
                        runtime=False)
         return fn, kind
 
@@ -416,7 +416,7 @@ class Machine:
             f0, f1 = fns
             pick = min if e.func == "MIN" else max
             return (lambda v: pick(f0(v), f1(v))), "REAL"
-        self._note("non-portable", e.pos, f"{e.func} is not correctly rounded on every PLC (DESIGN §4.4)", runtime=False)
+        self._note("non-portable", e.pos, f"{e.func} is not correctly rounded on every PLC (numeric contract rule 4)", runtime=False)
         ufunc = NON_PORTABLE_FUNCTIONS[e.func]
         f0 = fns[0]
 
@@ -461,7 +461,7 @@ class Machine:
         if op == "/":
             return (lambda v: rnd(_divide(lf(v), rf(v)))), "REAL"
         if op == "**":
-            self._note("non-portable", e.pos, "'**' is not correctly rounded on every PLC (DESIGN §4.4)", runtime=False)
+            self._note("non-portable", e.pos, "'**' is not correctly rounded on every PLC (numeric contract rule 4)", runtime=False)
 
             def power(v):
                 with np.errstate(all="ignore"):

@@ -107,7 +107,8 @@ class Report:
                 when = f", {f.count} time(s) from cycle {f.first_cycle}" if f.first_cycle is not None else ""
                 lines.append(f"    {self.block}:{f.pos[0]}:{f.pos[1]}: {f.detail}{when}")
         if any(f.kind in ("non-portable", "literal") for f in self.findings):
-            lines.append("  WARNING: the proof does not carry over to a PLC for the places listed above (DESIGN §4.2, §4.4)")
+            lines.append("  WARNING: the proof does not carry over to a PLC for the places listed above (numeric contract "
+                         "rules 2 and 4, docs/numeric_contract.md)")
         rate = self.cycles / self.seconds if self.seconds > 0 else float("inf")
         engine = "fast engine (compiled C)" if self.engine == "fast" else "interpreter"
         lines.append(f"  replay: {self.seconds:.2f} s, {rate:,.0f} cycles/s, {engine}")
