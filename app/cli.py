@@ -14,10 +14,6 @@ from pathlib import Path
 
 from thermoplc.base.version import __version__
 from thermoplc.base.errors import UserError
-from thermoplc.machines import DEFAULT as DEFAULT_MACHINE, MACHINES as MACHINE_NAMES
-from thermoplc.models.effects import NAMES as EFFECT_NAMES
-from thermoplc.models.bayes import UNSEEN_RULES
-from thermoplc.models.kinds import names as kind_names
 from thermoplc.base.fileio import REPORT_MANIFEST, check_output, check_report_folder, write_atomic
 
 
@@ -508,6 +504,11 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    # the choices come from the packages: imported here, inside main's handling of Ctrl-C
+    from thermoplc.machines import DEFAULT as DEFAULT_MACHINE, MACHINES as MACHINE_NAMES
+    from thermoplc.models.bayes import UNSEEN_RULES
+    from thermoplc.models.effects import NAMES as EFFECT_NAMES
+    from thermoplc.models.kinds import names as kind_names
     parser = _Parser(prog="thermoplc", description=__doc__.splitlines()[0] if __doc__ else None)
     parser.add_argument("--version", action="version", version=f"thermoplc {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)

@@ -5,6 +5,7 @@ import shlex
 import signal
 import subprocess
 import time
+from pathlib import Path
 
 import pytest
 
@@ -71,7 +72,12 @@ def test_sigterm_during_a_long_twin_run_leaves_nothing_half_written(tmp_path):
 def test_ctrl_c_ends_quietly_with_130(tmp_path):
     process = subprocess.Popen([*CLI, "twin", "--hours", "3000", "-o", "big.csv"], cwd=tmp_path,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True)
-    time.sleep(1.0)
+    # Ctrl-C while the command works, not while the interpreter itself starts (on a loaded machine that
+    # takes seconds): wait until the process has loaded numpy, which the CLI imports inside its handling
+    maps = Path(f"/proc/{process.pid}/maps")
+    deadline = time.monotonic() + 60
+    while process.poll() is None and time.monotonic() < deadline and "_multiarray_umath" not in maps.read_text():
+        time.sleep(0.05)
     process.send_signal(signal.SIGINT)
     _, err = process.communicate(timeout=120)
     assert process.returncode == 130 and "Traceback" not in err and "interrupted" in err
