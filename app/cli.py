@@ -503,12 +503,26 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"thermoplc: error: {message} (see {self.prog} --help)\n")
 
 
+class _KindChoices:
+    """`fit --model`'s choices, found when first asked: finding the kinds imports every model (numba
+    included), which `--version`, `twin` or `diff` do not need."""
+
+    def _all(self) -> tuple[str, ...]:
+        from thermoplc.models.kinds import names
+        return (*names(), "auto")
+
+    def __contains__(self, value) -> bool:
+        return value in self._all()
+
+    def __iter__(self):
+        return iter(self._all())
+
+
 def build_parser() -> argparse.ArgumentParser:
     # the choices come from the packages: imported here, inside main's handling of Ctrl-C
     from thermoplc.machines import DEFAULT as DEFAULT_MACHINE, MACHINES as MACHINE_NAMES
     from thermoplc.models.bayes import UNSEEN_RULES
     from thermoplc.models.effects import NAMES as EFFECT_NAMES
-    from thermoplc.models.kinds import names as kind_names
     parser = _Parser(prog="thermoplc", description=__doc__.splitlines()[0] if __doc__ else None)
     parser.add_argument("--version", action="version", version=f"thermoplc {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -542,7 +556,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("fit", help="fit a thermal-error model to a CSV file")
     p.add_argument("--data", required=True, action="append",
                    help="CSV file; repeat for piecewise (one file per batch, initial ambient read from each)")
-    p.add_argument("--model", choices=(*kind_names(), "auto"), required=True,
+    p.add_argument("--model", choices=_KindChoices(), metavar="KIND", required=True,
                    help="kalman (paper 000), lumped, mlr, dlag and piecewise (paper 001), bpnn (paper 002), gm0n and "
                         "gm1n (paper 003), bayes (paper 004); auto: every kind the given roles allow on sensor "
                         "sets from --temps (forward selection and fcm-grey), ranked by held-out RMSE, the best written")

@@ -7,9 +7,10 @@ from dataclasses import dataclass
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.version import __version__
+from thermoplc.contract.constants import expected
 from thermoplc.generator.ir import Block, Identity
 from thermoplc.generator.lower import lower, model_identity, prove
-from thermoplc.generator.printer import GenerationError, render, render_instance_db, render_plcopen
+from thermoplc.generator.printer import DIALECTS, GenerationError, render, render_instance_db, render_plcopen
 from thermoplc.generator.ranges import RangeProof
 from thermoplc.models.acceptance import problem, quantisation_problem
 from thermoplc.models.modelfile import Model
@@ -17,7 +18,6 @@ from thermoplc.models.safety import Limits
 from thermoplc.verifier.parser import parse_text
 from thermoplc.verifier.stress import StressResult, stress
 
-DIALECTS = ("tia", "step7", "iec")
 
 
 @dataclass(frozen=True)
@@ -52,6 +52,8 @@ def generate(model: Model, source: str = "model", limits: Limits = Limits(), dia
     """The block for `model` as text of `dialect` (PLCopen XML around the iec dialect with `plcopen`),
     or a UserError naming `source` (the model file) when any check refuses it; `output` names the
     text in what the stress replay reports."""
+    if dialect not in DIALECTS:
+        raise UserError(f"dialect {dialect!r}: expected one of {', '.join(DIALECTS)}")
     if plcopen and dialect != "iec":
         raise UserError("--format plcopen wraps the iec dialect; add --dialect iec")
     if instance_db is not None and dialect != "step7":
@@ -67,6 +69,11 @@ def generate(model: Model, source: str = "model", limits: Limits = Limits(), dia
         raise UserError(f"{source}: cannot generate a block: {exc}") from None
     except UserError as exc:  # a coefficient the kind needs is missing
         raise UserError(str(exc).replace("model file:", f"{source}:", 1)) from None
+    written = [c.name for c in block.constants] + [v.name for v in block.statics if v.initial is not None]
+    unused = expected(model, limits, written)[2]
+    if unused:  # verify would find them in no constant or table: the file is not what its kind writes
+        raise UserError(f"{source}: field 'coefficients': {', '.join(unused[:5])}{' ...' if len(unused) > 5 else ''} "
+                        f"not used by a {model.kind} model; was the file edited, or its 'kind' changed?")
     proof = prove(model, block, limits)
     if proof.problems:
         more = f" (and {len(proof.problems) - 3} more)" if len(proof.problems) > 3 else ""

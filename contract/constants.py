@@ -12,11 +12,11 @@ import re
 
 from thermoplc.base.binary32 import round_f32
 from thermoplc.models.modelfile import Model
-from thermoplc.models.safety import Limits
+from thermoplc.models.safety import Limits, guards
 
 CONSTANT_PREFIX = "c_"
 TABLE_PREFIX = "tab_"
-_TABLE = re.compile(r"tab_([A-Za-z][A-Za-z0-9]*)(?:_(\d+))?\Z")
+_TABLE = re.compile(r"tab_([A-Za-z][A-Za-z0-9]*)(?:_(\d+))?\Z", re.IGNORECASE)  # ST names ignore case
 
 
 def constant_name(coefficient: str) -> str:
@@ -29,12 +29,28 @@ def table_coefficients(model: Model, table: str) -> tuple[str, ...] | None:
     if not match:
         return None
     stem, sensor = match.group(1), match.group(2)
-    prefix = stem[0].lower() + stem[1:] + (f"_{sensor}" if sensor else "") + "_"
-    first = 0 if f"{prefix}0" in model.coefficients else 1
+    prefix = (stem + (f"_{sensor}" if sensor else "") + "_").lower()
+    known = {name.lower(): name for name in model.coefficients}
+    first = 0 if f"{prefix}0" in known else 1
     names = []
-    while f"{prefix}{first + len(names)}" in model.coefficients:
-        names.append(f"{prefix}{first + len(names)}")
+    while f"{prefix}{first + len(names)}" in known:
+        names.append(known[f"{prefix}{first + len(names)}"])
     return tuple(names) or None
+
+
+def required(model: Model) -> set[str]:
+    """The constants every block of this model declares whatever its coefficients: the structure,
+    each guard's range, the jump and settle rule of a held temperature, the output limiter and the
+    K0 factor of an output in um. A block without one of them computes with something else."""
+    names = set(structure(model)) | {"c_StepMax", "c_StepMin", "c_OutMax", "c_OutMin", "c_RealMax"}
+    for guard in guards(model):
+        names |= {guard.low, guard.high}
+        if guard.kind == "temperature":
+            names |= {"c_JumpMax", "c_OneCall", "c_SettleCalls"}
+    units = {model.target.unit} | {t["unit"] for t in model.settings.get("targets", ())}
+    if "um" in units:
+        names.add("c_K0_mm")
+    return names
 
 
 def structure(model: Model) -> dict:

@@ -39,3 +39,14 @@ def test_a_table_reads_its_coefficients_in_order_from_zero_or_one():
     assert table_coefficients(model, "tab_Nothing") is None and table_coefficients(model, "c_beta0") is None
     piecewise = load_model(GOLDEN / "piecewise.json")
     assert table_coefficients(piecewise, "tab_Beta_2")[0] == "beta_2_1"
+
+
+@pytest.mark.parametrize("kind", MODELS)
+def test_the_required_constants_are_exactly_the_ones_no_coefficient_gives(kind):
+    """What `required` demands is what the generator writes beside the coefficients: a block that
+    drops one (a limit written as a literal) is refused, and no block of ours lacks one."""
+    from thermoplc.contract.constants import required
+    model = load_model(GOLDEN / f"{kind}.json")
+    block = lower(model, Limits())
+    coefficients = {f"c_{name}" for name in model.coefficients}
+    assert {c.name for c in block.constants} - coefficients == required(model)

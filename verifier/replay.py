@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from thermoplc.base.binary32 import f32_bits, f32_hex, is_subnormal, ulp_distance
-from thermoplc.contract.constants import TABLE_PREFIX, constant_name, expected
+from thermoplc.contract.constants import TABLE_PREFIX, constant_name, expected, required
 from thermoplc.base.errors import UserError
 from thermoplc.models.fit import SAMPLING_TOLERANCE, sample_period
 from thermoplc.models.modelfile import Model
@@ -267,14 +267,26 @@ def compare_constants(program: Program, model: Model, limits: Limits) -> tuple[i
     Replay proves behaviour on the data; table entries the data never reaches (a Bayes
     configuration never seen, an edge no sample lies next to) are only covered by this check.
     """
+    # a constant, or any initialised declaration but an input's start value (the tables), is model data
     decls = {d.name: d for d in program.decls
-             if d.section == "constant" or d.name.upper().startswith(TABLE_PREFIX.upper()) and d.initial is not None}
+             if d.section == "constant" or d.initial is not None and d.section != "input"}
     wanted, unknown, missing = expected(model, limits, list(decls))
+    sections = {d.name.upper(): d.section for d in program.decls}
     errors, checked = [], 0
+    for name in sorted(required(model)):
+        section = sections.get(name.upper())
+        if section is None:
+            errors.append(f"{name}: missing from the block (every block of this model declares it)")
+        elif section != "constant":
+            errors.append(f"{name}: declared as {section}, but it is a constant of every block of this model")
     for name, values in wanted.items():
         decl = decls[name]
         found = decl.initial if isinstance(decl.initial, tuple) else (decl.initial,)
-        if len(found) != len(values):
+        bounds = decl.type.bounds
+        if decl.section != "constant" and not name.upper().startswith(TABLE_PREFIX.upper()):
+            errors.append(f"{name}: declared as {decl.section}, but the model's value is a constant")
+            continue
+        if len(found) != len(values) or bounds and bounds[1] - bounds[0] + 1 != len(values):
             errors.append(f"{name}: {len(found)} values in the block, the model has {len(values)}")
             continue
         for k, (got, want) in enumerate(zip(found, values)):
@@ -289,11 +301,13 @@ def compare_constants(program: Program, model: Model, limits: Limits) -> tuple[i
                               f"({ulp_distance(got, want) if isinstance(got, float) else '?'} ULP)")
     # a constant the model does not have is a computation it does not have (a filter gain, an extra
     # term), which data may not reach: the block is not the model's
-    errors += [f"{name}: declared in the block, but the model has no such constant" for name in unknown]
+    errors += [f"{name}: declared in the block, but the model has no such constant"
+               + ("" if decls[name].section == "constant" else " or table") for name in unknown]
     if missing:
         shown = ", ".join(constant_name(k) for k in missing[:5]) + (f" and {len(missing) - 5} more" if len(missing) > 5 else "")
         errors.append(f"{shown}: missing from the block (the model's coefficients {', '.join(missing[:5])}"
-                      f"{' ...' if len(missing) > 5 else ''} are in no constant or table)")
+                      f"{' ...' if len(missing) > 5 else ''} are in no constant or table; a model file with "
+                      f"coefficients its kind does not use is refused by generate)")
     return checked, tuple(errors)
 
 
