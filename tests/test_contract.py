@@ -50,3 +50,42 @@ def test_the_required_constants_are_exactly_the_ones_no_coefficient_gives(kind):
     block = lower(model, Limits())
     coefficients = {f"c_{name}" for name in model.coefficients}
     assert {c.name for c in block.constants} - coefficients == required(model)
+
+
+def _edited(text: str, edit: str) -> str:
+    """A hand edit of the golden bayes block that the twin's data never exposes."""
+    if edit == "limit written as a literal":
+        text = text.replace("    c_TempMax : REAL := 150.0;", "", 1)
+        return text.replace("c_TempMax", "200.0")
+    if edit == "limit moved to a static":
+        text = text.replace("    c_TempMax : REAL := 150.0;", "", 1)
+        return text.replace("\nVAR\n", "\nVAR\n    c_TempMax : REAL := 200.0;\n", 1)
+    if edit == "reset value moved to a static":
+        text = text.replace("    c_Zero : REAL := 0.0;", "", 1)
+        return text.replace("\nVAR\n", "\nVAR\n    c_Zero : REAL := 0.5;\n", 1)
+    if edit == "settle count written as a literal":
+        text = text.replace("    c_OneCall : INT := 1;", "", 1)
+        return text.replace("+ c_OneCall", "+ 2")
+    if edit == "a shadow table":
+        return text.replace("\nVAR\n", "\nVAR\n    tab_Shadow : ARRAY[0..1] OF REAL := [1.0, 2.0];\n", 1)
+    raise ValueError(edit)
+
+
+@pytest.mark.parametrize("edit", ["limit written as a literal", "limit moved to a static",
+                                  "reset value moved to a static", "settle count written as a literal",
+                                  "a shadow table"])
+def test_verify_refuses_a_block_whose_constants_left_their_place(edit, tmp_path):
+    """Found by a hostile review: with only declared constants compared, these passed as bit-exact."""
+    from tests.golden_models import golden_twin_csv
+    from thermoplc.models.table import read_table
+    from thermoplc.verifier.replay import verify_against_model
+    original = (GOLDEN / "bayes.iec.st").read_text()
+    edited = _edited(original, edit)
+    assert edited != original
+    block = tmp_path / "edited.st"
+    block.write_text(edited)
+    model = load_model(GOLDEN / "bayes.json")
+    table = read_table(golden_twin_csv(tmp_path))
+    report = verify_against_model(str(block), model, "bayes.json", table)
+    assert not report.ok and report.constant_errors
+    assert verify_against_model(str(GOLDEN / "bayes.iec.st"), model, "bayes.json", table).ok
