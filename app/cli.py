@@ -293,17 +293,16 @@ def cmd_generate(args) -> int:
                        version=args.block_version or identity.version)
     generated = generate(model, args.model, limits, args.dialect, args.format == "plcopen", identity, args.retain,
                          args.instance_db, args.accept_unvalidated, args.output)
-    text, block, proof, stressed, unvalidated = (generated.text, generated.block, generated.proof, generated.stressed,
-                                                 generated.unvalidated)
+    block, proof, stressed = generated.block, generated.proof, generated.stressed
     if to_stdout:
-        sys.stdout.write(text)
+        sys.stdout.write(generated.text)
     else:
-        write_atomic(args.output, text)
+        write_atomic(args.output, generated.text)
     say(f"wrote {'standard output' if to_stdout else args.output}: {model.kind} block {model.block_name!r}, dialect {args.dialect}"
           f"{', PLCopen XML' if args.format == 'plcopen' else ''}, model fingerprint {model.fingerprint()}")
     say(f"  outputs within +-{limits.max_output:g}, at most {limits.max_step:g} per call; temperatures "
           f"{limits.temp_min_C:g}..{limits.temp_max_C:g} degC, jump {limits.max_jump_K:g} K per call")
-    say("  " + (f"NOT VALIDATED (--accept-unvalidated): {unvalidated}" if unvalidated
+    say("  " + (f"NOT VALIDATED (--accept-unvalidated): {generated.unvalidated}" if generated.unvalidated
                   else f"accepted on {evidence(model).summary()}"))
     if args.stats:
         from thermoplc.generator.stats import block_stats, format_stats

@@ -12,7 +12,7 @@ import re
 
 from thermoplc.base.binary32 import round_f32
 from thermoplc.models.modelfile import Model
-from thermoplc.models.safety import Limits, guards
+from thermoplc.models.safety import Limits, axis_outputs, guards
 
 CONSTANT_PREFIX = "c_"
 TABLE_PREFIX = "tab_"
@@ -47,8 +47,7 @@ def required(model: Model) -> set[str]:
         names |= {guard.low, guard.high}
         if guard.kind == "temperature":
             names |= {"c_JumpMax", "c_OneCall", "c_SettleCalls"}
-    units = {model.target.unit} | {t["unit"] for t in model.settings.get("targets", ())}
-    if "um" in units:
+    if axis_outputs(model, [model.target.name, *(t["name"] for t in model.settings.get("targets", ()))]):
         names.add("c_K0_mm")
     return names
 

@@ -179,7 +179,7 @@ SETTINGS_SCHEMA = {
                    "unseen": {"enum": list(UNSEEN_RULES)},
                    "time_parent": {"type": "boolean"}}}
 
-KIND = Kind("bayes", 7, _fit, predict, owns_options=(("time_bins", "--time-bins"),),
+KIND = Kind("bayes", 7, _fit, predict, owns_options=(("time_bins", "--time-bins is"),),
             several_files=lambda request: request.time_bins > 0,
             several_files_text="bayes with --time-bins one file per repeated run", auto="closed-form",
             settings_schema=SETTINGS_SCHEMA, check_settings=check_settings,

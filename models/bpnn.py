@@ -281,6 +281,6 @@ SETTINGS_SCHEMA = {
                                                         "column": {"type": "string"},
                                                         "unit": {"enum": ["um", "urad"]}}}}}}
 
-KIND = Kind("bpnn", 8, _fit, predict, owns_options=(("extra_targets", "several targets"),
-                                                   ("tool_length", "--tool-length")),
+KIND = Kind("bpnn", 8, _fit, predict, owns_options=(("extra_targets", "several targets are"),
+                                                   ("tool_length", "--tool-length is")),
             auto="iterative", settings_schema=SETTINGS_SCHEMA, check_settings=check_settings)

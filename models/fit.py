@@ -85,7 +85,7 @@ def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
     for owner in registry().values():
         for option, text in owner.owns_options:
             if getattr(request, option) and owner.name != request.kind:
-                raise UserError(f"{text} {'are' if text.startswith('several') else 'is'} for --model {owner.name} only")
+                raise UserError(f"{text} for --model {owner.name} only")
     if request.tool_length:
         signals.append(Signal(block_identifier(request.tool_length, "tool length"), request.tool_length,
                               "tool_length", "mm"))

@@ -3,7 +3,7 @@ streaming, auto) needs to know about a kind, declared once in the kind's own mod
 
 A kind module ends with `KIND = Kind(...)` (grey.py declares two); `models/kinds.py` finds them.
 The block lowering is the generator's side of the same kind and is registered there
-(`generator/lower_*.py::LOWERINGS`), so the models know nothing of ST.
+(`generator/lower_*.py::LOWERINGS`), so the models import nothing of the generator.
 """
 from __future__ import annotations
 
@@ -51,7 +51,8 @@ class Kind:
     # predictor takes the per-call validity of each temperature, and no hold is put in front of it
     fused_guards: bool = False
     ambient_apart: bool = False  # the ambient drives every temperature, so it may not be one of them
-    owns_options: tuple[str, ...] = ()  # FitRequest fields no other kind may set: (field, option text)
+    # FitRequest fields no other kind may set: (field, what the error says of it, with its verb)
+    owns_options: tuple[tuple[str, str], ...] = ()
     several_files: Callable[[Any], bool] = lambda request: False  # fit takes one file per batch or run
     several_files_text: str = ""  # when it does, in words, for the error of a kind that does not
     auto: str | None = None  # "closed-form" (tried on every sensor set), "iterative" (on the best), None

@@ -15,12 +15,15 @@ from thermoplc.models.kind import Kind
 def registry() -> dict[str, Kind]:
     """Kind name -> record, in the papers' order."""
     import thermoplc.models as package
-    found = []
+    found: dict[int, Kind] = {}  # by identity: a module that imports another's record holds it too
     for module in pkgutil.iter_modules(package.__path__):
         loaded = importlib.import_module(f"{package.__name__}.{module.name}")
-        found += [value for value in vars(loaded).values() if isinstance(value, Kind)]
-    found = sorted({kind.name: kind for kind in found}.values(), key=lambda kind: kind.order)
-    return {kind.name: kind for kind in found}
+        found.update({id(value): value for value in vars(loaded).values() if isinstance(value, Kind)})
+    kinds = sorted(found.values(), key=lambda kind: kind.order)
+    named = {kind.name: kind for kind in kinds}
+    if len(named) != len(kinds):
+        raise RuntimeError(f"two model kinds share a name: {sorted(kind.name for kind in kinds)}")
+    return named
 
 
 def names() -> tuple[str, ...]:

@@ -1,17 +1,16 @@
 """The contract the verifier reads constants by (contract/constants.py) says, for every golden model,
 exactly what the generator writes: same names, same bits, nothing unknown, nothing missing. The
 two are written independently; this is where they must agree."""
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from tests.golden_models import GOLDEN
 from thermoplc.contract.constants import expected, table_coefficients
 from thermoplc.generator.lower import lower
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.safety import Limits
 
-GOLDEN = Path(__file__).parent / "golden"
 MODELS = sorted(p.stem for p in GOLDEN.glob("*.json"))
 
 

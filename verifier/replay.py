@@ -305,9 +305,8 @@ def compare_constants(program: Program, model: Model, limits: Limits) -> tuple[i
                + ("" if decls[name].section == "constant" else " or table") for name in unknown]
     if missing:
         shown = ", ".join(constant_name(k) for k in missing[:5]) + (f" and {len(missing) - 5} more" if len(missing) > 5 else "")
-        errors.append(f"{shown}: missing from the block (the model's coefficients {', '.join(missing[:5])}"
-                      f"{' ...' if len(missing) > 5 else ''} are in no constant or table; a model file with "
-                      f"coefficients its kind does not use is refused by generate)")
+        errors.append(f"{shown}: missing from the block (no constant or table holds these coefficients of the model; "
+                      f"a model file with coefficients its kind does not use is refused by generate)")
     return checked, tuple(errors)
 
 
