@@ -88,3 +88,23 @@ def test_verify_refuses_a_block_whose_constants_left_their_place(edit, tmp_path)
     report = verify_against_model(str(block), model, "bayes.json", table)
     assert not report.ok and report.constant_errors
     assert verify_against_model(str(GOLDEN / "bayes.iec.st"), model, "bayes.json", table).ok
+
+
+def test_generate_refuses_a_model_file_with_a_coefficient_its_kind_does_not_use(tmp_path):
+    """As the user types it: `beta_9` added to an mlr file, or a kalman file relabelled mlr, would give
+    a block that verify then rejects; generate refuses the file instead and writes nothing."""
+    import json
+    from tests.cli_runner import thermoplc
+    edited = json.loads((GOLDEN / "mlr.json").read_text())
+    edited["coefficients"]["beta_9"] = edited["coefficients"]["beta_1"]
+    (tmp_path / "b9.json").write_text(json.dumps(edited))
+    relabelled = json.loads((GOLDEN / "kalman.json").read_text())
+    relabelled["kind"] = "mlr"
+    relabelled["settings"] = {}
+    (tmp_path / "k.json").write_text(json.dumps(relabelled))
+    result = thermoplc("generate", "b9.json", "-o", "out.scl", cwd=tmp_path, check=2)
+    assert "b9.json: field 'coefficients': beta_9 not used by a mlr model" in result.stderr
+    # the relabelled file is refused earlier, by its speed input an mlr block has no use for
+    result = thermoplc("generate", "k.json", "-o", "out.scl", cwd=tmp_path, check=2)
+    assert result.stderr.startswith("thermoplc: error: k.json: ") and "Traceback" not in result.stderr
+    assert not (tmp_path / "out.scl").exists()
