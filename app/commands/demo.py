@@ -1,0 +1,19 @@
+"""`thermoplc demo`: the whole pipeline on the bundled FL_THERMAL recording (thermoplc.demo)."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from thermoplc.commands.options import FORCE_HELP
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("demo", help="whole pipeline on the bundled FL_THERMAL recording")
+    p.add_argument("--out", default="thermoplc-demo", help="output folder (default: %(default)s)")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from thermoplc.demo import run_demo
+    return run_demo(Path(args.out), args.force)

@@ -1,0 +1,63 @@
+"""`thermoplc diagnose`: the physical effect the lumped-mass simulation misses (thermoplc.diagnosis)."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from thermoplc.base.errors import UserError
+from thermoplc.base.fileio import REPORT_MANIFEST, check_output, check_report_folder
+from thermoplc.commands.options import DECIMAL, FORCE_HELP, columns, training_part
+from thermoplc.commands.terminal import end_progress, progress
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("diagnose", help="find the physical effect the lumped-mass simulation misses")
+    p.add_argument("--data", required=True, help="measured CSV")
+    p.add_argument("--temps", type=columns, required=True, help="temperature columns, comma-separated")
+    p.add_argument("--speed", required=True, help="spindle speed column, rpm")
+    p.add_argument("--ambient", required=True, help="ambient temperature column, degC")
+    p.add_argument("--target", required=True, help="measured displacement column, um")
+    p.add_argument("--feed", help="feed-axis rate column, mm/min (enables the feed_axis_heat candidate)")
+    p.add_argument("--baseline", help="a lumped model file written by diagnose to start from instead of fitting the baseline")
+    p.add_argument("--no-structure-lag", action="store_true",
+                   help="baseline displacement from the simulated temperatures alone (paper 000 eq. 10), without "
+                        "the structure that lags them")
+    training_part(p, required=False, default="the first 60%% of the rows")
+    p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
+    p.add_argument("--name", default="ThermalComp", help="function block name of the augmented model")
+    p.add_argument("--decimal", **DECIMAL)
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
+    p.add_argument("--json", help="write the findings here (findings.json)")
+    p.add_argument("--report", metavar="FOLDER", help="write an HTML report with plots into this folder")
+    p.add_argument("-o", "--output", default="diagnosed_model.json",
+                   help="augmented model file (default: %(default)s)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from thermoplc.diagnosis.command import DiagnoseRequest, run as diagnose
+    from thermoplc.diagnosis.findings import text
+    request = DiagnoseRequest(args.data, args.temps, args.speed, args.ambient, args.target, args.feed, args.baseline,
+                              args.train_until, args.train_rows, args.time, args.name, args.decimal,
+                              not args.no_structure_lag)
+    if args.baseline and args.no_structure_lag:
+        raise UserError("--no-structure-lag shapes a fitted baseline; with --baseline the model file decides")
+    inputs = [p for p in (args.data, args.baseline) if p]
+    files = [p for p in (args.output, args.json) if p]
+    if len({Path(p).resolve() for p in files}) < len(files):
+        raise UserError(f"{args.output}: named for two outputs; give each output its own file")
+    for path in files:
+        check_output(path, args.force, inputs=inputs)
+    if args.report:
+        from thermoplc.diagnosis.report import report_files
+        owned = [*report_files(len(args.temps) + 1), REPORT_MANIFEST]
+        for path in files:
+            if Path(path).resolve().parent == Path(args.report).resolve() and Path(path).name in owned:
+                raise UserError(f"{path}: is a file of the --report folder; give -o and --json names of their own")
+        check_report_folder(args.report, owned[:-1], inputs=inputs)
+    doc = diagnose(request, args.output, args.json, args.report, progress())
+    end_progress()
+    print(text(doc))
+    print(f"wrote {args.output}" + (f", {args.json}" if args.json else "")
+          + (f", {Path(args.report) / 'index.html'}" if args.report else ""))
+    return 0

@@ -1,0 +1,113 @@
+"""`thermoplc fit`: a model file from one or more recordings (thermoplc.models: fit, held-out evidence)."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from thermoplc.base.fileio import check_output, write_atomic
+from thermoplc.commands.options import DECIMAL, FORCE_HELP, SEED, columns, number, training_part
+from thermoplc.commands.terminal import end_progress, progress
+
+
+class _KindChoices:
+    """`fit --model`'s choices, found when first asked: finding the kinds imports every model (numba
+    included), which `--version`, `twin` or `diff` do not need."""
+
+    def _all(self) -> tuple[str, ...]:
+        from thermoplc.models.kinds import names
+        return (*names(), "auto")
+
+    def __contains__(self, value) -> bool:
+        return value in self._all()
+
+    def __iter__(self):
+        return iter(self._all())
+
+
+def add_parser(sub) -> None:
+    from thermoplc.models.bayes import UNSEEN_RULES
+    p = sub.add_parser("fit", help="fit a thermal-error model to a CSV file")
+    p.add_argument("--data", required=True, action="append",
+                   help="CSV file; repeat for piecewise (one file per batch, initial ambient read from each)")
+    p.add_argument("--model", choices=_KindChoices(), metavar="KIND", required=True,
+                   help="kalman (paper 000), lumped, mlr, dlag and piecewise (paper 001), bpnn (paper 002), gm0n and "
+                        "gm1n (paper 003), bayes (paper 004); auto: every kind the given roles allow on sensor "
+                        "sets from --temps (forward selection and fcm-grey), ranked by held-out RMSE, the best written")
+    p.add_argument("--target", type=columns, required=True,
+                   help="measured displacement column, um; bpnn takes several: elongation,yaw,pitch")
+    p.add_argument("--temps", type=columns, required=True,
+                   help="temperature columns, comma-separated, or @FILE written by select-sensors -o")
+    p.add_argument("--speed", help="spindle speed column, rpm (kalman)")
+    p.add_argument("--ambient", help="ambient temperature column, degC (kalman, piecewise)")
+    p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
+    training_part(p, required=True).add_argument(
+        "--folds", type=number(int, 2, 20, "blocks"), metavar="K",
+        help="fit on every row, with held-out evidence from blocked cross-validation: K contiguous blocks (cut at "
+             "standstills when --speed is given), each predicted by a fit on the blocks before it; with several "
+             "--data files, each file predicted by a fit on the others")
+    p.add_argument("--optimizer", choices=("ga", "de"), default="ga",
+                   help="ga: paper 000's genetic algorithm; de: scipy differential evolution")
+    p.add_argument("--seed", type=SEED, default=0, help="random seed of the optimiser (default: %(default)s)")
+    p.add_argument("--generations", type=number(int, 1, 10000, "generations"), default=60,
+                   help="generations of the GA or DE (default: %(default)s)")
+    p.add_argument("--population", type=number(int, 2, 10000, "individuals"), default=40,
+                   help="individuals per generation (default: %(default)s)")
+    p.add_argument("--ga-operators", choices=("paper002", "paper000"), default="paper002",
+                   help="bpnn: the GA's crossover and mutation, paper 002's single-point crossover and one mutated "
+                        "position, or paper 000's arithmetic crossover and Gaussian mutation (default: %(default)s; "
+                        "benchmarks/ga_operators.py compares them held out)")
+    p.add_argument("--jump-limit", type=number(float, 1e-6, 1e3, "kelvin"), help="K per call that marks a sensor faulty (default from data)")
+    p.add_argument("--recover-limit", type=number(float, 1e-6, 1e3, "kelvin"), help="K between measurement and model to recover (default from data)")
+    p.add_argument("--bins", type=number(int, 1, 4096, "intervals"), default=8, help="bayes: intervals per temperature (default: %(default)s)")
+    p.add_argument("--precision-um", type=number(float, 1e-3, 1e6, "micrometres"), default=1.0,
+                   help="bayes: interval width of the error, the precision requirement (default: %(default)s)")
+    p.add_argument("--unseen", choices=UNSEEN_RULES, default=UNSEEN_RULES[0],
+                   help="bayes: a temperature configuration never seen in training answers as the nearest seen one, "
+                        "or the error interval most frequent overall (default: %(default)s)")
+    p.add_argument("--time-bins", type=number(int, 0, 4096, "intervals"), default=0, metavar="N",
+                   help="bayes: the time since the first call is a parent too, in N intervals (paper 004's repeated "
+                        "runs: give one --data file per run; default: %(default)s, no time parent)")
+    p.add_argument("--lags", type=number(int, 1, 1000, "lags"), default=3, help="dlag: lagged terms per sensor (default: %(default)s)")
+    p.add_argument("--lag-step", type=number(float, 1e-3, 1e7, "seconds"), default=600.0, metavar="SECONDS",
+                   help="dlag: time between lags (default: %(default)s)")
+    p.add_argument("--tool-length", metavar="COLUMN",
+                   help="bpnn: tool length column, mm; adds paper 002's X/Y/Z compensation outputs")
+    p.add_argument("--name", default="ThermalComp",
+                   help="function block name, kept in the model file (generate --name overrides it) (default: %(default)s)")
+    p.add_argument("--decimal", **DECIMAL)
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
+    p.add_argument("-o", "--output", required=True, help="model file to write (JSON)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from thermoplc.commands.fit_auto import fit_auto
+    from thermoplc.commands.fit_summary import format_fit
+    from thermoplc.generator.lower import check_model_becomes_block
+    from thermoplc.models.acceptance import refusal
+    from thermoplc.models.crossval import fit_held_out
+    from thermoplc.models.fit import FitRequest
+    from thermoplc.models.kalman import FitOptions
+    from thermoplc.models.table import read_table
+    check_output(args.output, args.force, inputs=args.data)
+    tables = [read_table(path, args.time, decimal=args.decimal) for path in args.data]
+    options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
+                         args.recover_limit, args.ga_operators)
+    request = FitRequest(kind=args.model, target=args.target[0], temps=args.temps, speed=args.speed,
+                         ambient=args.ambient, train_until=args.train_until, train_rows=args.train_rows,
+                         block_name=args.name, options=options, bins=args.bins, precision_um=args.precision_um,
+                         lags=args.lags, lag_step_s=args.lag_step, extra_targets=args.target[1:],
+                         tool_length=args.tool_length, unseen=args.unseen, time_bins=args.time_bins)
+    if args.model == "auto":
+        model = fit_auto(tables, request, args.folds, args.time, progress())
+    else:
+        model = fit_held_out(tables, request, args.folds, args.time, progress())
+    end_progress()
+    check_model_becomes_block(model, args.output)
+    write_atomic(args.output, model.to_json())
+    print(format_fit(model))
+    print(f"wrote {args.output}")
+    refused = refusal(model)
+    if refused:
+        print(f"thermoplc: WARNING: generate will refuse this model: {refused}", file=sys.stderr)
+    return 0

@@ -1,0 +1,43 @@
+"""`fit --model auto`: the candidates of models/auto.py ranked, each with the cost of its block on the PLC."""
+from __future__ import annotations
+
+from typing import Callable
+
+from thermoplc.base.errors import UserError
+from thermoplc.commands.terminal import end_progress
+
+AUTO_TOLERANCE = 0.1  # a cheaper model within this share of the best held-out RMSE is named beside it
+
+
+def fit_auto(tables: list, request, folds: int | None, time_column: str,
+             progress: Callable[[str], None] | None):
+    """The ranking printed with each candidate's PLC cost; the best model returned."""
+    from thermoplc.generator.lower import lower_model
+    from thermoplc.generator.stats import block_stats
+    from thermoplc.models.auto import rank
+    ranked = rank(tables, request, folds, time_column, say=progress)
+    end_progress()
+    fitted = [c for c in ranked if c.model is not None]
+    if not fitted:
+        raise UserError("--model auto: no kind could be fitted: " + "; ".join(f"{c.kind} ({c.refused})" for c in ranked))
+    cost = {id(c): block_stats(lower_model(c.model))["arithmetic_per_call"] for c in fitted}
+    none = fitted[0].model.metrics["held_out"].get("zero_rmse_um")
+    print(f"auto: {len(ranked)} candidates ranked by held-out RMSE"
+          + (f" (no compensation {none:.3f} um)" if none is not None else ""))
+    print(f"  {'rank':<6}{'kind':<8}{'sensors':<32}{'RMSE um':>9}{'max um':>9}{'ops/call':>10}")
+    for k, c in enumerate(ranked, start=1):
+        if c.model is None:
+            print(f"  {'-':<6}{c.kind:<8}{','.join(c.sensors):<32}  refused: {c.refused}")
+            continue
+        held = c.model.metrics["held_out"]
+        print(f"  {k:<6}{c.kind:<8}{','.join(c.sensors):<32}{held['rmse_um']:>9.3f}{held['max_abs_um']:>9.3f}"
+              f"{cost[id(c)]:>10}" + (f"  generate refuses: {c.not_accepted}" if c.not_accepted else ""))
+    best = fitted[0]
+    cheaper = min((c for c in fitted if c.rmse <= (1 + AUTO_TOLERANCE) * best.rmse and
+                   (c.not_accepted is None) == (best.not_accepted is None)), key=lambda c: cost[id(c)])
+    if cheaper is not best:
+        print(f"  cheapest within {AUTO_TOLERANCE:.0%} of the best: {cheaper.kind} on {','.join(cheaper.sensors)}, "
+              f"{cheaper.rmse:.3f} um, {cost[id(cheaper)]} operations per call (fit it with --model {cheaper.kind} "
+              f"--temps {','.join(cheaper.sensors)})")
+    print(f"  writing the best: {best.kind} on {','.join(best.sensors)}")
+    return best.model

@@ -1,0 +1,44 @@
+"""What `thermoplc fit` prints about the model it wrote: the errors on the rows it was fitted on and on
+the rows it never saw, beside compensating nothing."""
+from __future__ import annotations
+
+
+def format_fit(model) -> str:
+    """The errors of a fitted model: training, held out (each fold with cross-validation), float32 vs float64."""
+    m = model.metrics
+    batches = model.training.get("batches", [model.training])
+    files = ", ".join(t["file"] for t in batches)
+    lines = [f"fitted {model.kind} on {files}: {m['train']['rows']} training rows "
+             f"(until {batches[0]['until_s']:g} s{' in each file' if len(batches) > 1 else ''}), "
+             f"{m['held_out']['rows']} held out" + (" in cross-validation" if "cross_validation" in m else ""),
+             f"  {'':<22}{'RMSE um':>10}{'max |residual| um':>20}"]
+    held_label = "prediction (all folds)" if "cross_validation" in m else "prediction (held out)"
+    for label, key in (("fit (training)", "train"), (held_label, "held_out")):
+        if m[key]["rows"]:
+            lines.append(f"  {label:<22}{m[key]['rmse_um']:>10.3f}{m[key]['max_abs_um']:>20.3f}")
+    if "cross_validation" in m:
+        lines += _format_folds(m)
+    lines.append(f"  float32 block vs float64 model: max {m['float32_vs_float64_max_um']:.3g} um")
+    if "one_step_rmse_K" in model.fit:  # an identified model: how far its temperatures are from the readings
+        names = [s.name for s in model.signals("temperature")]
+        each = lambda key: ", ".join(f"{n} {v:.3f}" for n, v in zip(names, model.fit[key]))
+        gains = ", ".join(f"{n} {model.coef(f'KF_{i}', 'f64'):.3g}" if f"KF_{i}" in model.coefficients else f"{n} 0"
+                          for i, n in enumerate(names, start=1))
+        lines += [f"  temperatures (training), RMSE K: filtered one step ahead: {each('one_step_rmse_K')}; "
+                  f"open loop: {each('open_loop_rmse_K')}",
+                  f"  filter gain (share of the reading taken each call): {gains}"]
+    return "\n".join(lines)
+
+
+def _format_folds(m: dict) -> list[str]:
+    """Each fold's held-out errors beside no compensation, and the pooled line with the spread."""
+    held = m["held_out"]
+    lines = [f"  {held['protocol']}: each fold predicted by a fit that never saw it",
+             f"  {'fold (rows predicted)':<26}{'fitted rows':>12}{'RMSE um':>10}{'max um':>9}{'none RMSE um':>14}{'none max um':>13}"]
+    lines += [f"  {f['label']:<26}{f['train_rows']:>12}{f['rmse']:>10.3f}{f['max_abs']:>9.3f}{f['zero_rmse']:>14.3f}"
+              f"{f['zero_max_abs']:>13.3f}" for f in m["cross_validation"]]
+    low, high = held["fold_rmse_um"]
+    lines.append(f"  {'all folds':<26}{held['rows']:>12}{held['rmse_um']:>10.3f}{held['max_abs_um']:>9.3f}"
+                 f"{held['zero_rmse_um']:>14.3f}{held['zero_max_abs_um']:>13.3f}")
+    lines.append(f"  spread: fold RMSE {low:.3f} to {high:.3f} um")
+    return lines

@@ -1,0 +1,141 @@
+"""`thermoplc generate`: a model file compiled into a checked Structured Text block (thermoplc.pipeline)."""
+from __future__ import annotations
+
+import argparse
+import datetime
+import functools
+import os
+import sys
+from typing import Callable
+
+from thermoplc.base.errors import UserError
+from thermoplc.base.fileio import check_output, write_atomic
+from thermoplc.commands.options import FORCE_HELP, block_version, date, header_attribute, number, value_range
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("generate", help="compile a model file into a Structured Text function block")
+    p.add_argument("model", help="model file written by fit or diagnose")
+    p.add_argument("--dialect", choices=("tia", "step7", "iec"), default="tia",
+                   help="tia: S7-1500/SINUMERIK ONE (TIA Portal); step7: classic STEP 7 SCL (840D sl, S7-300); "
+                        "iec: IEC 61131-3 for CODESYS/TwinCAT/OpenPLC (default: %(default)s)")
+    p.add_argument("--format", choices=("st", "plcopen"), default="st",
+                   help="st: source text; plcopen: PLCopen TC6 XML of the iec block (default: %(default)s)")
+    p.add_argument("--max-offset-um", type=number(float, 1e-6, 1e12, "micrometres"), default=300.0,
+                   help="clamp every output to +-this (um; urad for angles) (default: %(default)s)")
+    p.add_argument("--max-step-um", type=number(float, 1e-6, 1e12, "micrometres"), default=2.0,
+                   help="largest change of an output per call (default: %(default)s)")
+    p.add_argument("--temp-range", type=value_range, default=(-40.0, 150.0), metavar="LOW,HIGH",
+                   help="plausible temperatures, degC; outside = sensor fault (default: -40,150)")
+    p.add_argument("--max-jump-k", type=number(float, 1e-6, 1e6, "kelvin"), default=1.0,
+                   help="temperature change per call that marks a sensor faulty, K (default: %(default)s)")
+    p.add_argument("--settle-calls", type=number(int, 1, 10000, "calls"), default=30,
+                   help="steady calls before a faulty sensor is trusted again (default: %(default)s)")
+    p.add_argument("--name", help="function block name (default: the model file's, set by fit --name); one block "
+                                  "per axis needs one name each")
+    p.add_argument("--retain", action="store_true",
+                   help="keep the state over a power cycle: statics and outputs declared RETAIN (tia, iec); step7: "
+                        "the header says to keep the instance DB retentive")
+    p.add_argument("--instance-db", metavar="NAME",
+                   help="step7: append the source of an instance DB NAME of the block (enter NAME in the symbol table)")
+    p.add_argument("--author", type=header_attribute, default="thermopl",
+                   help="AUTHOR in the block header, at most 8 letters, digits or '_' (default: %(default)s)")
+    p.add_argument("--family", type=header_attribute, default="ThermCmp",
+                   help="FAMILY in the block header, at most 8 letters, digits or '_' (default: %(default)s)")
+    p.add_argument("--block-version", type=block_version, metavar="X.Y",
+                   help="VERSION in the block header, each part 0 to 15 (default: the first two hex digits of the "
+                        "model fingerprint, so a changed model changes the version)")
+    p.add_argument("--date", type=date, metavar="YYYY-MM-DD",
+                   help="date in the header comment (default: today, or SOURCE_DATE_EPOCH when set)")
+    p.add_argument("--stats", action="store_true", help="print operations per call and bytes of state")
+    p.add_argument("--accept-unvalidated", action="store_true",
+                   help="write the block although the model file has no held-out evidence that it beats no "
+                        "compensation (or has evidence that it does not); the header says so")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
+    p.add_argument("--explain", action="store_true", help="print which region computes which model term, "
+                                                          "with its constants")
+    p.add_argument("-o", "--output", required=True, help="source file to write (.scl, .st or .xml)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+    from thermoplc.base.identifiers import identifier_problem
+    from thermoplc.generator.lower import model_identity
+    from thermoplc.models.modelfile import load_model
+    from thermoplc.models.safety import Limits
+    from thermoplc.pipeline import generate
+    to_stdout = args.output == "-"  # the block on standard output, what generate says on standard error
+    if not to_stdout:
+        check_output(args.output, args.force, inputs=[args.model])
+    say = functools.partial(print, file=sys.stderr if to_stdout else sys.stdout)
+    model = load_model(args.model)
+    if args.name is not None:
+        problem = identifier_problem(args.name)
+        if problem:
+            raise UserError(f"--name {args.name!r} {problem}")
+        model = replace(model, block_name=args.name)
+    low, high = args.temp_range
+    limits = Limits(args.max_offset_um, args.max_step_um, low, high, max_jump_K=args.max_jump_k,
+                    settle_calls=args.settle_calls)
+    identity = model_identity(model, args.date or _today())
+    identity = replace(identity, author=args.author, family=args.family,
+                       version=args.block_version or identity.version)
+    generated = generate(model, args.model, limits, args.dialect, args.format == "plcopen", identity, args.retain,
+                         args.instance_db, args.accept_unvalidated, args.output)
+    if to_stdout:
+        sys.stdout.write(generated.text)
+    else:
+        write_atomic(args.output, generated.text)
+    _summary(say, args, model, limits, generated)
+    return 0
+
+
+def _summary(say: Callable[[str], None], args: argparse.Namespace, model, limits, generated) -> None:
+    """What was written and within which limits; the cost, proof and stress replay with --stats; the
+    regions with --explain."""
+    from thermoplc.generator.lower import lower_model
+    from thermoplc.models.acceptance import evidence
+    block, proof, stressed = generated.block, generated.proof, generated.stressed
+    say(f"wrote {'standard output' if args.output == '-' else args.output}: {model.kind} block {model.block_name!r}, "
+        f"dialect {args.dialect}{', PLCopen XML' if args.format == 'plcopen' else ''}, model fingerprint "
+        f"{model.fingerprint()}")
+    say(f"  outputs within +-{limits.max_output:g}, at most {limits.max_step:g} per call; temperatures "
+        f"{limits.temp_min_C:g}..{limits.temp_max_C:g} degC, jump {limits.max_jump_K:g} K per call")
+    say("  " + (f"NOT VALIDATED (--accept-unvalidated): {generated.unvalidated}" if generated.unvalidated
+                else f"accepted on {evidence(model).summary()}"))
+    if args.stats:
+        from thermoplc.generator.stats import block_stats, format_stats
+        say(format_stats(block_stats(block), block_stats(lower_model(model))))
+        say(format_proof(proof, block))
+        say(f"stress replay: {stressed.rows} calls with every input at the ends, the middle or random points of its "
+            f"guard range and random Reset and Enable, no NaN, Inf or "
+            f"INT overflow; outputs seen: " + ", ".join(f"{name} {low:.6g}..{high:.6g}"
+                                                       for name, (low, high) in stressed.output_ranges.items()))
+    if args.explain:
+        from thermoplc.generator.explain import explain
+        say(explain(block))
+
+
+def _today() -> str:
+    """Today in UTC, or the date of SOURCE_DATE_EPOCH (reproducible builds) when it is set."""
+    epoch = os.environ.get("SOURCE_DATE_EPOCH")
+    if epoch is None:
+        return datetime.datetime.now(datetime.timezone.utc).date().isoformat()
+    try:
+        return datetime.datetime.fromtimestamp(int(epoch), datetime.timezone.utc).date().isoformat()
+    except (ValueError, OverflowError, OSError):
+        raise UserError(f"SOURCE_DATE_EPOCH={epoch!r}: expected whole seconds since 1970-01-01 UTC, up to the "
+                        f"year 9999; or give --date YYYY-MM-DD") from None
+
+
+def format_proof(proof, block) -> str:
+    """The range proof in one line: what cannot happen, and the ranges of the model values and the outputs."""
+    from thermoplc.generator.safety import model_values
+    show = lambda name: f"{name} {proof.ranges[name][0]:.6g}..{proof.ranges[name][1]:.6g}"
+    values = model_values(block)
+    return (f"range proof: for every input inside its guard range and on every call (state bounds hold after "
+            f"{proof.steps} joined calls), no Inf, NaN, division by 0, subnormal product or integer overflow; "
+            f"model values before the limits: " + ", ".join(show(values[v.name]).replace(values[v.name], v.name, 1)
+                                                              for v in block.outputs if v.name in values)
+            + "; outputs: " + ", ".join(show(v.name) for v in block.outputs if v.type == "REAL"))

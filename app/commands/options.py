@@ -1,0 +1,111 @@
+"""The argument types and option words the subcommands share: each value is checked when the command
+line is read, and a refusal names the option (argparse adds it) and what was expected."""
+from __future__ import annotations
+
+import argparse
+import datetime
+import math
+import re
+from pathlib import Path
+from typing import Callable
+
+FORCE_HELP = "replace an existing output file (never an input of the command, never a non-regular file)"
+DECIMAL = {"choices": ("auto", ".", ","), "default": "auto",
+           "help": "decimal separator of the CSV: auto (',' when ';' separates the columns), '.' or ',' "
+                   "(default: %(default)s)"}
+
+
+def columns(text: str) -> tuple[str, ...]:
+    """Comma-separated column names, or @FILE written by select-sensors -o (its '#' lines are comments)."""
+    if text.startswith("@"):
+        try:
+            text = Path(text[1:]).read_text("utf-8").strip()
+        except OSError as exc:
+            raise argparse.ArgumentTypeError(f"cannot read {text[1:]}: {exc.strerror}") from None
+        text = ",".join(line for line in text.splitlines() if not line.lstrip().startswith("#"))
+    names = tuple(c.strip() for c in text.split(",") if c.strip())
+    if not names:
+        raise argparse.ArgumentTypeError("expected comma-separated column names")
+    return names
+
+
+def number(kind: type, low: float, high: float, what: str = "") -> Callable[[str], float]:
+    """An argparse type: a finite int or float within [low, high] (the option is named by argparse)."""
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {'an integer' if kind is int else 'a number'}, found {text!r}") from None
+        if not (math.isfinite(value) and low <= value <= high):
+            shown = (lambda v: f"{int(v):,}") if kind is int else (lambda v: f"{v:g}")
+            raise argparse.ArgumentTypeError(f"expected {what or 'a value'} from {shown(low)} to {shown(high)}, found {text}")
+        return value
+    return parse
+
+
+SEED = number(int, 0, 2 ** 32 - 1, "a seed")
+SECONDS = number(float, 0.0, 1e9, "seconds")
+ROWS = number(int, 1, 10 ** 9, "a row count")
+
+
+def value_range(text: str) -> tuple[float, float]:
+    """LOW,HIGH: finite, LOW below HIGH, within +-1e6, each end 0 or a normal binary32 size."""
+    try:
+        low, high = (float(x) for x in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected LOW,HIGH (two numbers), found {text!r}") from None
+    if not (math.isfinite(low) and math.isfinite(high) and -1e6 <= low < high <= 1e6) \
+            or any(0 < abs(end) < 1e-6 for end in (low, high)):
+        raise argparse.ArgumentTypeError(f"expected LOW,HIGH with LOW below HIGH, finite, within +-1e6 and each 0 or "
+                                         f"at least 1e-6 in size, found {text!r}")
+    return low, high
+
+
+def header_attribute(text: str) -> str:
+    """AUTHOR or FAMILY of a block header, as STEP 7 takes it."""
+    from thermoplc.base.identifiers import header_attribute_problem
+    problem = header_attribute_problem(text)
+    if problem:
+        raise argparse.ArgumentTypeError(problem)
+    return text
+
+
+def block_version(text: str) -> tuple[int, int]:
+    """X.Y, each part 0 to 15 (the range TIA and STEP 7 take)."""
+    match = re.fullmatch(r"(\d{1,2})\.(\d{1,2})", text)
+    if not match or not all(0 <= int(part) <= 15 for part in match.groups()):
+        raise argparse.ArgumentTypeError(f"expected X.Y with each part 0 to 15, found {text!r}")
+    return int(match.group(1)), int(match.group(2))
+
+
+def date(text: str) -> str:
+    """A calendar date written YYYY-MM-DD (fromisoformat alone also takes 20260102)."""
+    try:
+        datetime.date.fromisoformat(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a date YYYY-MM-DD, found {text!r}") from None
+    if not re.fullmatch(r"\d{4}-\d{2}-\d{2}", text):
+        raise argparse.ArgumentTypeError(f"expected a date YYYY-MM-DD, found {text!r}")
+    return text
+
+
+def mapping(text: str) -> dict:
+    """NAME=COLUMN[,NAME=COLUMN...], each name once (ST names ignore case)."""
+    pairs: dict = {}
+    for item in text.split(","):
+        name, sep, column = item.partition("=")
+        if not sep or not name.strip() or not column.strip():
+            raise argparse.ArgumentTypeError(f"expected NAME=COLUMN[,NAME=COLUMN...], found {item!r}")
+        if name.strip().upper() in {k.upper() for k in pairs}:
+            raise argparse.ArgumentTypeError(f"{name.strip()!r} is mapped twice")
+        pairs[name.strip()] = column.strip()
+    return pairs
+
+
+def training_part(parser: argparse.ArgumentParser, required: bool, default: str = ""):
+    """The training part, in the same words for every command that has one."""
+    part = parser.add_mutually_exclusive_group(required=required)
+    tail = f" (default: {default})" if default else ""
+    part.add_argument("--train-until", type=SECONDS, metavar="SECONDS", help=f"training part: rows with time <= SECONDS{tail}")
+    part.add_argument("--train-rows", type=ROWS, metavar="N", help=f"training part: the first N rows{tail}")
+    return part

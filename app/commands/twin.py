@@ -1,0 +1,65 @@
+"""`thermoplc twin`: synthetic machine data with known truth (thermoplc.machines)."""
+from __future__ import annotations
+
+import argparse
+
+from thermoplc.base.errors import UserError
+from thermoplc.base.fileio import check_output, write_atomic
+from thermoplc.commands.options import FORCE_HELP, SEED, number
+
+MAX_TWIN_ROWS = 50_000_000  # about 1.6 years at 1 s; beyond it the arrays alone need tens of GB
+
+
+def add_parser(sub) -> None:
+    # the choices come from the packages: imported here, inside main's handling of Ctrl-C
+    from thermoplc.machines import DEFAULT as DEFAULT_MACHINE, MACHINES as MACHINE_NAMES
+    from thermoplc.models.effects import NAMES as EFFECT_NAMES
+    p = sub.add_parser("twin", help="synthetic machine data with known truth")
+    p.add_argument("--machine", choices=MACHINE_NAMES, default=DEFAULT_MACHINE,
+                   help="cascade: motor/bearing/ram/base network, run/stop at fixed speeds, daily sine ambient; "
+                        "portal: three spindle-heated nodes and a lagging ram, random speeds, heated workshop "
+                        "(default: %(default)s)")
+    p.add_argument("--hours", type=number(float, 1e-3, 1e6, "hours"), default=48.0,
+                   help="length of the recording, h (default: %(default)s)")
+    p.add_argument("--seed", type=SEED, default=0, help="random seed of the schedule and the noise (default: %(default)s)")
+    p.add_argument("--dt", type=number(float, 1e-3, 86400.0, "seconds"), default=10.0, help="sample period, s (default: %(default)s)")
+    p.add_argument("--ambient-start", type=number(float, -40.0, 60.0, "degC"), default=20.0, help="ambient temperature at the start, degC")
+    p.add_argument("--ambient-swing", type=number(float, 0.0, 30.0, "kelvin"), default=None,
+                   help="day/night amplitude of the ambient, K (default: the machine's own, 0.5 cascade, 1 portal)")
+    p.add_argument("--sensor-fault", action="append", default=[], metavar="KIND:COLUMN[@START_S]",
+                   help="add paper 000's sensor error: sin (eq. 18) or offset (eq. 19); repeatable")
+    p.add_argument("--effect", action="append", default=[], metavar="NAME[:KEY=VALUE,...]",
+                   help=f"hide a physical effect in the data; repeatable. Names: {', '.join(EFFECT_NAMES)}")
+    p.add_argument("--noise", type=number(float, 0.0, 100.0, "a scale"), default=1.0, help="scale of the sensor noise (default: %(default)s)")
+    p.add_argument("--force", action="store_true", help=FORCE_HELP)
+    p.add_argument("-o", "--output", required=True, help="CSV file to write")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from thermoplc.machines import machine
+    from thermoplc.machines.faults import SensorFault
+    from thermoplc.models.table import write_table
+    from thermoplc.models.effects import Effect
+    chosen = machine(args.machine)
+    if args.hours * 3600 / args.dt > MAX_TWIN_ROWS:  # each option is checked by its type; their ratio here
+        raise UserError(f"--hours {args.hours:g} at --dt {args.dt:g} gives more than {MAX_TWIN_ROWS:,} rows; "
+                        f"use a longer --dt or fewer hours")
+    faults = tuple(SensorFault.parse(f, chosen.SENSORS) for f in args.sensor_fault)
+    effects = tuple(Effect.parse(e, chosen.COLUMN_DEFAULTS) for e in args.effect)
+    names = [e.name for e in effects]
+    if len(set(names)) != len(names):
+        raise UserError("--effect: each effect can be switched on once")
+    check_output(args.output, args.force)
+    options = {} if args.ambient_swing is None else {"ambient_swing": args.ambient_swing}
+    columns = chosen.simulate(args.hours, args.seed, args.dt, args.ambient_start, faults=faults, effects=effects,
+                              noise=args.noise, **options)
+    write_atomic(args.output, write_table(columns))
+    rows = len(columns["time_s"])
+    print(f"wrote {args.output}: {rows} rows, {args.hours:g} h every {args.dt:g} s, seed {args.seed}, "
+          f"machine {chosen.NAME}")
+    for e in effects:
+        print(f"  hidden effect {e.name}: " + ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                                                     for k, v in e.parameters))
+    print(f"  columns: {', '.join(columns)}")
+    return 0

@@ -1,0 +1,108 @@
+"""`thermoplc verify`: replay data through a block and compare every output bit for bit
+(thermoplc.verifier): exit 0 bit-exact, 1 not (or unsafe), 2 bad input."""
+from __future__ import annotations
+
+import argparse
+
+from thermoplc.base.errors import UserError
+from thermoplc.commands.options import DECIMAL, columns, mapping, number
+from thermoplc.commands.terminal import progress
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("verify", help="replay data through a block and compare every output bit for bit")
+    p.add_argument("block", nargs="?", help="the block's ST source")
+    p.add_argument("--data", help="the recording (CSV, .npz or Parquet of columns), one row per call; columns "
+                                   "Enable and Reset (0/1), when present, drive those block inputs")
+    p.add_argument("--decimal", **DECIMAL)
+    p.add_argument("--model", help="compare with this model's float32 reference")
+    p.add_argument("--expect", type=columns, help="compare with recorded outputs: COLUMN or OUTPUT=COLUMN, comma-separated")
+    p.add_argument("--inputs", type=mapping, help="block input to column mapping NAME=COLUMN,...")
+    p.add_argument("--manifest", help="CSV of pairs to verify (columns block,data and model or expect, optional inputs)")
+    p.add_argument("--jobs", type=number(int, 1, 256, "processes"), default=1, help="with --manifest: pairs verified in parallel (default: %(default)s)")
+    p.add_argument("--engine", choices=("auto", "interp", "fast"), default="auto",
+                   help="interp: the reference interpreter; fast: the block compiled to C (same bits); "
+                        "auto: fast when a C compiler is there (default: %(default)s)")
+    p.add_argument("--faults", action="store_true",
+                   help="replay with injected sensor faults (NaN, open/short PT100, jumps, paper 000 sine and "
+                        "offset) and check exactness, finiteness, clamp and rate limit")
+    p.add_argument("--time", default="time_s", help="time column for --expect traces (default: %(default)s)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        if args.manifest:
+            return _fleet(args)
+        if not args.block or not args.data:
+            raise UserError("verify needs BLOCK and --data (or --manifest FILE for many pairs)")
+        if args.jobs != 1:
+            raise UserError("--jobs runs the pairs of a --manifest in parallel; give --manifest FILE")
+        if (args.model is None) == (args.expect is None):
+            raise UserError("verify needs either --model MODEL.json or --expect COLUMN[,COLUMN] (a recorded PLC trace)")
+        return _against_model(args) if args.model else _against_trace(args)
+    except UserError as exc:  # a model file that lacks what its kind needs: name the file
+        raise UserError(str(exc).replace("model file:", f"{args.model}:", 1) if args.model else str(exc)) from None
+
+
+def _fleet(args: argparse.Namespace) -> int:
+    """Many pairs from a manifest: 2 when any pair could not be read, else 1 when any is not bit-exact."""
+    if args.block or args.data or args.model or args.expect or args.faults:
+        raise UserError("--manifest lists the blocks, data and models itself; give no BLOCK, --data, --model, --expect or --faults")
+    from thermoplc.verifier.fleet import format_fleet, read_manifest, verify_fleet
+    outcomes, seconds = verify_fleet(read_manifest(args.manifest), args.jobs, args.engine)
+    print(format_fleet(outcomes, args.manifest, seconds))
+    if any(o.status == "error" for o in outcomes):
+        return 2
+    return 0 if all(o.status == "bit-exact" for o in outcomes) else 1
+
+
+def _against_model(args: argparse.Namespace) -> int:
+    """The block against the model's float32 reference: streamed when the recording allows it
+    (verifier/stream.py), else read whole; with --faults, replayed once per injected fault."""
+    from thermoplc.models.modelfile import load_model
+    from thermoplc.models.table import read_table
+    from thermoplc.verifier.replay import verify_against_model
+    model = load_model(args.model)
+    report = None
+    if not args.faults:
+        from thermoplc.verifier.stream import verify_streaming
+        report = verify_streaming(args.block, model, args.model, args.data, args.inputs, args.engine,
+                                  args.decimal, progress())
+    if report is None:
+        table = read_table(args.data, model.time_column, progress(), args.decimal)
+        if args.faults:
+            return _faults(args, model, table)
+        report = verify_against_model(args.block, model, args.model, table, args.inputs, args.engine)
+    print(report.text())
+    return 0 if report.ok else 1
+
+
+def _faults(args: argparse.Namespace, model, table) -> int:
+    from thermoplc.verifier.faults import format_cases, verify_faults
+    from thermoplc.verifier.parser import parse_file
+    from thermoplc.verifier.replay import subnormal_declarations
+    cases = verify_faults(args.block, model, table, args.inputs, args.engine)
+    print(format_cases(cases, args.block, table.rows))
+    declared = subnormal_declarations(parse_file(args.block).decls, args.block)
+    print("\n".join(f"UNSAFE: {line}" for line in declared))
+    return 0 if all(c.ok for c in cases) and not declared else 1
+
+
+def _against_trace(args: argparse.Namespace) -> int:
+    """The block against the outputs a PLC recorded (--expect OUTPUT=COLUMN,...)."""
+    from thermoplc.models.table import read_table
+    from thermoplc.verifier.replay import verify_against_trace
+    if args.faults:
+        raise UserError("--faults needs --model: the faulty replay is compared with the model's reference")
+    table = read_table(args.data, args.time, decimal=args.decimal)
+    expect = {}
+    for item in args.expect:
+        output, sep, column = item.partition("=")
+        output = output if sep else item
+        if output.upper() in {k.upper() for k in expect}:
+            raise UserError(f"--expect names output {output!r} twice; give each output one column")
+        expect[output] = column if sep else item
+    report = verify_against_trace(args.block, table, expect, args.inputs, args.time, args.engine)
+    print(report.text())
+    return 0 if report.ok else 1
