@@ -24,27 +24,20 @@ import numpy as np
 from thermoplc.diagnosis import sufficiency
 from thermoplc.diagnosis.windows import Window, find_windows, noise_sigma, settling_s
 from thermoplc.models import simulation as sim_
-from thermoplc.models.effects import NAMES
+from thermoplc.models.effects import NAMES, definition_of
 from thermoplc.models.simulation import Series, Simulation
 
 BIC_MARGIN = 10.0
 AMBIGUOUS_BIC_SHARE = 0.02  # another effect within this share of the winner's BIC gain: no name
 HELD_OUT_SHARE = 0.2
-MIN_LOG_STOP_FACTOR = 0.05  # a standstill factor within 5 % of 1 is no effect
 MIN_SENSOR_ERROR_SIGMAS = 1.5  # an offset or a drift over the recording smaller than this many noise sigmas is noise
 MIN_DISPLACEMENT_TERM_SIGMAS = 3.0  # a displacement term moving less than this many noise sigmas is noise
 MIN_TRAIN_EXCESS = 0.05  # ... and its training MSE by this share
 MIN_TRAIN_EVIDENCE = 100.0  # or a candidate cuts its training squared error by this many noise variances
 MIN_EXCESS = 0.1  # a channel counts as off when its held-out MSE exceeds its noise variance by this share
-MIN_GEAR_CHANGE = 0.05  # heat ratios above the threshold within 5 % of 1 on every sensor are no switch
-MIN_EXPONENT_CHANGE = 0.05  # an exponent within this of 1 is linear heat
 MIN_STAND_INS = 2  # this many effects added with windows still left: none is named
 POLISH_ROUNDS = 3
 MIN_POLISH_GAIN = 1.0  # BIC; a refit that gains less has converged
-MIN_HEAT_KEPT_SHARE = 0.5  # a slow structure must keep at least half as much of the heat as of the ambient
-HOUR = 3600.0
-SENSOR_ERRORS = ("sensor_offset", "sensor_drift")  # effects on one sensor's reading, not on the physics
-MAX_FEED_TAU_S = 6 * HOUR  # a ball screw and its nut heat through in minutes to a couple of hours
 
 
 @dataclass(frozen=True)
@@ -218,17 +211,11 @@ def candidates(series: Series, present: Simulation, train: Series) -> tuple[list
     for name in NAMES:
         if present.has(name):
             continue
-        if name == "feed_axis_heat" and series.feed is None:
-            skipped[name] = "needs --feed COLUMN, the feed-axis rate"
-            continue
-        if name == "feed_axis_heat" and np.ptp(train.feed) == 0:
-            skipped[name] = "the feed rate never changes in the training part"
-            continue
         why = sufficiency.untestable(train, name)
         if why:
             skipped[name] = why
             continue
-        if name in sim_.PER_SENSOR:
+        if definition_of(name).per_sensor:
             found += [(name, i) for i in range(len(series.names))]
         else:
             found.append((name, None))
@@ -237,113 +224,31 @@ def candidates(series: Series, present: Simulation, train: Series) -> tuple[list
 
 def describe(sim: Simulation, name: str, series: Series) -> dict:
     """The fitted parameters of one effect, in engineering units."""
-    names = series.names
-    sensor = sim.sensor_of(name)
-    s = sim.shared
-    d = sim.displacement
-    if name == "gear_ratio_switch":
-        levels = sim_.speed_levels(series.n, s)
-        above = levels[levels > s.gear_rpm]
-        return {"threshold_rpm": s.gear_rpm,
-                "next_speed_rpm": float(above[0]) if len(above) else None,
-                "heat_ratio_above": {c: 1.0 + p.gear_gain / p.gain if p.gain else None
-                                     for c, p in zip(names, sim.sensors)}}
-    if name == "coolant_switching":
-        return {"switch_sensor": names[s.relay[0]], "on_C": s.relay[1], "off_C": s.relay[2],
-                "cooling_K": {c: p.cooling for c, p in zip(names, sim.sensors)}}
-    if name == "nonlinear_speed_heat":
-        return {"exponent": s.exponent, "reference_rpm": s.reference_rpm}
-    if name == "stop_convection":
-        return {"tau_factor_at_standstill": {c: p.stop_factor for c, p in zip(names, sim.sensors)},
-                "standstill_below_rpm": s.stopped_rpm}
-    if name == "sensor_offset":
-        return {"column": names[sensor], "offset_K": sim.sensors[sensor].offset_K}
-    if name == "sensor_drift":
-        return {"column": names[sensor], "rate_K_per_h": sim.sensors[sensor].drift_K_per_s * HOUR}
-    if name == "slow_structure":
-        return {"tau_h": d.tau_slow_s / HOUR, "um_per_K": dict(zip(names, d.delta))}
-    if name == "ambient_coupling":
-        return {"tau_h": d.tau_ambient_s / HOUR, "um_per_K": d.alpha}
-    if name == "feed_axis_heat":
-        return {"tau_h": d.tau_feed_s / HOUR, "um_per_m_min": d.phi * 1000.0}
-    raise ValueError(name)
-
-
-def kept_shares(sim: Simulation, train: Series) -> tuple[float, float]:
-    """How much of the machine's heat and of the ambient the fitted slow structure keeps: the RMS of
-    its weighted sum over the RMS of the same sum with every weight made positive (1 when the
-    sensors add up, near 0 when their weights cancel), for each part of the temperatures."""
-    ambient, heat, start = sim_.ambient_and_heat_parts(train, sim)
-    weights = np.asarray(sim.displacement.delta)
-    shares = []
-    for part, origin in ((heat, np.zeros_like(start)), (ambient, start)):
-        terms = sim_.slow_structure_terms(train, sim, part, origin)
-        whole = float(np.std(terms @ np.abs(weights)))
-        shares.append(float(np.std(terms @ weights)) / whole if whole > 0 else 1.0)
-    return shares[0], shares[1]
-
-
-def lag_of_the_air(sim: Simulation, train: Series) -> str | None:
-    """Why a fitted slow structure is a lag of the hall air rather than a structure the machine heats
-    (which follows that heat), or None."""
-    heat_kept, ambient_kept = kept_shares(sim, train)
-    if heat_kept < MIN_HEAT_KEPT_SHARE * ambient_kept:
-        return (f"its weights keep {heat_kept:.0%} of the machine's heat between the sensors and {ambient_kept:.0%} "
-                "of the ambient: a lag of the air, not a structure the machine heats")
-    return None
+    return definition_of(name).describe(sim, series)
 
 
 def implausible(sim: Simulation, name: str, train: Series) -> str | None:
     """Why a fitted effect is not the named physics (a parameter at its search bound or with the
     wrong sign, of no size, or a slow structure that is a lag of the air), or None. Such a fit only
-    soaks up a mismatch; naming it would be made up."""
-    s, d = sim.shared, sim.displacement
-    if name == "slow_structure" and (why := lag_of_the_air(sim, train)):
-        return why
-    if name == "coolant_switching" and sim.sensors[s.relay[0]].cooling >= 0:
-        return "the switched term heats the sensor that switches it"
-    if name == "nonlinear_speed_heat" and not 0.25 < s.exponent < 3.4:
-        return f"exponent {s.exponent:.3g} at the end of the searched range"
-    if name == "stop_convection" and any(not 0.09 < p.stop_factor < 11.0 for p in sim.sensors):
-        return "standstill time-constant factor at the end of the searched range"
-    if name == "stop_convection" and all(abs(np.log(p.stop_factor)) < MIN_LOG_STOP_FACTOR for p in sim.sensors):
-        return "standstill time constants equal to the running ones: no change"
-    if name == "gear_ratio_switch" and any(p.gain + p.gear_gain < 0 for p in sim.sensors):
-        return "negative heat above the threshold"
-    largest_gain = max(abs(p.gain) for p in sim.sensors)
-    if name == "gear_ratio_switch" and all(abs(p.gear_gain) < MIN_GEAR_CHANGE * largest_gain for p in sim.sensors):
-        return f"heat per rpm above the threshold within {MIN_GEAR_CHANGE:.0%} of below it: no switch"
-    if name == "nonlinear_speed_heat" and abs(s.exponent - 1.0) < MIN_EXPONENT_CHANGE:
-        return f"exponent {s.exponent:.3g}: linear heat"
-    if name == "feed_axis_heat" and d.tau_feed_s > MAX_FEED_TAU_S:
-        return (f"time constant {d.tau_feed_s / HOUR:.3g} h: slower than a feed axis heats (at most "
-                f"{MAX_FEED_TAU_S / HOUR:g} h), a stand-in for a slow structure or the air")
-    # the slow lag's lower limit relative to the structure's only keeps the two apart; a fit that
-    # rests on it is a second structure time constant close to the first, still the named physics
-    taus = {"slow_structure": (d.tau_slow_s, 1900.0, 90 * HOUR),
-            "ambient_coupling": (d.tau_ambient_s, 650.0, 45 * HOUR), "feed_axis_heat": (d.tau_feed_s, 130.0, 23 * HOUR)}
-    if name in taus:
-        tau, low, high = taus[name]
-        if not low < tau < high:
-            return f"time constant {tau / HOUR:.3g} h at the end of the searched range"
-    return None
+    soaks up a mismatch; naming it would be made up. Each effect's record holds its rule."""
+    return definition_of(name).implausible(sim, train)
 
 
 def too_small(sim: Simulation, name: str, series: Series, sigma: dict, target: str) -> str | None:
     """A sensor offset or drift, or a displacement term, that moves less than a few noise sigmas over
     the recording only soaks up the refit."""
-    if name in sim_.DISPLACEMENT_EFFECTS:
+    definition = definition_of(name)
+    if definition.part == "displacement":
         size = float(np.ptp(sim_.displacement_term(sim, series, name)))
         noise = sigma[target]
         if size < MIN_DISPLACEMENT_TERM_SIGMAS * noise:
             return (f"it moves the displacement {size:.3g} over the recording, under {MIN_DISPLACEMENT_TERM_SIGMAS:g} times "
                     f"its noise ({noise:.3g})")
         return None
-    if name not in SENSOR_ERRORS:
+    if definition.part != "reading":
         return None
     i = sim.sensor_of(name)
-    p = sim.sensors[i]
-    size = abs(p.offset_K) if name == "sensor_offset" else abs(p.drift_K_per_s) * (series.t[-1] - series.t[0])
+    size = definition.reading_size_K(sim.sensors[i], series)
     noise = sigma[series.names[i]]
     if size < MIN_SENSOR_ERROR_SIGMAS * noise:
         return f"{size:.3g} K over the recording, under {MIN_SENSOR_ERROR_SIGMAS:g} times the sensor noise ({noise:.3g} K)"
@@ -372,7 +277,7 @@ def worsens_own_sensor(trial: Simulation, name: str, series: Series, before: Sco
     """Why a fitted offset or drift is not an error of its sensor, or None: a real one makes that
     sensor's reading fit better, so one that leaves its held-out part off by more than before
     (by `MIN_EXCESS` of the noise variance) only bends the displacement through the sensor."""
-    if name not in SENSOR_ERRORS:
+    if definition_of(name).part != "reading":
         return None
     channel = series.names[trial.sensor_of(name)]
     was, now = before.held_out_by_channel.get(channel), after.held_out_by_channel.get(channel)
@@ -389,7 +294,7 @@ def not_the_named_physics(trial: Simulation, name: str, series: Series, train: S
     supports it, as it costs a refit) a feed lag that merely marks when the spindle runs."""
     why = (implausible(trial, name, train) or too_small(trial, name, series, sigma, channels[-1])
            or worsens_own_sensor(trial, name, series, before, after))
-    if why is None and by_bic and name == "feed_axis_heat":
+    if why is None and by_bic and definition_of(name).driven_by == "feed":
         why = follows_running(trial, after, series, channels, sigma, train.rows)
     return why
 
@@ -479,7 +384,7 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
     ambiguity = ""
     while windows and not insufficient:
         trials, passed, credible = [], [], []
-        air_after_air = False
+        undecided = None
         options, skipped = candidates(series, current, train)
         for k, (name, sensor) in enumerate(options, start=1):
             say(f"round {len(rounds) + 1}: testing {name}" + (f" on {series.names[sensor]}" if sensor is not None else "")
@@ -492,24 +397,22 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             effective = effective_delta_bic(residual, res, trial.parameter_count() - current.parameter_count(),
                                             n_train)
             by_bic = delta < -BIC_MARGIN and effective < -BIC_MARGIN
-            why = not_the_named_physics(trial, name, series, train, channels, sigma, current_score, s, by_bic) or (
-                sufficiency.relay_too_quiet(trial, train) if name == "coolant_switching" else None)
+            why = (not_the_named_physics(trial, name, series, train, channels, sigma, current_score, s, by_bic)
+                   or definition_of(name).after_fit(trial, train))
             if why is None and delta < -BIC_MARGIN and not effective < -BIC_MARGIN:
                 why = (f"the residual it leaves is still a slow misfit, not noise: counted over its effective rows "
                        f"(lag-1 autocorrelation) the BIC changes by {effective:+.1f}, not below -{BIC_MARGIN:g}")
             judged = by_bic and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
-            if judged and name == "slow_structure" and current.has("ambient_coupling") and lag_of_the_air(trial, train):
-                air_after_air = True
+            if judged and (alike := definition_of(name).alike_after(current, trial, train)):
+                undecided = alike
             trials.append(Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False,
                                 why))
             if by_bic and why is None:
                 credible.append((trial, s, res, sim_out, len(trials) - 1, name))
                 if judged:
                     passed.append(credible[-1])
-        if air_after_air:  # the ambient lag added before leaves what a heat-cancelling structure still fits
-            ambiguous = ("ambient_coupling", "slow_structure")
-            ambiguity = ("after the ambient lag was added, a slow structure whose weights cancel the heat still "
-                         "improves the fit: the two are not told apart")
+        if undecided:  # an effect added before leaves what this one still fits
+            ambiguous, ambiguity = undecided
             rounds.append(trials)
             break
         if not passed:

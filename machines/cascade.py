@@ -115,7 +115,7 @@ def simulate(hours: float, seed: int, dt: float = 10.0, ambient_start: float = 2
         raise UserError("--noise must be zero or positive")
     on = {e.name: e for e in effects}
     for e in effects:
-        if e.name in ("sensor_offset", "sensor_drift") and e.get("column") not in NODES:
+        if e.name in COLUMN_DEFAULTS and e.get("column") not in NODES:
             raise UserError(f"--effect {e.name}: column must be one of {', '.join(NODES)}, found {e.get('column')!r}")
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, hours * 3600 + dt / 2, dt)

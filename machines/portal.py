@@ -11,7 +11,7 @@ What stays inside paper 000's class (docs/diagnosis.md) when no effect is on: ea
 is exactly eq. 4's first-order lag of ambient + gain·speed, T[j] = a·T[j-1] + (1 − a)·u[j] with
 a = exp(−dt/τ) (the exact step for an input held over the sample), and the displacement is linear
 in the measured temperatures plus the ram node (eq. 10/16 through a structure lag). Every named
-effect of models/effects.py is a physical extension on top of that.
+effect of models/effects/ is a physical extension on top of that.
 """
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from thermoplc.base.errors import UserError
-from thermoplc.models.effects import EFFECTS
+from thermoplc.models.effects import registry
 
 NAME = "portal"
 DESCRIPTION = "gantry milling machine: spindle, gearbox and crossbeam nodes, unmeasured ram, random speeds"
@@ -57,9 +57,6 @@ PT100_NOISE_K = 0.08                # per unit of `noise`
 AMBIENT_NOISE_K = 0.05
 DISPLACEMENT_NOISE_UM = 0.7
 QUANTUM_K = 0.01
-_POSITIVE = {"gear_ratio_switch": ("ratio",), "nonlinear_speed_heat": ("exponent", "reference_rpm"),
-             "slow_structure": ("tau_h",), "ambient_coupling": ("tau_h",), "feed_axis_heat": ("tau_h",),
-             "stop_convection": ("factor",)}
 
 
 def simulate(hours: float, seed: int, dt: float = 10.0, ambient_start: float = 20.0, ambient_swing: float = 1.0,
@@ -120,18 +117,19 @@ def _active_effects(effects: tuple) -> dict:
     """The effects by name, each checked against this machine."""
     active = {}
     for e in effects:
-        if e.name not in EFFECTS:
-            raise UserError(f"effect {e.name!r}: unknown; expected one of {', '.join(EFFECTS)}")
+        if e.name not in registry():
+            raise UserError(f"effect {e.name!r}: unknown; expected one of {', '.join(registry())}")
+        definition = registry()[e.name]
         if e.name in active:
             raise UserError(f"effect {e.name}: each effect can be switched on once")
         if e.name in COLUMN_DEFAULTS and e.get("column") not in SENSORS:
             raise UserError(f"effect {e.name}: column {e.get('column')!r} is not a sensor of machine {NAME}; "
                             f"expected one of {', '.join(SENSORS)}")
-        for key in _POSITIVE.get(e.name, ()):
+        for key in definition.positive:
             if not e.get(key) > 0:
                 raise UserError(f"effect {e.name}: {key} must be above 0, found {e.get(key)}")
-        if e.name == "coolant_switching" and not e.get("on_C") > e.get("off_C"):
-            raise UserError(f"effect coolant_switching: on_C ({e.get('on_C')}) must be above off_C ({e.get('off_C')})")
+        if why := definition.check(dict(e.parameters)):
+            raise UserError(f"effect {e.name}: {why}")
         active[e.name] = e
     return active
 

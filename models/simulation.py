@@ -23,6 +23,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from thermoplc.models import kernels
+from thermoplc.models.effects import definition_of, with_part
 
 
 def minimize(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
@@ -42,8 +43,6 @@ def savgol_filter(*args, **kwargs):  # scipy on first use: verify never fits, an
     return function(*args, **kwargs)
 
 
-DISPLACEMENT_EFFECTS = ("slow_structure", "ambient_coupling", "feed_axis_heat")
-PER_SENSOR = ("sensor_offset", "sensor_drift", "coolant_switching")  # tried on each sensor in turn
 TABLE_SEGMENTS = 16
 RELAY_ROUNDS = 4
 RELAY_GRID_STEP_K = 0.05
@@ -136,14 +135,13 @@ class Simulation:
         return next((s for e, s in self.effects if e == name), None)
 
     def parameter_count(self) -> int:
-        per_sensor = 3 + sum(self.has(e) for e in ("stop_convection", "gear_ratio_switch", "coolant_switching"))
+        """Fitted parameters: per sensor a time constant, a gain and a standstill load; the
+        displacement's offset and a weight per sensor; with the structure lag its time constant and
+        a second weight per sensor; and what each effect adds (its record says how many)."""
+        k = len(self.sensors)
         structure = self.displacement.tau_struct_s is not None
-        count = len(self.sensors) * per_sensor + 1 + len(self.sensors) + (1 + len(self.sensors)) * structure
-        count += sum(self.has(e) for e in ("gear_ratio_switch", "nonlinear_speed_heat", "sensor_offset", "sensor_drift"))
-        count += 2 * self.has("coolant_switching")
-        count += (1 + len(self.sensors)) * self.has("slow_structure")
-        count += 2 * self.has("ambient_coupling") + 2 * self.has("feed_axis_heat")
-        return count
+        count = 3 * k + 1 + k + (1 + k) * structure
+        return count + sum(definition_of(name).added_parameters(k) for name in {e for e, _ in self.effects})
 
 
 def pole(tau_s: float, dt: float) -> float:
@@ -663,9 +661,9 @@ def fit(series: Series, effects=(), warm: Simulation | None = None, structure_la
         structure_lag = warm.displacement.tau_struct_s is not None
     added = {name for name, _ in effects} - {name for name, _ in warm.effects} if warm is not None and not polish \
         else None
-    if added is not None and added <= set(DISPLACEMENT_EFFECTS):  # the temperatures do not change
+    if added is not None and added <= with_part("displacement"):  # the temperatures do not change
         sensors = warm.sensors
-    elif added is not None and added <= {"sensor_offset", "sensor_drift"}:  # only that sensor changes
+    elif added is not None and added <= with_part("reading"):  # only that sensor changes
         sensors = tuple(fit_sensor(series, i, shared, effects, p)[0] if any(s == i for n, s in effects if n in added)
                         else p for i, p in enumerate(warm.sensors))
     else:

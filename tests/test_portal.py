@@ -9,7 +9,7 @@ import pytest
 
 from thermoplc.base.errors import UserError
 from thermoplc.machines import portal
-from thermoplc.models.effects import EFFECTS, Effect
+from thermoplc.models.effects import NAMES, Effect
 
 TEMPS = portal.SENSORS
 DT = 10.0
@@ -157,7 +157,7 @@ def test_stop_convection(base):
 
 def test_every_effect_switches_on(base):
     suited = {"coolant_switching": "coolant_switching:on_C=24,off_C=22.5"}
-    for name in EFFECTS:
+    for name in NAMES:
         text = suited.get(name, name)
         if name in portal.COLUMN_DEFAULTS:
             text = f"{name}:column={portal.COLUMN_DEFAULTS[name]}"
