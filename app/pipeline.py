@@ -10,14 +10,14 @@ from thermoplc.base.version import __version__
 from thermoplc.contract.constants import expected
 from thermoplc.generator.ir import Block, Identity
 from thermoplc.generator.lower import lower, model_identity, prove
-from thermoplc.generator.printer import DIALECTS, GenerationError, render, render_instance_db, render_plcopen
+from thermoplc.generator.printer import (DIALECTS, GenerationError, render, render_instance_db, render_plcopen,
+                                        validate)
 from thermoplc.generator.ranges import RangeProof
 from thermoplc.models.acceptance import problem, quantisation_problem
 from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import Limits
 from thermoplc.verifier.parser import parse_text
 from thermoplc.verifier.stress import StressResult, stress
-
 
 
 @dataclass(frozen=True)
@@ -28,6 +28,18 @@ class Generated:
     proof: RangeProof
     stressed: StressResult
     unvalidated: str | None  # why the model has not earned a block, when accept_unvalidated let it through
+
+
+def becomes_block(model: Model, path: str) -> None:
+    """Refuse to write a model file that no block can be made of: fit and diagnose check it before
+    writing, so that a column named like one of the block's own variables (`Ready`, `K0_1`) is
+    refused there and not only by `generate`. The block is lowered and checked by the rules every
+    rendering checks (printer.validate); no text is rendered, no range proof or gate is run."""
+    try:
+        validate(lower(model))
+    except GenerationError as exc:
+        raise UserError(f"{path}: not written: the model could not become a block: {exc}; rename the column "
+                        f"or the block") from None
 
 
 def accepted(model: Model, source: str, accept_unvalidated: bool = False) -> str | None:

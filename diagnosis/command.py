@@ -12,13 +12,13 @@ from thermoplc.diagnosis.findings import document
 from thermoplc.diagnosis.search import diagnose
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import REPORT_MANIFEST, check_report_folder, report_manifest, write_outputs
-from thermoplc.generator.lower import check_model_becomes_block
 from thermoplc.models import lumped_model
 from thermoplc.models.fit import block_identifier, evaluate, sample_period
 from thermoplc.models.modelfile import Model, Signal, load_model
 from thermoplc.models.simulation import Series, Simulation
 from thermoplc.models.leaks import refuse_leaks, refuse_non_temperatures
 from thermoplc.models.table import Table, read_table
+from thermoplc.pipeline import becomes_block
 
 DEFAULT_TRAIN_SHARE = 0.6
 MIN_ROWS = 10
@@ -121,7 +121,7 @@ def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report
     model = augmented_model(d.final, d.added, request, table, dt, n_train)
     source = {"file": Path(table.path).name, "sha256": table.sha256}
     doc = document(d, series, n_train, source, model_path)
-    check_model_becomes_block(model, model_path)
+    becomes_block(model, model_path)
     outputs = [(model_path, model.to_json())]
     if json_path:
         outputs.append((json_path, json.dumps(doc, indent=2) + "\n"))

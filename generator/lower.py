@@ -7,10 +7,8 @@ import importlib
 import pkgutil
 from dataclasses import replace
 
-from thermoplc.base.errors import UserError
 from thermoplc.generator.commissioning import with_commissioning
 from thermoplc.generator.ir import Block, GenerationError, Identity
-from thermoplc.generator.printer import render
 from thermoplc.generator.ranges import RangeProof, prove_ranges
 from thermoplc.generator.safety import with_safety
 from thermoplc.models.modelfile import Model
@@ -52,16 +50,6 @@ def model_identity(model: Model, date: str = "") -> Identity:
     the range TIA and STEP 7 take), so a changed model shows a changed version in the block properties."""
     fingerprint = model.fingerprint()
     return Identity(version=(int(fingerprint[0], 16), int(fingerprint[1], 16)), date=date)
-
-
-def check_model_becomes_block(model: Model, path: str) -> None:
-    """A model file must become a block: checked before it is written (a column named like one of
-    the block's own variables, `Ready` or `K0_1`, would otherwise only be refused by `generate`)."""
-    try:
-        render(lower(model), "tia")
-    except GenerationError as exc:
-        raise UserError(f"{path}: not written: the model could not become a block: {exc}; rename the column "
-                        f"or the block") from None
 
 
 def prove(model: Model, block: Block, limits: Limits) -> RangeProof:

@@ -160,3 +160,20 @@ def test_generate_stats_reports_cost(workdir):
     out = thermoplc("generate", "a.json", "-o", "s.scl", "--stats", cwd=workdir).stdout
     assert "cost per call (worst-case path): 51 REAL/INT arithmetic operations (model 44, input guards and output limits 7)" in out
     assert "state: 64 bytes" in out
+
+
+def test_fit_and_diagnose_write_no_model_file_that_cannot_become_a_block(tmp_path):
+    """Both check the model with pipeline.becomes_block before writing: a column or block name that
+    is one of the block's own variables is refused there, not only later by generate."""
+    thermoplc("twin", "--hours", 6, "--seed", 1, "-o", "twin.csv", cwd=tmp_path)
+    text = (tmp_path / "twin.csv").read_text()
+    (tmp_path / "ready.csv").write_text(text.replace("T_bearing", "Ready", 1))
+    fit = thermoplc("fit", "--data", "ready.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,Ready",
+                    "--train-rows", 1000, "-o", "m.json", cwd=tmp_path, check=2)
+    diagnose = thermoplc("diagnose", "--data", "twin.csv", "--temps", "T_motor,T_bearing", "--speed", "n_rpm",
+                         "--ambient", "T_env", "--target", "E_z_um", "--name", "Ready", "-o", "d.json", cwd=tmp_path,
+                         check=2)
+    for result, path in ((fit, "m.json"), (diagnose, "d.json")):
+        assert f"{path}: not written: the model could not become a block: 'Ready' and 'Ready' are the same " \
+               f"identifier" in result.stderr
+        assert not (tmp_path / path).exists()

@@ -83,12 +83,12 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from thermoplc.commands.fit_auto import fit_auto
     from thermoplc.commands.fit_summary import format_fit
-    from thermoplc.generator.lower import check_model_becomes_block
     from thermoplc.models.acceptance import refusal
     from thermoplc.models.crossval import fit_held_out
     from thermoplc.models.fit import FitRequest
     from thermoplc.models.kalman import FitOptions
     from thermoplc.models.table import read_table
+    from thermoplc.pipeline import becomes_block
     check_output(args.output, args.force, inputs=args.data)
     tables = [read_table(path, args.time, decimal=args.decimal) for path in args.data]
     options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
@@ -103,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         model = fit_held_out(tables, request, args.folds, args.time, progress())
     end_progress()
-    check_model_becomes_block(model, args.output)
+    becomes_block(model, args.output)
     write_atomic(args.output, model.to_json())
     print(format_fit(model))
     print(f"wrote {args.output}")
