@@ -10,13 +10,14 @@ table in docs/bad_input.md from the same runs.
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
 from tests.cli_runner import thermoplc
-from tests.golden_models import GOLDEN
+from tests.golden_models import GOLDEN, golden_block, golden_twin_csv
 from thermoplc.models.table import write_table
 from thermoplc.machines.cascade import simulate
 
@@ -96,6 +97,22 @@ def _model_edit(edit: Callable[[dict], None], raw: Callable[[str], str] | None =
 def _block_edit(edit: Callable[[str], str]):
     def prepare(folder: Path) -> None:
         (folder / "bad.scl").write_text(edit((folder / "block.scl").read_text()))
+    return prepare
+
+
+def table_entry_edited(text: str, table: str, index: int, value: str) -> str:
+    """A block's text with one entry of a read-only table replaced."""
+    start = text.index(f"{table} : ")
+    entry = list(re.finditer(r"-?\d+\.\d+(?:E[+-]?\d+)?", text[start:text.index("];", start)]))[index]
+    return text[:start + entry.start()] + value + text[start + entry.end():]
+
+
+def _golden_pair(kind: str, edit: Callable[[str], str]):
+    """bad.json: the golden model of `kind`; bad.scl: its TIA block edited; golden_twin.csv: its data."""
+    def prepare(folder: Path) -> None:
+        (folder / "bad.json").write_text((GOLDEN / f"{kind}.json").read_text())
+        (folder / "bad.scl").write_text(edit(golden_block(kind, "tia").read_text()))
+        golden_twin_csv(folder)
     return prepare
 
 
@@ -243,14 +260,14 @@ HOSTILE = [
     ("T1 END_FUNCTION_BLOCK", "accepted", "wrote out.json"),  # becomes the identifier T1_END_FUNCTION_BLOCK
     ("T*)x", "accepted", "wrote out.json"),
     ('T"1', "accepted", "wrote out.json"),
-    ("#T1", "error", "gives block name 'T1', which reads as an absolute address"),  # timer 1 in classic SCL
+    ("#T1", "accepted", "column '#T1' is block name T1_in"),  # timer 1 in classic SCL: renamed, stated
     ("#T_1", "accepted", "wrote out.json"),
-    ("METHOD", "error", "gives block name 'METHOD', which is a reserved word"),
-    ("Т1", "error", "gives block name '1', which"),  # a Cyrillic T
-    ("T" * 200, "error", "has 200 characters, at most 24 are allowed"),
-    ("TON", "error", "gives block name 'TON', which"),
-    ("EXP", "error", "gives block name 'EXP', which"),
-    ("BEGIN", "error", "gives block name 'BEGIN', which"),
+    ("METHOD", "accepted", "column 'METHOD' is block name METHOD_in"),
+    ("Т1", "accepted", "column 'Т1' is block name in_1"),  # a Cyrillic T
+    ("T" * 200, "accepted", "is block name TTTTTTTTTTTTTTTTT_"),
+    ("TON", "accepted", "column 'TON' is block name TON_in"),
+    ("EXP", "accepted", "column 'EXP' is block name EXP_in"),
+    ("BEGIN", "accepted", "column 'BEGIN' is block name BEGIN_in"),
 ]
 
 
@@ -602,8 +619,19 @@ def _verify_cases() -> list[Case]:
     ]
 
 
+def _review_cases() -> list[Case]:
+    """Issue 27: a block that is not its model's fails verify (exit 1) on every path."""
+    golden = ("verify", "bad.scl", "--model", "bad.json", "--data", "golden_twin.csv")
+    return [
+        Case("ST file", "a table entry no fault case reaches, edited", "verify --faults", (*golden, "--faults"),
+             _golden_pair("bayes", lambda t: table_entry_edited(t, "tab_Pred", 5, "99.5")), "refused",
+             "NOT bit-exact: bad.scl holds constants that differ from the model"),
+    ]
+
+
 CASES = [*_csv_cases(), *_model_cases(), *_st_cases(), *_injection_cases(), *_output_cases(), *_option_cases(),
-         *_bounded_cases(), *_schema_cases(), *_nesting_cases(), *_data_file_cases(), *_verify_cases()]
+         *_bounded_cases(), *_schema_cases(), *_nesting_cases(), *_data_file_cases(), *_verify_cases(),
+         *_review_cases()]
 
 
 def setup_folder(folder: Path) -> None:

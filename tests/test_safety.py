@@ -2,6 +2,7 @@
 import numpy as np
 import pytest
 
+from tests.bad_inputs import table_entry_edited
 from tests.golden_models import GOLDEN, KINDS, golden_block, golden_twin_csv
 from tests.cli_runner import thermoplc
 from thermoplc.generator.lower import lower
@@ -23,7 +24,9 @@ def golden_table(tmp_path_factory):
 @pytest.mark.parametrize("kind", KINDS)
 def test_every_fault_on_every_golden_block_stays_exact_finite_and_limited(kind, golden_table):
     model = load_model(GOLDEN / f"{kind}.json")
-    cases = verify_faults(str(golden_block(kind, "tia")), model, golden_table)
+    report = verify_faults(str(golden_block(kind, "tia")), model, golden_table)
+    assert report.ok and report.constants_checked and not report.constant_errors
+    cases = report.cases
     temperatures = [s for s in model.inputs if {"temperature", "ambient"} & set(s.role.split(","))]
     assert len(cases) == len(FAULT_KINDS) * len(temperatures) + len(CONTROL_KINDS)  # sensors, then Enable/Reset
     failed = [(c.sensor, c.kind.name) for c in cases if not c.ok]
@@ -89,3 +92,17 @@ def test_generate_rejects_limits_that_make_no_sense(tmp_path):
     assert "argument --max-step-um: expected micrometres" in result.stderr and not (tmp_path / "b.scl").exists()
     result = thermoplc("generate", GOLDEN / "mlr.json", "--temp-range", "80,20", "-o", "b.scl", cwd=tmp_path, check=2)
     assert "argument --temp-range: expected LOW,HIGH with LOW below HIGH" in result.stderr
+
+
+def test_verify_faults_checks_the_declared_constants_as_plain_verify_does(tmp_path):
+    """tab_Pred[5] of the Bayes block is an answer no fault case of the golden twin reaches: replay
+    alone passed the edited block; the constants check that plain verify makes fails it (exit 1)."""
+    edited = table_entry_edited(golden_block("bayes", "tia").read_text(), "tab_Pred", 5, "99.5")
+    (tmp_path / "b.scl").write_text(edited)
+    data = golden_twin_csv(tmp_path)
+    out = thermoplc("verify", "b.scl", "--data", data, "--model", GOLDEN / "bayes.json", "--faults", cwd=tmp_path,
+                    check=1).stdout
+    assert out.startswith("NOT bit-exact: b.scl holds constants that differ from the model")
+    assert "all cases bit-exact, finite, inside the clamp and the rate limit" in out  # the replay alone passes
+    assert "constants and tables: 91 values checked against the model, 1 differs" in out
+    assert "tab_Pred[5]: block 99.5 (0x42C70000), model 15.5 (0x41780000)" in out

@@ -17,7 +17,8 @@ from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import ENABLE, ENO, RESET, Limits, guards
 from thermoplc.models.table import Table
-from thermoplc.verifier.replay import _check_interface, _load, _replay_and_compare, block_limits
+from thermoplc.verifier.replay import (_check_interface, _load, _replay_and_compare, block_limits, compare_constants,
+                                       constants_lines, subnormal_declarations)
 
 TRANSIENT_CALLS = 30
 
@@ -107,10 +108,43 @@ def _within_rate(series: np.ndarray, step: float) -> bool:
     return bool(np.all(np.abs(np.diff(y)) <= allowed))
 
 
+@dataclass(frozen=True)
+class FaultReport:
+    """Every case, and the checks the data cannot make: the declared constants and tables against the
+    model's (an entry no replayed case reaches is covered by this alone) and subnormal declarations."""
+    block: str
+    rows: int
+    cases: tuple[FaultCase, ...]
+    constants_checked: int
+    constant_errors: tuple[str, ...]
+    unsafe: tuple[str, ...]
+
+    @property
+    def ok(self) -> bool:
+        return all(c.ok for c in self.cases) and not self.constant_errors and not self.unsafe
+
+    def text(self) -> str:
+        verdict = [f"NOT bit-exact: {self.block} holds constants that differ from the model (listed after the "
+                   f"fault cases)"] if self.constant_errors else []
+        return "\n".join([*verdict, format_cases(list(self.cases), self.block, self.rows),
+                          *constants_lines(self.constants_checked, self.constant_errors),
+                          *(f"UNSAFE: {line}" for line in self.unsafe)])
+
+
 def verify_faults(block: str, model: Model, table: Table, overrides: dict | None = None,
-                  engine: str = "auto") -> list[FaultCase]:
+                  engine: str = "auto") -> FaultReport:
+    """The block replayed once per fault case against the model's reference, its declared values
+    checked against the model's as plain verify checks them."""
     program, machine = _load(block, engine)
     limits: Limits = block_limits(program, block)
+    cases = _cases(machine, block, model, table, overrides, limits)
+    checked, errors = compare_constants(program, model, limits)
+    return FaultReport(block, table.rows, tuple(cases), checked, errors,
+                       tuple(subnormal_declarations(program.decls, block)))
+
+
+def _cases(machine, block: str, model: Model, table: Table, overrides: dict | None, limits: Limits) -> list[FaultCase]:
+    """Each fault on each temperature input in turn, then each Enable/Reset action, replayed and compared."""
     clean = model_inputs(model, table, overrides)
     _check_interface(machine, block, clean, "the model inputs")
     times = table.columns[model.time_column] if model.time_column in table.columns else np.arange(table.rows) * 1.0

@@ -90,9 +90,7 @@ class Report:
                 lines.append(f"  {self.control}")
         lines.extend(f"  UNSAFE: {u}" for u in self.unsafe)
         if self.constants_checked:
-            lines.append(f"  constants and tables: {self.constants_checked} values checked against the model, "
-                         f"{_differ(len(self.constant_errors))}")
-            lines.extend(f"    {e}" for e in self.constant_errors[:20])
+            lines.extend(f"  {line}" for line in constants_lines(self.constants_checked, self.constant_errors))
         if self.limits is not None:
             lim = self.limits
             lines.append(f"  safety limits read from the block: outputs within +-{lim.max_output:g}, at most "
@@ -117,8 +115,11 @@ class Report:
         return "\n".join(lines)
 
 
-def _differ(count: int) -> str:
-    return "none differ" if count == 0 else "1 differs" if count == 1 else f"{count} differ"
+def constants_lines(checked: int, errors: tuple[str, ...]) -> list[str]:
+    """How many declared values compare_constants checked, and the first 20 that differ (indented)."""
+    differ = "none differ" if not errors else "1 differs" if len(errors) == 1 else f"{len(errors)} differ"
+    return [f"constants and tables: {checked} values checked against the model, {differ}",
+            *(f"  {e}" for e in errors[:20])]
 
 
 def _show(value) -> str:

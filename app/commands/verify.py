@@ -79,14 +79,10 @@ def _against_model(args: argparse.Namespace) -> int:
 
 
 def _faults(args: argparse.Namespace, model, table) -> int:
-    from thermoplc.verifier.faults import format_cases, verify_faults
-    from thermoplc.verifier.parser import parse_file
-    from thermoplc.verifier.replay import subnormal_declarations
-    cases = verify_faults(args.block, model, table, args.inputs, args.engine)
-    print(format_cases(cases, args.block, table.rows))
-    declared = subnormal_declarations(parse_file(args.block).decls, args.block)
-    print("\n".join(f"UNSAFE: {line}" for line in declared))
-    return 0 if all(c.ok for c in cases) and not declared else 1
+    from thermoplc.verifier.faults import verify_faults
+    report = verify_faults(args.block, model, table, args.inputs, args.engine)
+    print(report.text())
+    return 0 if report.ok else 1
 
 
 def _against_trace(args: argparse.Namespace) -> int:
