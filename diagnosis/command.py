@@ -13,6 +13,7 @@ from thermoplc.diagnosis.search import diagnose
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import REPORT_MANIFEST, check_report_folder, report_manifest, write_outputs
 from thermoplc.models import lumped_model
+from thermoplc.models.effects import definition_of
 from thermoplc.models.fit import block_identifier, evaluate, sample_period
 from thermoplc.models.modelfile import Model, Signal, load_model
 from thermoplc.models.simulation import Series, Simulation
@@ -93,7 +94,7 @@ def augmented_model(final: Simulation, added: list[dict], request: DiagnoseReque
     signals = [Signal(block_identifier(c, "temperature"), c, "temperature", "degC") for c in request.temps]
     signals.append(Signal(block_identifier(request.speed, "speed"), request.speed, "speed", "rpm"))
     signals.append(Signal(block_identifier(request.ambient, "ambient"), request.ambient, "ambient", "degC"))
-    if final.has("feed_axis_heat"):
+    if any(definition_of(name).driven_by == "feed" for name, _ in final.effects):
         signals.append(Signal(block_identifier(request.feed, "feed"), request.feed, "feed", "mm/min"))
     model = Model(
         kind="lumped", block_name=request.block_name, inputs=tuple(signals),
