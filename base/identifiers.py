@@ -2,6 +2,7 @@
 that the models (checking a model file) and the generator (checking a block) both read."""
 from __future__ import annotations
 
+import hashlib
 import re
 
 from thermoplc.base.errors import UserError
@@ -80,14 +81,38 @@ def identifier_from_column(column: str) -> str:
     return cleaned
 
 
+def _shown(text: str) -> str:
+    return repr(text) if len(text) <= 40 else repr(text[:30]) + f"... ({len(text)} characters)"
+
+
 def block_identifier(column: str, what: str) -> str:
-    """The block name for a recorded column, or a UserError that says why the column cannot give one."""
+    """The block name for a recorded column: the column itself when it is a valid identifier, else
+    one derived from it (`T4`, a timer address in SCL, becomes `T4_in`; a target `TIME` becomes
+    `TIME_out`). The model file keeps both, the block header states the column of a renamed input,
+    so a common export (T1..T16) needs no renaming by hand. A UserError when nothing safe derives."""
     name = identifier_from_column(column)
-    problem = identifier_problem(name)
+    if identifier_problem(name) is None:
+        return name
+    end = "out" if what == "target" else "in"
+    stem = name if name[:1].isalpha() else f"{end}_{name}" if name else f"{end}_{identifier_from_column(what)}"
+    derived = stem if identifier_problem(stem) is None else f"{stem}_{end}"
+    if len(derived) > MAX_LENGTH:  # cut, with a digest of the whole column so two long columns stay apart
+        digest = hashlib.sha1(column.encode("utf-8", "surrogatepass")).hexdigest()[:6]
+        derived = f"{derived[:MAX_LENGTH - 7].rstrip('_')}_{digest}"
+    problem = identifier_problem(derived)
     if problem:
-        shown = lambda text: repr(text) if len(text) <= 40 else repr(text[:30]) + f"... ({len(text)} characters)"
-        raise UserError(f"{what} column {shown(column)} gives block name {shown(name)}, which {problem}; rename the column")
-    return name
+        raise UserError(f"{what} column {_shown(column)} gives block name {_shown(derived)}, which {problem}; "
+                        "rename the column")
+    return derived
+
+
+def renaming_note(column: str, name: str) -> str | None:
+    """Why a column's block name differs from the column, for the fit's summary; None when it does not."""
+    if name == column:
+        return None
+    cleaned = identifier_from_column(column)
+    why = identifier_problem(cleaned) if cleaned else "has no letter or digit"
+    return f"column {_shown(column)} is block name {name}" + (f" ({_shown(cleaned)} {why})" if why else "")
 
 
 def check_unique(names: list[str]) -> str | None:
