@@ -2,6 +2,8 @@
 the rows it never saw, beside compensating nothing."""
 from __future__ import annotations
 
+from thermoplc.base.identifiers import renaming_note
+
 
 def format_fit(model) -> str:
     """The errors of a fitted model: training, held out (each fold with cross-validation), float32 vs float64."""
@@ -19,6 +21,7 @@ def format_fit(model) -> str:
     if "cross_validation" in m:
         lines += _format_folds(m)
     lines.append(f"  float32 block vs float64 model: max {m['float32_vs_float64_max_um']:.3g} um")
+    lines += [f"  {note}" for s in (*model.inputs, model.target) if (note := renaming_note(s.column, s.name))]
     if "one_step_rmse_K" in model.fit:  # an identified model: how far its temperatures are from the readings
         names = [s.name for s in model.signals("temperature")]
         each = lambda key: ", ".join(f"{n} {v:.3f}" for n, v in zip(names, model.fit[key]))
