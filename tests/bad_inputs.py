@@ -626,6 +626,9 @@ def _review_cases() -> list[Case]:
         Case("ST file", "a table entry no fault case reaches, edited", "verify --faults", (*golden, "--faults"),
              _golden_pair("bayes", lambda t: table_entry_edited(t, "tab_Pred", 5, "99.5")), "refused",
              "NOT bit-exact: bad.scl holds constants that differ from the model"),
+        Case("ST file", "an index stride edited: c_K_1 sends the index outside tab_Pred", "verify", golden,
+             _golden_pair("bayes", lambda t: t.replace("c_K_1 : Int := 8;", "c_K_1 : Int := 9;")), "refused",
+             "bad.scl:233:22: index 69 outside tab_Pred[0..63] at cycle 388"),
     ]
 
 

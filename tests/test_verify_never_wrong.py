@@ -375,3 +375,27 @@ def test_a_subnormal_constant_is_refused_at_generate_and_fails_verify(folder):
     result = thermoplc("verify", "tiny.scl", "--model", "tiny.json", "--data", "twin.csv", cwd=folder)
     assert result.returncode == 1 and result.stdout.startswith("NOT verified")
     assert "c_beta_1 is declared with the subnormal value 9.99994610111476e-41" in result.stdout
+
+
+def test_a_block_that_fails_at_run_time_is_not_its_model(folder):
+    """Issue 27 review: c_K_1, a Bayes block's index stride into tab_Pred, edited to 9 sends the index
+    outside the table; that is a block that differs from its model (exit 1, the interpreter's message
+    kept), not a bad input (exit 2), with --model, with --faults and with a recorded trace."""
+    from tests.golden_models import golden_block, golden_twin_csv
+    text = golden_block("bayes", "tia").read_text()
+    assert text.count("c_K_1 : Int := 8;") == 1
+    (folder / "k.scl").write_text(text.replace("c_K_1 : Int := 8;", "c_K_1 : Int := 9;"))
+    data = golden_twin_csv(folder)
+    index = "k.scl:233:22: index 69 outside tab_Pred[0..63] at cycle 388"
+    for extra in ((), ("--faults",), ("--engine", "interp")):
+        result = thermoplc("verify", "k.scl", "--model", GOLDEN / "bayes.json", "--data", data, *extra, cwd=folder)
+        assert result.returncode == 1 and index in result.stdout and not result.stderr, result.stdout + result.stderr
+    plain = thermoplc("verify", "k.scl", "--model", GOLDEN / "bayes.json", "--data", data, cwd=folder)
+    assert plain.stdout.startswith("NOT bit-exact: k.scl stops with a run-time error on golden_twin.csv")
+    assert "c_K_1: block 9, model 8" in plain.stdout
+    (folder / "div.st").write_text("FUNCTION_BLOCK D\nVAR_INPUT x : INT; END_VAR\nVAR_OUTPUT y : INT; END_VAR\n"
+                                   "y := 10 / x;\nEND_FUNCTION_BLOCK\n")
+    _trace(folder, "div.csv", {"x": np.array([1.0, 0.0]), "y_plc": np.array([10.0, 0.0])})
+    trace = thermoplc("verify", "div.st", "--data", "div.csv", "--expect", "y=y_plc", cwd=folder)
+    assert trace.returncode == 1 and "div.st:4:6: integer division by zero at cycle 1" in trace.stdout, \
+        trace.stdout + trace.stderr

@@ -50,7 +50,7 @@ class Replayer:
                 self.used = "fast"
                 return {name: result[0][name] for name in outputs}
             self.note = ("the fast engine met a value the interpreter reports (NaN, Inf, subnormal, INT overflow, "
-                         "an unset temp); replayed with the interpreter")
+                         "an unset temp, an index outside its array); replayed with the interpreter")
         self.used = "interp"
         self.machine.reset()
         lists = {name: np.asarray(col).tolist() for name, col in columns.items()}

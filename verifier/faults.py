@@ -85,6 +85,7 @@ class FaultCase:
     flagged: bool
     clear_at_end: bool
     max_change: float  # largest |output with fault - output without| of the model's target
+    failure: str | None = None  # the block's run-time error in this case (verifier/interpreter.py::BlockFailure)
 
     @property
     def ok(self) -> bool:
@@ -127,8 +128,19 @@ class FaultReport:
         verdict = [f"NOT bit-exact: {self.block} holds constants that differ from the model (listed after the "
                    f"fault cases)"] if self.constant_errors else []
         return "\n".join([*verdict, format_cases(list(self.cases), self.block, self.rows),
+                          *self._failures(),
                           *constants_lines(self.constants_checked, self.constant_errors),
                           *(f"UNSAFE: {line}" for line in self.unsafe)])
+
+
+    def _failures(self) -> list[str]:
+        """Each run-time error of the block once, with the cases that met it."""
+        met: dict[str, list[str]] = {}
+        for c in self.cases:
+            if c.failure:
+                met.setdefault(c.failure, []).append(f"{c.sensor}/{c.kind.name}")
+        return [f"run-time error in {len(cases)} case(s) ({', '.join(cases[:4])}{', ...' if len(cases) > 4 else ''}): "
+                f"{failure}" for failure, cases in met.items()]
 
 
 def verify_faults(block: str, model: Model, table: Table, overrides: dict | None = None,
@@ -182,12 +194,13 @@ def _case(kind: FaultKind, what: str, first: int, last: int, expected: dict, rep
     limited = [np.asarray(expected[v.name], np.float32) for v in machine.outputs
                if v.type.base == "REAL" and not v.name.startswith("K0_")]
     return FaultCase(
-        kind, what, first, last, report.mismatch is None,
+        kind, what, first, last, report.mismatch is None and report.failure is None,
         all(bool(np.all(np.isfinite(v))) for v in real) and not any(f.kind in ("nan", "inf") for f in report.findings),
         all(bool(np.all(np.abs(v) <= np.float32(limits.max_output))) for v in limited),
         all(_within_rate(v, limits.max_step) for v in limited),
         bool(flags[first:last + 1].any()), not bool(flags[-1]),
-        float(np.max(np.abs(expected[model.target.name].astype(np.float64) - baseline.astype(np.float64)))))
+        float(np.max(np.abs(expected[model.target.name].astype(np.float64) - baseline.astype(np.float64)))),
+        report.failure)
 
 
 def format_cases(cases: list[FaultCase], block: str, rows: int) -> str:

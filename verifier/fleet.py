@@ -102,6 +102,8 @@ def verify_pair(pair: Pair, engine: str) -> Outcome:
     detail = f"{report.cycles} cycles, {report.engine}"
     if report.mismatch is not None:
         detail += f", first divergent cycle {report.mismatch.cycle} ({report.mismatch.output})"
+    if report.failure is not None:
+        detail += f", run-time error: {report.failure}"
     return Outcome(pair, status, detail, report.text(), report.cycles, time.perf_counter() - started)
 
 

@@ -28,6 +28,12 @@ class InterpretError(UserError):
     pass
 
 
+class BlockFailure(InterpretError):
+    """The block itself fails on a call: an index outside its array, an integer division by zero, a
+    temp read before it is written, a FOR step of 0, a loop that would overrun any cycle. A block
+    that does so is not its model (verify: exit 1), not a bad input; other callers see an error."""
+
+
 class _Unset:
     def __repr__(self):
         return "<unset>"
@@ -177,6 +183,9 @@ class Machine:
     def _fail(self, pos: s.Pos, message: str):
         raise InterpretError(f"{self.source}:{pos[0]}:{pos[1]}: {message}")
 
+    def _failure(self, pos: s.Pos, message: str):
+        raise BlockFailure(f"{self.source}:{pos[0]}:{pos[1]}: {message}")
+
     # -- compiling statements ----------------------------------------------------------------------
     def _block(self, stmts) -> list:
         out = []
@@ -218,13 +227,13 @@ class Machine:
         start, stop = (self._int_expr(e) for e in (st.start, st.stop))
         step = self._int_expr(st.step) if st.step is not None else (lambda v: 1)
         body = self._block(st.body)
-        fail = self._fail
+        fail, failure = self._fail, self._failure
         check = self._int_range_check(decl.type.base, st.pos)  # the counter is stored: an INT that wraps never ends
 
         def run_for(v):
             i, end, inc = start(v), stop(v), step(v)
             if inc == 0:
-                fail(st.pos, "FOR step is 0")
+                failure(st.pos, "FOR step is 0")
             if self._loop_cycle != self.cycle:  # the budget is per call, over all loops (nested ones too)
                 self._loop_total += self._loop_count
                 self._loop_cycle, self._loop_count = self.cycle, 0
@@ -234,7 +243,7 @@ class Machine:
             while (i <= end) if inc > 0 else (i >= end):
                 self._loop_count += 1
                 if self._loop_count > MAX_LOOP_ITERATIONS:
-                    fail(st.pos, f"FOR loops of one call exceed {MAX_LOOP_ITERATIONS} iterations")
+                    failure(st.pos, f"FOR loops of one call exceed {MAX_LOOP_ITERATIONS} iterations")
                 v[slot] = check(i)
                 for stmt in body:
                     stmt(v)
@@ -270,12 +279,12 @@ class Machine:
                 self._fail(target.pos, f"{decl.name} is not an array")
             index = self._int_expr(target.index)
             lo, hi = decl.type.bounds
-            fail = self._fail
+            failure = self._failure
 
             def assign_item(v):
                 i = index(v)
                 if not lo <= i <= hi:
-                    fail(target.pos, f"index {i} outside {decl.name}[{lo}..{hi}] at cycle {self.cycle}")
+                    failure(target.pos, f"index {i} outside {decl.name}[{lo}..{hi}] at cycle {self.cycle}")
                 v[slot][i - lo] = check_int(value(v))
             return assign_item
         if decl.type.bounds:
@@ -328,12 +337,12 @@ class Machine:
         kind = "DINT" if decl.type.base in INT_RANGES else decl.type.base
         if decl.section != "temp":
             return (lambda v: v[slot]), kind
-        fail = self._fail
+        failure = self._failure
 
         def read_temp(v):
             x = v[slot]
             if x is UNSET:
-                fail(e.pos, f"VAR_TEMP {decl.name} is read before it is written in this call "
+                failure(e.pos, f"VAR_TEMP {decl.name} is read before it is written in this call "
                             f"(its value at block start is undefined on the PLC)")
             return x
         return read_temp, kind
@@ -345,16 +354,16 @@ class Machine:
         slot = self.slots[decl.name.upper()]
         lo, hi = decl.type.bounds
         index = self._int_expr(e.index)
-        fail = self._fail
+        failure = self._failure
         kind = "DINT" if decl.type.base in INT_RANGES else decl.type.base
 
         def read_item(v):
             i = index(v)
             if not lo <= i <= hi:
-                fail(e.pos, f"index {i} outside {decl.name}[{lo}..{hi}] at cycle {self.cycle}")
+                failure(e.pos, f"index {i} outside {decl.name}[{lo}..{hi}] at cycle {self.cycle}")
             x = v[slot][i - lo]
             if x is UNSET:
-                fail(e.pos, f"VAR_TEMP {decl.name}[{i}] is read before it is written in this call")
+                failure(e.pos, f"VAR_TEMP {decl.name}[{i}] is read before it is written in this call")
             return x
         return read_item, kind
 
@@ -470,11 +479,11 @@ class Machine:
         self._fail(e.pos, f"'{op}' on REAL operands is not supported")
 
     def _int_binop(self, e: s.BinOp, lf, rf):
-        fail = self._fail
+        failure = self._failure
 
         def divide(a, b, remainder):
             if b == 0:
-                fail(e.pos, f"integer division by zero at cycle {self.cycle}")
+                failure(e.pos, f"integer division by zero at cycle {self.cycle}")
             q = abs(a) // abs(b) * (1 if (a >= 0) == (b >= 0) else -1)  # truncates toward zero
             return a - q * b if remainder else q
         ops = {"+": lambda a, b: a + b, "-": lambda a, b: a - b, "*": lambda a, b: a * b,

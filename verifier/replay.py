@@ -16,7 +16,7 @@ from thermoplc.models.reference import block_outputs, control_inputs, model_inpu
 from thermoplc.models.safety import CONTROL_START, ENABLE, RESET, Limits
 from thermoplc.models.table import Table
 from thermoplc.verifier.engines import Replayer
-from thermoplc.verifier.interpreter import Finding
+from thermoplc.verifier.interpreter import BlockFailure, Finding
 from thermoplc.verifier.parser import parse_file
 from thermoplc.verifier.syntax import Program
 from thermoplc.verifier.typed import cells_as, differing_rows, first_non_finite
@@ -56,10 +56,11 @@ class Report:
     engine_note: str = ""  # why the fast engine was not used, when asked for
     unsafe: tuple[str, ...] = ()  # a non-finite REAL output or an INT overflow: fails whatever the reference says
     control: str = ""  # a note on the data: how it drove Enable and Reset, or what a trace must hold
+    failure: str | None = None  # the block's run-time error (an index outside its array...): it is not the model
 
     @property
     def ok(self) -> bool:
-        return self.mismatch is None and not self.constant_errors and not self.unsafe
+        return self.mismatch is None and not self.constant_errors and not self.unsafe and self.failure is None
 
     def text(self) -> str:
         lines = []
@@ -69,6 +70,9 @@ class Report:
                          f"({', '.join(self.outputs)}): every bit equal")
             if self.control:
                 lines.append(f"  {self.control}")
+        elif self.failure is not None:
+            lines.append(f"NOT bit-exact: {self.block} stops with a run-time error on {self.data}, where "
+                         f"{self.against} computes every call: {self.failure}")
         elif self.mismatch is None and self.constant_errors:
             lines.append(f"NOT bit-exact: {self.block} holds constants that differ from the model "
                          f"(the {self.cycles} replayed cycles matched)")
@@ -223,9 +227,14 @@ def _replay_and_compare(replayer: Replayer, block: str, against: str, table: Tab
                         inputs: dict, expected: dict, quantisation: dict) -> Report:
     rows = table.rows
     start = time.perf_counter()
-    produced = replayer.replay(inputs, rows, outputs=tuple(expected))
-    seconds = time.perf_counter() - start
     machine = replayer.machine
+    try:
+        produced = replayer.replay(inputs, rows, outputs=tuple(expected))
+    except BlockFailure as exc:
+        return Report(block, against, Path(table.path).name, machine.cycle, tuple(expected), None,
+                      tuple(replace(f) for f in machine.findings.values()), time.perf_counter() - start, quantisation,
+                      engine=replayer.used, engine_note=replayer.note, failure=str(exc))
+    seconds = time.perf_counter() - start
     findings = tuple(replace(f) for f in machine.findings.values())  # copies: the re-run below counts again
     types = {d.name: d.type.base for d in replayer.outputs}
     first = _first_mismatch(produced, {k: expected[k] for k in produced}, types)
