@@ -1,4 +1,4 @@
-"""The command line as a user runs it: `python -m thermoplc.cli ...` in a child process, in a folder.
+"""The command line as a user runs it: `python -m thermoplc ...` in a child process, in a folder.
 
 Every test that runs the CLI goes through `thermoplc`; a test that needs the process itself
 (signals, a shell pipe, stdout onto a device) starts `CLI` with its own subprocess call.
@@ -10,7 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-CLI = (sys.executable, "-m", "thermoplc.cli")
+CLI = (sys.executable, "-m", "thermoplc")
 
 
 def thermoplc(*args, cwd: Path, check: int | None = 0, stdin: str | None = None, env: dict | None = None,
