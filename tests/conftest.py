@@ -10,6 +10,8 @@ from thermoplc.models.kalman import FitOptions
 from thermoplc.models.table import read_table, write_table
 from thermoplc.machines.cascade import simulate
 
+pytest_plugins = ["tests.file_progress"]  # a line per test file as it finishes
+
 TEMPS = ("T_motor", "T_bearing")
 
 
