@@ -629,6 +629,9 @@ def _review_cases() -> list[Case]:
         Case("ST file", "an index stride edited: c_K_1 sends the index outside tab_Pred", "verify", golden,
              _golden_pair("bayes", lambda t: t.replace("c_K_1 : Int := 8;", "c_K_1 : Int := 9;")), "refused",
              "bad.scl:233:22: index 69 outside tab_Pred[0..63] at cycle 388"),
+        Case("ST file", "a declared INT constant replaced by a literal where it is read", "verify", golden,
+             _golden_pair("bayes", lambda t: t.replace("+ #c_OneCall", "+ 2")), "refused",
+             "c_OneCall: declared but never read by the statements"),
     ]
 
 

@@ -65,6 +65,8 @@ def _edited(text: str, edit: str) -> str:
     if edit == "settle count written as a literal":
         text = text.replace("    c_OneCall : INT := 1;", "", 1)
         return text.replace("+ c_OneCall", "+ 2")
+    if edit == "settle count written as a literal beside its declaration":
+        return text.replace("+ c_OneCall", "+ 2")
     if edit == "a shadow table":
         return text.replace("\nVAR\n", "\nVAR\n    tab_Shadow : ARRAY[0..1] OF REAL := [1.0, 2.0];\n", 1)
     raise ValueError(edit)
@@ -72,7 +74,7 @@ def _edited(text: str, edit: str) -> str:
 
 @pytest.mark.parametrize("edit", ["limit written as a literal", "limit moved to a static",
                                   "reset value moved to a static", "settle count written as a literal",
-                                  "a shadow table"])
+                                  "settle count written as a literal beside its declaration", "a shadow table"])
 def test_verify_refuses_a_block_whose_constants_left_their_place(edit, tmp_path):
     """Found by a hostile review: with only declared constants compared, these passed as bit-exact."""
     from tests.golden_models import golden_twin_csv

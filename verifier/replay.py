@@ -18,7 +18,7 @@ from thermoplc.models.table import Table
 from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.interpreter import BlockFailure, Finding
 from thermoplc.verifier.parser import parse_file
-from thermoplc.verifier.syntax import Program
+from thermoplc.verifier.syntax import Program, names_read
 from thermoplc.verifier.typed import cells_as, differing_rows, first_non_finite
 
 ARRAY_ITEMS_SHOWN = 6
@@ -282,6 +282,7 @@ def compare_constants(program: Program, model: Model, limits: Limits) -> tuple[i
              if d.section == "constant" or d.initial is not None and d.section != "input"}
     wanted, unknown, missing = expected(model, limits, list(decls))
     sections = {d.name.upper(): d.section for d in program.decls}
+    read = names_read(program.body)
     errors, checked = [], 0
     for name in sorted(required(model)):
         section = sections.get(name.upper())
@@ -289,6 +290,9 @@ def compare_constants(program: Program, model: Model, limits: Limits) -> tuple[i
             errors.append(f"{name}: missing from the block (every block of this model declares it)")
         elif section != "constant":
             errors.append(f"{name}: declared as {section}, but it is a constant of every block of this model")
+        elif name.upper() not in read:  # a literal in its place computes with another value, or only seems to
+            errors.append(f"{name}: declared but never read by the statements; every block of this model computes "
+                          f"with it (was a use of it replaced by a literal?)")
     for name, values in wanted.items():
         decl = decls[name]
         found = decl.initial if isinstance(decl.initial, tuple) else (decl.initial,)

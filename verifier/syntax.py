@@ -1,7 +1,7 @@
 """The AST of a parsed block. Positions (line, column) are kept for messages but not compared."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, is_dataclass
 from typing import Union
 
 Pos = tuple[int, int]
@@ -127,3 +127,24 @@ class Program:
 
     def section(self, section: str) -> tuple[VarDecl, ...]:
         return tuple(d for d in self.decls if d.section == section)
+
+
+def names_read(node) -> frozenset[str]:
+    """Every variable or constant the statements read, in upper case (ST names ignore case): the
+    names in expressions, indices and FOR bounds, not the variable an assignment writes."""
+    found: set[str] = set()
+
+    def walk(item) -> None:
+        if isinstance(item, tuple):
+            for part in item:
+                walk(part)
+        elif isinstance(item, Assign):
+            walk(item.target.index if isinstance(item.target, Index) else ())
+            walk(item.value)
+        elif is_dataclass(item):
+            if isinstance(item, (Name, Index)):
+                found.add(item.name.upper())
+            for f in fields(item):
+                walk(getattr(item, f.name))
+    walk(node)
+    return frozenset(found)
