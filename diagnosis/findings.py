@@ -1,6 +1,9 @@
 """What the diagnosis found, as the findings document (findings.json) and as console text."""
 from __future__ import annotations
 
+import shlex
+from pathlib import Path
+
 import numpy as np
 
 from thermoplc.diagnosis.search import Diagnosis
@@ -41,7 +44,7 @@ def _window(series: Series, w: Window, d: Diagnosis, after: bool) -> dict:
 
 def document(d: Diagnosis, series: Series, n_train: int, source: dict, model_path: str | None) -> dict:
     target = d.channels[-1]
-    channels = {c: {"noise_sigma": d.sigma[c],
+    channels = {c: {"unit": "um" if c == target else "K", "noise_sigma": d.sigma[c],
                     "train_rmse_before": d.before.rmse_train[c], "train_rmse_after": d.after.rmse_train[c],
                     "held_out_rmse_before": d.before.rmse_held_out[c], "held_out_rmse_after": d.after.rmse_held_out[c],
                     "held_out_max_abs_before": d.before.max_abs_held_out[c],
@@ -107,12 +110,25 @@ def text(doc: dict) -> str:
         lines.append(f"     delta BIC {ev['delta_bic']:.1f}; held-out excess above noise removed "
                      f"{ev['held_out_excess_removed']:.0%}")
     lines.append(f"  disagreement windows: {len(doc['disagreements'])} before, {len(doc['remaining_disagreements'])} after")
-    lines.append(f"  {'channel':<16}{'noise':>9}{'held-out RMSE before':>22}{'after':>10}{'max before':>12}{'after':>10}")
+    lines.append(f"  {'channel':<16}{'unit':<6}{'noise':>9}{'held-out RMSE before':>22}{'after':>10}{'max before':>12}"
+                 f"{'after':>10}")
     for c, v in doc["channels"].items():
         if v["held_out_rmse_before"] is None:
             continue
-        lines.append(f"  {c:<16}{v['noise_sigma']:>9.3g}{v['held_out_rmse_before']:>22.3f}{v['held_out_rmse_after']:>10.3f}"
-                     f"{v['held_out_max_abs_before']:>12.3f}{v['held_out_max_abs_after']:>10.3f}")
+        lines.append(f"  {c:<16}{v['unit']:<6}{v['noise_sigma']:>9.3g}{v['held_out_rmse_before']:>22.3f}"
+                     f"{v['held_out_rmse_after']:>10.3f}{v['held_out_max_abs_before']:>12.3f}"
+                     f"{v['held_out_max_abs_after']:>10.3f}")
     if doc["not_tested"]:
         lines.append("  not tested: " + "; ".join(f"{k} ({v})" for k, v in doc["not_tested"].items()))
+    lines += ["next:", *(f"  {command}" for command in next_steps(doc))]
     return "\n".join(lines)
+
+
+def next_steps(doc: dict) -> list[str]:
+    """The commands that turn the diagnosed model into a proven block, as the user would type them."""
+    model, data = doc.get("model"), doc["data"].get("file")
+    if not model:
+        return []
+    block = shlex.quote(str(Path(model).with_suffix(".scl")))
+    verify = f"thermoplc verify {block} --model {shlex.quote(model)}" + (f" --data {shlex.quote(data)}" if data else "")
+    return [f"thermoplc generate {shlex.quote(model)} -o {block}", verify]

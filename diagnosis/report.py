@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from thermoplc.diagnosis.search import Diagnosis
-from thermoplc.diagnosis.findings import display
+from thermoplc.diagnosis.findings import display, next_steps
 from thermoplc.models.simulation import Series
 
 
@@ -133,6 +133,9 @@ def report(doc: dict, d: Diagnosis, series: Series, n_train: int) -> dict:
     not_named = (f"<p>Fitted but not named (disagreements are left after several effects; they may stand in for "
                  f"what is missing): {html.escape(', '.join(doc['fitted_not_named']))}</p>"
                  if doc["fitted_not_named"] else "")
+    commands = next_steps(doc)
+    next_section = ("<h2>What to run next</h2><p>Generate the block of the diagnosed model and prove it on the "
+                    "recording:</p><pre>" + html.escape("\n".join(commands)) + "</pre>") if commands else ""
     page = f"""<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>thermoplc diagnosis</title>
 <style>body{{font-family:sans-serif;max-width:1100px;margin:auto}}table{{border-collapse:collapse;margin:8px 0}}
@@ -144,7 +147,7 @@ td,th{{border:1px solid #bbb;padding:3px 6px;font-size:13px;text-align:left}}img
 <h2>Effects named, in order</h2>{effects}{not_named}
 <h2>Gap before and after (held-out part)</h2>{channels}
 <h2>Disagreement windows of the baseline</h2>{windows}
-<h2>Plots</h2>{''.join(figures)}
+{next_section}<h2>Plots</h2>{''.join(figures)}
 <h2>Candidates tested</h2>{trials}
 </body></html>
 """
