@@ -24,6 +24,7 @@ from typing import Callable
 from thermoplc.base.errors import UserError
 from thermoplc.models import acceptance, crossval
 from thermoplc.models.fit import FitRequest, training_rows
+from thermoplc.models.kind import Kind
 from thermoplc.models.kinds import registry
 from thermoplc.models.modelfile import Model
 from thermoplc.models.selection import select_sensors
@@ -86,6 +87,14 @@ def sensor_sets(table: Table, request: FitRequest, train_rows: int, max_sensors:
     return sets
 
 
+def tried(request: FitRequest) -> list[Kind]:
+    """The kinds `auto` fits: those with an `auto` way whose input roles the request gives. Closed-form
+    kinds are fitted in well under a second, so tried on every sensor set; iterative ones search for
+    seconds each, so only on the best set of the others; a kind without `auto` (piecewise) needs batches."""
+    have = {"speed": request.speed, "ambient": request.ambient}
+    return [k for k in registry().values() if k.auto and all(have[role] for role in k.roles)]
+
+
 def rank(tables: list[Table], request: FitRequest, folds: int | None, time_column: str,
          max_sensors: int = MAX_SENSORS, say: Callable[[str], None] | None = None) -> list[Candidate]:
     """Every applicable kind, best first: the models generate accepts by held-out RMSE, then those it
@@ -96,10 +105,7 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
     kinds run on every set; the iterative ones on the set of the best closed-form model."""
     train_rows = (crossval.cuts(tables[0], time_column, folds, request.speed)[0] if folds
                   else training_rows(tables[0], time_column, request.train_until, request.train_rows))
-    have = {"speed": request.speed, "ambient": request.ambient}
-    # closed-form kinds are fitted in well under a second, so tried on every set; iterative ones search
-    # for seconds each, so only on the best set of the others; a kind without `auto` (piecewise) needs batches
-    kinds = [k for k in registry().values() if k.auto and all(have[role] for role in k.roles)]
+    kinds = tried(request)
     if say:
         say("auto: forward selection of sensors")
     sets = forward_selection(tables, request, folds, time_column, max_sensors)

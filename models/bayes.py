@@ -180,6 +180,7 @@ SETTINGS_SCHEMA = {
                    "time_parent": {"type": "boolean"}}}
 
 KIND = Kind("bayes", 7, _fit, predict, owns_options=(("time_bins", "--time-bins is"),),
+            reads_options=("bins", "precision_um", "unseen"),
             several_files=lambda request: request.time_bins > 0,
             several_files_text="bayes with --time-bins one file per repeated run", auto="closed-form",
             settings_schema=SETTINGS_SCHEMA, check_settings=check_settings,

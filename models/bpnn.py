@@ -283,4 +283,5 @@ SETTINGS_SCHEMA = {
 
 KIND = Kind("bpnn", 8, _fit, predict, owns_options=(("extra_targets", "several targets are"),
                                                    ("tool_length", "--tool-length is")),
-            auto="iterative", settings_schema=SETTINGS_SCHEMA, check_settings=check_settings)
+            reads_options=("seed", "population", "generations", "ga_operators"), auto="iterative",
+            settings_schema=SETTINGS_SCHEMA, check_settings=check_settings)

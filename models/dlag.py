@@ -106,4 +106,5 @@ SETTINGS_SCHEMA = {
                    "lag_step_samples": {"type": "integer", "minimum": 1, "maximum": 10000000},
                    "lag_step_s": {"type": "number", "exclusiveMinimum": 0}}}
 
-KIND = Kind("dlag", 4, _fit, predict, auto="closed-form", settings_schema=SETTINGS_SCHEMA, stream_core=StreamCore)
+KIND = Kind("dlag", 4, _fit, predict, reads_options=("lags", "lag_step_s"), auto="closed-form",
+            settings_schema=SETTINGS_SCHEMA, stream_core=StreamCore)

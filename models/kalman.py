@@ -265,5 +265,6 @@ class StreamCore:
 
 
 KIND = Kind("kalman", 2, _fit, predict, roles=("speed", "ambient"), fused_guards=True, ambient_apart=True,
+            reads_options=("optimizer", "seed", "population", "generations", "jump_limit", "recover_limit"),
             auto="iterative", settings_schema={"type": "object", "properties": {"sensors": {"type": "array"}}},
             stream_core=StreamCore)

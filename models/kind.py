@@ -53,6 +53,9 @@ class Kind:
     ambient_apart: bool = False  # the ambient drives every temperature, so it may not be one of them
     # FitRequest fields no other kind may set: (field, what the error says of it, with its verb)
     owns_options: tuple[tuple[str, str], ...] = ()
+    # further FitRequest / kalman.FitOptions fields its fitter reads (beside the target, the temperatures
+    # and the training part); `fit` refuses such an option given for a kind that does not read it
+    reads_options: tuple[str, ...] = ()
     several_files: Callable[[Any], bool] = lambda request: False  # fit takes one file per batch or run
     several_files_text: str = ""  # when it does, in words, for the error of a kind that does not
     auto: str | None = None  # "closed-form" (tried on every sensor set), "iterative" (on the best), None
@@ -62,3 +65,8 @@ class Kind:
     # kind's memory between chunks; None: the kind depends on the current and the first call only
     stream_core: type | None = None
     streamable: Callable[["Model"], bool] = _always
+
+    def reads(self, field: str) -> bool:
+        """Whether its fit reads this FitRequest or FitOptions field, an option it owns or reads (the
+        input roles, `--speed` and `--ambient`, name columns of the recording, not options of a fit)."""
+        return field in self.reads_options or field in dict(self.owns_options)

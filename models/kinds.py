@@ -30,6 +30,11 @@ def names() -> tuple[str, ...]:
     return tuple(registry())
 
 
+def readers(field: str) -> tuple[Kind, ...]:
+    """The kinds whose fit reads this FitRequest or FitOptions field (Kind.reads), in the papers' order."""
+    return tuple(kind for kind in registry().values() if kind.reads(field))
+
+
 def kind_of(name: str) -> Kind:
     if name not in registry():
         raise UserError(f"no model kind {name!r}; the kinds are {', '.join(registry())}")

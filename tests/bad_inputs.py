@@ -518,6 +518,13 @@ def _option_cases() -> list[Case]:
              "argument --hours: expected hours"),
         Case("option", "--jobs 0", "verify", ("verify", "--manifest", "m.csv", "--jobs", "0"), lambda f: None, "error",
              "argument --jobs: expected processes from 1"),
+        Case("option", "--bins for --model mlr", "fit", (*FIT, "good.csv", "--bins", "12"), lambda f: None, "error",
+             "--bins is read by --model bayes only; --model mlr does not read it, leave it out"),
+        Case("option", "--optimizer for --model auto without the roles kalman needs", "fit",
+             ("fit", "--data", "good.csv", "--model", "auto", "--target", "E_z_um", "--temps", "T_motor,T_bearing",
+              "--train-rows", "200", "--optimizer", "de", "-o", "out.json"), lambda f: None, "error",
+             "--optimizer is read by --model kalman only, which --model auto does not try here (kalman needs --speed "
+             "and --ambient)"),
     ]
     return cases
 

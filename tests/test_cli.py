@@ -177,3 +177,21 @@ def test_fit_and_diagnose_write_no_model_file_that_cannot_become_a_block(tmp_pat
         assert f"{path}: not written: the model could not become a block: 'Ready' and 'Ready' are the same " \
                f"identifier" in result.stderr
         assert not (tmp_path / path).exists()
+
+
+@pytest.mark.parametrize("extra, message", [
+    (("--model", "mlr", "--bins", 8), "--bins is read by --model bayes only; --model mlr does not read it, leave it out"),
+    (("--model", "dlag", "--seed", 3), "--seed is read by --model kalman or bpnn only; --model dlag does not read it"),
+    (("--model", "mlr", "--lag-step", 60), "--lag-step is read by --model dlag only; --model mlr does not read it"),
+    (("--model", "gm0n", "--unseen", "nearest"), "--unseen is read by --model bayes only"),
+    (("--model", "auto", "--optimizer", "de"), "--optimizer is read by --model kalman only, which --model auto does "
+                                               "not try here (kalman needs --speed and --ambient); leave it out"),
+])
+def test_fit_refuses_an_option_its_kind_does_not_read(workdir, extra, message):
+    """Issue 27 review: such an option was silently ignored (exit 0); given explicitly, even at its
+    default value, it is refused before any file is read. --speed and --ambient name columns, not options."""
+    result = thermoplc("fit", "--data", "twin.csv", "--target", "E_z_um", "--temps", "T_motor,T_bearing", *extra,
+                       "--train-until", 18000, "-o", "unread.json", cwd=workdir, check=2)
+    assert message in result.stderr and len(result.stderr.strip().splitlines()) == 1
+    assert not (workdir / "unread.json").exists()
+    thermoplc(*FIT_MLR, "--speed", "n_rpm", "--ambient", "T_env", "-o", "roles.json", "--force", cwd=workdir)

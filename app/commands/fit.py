@@ -5,6 +5,7 @@ import argparse
 import sys
 
 from thermoplc.base.fileio import check_output, write_atomic
+from thermoplc.commands.fit_options import Given, refuse_options_not_read
 from thermoplc.commands.options import DECIMAL, FORCE_HELP, SEED, columns, number, training_part
 from thermoplc.commands.terminal import end_progress, progress
 
@@ -27,6 +28,8 @@ class _KindChoices:
 def add_parser(sub) -> None:
     from thermoplc.models.bayes import UNSEEN_RULES
     p = sub.add_parser("fit", help="fit a thermal-error model to a CSV file")
+    p.register("action", None, Given)  # every plain option notes that it was given (fit_options.py)
+    p.set_defaults(given=())
     p.add_argument("--data", required=True, action="append",
                    help="CSV file; repeat for piecewise (one file per batch, initial ambient read from each)")
     p.add_argument("--model", choices=_KindChoices(), metavar="KIND", required=True,
@@ -69,6 +72,7 @@ def add_parser(sub) -> None:
                         "runs: give one --data file per run; default: %(default)s, no time parent)")
     p.add_argument("--lags", type=number(int, 1, 1000, "lags"), default=3, help="dlag: lagged terms per sensor (default: %(default)s)")
     p.add_argument("--lag-step", type=number(float, 1e-3, 1e7, "seconds"), default=600.0, metavar="SECONDS",
+                   dest="lag_step_s",
                    help="dlag: time between lags (default: %(default)s)")
     p.add_argument("--tool-length", metavar="COLUMN",
                    help="bpnn: tool length column, mm; adds paper 002's X/Y/Z compensation outputs")
@@ -89,15 +93,16 @@ def run(args: argparse.Namespace) -> int:
     from thermoplc.models.kalman import FitOptions
     from thermoplc.models.table import read_table
     from thermoplc.pipeline import becomes_block
-    check_output(args.output, args.force, inputs=args.data)
-    tables = [read_table(path, args.time, decimal=args.decimal) for path in args.data]
     options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
                          args.recover_limit, args.ga_operators)
     request = FitRequest(kind=args.model, target=args.target[0], temps=args.temps, speed=args.speed,
                          ambient=args.ambient, train_until=args.train_until, train_rows=args.train_rows,
                          block_name=args.name, options=options, bins=args.bins, precision_um=args.precision_um,
-                         lags=args.lags, lag_step_s=args.lag_step, extra_targets=args.target[1:],
+                         lags=args.lags, lag_step_s=args.lag_step_s, extra_targets=args.target[1:],
                          tool_length=args.tool_length, unseen=args.unseen, time_bins=args.time_bins)
+    refuse_options_not_read(args, request)
+    check_output(args.output, args.force, inputs=args.data)
+    tables = [read_table(path, args.time, decimal=args.decimal) for path in args.data]
     if args.model == "auto":
         model = fit_auto(tables, request, args.folds, args.time, progress())
     else:
