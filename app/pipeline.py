@@ -9,7 +9,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.base.version import __version__
 from thermoplc.contract.constants import expected
 from thermoplc.generator.ir import Block, Identity
-from thermoplc.generator.lower import lower, model_identity, prove
+from thermoplc.generator.lower import lower, prove
 from thermoplc.generator.printer import (DIALECTS, GenerationError, render, render_instance_db, render_plcopen,
                                         validate)
 from thermoplc.generator.ranges import RangeProof
@@ -73,7 +73,7 @@ def generate(model: Model, source: str = "model", limits: Limits = Limits(), dia
                         "when the block is called")
     unvalidated = accepted(model, source, accept_unvalidated)
     try:
-        block = lower(model, limits, identity or model_identity(model), retain)
+        block = lower(model, limits, identity, retain)
         text = render_plcopen(block, __version__) if plcopen else render(block, dialect)
         if instance_db is not None:
             text += render_instance_db(block, instance_db)

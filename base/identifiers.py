@@ -52,7 +52,7 @@ def identifier_problem(name: str) -> str | None:
     if not name.isascii():
         return "must be ASCII"
     if len(name) > MAX_LENGTH:
-        return f"has {len(name)} characters, at most {MAX_LENGTH} are allowed"
+        return f"has {len(name)} characters, at most {MAX_LENGTH} are allowed (the STEP 7 symbol limit, kept in every dialect)"
     if not _SHAPE.match(name):
         return "must start with a letter and hold only letters, digits and single underscores"
     if name.upper() in RESERVED or re.fullmatch(r"[A-Z]+_TO_[A-Z]+", name.upper()):
@@ -66,7 +66,7 @@ _ATTRIBUTE = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,7}\Z")  # STEP 7 AUTHOR, FAMILY
 
 
 def header_attribute_problem(text: str) -> str | None:
-    """Why `text` cannot be a STEP 7 header attribute (AUTHOR, FAMILY), or None: at most 8 characters
+    """Why `text` cannot be a STEP 7 header attribute (AUTHOR, FAMILY, NAME), or None: at most 8 characters
     and an identifier (AUTHOR : BEGIN would read as the start of the code to an SCL compiler)."""
     if not _ATTRIBUTE.match(text):
         return (f"expected a letter, then letters, digits or '_', 8 characters at most (STEP 7 header attribute), "

@@ -109,6 +109,7 @@ class Identity:
     family: str = "ThermCmp"
     version: tuple[int, int] = (0, 1)
     date: str = ""
+    name: str = ""  # the NAME attribute; empty: the block name cut to 8 characters (generator/identity.py)
 
 
 @dataclass(frozen=True)

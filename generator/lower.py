@@ -38,18 +38,24 @@ def lower_model(model: Model) -> Block:
 
 def lower(model: Model, limits: Limits = Limits(), identity: Identity | None = None, retain: bool = False) -> Block:
     """The block for `model`, inside the input guards and output limits every block carries, with
-    Enable/ENO and Reset; `identity` defaults to the version the model's fingerprint gives."""
+    Enable/ENO and Reset; `identity` defaults to a new block's (VERSION 0.1, no date): the command
+    line counts the version on from the block it replaces (generator/identity.py)."""
     core = lower_model(model)
+    _refuse_unread_inputs(model, core)
     axes = axis_outputs(model, [v.name for v in core.outputs if v.type == "REAL"])
     block = with_commissioning(with_safety(core, guards(model), axes, limits))
-    return replace(block, identity=identity or model_identity(model), retain=retain)
+    return replace(block, identity=identity or Identity(), retain=retain)
 
 
-def model_identity(model: Model, date: str = "") -> Identity:
-    """The block version tied to the model: the first two hex digits of its fingerprint (0.0 to 15.15,
-    the range TIA and STEP 7 take), so a changed model shows a changed version in the block properties."""
-    fingerprint = model.fingerprint()
-    return Identity(version=(int(fingerprint[0], 16), int(fingerprint[1], 16)), date=date)
+def _refuse_unread_inputs(model: Model, core: Block) -> None:
+    """Every input of the model file must be one the kind's block reads: the guards would check an
+    input the block never declares (a speed on an mlr model, say), so the file is refused by name."""
+    declared = {v.name for v in core.inputs}
+    for k, s in enumerate(model.inputs):
+        if s.name not in declared:
+            raise GenerationError(f"field 'inputs[{k}]': input {s.name!r} has role {s.role!r}, which a {model.kind} "
+                                  f"block does not read (it reads {', '.join(v.name for v in core.inputs)}); remove "
+                                  f"the input from the file, or is 'kind' right?")
 
 
 def prove(model: Model, block: Block, limits: Limits) -> RangeProof:

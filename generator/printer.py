@@ -14,6 +14,7 @@ from thermoplc.generator.ir import (
     PORTABLE_FUNCTIONS, Assign, BinOp, Block, BoolConst, Call, Expr, For, Index, IntConst, Ref, Region, Stmt,
     Unary, Var, assigned_names, walk_exprs,
 )
+from thermoplc.generator.identity import check_header_name
 from thermoplc.generator.literals import real_literal
 
 _PRECEDENCE = {"OR": 1, "XOR": 2, "AND": 3, "=": 4, "<>": 4, "<": 5, "<=": 5, ">": 5, ">=": 5,
@@ -38,6 +39,7 @@ class Dialect:
     eno: str  # the enable output: a system flag written under this name (TIA ENO, STEP 7 OK), or '' if declared
     retain: bool  # statics and outputs can be declared RETAIN (STEP 7: the instance DB is retentive as a whole)
     functions: frozenset = PORTABLE_FUNCTIONS  # functions the dialect's compiler offers
+    attributes: bool = True  # a Siemens header (VERSION, AUTHOR, NAME, FAMILY); IEC says them in a comment
 
 
 DIALECTS = {
@@ -46,7 +48,7 @@ DIALECTS = {
     "step7": Dialect("step7", "step7.scl.j2", "", {"REAL": "REAL", "BOOL": "BOOL", "INT": "INT"}, "    ",
                      "ARRAY[0..{last}] OF {type}", "comment", "list", ".scl", "OK", False, frozenset({"ABS", "SQRT"})),
     "iec": Dialect("iec", "iec.st.j2", "", {"REAL": "REAL", "BOOL": "BOOL", "INT": "INT"}, "    ",
-                   "ARRAY[0..{last}] OF {type}", "comment", "brackets", ".st", "", True),
+                   "ARRAY[0..{last}] OF {type}", "comment", "brackets", ".st", "", True, attributes=False),
 }
 
 
@@ -198,11 +200,6 @@ def _validate_identity(block: Block) -> None:
         raise GenerationError(f"date {identity.date!r}: expected YYYY-MM-DD")
 
 
-def header_name(block_name: str) -> str:
-    """The NAME attribute: the block name cut to the 8 characters STEP 7 allows."""
-    return block_name[:8]
-
-
 def _initial(v: Var, style: str) -> str:
     """Start values of a table, six per line so that review diffs stay readable."""
     if v.initial is None:
@@ -251,14 +248,16 @@ def render_plcopen(block: Block, version: str) -> str:
 
 
 def render_instance_db(block: Block, db_name: str) -> str:
-    """A classic STEP 7 instance DB source of the block, to append after the block's own source."""
+    """A classic STEP 7 instance DB source of the block, to append after the block's own source; its
+    header attributes are the block's (VERSION, AUTHOR, NAME, FAMILY)."""
     problem = identifier_problem(db_name)
     if problem:
         raise GenerationError(f"instance DB name {db_name!r} {problem}")
     if db_name.upper() == block.name.upper():
         raise GenerationError(f"instance DB name {db_name!r} is the block's own name")
     return _environment().get_template("step7_instance_db.scl.j2").render(
-        db=db_name, name=block.name, identity=block.identity, short_name=header_name(db_name))
+        db=db_name, name=block.name, identity=block.identity,
+        short_name=check_header_name(block.name, block.identity.name))
 
 
 def _header(block: Block, d: Dialect) -> list[str]:
@@ -303,7 +302,8 @@ def render(block: Block, dialect: str = "tia") -> str:
         name=block.name,
         title=safe_string(block.title),
         header=[safe_comment(line) for line in _header(block, d)],
-        identity=block.identity, short_name=header_name(block.name),
+        identity=block.identity,
+        short_name=check_header_name(block.name, block.identity.name) if d.attributes else None,
         sections=[(kw, decls(group)) for kw, group in
                   (("VAR_INPUT", block.inputs), ("VAR_OUTPUT" + retain, outputs),
                    ("VAR" + retain, block.statics), ("VAR_TEMP", block.temps)) if group],

@@ -448,6 +448,14 @@ def _option_cases() -> list[Case]:
     kalman = ("--model", "kalman", "--speed", "n_rpm", "--ambient", "T_env", "--train-rows", "200")
     rows = [
         ("--population 0", fit(*kalman, "--population", "0"), "argument --population: expected individuals from 2"),
+def _replaced_block(version: str):
+    """out.scl: a block thermoplc wrote (of another model than mlr.json) at VERSION `version`."""
+    def prepare(folder: Path) -> None:
+        text = golden_block("mlr", "tia").read_text()
+        (folder / "out.scl").write_text(text.replace("VERSION : 0.1\n", f"VERSION : {version}\n", 1))
+    return prepare
+
+
         ("--generations -1", fit(*kalman, "--generations", "-1"), "argument --generations: expected generations from 1"),
         ("--precision-um nan", fit("--model", "bayes", "--train-rows", "200", "--precision-um", "nan"),
          "argument --precision-um: expected micrometres from 0.001"),
@@ -514,6 +522,21 @@ def _option_cases() -> list[Case]:
              ("fit", "--data", "good.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,v_feed_mm_min",
               "--train-rows", "200", "-o", "out.json"), lambda f: None, "error",
              "cannot be a temperature (--temps;"),
+        Case("option", "--instance-db longer than a STEP 7 symbol", "generate",
+             (*generate, "--dialect", "step7", "--instance-db", "Thermal_DB_of_the_axis_Z1"), lambda f: None, "error",
+             "argument --instance-db: 'Thermal_DB_of_the_axis_Z1' has 25 characters, at most 24 are allowed"),
+        Case("option", "--name longer than a STEP 7 symbol", "generate",
+             (*generate, "--name", "ThermalCompensation_AxZ12"), lambda f: None, "error",
+             "--name 'ThermalCompensation_AxZ12' has 25 characters, at most 24 are allowed"),
+        Case("option", "--header-name longer than STEP 7 takes", "generate", (*generate, "--header-name", "ThermalComp"),
+             lambda f: None, "error", "argument --header-name: expected a letter, then letters, digits or '_', 8 characters"),
+        Case("option", "a block name whose 8-character NAME is a reserved word", "generate",
+             (*generate, "--dialect", "step7", "--name", "Function_Axis"), lambda f: None, "error",
+             "NAME 'Function' (the block name cut to the 8 characters STEP 7 allows): 'Function' is a reserved word"),
+        Case("option", "-o replaces a block at VERSION 15.15 with a changed model", "generate", (*generate, "--force"),
+             _replaced_block("15.15"), "error", "out.scl is VERSION 15.15, the last a block header takes"),
+        Case("option", "-o replaces a block whose VERSION was edited to 16.3", "generate", (*generate, "--force"),
+             _replaced_block("16.3"), "error", "out.scl is a block thermoplc wrote, but its VERSION 16.3 is outside"),
         Case("option", "--hours nan", "twin", ("twin", "--hours", "nan", "-o", "out.csv"), lambda f: None, "error",
              "argument --hours: expected hours"),
         Case("option", "--jobs 0", "verify", ("verify", "--manifest", "m.csv", "--jobs", "0"), lambda f: None, "error",

@@ -111,13 +111,117 @@ def test_retain_in_the_form_each_target_expects():
 
 
 @pytest.mark.parametrize("kind", KINDS + ("mlr", "piecewise", "gm0n", "bpnn"))
-def test_header_attributes_fit_step7_and_the_version_follows_the_model(kind):
+def test_header_attributes_fit_step7_and_a_new_block_is_version_0_1(kind):
     for dialect in ("tia", "step7"):
         header = dict(parse_text(golden_block(kind, dialect).read_text()).header)
         title = header["TITLE"].strip("'")
         assert len(title) <= 64 and all(len(header[k]) <= 8 for k in ("AUTHOR", "FAMILY", "NAME"))
-        fingerprint = load_model(GOLDEN / f"{kind}.json").fingerprint()
-        assert header["VERSION"].strip("'") == f"{int(fingerprint[0], 16)}.{int(fingerprint[1], 16)}"
+        assert header["VERSION"].strip("'") == "0.1"
+
+
+def _version_line(result) -> str:
+    return next(line.strip() for line in result.stdout.splitlines() if line.strip().startswith("VERSION "))
+
+
+def _changed_model(folder, name: str, beta: float):
+    """mlr.json with beta0 moved: another fingerprint, the same kind and evidence."""
+    import json
+    from thermoplc.base.binary32 import f32_hex
+    doc = json.loads((GOLDEN / "mlr.json").read_text())
+    doc["coefficients"]["beta0"] = {"f64": beta, "f32": f32_hex(beta)}
+    (folder / name).write_text(json.dumps(doc))
+    return folder / name
+
+
+@pytest.mark.parametrize("dialect", ("tia", "step7", "iec"))
+def test_the_version_counts_up_when_the_model_changes_and_only_then(folder, dialect):
+    (folder / "counted").mkdir(exist_ok=True)
+    block = f"counted/v.{dialect}"
+    first = thermoplc("generate", GOLDEN / "mlr.json", "--dialect", dialect, "-o", block, cwd=folder)
+    assert _version_line(first) == f"VERSION 0.1 (a new block: nothing to replace at {block})"
+    text = (folder / block).read_text()
+    same = thermoplc("generate", GOLDEN / "mlr.json", "--dialect", dialect, "-o", block, "--force", cwd=folder)
+    assert _version_line(same) == "VERSION 0.1 (the block it replaces was 0.1, same model)"
+    assert (folder / block).read_text() == text  # same file, same model: the same bytes
+    changed = _changed_model(folder, "mlr_changed.json", 0.5)
+    up = thermoplc("generate", changed, "--dialect", dialect, "-o", block, "--force", cwd=folder)
+    assert _version_line(up) == "VERSION 0.2 (the block it replaces was 0.1, model changed)"
+    assert dict(parse_text((folder / block).read_text()).header).get("VERSION", "'0.2'").strip("'") == "0.2"
+    back = thermoplc("generate", GOLDEN / "mlr.json", "--dialect", dialect, "-o", block, "--force", cwd=folder)
+    assert _version_line(back) == "VERSION 0.3 (the block it replaces was 0.2, model changed)"  # never down
+    explicit = thermoplc("generate", GOLDEN / "mlr.json", "--dialect", dialect, "--block-version", "3.4", "-o", block,
+                         "--force", cwd=folder)
+    assert _version_line(explicit) == "VERSION 3.4 (--block-version)"
+    after = thermoplc("generate", changed, "--dialect", dialect, "-o", block, "--force", cwd=folder)
+    assert _version_line(after) == "VERSION 3.5 (the block it replaces was 3.4, model changed)"
+
+
+def test_the_version_carries_at_15_and_stops_at_15_15(folder):
+    changed = _changed_model(folder, "mlr_carry.json", 0.25)
+    thermoplc("generate", GOLDEN / "mlr.json", "--block-version", "2.15", "-o", "carry.scl", "--force", cwd=folder)
+    carried = thermoplc("generate", changed, "-o", "carry.scl", "--force", cwd=folder)
+    assert _version_line(carried) == "VERSION 3.0 (the block it replaces was 2.15, model changed)"
+    assert "VERSION : 3.0\n" in (folder / "carry.scl").read_text()
+    thermoplc("generate", GOLDEN / "mlr.json", "--dialect", "step7", "--block-version", "15.15", "-o", "last.scl",
+              "--force", cwd=folder)
+    before = (folder / "last.scl").read_text()
+    same = thermoplc("generate", GOLDEN / "mlr.json", "--dialect", "step7", "-o", "last.scl", "--force", cwd=folder)
+    assert _version_line(same) == "VERSION 15.15 (the block it replaces was 15.15, same model)"
+    refused = thermoplc("generate", changed, "--dialect", "step7", "-o", "last.scl", "--force", cwd=folder, check=2)
+    assert ("last.scl is VERSION 15.15, the last a block header takes (each part 0 to 15), and the model changed; "
+            "give the new block's version with --block-version X.Y; nothing written") in refused.stderr
+    assert (folder / "last.scl").read_text() == before
+    thermoplc("generate", changed, "--dialect", "step7", "--block-version", "0.1", "-o", "last.scl", "--force",
+              cwd=folder)
+
+
+def test_the_version_of_a_file_thermoplc_did_not_write_or_cannot_count_on(folder):
+    (folder / "foreign.scl").write_text('FUNCTION_BLOCK "Mine"\nVERSION : 4.2\nBEGIN\nEND_FUNCTION_BLOCK\n')
+    result = thermoplc("generate", GOLDEN / "mlr.json", "-o", "foreign.scl", "--force", cwd=folder)
+    assert _version_line(result) == "VERSION 0.1 (foreign.scl, which it replaces, is not a block thermoplc wrote)"
+    thermoplc("generate", GOLDEN / "mlr.json", "-o", "edited.scl", "--force", cwd=folder)
+    text = (folder / "edited.scl").read_text()
+    (folder / "edited.scl").write_text(text.replace("VERSION : 0.1", "VERSION : 16.3"))
+    result = thermoplc("generate", GOLDEN / "mlr.json", "-o", "edited.scl", "--force", cwd=folder, check=2)
+    assert "edited.scl is a block thermoplc wrote, but its VERSION 16.3 is outside 0.0..15.15" in result.stderr
+    result = thermoplc("generate", GOLDEN / "mlr.json", "-o", "-", cwd=folder)
+    assert "VERSION 0.1 (written to standard output: no block to replace; --block-version sets it)" in result.stderr
+
+
+def test_the_header_name_is_stated_when_cut_and_set_with_header_name(folder):
+    cut = thermoplc("generate", GOLDEN / "mlr.json", "--dialect", "step7", "-o", "named.scl", "--force", cwd=folder)
+    assert ("  NAME ThermalC: the block name cut to the 8 characters STEP 7 allows; --header-name sets it"
+            in cut.stdout.splitlines())
+    given = thermoplc("generate", GOLDEN / "mlr.json", "--dialect", "step7", "--header-name", "Spindle1",
+                      "--instance-db", "ThermalComp_DB", "-o", "named.scl", "--force", cwd=folder)
+    assert "  NAME Spindle1: --header-name" in given.stdout.splitlines()
+    text = (folder / "named.scl").read_text()
+    assert text.count("NAME : Spindle1\n") == 2 and "ThermalC\n" not in text  # the instance DB's too
+    short = thermoplc("generate", GOLDEN / "mlr.json", "--name", "Axis_Z", "-o", "short.scl", "--force", cwd=folder)
+    assert "  NAME Axis_Z: the block name" in short.stdout.splitlines()
+    iec = thermoplc("generate", GOLDEN / "mlr.json", "--dialect", "iec", "-o", "named.st", "--force", cwd=folder)
+    assert "NAME" not in iec.stdout  # plain IEC text has no NAME attribute
+    refused = thermoplc("generate", GOLDEN / "mlr.json", "--name", "Function_Axis", "--dialect", "step7", "-o",
+                        "fn.scl", cwd=folder, check=2)
+    assert ("NAME 'Function' (the block name cut to the 8 characters STEP 7 allows): 'Function' is a reserved word"
+            in refused.stderr and "set one with --header-name" in refused.stderr)
+    assert not (folder / "fn.scl").exists()
+    thermoplc("generate", GOLDEN / "mlr.json", "--name", "Function_Axis", "--dialect", "iec", "-o", "fn.st", cwd=folder)
+
+
+@pytest.mark.parametrize("dialect", ("tia", "step7", "iec"))
+def test_names_beyond_the_targets_limits_are_refused_not_cut(folder, dialect):
+    long_name = "ThermalCompensation_AxZ1"  # 24 characters: the longest name every dialect keeps
+    thermoplc("generate", GOLDEN / "mlr.json", "--dialect", dialect, "--name", long_name, "-o", "long.blk", "--force",
+              cwd=folder)
+    assert parse_text((folder / "long.blk").read_text()).name == long_name
+    result = thermoplc("generate", GOLDEN / "mlr.json", "--dialect", dialect, "--name", long_name + "2", "-o", "x.blk",
+                       cwd=folder, check=2)
+    assert ("--name 'ThermalCompensation_AxZ12' has 25 characters, at most 24 are allowed (the STEP 7 symbol limit, "
+            "kept in every dialect)") in result.stderr and not (folder / "x.blk").exists()
+    result = thermoplc("generate", GOLDEN / "mlr.json", "--dialect", dialect, "--instance-db", "Thermal_DB_of_the_axis_Z1",
+                       "-o", "x.blk", cwd=folder, check=2)
+    assert "argument --instance-db: 'Thermal_DB_of_the_axis_Z1' has 25 characters, at most 24" in result.stderr
 
 
 def test_header_options_and_the_instance_db(folder):
@@ -140,8 +244,10 @@ def test_header_options_and_the_instance_db(folder):
     for argv, message in ((("--author", "ACME Corp"), "argument --author: expected a letter"),
                           (("--family", "Thermal_Compensation"), "8 characters at most"),
                           (("--block-version", "16.0"), "each part 0 to 15"),
+                          (("--header-name", "ThermalComp"), "argument --header-name: expected a letter"),
                           (("--date", "2026-13-01"), "expected a date YYYY-MM-DD"),
-                          (("--instance-db", "DB1"), "--instance-db writes a STEP 7 instance DB source")):
+                          (("--instance-db", "DB1"), "argument --instance-db: 'DB1' reads as an absolute address"),
+                          (("--instance-db", "ThermDB"), "--instance-db writes a STEP 7 instance DB source")):
         result = thermoplc("generate", GOLDEN / "mlr.json", *argv, "-o", "x.scl", cwd=folder, check=2)
         assert message in result.stderr and not (folder / "x.scl").exists()
 

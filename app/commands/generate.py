@@ -10,7 +10,8 @@ from typing import Callable
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_output, write_atomic
-from thermoplc.commands.options import FORCE_HELP, block_version, date, header_attribute, number, value_range
+from thermoplc.commands.options import (FORCE_HELP, block_version, date, header_attribute, number, st_name,
+                                         value_range)
 
 
 def add_parser(sub) -> None:
@@ -36,15 +37,20 @@ def add_parser(sub) -> None:
     p.add_argument("--retain", action="store_true",
                    help="keep the state over a power cycle: statics and outputs declared RETAIN (tia, iec); step7: "
                         "the header says to keep the instance DB retentive")
-    p.add_argument("--instance-db", metavar="NAME",
-                   help="step7: append the source of an instance DB NAME of the block (enter NAME in the symbol table)")
+    p.add_argument("--instance-db", metavar="NAME", type=st_name,
+                   help="step7: append the source of an instance DB NAME of the block (enter NAME in the symbol table); "
+                        "its header attributes are the block's")
     p.add_argument("--author", type=header_attribute, default="thermopl",
                    help="AUTHOR in the block header, at most 8 letters, digits or '_' (default: %(default)s)")
     p.add_argument("--family", type=header_attribute, default="ThermCmp",
                    help="FAMILY in the block header, at most 8 letters, digits or '_' (default: %(default)s)")
+    p.add_argument("--header-name", type=header_attribute, metavar="NAME",
+                   help="NAME in the block header (tia, step7), at most 8 letters, digits or '_' (default: the block "
+                        "name cut to 8 characters, which the summary states)")
     p.add_argument("--block-version", type=block_version, metavar="X.Y",
-                   help="VERSION in the block header, each part 0 to 15 (default: the first two hex digits of the "
-                        "model fingerprint, so a changed model changes the version)")
+                   help="VERSION in the block header, each part 0 to 15 (default: a counter that only goes up: 0.1 for "
+                        "a new block; replacing a block thermoplc wrote (--force), its version for the same model, "
+                        "the next one (0.9 -> 0.10, 0.15 -> 1.0) for a changed model)")
     p.add_argument("--date", type=date, metavar="YYYY-MM-DD",
                    help="date in the header comment (default: today, or SOURCE_DATE_EPOCH when set)")
     p.add_argument("--stats", action="store_true", help="print operations per call and bytes of state")
@@ -61,7 +67,7 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
     from thermoplc.base.identifiers import identifier_problem
-    from thermoplc.generator.lower import model_identity
+    from thermoplc.generator.ir import Identity
     from thermoplc.models.modelfile import load_model
     from thermoplc.models.safety import Limits
     from thermoplc.pipeline import generate
@@ -78,28 +84,59 @@ def run(args: argparse.Namespace) -> int:
     low, high = args.temp_range
     limits = Limits(args.max_offset_um, args.max_step_um, low, high, max_jump_K=args.max_jump_k,
                     settle_calls=args.settle_calls)
-    identity = model_identity(model, args.date or _today())
-    identity = replace(identity, author=args.author, family=args.family,
-                       version=args.block_version or identity.version)
+    version, why = _version(args, model)
+    identity = Identity(author=args.author, family=args.family, version=version, date=args.date or _today(),
+                        name=args.header_name or "")
     generated = generate(model, args.model, limits, args.dialect, args.format == "plcopen", identity, args.retain,
                          args.instance_db, args.accept_unvalidated, args.output)
     if to_stdout:
         sys.stdout.write(generated.text)
     else:
         write_atomic(args.output, generated.text)
-    _summary(say, args, model, limits, generated)
+    _summary(say, args, model, limits, generated, why)
     return 0
 
 
-def _summary(say: Callable[[str], None], args: argparse.Namespace, model, limits, generated) -> None:
-    """What was written and within which limits; the cost, proof and stress replay with --stats; the
-    regions with --explain."""
+def _version(args: argparse.Namespace, model) -> tuple[tuple[int, int], str]:
+    """The block's VERSION and why, as the summary says it: --block-version, else the counter of
+    generator/identity.py on the block this one replaces (read before anything is written)."""
+    from thermoplc.generator.identity import FIRST_VERSION, next_version, read_replaced
+    from thermoplc.generator.ir import GenerationError
+    if args.block_version:
+        return args.block_version, "--block-version"
+    if args.format == "plcopen":
+        return FIRST_VERSION, ""  # PLCopen XML carries no VERSION
+    if args.output == "-":
+        return FIRST_VERSION, "written to standard output: no block to replace; --block-version sets it"
+    replaced = None
+    if os.path.isfile(args.output):  # check_output let it through: --force, a regular file
+        with open(args.output, "rb") as handle:
+            replaced = read_replaced(handle.read(REPLACED_HEAD).decode("utf-8", "replace"))
+    try:
+        return next_version(replaced, model.fingerprint(), args.output)
+    except GenerationError as exc:
+        raise UserError(f"{exc}; nothing written") from None
+
+
+REPLACED_HEAD = 1 << 16  # bytes of the replaced file read for its header: a block's header is its first lines
+
+
+def _summary(say: Callable[[str], None], args: argparse.Namespace, model, limits, generated, why: str) -> None:
+    """What was written, its VERSION and NAME and within which limits; the cost, proof and stress
+    replay with --stats; the regions with --explain."""
+    from thermoplc.generator.identity import NAME_MAX, header_name, show
     from thermoplc.generator.lower import lower_model
     from thermoplc.models.acceptance import evidence
     block, proof, stressed = generated.block, generated.proof, generated.stressed
     say(f"wrote {'standard output' if args.output == '-' else args.output}: {model.kind} block {model.block_name!r}, "
         f"dialect {args.dialect}{', PLCopen XML' if args.format == 'plcopen' else ''}, model fingerprint "
         f"{model.fingerprint()}")
+    if args.format != "plcopen":  # the XML has no VERSION or NAME
+        say(f"  VERSION {show(block.identity.version)} ({why})")
+    if args.dialect != "iec":  # IEC text names its version in a comment, and has no NAME
+        name, cut = header_name(block.name, block.identity.name)
+        say(f"  NAME {name}: " + (f"the block name cut to the {NAME_MAX} characters STEP 7 allows; --header-name sets it"
+                                  if cut else "--header-name" if block.identity.name else "the block name"))
     say(f"  outputs within +-{limits.max_output:g}, at most {limits.max_step:g} per call; temperatures "
         f"{limits.temp_min_C:g}..{limits.temp_max_C:g} degC, jump {limits.max_jump_K:g} K per call")
     say("  " + (f"NOT VALIDATED (--accept-unvalidated): {generated.unvalidated}" if generated.unvalidated

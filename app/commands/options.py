@@ -62,11 +62,20 @@ def value_range(text: str) -> tuple[float, float]:
 
 
 def header_attribute(text: str) -> str:
-    """AUTHOR or FAMILY of a block header, as STEP 7 takes it."""
+    """AUTHOR, FAMILY or NAME of a block header, as STEP 7 takes it."""
     from thermoplc.base.identifiers import header_attribute_problem
     problem = header_attribute_problem(text)
     if problem:
         raise argparse.ArgumentTypeError(problem)
+    return text
+
+
+def st_name(text: str) -> str:
+    """A name the block source declares (an instance DB, say): an ST identifier within every dialect's limits."""
+    from thermoplc.base.identifiers import identifier_problem
+    problem = identifier_problem(text)
+    if problem:
+        raise argparse.ArgumentTypeError(f"{text!r} {problem}")
     return text
 
 
