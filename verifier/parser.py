@@ -29,6 +29,11 @@ UNSUPPORTED_WORDS = {
     "INTERFACE": "INTERFACE", "ACTION": "ACTION", "AT": "AT address",
 }
 
+# A body held apart from its declarations (PLCopen XML) is statements only.
+BODY_FRAME_WORDS = {word: f"{word} in the body (statements only: the XML's <interface> declares the variables)"
+                    for word in ("VAR", "VAR_INPUT", "VAR_OUTPUT", "VAR_TEMP", "END_VAR", "CONST", "END_CONST", "BEGIN",
+                                 "FUNCTION_BLOCK", "END_FUNCTION_BLOCK")}
+
 
 _STATEMENTS = (s.Assign, s.If, s.For, s.Region)
 DINT_MAX = 2 ** 31 - 1
@@ -73,10 +78,21 @@ class StSyntaxError(UserError):
     pass
 
 
+def array_type(low: int, high: int, base: str, where: str) -> s.TypeRef:
+    """ARRAY[low..high] OF base, refused beyond MAX_ARRAY_ELEMENTS; `where` names the file in the message."""
+    if not 0 <= high - low < MAX_ARRAY_ELEMENTS:
+        raise UserError(f"{where}: ARRAY[{low}..{high}] has {high - low + 1:,} elements; the verifier holds "
+                        f"at most {MAX_ARRAY_ELEMENTS:,} per array (a block's tables and ring buffers are far smaller)")
+    return s.TypeRef(base, (low, high))
+
+
 @lru_cache(maxsize=1)
 def _lark() -> Lark:
     grammar = resources.files("thermoplc.verifier").joinpath("st.lark").read_text("utf-8")
-    return Lark(grammar, parser="lalr", strict=True, propagate_positions=True, maybe_placeholders=True)
+    # start: a whole block source; st_body: the statements of a body kept apart from its declarations and
+    # constant: one start value written apart (both as PLCopen XML holds them, verifier/plcopen.py)
+    return Lark(grammar, parser="lalr", strict=True, propagate_positions=True, maybe_placeholders=True,
+                start=["start", "st_body", "constant"])
 
 
 def _at(meta_or_token) -> s.Pos:
@@ -84,12 +100,13 @@ def _at(meta_or_token) -> s.Pos:
 
 
 class _ToAst(Transformer):
-    def __init__(self, source: str):
+    def __init__(self, source: str, where: str = ""):
         super().__init__()
         self.source = source
+        self.where = where  # a literal read apart (PLCopen's start values): its place in the file, for messages
 
     def _fail(self, pos: s.Pos, message: str):
-        raise StSyntaxError(f"{self.source}:{pos[0]}:{pos[1]}: {message}")
+        raise StSyntaxError(f"{self.where or f'{self.source}:{pos[0]}:{pos[1]}'}: {message}")
 
     # declarations -------------------------------------------------------------------------
     def start(self, items):
@@ -175,14 +192,13 @@ class _ToAst(Transformer):
         return s.TypeRef(str(items[0]).upper())
 
     def array_type(self, items):
-        low, high = int(items[0]), int(items[1])
-        if not 0 <= high - low < MAX_ARRAY_ELEMENTS:
-            raise UserError(f"{self.source}: ARRAY[{low}..{high}] has {high - low + 1:,} elements; the verifier holds "
-                            f"at most {MAX_ARRAY_ELEMENTS:,} per array (a block's tables and ring buffers are far smaller)")
-        return s.TypeRef(str(items[2]).upper(), (items[0], items[1]))
+        return array_type(items[0], items[1], str(items[2]).upper(), self.source)
 
     def initial(self, items):
         return items[0]
+
+    def st_body(self, items):
+        return tuple(item for item in items if item is not None)
 
     def array_initial(self, items):
         return tuple(items)
@@ -325,7 +341,8 @@ def _position(text: str, offset: int) -> s.Pos:
     return line, offset - (text.rfind("\n", 0, offset) + 1) + 1
 
 
-def _explain(text: str, source: str, exc: UnexpectedInput) -> str:
+def _explain(text: str, source: str, exc: UnexpectedInput, ending: str = "file (missing END_FUNCTION_BLOCK?)",
+             words: dict[str, str] = UNSUPPORTED_WORDS) -> str:
     error_offset = getattr(exc, "pos_in_stream", None)
     if error_offset is None:
         error_offset = len(text)
@@ -333,13 +350,13 @@ def _explain(text: str, source: str, exc: UnexpectedInput) -> str:
     for match in re.finditer(r"[A-Za-z_][A-Za-z0-9_]*", blanked):
         if match.start() > error_offset:
             break
-        construct = UNSUPPORTED_WORDS.get(match.group().upper())
+        construct = words.get(match.group().upper())
         if construct:
             line, col = _position(text, match.start())
             return f"{source}:{line}:{col}: {construct} is not supported"
     if isinstance(exc, UnexpectedEOF):
         line, col = _position(text, len(text))
-        return f"{source}:{line}:{col}: unexpected end of file (missing END_FUNCTION_BLOCK?)"
+        return f"{source}:{line}:{col}: unexpected end of {ending}"
     if isinstance(exc, UnexpectedCharacters):
         return f"{source}:{exc.line}:{exc.column}: unexpected character {text[exc.pos_in_stream]!r}"
     assert isinstance(exc, UnexpectedToken)
@@ -353,11 +370,15 @@ def parse_text(text: str, source: str = "<text>") -> s.Program:
         raise StSyntaxError(f"{source}: {len(text):,} characters; a function block source is at most "
                             f"{MAX_SOURCE_CHARACTERS:,} here (the largest generated block is about 200,000)")
     try:
-        tree = _lark().parse(text)
+        tree = _lark().parse(text, start="start")
     except UnexpectedInput as exc:
         raise StSyntaxError(_explain(text, source, exc)) from None
+    return _transform(tree, _ToAst(source), source)
+
+
+def _transform(tree, to_ast: _ToAst, source: str):
     try:
-        return _ToAst(source).transform(tree)
+        return to_ast.transform(tree)
     except VisitError as exc:
         if isinstance(exc.orig_exc, UserError):
             raise exc.orig_exc from None
@@ -365,6 +386,36 @@ def parse_text(text: str, source: str = "<text>") -> s.Program:
             raise StSyntaxError(f"{source}: statements or expressions nested too deeply to read "
                                 f"(thousands of levels)") from None
         raise
+
+
+def parse_body(text: str, source: str, line: int = 1, column: int = 1) -> tuple[s.Stmt, ...]:
+    """The statements of a body held apart from its declarations (the ST text of a PLCopen POU),
+    with positions counted from (line, column), where the text starts in `source`; declarations,
+    BEGIN or a block frame in the text are syntax errors."""
+    if len(text) > MAX_SOURCE_CHARACTERS:
+        raise StSyntaxError(f"{source}:{line}:{column}: {len(text):,} characters of ST; a function block body is at "
+                            f"most {MAX_SOURCE_CHARACTERS:,} here (the largest generated block is about 200,000)")
+    padded = "\n" * (line - 1) + " " * (column - 1) + text  # lark counts positions from here: the file's own
+    try:
+        tree = _lark().parse(padded, start="st_body")
+    except UnexpectedInput as exc:
+        if isinstance(exc, UnexpectedToken) and exc.token.type == "$END":
+            exc = UnexpectedEOF([])  # its place is the end of the text, as _explain says it
+        raise StSyntaxError(_explain(padded, source, exc, "the body (an IF, FOR or REGION not closed?)",
+                                     {**UNSUPPORTED_WORDS, **BODY_FRAME_WORDS})) from None
+    return _transform(tree, _ToAst(source), source)
+
+
+def parse_literal(text: str, source: str, where: str):
+    """One start value written apart from its declaration (a PLCopen simpleValue) by the rules of
+    a declaration's `:= value`: a REAL as binary32, an integer within DINT, TRUE or FALSE. `where`
+    (file:line:column) names its place in messages."""
+    try:
+        tree = _lark().parse(text, start="constant")
+    except UnexpectedInput:
+        raise StSyntaxError(f"{where}: {text!r} is not a start value an ST declaration takes; expected a number, "
+                            f"TRUE or FALSE") from None
+    return _transform(tree, _ToAst(source, where), source)
 
 
 def parse_file(path: str | Path) -> s.Program:
@@ -376,4 +427,7 @@ def parse_file(path: str | Path) -> s.Program:
         text = Path(path).read_text("utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise UserError(f"{path}: cannot read Structured Text: {exc}") from None
+    from thermoplc.verifier.plcopen import is_xml, read_plcopen  # it reads its bodies with this module
+    if is_xml(text) or path.lower().endswith(".xml"):  # the PLCopen XML of generate --format plcopen
+        return read_plcopen(text, path)
     return parse_text(text, path)

@@ -8,8 +8,8 @@ from thermoplc.commands.options import DECIMAL, mapping
 
 def add_parser(sub) -> None:
     p = sub.add_parser("diff", help="what changed between two blocks: constants, interface, statements, behaviour")
-    p.add_argument("old", help="the block as it was (ST source)")
-    p.add_argument("new", help="the block as it is now (ST source)")
+    p.add_argument("old", help="the block as it was (ST source or PLCopen XML)")
+    p.add_argument("new", help="the block as it is now (ST source or PLCopen XML)")
     p.add_argument("--data", help="replay both blocks on this CSV and report the largest output difference")
     p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--inputs", type=mapping, help="block input to column mapping NAME=COLUMN,...")

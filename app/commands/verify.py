@@ -11,7 +11,7 @@ from thermoplc.commands.terminal import progress
 
 def add_parser(sub) -> None:
     p = sub.add_parser("verify", help="replay data through a block and compare every output bit for bit")
-    p.add_argument("block", nargs="?", help="the block's ST source")
+    p.add_argument("block", nargs="?", help="the block: its ST source, or the PLCopen XML of generate --format plcopen")
     p.add_argument("--data", help="the recording (CSV, .npz or Parquet of columns), one row per call; columns "
                                    "Enable and Reset (0/1), when present, drive those block inputs")
     p.add_argument("--decimal", **DECIMAL)

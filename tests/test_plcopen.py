@@ -1,0 +1,317 @@
+"""The PLCopen XML path (issue 28 item 9): `verify` and `diff` read the XML that `generate --dialect iec
+--format plcopen` writes (what CODESYS and TwinCAT import) into the very AST of its .st; an edit
+of the XML fails verify exactly as the same edit of the .st does; hostile XML gets one line naming
+the file, the line and what was expected; creationDateTime follows --date / SOURCE_DATE_EPOCH; the
+XML keeps the structure of TC6 XML 2.01 that the importers rely on."""
+import re
+import time
+from pathlib import Path
+
+import pytest
+
+from tests.cli_runner import thermoplc
+from tests.golden_models import GOLDEN, KINDS, golden_block, golden_twin_csv
+from thermoplc.base.errors import UserError
+from thermoplc.verifier.parser import parse_file
+from thermoplc.verifier.plcopen import read_plcopen
+
+XML = golden_block("mlr", "plcopen")
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory):
+    return golden_twin_csv(tmp_path_factory.mktemp("plcopen"))
+
+
+def _text(kind: str = "mlr") -> str:
+    return golden_block(kind, "plcopen").read_text()
+
+
+def _write(folder: Path, name: str, text: str) -> Path:
+    path = folder / name
+    path.write_text(text)
+    return path
+
+
+# --- the XML is read into the AST of its .st --------------------------------------------------------------------
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_every_golden_xml_reads_as_the_ast_of_its_iec_block(kind):
+    xml, st = parse_file(golden_block(kind, "plcopen")), parse_file(golden_block(kind, "iec"))
+    assert xml == st  # name, every declaration (section, type, start value bits), every statement, header
+    assert [d.name for d in xml.decls] == [d.name for d in st.decls]
+
+
+def test_retain_reads_as_the_st_declares_it(tmp_path):
+    for name, extra in (("plain", ()), ("retained", ("--retain",))):
+        thermoplc("generate", GOLDEN / "kalman.json", "--dialect", "iec", *extra, "-o", f"{name}.st", cwd=tmp_path)
+        thermoplc("generate", GOLDEN / "kalman.json", "--dialect", "iec", "--format", "plcopen", *extra,
+                  "-o", f"{name}.xml", cwd=tmp_path)
+        xml, st = parse_file(tmp_path / f"{name}.xml"), parse_file(tmp_path / f"{name}.st")
+        assert xml == st
+    assert parse_file(tmp_path / "retained.xml").header == (("RETAIN", "output, static"),)
+    assert parse_file(tmp_path / "plain.xml").header == ()
+
+
+def test_positions_are_the_lines_and_columns_of_the_xml():
+    lines = XML.read_text().splitlines()
+    program = parse_file(XML)
+    for decl in program.decls:
+        line, column = decl.pos
+        assert lines[line - 1][column - 1:].startswith(f'<variable name="{decl.name}">')
+    first, second = program.body[0], program.body[1]
+    assert lines[first.pos[0] - 1].strip() == "ENO := Enable;" and first.pos[1] == 5
+    assert lines[second.pos[0] - 1].strip() == "IF Enable AND Reset THEN"
+
+
+def test_xml_is_told_by_its_content_not_its_name(tmp_path):
+    renamed = _write(tmp_path, "block.st", _text())
+    assert parse_file(renamed) == parse_file(XML)
+    with pytest.raises(UserError, match=r"block\.xml:1:1: not XML \(it starts with 'FUNCTION_BLOCK"):
+        parse_file(_write(tmp_path, "block.xml", golden_block("mlr", "iec").read_text()))
+
+
+# --- verify and diff, as a user types them ----------------------------------------------------------------------
+
+def _report(result, name: str) -> list[str]:
+    """verify's report with the block's file name taken out and the run-time line dropped."""
+    return [line.replace(name, "BLOCK") for line in result.stdout.splitlines() if "replay:" not in line]
+
+
+def test_verify_proves_the_generated_xml_bit_exact(tmp_path, data):
+    thermoplc("generate", GOLDEN / "kalman.json", "--dialect", "iec", "--format", "plcopen", "-o", "ThermalComp.xml",
+              cwd=tmp_path)
+    thermoplc("generate", GOLDEN / "kalman.json", "--dialect", "iec", "-o", "ThermalComp.st", cwd=tmp_path)
+    xml = thermoplc("verify", "ThermalComp.xml", "--model", GOLDEN / "kalman.json", "--data", data, cwd=tmp_path)
+    st = thermoplc("verify", "ThermalComp.st", "--model", GOLDEN / "kalman.json", "--data", data, cwd=tmp_path)
+    assert xml.stdout.startswith("bit-exact: ThermalComp.xml reproduces the float32 reference of kalman.json")
+    assert _report(xml, "ThermalComp.xml") == _report(st, "ThermalComp.st")
+    faults = thermoplc("verify", "ThermalComp.xml", "--model", GOLDEN / "kalman.json", "--data", data, "--faults",
+                       cwd=tmp_path)
+    assert "Traceback" not in faults.stderr
+
+
+def _xml_value(name: str, type_name: str, old: str) -> str:
+    """The pattern of variable `name`'s start value `old` in the XML, the value as group 2."""
+    return rf'(<variable name="{name}">\s*<type><{type_name}/></type>\s*<initialValue><simpleValue value=")({old})'
+
+
+EDITS = {  # the same hand edit as it reads in the .st and in the XML, and verify's exit status for both
+    "a coefficient": (r"(c_beta_1 : REAL := )([-0-9.E]+);", r"\g<1>10.5;", _xml_value("c_beta_1", "REAL", r"[^\"]+"),
+                      r"\g<1>10.5", 1),
+    "K0's factor": (r"(c_K0_mm : REAL := )(-0\.001);", r"\g<1>0.001;", _xml_value("c_K0_mm", "REAL", r"-0\.001"),
+                    r"\g<1>0.001", 1),
+    "a statement": (r"c_beta0 \+ c_beta_1", "c_beta0 - c_beta_1", r"c_beta0 \+ c_beta_1", "c_beta0 - c_beta_1", 1),
+    "a statement dropped": (r"\n *K0_1 := E_z_um \* c_K0_mm;", "", r"\n *K0_1 := E_z_um \* c_K0_mm;", "", 1),
+    "an input's start value": (r"Enable : BOOL := TRUE;", "Enable : BOOL := FALSE;",
+                               _xml_value("Enable", "BOOL", "TRUE"), r"\g<1>FALSE", 1),
+    # verify takes the guard limits from the block and says so: the same answer for both forms
+    "a guard limit": (r"(c_TempMax : REAL := )(150\.0);", r"\g<1>25.0;", _xml_value("c_TempMax", "REAL", r"150\.0"),
+                      r"\g<1>25.0", 0),
+}
+
+
+def _edited(folder: Path, edit: str) -> tuple[Path, Path]:
+    st_pattern, st_new, xml_pattern, xml_new, _ = EDITS[edit]
+    st_text, count = re.subn(st_pattern, st_new, golden_block("mlr", "iec").read_text(), count=1)
+    xml_text, xml_count = re.subn(xml_pattern, xml_new, _text(), count=1)
+    assert count == xml_count == 1
+    return _write(folder, "edited.st", st_text), _write(folder, "edited.xml", xml_text)
+
+
+def _text_of(report, path: Path) -> list[str]:
+    return [line.replace(path.name, "BLOCK") for line in report.text().splitlines() if "replay:" not in line]
+
+
+@pytest.mark.parametrize("edit", EDITS)
+def test_an_edit_of_the_xml_fails_verify_exactly_as_the_same_edit_of_the_st(tmp_path, data, edit):
+    from thermoplc.api import verify
+    from thermoplc.models.modelfile import load_model
+    from thermoplc.models.table import read_table
+    st, xml = _edited(tmp_path, edit)
+    assert parse_file(st) == parse_file(xml)
+    model, table = load_model(GOLDEN / "mlr.json"), read_table(data)
+    by_st, by_xml = verify(st, model, table, "mlr.json"), verify(xml, model, table, "mlr.json")
+    assert by_xml.ok == by_st.ok == (EDITS[edit][4] == 0)
+    assert _text_of(by_xml, xml) == _text_of(by_st, st)  # the same cycle, output, bits and constants named
+
+
+def test_an_edited_xml_fails_verify_from_the_command_line(tmp_path, data):
+    _, xml = _edited(tmp_path, "a coefficient")
+    result = thermoplc("verify", xml.name, "--model", GOLDEN / "mlr.json", "--data", data, cwd=tmp_path, check=1)
+    assert result.stdout.startswith("NOT bit-exact: edited.xml differs from the float32 reference of mlr.json")
+    assert "    c_beta_1: block 10.5 (0x41280000), model " in result.stdout
+
+
+def _diff(old, new, folder, *extra, check=None) -> tuple[int, list[str]]:
+    result = thermoplc("diff", old, new, *extra, cwd=folder, check=check)
+    assert "Traceback" not in result.stderr
+    return result.returncode, result.stdout.splitlines()[1:]  # without the 'diff OLD -> NEW' line
+
+
+def _diff_lines(old: Path, new: Path, table=None) -> tuple[bool, list[str]]:
+    from thermoplc.verifier.diff import diff_blocks, format_diff
+    d = diff_blocks(str(old), str(new), table)
+    return d.structurally_equal and (table is None or d.behaviour_equal), format_diff(d).splitlines()[1:]
+
+
+@pytest.mark.parametrize("kind", ("mlr", "lumped"))
+def test_diff_across_dialects_treats_the_xml_as_its_iec_text(data, kind):
+    from thermoplc.models.table import read_table
+    table = read_table(data)
+    xml, iec, tia, step7 = (golden_block(kind, d) for d in ("plcopen", "iec", "tia", "step7"))
+    same, lines = _diff_lines(iec, xml, table)
+    assert same and lines[:4] == ["header: unchanged", "interface: unchanged", "constants: unchanged",
+                                  "statements: unchanged"]
+    assert "identical, every output bit equal" in lines[4]
+    for other in (tia, step7):
+        assert _diff_lines(other, xml, table) == _diff_lines(other, iec, table)
+        assert _diff_lines(xml, other) == _diff_lines(iec, other)
+
+
+def test_diff_of_an_scl_and_an_xml_from_the_command_line(tmp_path, data):
+    status, lines = _diff(golden_block("mlr", "tia"), XML, tmp_path, "--data", data, check=0)
+    assert lines[:4] == ["header: unchanged", "interface: unchanged", "constants: unchanged", "statements: unchanged"]
+    assert lines[4] == "behaviour on the data (4321 calls): identical, every output bit equal"
+
+
+def test_diff_names_a_change_in_the_xml_at_its_own_line(tmp_path):
+    text = _text()
+    edited = _write(tmp_path, "edited.xml", text.replace("c_beta0 + c_beta_1", "c_beta0 - c_beta_1", 1))
+    line = next(k for k, row in enumerate(edited.read_text().splitlines(), 1) if "c_beta0 - c_beta_1" in row)
+    status, lines = _diff(golden_block("mlr", "tia"), edited, tmp_path)
+    assert status == 1 and "statements: changed" in lines
+    assert f"new line {line}: Model_1 := c_beta0 - c_beta_1 * (Good_1 - T0_1) + c_beta_2 * (Good_2 - T0_2);" in \
+        [row.strip() for row in lines]
+    moved = _write(tmp_path, "moved.xml", re.sub(r'(<variable name="c_TempMax">\s*<type><REAL/></type>\s*'
+                                                   r'<initialValue><simpleValue value=")150\.0', r"\g<1>1500.0", text))
+    status, lines = _diff(XML, moved, tmp_path)
+    assert status == 1 and "constants: 1 changed" in lines and "  c_TempMax: 150.0 -> 1500.0  (+9 relative)" in lines
+
+
+# --- hostile XML: one line, the file and line, what was expected --------------------------------------------------
+
+def _swap(old: str, new: str):
+    def edit(text: str) -> str:
+        assert old in text
+        return text.replace(old, new, 1)
+    return edit
+
+
+def _second_pou(text: str) -> str:
+    start, end = text.index("      <pou "), text.index("      </pou>") + len("      </pou>\n")
+    return text[:end] + text[start:end].replace('name="ThermalComp"', 'name="Other"', 1) + text[end:]
+
+
+def _without_body(text: str) -> str:
+    start, end = text.index("        <body>"), text.index("        </body>") + len("        </body>\n")
+    return text[:start] + text[end:]
+
+
+def _fbd(text: str) -> str:
+    start, end = text.index("          <ST>"), text.index("          </ST>") + len("          </ST>\n")
+    return text[:start] + "          <FBD/>\n" + text[end:]
+
+
+def _in_out(text: str) -> str:
+    return text.replace("<inputVars>", "<inOutVars>", 1).replace("</inputVars>", "</inOutVars>", 1)
+
+
+HOSTILE = {
+    "not XML": (lambda t: "this is not a block\n", r"bad\.xml:1:1: not XML \(it starts with 'this is not a block'"),
+    "truncated": (lambda t: t[:3000], r"bad\.xml:\d+:\d+: not well-formed XML \(.+\); expected PLCopen TC6 XML 2\.01"),
+    "a DOCTYPE with entities": (
+        lambda t: t.replace("<project ", '<!DOCTYPE project [<!ENTITY a "aaaaaaaaaa"><!ENTITY b "&a;&a;&a;&a;">]>\n'
+                                         "<project ", 1),
+        r"bad\.xml:2:\d+: a DOCTYPE is refused \(entity declarations could expand without bound"),
+    "XML that is not PLCopen": (lambda t: '<?xml version="1.0"?>\n<svg xmlns="http://www.w3.org/2000/svg"/>\n',
+                                r"bad\.xml:2:1: the root element is <svg> in http://www\.w3\.org/2000/svg; expected "
+                                r"PLCopen TC6 XML 2\.01"),
+    "the TC6 1.0 namespace": (_swap("http://www.plcopen.org/xml/tc6_0201", "http://www.plcopen.org/xml/tc6.xsd"),
+                              r"bad\.xml:2:1: the root element is <project> in http://www\.plcopen\.org/xml/tc6\.xsd"),
+    "no POU": (lambda t: t[:t.index("      <pou ")] + t[t.index("      </pou>") + len("      </pou>\n"):],
+               r"bad\.xml:2:1: no <pou> in <types><pous>"),
+    "two POUs": (_second_pou, r"bad\.xml:\d+:7: a second POU 'Other' after 'ThermalComp'; expected one function block"),
+    "a program": (_swap('pouType="functionBlock"', 'pouType="program"'),
+                  r"bad\.xml:14:7: POU 'ThermalComp' is a program; expected a functionBlock"),
+    "no body": (_without_body, r"bad\.xml:14:7: POU 'ThermalComp' has no <body>; expected its ST body"),
+    "a body in FBD": (_fbd, r"bad\.xml:\d+:11: the body of POU 'ThermalComp' is in FBD; the verifier reads ST "
+                            r"bodies only"),
+    "ST text outside XHTML": (lambda t: t.replace("<xhtml:p><![CDATA[", "<![CDATA[", 1).replace("]]></xhtml:p>", "]]>", 1),
+                              r"bad\.xml:\d+:11: the ST body of POU 'ThermalComp': expected its text in one XHTML "
+                              r"element"),
+    "an LREAL variable": (_swap("<type><REAL/></type>", "<type><LREAL/></type>"),
+                          r"bad\.xml:18:21: variable 'T_motor': type LREAL is not supported \(REAL, BOOL, INT, DINT "
+                          r"and arrays of them are\)"),
+    "a derived type": (_swap("<type><REAL/></type>", '<type><derived name="TEMP_T"/></type>'),
+                       r"bad\.xml:18:21: variable 'T_motor': type 'TEMP_T' \(a derived type\) is not supported"),
+    "an in-out variable": (_in_out, r"bad\.xml:16:11: <inOutVars> \(VAR_IN_OUT section\) is not supported"),
+    "a start value ST does not take": (_swap('value="30"', 'value="16#1E"'),
+                                       r"bad\.xml:\d+:29: variable 'c_SettleCalls': '16#1E' is not a start value an "
+                                       r"ST declaration takes; expected a number, TRUE or FALSE"),
+    "declarations in the body": (_swap("    ENO := Enable;", "    VAR x : REAL; END_VAR\n    ENO := Enable;"),
+                                 r"bad\.xml:\d+:5: VAR in the body \(statements only: the XML's <interface> declares "
+                                 r"the variables\) is not supported"),
+    "a CASE in the body": (_swap("    ENO := Enable;", "    CASE 1 OF 1: ENO := TRUE; END_CASE;"),
+                           r"bad\.xml:\d+:5: CASE statement is not supported"),
+    "an unclosed IF": (_swap("]]></xhtml:p>", "IF Enable THEN\n]]></xhtml:p>"),
+                       r"bad\.xml:\d+:\d+: unexpected end of the body \(an IF, FOR or REGION not closed\?\)"),
+    "vendor methods in the POU": (_swap("        <documentation><xhtml:p>Thermal",
+                                        '        <addData><data name="http://www.3s-software.com/plcopenxml/method" '
+                                        'handleUnknown="implementation"><Method name="FB_init"/></data></addData>\n'
+                                        "        <documentation><xhtml:p>Thermal"),
+                                  r"bad\.xml:\d+:18: vendor data 'http://www\.3s-software\.com/plcopenxml/method' in "
+                                  r"POU 'ThermalComp' \(a method, property or setting\) is not read by the verifier"),
+    "an address": (_swap('<variable name="T_motor">', '<variable name="T_motor" address="%ID0">'),
+                   r"bad\.xml:17:13: variable 'T_motor' at address '%ID0': AT address is not supported"),
+    "a constant input section": (_swap("<inputVars>", '<inputVars constant="true">'),
+                                 r"bad\.xml:16:11: <inputVars constant=\"true\">: IEC declares constants in VAR "
+                                 r"CONSTANT; expected <localVars constant=\"true\">"),
+    "a variable name ST cannot hold": (_swap('<variable name="T_motor">', '<variable name="T motor">'),
+                                       r"bad\.xml:17:13: variable name 'T motor': expected an ST identifier"),
+}
+
+
+
+@pytest.mark.parametrize("case", HOSTILE)
+def test_hostile_xml_is_refused_with_the_file_line_and_what_was_expected(tmp_path, case):
+    edit, message = HOSTILE[case]
+    bad = _write(tmp_path, "bad.xml", edit(_text()))
+    with pytest.raises(UserError) as caught:
+        parse_file(bad)
+    text = str(caught.value).replace(str(tmp_path) + "/", "")
+    assert "\n" not in text and re.match(message, text), text
+
+
+@pytest.mark.parametrize("case", ["not XML", "a DOCTYPE with entities", "two POUs", "a body in FBD", "an LREAL variable"])
+def test_hostile_xml_from_the_command_line_is_one_line_and_exit_2(tmp_path, data, case):
+    edit, message = HOSTILE[case]
+    _write(tmp_path, "bad.xml", edit(_text()))
+    for argv in (("verify", "bad.xml", "--model", GOLDEN / "mlr.json", "--data", data),
+                 ("diff", golden_block("mlr", "tia"), "bad.xml")):
+        result = thermoplc(*argv, cwd=tmp_path, check=2)
+        lines = [line for line in result.stderr.splitlines() if line.strip()]
+        assert len(lines) == 1 and re.match("thermoplc: error: " + message, lines[0]), result.stderr
+        assert "Traceback" not in result.stderr
+
+
+def test_a_billion_laughs_is_refused_before_any_expansion(tmp_path):
+    entities = '<!ENTITY l0 "ha">' + "".join(f'<!ENTITY l{k} "{f"&l{k - 1};" * 10}">' for k in range(1, 10))
+    bomb = _write(tmp_path, "bomb.xml", f'<?xml version="1.0"?>\n<!DOCTYPE project [{entities}]>\n'
+                                        f'<project xmlns="http://www.plcopen.org/xml/tc6_0201">&l9;</project>\n')
+    began = time.perf_counter()
+    with pytest.raises(UserError, match="a DOCTYPE is refused"):
+        parse_file(bomb)
+    assert time.perf_counter() - began < 1.0
+
+
+def test_the_reader_is_the_verifiers_own():
+    """No generator import: the proof of the XML does not ask the code that wrote it (the import
+    contract in pyproject.toml checks the whole verifier; this names the module)."""
+    import ast
+    import thermoplc.verifier.plcopen as module
+    tree = ast.parse(Path(module.__file__).read_text())
+    imported = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
+    imported |= {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}
+    assert not any(name.startswith(("thermoplc.generator", "thermoplc.templates")) for name in imported)
+    assert read_plcopen(XML.read_text(), str(XML)) == parse_file(XML)

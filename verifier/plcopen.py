@@ -1,0 +1,307 @@
+"""PLCopen TC6 XML 2.01 -> the AST of a block (verifier/syntax.py): the same AST its .st source gives.
+
+`thermoplc generate --dialect iec --format plcopen` writes the iec block as PLCopen XML, the form
+CODESYS and TwinCAT import. This reader takes the one function block of such a file: its interface
+(sections, types, start values, constants, RETAIN) from the XML elements, its body from the ST text,
+parsed by the verifier's own grammar (`parser.parse_body`, `parser.parse_literal`). So replay, the
+constants check and diff work on the XML as on the .st, and a changed constant or statement in the
+XML fails `verify` as it would in the .st. Positions in messages and in the AST are the XML file's
+lines and columns (exact for a body in CDATA, as generate writes it and CODESYS exports it), so
+`diff` quotes the XML's own lines.
+
+The standard library's expat parser reads the XML; a DOCTYPE (where entities would be declared) is
+refused before anything is expanded. What could change what the block computes and is not read
+here -- a second POU, actions or transitions, a body in another language, vendor data in the POU
+(CODESYS and TwinCAT methods and properties), a type other than REAL, BOOL, INT, DINT and arrays
+of them, an address -- is refused with the file, line and column, never skipped. The reader does
+not import the generator: the proof does not ask the code it proves.
+"""
+from __future__ import annotations
+
+import re
+from xml.etree import ElementTree as ET
+from xml.parsers import expat
+
+from thermoplc.base.errors import UserError
+from thermoplc.verifier import syntax as s
+from thermoplc.verifier.parser import SUPPORTED_TYPES, array_type, parse_body, parse_literal
+
+TC6 = "http://www.plcopen.org/xml/tc6_0201"
+XHTML = "http://www.w3.org/1999/xhtml"
+EXPECTED = "expected PLCopen TC6 XML 2.01 holding one function block, as generate --format plcopen writes"
+SECTIONS = {"inputVars": "input", "outputVars": "output", "localVars": "static", "tempVars": "temp"}
+UNSUPPORTED_SECTIONS = {"inOutVars": "VAR_IN_OUT", "externalVars": "VAR_EXTERNAL", "globalVars": "VAR_GLOBAL",
+                        "accessVars": "VAR_ACCESS"}
+RETAINABLE = ("output", "static")  # VAR_OUTPUT RETAIN and VAR RETAIN, as an ST block declares them
+LANGUAGES = ("IL", "ST", "FBD", "LD", "SFC")
+IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")  # the grammar's NAME
+BOOLEAN = {"true": True, "1": True, "false": False, "0": False}  # xsd:boolean
+INTEGER = re.compile(r"[+-]?[0-9]+\Z")
+
+
+def is_xml(text: str) -> bool:
+    """An XML document, told by its content: ST starts with a keyword or a comment, never with '<'."""
+    return text.lstrip().startswith("<")
+
+
+def _q(local: str) -> str:
+    return f"{{{TC6}}}{local}"
+
+
+def _local(element: ET.Element) -> str:
+    return element.tag.rpartition("}")[2]
+
+
+class _Document:
+    """The element tree with where each element starts (and where its text starts) in the file."""
+
+    def __init__(self, text: str, source: str):
+        self.source = source
+        self.starts: dict[ET.Element, tuple[int, int]] = {}
+        self.text_starts: dict[ET.Element, tuple[int, int]] = {}
+        parser = expat.ParserCreate(namespace_separator="}")
+        builder = ET.TreeBuilder()
+        open_elements: list[ET.Element] = []
+
+        def here() -> tuple[int, int]:
+            return parser.CurrentLineNumber, parser.CurrentColumnNumber + 1
+
+        def start(tag, attributes):
+            element = builder.start("{" + tag if "}" in tag else tag, attributes)
+            self.starts[element] = here()
+            open_elements.append(element)
+
+        def end(tag):
+            builder.end("{" + tag if "}" in tag else tag)
+            open_elements.pop()
+
+        def data(chunk):
+            if open_elements and open_elements[-1] not in self.text_starts:
+                self.text_starts[open_elements[-1]] = here()
+            builder.data(chunk)
+
+        def doctype(*_):
+            line, column = here()
+            raise UserError(f"{source}:{line}:{column}: a DOCTYPE is refused (entity declarations could expand "
+                            f"without bound, and PLCopen XML needs none); {EXPECTED}")
+
+        parser.StartElementHandler, parser.EndElementHandler, parser.CharacterDataHandler = start, end, data
+        parser.StartDoctypeDeclHandler = doctype
+        try:
+            parser.Parse(text, True)
+        except expat.ExpatError as exc:
+            raise UserError(f"{source}:{exc.lineno}:{exc.offset + 1}: not well-formed XML "
+                            f"({expat.ErrorString(exc.code)}); {EXPECTED}") from None
+        self.root = builder.close()
+
+    def at(self, element: ET.Element) -> str:
+        line, column = self.starts[element]
+        return f"{self.source}:{line}:{column}"
+
+    def fail(self, element: ET.Element, message: str):
+        raise UserError(f"{self.at(element)}: {message}")
+
+
+def read_plcopen(text: str, source: str) -> s.Program:
+    """The one function block of a PLCopen XML file as the verifier's AST, or a UserError naming
+    the file, the line and column, and what was expected."""
+    if not is_xml(text):
+        found = (text.lstrip().splitlines() or [""])[0][:20]
+        raise UserError(f"{source}:1:1: not XML (it starts with {found!r}, not '<?xml' or '<project'); {EXPECTED}")
+    doc = _Document(text, source)
+    root = doc.root
+    if root.tag != _q("project"):
+        namespace = root.tag[1:].partition("}")[0] if root.tag.startswith("{") else "no namespace"
+        doc.fail(root, f"the root element is <{_local(root)}> in {namespace}; {EXPECTED} (<project> in {TC6})")
+    pous = root.findall(f"{_q('types')}/{_q('pous')}/{_q('pou')}")
+    if not pous:
+        doc.fail(root, f"no <pou> in <types><pous>; {EXPECTED}")
+    if len(pous) > 1:
+        doc.fail(pous[1], f"a second POU {pous[1].get('name')!r} after {pous[0].get('name')!r}; expected one "
+                          f"function block per file (generate writes one)")
+    return _pou(doc, pous[0])
+
+
+def _pou(doc: _Document, pou: ET.Element) -> s.Program:
+    name = _identifier(doc, pou, "POU")
+    if pou.get("pouType") != "functionBlock":
+        doc.fail(pou, f"POU {name!r} is a {pou.get('pouType') or '(no pouType)'}; expected a functionBlock")
+    interface, bodies = None, []
+    for child in pou:
+        local = _local(child) if child.tag.startswith(f"{{{TC6}}}") else child.tag
+        if local == "interface" and interface is None:
+            interface = child
+        elif local == "body":
+            bodies.append(child)
+        elif local in ("actions", "transitions") and not len(child):
+            continue
+        elif local == "addData" and not len(child):
+            continue
+        elif local == "addData":
+            data = child[0]
+            doc.fail(data, f"vendor data {data.get('name') or _local(data)!r} in POU {name!r} (a method, property "
+                           f"or setting) is not read by the verifier, so it cannot prove the block with it; "
+                           f"{EXPECTED}")
+        elif local != "documentation":
+            doc.fail(child, f"<{local}> in POU {name!r} is not read by the verifier (actions, transitions and "
+                            f"vendor elements are not supported); {EXPECTED}")
+    decls, retained = _interface(doc, interface, name) if interface is not None else ((), [])
+    if not bodies:
+        doc.fail(pou, f"POU {name!r} has no <body>; expected its ST body")
+    if len(bodies) > 1:
+        doc.fail(bodies[1], f"a second <body> in POU {name!r}; expected one ST body")
+    header = (("RETAIN", ", ".join(sorted(set(retained)))),) if retained else ()
+    return s.Program(name, decls, _body(doc, bodies[0], name), header, ())
+
+
+def _identifier(doc: _Document, element: ET.Element, what: str) -> str:
+    name = element.get("name")
+    if name is None or not IDENTIFIER.match(name):
+        doc.fail(element, f"{what} name {name!r}: expected an ST identifier (letters, digits, '_')")
+    return name
+
+
+def _flag(doc: _Document, element: ET.Element, attribute: str) -> bool:
+    value = element.get(attribute, "false").strip()
+    if value not in BOOLEAN:
+        doc.fail(element, f"{attribute}={value!r}: expected true or false")
+    return BOOLEAN[value]
+
+
+def _interface(doc: _Document, interface: ET.Element, pou: str) -> tuple[tuple[s.VarDecl, ...], list[str]]:
+    decls: list[s.VarDecl] = []
+    retained: list[str] = []
+    for group in interface:
+        local = _local(group) if group.tag.startswith(f"{{{TC6}}}") else group.tag
+        if local in ("documentation", "addData"):
+            continue
+        if local in UNSUPPORTED_SECTIONS:
+            doc.fail(group, f"<{local}> ({UNSUPPORTED_SECTIONS[local]} section) is not supported")
+        if local == "returnType":
+            doc.fail(group, f"<returnType> in POU {pou!r}: a function's; expected a functionBlock")
+        if local not in SECTIONS:
+            doc.fail(group, f"<{local}> in the interface of POU {pou!r}: expected inputVars, outputVars, localVars "
+                            f"or tempVars")
+        section = SECTIONS[local]
+        if _flag(doc, group, "persistent"):
+            doc.fail(group, f"<{local} persistent=\"true\">: PERSISTENT variables are not supported")
+        constant, retain = _flag(doc, group, "constant"), _flag(doc, group, "retain")
+        if retain and _flag(doc, group, "nonretain"):
+            doc.fail(group, f"<{local}> is both retain and nonretain")
+        if constant and section != "static":
+            doc.fail(group, f"<{local} constant=\"true\">: IEC declares constants in VAR CONSTANT; expected "
+                            f"<localVars constant=\"true\">")
+        if constant:
+            section = "constant"
+        if retain and section not in RETAINABLE:
+            doc.fail(group, f"<{local} retain=\"true\">: only outputVars and localVars (not constants) are declared "
+                            f"RETAIN (VAR_OUTPUT RETAIN, VAR RETAIN)")
+        if retain:
+            retained.append(section)
+        for variable in group:
+            kind = _local(variable) if variable.tag.startswith(f"{{{TC6}}}") else variable.tag
+            if kind in ("documentation", "addData"):
+                continue
+            if kind != "variable":
+                doc.fail(variable, f"<{kind}> in <{local}>: expected <variable> elements")
+            decls.append(_variable(doc, variable, section))
+    return tuple(decls), retained
+
+
+def _variable(doc: _Document, variable: ET.Element, section: str) -> s.VarDecl:
+    name = _identifier(doc, variable, "variable")
+    if variable.get("address") is not None:
+        doc.fail(variable, f"variable {name!r} at address {variable.get('address')!r}: AT address is not supported")
+    type_element = variable.find(_q("type"))
+    if type_element is None:
+        doc.fail(variable, f"variable {name!r} has no <type>")
+    type_ref = _type(doc, type_element, name)
+    start = variable.find(_q("initialValue"))
+    initial = None if start is None else _initial(doc, start, name)
+    line, column = doc.starts[variable]
+    return s.VarDecl(name, section, type_ref, initial, (line, column))
+
+
+def _unsupported_type(doc: _Document, element: ET.Element, variable: str):
+    local = _local(element)
+    shown = f"{element.get('name')!r} (a derived type)" if local == "derived" else local
+    doc.fail(element, f"variable {variable!r}: type {shown} is not supported (REAL, BOOL, INT, DINT and arrays of "
+                      f"them are)")
+
+
+def _only_child(doc: _Document, element: ET.Element, what: str) -> ET.Element:
+    children = list(element)
+    if len(children) != 1:
+        doc.fail(element, f"{what}: {len(children)} elements in <{_local(element)}>; expected one")
+    return children[0]
+
+
+def _scalar(doc: _Document, element: ET.Element, variable: str) -> str:
+    if element.tag.startswith(f"{{{TC6}}}") and _local(element) in SUPPORTED_TYPES:
+        return _local(element)
+    _unsupported_type(doc, element, variable)
+
+
+def _type(doc: _Document, type_element: ET.Element, variable: str) -> s.TypeRef:
+    element = _only_child(doc, type_element, f"the type of variable {variable!r}")
+    if element.tag != _q("array"):
+        return s.TypeRef(_scalar(doc, element, variable))
+    dimensions = element.findall(_q("dimension"))
+    if len(dimensions) != 1:
+        doc.fail(element, f"variable {variable!r}: an array of {len(dimensions)} dimensions; expected one")
+    bounds = [dimensions[0].get(key, "").strip() for key in ("lower", "upper")]
+    if not all(INTEGER.match(b) for b in bounds):
+        doc.fail(dimensions[0], f"variable {variable!r}: array bounds {bounds[0]!r}..{bounds[1]!r}; expected integers")
+    base = element.find(_q("baseType"))
+    if base is None:
+        doc.fail(element, f"variable {variable!r}: an array without <baseType>")
+    scalar = _scalar(doc, _only_child(doc, base, f"the base type of variable {variable!r}"), variable)
+    return array_type(int(bounds[0]), int(bounds[1]), scalar, doc.at(element))
+
+
+def _initial(doc: _Document, start: ET.Element, variable: str):
+    value = _only_child(doc, start, f"the start value of variable {variable!r}")
+    if value.tag == _q("simpleValue"):
+        return _simple(doc, value, variable)
+    if value.tag != _q("arrayValue"):
+        doc.fail(value, f"variable {variable!r}: a start value <{_local(value)}>; expected <simpleValue> or "
+                        f"<arrayValue>")
+    items = []
+    for item in value:
+        if item.tag != _q("value"):
+            doc.fail(item, f"variable {variable!r}: <{_local(item)}> in <arrayValue>; expected <value> elements")
+        if item.get("repetitionValue") is not None:
+            doc.fail(item, f"variable {variable!r}: repetitionValue is not supported; write each value")
+        simple = _only_child(doc, item, f"a value of variable {variable!r}")
+        if simple.tag != _q("simpleValue"):
+            doc.fail(simple, f"variable {variable!r}: <{_local(simple)}> in an array; expected <simpleValue>")
+        items.append(_simple(doc, simple, variable))
+    if not items:
+        doc.fail(value, f"variable {variable!r}: an empty <arrayValue>")
+    return tuple(items)
+
+
+def _simple(doc: _Document, element: ET.Element, variable: str):
+    text = element.get("value")
+    if text is None:
+        doc.fail(element, f"variable {variable!r}: <simpleValue> without a value")
+    return parse_literal(text, doc.source, f"{doc.at(element)}: variable {variable!r}")
+
+
+def _body(doc: _Document, body: ET.Element, pou: str) -> tuple[s.Stmt, ...]:
+    languages = [child for child in body if child.tag.startswith(f"{{{TC6}}}") and _local(child) in LANGUAGES]
+    others = [child for child in body if child not in languages and _local(child) not in ("addData", "documentation")]
+    if others:
+        doc.fail(others[0], f"<{_local(others[0])}> in the body of POU {pou!r}; expected <ST>")
+    if not languages:
+        doc.fail(body, f"the body of POU {pou!r} holds no <ST>; expected its ST text")
+    st = languages[0]
+    if _local(st) != "ST":
+        doc.fail(st, f"the body of POU {pou!r} is in {_local(st)}; the verifier reads ST bodies only")
+    texts = list(st)
+    if len(texts) != 1 or not texts[0].tag.startswith(f"{{{XHTML}}}") or len(texts[0]) or (st.text or "").strip():
+        doc.fail(st, f"the ST body of POU {pou!r}: expected its text in one XHTML element "
+                     f"(<xhtml:p><![CDATA[...]]></xhtml:p>)")
+    text = texts[0]
+    line, column = doc.text_starts.get(text, doc.starts[text])
+    return parse_body(text.text or "", doc.source, line, column)
