@@ -441,13 +441,6 @@ def _bounded_cases() -> list[Case]:
     ]
 
 
-def _option_cases() -> list[Case]:
-    """Issue 15: every numeric option checked when the command line is read, naming option and range."""
-    fit = lambda *extra: ("fit", "--data", "good.csv", "--target", "E_z_um", "--temps", "T_motor,T_bearing", *extra,
-                          "-o", "out.json")
-    kalman = ("--model", "kalman", "--speed", "n_rpm", "--ambient", "T_env", "--train-rows", "200")
-    rows = [
-        ("--population 0", fit(*kalman, "--population", "0"), "argument --population: expected individuals from 2"),
 def _replaced_block(version: str):
     """out.scl: a block thermoplc wrote (of another model than mlr.json) at VERSION `version`."""
     def prepare(folder: Path) -> None:
@@ -456,6 +449,13 @@ def _replaced_block(version: str):
     return prepare
 
 
+def _option_cases() -> list[Case]:
+    """Issue 15: every numeric option checked when the command line is read, naming option and range."""
+    fit = lambda *extra: ("fit", "--data", "good.csv", "--target", "E_z_um", "--temps", "T_motor,T_bearing", *extra,
+                          "-o", "out.json")
+    kalman = ("--model", "kalman", "--speed", "n_rpm", "--ambient", "T_env", "--train-rows", "200")
+    rows = [
+        ("--population 0", fit(*kalman, "--population", "0"), "argument --population: expected individuals from 2"),
         ("--generations -1", fit(*kalman, "--generations", "-1"), "argument --generations: expected generations from 1"),
         ("--precision-um nan", fit("--model", "bayes", "--train-rows", "200", "--precision-um", "nan"),
          "argument --precision-um: expected micrometres from 0.001"),
@@ -515,13 +515,6 @@ def _replaced_block(version: str):
         Case("option", "--instance-db named like the block", "generate",
              (*generate, "--dialect", "step7", "--instance-db", "thermalcomp"), lambda f: None, "error",
              "instance DB name 'thermalcomp' is the block's own name"),
-        Case("option", "select-sensors --candidates with the target's twin", "select-sensors",
-             (*select, "--candidates", "T_motor,E_z_true_um"), lambda f: None, "error",
-             "--candidates column 'E_z_true_um' is named like the target 'E_z_um'"),
-        Case("option", "fit --temps with a feed rate", "fit",
-             ("fit", "--data", "good.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,v_feed_mm_min",
-              "--train-rows", "200", "-o", "out.json"), lambda f: None, "error",
-             "cannot be a temperature (--temps;"),
         Case("option", "--instance-db longer than a STEP 7 symbol", "generate",
              (*generate, "--dialect", "step7", "--instance-db", "Thermal_DB_of_the_axis_Z1"), lambda f: None, "error",
              "argument --instance-db: 'Thermal_DB_of_the_axis_Z1' has 25 characters, at most 24 are allowed"),
@@ -537,6 +530,13 @@ def _replaced_block(version: str):
              _replaced_block("15.15"), "error", "out.scl is VERSION 15.15, the last a block header takes"),
         Case("option", "-o replaces a block whose VERSION was edited to 16.3", "generate", (*generate, "--force"),
              _replaced_block("16.3"), "error", "out.scl is a block thermoplc wrote, but its VERSION 16.3 is outside"),
+        Case("option", "select-sensors --candidates with the target's twin", "select-sensors",
+             (*select, "--candidates", "T_motor,E_z_true_um"), lambda f: None, "error",
+             "--candidates column 'E_z_true_um' is named like the target 'E_z_um'"),
+        Case("option", "fit --temps with a feed rate", "fit",
+             ("fit", "--data", "good.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,v_feed_mm_min",
+              "--train-rows", "200", "-o", "out.json"), lambda f: None, "error",
+             "cannot be a temperature (--temps;"),
         Case("option", "--hours nan", "twin", ("twin", "--hours", "nan", "-o", "out.csv"), lambda f: None, "error",
              "argument --hours: expected hours"),
         Case("option", "--jobs 0", "verify", ("verify", "--manifest", "m.csv", "--jobs", "0"), lambda f: None, "error",
