@@ -224,6 +224,13 @@ def _model_cases() -> list[Case]:
                       ("verify", "block.scl", "--model", "mlr.json", "--data", "bad.csv"),
                       with_text("bad.csv", lambda t: write_table({**_columns(t), "time_s": _columns(t)["time_s"] * 2})),
                       "error", "bad.csv: column 'time_s': sampled every 20 s, but the model was fitted for a call every 10 s"))
+    speed = _model_edit(lambda d: d["inputs"].append({"name": "n_rpm", "column": "n_rpm", "role": "speed", "unit": "rpm"}))
+    cases.append(Case("model file", "an input its kind does not read", "generate", ("generate", "bad.json", "-o", "out.scl"),
+                      speed, "error", "bad.json: cannot generate a block: field 'inputs[2]': input 'n_rpm' has role "
+                                      "'speed', which a mlr block does not read"))
+    cases.append(Case("model file", "an input its kind does not read", "verify",
+                      ("verify", "block.scl", "--model", "bad.json", "--data", "good.csv"), speed, "error",
+                      "bad.json: field 'inputs[2]': input 'n_rpm' (role 'speed') is not an input of block.scl"))
     return cases
 
 

@@ -110,3 +110,24 @@ def test_generate_refuses_a_model_file_with_a_coefficient_its_kind_does_not_use(
     result = thermoplc("generate", "k.json", "-o", "out.scl", cwd=tmp_path, check=2)
     assert result.stderr.startswith("thermoplc: error: k.json: ") and "Traceback" not in result.stderr
     assert not (tmp_path / "out.scl").exists()
+
+
+def test_a_model_file_with_an_input_its_kind_does_not_read_is_refused_by_name(tmp_path):
+    """Issue 27 review: a speed input in an mlr file stopped generate with "undeclared 'n_rpm'" and
+    verify with a block/model mismatch. An mlr block reads temperatures only, so the input is not
+    ignored (the guards would check it): both commands name the file, the field, the input and its role."""
+    import json
+    from tests.cli_runner import thermoplc
+    from tests.golden_models import golden_block, golden_twin_csv
+    edited = json.loads((GOLDEN / "mlr.json").read_text())
+    edited["inputs"].append({"name": "n_rpm", "column": "n_rpm", "role": "speed", "unit": "rpm"})
+    (tmp_path / "speed.json").write_text(json.dumps(edited))
+    result = thermoplc("generate", "speed.json", "-o", "out.scl", cwd=tmp_path, check=2)
+    assert "speed.json: cannot generate a block: field 'inputs[2]': input 'n_rpm' has role 'speed', which a mlr " \
+           "block does not read (it reads T_motor, T_bearing)" in result.stderr
+    assert not (tmp_path / "out.scl").exists()
+    data = golden_twin_csv(tmp_path)
+    for extra in ((), ("--faults",)):
+        result = thermoplc("verify", golden_block("mlr", "tia"), "--model", "speed.json", "--data", data, *extra,
+                           cwd=tmp_path, check=2)
+        assert "speed.json: field 'inputs[2]': input 'n_rpm' (role 'speed') is not an input of " in result.stderr
