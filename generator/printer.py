@@ -221,8 +221,13 @@ def _environment() -> jinja2.Environment:
     )
 
 
+UNDATED = "2000-01-01T00:00:00"  # TC6 requires a creationDateTime: this one when no date is given (the API, goldens)
+
+
 def render_plcopen(block: Block, version: str) -> str:
-    """The iec block wrapped as PLCopen TC6 XML (CODESYS, TwinCAT import); no dates, so byte-identical."""
+    """The iec block wrapped as PLCopen TC6 XML (CODESYS, TwinCAT import). Its creationDateTime is the
+    block's date (generate --date, or SOURCE_DATE_EPOCH, or today), the one the header comment states,
+    at 00:00:00; without a date a fixed UNDATED: either way the same inputs give the same bytes."""
     validate(block)
     printer = _Printer(DIALECTS["iec"])
 
@@ -243,6 +248,7 @@ def render_plcopen(block: Block, version: str) -> str:
         sections.append(("localVars", ' constant="true"', constants))
     return _environment().get_template("plcopen.xml.j2").render(
         name=block.name, version=version, title=safe_string(block.title),
+        created=f"{block.identity.date}T00:00:00" if block.identity.date else UNDATED,
         header=[safe_comment(line) for line in _header(block, DIALECTS["iec"])], sections=sections,
         body=printer.body(block.regions))
 

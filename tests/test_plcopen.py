@@ -315,3 +315,28 @@ def test_the_reader_is_the_verifiers_own():
     imported |= {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}
     assert not any(name.startswith(("thermoplc.generator", "thermoplc.templates")) for name in imported)
     assert read_plcopen(XML.read_text(), str(XML)) == parse_file(XML)
+
+
+# --- creationDateTime: the block's date ---------------------------------------------------------------------------
+
+def _created(path: Path) -> str:
+    return re.search(r'creationDateTime="([^"]+)"', path.read_text()).group(1)
+
+
+def test_creation_date_time_is_the_date_of_generate(tmp_path):
+    generate = ("generate", GOLDEN / "mlr.json", "--dialect", "iec", "--format", "plcopen")
+    thermoplc(*generate, "--date", "2025-03-04", "-o", "dated.xml", cwd=tmp_path)
+    assert _created(tmp_path / "dated.xml") == "2025-03-04T00:00:00"
+    assert "Generated on 2025-03-04." in (tmp_path / "dated.xml").read_text()  # the date the header states
+    epoch = {"SOURCE_DATE_EPOCH": "1767225600"}  # 2026-01-01T00:00:00Z
+    for name in ("first.xml", "second.xml"):
+        thermoplc(*generate, "-o", name, cwd=tmp_path, env=epoch)
+    assert _created(tmp_path / "first.xml") == "2026-01-01T00:00:00"
+    assert (tmp_path / "first.xml").read_bytes() == (tmp_path / "second.xml").read_bytes()  # reproducible
+    thermoplc(*generate, "--date", "2025-03-04", "-o", "over.xml", cwd=tmp_path, env=epoch)
+    assert _created(tmp_path / "over.xml") == "2025-03-04T00:00:00"  # --date wins, as in the header
+
+
+def test_without_a_date_the_stamp_is_fixed_so_the_goldens_stay_byte_identical():
+    from thermoplc.generator.printer import UNDATED
+    assert _created(XML) == UNDATED and "Generated on" not in XML.read_text()
