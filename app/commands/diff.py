@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 
+from thermoplc.commands import json_output
 from thermoplc.commands.options import DECIMAL, mapping
 
 
@@ -14,15 +15,18 @@ def add_parser(sub) -> None:
     p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--inputs", type=mapping, help="block input to column mapping NAME=COLUMN,...")
     p.add_argument("--time", default="time_s", help="time column (default: %(default)s)")
+    json_output.add_arguments(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from thermoplc.models.table import read_table
     from thermoplc.verifier.diff import diff_blocks, format_diff
+    from thermoplc.verifier.documents import diff_document
+    json_output.check(args, [args.old, args.new, args.data])
     table = read_table(args.data, args.time, decimal=args.decimal) if args.data else None
     result = diff_blocks(args.old, args.new, table, args.inputs, args.time)
-    print(format_diff(result))
+    json_output.emit(args, format_diff(result), diff_document(result, table is not None) if args.json else None)
     if table is not None and not result.behaviour_equal:
         return 1
     return 0 if result.structurally_equal else 1  # the data never excuses a structural change

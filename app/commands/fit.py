@@ -5,6 +5,7 @@ import argparse
 import sys
 
 from thermoplc.base.fileio import check_output, write_atomic
+from thermoplc.commands import json_output
 from thermoplc.commands.fit_options import Given, refuse_options_not_read
 from thermoplc.commands.options import DECIMAL, FORCE_HELP, SEED, columns, number, training_part
 from thermoplc.commands.terminal import end_progress, progress
@@ -81,12 +82,13 @@ def add_parser(sub) -> None:
     p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("-o", "--output", required=True, help="model file to write (JSON)")
+    json_output.add_arguments(p, force=False)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from thermoplc.commands.fit_auto import fit_auto
-    from thermoplc.commands.fit_summary import format_fit
+    from thermoplc.commands.fit_summary import fit_document, format_fit
     from thermoplc.models.acceptance import refusal
     from thermoplc.models.crossval import fit_held_out
     from thermoplc.models.fit import FitRequest
@@ -102,6 +104,7 @@ def run(args: argparse.Namespace) -> int:
                          tool_length=args.tool_length, unseen=args.unseen, time_bins=args.time_bins)
     refuse_options_not_read(args, request)
     check_output(args.output, args.force, inputs=args.data)
+    json_output.check(args, [*args.data, args.output])
     tables = [read_table(path, args.time, decimal=args.decimal) for path in args.data]
     if args.model == "auto":
         model = fit_auto(tables, request, args.folds, args.time, progress())
@@ -110,8 +113,7 @@ def run(args: argparse.Namespace) -> int:
     end_progress()
     becomes_block(model, args.output)
     write_atomic(args.output, model.to_json())
-    print(format_fit(model))
-    print(f"wrote {args.output}")
+    json_output.emit(args, f"{format_fit(model)}\nwrote {args.output}", fit_document(model, args.output))
     refused = refusal(model)
     if refused:
         print(f"thermoplc: WARNING: generate will refuse this model: {refused}", file=sys.stderr)

@@ -3,6 +3,7 @@ the rows it never saw, beside compensating nothing."""
 from __future__ import annotations
 
 from thermoplc.base.identifiers import renaming_note
+from thermoplc.models.acceptance import refusal
 
 
 def format_fit(model) -> str:
@@ -45,3 +46,12 @@ def _format_folds(m: dict) -> list[str]:
                  f"{held['zero_rmse_um']:>14.3f}{held['zero_max_abs_um']:>13.3f}")
     lines.append(f"  spread: fold RMSE {low:.3f} to {high:.3f} um")
     return lines
+
+
+def fit_document(model, path: str) -> dict:
+    """`fit --json`: the model file written, its signals and the errors format_fit prints."""
+    signal = lambda s: {"name": s.name, "column": s.column, "role": s.role, "unit": s.unit}
+    return {"format": "thermoplc-fit", "version": 1, "model_file": path, "kind": model.kind,
+            "fingerprint": model.fingerprint(), "block_name": model.block_name,
+            "inputs": [signal(s) for s in model.inputs], "target": signal(model.target),
+            "metrics": model.metrics, "generate_refuses": refusal(model)}

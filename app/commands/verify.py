@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from thermoplc.base.errors import UserError
+from thermoplc.commands import json_output
 from thermoplc.commands.options import DECIMAL, columns, mapping, number
 from thermoplc.commands.terminal import progress
 
@@ -27,6 +28,7 @@ def add_parser(sub) -> None:
                    help="replay with injected sensor faults (NaN, open/short PT100, jumps, paper 000 sine and "
                         "offset) and check exactness, finiteness, clamp and rate limit")
     p.add_argument("--time", default="time_s", help="time column for --expect traces (default: %(default)s)")
+    json_output.add_arguments(p)
     p.set_defaults(func=run)
 
 
@@ -40,6 +42,7 @@ def run(args: argparse.Namespace) -> int:
             raise UserError("--jobs runs the pairs of a --manifest in parallel; give --manifest FILE")
         if (args.model is None) == (args.expect is None):
             raise UserError("verify needs either --model MODEL.json or --expect COLUMN[,COLUMN] (a recorded PLC trace)")
+        json_output.check(args, [args.block, args.data, args.model])
         return _against_model(args) if args.model else _against_trace(args)
     except UserError as exc:  # a model file that lacks what its kind needs: name the file
         raise UserError(str(exc).replace("model file:", f"{args.model}:", 1) if args.model else str(exc)) from None
@@ -47,6 +50,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _fleet(args: argparse.Namespace) -> int:
     """Many pairs from a manifest: 2 when any pair could not be read, else 1 when any is not bit-exact."""
+    if args.json:
+        raise UserError("--json reports one pair; with --manifest each pair's result is in the table")
     if args.block or args.data or args.model or args.expect or args.faults:
         raise UserError("--manifest lists the blocks, data and models itself; give no BLOCK, --data, --model, --expect or --faults")
     from thermoplc.verifier.fleet import format_fleet, read_manifest, verify_fleet
@@ -62,6 +67,7 @@ def _against_model(args: argparse.Namespace) -> int:
     (verifier/stream.py), else read whole; with --faults, replayed once per injected fault."""
     from thermoplc.models.modelfile import load_model
     from thermoplc.models.table import read_table
+    from thermoplc.verifier.documents import verify_document
     from thermoplc.verifier.replay import verify_against_model
     model = load_model(args.model)
     report = None
@@ -74,20 +80,20 @@ def _against_model(args: argparse.Namespace) -> int:
         if args.faults:
             return _faults(args, model, table)
         report = verify_against_model(args.block, model, args.model, table, args.inputs, args.engine)
-    print(report.text())
-    return 0 if report.ok else 1
+    return _result(args, report.text(), report.ok, lambda: verify_document(report))
 
 
 def _faults(args: argparse.Namespace, model, table) -> int:
+    from thermoplc.verifier.documents import faults_document
     from thermoplc.verifier.faults import verify_faults
     report = verify_faults(args.block, model, table, args.inputs, args.engine)
-    print(report.text())
-    return 0 if report.ok else 1
+    return _result(args, report.text(), report.ok, lambda: faults_document(report))
 
 
 def _against_trace(args: argparse.Namespace) -> int:
     """The block against the outputs a PLC recorded (--expect OUTPUT=COLUMN,...)."""
     from thermoplc.models.table import read_table
+    from thermoplc.verifier.documents import verify_document
     from thermoplc.verifier.replay import verify_against_trace
     if args.faults:
         raise UserError("--faults needs --model: the faulty replay is compared with the model's reference")
@@ -100,5 +106,10 @@ def _against_trace(args: argparse.Namespace) -> int:
             raise UserError(f"--expect names output {output!r} twice; give each output one column")
         expect[output] = column if sep else item
     report = verify_against_trace(args.block, table, expect, args.inputs, args.time, args.engine)
-    print(report.text())
-    return 0 if report.ok else 1
+    return _result(args, report.text(), report.ok, lambda: verify_document(report))
+
+
+def _result(args: argparse.Namespace, text: str, ok: bool, document) -> int:
+    """Print (and with --json write) the result: exit 0 bit-exact, 1 not."""
+    json_output.emit(args, text, document() if args.json else None)
+    return 0 if ok else 1

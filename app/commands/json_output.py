@@ -1,0 +1,57 @@
+"""`--json FILE` of verify, diff and fit: the result as a JSON document beside the text, for CI.
+
+'-' puts the document on standard output and the text on standard error, so a pipeline reads one
+stream. The file is checked like every output before the work starts (never an input, --force to
+replace it) and written atomically after it."""
+from __future__ import annotations
+
+import json
+import math
+import sys
+
+import numpy as np
+
+from thermoplc.base.fileio import check_output, write_atomic
+from thermoplc.commands.options import FORCE_HELP
+
+JSON_HELP = ("also write the result as a JSON document to FILE ('-': standard output, the text then goes to "
+             "standard error); format and schema: docs/json.md")
+
+
+def add_arguments(p, force: bool = True) -> None:
+    p.add_argument("--json", metavar="FILE", help=JSON_HELP)
+    if force:
+        p.add_argument("--force", action="store_true", help=FORCE_HELP)
+
+
+def check(args, inputs) -> None:
+    """Refuse a --json file that exists (without --force) or names an input, before any work."""
+    if args.json and args.json != "-":
+        check_output(args.json, args.force, inputs=[i for i in inputs if i])
+
+
+def emit(args, text: str, document: dict | None) -> None:
+    """The text on standard output, or on standard error when the document takes standard output."""
+    to_stdout = args.json == "-"
+    print(text, file=sys.stderr if to_stdout else sys.stdout)
+    if not args.json or document is None:
+        return
+    encoded = json.dumps(_finite(document), indent=2, allow_nan=False) + "\n"
+    if to_stdout:
+        sys.stdout.write(encoded)
+    else:
+        write_atomic(args.json, encoded)
+
+
+def _finite(value):
+    """Plain JSON values: numpy scalars as Python numbers, NaN and infinities as text ("nan", "inf",
+    "-inf"), since JSON has no number for them."""
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if isinstance(value, dict):
+        return {key: _finite(v) for key, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value

@@ -1,0 +1,89 @@
+"""The verifier's reports as JSON documents (`verify --json`, `diff --json`), for CI pipelines.
+
+Each document names its format and version; the schemas that describe them ship in the package
+(`thermoplc/schemas/*.json`, docs/json.md). Values a PLC holds are given exactly: a REAL as its
+binary32 bits beside the shortest decimal that rounds to them (non-finite values as text), so a
+consumer never compares rounded decimals. Timings are left out: the same inputs give the same
+document, byte for byte."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from thermoplc.base.binary32 import f32_hex
+from thermoplc.verifier.diff import BlockDiff
+from thermoplc.verifier.faults import FaultReport
+from thermoplc.verifier.interpreter import Finding
+from thermoplc.verifier.replay import Report
+
+VERSION = 1
+
+
+def value(v) -> dict:
+    """A block or reference value: {"type", "value", "bits"} (bits for REAL only)."""
+    if isinstance(v, bool) or isinstance(v, np.bool_):
+        return {"type": "BOOL", "value": bool(v)}
+    if isinstance(v, (int, np.integer)):
+        return {"type": "INT", "value": int(v)}
+    if isinstance(v, (float, np.floating)):
+        x = float(np.float32(v))
+        return {"type": "REAL", "value": float(str(np.float32(x))) if math.isfinite(x) else str(np.float32(x)),
+                "bits": f32_hex(x)}
+    if isinstance(v, list):
+        return {"type": "ARRAY", "value": [value(item) for item in v]}
+    return {"type": "other", "value": None if v is None else repr(v)}
+
+
+def _findings(findings: tuple[Finding, ...]) -> list[dict]:
+    return [{"kind": f.kind, "line": f.pos[0], "column": f.pos[1], "detail": f.detail, "count": f.count,
+             "first_cycle": f.first_cycle} for f in findings]
+
+
+def verify_document(report: Report) -> dict:
+    m = report.mismatch
+    return {
+        "format": "thermoplc-verify", "version": VERSION, "ok": report.ok,
+        "block": report.block, "against": report.against, "data": report.data,
+        "cycles": report.cycles, "outputs": list(report.outputs),
+        "first_mismatch": None if m is None else {
+            "cycle": m.cycle, "data_line": m.row_line, "time_s": m.time, "output": m.output,
+            "block": value(m.block_value), "expected": value(m.expected_value),
+            "variables": {name: value(v) for name, v in m.variables.items()}},
+        "runtime_error": report.failure,
+        "constants": {"checked": report.constants_checked, "differ": list(report.constant_errors)},
+        "unsafe": list(report.unsafe),
+        "findings": _findings(report.findings),
+        "float32_vs_float64_um": dict(report.quantisation_um),
+        "engine": report.engine,
+    }
+
+
+def faults_document(report: FaultReport) -> dict:
+    return {
+        "format": "thermoplc-verify-faults", "version": VERSION, "ok": report.ok, "block": report.block,
+        "rows": report.rows,
+        "cases": [{"fault": c.kind.name, "sensor": c.sensor, "first_row": c.first_row, "last_row": c.last_row,
+                   "ok": c.ok, "bit_exact": c.bit_exact, "finite": c.finite, "within_clamp": c.within_clamp,
+                   "within_rate": c.within_rate, "flagged": c.flagged, "clear_at_end": c.clear_at_end,
+                   "max_change": c.max_change if math.isfinite(c.max_change) else str(c.max_change),
+                   "runtime_error": c.failure} for c in report.cases],
+        "constants": {"checked": report.constants_checked, "differ": list(report.constant_errors)},
+        "unsafe": list(report.unsafe),
+    }
+
+
+def diff_document(result: BlockDiff, with_data: bool) -> dict:
+    behaviour = None if result.behaviour is None else [
+        {"output": d.output, "type": "REAL" if d.real else "BOOL",
+         "max_abs": (d.max_abs if math.isfinite(d.max_abs) else str(d.max_abs)) if d.real else None,
+         "first_cycle": d.cycle, "time_s": d.time, "differing_calls": d.differing_calls} for d in result.behaviour]
+    same = result.structurally_equal and (not with_data or result.behaviour_equal)
+    return {
+        "format": "thermoplc-diff", "version": VERSION, "same": same, "old": result.old, "new": result.new,
+        "structurally_equal": result.structurally_equal,
+        "header": list(result.header), "interface": list(result.interface),
+        "constants": [{"name": c.name, "old": value(c.old), "new": value(c.new)} for c in result.constants],
+        "statements": list(result.statements),
+        "behaviour": behaviour, "cycles": result.cycles,
+    }
