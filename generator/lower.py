@@ -7,6 +7,7 @@ import importlib
 import pkgutil
 from dataclasses import replace
 
+from thermoplc.contract.outputs import fault_outputs
 from thermoplc.generator.commissioning import with_commissioning
 from thermoplc.generator.ir import Block, GenerationError, Identity
 from thermoplc.generator.ranges import RangeProof, prove_ranges
@@ -43,7 +44,7 @@ def lower(model: Model, limits: Limits = Limits(), identity: Identity | None = N
     core = lower_model(model)
     _refuse_unread_inputs(model, core)
     axes = axis_outputs(model, [v.name for v in core.outputs if v.type == "REAL"])
-    block = with_commissioning(with_safety(core, guards(model), axes, limits))
+    block = with_commissioning(with_safety(core, guards(model), axes, limits, fault_outputs(model)))
     return replace(block, identity=identity or Identity(), retain=retain)
 
 

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from thermoplc.base.binary32 import FLT_MIN_NORMAL
+from thermoplc.contract.outputs import fault_outputs
 from thermoplc.generator.ir import (
     Assign, BinOp, Block, BoolConst, Call, Const, GenerationError, If, Ref, Region, Unary, Var,
 )
@@ -40,6 +41,7 @@ def lower_kalman(model: Model) -> Block:
     _check_noise(model, len(temps))
     ambient = model.signals("ambient")[0].name
     speed = model.signals("speed")[0].name
+    fault = fault_outputs(model)  # each sensor's fault bit, named as the safety logic names it
     init = []
     regions = []
     for i, s in enumerate(temps, start=1):
@@ -53,16 +55,16 @@ def lower_kalman(model: Model) -> Block:
             Assign("P_pred", BinOp("+", BinOp("*", const(f"AA_{i}"), Ref(f"PF_{i}")), const(f"N_{i}"))),
         )))
         regions.append(Region(f"Sensor {i} {s.name}: fault criterion (out of range, sudden jump), paper 000 section 5", (
-            If(((Unary("NOT", Ref(f"InOk_{i}")), (Assign(f"Fault_{i}", BoolConst(True)),)),), orelse=(
+            If(((Unary("NOT", Ref(f"InOk_{i}")), (Assign(fault[s.name], BoolConst(True)),)),), orelse=(
                 Assign("Jump", Call("ABS", (BinOp("-", measured, Ref(f"TM_{i}")),))),
                 Assign(f"TM_{i}", measured),
-                If(((Unary("NOT", BinOp("<=", Ref("Jump"), const(f"Jmp_{i}"))), (Assign(f"Fault_{i}", BoolConst(True)),)),
+                If(((Unary("NOT", BinOp("<=", Ref("Jump"), const(f"Jmp_{i}"))), (Assign(fault[s.name], BoolConst(True)),)),
                     (BinOp("<=", Call("ABS", (BinOp("-", measured, Ref("T_pred")),)), const(f"Agr_{i}")),
-                     (Assign(f"Fault_{i}", BoolConst(False)),)))),
+                     (Assign(fault[s.name], BoolConst(False)),)))),
             )),
         )))
         regions.append(Region(f"Sensor {i} {s.name}: Kalman update, eq. 7-9 (gain 0 while faulty)", (
-            If(((Ref(f"Fault_{i}"), (Assign(f"TF_{i}", Ref("T_pred")), Assign(f"PF_{i}", Ref("P_pred")))),),
+            If(((Ref(fault[s.name]), (Assign(f"TF_{i}", Ref("T_pred")), Assign(f"PF_{i}", Ref("P_pred")))),),
                orelse=(
                    Assign("Gain", BinOp("/", Ref("P_pred"), BinOp("+", Ref("P_pred"), const(f"R_{i}")))),
                    Assign(f"TF_{i}", BinOp("+", Ref("T_pred"), BinOp("*", Ref("Gain"), BinOp("-", measured, Ref("T_pred"))))),
@@ -84,7 +86,7 @@ def lower_kalman(model: Model) -> Block:
         header=header(model),
         inputs=inputs_of((*temps, *model.signals("speed"), *model.signals("ambient"))),
         outputs=(error_output(model),)
-        + tuple(Var(f"Fault_{i}", "BOOL", f"{s.name} faulty: model-only prediction") for i, s in enumerate(temps, start=1)),
+        + tuple(Var(fault[s.name], "BOOL", f"{s.name} faulty: model-only prediction") for s in temps),
         statics=tuple(statics),
         temps=(Var("T_pred", "REAL", "predicted temperature"), Var("P_pred", "REAL", "predicted covariance"),
                Var("Gain", "REAL", "Kalman gain"), Var("Jump", "REAL", "change of the measurement since the last call")),

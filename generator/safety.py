@@ -27,8 +27,8 @@ _CONSTANT_COMMENTS = {
 }
 
 
-def _guard_region(g: Guard) -> Region:
-    x, ok, fault = Ref(g.name), Ref(f"InOk_{g.index}"), f"Fault_{g.index}"
+def _guard_region(g: Guard, fault: str) -> Region:
+    x, ok = Ref(g.name), Ref(f"InOk_{g.index}")
     in_range = Assign(ok.name, BinOp("AND", BinOp(">=", x, Ref(g.low)), BinOp("<=", x, Ref(g.high))))
     if g.kind == "fused":
         return Region(f"Input {g.index} {g.name}: range check (the filter decides the fault)", (
@@ -80,8 +80,10 @@ def model_values(block: Block) -> dict:
     return {v.comment[len(_MODEL_VALUE):]: v.name for v in block.temps if v.comment.startswith(_MODEL_VALUE)}
 
 
-def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], limits: Limits) -> Block:
-    """The block `core` computes, made safe: guarded inputs, a start gate and limited outputs."""
+def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], limits: Limits,
+                faults: dict[str, str]) -> Block:
+    """The block `core` computes, made safe: guarded inputs, a start gate and limited outputs;
+    `faults` names each input's fault bit (contract/outputs.py), which a fused core declares itself."""
     limited = [v for v in core.outputs if v.type == "REAL"]
     model_names = {v.name: f"Model_{j}" for j, v in enumerate(limited, start=1)}
     held = {g.name: f"Good_{g.index}" for g in plan if g.kind != "fused"}
@@ -90,7 +92,7 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
     # every model region runs only once the block is Ready; REGIONs stay at the top level (TIA)
     gated = lambda title, stmts: Region(title, (If(((Ref("Ready"), tuple(stmts)),)),))
     regions = [
-        *(_guard_region(g) for g in plan),
+        *(_guard_region(g, faults[g.name]) for g in plan),
         Region("Start the model at the first call with every input in range", (
             If(((Unary("NOT", Ref("Ready")), (Assign("Ready", ready),)),)),)),
         *(gated(r.title, r.body) for r in body),
@@ -106,13 +108,13 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
         title = f"Output {v.name}: rate limit, clamp" + (", K0 for SD43900 $SA_TEMP_COMP_ABS_VALUE" if v.name in k0 else "")
         regions.append(gated(title, stmts))
     core_flags = {v.name: v for v in core.outputs if v.type != "REAL"}
-    faults = []
+    fault_bits = []
     for g in plan:
-        name = f"Fault_{g.index}"
-        faults.append(core_flags.pop(name, None) or Var(name, "BOOL", f"{g.name} faulty: holding its last good value"))
+        name = faults[g.name]
+        fault_bits.append(core_flags.pop(name, None) or Var(name, "BOOL", f"{g.name} faulty: holding its last good value"))
     outputs = (*limited,
                *(Var(k0[v.name], "REAL", f"K0 of {v.name} for SD43900, mm") for v in limited if v.name in k0),
-               *core_flags.values(), *faults,
+               *core_flags.values(), *fault_bits,
                Var("Ready", "BOOL", "TRUE once every input was in range: the model runs"),
                Var("Limited", "BOOL", "an output was rate-limited in this call"),
                Var("Clamped", "BOOL", "an output was clamped in this call"),

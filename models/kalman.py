@@ -21,7 +21,7 @@ from thermoplc.base.binary32 import round_f32
 from thermoplc.models import kernels, lumped
 from thermoplc.models.ga import genetic_minimize
 from thermoplc.models.mlr import least_squares
-from thermoplc.models.kind import Kind
+from thermoplc.models.kind import Kind, fault_key
 from thermoplc.models.modelfile import Coefficient, Model
 
 
@@ -73,7 +73,7 @@ def predict(model: Model, inputs: dict, precision: str, valid: dict | None = Non
     if kernels.enabled():  # the same loop, compiled (models/kernels.py)
         error, faults = kernels.kalman(te, n, measured, in_range, *kernel_coefficients(model, precision), f)
         out = {model.target.name: error}
-        out.update({f"Fault_{i + 1}": faults[i] for i in range(k)})
+        out.update({fault_key(s.name): faults[i] for i, s in enumerate(temps)})
         return out
     for j in range(rows):
         for i, s in enumerate(sensor):
@@ -103,8 +103,8 @@ def predict(model: Model, inputs: dict, precision: str, valid: dict | None = Non
             e = e + betas[i] * (tf[i] - t0[i])
         error[j] = e
     out = {model.target.name: error}
-    for i in range(k):
-        out[f"Fault_{i + 1}"] = faults[i]
+    for i, s in enumerate(temps):
+        out[fault_key(s.name)] = faults[i]
     return out
 
 
@@ -260,7 +260,7 @@ class StreamCore:
                                        [np.asarray(running[s.name], self.f) for s in self.temps], in_range,
                                        *self.args, self.f, self.state)
         out = {self.target: error}
-        out.update({f"Fault_{i + 1}": faults[i] for i in range(len(self.temps))})
+        out.update({fault_key(s.name): faults[i] for i, s in enumerate(self.temps)})
         return out
 
 

@@ -32,6 +32,12 @@ Fitter = Callable[[list[Part], Any, list[str], float, Any], tuple[dict, dict, di
 Predictor = Callable[..., dict]
 
 
+def fault_key(input_name: str) -> str:
+    """The key of an input's per-call fault flags among a reference's outputs: no ST name (the block
+    names the output, contract/outputs.py), so the models know nothing of the block's naming."""
+    return f"fault:{input_name}"
+
+
 def _always(model: "Model") -> bool:
     return True
 
@@ -48,7 +54,8 @@ class Kind:
     predict: Predictor  # the reference: float64 (ideal) or binary32 (what the block computes), per call
     roles: tuple[str, ...] = ()  # input roles the block reads beside its temperatures
     # with fused_guards the Kalman filter itself handles a faulty temperature (its gain goes to 0): the
-    # predictor takes the per-call validity of each temperature, and no hold is put in front of it
+    # predictor takes the per-call validity of each temperature, no hold is put in front of it, and it
+    # returns each temperature's fault flags under fault_key(name)
     fused_guards: bool = False
     ambient_apart: bool = False  # the ambient drives every temperature, so it may not be one of them
     # FitRequest fields no other kind may set: (field, what the error says of it, with its verb)

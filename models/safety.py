@@ -17,6 +17,7 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.models import kernels
+from thermoplc.models.kind import fault_key
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
 
@@ -86,7 +87,7 @@ class Guard:
     """How one block input is checked. kind: 'fused' (the model's own fault logic decides, Kalman),
     'temperature' (range and jump, hold last good), 'range' (range only, hold last good)."""
     name: str
-    index: int  # 1-based position among the block inputs; names Fault_<index>
+    index: int  # 1-based position among the block inputs
     kind: str
     low: str  # constant names of the valid range
     high: str
@@ -150,17 +151,17 @@ def _hold(x: np.ndarray, valid: np.ndarray, guard: Guard, ready_row: int, limits
 
 
 def fault_flags(plan, valid: dict, faults: dict, core: dict | None, start: int) -> dict:
-    """Fault_i per call: the guard's flag, or for a fused input its range check before the model
-    starts (call `start`) and the filter's verdict after."""
+    """Each input's fault flag per call, under fault_key(input): the guard's flag, or for a fused input
+    its range check before the model starts (call `start`) and the filter's verdict after."""
     out = {}
     for g in plan:
         if g.kind == "fused":
             flags = ~valid[g.name]
             if core is not None:
-                flags[start:] = core[f"Fault_{g.index}"]
-            out[f"Fault_{g.index}"] = flags
+                flags[start:] = core[fault_key(g.name)]
+            out[fault_key(g.name)] = flags
         else:
-            out[f"Fault_{g.index}"] = faults[g.name]
+            out[fault_key(g.name)] = faults[g.name]
     return out
 
 

@@ -8,6 +8,7 @@ from tests.cli_runner import thermoplc
 from thermoplc.base.binary32 import f32_bits, f32_from_bits, f32_hex
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
+from thermoplc.models.kind import fault_key
 from thermoplc.models.modelfile import Coefficient, Model, load_model
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.table import read_table
@@ -115,13 +116,20 @@ def test_verify_against_a_recorded_trace(workdir):
     for j in range(table.rows):
         row = [table.columns[c][j] for c in ("time_s", "T_motor", "T_bearing", "n_rpm", "T_env")]
         lines.append(",".join([repr(float(v)) for v in row] + [repr(float(outputs["E_z_um"][j])),
-                                                              str(int(outputs["Fault_1"][j])), str(int(outputs["Fault_2"][j]))]))
+                                                              str(int(outputs[fault_key("T_motor")][j])),
+                                                              str(int(outputs[fault_key("T_bearing")][j]))]))
     (workdir / "trace.csv").write_text("\n".join(lines) + "\n")
     thermoplc("generate", "a.json", "-o", "a.scl", "--force", cwd=workdir)
     mapping = "T_motor=Tm,T_bearing=Tb,n_rpm=speed,T_env=amb"
-    ok = thermoplc("verify", "a.scl", "--data", "trace.csv", "--expect", "E_z_um=plc_E,Fault_1=plc_F1",
-                   "--inputs", mapping, cwd=workdir)
-    assert "bit-exact" in ok.stdout and "recorded outputs" in ok.stdout
+    ok = thermoplc("verify", "a.scl", "--data", "trace.csv", "--expect",
+                   "E_z_um=plc_E,Fault_T_motor=plc_F1,Fault_T_bearing=plc_F2", "--inputs", mapping, cwd=workdir)
+    assert "bit-exact" in ok.stdout and "recorded outputs (plc_E, plc_F1, plc_F2)" in ok.stdout
+    # the mapping of a trace recorded on a block generated before the fault bits had sensor names
+    old = thermoplc("verify", "a.scl", "--data", "trace.csv", "--expect", "E_z_um=plc_E,Fault_2=plc_F2",
+                    "--inputs", mapping, cwd=workdir, check=2)
+    assert ("no output 'Fault_2' to compare with column 'plc_F2'" in old.stderr and "this block names its fault bits "
+            "after their sensors; Fault_2 of a block generated before that is Fault_T_bearing here: --expect "
+            "Fault_T_bearing=plc_F2" in old.stderr)
     lines[50] = lines[50].rsplit(",", 3)[0] + ",123.5," + ",".join(lines[50].rsplit(",", 2)[1:])
     (workdir / "trace_bad.csv").write_text("\n".join(lines) + "\n")
     bad = thermoplc("verify", "a.scl", "--data", "trace_bad.csv", "--expect", "E_z_um=plc_E",

@@ -8,6 +8,7 @@ from tests.cli_runner import thermoplc
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
 from thermoplc.models.modelfile import load_model
+from thermoplc.contract.outputs import block_names, named
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import K0_MM_PER_UM, Limits
 from thermoplc.models.table import read_table
@@ -58,18 +59,19 @@ def test_model_starts_only_when_every_input_is_in_range(golden_table):
     inputs = model_inputs(model, golden_table)
     inputs["T_motor"] = inputs["T_motor"].copy()
     inputs["T_motor"][:5] = [np.nan, 3276.7, -3276.8, np.nan, 200.0]
-    expected = block_outputs(model, inputs, "f32", Limits())
+    expected = named(block_outputs(model, inputs, "f32", Limits()), block_names(model))
     produced = _run(render(lower(model)), inputs)
     _same_bits(produced, expected)
     assert not produced["Ready"][:5].any() and produced["Ready"][5:].all()
-    assert (produced["E_z_um"][:5] == 0).all() and produced["Fault_1"][:5].all() and not produced["Fault_1"][5]
+    assert (produced["E_z_um"][:5] == 0).all() and produced["Fault_T_motor"][:5].all()
+    assert not produced["Fault_T_motor"][5]
 
 
 def test_clamp_and_rate_limit_hold_and_say_so(golden_table):
     model = load_model(GOLDEN / "kalman.json")
     inputs = model_inputs(model, golden_table)
     limits = Limits(max_output=3.0, max_step=0.05)
-    expected = block_outputs(model, inputs, "f32", limits)
+    expected = named(block_outputs(model, inputs, "f32", limits), block_names(model))
     produced = _run(render(lower(model, limits), "step7"), inputs)
     _same_bits(produced, expected)
     error = produced["E_z_um"].astype(np.float64)

@@ -14,6 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from thermoplc.models.modelfile import Model
+from thermoplc.contract.outputs import block_names, named
+from thermoplc.models.kind import fault_key
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import ENABLE, ENO, RESET, Limits, guards
 from thermoplc.models.table import Table
@@ -163,6 +165,7 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
     times = table.columns[model.time_column] if model.time_column in table.columns else np.arange(table.rows) * 1.0
     baseline = block_outputs(model, clean, "f32", limits)[model.target.name]
     first = table.rows // 3
+    names = block_names(model, [d.name for d in machine.outputs])
     cases = []
     for g in guards(model):
         if g.low != "c_TempMin":
@@ -170,16 +173,16 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
         for kind in FAULT_KINDS:
             inputs = dict(clean)
             inputs[g.name], last = inject(clean[g.name], np.asarray(times), kind, first)
-            expected = block_outputs(model, inputs, "f32", limits)
+            expected = named(block_outputs(model, inputs, "f32", limits), names)
             report = _replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
             cases.append(_case(kind, g.name, first, last, expected, report, machine, limits, model, baseline,
-                               np.asarray(expected[f"Fault_{g.index}"], bool)))
+                               np.asarray(expected[names[fault_key(g.name)]], bool)))
     declared = {d.name for d in machine.inputs}
     for kind, control_of, length in CONTROL_KINDS:
         control = control_of(table.rows, first)
         if not set(control) <= declared:
             continue  # a block generated before Enable and Reset existed
-        expected = block_outputs(model, clean, "f32", limits, control)
+        expected = named(block_outputs(model, clean, "f32", limits, control), names)
         report = _replay_and_compare(machine, block, "reference", table, model.time_column, {**clean, **control},
                                      expected, {})
         cases.append(_case(kind, "/".join(control), first, min(first + length, table.rows - 1), expected, report,

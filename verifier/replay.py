@@ -9,6 +9,7 @@ import numpy as np
 
 from thermoplc.base.binary32 import f32_bits, f32_hex, is_subnormal, ulp_distance
 from thermoplc.contract.constants import TABLE_PREFIX, constant_name, expected, required
+from thermoplc.contract.outputs import FAULT_PREFIX, block_names, named
 from thermoplc.base.errors import UserError
 from thermoplc.models.fit import SAMPLING_TOLERANCE, sample_period
 from thermoplc.models.modelfile import Model
@@ -358,7 +359,8 @@ def verify_against_model(block: str, model: Model, model_path: str, table: Table
     inputs = model_inputs(model, table, overrides)
     control = control_inputs(table, overrides)
     _check_interface(machine, block, {**inputs, **control}, f"the inputs of {Path(model_path).name}")
-    block32 = block_outputs(model, inputs, "f32", limits, control)
+    block32 = named(block_outputs(model, inputs, "f32", limits, control),
+                    block_names(model, [d.name for d in machine.outputs]))
     declared = [d.name for d in machine.outputs]
     unknown = [name for name in declared if name not in block32]
     missing = [name for name in block32 if name not in declared]
@@ -393,6 +395,19 @@ def _control_summary(control: dict, rows: int) -> str:
             f"(a Reset on a disabled call does nothing)")
 
 
+def _numbered_fault(output: str, column: str, declared: list[str]) -> str:
+    """For a trace recorded on a block generated before fault bits were named after their sensors
+    (Fault_2): the bit of this block that is the same output (the fault bits are declared in the
+    inputs' order), as an --expect mapping; else nothing."""
+    stem, _, number = output.partition("_")
+    bits = [name for name in declared if name.upper().startswith(FAULT_PREFIX.upper())]
+    if f"{stem}_".upper() != FAULT_PREFIX.upper() or not number.isdigit() or not 1 <= int(number) <= len(bits):
+        return ""
+    bit = bits[int(number) - 1]
+    return (f" (this block names its fault bits after their sensors; {output} of a block generated before that is "
+            f"{bit} here: --expect {bit}={column})")
+
+
 def verify_against_trace(block: str, table: Table, expect: dict, overrides: dict | None = None,
                          time_column: str = "time_s", engine: str = "auto") -> Report:
     """expect maps block output names to trace columns holding what the PLC produced."""
@@ -402,7 +417,8 @@ def verify_against_trace(block: str, table: Table, expect: dict, overrides: dict
     expected = {}
     for output, column in expect.items():
         if output not in outputs:
-            raise UserError(f"{block}: no output {output!r} to compare with column {column!r}; outputs are {', '.join(outputs)}")
+            raise UserError(f"{block}: no output {output!r} to compare with column {column!r}; outputs are {', '.join(outputs)}"
+                            + _numbered_fault(output, column, list(outputs)))
         expected[output] = cells_as(table, column, outputs[output].type.base, f"the recorded output {output}")
     report = _replay_and_compare(machine, block, f"the recorded outputs ({', '.join(expect.values())})", table,
                                  time_column, inputs, expected, {})

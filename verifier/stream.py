@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from thermoplc.base.errors import UserError
+from thermoplc.contract.outputs import block_names, named
 from thermoplc.models.fit import SAMPLING_TOLERANCE
 from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import CONTROL_START
@@ -133,6 +134,7 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
     controls = tuple(c for c in CONTROL_START if c not in names)  # columns that would drive Enable or Reset
     _check_interface(replayer.machine, block, column_of, f"the inputs of {Path(model_path).name}")
     ref32, ref64 = StreamingReference(model, limits, "f32"), StreamingReference(model, limits, "f64")
+    output_names = block_names(model, [d.name for d in replayer.machine.outputs])
     types, steps, rows, quantisation = None, _Steps(), 0, 0.0
     target = model.target.name
     replayer.native.reset()
@@ -158,7 +160,7 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
                 raise _GiveUp("a cell beyond the largest REAL")
         timings["read"] += time.perf_counter() - t
         t = time.perf_counter()
-        expected = ref32.step(inputs)
+        expected = named(ref32.step(inputs), output_names)
         ideal = ref64.step(inputs)
         timings["reference"] += time.perf_counter() - t
         if types is None:
