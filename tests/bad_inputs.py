@@ -675,17 +675,85 @@ def _review_cases() -> list[Case]:
     ]
 
 
+def _xml_edit(edit: Callable[[str], str]):
+    def prepare(folder: Path) -> None:
+        (folder / "bad.xml").write_text(edit((folder / "block.xml").read_text()))
+    return prepare
+
+
+def _one_pou_more(text: str) -> str:
+    start, end = text.index("      <pou "), text.index("      </pou>") + len("      </pou>\n")
+    return text[:end] + text[start:end].replace('name="ThermalComp"', 'name="Other"', 1) + text[end:]
+
+
+def _cut(text: str, first: str, last: str, instead: str = "") -> str:
+    start, end = text.index(first), text.index(last) + len(last)
+    return text[:start] + instead + text[end:]
+
+
+def _plcopen_cases() -> list[Case]:
+    """Issue 28 item 9: the PLCopen XML of generate --format plcopen (block.xml), read by verify and diff."""
+    verify = ("verify", "bad.xml", "--model", "mlr.json", "--data", "good.csv")
+    diff = ("diff", "block.scl", "bad.xml")
+    vendor = ('<addData><data name="http://www.3s-software.com/plcopenxml/method" handleUnknown="implementation">'
+              '<Method name="FB_init"/></data></addData>\n        <documentation>')
+    faults = [
+        ("not XML (ST text named .xml)", lambda t: "FUNCTION_BLOCK ThermalComp\nEND_FUNCTION_BLOCK\n",
+         "bad.xml:1:1: not XML (it starts with 'FUNCTION_BLOCK Therm', not '<?xml' or '<project')"),
+        ("XML cut short", lambda t: t[:4000], "not well-formed XML (unclosed token)"),
+        ("a DOCTYPE declaring entities", lambda t: t.replace(
+            "<project ", '<!DOCTYPE project [<!ENTITY a "aaaa"><!ENTITY b "&a;&a;&a;&a;">]>\n<project ', 1),
+         "a DOCTYPE is refused (entity declarations could expand without bound"),
+        ("XML that is not PLCopen", lambda t: '<?xml version="1.0"?>\n<svg xmlns="http://www.w3.org/2000/svg"/>\n',
+         "bad.xml:2:1: the root element is <svg> in http://www.w3.org/2000/svg; expected PLCopen TC6 XML 2.01"),
+        ("two POUs", _one_pou_more, "a second POU 'Other' after 'ThermalComp'; expected one function block per file"),
+        ("no body", lambda t: _cut(t, "        <body>", "        </body>\n"),
+         "bad.xml:14:7: POU 'ThermalComp' has no <body>; expected its ST body"),
+        ("a body in FBD", lambda t: _cut(t, "          <ST>", "          </ST>\n", "          <FBD/>\n"),
+         "the body of POU 'ThermalComp' is in FBD; the verifier reads ST bodies only"),
+        ("an LREAL variable", lambda t: t.replace("<type><REAL/></type>", "<type><LREAL/></type>", 1),
+         "bad.xml:18:21: variable 'T_motor': type LREAL is not supported (REAL, BOOL, INT, DINT and arrays of them are)"),
+        ("a derived type", lambda t: t.replace("<type><REAL/></type>", '<type><derived name="TEMP_T"/></type>', 1),
+         "variable 'T_motor': type 'TEMP_T' (a derived type) is not supported"),
+        ("an in-out variable", lambda t: t.replace("<inputVars>", "<inOutVars>", 1).replace("</inputVars>", "</inOutVars>", 1),
+         "bad.xml:16:11: <inOutVars> (VAR_IN_OUT section) is not supported"),
+        ("a CODESYS method in the POU", lambda t: t.replace("<documentation><xhtml:p>Thermal", vendor + "<xhtml:p>Thermal", 1),
+         "vendor data 'http://www.3s-software.com/plcopenxml/method' in POU 'ThermalComp'"),
+        ("declarations in the ST body", lambda t: t.replace("    ENO := Enable;", "    VAR x : REAL; END_VAR\n    ENO := Enable;", 1),
+         "VAR in the body (statements only: the XML's <interface> declares the variables) is not supported"),
+        ("a start value ST does not take", lambda t: t.replace('value="30"', 'value="16#1E"', 1),
+         "variable 'c_SettleCalls': '16#1E' is not a start value an ST declaration takes"),
+    ]
+    cases = []
+    for fault, edit, message in faults:
+        cases.append(Case("PLCopen XML", fault, "verify", verify, _xml_edit(edit), "error", message))
+    for fault, edit, message in faults[4:5] + faults[7:8]:
+        cases.append(Case("PLCopen XML", fault, "diff", diff, _xml_edit(edit), "error", message))
+    coefficient = re.compile(r'(<variable name="c_beta_1">\s*<type><REAL/></type>\s*<initialValue><simpleValue value=")'
+                             r'[^"]+')
+    cases += [
+        Case("PLCopen XML", "the XML generate wrote", "verify", ("verify", "block.xml", "--model", "mlr.json", "--data",
+             "good.csv"), lambda f: None, "accepted", "bit-exact: block.xml reproduces the float32 reference"),
+        Case("PLCopen XML", "a coefficient edited in the XML", "verify", verify,
+             _xml_edit(lambda t: coefficient.sub(r"\g<1>10.5", t, 1)), "refused",
+             "NOT bit-exact: bad.xml differs from the float32 reference of mlr.json"),
+    ]
+    return cases
+
+
 CASES = [*_csv_cases(), *_model_cases(), *_st_cases(), *_injection_cases(), *_output_cases(), *_option_cases(),
          *_bounded_cases(), *_schema_cases(), *_nesting_cases(), *_data_file_cases(), *_verify_cases(),
-         *_review_cases()]
+         *_review_cases(), *_plcopen_cases()]
 
 
 def setup_folder(folder: Path) -> None:
-    """good.csv (2 h twin), mlr.json fitted on it, block.scl generated from it."""
+    """good.csv (2 h twin), mlr.json fitted on it, block.scl generated from it, and block.xml, its
+    PLCopen XML."""
     (folder / "good.csv").write_text(write_table(simulate(2, seed=4)))
     thermoplc("fit", "--data", "good.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing",
               "--train-rows", "200", "-o", "mlr.json", cwd=folder, check=None)
     thermoplc("generate", "mlr.json", "-o", "block.scl", cwd=folder, check=None)
+    thermoplc("generate", "mlr.json", "--dialect", "iec", "--format", "plcopen", "-o", "block.xml", cwd=folder, check=None)
 
 
 def outcome(result: subprocess.CompletedProcess) -> str:

@@ -223,7 +223,7 @@ HOSTILE = {
     "a DOCTYPE with entities": (
         lambda t: t.replace("<project ", '<!DOCTYPE project [<!ENTITY a "aaaaaaaaaa"><!ENTITY b "&a;&a;&a;&a;">]>\n'
                                          "<project ", 1),
-        r"bad\.xml:2:\d+: a DOCTYPE is refused \(entity declarations could expand without bound"),
+        r"bad\.xml:2:1: a DOCTYPE is refused \(entity declarations could expand without bound"),
     "XML that is not PLCopen": (lambda t: '<?xml version="1.0"?>\n<svg xmlns="http://www.w3.org/2000/svg"/>\n',
                                 r"bad\.xml:2:1: the root element is <svg> in http://www\.w3\.org/2000/svg; expected "
                                 r"PLCopen TC6 XML 2\.01"),
@@ -501,8 +501,7 @@ def test_every_xml_has_the_tc6_structure_the_importers_rely_on(fresh_xml):
     (lambda t: t.replace('creationDateTime="2000-01-01T00:00:00"', 'creationDateTime="2000-01-01"'),
      "creationDateTime '2000-01-01' is no xsd:dateTime"),
     (lambda t: t.replace(' pouType="functionBlock"', ' pouType="FB"'), "pouType 'FB'"),
-    (lambda t: t.replace("<coordinateInfo>", "<coordinateInfo>\n<fbd><scaling x=\"1\" y=\"1\"/></fbd>", 1),
-     None),  # a second fbd: our check sees only what it names; the schema test sees the rest
+    (lambda t: t.replace("  <types>", "  <instances><configurations/></instances>\n  <types>", 1), "<types> out of order"),
     (lambda t: t.replace(TC6, "http://www.plcopen.org/xml/tc6.xsd"), "expected <project> in"),
     (lambda t: t.replace("<xhtml:p><![CDATA[", "<![CDATA[", 1).replace("]]></xhtml:p>", "]]>", 1),
      "ST: expected exactly one XHTML element"),
@@ -511,7 +510,7 @@ def test_every_xml_has_the_tc6_structure_the_importers_rely_on(fresh_xml):
 def test_the_structure_check_is_not_vacuous(break_it, problem):
     import xml.etree.ElementTree as ET
     problems = tc6_problems(ET.fromstring(break_it(_text())))
-    assert problem is None or any(problem in p for p in problems), problems
+    assert any(problem in p for p in problems), problems
 
 
 # The official TC6 XML 2.01 schema, tc6_xml_v201.xsd. No package installs it: the one that carries it,

@@ -82,6 +82,9 @@ class _Document:
 
         def doctype(*_):
             line, column = here()
+            begins = text.find("<!DOCTYPE")
+            if 0 <= begins and text.count("\n", 0, begins) < line:  # where it begins, not where expat is inside it
+                line, column = text.count("\n", 0, begins) + 1, begins - text.rfind("\n", 0, begins)
             raise UserError(f"{source}:{line}:{column}: a DOCTYPE is refused (entity declarations could expand "
                             f"without bound, and PLCopen XML needs none); {EXPECTED}")
 
