@@ -6,11 +6,15 @@ Every test that runs the CLI goes through `thermoplc`; a test that needs the pro
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
 
 CLI = (sys.executable, "-m", "thermoplc")
+# the progress a long command writes to a log (app/commands/terminal.py) depends on how loaded the
+# machine is; tests/test_progress.py checks it, every other test reads what is left
+PROGRESS_LINE = re.compile(r"^thermoplc: \d+ s: .*\n", re.MULTILINE)
 
 
 def thermoplc(*args, cwd: Path, check: int | None = 0, stdin: str | None = None, env: dict | None = None,
@@ -23,6 +27,7 @@ def thermoplc(*args, cwd: Path, check: int | None = 0, stdin: str | None = None,
     result = subprocess.run([*CLI, *map(str, args)], cwd=cwd, capture_output=True, text=True, timeout=timeout,
                             input=stdin, stdin=subprocess.DEVNULL if stdin is None else None,
                             env=None if env is None else {**os.environ, **env})
+    result.stderr = PROGRESS_LINE.sub("", result.stderr)
     if check is not None:
         assert result.returncode == check, result.stdout + result.stderr
     return result
