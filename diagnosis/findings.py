@@ -129,6 +129,11 @@ def next_steps(doc: dict) -> list[str]:
     model, data = doc.get("model"), doc["data"].get("file")
     if not model:
         return []
-    block = shlex.quote(str(Path(model).with_suffix(".scl")))
-    verify = f"thermoplc verify {block} --model {shlex.quote(model)}" + (f" --data {shlex.quote(data)}" if data else "")
-    return [f"thermoplc generate {shlex.quote(model)} -o {block}", verify]
+    block = _argument(str(Path(model).with_suffix(".scl")))
+    verify = f"thermoplc verify {block} --model {_argument(model)}" + (f" --data {_argument(data)}" if data else "")
+    return [f"thermoplc generate {_argument(model)} -o {block}", verify]
+
+
+def _argument(path: str) -> str:
+    """A path as a shell argument the command cannot take for an option ('-x.json' as './-x.json')."""
+    return shlex.quote(f"./{path}" if path.startswith("-") else path)

@@ -128,6 +128,9 @@ def _active_effects(effects: tuple) -> dict:
         for key in definition.positive:
             if not e.get(key) > 0:
                 raise UserError(f"effect {e.name}: {key} must be above 0, found {e.get(key)}")
+        for key, _, _ in definition.bounds:
+            if why := definition.out_of_bounds(key, e.get(key)):
+                raise UserError(f"effect {e.name}: {why}")
         if why := definition.check(dict(e.parameters)):
             raise UserError(f"effect {e.name}: {why}")
         active[e.name] = e

@@ -122,9 +122,15 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
         raise UserError(f"--model {request.kind} fits one --data file; only {several}")
     signals = _signals(tables, request)
     target = Signal(block_identifier(request.target, "target"), request.target, "target", "um")
-    duplicate = check_unique([s.name for s in signals] + [target.name, request.block_name])
+    named = [*signals, target]
+    duplicate = check_unique([s.name for s in named] + [request.block_name])
     if duplicate:
-        raise UserError(f"column names clash in the block: {duplicate}")
+        sources = {}
+        for s in named:
+            sources.setdefault(s.name.upper(), []).append(repr(s.column))
+        clash = next((columns for columns in sources.values() if len(columns) > 1), None)
+        raise UserError(f"columns {' and '.join(clash)} become the same block name: {duplicate}; rename one"
+                        if clash else f"column names clash in the block: {duplicate}")
     problem = identifier_problem(request.block_name)
     if problem:
         raise UserError(f"block name {request.block_name!r} {problem}")

@@ -68,3 +68,30 @@ def test_the_random_draw_is_the_records_and_is_seeded():
     again = [draw(name, cascade, clean, len(clean["time_s"]) // 2, 7) for name in NAMES]
     assert first == again and [e.name for e in first] == list(NAMES)
     assert all(np.isfinite(v) for e in first for _, v in e.parameters if not isinstance(v, str))
+
+
+@pytest.mark.parametrize("text, message", [
+    ("gear_ratio_switch:ratio=1e308", "ratio must be within 0..100"),  # overflowed the twin into NaN before
+    ("gear_ratio_switch:threshold_rpm=-5", "threshold_rpm must be within 0..100000"),
+    ("sensor_drift:rate_K_per_h=1e300", "rate_K_per_h must be within -100..100"),
+    ("ambient_coupling:um_per_K=1e30", "um_per_K must be within -10000..10000"),
+    ("gear_ratio_switch:threshold_rpm=1,threshold_rpm=2", "threshold_rpm is given twice"),
+])
+def test_parameters_beyond_physics_or_given_twice_are_refused(text, message):
+    with pytest.raises(UserError, match=message):
+        Effect.parse(text)
+
+
+@pytest.mark.parametrize("machine_name", ["cascade", "portal"])
+@pytest.mark.parametrize("name", NAMES)
+def test_the_bounds_keep_the_twin_finite(machine_name, name):
+    from thermoplc.machines import machine
+    record = registry()[name]
+    extreme = ",".join(f"{key}={high if key != 'off_C' else low}" for key, low, high in record.bounds
+                       if key != "on_C")
+    if name == "coolant_switching":
+        extreme = "cooling_K=-100,on_C=250,off_C=-50"
+    twin = machine(machine_name)
+    effect = Effect.parse(f"{name}:{extreme}", twin.COLUMN_DEFAULTS)
+    data = twin.simulate(2.0, 1, effects=(effect,))
+    assert all(np.all(np.isfinite(np.asarray(v, dtype=float))) for v in data.values())

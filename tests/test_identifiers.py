@@ -44,3 +44,13 @@ def test_any_column_gives_a_safe_name_or_a_clear_refusal(column, role):
         return
     assert identifier_problem(name) is None
     assert block_identifier(column, role) == name  # deterministic
+
+
+def test_columns_that_map_to_one_name_are_refused_naming_both(tmp_path):
+    from tests.cli_runner import thermoplc
+    rows = ["time_s,T1,T1_in,E"] + [f"{10 * k},{20 + k / 100},{21 + k / 90},{k / 50}" for k in range(300)]
+    (tmp_path / "d.csv").write_text("\n".join(rows) + "\n")
+    result = thermoplc("fit", "--data", "d.csv", "--model", "mlr", "--temps", "T1,T1_in", "--target", "E",
+                       "--train-rows", "200", "-o", "m.json", cwd=tmp_path, check=2)
+    assert "columns 'T1' and 'T1_in' become the same block name" in result.stderr
+    assert not (tmp_path / "m.json").exists()

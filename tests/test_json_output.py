@@ -86,3 +86,9 @@ def test_the_json_file_follows_the_output_rule(folder, args, message):
     (folder / "v.json").write_text("mine\n")
     result = thermoplc("verify", "block.scl", "--model", "model.json", "--data", "data.csv", *args, cwd=folder, check=2)
     assert message in result.stderr and (folder / "v.json").read_text() == "mine\n"
+
+
+def test_an_empty_json_name_is_refused_not_ignored(folder):
+    result = thermoplc("verify", "block.scl", "--model", "model.json", "--data", "data.csv", "--json", "", cwd=folder,
+                       check=2)
+    assert "argument --json: expected a file name or '-', found an empty name" in result.stderr

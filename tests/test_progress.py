@@ -35,3 +35,10 @@ def test_diagnose_says_what_to_run_next_as_a_user_types_it():
     assert next_steps(doc) == ["thermoplc generate 'runs/diag model.json' -o 'runs/diag model.scl'",
                                "thermoplc verify 'runs/diag model.scl' --model 'runs/diag model.json' --data 'hall 3.csv'"]
     assert next_steps({"model": None, "data": {}}) == []
+
+
+def test_a_next_command_never_reads_a_path_as_an_option():
+    from thermoplc.diagnosis.findings import next_steps
+    steps = next_steps({"model": "-d m.json", "data": {"file": "-x.csv"}})
+    assert steps == ["thermoplc generate './-d m.json' -o './-d m.scl'",
+                     "thermoplc verify './-d m.scl' --model './-d m.json' --data ./-x.csv"]

@@ -5,6 +5,7 @@ stream. The file is checked like every output before the work starts (never an i
 replace it) and written atomically after it."""
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import sys
@@ -18,8 +19,14 @@ JSON_HELP = ("also write the result as a JSON document to FILE ('-': standard ou
              "standard error); format and schema: docs/json.md")
 
 
+def _file_name(text: str) -> str:
+    if not text:
+        raise argparse.ArgumentTypeError("expected a file name or '-', found an empty name")
+    return text
+
+
 def add_arguments(p, force: bool = True) -> None:
-    p.add_argument("--json", metavar="FILE", help=JSON_HELP)
+    p.add_argument("--json", metavar="FILE", type=_file_name, help=JSON_HELP)
     if force:
         p.add_argument("--force", action="store_true", help=FORCE_HELP)
 

@@ -24,7 +24,7 @@ def implausible(sim, train) -> str | None:
 
 
 EFFECT = EffectDefinition(
-    name="ambient_coupling", rank=4, description="the structure follows ambient swings (day/night)",
+    name="ambient_coupling", rank=4, bounds=(("tau_h", 0.0, 1000.0), ("um_per_K", -10000.0, 10000.0)), description="the structure follows ambient swings (day/night)",
     defaults=(("tau_h", 3.0), ("um_per_K", 10.0)), positive=("tau_h",),
     part="displacement", added_parameters=lambda sensors: 2,
     describe=describe, draw=draw, untestable=shorter_than_a_day, implausible=implausible)

@@ -51,7 +51,7 @@ def too_quiet(sim, train) -> str | None:
 
 
 EFFECT = EffectDefinition(
-    name="coolant_switching", rank=1,
+    name="coolant_switching", rank=1, bounds=(("on_C", -50.0, 250.0), ("off_C", -50.0, 250.0), ("cooling_K", -100.0, 100.0)),
     description="extra motor cooling switched on/off at temperature thresholds with hysteresis",
     defaults=(("on_C", 27.0), ("off_C", 24.0), ("cooling_K", 4.0)), check=check,
     part="heat", per_sensor=True, added_parameters=lambda sensors: sensors + 2,

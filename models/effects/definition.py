@@ -46,6 +46,9 @@ class EffectDefinition:
     #                                                                    machine module) -> parameters to hide
     per_sensor: bool = False  # tried on each sensor in turn
     positive: tuple[str, ...] = ()  # parameters that must be above 0
+    # (parameter, lowest, highest): what a machine can physically have; beyond it the synthetic
+    # machine overflows or the effect is no longer the named physics
+    bounds: tuple[tuple[str, float, float], ...] = ()
     check: Callable[[dict], str | None] = _never  # a rule across its parameters
     untestable: Callable[["Series"], str | None] = _never  # why a training part cannot show it
     look_alike: Callable[["Series"], tuple[str, str] | None] = _never  # an effect that fits alike by construction
@@ -57,14 +60,25 @@ class EffectDefinition:
     reading_size_K: Callable[["SensorParams", "Series"], float] | None = None  # part "reading": its size
     driven_by: str | None = None  # a recorded signal it needs besides speed and ambient (the feed rate)
 
+    def out_of_bounds(self, key: str, value: float) -> str | None:
+        """Why `value` is outside the physical range of parameter `key`, or None."""
+        for name, low, high in self.bounds:
+            if name == key and not low <= value <= high:
+                return f"{key} must be within {low:g}..{high:g}, found {value:g}"
+        return None
+
     def parse(self, text: str, rest: str, columns: dict[str, str] | None) -> "Effect":
         """This effect with `rest` ('key=value,...') over its defaults; `text` is what the user typed."""
         parameters = dict(self.defaults)
         if columns and self.name in columns:
             parameters["column"] = columns[self.name]
+        given = set()
         for item in filter(None, (s.strip() for s in rest.split(","))):
             key, sep, value = item.partition("=")
             key = key.strip()
+            if key in given:
+                raise UserError(f"--effect {text!r}: {key} is given twice; give each parameter once")
+            given.add(key)
             if not sep or key not in parameters:
                 raise UserError(f"--effect {text!r}: expected {self.name}[:key=value,...] with keys "
                                 f"{', '.join(parameters)}; found {item!r}")
@@ -79,6 +93,8 @@ class EffectDefinition:
                 raise UserError(f"--effect {text!r}: {key} must be a finite number, found {value.strip()!r}")
             if key in self.positive and parameters[key] <= 0:
                 raise UserError(f"--effect {text!r}: {key} must be above 0, found {value.strip()!r}")
+            if why := self.out_of_bounds(key, parameters[key]):
+                raise UserError(f"--effect {text!r}: {why}")
         if why := self.check(parameters):
             raise UserError(f"--effect {text!r}: {why}")
         return Effect(self.name, tuple(parameters.items()))

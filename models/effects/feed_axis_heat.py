@@ -38,7 +38,7 @@ def implausible(sim, train) -> str | None:
 
 
 EFFECT = EffectDefinition(
-    name="feed_axis_heat", rank=7, description="heat from feed-axis motion (ball screw) moves the tool",
+    name="feed_axis_heat", rank=7, bounds=(("tau_h", 0.0, 1000.0), ("um_per_K", -10000.0, 10000.0)), description="heat from feed-axis motion (ball screw) moves the tool",
     defaults=(("tau_h", 0.5), ("um_per_K", 3.0)), positive=("tau_h",),
     part="displacement", added_parameters=lambda sensors: 2, driven_by="feed",
     describe=describe, draw=draw, untestable=untestable, implausible=implausible)

@@ -63,7 +63,7 @@ def implausible(sim, train) -> str | None:
 
 
 EFFECT = EffectDefinition(
-    name="gear_ratio_switch", rank=0,
+    name="gear_ratio_switch", rank=0, bounds=(("threshold_rpm", 0.0, 100000.0), ("ratio", 0.0, 100.0)),
     description="motor heat per rpm changes above a speed threshold (paper 000's 750 rpm gearbox)",
     defaults=(("threshold_rpm", 750.0), ("ratio", 1.6)), positive=("ratio",),
     part="heat", added_parameters=lambda sensors: sensors + 1,

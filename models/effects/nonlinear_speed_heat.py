@@ -39,7 +39,7 @@ def implausible(sim, train) -> str | None:
 
 
 EFFECT = EffectDefinition(
-    name="nonlinear_speed_heat", rank=2, description="heat grows as n^p with p != 1",
+    name="nonlinear_speed_heat", rank=2, bounds=(("exponent", 0.0, 10.0), ("reference_rpm", 0.0, 100000.0)), description="heat grows as n^p with p != 1",
     defaults=(("exponent", 1.6), ("reference_rpm", 1500.0)), positive=("exponent", "reference_rpm"),
     part="speed", added_parameters=lambda sensors: 1,
     describe=describe, draw=draw, untestable=untestable, implausible=implausible)

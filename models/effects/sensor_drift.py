@@ -20,7 +20,7 @@ def draw(rng: np.random.Generator, clean: dict, train: slice, machine) -> dict:
 
 
 EFFECT = EffectDefinition(
-    name="sensor_drift", rank=6, description="one temperature sensor drifts linearly with time",
+    name="sensor_drift", rank=6, bounds=(("rate_K_per_h", -100.0, 100.0),), description="one temperature sensor drifts linearly with time",
     defaults=(("column", "T_motor"), ("rate_K_per_h", 0.05)),
     part="reading", per_sensor=True, added_parameters=lambda sensors: 1,
     describe=describe, draw=draw,

@@ -26,7 +26,7 @@ def untestable(train) -> str | None:
 
 
 EFFECT = EffectDefinition(
-    name="sensor_offset", rank=5, description="a constant offset on one temperature sensor",
+    name="sensor_offset", rank=5, bounds=(("offset_K", -100.0, 100.0),), description="a constant offset on one temperature sensor",
     defaults=(("column", "T_bearing"), ("offset_K", 1.0)),
     part="reading", per_sensor=True, added_parameters=lambda sensors: 1,
     describe=describe, draw=draw, untestable=untestable,

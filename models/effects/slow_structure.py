@@ -64,7 +64,7 @@ def alike_after(before, trial, train) -> tuple[tuple[str, ...], str] | None:
 
 
 EFFECT = EffectDefinition(
-    name="slow_structure", rank=3, description="a second, slow thermal time constant in the displacement",
+    name="slow_structure", rank=3, bounds=(("tau_h", 0.0, 1000.0), ("um_per_K", -10000.0, 10000.0)), description="a second, slow thermal time constant in the displacement",
     defaults=(("tau_h", 16.0), ("um_per_K", 20.0)), positive=("tau_h",),
     part="displacement", added_parameters=lambda sensors: 1 + sensors,
     describe=describe, draw=draw, untestable=shorter_than_a_day, implausible=implausible,

@@ -39,7 +39,7 @@ def implausible(sim, train) -> str | None:
 
 
 EFFECT = EffectDefinition(
-    name="stop_convection", rank=8,
+    name="stop_convection", rank=8, bounds=(("factor", 0.0, 100.0),),
     description="cooling differs when the spindle stands (natural vs forced convection)",
     defaults=(("factor", 2.5),), positive=("factor",),
     part="pole", added_parameters=lambda sensors: sensors,
