@@ -367,7 +367,9 @@ def _schema_cases() -> list[Case]:
         ("bpnn", "no hidden neurons", ["settings", "hidden"], 0, "field 'settings.hidden': 0 is less than the minimum of 1"),
         ("bpnn", "more network inputs than sensors", ["settings", "inputs"], 3,
          "inputs 3 and outputs 3 must be the 2 temperature inputs"),
-        ("kalman", "negative sample period", ["sample_period_s"], -1, "field 'sample_period_s': -1 is less than or equal"),
+        ("kalman", "negative sample period", ["sample_period_s"], -1, "field 'sample_period_s': -1 is less than the minimum"),
+        ("mlr", "sample period 1e-300 s", ["sample_period_s"], 1e-300,
+         "field 'sample_period_s': 1e-300 is less than the minimum of 0.0001"),
         ("piecewise", "nodes as an object", ["settings", "nodes"], {}, "field 'settings.nodes': {} is not of type 'array'"),
         ("gm1n", "coefficient f32 not hex", ["coefficients", "Keep", "f32"], "0xZZZZZZZZ", "field 'coefficients.Keep.f32'"),
     ]
