@@ -95,6 +95,9 @@ def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
         if column is None:
             raise UserError(f"--model {request.kind} needs --{role} COLUMN")
         shared = [i for i, s in enumerate(signals) if s.column == column]
+        if shared and signals[shared[0]].role != "temperature":
+            raise UserError(f"--{role} {column}: the column is already the {signals[shared[0]].role} input; "
+                            f"one column holds one signal")
         if shared and (role == "speed" or kind.ambient_apart):
             raise UserError(f"--{role} {column}: the column is also in --temps; "
                             + ("a speed is not a temperature" if role == "speed" else

@@ -19,6 +19,7 @@ from thermoplc.base.errors import UserError
 FORMAT = "thermoplc-model"
 SCHEMA_VERSION = 1
 ROLES = ("temperature", "speed", "ambient", "tool_length", "feed")
+COMBINED_ROLE = "temperature,ambient"  # the one signal with two roles: paper 001's ambient T14 is also a regressor
 
 
 @dataclass(frozen=True)
@@ -224,6 +225,10 @@ def _parse(doc, path: str) -> Model:
     for i, s in enumerate(inputs):
         if not s.role or any(role not in ROLES for role in s.role.split(",")):
             raise UserError(f"{path}: field 'inputs[{i}].role' must be one of {', '.join(ROLES)}, found {s.role!r}")
+        if "," in s.role and s.role != COMBINED_ROLE:
+            raise UserError(f"{path}: field 'inputs[{i}].role': {s.role!r} gives one signal two roles; only "
+                            f"{COMBINED_ROLE!r} may be combined (an ambient sensor that is also a regression "
+                            f"temperature)")
     present = {role for s in inputs for role in s.role.split(",")}
     for role in ("temperature", *kind_of(kind).roles) if inputs else ():  # none at all: the schema says so
         if role not in present:

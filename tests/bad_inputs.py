@@ -210,6 +210,8 @@ def _model_cases() -> list[Case]:
          "kind 'kalman' reads an input of role 'speed', and field 'inputs' has none"),
         ("key given twice", _model_edit(lambda d: None, lambda t: t.replace('"kind": "mlr"', '"kind": "kalman", "kind": "mlr"', 1)),
          "key 'kind' appears twice in one object"),
+        ("a speed that is also the ambient", _model_edit(_set(["inputs", 0, "role"], "speed,ambient")),
+         "field 'inputs[0].role': 'speed,ambient' gives one signal two roles; only 'temperature,ambient' may be combined"),
     ]
     cases = []
     for fault, prepare, message in faults:
@@ -475,6 +477,9 @@ def _option_cases() -> list[Case]:
         ("--train-until nan", fit("--model", "mlr", "--train-until", "nan"), "argument --train-until: expected seconds"),
         ("--train-rows 0", fit("--model", "mlr", "--train-rows", "0"), "argument --train-rows: expected a row count"),
         ("--seed -1", fit(*kalman, "--seed", "-1"), "argument --seed: expected a seed"),
+        ("--ambient the --speed column", fit("--model", "kalman", "--speed", "n_rpm", "--ambient", "n_rpm", "--train-rows",
+                                             "200"),
+         "--ambient n_rpm: the column is already the speed input; one column holds one signal"),
     ]
     cases = [Case("option", fault, "fit", argv, lambda f: None, "error", message) for fault, argv, message in rows]
     generate = ("generate", "mlr.json", "-o", "out.scl")
