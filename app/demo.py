@@ -53,15 +53,16 @@ def run_demo(out: Path, force: bool = False) -> int:
         model = fit([table], request)
         model_path = out / f"{kind}.json"
         block_path = out / f"{block_name}.scl"
+        report_path = out / f"{block_name}.verify.txt"
         write_atomic(model_path, model.to_json())
         written.append(model_path)
         refused = refusal(model)
         if refused:  # the gate `generate` applies: no block for a model that does not compensate
             print(f"  {kind}: no block: {refused}")
+            _remove_stale(block_path, report_path)
             continue
         write_atomic(block_path, generate(model, str(model_path), output=str(block_path)).text)
         report = verify_against_model(str(block_path), model, str(model_path), table)
-        report_path = out / f"{block_name}.verify.txt"
         write_atomic(report_path, f"thermoplc {__version__} verify {block_path.name} --model {model_path.name}\n"
                      + report.text() + "\n")
         written += [block_path, report_path]
@@ -79,3 +80,11 @@ def run_demo(out: Path, force: bool = False) -> int:
     for path in written:
         print(f"  {path}")
     return 0 if len(rows) == len(BLOCKS) and all(r[6] == "bit-exact" for r in rows) else 1
+
+
+def _remove_stale(*paths: Path) -> None:
+    """An earlier run's block beside a model it no longer belongs to would be imported as that model's."""
+    for path in paths:
+        if path.exists():
+            path.unlink()
+            print(f"  removed {path}: written by an earlier run for a model this run refused")

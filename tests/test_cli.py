@@ -203,3 +203,19 @@ def test_fit_refuses_an_option_its_kind_does_not_read(workdir, extra, message):
     assert message in result.stderr and len(result.stderr.strip().splitlines()) == 1
     assert not (workdir / "unread.json").exists()
     thermoplc(*FIT_MLR, "--speed", "n_rpm", "--ambient", "T_env", "-o", "roles.json", "--force", cwd=workdir)
+
+
+def test_demo_removes_an_earlier_block_of_a_model_it_now_refuses(tmp_path, monkeypatch, capsys):
+    """With --force over an earlier run, a refused model must not leave that run's block beside it."""
+    from thermoplc import demo
+    out = tmp_path / "demo"
+    out.mkdir()
+    (out / "ThermalCompMlr.scl").write_text("(* an earlier run's block *)\n")
+    (out / "ThermalCompMlr.verify.txt").write_text("bit-exact\n")
+    monkeypatch.setattr(demo, "refusal", lambda model: "worse than no compensation" if model.kind == "mlr" else None)
+    assert demo.run_demo(out, force=True) == 1
+    printed = capsys.readouterr().out
+    assert "mlr: no block: worse than no compensation" in printed
+    assert f"removed {out / 'ThermalCompMlr.scl'}" in printed
+    assert not (out / "ThermalCompMlr.scl").exists() and not (out / "ThermalCompMlr.verify.txt").exists()
+    assert (out / "mlr.json").exists() and (out / "ThermalCompKalman.scl").exists()
