@@ -255,6 +255,11 @@ def _st_cases() -> list[Case]:
         ("interface does not match the data", _block_edit(lambda t: t.replace("      T_bearing : Real;", "      T_bearing : Real;\n      T_spare : Real;", 1)),
          "bad.scl:", "T_spare"),
     ]
+    def latin1(folder: Path) -> None:  # a comment edited in an editor that saves Windows-1252
+        text = (folder / "block.scl").read_text().replace("BEGIN\n", "BEGIN\n    // geändert\n", 1)
+        (folder / "bad.scl").write_bytes(text.encode("cp1252"))
+    faults.append(("saved as Windows-1252 (an umlaut)", latin1, "bad.scl:", "is not UTF-8 text; a block is read as "
+                   "Structured Text or PLCopen XML in UTF-8, or in UTF-16/32 with a byte order mark"))
     cases = []
     for fault, prepare, where, message in faults:
         cases.append(Case("ST file", fault, "verify", ("verify", "bad.scl", "--model", "mlr.json", "--data", "good.csv"),

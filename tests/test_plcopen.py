@@ -71,6 +71,25 @@ def test_xml_is_told_by_its_content_not_its_name(tmp_path):
         parse_file(_write(tmp_path, "block.xml", golden_block("mlr", "iec").read_text()))
 
 
+@pytest.mark.parametrize("encoding", ["utf-16", "utf-16-be", "utf-32", "utf-8-sig"])
+def test_a_block_saved_with_a_byte_order_mark_reads_as_its_utf8_text(tmp_path, encoding):
+    """Editors and exporters save XML as UTF-16 with a byte order mark; it was called 'Structured Text' unread."""
+    marks = {"utf-16-be": "\ufeff"}  # the -be codec writes no mark of its own
+    for text, utf8 in ((_text(), XML), (golden_block("mlr", "iec").read_text(), golden_block("mlr", "iec"))):
+        saved = tmp_path / f"saved{utf8.suffix}"
+        saved.write_bytes((marks.get(encoding, "") + text).encode(encoding))
+        assert parse_file(saved) == parse_file(utf8), encoding
+
+
+def test_a_block_that_is_no_text_names_the_byte_and_what_is_read(tmp_path):
+    broken = tmp_path / "broken.xml"
+    lines = _text().encode("utf-8").split(b"\n")
+    broken.write_bytes(b"\n".join([*lines[:4], lines[4][:7] + b"\xff" + lines[4][7:], *lines[5:]]))
+    with pytest.raises(UserError, match=r"broken\.xml:5:8: byte 0xFF is not UTF-8 text; a block is read as Structured Text "
+                                        r"or PLCopen XML in UTF-8, or in UTF-16/32 with a byte order mark"):
+        parse_file(broken)
+
+
 # --- verify and diff, as a user types them ----------------------------------------------------------------------
 
 def _report(result, name: str) -> list[str]:
