@@ -17,6 +17,7 @@ from thermoplc.models.acceptance import problem, quantisation_problem
 from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import Limits
 from thermoplc.verifier.parser import parse_text
+from thermoplc.verifier.plcopen import read_plcopen
 from thermoplc.verifier.stress import StressResult, stress
 
 
@@ -91,8 +92,8 @@ def generate(model: Model, source: str = "model", limits: Limits = Limits(), dia
         more = f" (and {len(proof.problems) - 3} more)" if len(proof.problems) > 3 else ""
         raise UserError(f"{source}: the range proof fails with every input inside its guard range: "
                         + "; ".join(proof.problems[:3]) + more + "; nothing written")
-    plain = render(block, "iec") if plcopen else text
-    stressed = stress(parse_text(plain, output), model, limits, output)
+    program = read_plcopen(text, output) if plcopen else parse_text(text, output)  # what is written is stressed
+    stressed = stress(program, model, limits, output)
     if stressed.problems:
         raise UserError(f"{source}: the block reaches a value that must not reach the NC with every input inside its "
                         f"guard range (stress replay): " + "; ".join(stressed.problems[:3]) + "; nothing written")

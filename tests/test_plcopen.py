@@ -575,3 +575,15 @@ def test_every_xml_is_valid_against_the_official_tc6_schema(tc6_schema, fresh_xm
         assert tc6_schema.validate(document), f"{path.name}: {tc6_schema.error_log}"
     broken = etree.fromstring(_text().replace(' creationDateTime="2000-01-01T00:00:00"', "").encode())
     assert not tc6_schema.validate(broken)  # the schema is applied, not passed through
+
+
+def test_generate_stress_replays_the_xml_it_writes_not_the_iec_text_beside_it(monkeypatch):
+    """An XML rendering that differed from the IEC text would have passed the stress replay of the text."""
+    from thermoplc import pipeline
+    from thermoplc.models.modelfile import load_model
+    rendered = pipeline.render_plcopen
+    monkeypatch.setattr(pipeline, "render_plcopen", lambda block, version: rendered(block, version).replace(
+        "Model_1 := c_beta0 +", "Model_1 := 1.0E38 * 1.0E38 * c_beta0 +"))
+    with pytest.raises(UserError, match=r"mlr\.json: .*\(stress replay\): ThermalComp\.xml:301:20: Inf \('\*' gives \+Inf\)"):
+        pipeline.generate(load_model(str(GOLDEN / "mlr.json")), "mlr.json", dialect="iec", plcopen=True,
+                          output="ThermalComp.xml")
