@@ -21,7 +21,7 @@ from thermoplc.base.errors import UserError
 REPORT_MANIFEST = ".thermoplc-report"
 
 
-def _same_file(a: Path, b: Path) -> bool:
+def same_file(a: Path, b: Path) -> bool:
     try:
         return os.path.samefile(a, b)
     except OSError:
@@ -35,7 +35,7 @@ def check_output(path: str | Path, force: bool, inputs=()) -> None:
                         "give a file name")
     path = Path(path)
     for source in inputs:
-        if source and _same_file(path, Path(source)):
+        if source and same_file(path, Path(source)):
             raise UserError(f"{path}: is also an input of this command; thermoplc never writes onto its input, "
                             f"not even with --force: choose another output name")
     if not os.path.lexists(path):
@@ -57,7 +57,7 @@ def check_report_folder(folder: str | Path, names: list[str], inputs=(), recogni
     names written now), so a hand-edited manifest cannot make thermoplc delete a file of the user's."""
     folder = Path(folder)
     for source in inputs:
-        if source and _same_file(folder, Path(source)):
+        if source and same_file(folder, Path(source)):
             raise UserError(f"--report {folder}: is also an input of this command")
     if not os.path.lexists(folder):
         return []

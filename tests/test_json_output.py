@@ -92,3 +92,10 @@ def test_an_empty_json_name_is_refused_not_ignored(folder):
     result = thermoplc("verify", "block.scl", "--model", "model.json", "--data", "data.csv", "--json", "", cwd=folder,
                        check=2)
     assert "argument --json: expected a file name or '-', found an empty name" in result.stderr
+
+
+def test_fit_names_json_onto_its_model_file_as_the_other_output(folder):
+    result = thermoplc("fit", "--data", "data.csv", "--model", "mlr", "--temps", "T_motor,T_bearing", "--target",
+                       "E_z_um", "--train-until", "14400", "-o", "same.json", "--json", "same.json", cwd=folder, check=2)
+    assert "--json same.json: is also the -o output; choose another name for the JSON document" in result.stderr
+    assert not (folder / "same.json").exists()

@@ -104,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
                          tool_length=args.tool_length, unseen=args.unseen, time_bins=args.time_bins)
     refuse_options_not_read(args, request)
     check_output(args.output, args.force, inputs=args.data)
-    json_output.check(args, [*args.data, args.output])
+    json_output.check(args, args.data, output=args.output)
     tables = [read_table(path, args.time, decimal=args.decimal) for path in args.data]
     if args.model == "auto":
         model = fit_auto(tables, request, args.folds, args.time, progress())

@@ -9,10 +9,12 @@ import argparse
 import json
 import math
 import sys
+from pathlib import Path
 
 import numpy as np
 
-from thermoplc.base.fileio import check_output, write_atomic
+from thermoplc.base.errors import UserError
+from thermoplc.base.fileio import check_output, same_file, write_atomic
 from thermoplc.commands.options import FORCE_HELP
 
 JSON_HELP = ("also write the result as a JSON document to FILE ('-': standard output, the text then goes to "
@@ -31,9 +33,12 @@ def add_arguments(p, force: bool = True) -> None:
         p.add_argument("--force", action="store_true", help=FORCE_HELP)
 
 
-def check(args, inputs) -> None:
-    """Refuse a --json file that exists (without --force) or names an input, before any work."""
+def check(args, inputs, output: str | None = None) -> None:
+    """Refuse a --json file that exists (without --force), names an input or the command's other output
+    (`-o`), before any work."""
     if args.json and args.json != "-":
+        if output and output != "-" and same_file(Path(args.json), Path(output)):
+            raise UserError(f"--json {args.json}: is also the -o output; choose another name for the JSON document")
         check_output(args.json, args.force, inputs=[i for i in inputs if i])
 
 
