@@ -266,6 +266,11 @@ def _st_cases() -> list[Case]:
                           prepare, "error", message))
         cases.append(Case("ST file", fault, "diff", ("diff", "block.scl", "bad.scl", "--data", "good.csv"),
                           prepare, "error", message))
+    cases.append(Case("ST file", "safety limits declared in VAR, not VAR CONSTANT", "verify",  # diff lists them, exit 1
+                      ("verify", "bad.scl", "--model", "mlr.json", "--data", "good.csv"),
+                      _block_edit(lambda t: t.replace("VAR CONSTANT", "VAR", 1)), "error",
+                      "bad.scl: c_TempMin, c_TempMax, c_JumpMax, c_SettleCalls, c_OneCall, c_StepMax, c_StepMin, c_OutMax, "
+                      "c_OutMin, c_K0_mm, c_RealMax declared outside VAR CONSTANT"))
     return cases
 
 
