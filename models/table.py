@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from thermoplc.base.binary32 import FLT_MAX
+from thermoplc.base.binary32 import FLT_MAX, f32_from_bits
 from thermoplc.base.errors import UserError
 
 
@@ -89,6 +89,18 @@ NUMBER = re.compile(r"\s*[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\s*$|\s*[+-]?(nan|
                     re.IGNORECASE | re.ASCII)
 
 
+# a REAL written as its 32 bits, as a PLC trace exports a DWORD: TIA's 16#3F80_0000 or C's 0x3F800000
+BINARY32_BITS = re.compile(r"\s*(?:16#|0[xX])([0-9A-Fa-f]{4})_?([0-9A-Fa-f]{4})\s*$", re.ASCII)
+
+
+def _cell_value(cell: str) -> float | None:
+    """A cell's number: decimal, or the binary32 value of 8 hexadecimal digits; None if neither."""
+    if NUMBER.match(cell):
+        return float(cell)
+    bits = BINARY32_BITS.match(cell)
+    return f32_from_bits(int(bits.group(1) + bits.group(2), 16)) if bits else None
+
+
 def _fields(path: str, line: int, text: str, delimiter: str) -> list[str]:
     """One line's fields; a quote that never closes or a field beyond the csv module's limit is named."""
     try:
@@ -109,22 +121,33 @@ def _parse_cells(path: str, header: list[str], text_lines: list[str], numbers: l
     except ValueError:
         block = None
     if block is None or block.shape[1] != len(header):
-        for line, text in zip(numbers, text_lines):
-            row = _fields(path, line, text, delimiter)
-            if len(row) != len(header):
-                quote = " (a '\"' opens a quoted field that runs to the end of the line)" if '"' in text else ""
-                raise UserError(f"{path}:{line}: {len(row)} fields, expected {len(header)} as in the header{quote}")
-            for c, cell in enumerate(row):
-                if not NUMBER.match(cell):
-                    shown = cell.strip() if len(cell) <= 40 else cell.strip()[:30] + f"... ({len(cell)} characters)"
-                    raise UserError(f"{path}:{line}:{c + 1}: column {header[c]!r}: expected a number, found {shown!r}")
-        raise UserError(f"{path}:{numbers[0]}: cannot read the rows from here on as numbers")
+        block = _parse_cells_one_by_one(path, header, text_lines, numbers, delimiter)
     bad = np.argwhere(~np.isfinite(block))
     if len(bad):
         r, c = bad[0]
         cell = _fields(path, numbers[r], text_lines[r], delimiter)[c]
         raise UserError(f"{path}:{numbers[r]}:{c + 1}: column {header[c]!r}: expected a finite number, "
                         f"found {cell.strip()!r}")
+    return block
+
+
+def _parse_cells_one_by_one(path: str, header: list[str], text_lines: list[str], numbers: list[int],
+                            delimiter: str) -> np.ndarray:
+    """The rows the C parser refused: binary32 bit patterns are read here, anything else is named."""
+    block = np.empty((len(text_lines), len(header)))
+    for r, (line, text) in enumerate(zip(numbers, text_lines)):
+        row = _fields(path, line, text, delimiter)
+        if len(row) != len(header):
+            quote = " (a '\"' opens a quoted field that runs to the end of the line)" if '"' in text else ""
+            raise UserError(f"{path}:{line}: {len(row)} fields, expected {len(header)} as in the header{quote}")
+        for c, cell in enumerate(row):
+            value = _cell_value(cell)
+            if value is None:
+                shown = cell.strip() if len(cell) <= 40 else cell.strip()[:30] + f"... ({len(cell)} characters)"
+                hint = " (a REAL's 32 bits are 8 hexadecimal digits: 16#3F800000 or 0x3F800000)" \
+                    if cell.strip().lower().startswith(("0x", "16#")) else ""
+                raise UserError(f"{path}:{line}:{c + 1}: column {header[c]!r}: expected a number, found {shown!r}{hint}")
+            block[r, c] = value
     return block
 
 

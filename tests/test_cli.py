@@ -137,6 +137,34 @@ def test_verify_against_a_recorded_trace(workdir):
     assert "first divergent cycle 49 (line 51" in bad.stdout
 
 
+def test_a_trace_of_real_bit_patterns_verifies_and_one_bit_off_does_not(workdir):
+    """PLC traces export a REAL as its DWORD (16#4120_0000 in TIA, 0x41200000 elsewhere): read as that binary32."""
+    if not (workdir / "a.json").exists():
+        thermoplc(*FIT_KALMAN, "-o", "a.json", cwd=workdir)
+    model = load_model(workdir / "a.json")
+    table = read_table(workdir / "twin.csv")
+    words = predict(model, model_inputs(model, table), "f32")["E_z_um"].astype(np.float32).view(np.uint32)
+    names = ("time_s", "T_motor", "T_bearing", "n_rpm", "T_env")
+    lines = [",".join(names) + ",plc_E"]
+    for j, word in enumerate(words):
+        written = f"16#{word >> 16:04X}_{word & 0xFFFF:04X}" if j % 2 else f"0x{word:08x}"
+        lines.append(",".join(repr(float(table.columns[c][j])) for c in names) + "," + written)
+    (workdir / "hex.csv").write_text("\n".join(lines) + "\n")
+    thermoplc("generate", "a.json", "-o", "a.scl", "--force", cwd=workdir)
+    assert read_table(workdir / "hex.csv").columns["plc_E"].astype(np.float32).view(np.uint32).tolist() == words.tolist()
+    ok = thermoplc("verify", "a.scl", "--data", "hex.csv", "--expect", "E_z_um=plc_E", cwd=workdir)
+    assert "bit-exact" in ok.stdout
+    lines[31] = lines[31].rsplit(",", 1)[0] + f",0x{words[30] ^ 1:08X}"
+    (workdir / "hex_bad.csv").write_text("\n".join(lines) + "\n")
+    bad = thermoplc("verify", "a.scl", "--data", "hex_bad.csv", "--expect", "E_z_um=plc_E", cwd=workdir, check=1)
+    assert "first divergent cycle 30 (line 32" in bad.stdout
+    lines[31] = lines[31].rsplit(",", 1)[0] + ",0x3F80000"
+    (workdir / "hex_short.csv").write_text("\n".join(lines) + "\n")
+    short = thermoplc("verify", "a.scl", "--data", "hex_short.csv", "--expect", "E_z_um=plc_E", cwd=workdir, check=2)
+    assert ("hex_short.csv:32:6: column 'plc_E': expected a number, found '0x3F80000' (a REAL's 32 bits are 8 "
+            "hexadecimal digits: 16#3F800000 or 0x3F800000)") in short.stderr
+
+
 @pytest.mark.parametrize("args, message", [
     (("fit", "--data", "twin.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_nope", "--train-rows", 100,
       "-o", "x.json"), "twin.csv: no column 'T_nope'"),
