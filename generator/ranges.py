@@ -85,8 +85,12 @@ def _f32(x: float) -> float:
 
 
 def _down(x: float, n: int = 2) -> float:
-    """x moved n binary32 steps down (room for the rounding inside a recognised form)."""
-    return float(np.nextafter(np.float32(x), np.float32(-_INF)) if n == 1 else _down(_down(x, 1), n - 1))
+    """x moved n binary32 steps down (room for the rounding inside a recognised form); beyond the
+    REAL range that is the largest REAL from above and -inf from below, without numpy's warning."""
+    if n > 1:
+        return _down(_down(x, 1), n - 1)
+    with np.errstate(over="ignore"):
+        return float(np.nextafter(np.float32(x), np.float32(-_INF)))
 
 
 def _up(x: float, n: int = 2) -> float:

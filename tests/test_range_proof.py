@@ -2,6 +2,7 @@
 contain every value the stress replay reaches; hostile coefficients are refused with the statement
 that fails; the IR-level rules (recognised Kalman forms, INT counters, divisions) hold."""
 import json
+import warnings
 
 import pytest
 
@@ -97,3 +98,17 @@ def test_a_growing_real_state_is_bounded_by_binary32_rounding_or_reported():
     start = Assign("S", BinOp("+", Ref("S"), Ref("x")))
     problems = prove_ranges(_block([start, double], statics=[Var("S", "REAL")]), {"x": (1.0, 2.0)}).problems
     assert any("overflow to Inf" in p for p in problems)
+
+
+
+def test_a_kalman_pole_of_one_is_refused_by_the_proof_without_a_numpy_warning(tmp_path):
+    """A_1 = 1 makes the prediction an integrator: the proof reaches +-inf, where numpy warned on stderr."""
+    from thermoplc.base.errors import UserError
+    from thermoplc.pipeline import generate
+    doc = json.loads((GOLDEN / "kalman.json").read_text())
+    doc["coefficients"]["A_1"] = {"f64": 1.0, "f32": f32_hex(1.0)}
+    (tmp_path / "k.json").write_text(json.dumps(doc))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(UserError, match=r"k\.json: the range proof fails .* can overflow to Inf"):
+            generate(load_model(str(tmp_path / "k.json")), "k.json")
