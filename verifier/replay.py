@@ -280,9 +280,10 @@ def _check_period(model: Model, table: Table) -> None:
 
 def block_limits(program: Program, source: str) -> Limits:
     """The safety limits the block was generated with, from its named constants."""
+    constants = {d.name.upper() for d in program.decls if d.section == "constant"}
     limits = {name.upper() for name in Limits().constants()}
     elsewhere = [d.name for d in program.decls if d.section != "constant" and d.name.upper() in limits]
-    if elsewhere:  # a limit the PLC may change at run time (a PLCopen localVars without constant="true")
+    if elsewhere and not constants & limits:  # one moved is a constant error of the report; all: no limits to read
         raise UserError(f"{source}: {', '.join(elsewhere)} declared outside VAR CONSTANT (in PLCopen XML: localVars "
                         f"without constant=\"true\"); a safety limit must be a constant")
     return Limits.from_constants({d.name: d.initial for d in program.decls if d.section == "constant"}, source)
