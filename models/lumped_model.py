@@ -24,6 +24,7 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.models import identify, kernels, ridge, simulation as sim_
+from thermoplc.models.effects import registry
 from thermoplc.models.kind import Kind
 from thermoplc.models.modelfile import Coefficient, Model
 from thermoplc.models.simulation import Simulation
@@ -76,25 +77,22 @@ def coefficients(sim: Simulation, dt: float) -> tuple[dict[str, Coefficient], di
         for m, (x, y, k) in enumerate(zip(nodes, values, slopes), start=1):
             c[f"node_{m}"], c[f"heat_{m}"], c[f"slope_{m}"] = Coefficient.of(x), Coefficient.of(y), Coefficient.of(k)
     d = sim.displacement
+    terms = sim_.displacement_terms(sim.effects)
     if d.tau_struct_s is not None:
         c["AS"], c["BS"] = _pair(sim_.pole(d.tau_struct_s, dt))
-    if sim.has("slow_structure"):
-        c["A2"], c["B2"] = _pair(sim_.pole(d.tau_slow_s, dt))
-    if sim.has("ambient_coupling"):
-        c["AAm"], c["BAm"] = _pair(sim_.pole(d.tau_ambient_s, dt))
-    if sim.has("feed_axis_heat"):
-        c["AF"], c["BF"] = _pair(sim_.pole(d.tau_feed_s, dt))
+    for term in terms:  # each displacement effect's lag, then its weights (per sensor beside beta_i, or one)
+        c[term.pole[0]], c[term.pole[1]] = _pair(sim_.pole(getattr(d, term.tau_field), dt))
     c["beta0"] = Coefficient.of(d.beta0)
     for i in range(1, len(sim.sensors) + 1):
         c[f"beta_{i}"] = Coefficient.of(d.beta[i - 1])
         if d.tau_struct_s is not None:
             c[f"gamma_{i}"] = Coefficient.of(d.gamma[i - 1])
-        if sim.has("slow_structure"):
-            c[f"delta_{i}"] = Coefficient.of(d.delta[i - 1])
-    if sim.has("ambient_coupling"):
-        c["alpha"] = Coefficient.of(d.alpha)
-    if sim.has("feed_axis_heat"):
-        c["phi"] = Coefficient.of(d.phi)
+        for term in terms:
+            if term.per_sensor:
+                c[f"{term.weight}_{i}"] = Coefficient.of(term.weights(d)[i - 1])
+    for term in terms:
+        if not term.per_sensor:
+            c[term.weight] = Coefficient.of(term.weights(d)[0])
     settings = {
         "effects": [{"name": name, "sensor": None if sensor is None else sensor + 1} for name, sensor in sim.effects],
         "sensors": [{"tau_s": p.tau_s, "stop_factor": p.stop_factor, "drift_K_per_h": p.drift_K_per_s * 3600}
@@ -130,16 +128,18 @@ def simulation_of(model: Model) -> Simulation:
         exponent=st.get("exponent"), reference_rpm=float(st.get("reference_rpm", 1.0)),
         table_rpm=tuple(st.get("table_rpm", ())),
         relay=(st["relay_sensor"] - 1, c("CoolOn"), c("CoolOff")) if "relay_sensor" in st else None)
-    slow = "A2" in model.coefficients
     structure = "AS" in model.coefficients
+    terms = {}
+    for record in registry().values():  # each displacement effect's lag and weights, where the file has them
+        term = record.displacement
+        if term and term.pole[0] in model.coefficients:
+            terms[term.tau_field] = tau(c(term.pole[0]))
+            terms[term.weight_field] = tuple(c(f"{term.weight}_{i}") for i in range(1, k + 1)) if term.per_sensor \
+                else c(term.weight)
     displacement = sim_.DisplacementParams(
         tau_struct_s=tau(c("AS")) if structure else None, beta0=c("beta0"),
         beta=tuple(c(f"beta_{i}") for i in range(1, k + 1)),
-        gamma=tuple(c(f"gamma_{i}") for i in range(1, k + 1)) if structure else (),
-        tau_slow_s=tau(c("A2")) if slow else None,
-        delta=tuple(c(f"delta_{i}") for i in range(1, k + 1)) if slow else (),
-        tau_ambient_s=tau(c("AAm")) if "AAm" in model.coefficients else None, alpha=c("alpha"),
-        tau_feed_s=tau(c("AF")) if "AF" in model.coefficients else None, phi=c("phi"))
+        gamma=tuple(c(f"gamma_{i}") for i in range(1, k + 1)) if structure else (), **terms)
     return Simulation(effects, shared, sensors, displacement)
 
 

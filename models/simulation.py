@@ -23,7 +23,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from thermoplc.models import kernels
-from thermoplc.models.effects import definition_of, with_part
+from thermoplc.models.effects import definition_of, registry, with_part
+from thermoplc.models.effects.definition import DisplacementTerm
 
 
 def minimize(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
@@ -58,8 +59,6 @@ POLISHED_STARTS = 4
 EXPONENT_RANGE = (0.2, 3.5)
 GRAM_CONDITION_LIMIT = 1e8  # above this the normal equations lose digits the fit needs
 SEARCH_ROUNDS = 2  # shared parameter by grid with the time constants held, then the time constants
-SLOW_REFERENCE_S = 1200.0  # without a structure lag the slow lag must exceed a multiple of this
-SLOW_MIN_RATIO = 1.5
 
 
 @dataclass(frozen=True)
@@ -544,58 +543,50 @@ def ambient_and_heat_parts(series: Series, sim: Simulation) -> tuple[np.ndarray,
     return ambient, heat, start
 
 
-def slow_structure_terms(series: Series, sim: Simulation, temps: np.ndarray, start: np.ndarray) -> np.ndarray:
-    """Per sensor, the slow structure's lag of these temperatures (from `start`), before its weights."""
-    d = sim.displacement
-    taus = {"t0": start, "struct": d.tau_struct_s, "slow": d.tau_slow_s}
-    return np.column_stack(_displacement_columns(series, temps, taus, (("slow_structure", None),))[-temps.shape[1]:])
+def term_columns(series: Series, sim: Simulation, name: str, temps: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """The columns of displacement effect `name`'s term for these temperatures (from `start`), before its weights."""
+    count = temps.shape[1] if definition_of(name).displacement.per_sensor else 1
+    taus = {**_fitted_taus(sim, series), "t0": start}
+    return np.column_stack(_displacement_columns(series, temps, taus, ((name, None),))[-count:])
 
 
-def slow_reference_s(tau_struct_s: float | None) -> float:
-    """What the slow time constant must exceed a multiple of: the structure's, so the two cannot swap roles."""
-    return tau_struct_s if tau_struct_s is not None else SLOW_REFERENCE_S
+def displacement_terms(effects) -> list[DisplacementTerm]:
+    """The displacement terms these effects add, in the order of their records (the columns' order)."""
+    names = {e for e, _ in effects}
+    return [record.displacement for name, record in registry().items() if name in names and record.displacement]
 
 
 def _displacement_columns(series, temps, taus: dict, effects):
-    """Rises of the simulated temperatures (ambient part included) and of the structures lagging them."""
-    names = {e for e, _ in effects}
-    dt = series.dt
+    """Rises of the simulated temperatures (ambient part included), of the structures lagging them,
+    and each displacement effect's columns (its record's term)."""
     t0 = taus["t0"]  # physical temperatures before the first row
     k = temps.shape[1]
     columns = [temps[:, i] - t0[i] for i in range(k)]
     lagged = temps
     if taus["struct"] is not None:
-        lagged = lag_columns(temps, pole(taus["struct"], dt), t0)
+        lagged = lag_columns(temps, pole(taus["struct"], series.dt), t0)
         columns += [lagged[:, i] - t0[i] for i in range(k)]
-    if "slow_structure" in names:
-        slow = lag_columns(lagged, pole(taus["slow"], dt), t0)
-        columns += [slow[:, i] - t0[i] for i in range(k)]
-    if "ambient_coupling" in names:
-        columns.append(lag(series.te, pole(taus["ambient"], dt), series.te[0]) - series.te[0])
-    if "feed_axis_heat" in names:
-        columns.append(lag(series.feed, pole(taus["feed"], dt), 0.0))
+    for term in displacement_terms(effects):
+        columns += term.columns(series, temps, lagged, t0, taus[term.key])
     return columns
 
 
 def fit_displacement(series: Series, temps: np.ndarray, t0: np.ndarray, effects, structure_lag: bool = True,
                      start: DisplacementParams | None = None) -> tuple[DisplacementParams, float]:
-    names = {e for e, _ in effects}
-    wanted = (["struct"] if structure_lag else []) + [
-        k for k, e in (("slow", "slow_structure"), ("ambient", "ambient_coupling"), ("feed", "feed_axis_heat"))
-        if e in names]
-    # the slow time constant at least SLOW_MIN_RATIO times the structure's, so the two cannot swap roles
-    bounds = {"struct": (np.log(600.0), np.log(48 * HOUR)), "slow": (np.log(1800.0), np.log(96 * HOUR)),
-              "ambient": (np.log(600.0), np.log(48 * HOUR)), "feed": (np.log(120.0), np.log(24 * HOUR))}
+    terms = displacement_terms(effects)
+    wanted = (["struct"] if structure_lag else []) + [term.key for term in terms]
+    bounds = {"struct": (np.log(600.0), np.log(48 * HOUR)),
+              **{term.key: (np.log(term.search_s[0]), np.log(term.search_s[1])) for term in terms}}
     known = {}
     if start is not None:
-        known = {"struct": start.tau_struct_s, "ambient": start.tau_ambient_s, "feed": start.tau_feed_s,
-                 "slow": start.tau_slow_s}
+        known = {"struct": start.tau_struct_s, **{term.key: getattr(start, term.tau_field) for term in terms}}
     k = temps.shape[1]
 
     def taus_of(x):
         taus = {"t0": t0, "struct": None, **{name: float(np.exp(np.clip(v, *bounds[name]))) for name, v in zip(wanted, x)}}
-        if "slow" in taus:
-            taus["slow"] = max(taus["slow"], SLOW_MIN_RATIO * slow_reference_s(taus["struct"]))
+        for term in terms:  # e.g. a slow lag kept well above the structure's, so the two cannot swap roles
+            if term.lowest_s is not None:
+                taus[term.key] = max(taus[term.key], term.lowest_s(taus["struct"]))
         return taus
 
     def cost(x):
@@ -631,14 +622,11 @@ def fit_displacement(series: Series, temps: np.ndarray, t0: np.ndarray, effects,
     params = DisplacementParams(tau_struct_s=taus["struct"], beta0=coef[0], beta=tuple(coef[1:1 + k]),
                                 gamma=tuple(coef[1 + k:1 + k + lagged]))
     rest = coef[1 + k + lagged:]
-    if "slow_structure" in names:
-        params = replace(params, tau_slow_s=taus["slow"], delta=tuple(rest[:k]))
-        rest = rest[k:]
-    if "ambient_coupling" in names:
-        params = replace(params, tau_ambient_s=taus["ambient"], alpha=rest[0])
-        rest = rest[1:]
-    if "feed_axis_heat" in names:
-        params = replace(params, tau_feed_s=taus["feed"], phi=rest[0])
+    for term in terms:
+        count = k if term.per_sensor else 1
+        weights = tuple(rest[:count]) if term.per_sensor else rest[0]
+        params = replace(params, **{term.tau_field: taus[term.key], term.weight_field: weights})
+        rest = rest[count:]
     return params, sse
 
 
@@ -681,15 +669,15 @@ def stopped_threshold(n: np.ndarray) -> float:
 
 def _fitted_taus(sim: Simulation, series: Series) -> dict:
     d = sim.displacement
-    return {"t0": first_temperatures(series, sim.sensors), "struct": d.tau_struct_s, "slow": d.tau_slow_s,
-            "ambient": d.tau_ambient_s, "feed": d.tau_feed_s}
+    terms = (record.displacement for record in registry().values() if record.displacement)
+    return {"t0": first_temperatures(series, sim.sensors), "struct": d.tau_struct_s,
+            **{term.key: getattr(d, term.tau_field) for term in terms}}
 
 
 def displacement_term(sim: Simulation, series: Series, name: str) -> np.ndarray:
     """What one displacement effect adds to the simulated displacement over `series`."""
     _, temps = temperatures(series, sim.shared, sim.sensors, sim.effects)
-    d = sim.displacement
-    weights = {"slow_structure": d.delta, "ambient_coupling": (d.alpha,), "feed_axis_heat": (d.phi,)}[name]
+    weights = definition_of(name).displacement.weights(sim.displacement)
     columns = _displacement_columns(series, temps, _fitted_taus(sim, series), ((name, None),))
     return sum(w * c for w, c in zip(weights, columns[-len(weights):]))
 
@@ -699,8 +687,7 @@ def run(sim: Simulation, series: Series) -> dict[str, np.ndarray]:
     readings, temps = temperatures(series, sim.shared, sim.sensors, sim.effects)
     d = sim.displacement
     columns = _displacement_columns(series, temps, _fitted_taus(sim, series), sim.effects)
-    coef = [*d.beta, *d.gamma, *d.delta] + ([d.alpha] if sim.has("ambient_coupling") else []) \
-        + ([d.phi] if sim.has("feed_axis_heat") else [])
+    coef = [*d.beta, *d.gamma, *(w for term in displacement_terms(sim.effects) for w in term.weights(d))]
     target = d.beta0 + sum(c * x for c, x in zip(coef, columns))
     out = {name: readings[:, i] for i, name in enumerate(series.names)}
     out["target"] = np.asarray(target, float) * np.ones(series.rows)

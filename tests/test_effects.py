@@ -95,3 +95,41 @@ def test_the_bounds_keep_the_twin_finite(machine_name, name):
     effect = Effect.parse(f"{name}:{extreme}", twin.COLUMN_DEFAULTS)
     data = twin.simulate(2.0, 1, effects=(effect,))
     assert all(np.all(np.isfinite(np.asarray(v, dtype=float))) for v in data.values())
+
+
+def test_the_displacement_fit_and_the_model_file_read_each_displacement_term_from_its_record():
+    """The columns, the search, the fitted fields and the block coefficients of a displacement effect
+    (slow structure, ambient coupling, feed-axis heat) come from its record's DisplacementTerm."""
+    import inspect
+    from thermoplc.models import lumped_model, simulation
+    from thermoplc.models.effects import with_part
+    assert with_part("displacement") == {"slow_structure", "ambient_coupling", "feed_axis_heat"}
+    assert all(registry()[name].displacement for name in with_part("displacement"))
+    functions = (simulation._displacement_columns, simulation.fit_displacement, simulation._fitted_taus,
+                 simulation.displacement_term, simulation.run, simulation.term_columns,
+                 lumped_model.coefficients, lumped_model.simulation_of)
+    pattern = re.compile("|".join(with_part("displacement")) + r"|\b(A2|AAm|AF|delta|alpha|phi|tau_slow_s|tau_feed_s)\b")
+    named = [f"{f.__name__}: {line.strip()}" for f in functions for line in inspect.getsource(f).splitlines()
+             if pattern.search(line) and not line.lstrip().startswith("#")]
+    assert named == []
+
+
+@pytest.mark.parametrize("name", ["slow_structure", "ambient_coupling", "feed_axis_heat"])
+def test_a_displacement_term_round_trips_through_the_model_file(name):
+    """coefficients() writes the term's lag and weights under the record's names; simulation_of() reads them back."""
+    from thermoplc.models import lumped_model
+    from thermoplc.models.modelfile import Model, Signal
+    term = registry()[name].displacement
+    sensors = tuple(SensorParams(600.0 * (i + 1), 0.001) for i in range(2))
+    fields = {term.tau_field: 7200.0, term.weight_field: (1.5, -2.5) if term.per_sensor else 3.5}
+    displacement = DisplacementParams(tau_struct_s=3600.0, beta0=0.5, beta=(1.0, 2.0), gamma=(3.0, 4.0), **fields)
+    fitted = Simulation(((name, None),), Shared(stopped_rpm=10.0), sensors, displacement)
+    coefficients, settings = lumped_model.coefficients(fitted, 10.0)
+    names = [term.pole[0], term.pole[1], *([f"{term.weight}_1", f"{term.weight}_2"] if term.per_sensor else [term.weight])]
+    assert all(n in coefficients for n in names)
+    inputs = (Signal("T_1", "T_1", "temperature", "degC"), Signal("T_2", "T_2", "temperature", "degC"),
+              Signal("n", "n", "speed", "rpm"), Signal("Te", "Te", "ambient", "degC"))
+    model = Model("lumped", "B", inputs, Signal("E", "E", "target", "um"), "time_s", 10.0, coefficients, settings)
+    back = lumped_model.simulation_of(model).displacement
+    assert getattr(back, term.tau_field) == pytest.approx(7200.0, rel=1e-9)
+    assert term.weights(back) == term.weights(displacement)

@@ -1,9 +1,10 @@
 """The named physical effects (docs/diagnosis.md), found in the modules of this package that
 declare one (`EFFECT = EffectDefinition(...)`, see `definition.py`): the single list the twin's
 `--effect`, the model file, the simulation's bookkeeping and the diagnosis read. Adding an effect
-is a new module here, its term in the simulation it extends (`models/simulation.py`, the block's
-`models/lumped_model.py` and `generator/lower_lumped.py` when it changes the block) and its
-physics in each synthetic machine."""
+is a new module here (a displacement effect's fitted term is its record's `DisplacementTerm`), the
+term of any other part in the simulation it extends (`models/simulation.py`), its per-call
+arithmetic in the block (`models/lumped_model.py`, `models/kernels.py`, `generator/lower_lumped.py`)
+and its physics in each synthetic machine."""
 from __future__ import annotations
 
 import functools

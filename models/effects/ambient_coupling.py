@@ -5,8 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from thermoplc.models.effects.definition import EffectDefinition
+from thermoplc.models.effects.definition import DisplacementTerm, EffectDefinition
 from thermoplc.models.effects.evidence import HOUR, shorter_than_a_day, time_constant_at_bound
+
+
+def columns(series, temps, lagged, t0, tau_s: float) -> list:
+    """A lag of the ambient from its first value."""
+    from thermoplc.models.simulation import lag, pole
+    return [lag(series.te, pole(tau_s, series.dt), series.te[0]) - series.te[0]]
 
 
 def describe(sim, series) -> dict:
@@ -27,4 +33,6 @@ EFFECT = EffectDefinition(
     name="ambient_coupling", rank=4, bounds=(("tau_h", 0.0, 1000.0), ("um_per_K", -10000.0, 10000.0)), description="the structure follows ambient swings (day/night)",
     defaults=(("tau_h", 3.0), ("um_per_K", 10.0)), positive=("tau_h",),
     part="displacement", added_parameters=lambda sensors: 2,
+    displacement=DisplacementTerm("ambient", "tau_ambient_s", "alpha", per_sensor=False, search_s=(600.0, 48 * HOUR),
+                                  columns=columns, pole=("AAm", "BAm"), weight="alpha"),
     describe=describe, draw=draw, untestable=shorter_than_a_day, implausible=implausible)

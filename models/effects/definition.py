@@ -33,6 +33,28 @@ def _never(*_: Any) -> None:
 
 
 @dataclass(frozen=True)
+class DisplacementTerm:
+    """The term an effect of part 'displacement' adds: a lag with a time constant of its own, searched
+    within `search_s`, whose columns the least squares weighs (models/simulation.py). The names say
+    where the fit keeps it and what the lumped block calls its lag and weight (models/lumped_model.py)."""
+    key: str  # its time constant among the searched ones
+    tau_field: str  # the field of simulation.DisplacementParams holding the fitted time constant
+    weight_field: str  # ... holding its weights: a tuple with a weight per sensor, else one number
+    per_sensor: bool
+    search_s: tuple[float, float]  # the range its time constant is searched in, seconds
+    # (series, temperatures, their structure lag (or the temperatures), temperatures before the
+    # first row, time constant) -> its columns, the lag's rise from its start
+    columns: Callable[["Series", "np.ndarray", "np.ndarray", "np.ndarray", float], list]
+    pole: tuple[str, str]  # the block's coefficients of its lag: decay and complement
+    weight: str  # the block's coefficient of its weight (`weight_i` per sensor)
+    lowest_s: Callable[[float | None], float] | None = None  # its least time constant, given the structure's
+
+    def weights(self, displacement) -> tuple[float, ...]:
+        value = getattr(displacement, self.weight_field)
+        return tuple(value) if self.per_sensor else (value,)
+
+
+@dataclass(frozen=True)
 class EffectDefinition:
     """Everything the generic code needs to know about one effect."""
     name: str
@@ -59,6 +81,11 @@ class EffectDefinition:
     alike_after: Callable[["Simulation", "Simulation", "Series"], tuple[tuple[str, ...], str] | None] = _never
     reading_size_K: Callable[["SensorParams", "Series"], float] | None = None  # part "reading": its size
     driven_by: str | None = None  # a recorded signal it needs besides speed and ambient (the feed rate)
+    displacement: DisplacementTerm | None = None  # part "displacement": its term
+
+    def __post_init__(self) -> None:
+        if (self.part == "displacement") != (self.displacement is not None):
+            raise ValueError(f"effect {self.name}: a displacement term belongs to part 'displacement' only")
 
     def out_of_bounds(self, key: str, value: float) -> str | None:
         """Why `value` is outside the physical range of parameter `key`, or None."""

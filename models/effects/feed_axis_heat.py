@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from thermoplc.models.effects.definition import EffectDefinition
+from thermoplc.models.effects.definition import DisplacementTerm, EffectDefinition
 from thermoplc.models.effects.evidence import HOUR, time_constant_at_bound
 
 MAX_FEED_TAU_S = 6 * HOUR  # a ball screw and its nut heat through in minutes to a couple of hours
@@ -15,6 +15,12 @@ MAX_FEED_TAU_S = 6 * HOUR  # a ball screw and its nut heat through in minutes to
 def describe(sim, series) -> dict:
     d = sim.displacement
     return {"tau_h": d.tau_feed_s / HOUR, "um_per_m_min": d.phi * 1000.0}
+
+
+def columns(series, temps, lagged, t0, tau_s: float) -> list:
+    """A lag of the feed rate from rest."""
+    from thermoplc.models.simulation import lag, pole
+    return [lag(series.feed, pole(tau_s, series.dt), 0.0)]
 
 
 def draw(rng: np.random.Generator, clean: dict, train: slice, machine) -> dict:
@@ -41,4 +47,6 @@ EFFECT = EffectDefinition(
     name="feed_axis_heat", rank=7, bounds=(("tau_h", 0.0, 1000.0), ("um_per_K", -10000.0, 10000.0)), description="heat from feed-axis motion (ball screw) moves the tool",
     defaults=(("tau_h", 0.5), ("um_per_K", 3.0)), positive=("tau_h",),
     part="displacement", added_parameters=lambda sensors: 2, driven_by="feed",
+    displacement=DisplacementTerm("feed", "tau_feed_s", "phi", per_sensor=False, search_s=(120.0, 24 * HOUR),
+                                  columns=columns, pole=("AF", "BF"), weight="phi"),
     describe=describe, draw=draw, untestable=untestable, implausible=implausible)

@@ -7,10 +7,24 @@ from __future__ import annotations
 
 import numpy as np
 
-from thermoplc.models.effects.definition import EffectDefinition
+from thermoplc.models.effects.definition import DisplacementTerm, EffectDefinition
 from thermoplc.models.effects.evidence import HOUR, shorter_than_a_day, time_constant_at_bound
 
 MIN_HEAT_KEPT_SHARE = 0.5  # a slow structure must keep at least half as much of the heat as of the ambient
+REFERENCE_S = 1200.0  # without a structure lag the slow lag must exceed a multiple of this
+MIN_RATIO = 1.5
+
+
+def reference_s(tau_struct_s: float | None) -> float:
+    """What the slow time constant must exceed a multiple of: the structure's, so the two cannot swap roles."""
+    return tau_struct_s if tau_struct_s is not None else REFERENCE_S
+
+
+def columns(series, temps, lagged, t0, tau_s: float) -> list:
+    """Per sensor a slow lag of the structure's lag (or of the temperature), from its start."""
+    from thermoplc.models.simulation import lag_columns, pole
+    slow = lag_columns(lagged, pole(tau_s, series.dt), t0)
+    return [slow[:, i] - t0[i] for i in range(temps.shape[1])]
 
 
 def describe(sim, series) -> dict:
@@ -31,7 +45,7 @@ def kept_shares(sim, train) -> tuple[float, float]:
     weights = np.asarray(sim.displacement.delta)
     shares = []
     for part, origin in ((heat, np.zeros_like(start)), (ambient, start)):
-        terms = simulation.slow_structure_terms(train, sim, part, origin)
+        terms = simulation.term_columns(train, sim, "slow_structure", part, origin)
         whole = float(np.std(terms @ np.abs(weights)))
         shares.append(float(np.std(terms @ weights)) / whole if whole > 0 else 1.0)
     return shares[0], shares[1]
@@ -67,5 +81,8 @@ EFFECT = EffectDefinition(
     name="slow_structure", rank=3, bounds=(("tau_h", 0.0, 1000.0), ("um_per_K", -10000.0, 10000.0)), description="a second, slow thermal time constant in the displacement",
     defaults=(("tau_h", 16.0), ("um_per_K", 20.0)), positive=("tau_h",),
     part="displacement", added_parameters=lambda sensors: 1 + sensors,
+    displacement=DisplacementTerm("slow", "tau_slow_s", "delta", per_sensor=True, search_s=(1800.0, 96 * HOUR),
+                                  columns=columns, pole=("A2", "B2"), weight="delta",
+                                  lowest_s=lambda tau_struct_s: MIN_RATIO * reference_s(tau_struct_s)),
     describe=describe, draw=draw, untestable=shorter_than_a_day, implausible=implausible,
     alike_after=alike_after)
