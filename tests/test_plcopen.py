@@ -85,9 +85,37 @@ def test_a_block_that_is_no_text_names_the_byte_and_what_is_read(tmp_path):
     broken = tmp_path / "broken.xml"
     lines = _text().encode("utf-8").split(b"\n")
     broken.write_bytes(b"\n".join([*lines[:4], lines[4][:7] + b"\xff" + lines[4][7:], *lines[5:]]))
-    with pytest.raises(UserError, match=r"broken\.xml:5:8: byte 0xFF is not UTF-8 text; a block is read as Structured Text "
+    with pytest.raises(UserError, match=r"broken\.xml:5:8: 0xFF is not UTF-8 text; a block is read as Structured Text "
                                         r"or PLCopen XML in UTF-8, or in UTF-16/32 with a byte order mark"):
         parse_file(broken)
+
+
+def test_a_utf16_block_that_ends_inside_a_character_or_breaks_a_surrogate_is_named_where(tmp_path):
+    text = "\ufeff" + golden_block("mlr", "iec").read_text()
+    odd = tmp_path / "odd.st"
+    odd.write_bytes(text.encode("utf-16-le")[:-1])
+    with pytest.raises(UserError, match=r"odd\.st:\d+:\d+: the file ends inside a character \(1 byte\(s\) left over\)"):
+        parse_file(odd)
+    lines = text.split("\n")
+    broken = tmp_path / "surrogate.st"
+    broken.write_bytes("\n".join(lines[:55]).encode("utf-16-le") + "\n      ".encode("utf-16-le") + b"\x00\xd8"
+                       + "x\n".encode("utf-16-le") + "\n".join(lines[56:]).encode("utf-16-le"))
+    with pytest.raises(UserError, match=r"surrogate\.st:56:7: 0x00 0xD8 is not UTF-16 text"):
+        parse_file(broken)
+
+
+def test_diff_reads_utf16_blocks_as_their_text(tmp_path):
+    """diff read the statement lines as UTF-8 on its own and crashed on a UTF-16 block (exit 1, a traceback)."""
+    original = golden_block("mlr", "tia")
+    same = tmp_path / "same.scl"
+    same.write_bytes(("\ufeff" + original.read_text()).encode("utf-16-le"))
+    assert thermoplc("diff", original, same, cwd=tmp_path).returncode == 0
+    edited = tmp_path / "edited.scl"
+    text = original.read_text()
+    assert "#c_beta0 + #c_beta_1" in text
+    edited.write_text(text.replace("#c_beta0 + #c_beta_1", "#c_beta0 - #c_beta_1"), encoding="utf-16")
+    changed = thermoplc("diff", original, edited, cwd=tmp_path, check=1)
+    assert "Traceback" not in changed.stderr and "#c_beta0 - #c_beta_1" in changed.stdout
 
 
 # --- verify and diff, as a user types them ----------------------------------------------------------------------

@@ -9,7 +9,6 @@ from __future__ import annotations
 import difflib
 import math
 from dataclasses import dataclass, field, fields, is_dataclass, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -17,7 +16,7 @@ from thermoplc.base.binary32 import f32_bits
 from thermoplc.models.table import Table
 from thermoplc.verifier import syntax as s
 from thermoplc.verifier.engines import Replayer
-from thermoplc.verifier.parser import parse_file
+from thermoplc.verifier.parser import parse_file, read_source
 from thermoplc.verifier.replay import block_columns
 from thermoplc.verifier.typed import differing_rows
 
@@ -269,8 +268,7 @@ def _behaviour(old_path: str, new_path: str, old: s.Program, new: s.Program, tab
 def diff_blocks(old_path: str, new_path: str, table: Table | None = None, overrides: dict | None = None,
                 time_column: str = "time_s") -> BlockDiff:
     old, new = parse_file(old_path), parse_file(new_path)
-    old_lines = Path(old_path).read_text("utf-8-sig").splitlines()
-    new_lines = Path(new_path).read_text("utf-8-sig").splitlines()
+    old_lines, new_lines = read_source(old_path).splitlines(), read_source(new_path).splitlines()
     result = BlockDiff(old_path, new_path, _interface(old, new), _header(old, new), _constants(old, new),
                        _statements(old, new, old_lines, new_lines))
     if table is not None:

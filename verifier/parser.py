@@ -1,7 +1,6 @@
 """Structured Text text -> AST (verifier/syntax.py), with file:line:col messages for anything else."""
 from __future__ import annotations
 
-import codecs
 
 import math
 import re
@@ -14,6 +13,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 
 from thermoplc.base.binary32 import decimal_to_f32
 from thermoplc.base.errors import UserError
+from thermoplc.base.text import decode
 from thermoplc.verifier import syntax as s
 
 MAX_SOURCE_CHARACTERS = 4_000_000  # 20x the largest generated block; bounds parse time and memory
@@ -420,8 +420,8 @@ def parse_literal(text: str, source: str, where: str):
     return _transform(tree, _ToAst(source, where), source)
 
 
-def parse_file(path: str | Path) -> s.Program:
-    path = str(path)
+def read_source(path: str) -> str:
+    """A block file's text (UTF-8, or as its byte order mark says), within the size a block may have."""
     try:
         if Path(path).stat().st_size > 4 * MAX_SOURCE_CHARACTERS:
             raise StSyntaxError(f"{path}: {Path(path).stat().st_size:,} bytes; a function block source is at most "
@@ -429,25 +429,14 @@ def parse_file(path: str | Path) -> s.Program:
         raw = Path(path).read_bytes()
     except OSError as exc:
         raise UserError(f"{path}: cannot read: {exc}") from None
-    text = _decode(raw, path)
+    return decode(raw, path, "a block is read as Structured Text or PLCopen XML")
+
+
+def parse_file(path: str | Path) -> s.Program:
+    path = str(path)
+    text = read_source(path)
     from thermoplc.verifier.plcopen import is_xml, read_plcopen  # it reads its bodies with this module
     if is_xml(text) or path.lower().endswith(".xml"):  # the PLCopen XML of generate --format plcopen
         return read_plcopen(text, path)
     return parse_text(text, path)
 
-
-_BYTE_ORDER_MARKS = ((codecs.BOM_UTF32_LE, "utf-32"), (codecs.BOM_UTF32_BE, "utf-32"), (codecs.BOM_UTF8, "utf-8-sig"),
-                     (codecs.BOM_UTF16_LE, "utf-16"), (codecs.BOM_UTF16_BE, "utf-16"))  # UTF-32 LE starts as UTF-16 LE
-
-
-def _decode(raw: bytes, path: str) -> str:
-    """UTF-8, or the encoding a byte order mark names: editors and PLCopen exporters save UTF-16 with one."""
-    encoding = next((name for mark, name in _BYTE_ORDER_MARKS if raw.startswith(mark)), "utf-8")
-    try:
-        return raw.decode(encoding)
-    except UnicodeDecodeError as exc:
-        before = raw[:exc.start]
-        line, column = before.count(b"\n") + 1, exc.start - (before.rfind(b"\n") + 1) + 1  # column in bytes
-        raise UserError(f"{path}:{line}:{column}: byte 0x{raw[exc.start]:02X} is not {encoding.upper().removesuffix('-SIG')} "
-                        f"text; a block is read as Structured Text or PLCopen XML in UTF-8, or in UTF-16/32 with a "
-                        f"byte order mark") from None

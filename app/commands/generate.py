@@ -10,6 +10,7 @@ from typing import Callable
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_output, write_atomic
+from thermoplc.base.text import decode_lenient
 from thermoplc.commands.options import (FORCE_HELP, block_version, date, header_attribute, number, st_name,
                                          value_range)
 
@@ -111,7 +112,7 @@ def _version(args: argparse.Namespace, model) -> tuple[tuple[int, int], str]:
     replaced = None
     if os.path.isfile(args.output):  # check_output let it through: --force, a regular file
         with open(args.output, "rb") as handle:
-            replaced = read_replaced(handle.read(REPLACED_HEAD).decode("utf-8", "replace"))
+            replaced = read_replaced(decode_lenient(handle.read(REPLACED_HEAD)))
     try:
         return next_version(replaced, model.fingerprint(), args.output)
     except GenerationError as exc:
