@@ -131,3 +131,18 @@ def test_a_model_file_with_an_input_its_kind_does_not_read_is_refused_by_name(tm
         result = thermoplc("verify", golden_block("mlr", "tia"), "--model", "speed.json", "--data", data, *extra,
                            cwd=tmp_path, check=2)
         assert "speed.json: field 'inputs[2]': input 'n_rpm' (role 'speed') is not an input of " in result.stderr
+
+
+def test_an_output_limit_moved_out_of_var_constant_is_named(tmp_path):
+    """Found by review: with c_OutMax alone in VAR, verify said the block had no safety constants."""
+    import re
+    from tests.cli_runner import thermoplc
+    from tests.golden_models import golden_twin_csv
+    text = (GOLDEN / "mlr.tia.scl").read_text()
+    line = re.search(r"\n( *c_OutMax : Real := [^\n]*)\n", text).group(1)
+    moved = text.replace("\n" + line + "\n", "\n", 1).replace("   VAR \n", "   VAR \n" + line + "\n", 1)
+    assert moved.count("c_OutMax : Real") == 1 and moved != text
+    (tmp_path / "moved.scl").write_text(moved)
+    result = thermoplc("verify", "moved.scl", "--model", GOLDEN / "mlr.json", "--data", golden_twin_csv(tmp_path),
+                       cwd=tmp_path, check=2)
+    assert "moved.scl: c_OutMax declared outside VAR CONSTANT" in result.stderr

@@ -280,13 +280,16 @@ def _check_period(model: Model, table: Table) -> None:
 
 def block_limits(program: Program, source: str) -> Limits:
     """The safety limits the block was generated with, from its named constants."""
-    constants = {d.name.upper() for d in program.decls if d.section == "constant"}
-    limits = {name.upper() for name in Limits().constants()}
-    elsewhere = [d.name for d in program.decls if d.section != "constant" and d.name.upper() in limits]
-    if elsewhere and not constants & limits:  # one moved is a constant error of the report; all: no limits to read
+    constants = {d.name: d.initial for d in program.decls if d.section == "constant"}
+    try:
+        return Limits.from_constants(constants, source)
+    except UserError:  # a limit it needs is missing: name those the block declares elsewhere
+        limits = {name.upper() for name in Limits().constants()}
+        elsewhere = [d.name for d in program.decls if d.section != "constant" and d.name.upper() in limits]
+        if not elsewhere:
+            raise
         raise UserError(f"{source}: {', '.join(elsewhere)} declared outside VAR CONSTANT (in PLCopen XML: localVars "
-                        f"without constant=\"true\"); a safety limit must be a constant")
-    return Limits.from_constants({d.name: d.initial for d in program.decls if d.section == "constant"}, source)
+                        f"without constant=\"true\"); a safety limit must be a constant") from None
 
 
 def compare_constants(program: Program, model: Model, limits: Limits) -> tuple[int, tuple[str, ...]]:
