@@ -226,9 +226,20 @@ def _parse(doc, path: str) -> Model:
         if not s.role or any(role not in ROLES for role in s.role.split(",")):
             raise UserError(f"{path}: field 'inputs[{i}].role' must be one of {', '.join(ROLES)}, found {s.role!r}")
         if "," in s.role and s.role != COMBINED_ROLE:
-            raise UserError(f"{path}: field 'inputs[{i}].role': {s.role!r} gives one signal two roles; only "
-                            f"{COMBINED_ROLE!r} may be combined (an ambient sensor that is also a regression "
-                            f"temperature)")
+            roles = s.role.split(",")
+            why = (f"names role {roles[0]!r} twice" if len(set(roles)) < len(roles) else
+                   f"must be written {COMBINED_ROLE!r}" if set(roles) == set(COMBINED_ROLE.split(",")) else
+                   "gives one signal two roles; only an ambient sensor that is also a regression temperature "
+                   f"has two ({COMBINED_ROLE!r})")
+            raise UserError(f"{path}: field 'inputs[{i}].role': {s.role!r} {why}")
+        if s.role == COMBINED_ROLE and kind_of(kind).ambient_apart:
+            raise UserError(f"{path}: field 'inputs[{i}].role': a {kind} model drives each temperature by the "
+                            f"ambient and needs its ambient sensor apart, not {s.name!r} as both")
+        same = next((j for j, other in enumerate(inputs[:i]) if other.column == s.column), None)
+        if same is not None:
+            raise UserError(f"{path}: fields 'inputs[{same}]' and 'inputs[{i}]' both read column {s.column!r}; one "
+                            f"column holds one signal (an ambient sensor that is also a temperature is one input "
+                            f"with role {COMBINED_ROLE!r})")
     present = {role for s in inputs for role in s.role.split(",")}
     for role in ("temperature", *kind_of(kind).roles) if inputs else ():  # none at all: the schema says so
         if role not in present:

@@ -89,8 +89,9 @@ NUMBER = re.compile(r"\s*[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\s*$|\s*[+-]?(nan|
                     re.IGNORECASE | re.ASCII)
 
 
-# a REAL written as its 32 bits, as a PLC trace exports a DWORD: TIA's 16#3F80_0000 or C's 0x3F800000
-BINARY32_BITS = re.compile(r"\s*(?:16#|0[xX])([0-9A-Fa-f]{4})_?([0-9A-Fa-f]{4})\s*$", re.ASCII)
+# a REAL written as its 32 bits, as a PLC trace exports a DWORD: TIA's 16#3F80_0000, STEP 7's
+# DW#16#3F800000 or C's 0x3F800000
+BINARY32_BITS = re.compile(r"\s*(?:(?:DW#)?16#|0x)([0-9A-F]{4})_?([0-9A-F]{4})\s*$", re.ASCII | re.IGNORECASE)
 
 
 def _cell_value(cell: str) -> float | None:
@@ -145,7 +146,7 @@ def _parse_cells_one_by_one(path: str, header: list[str], text_lines: list[str],
             if value is None:
                 shown = cell.strip() if len(cell) <= 40 else cell.strip()[:30] + f"... ({len(cell)} characters)"
                 hint = " (a REAL's 32 bits are 8 hexadecimal digits: 16#3F800000 or 0x3F800000)" \
-                    if cell.strip().lower().startswith(("0x", "16#")) else ""
+                    if cell.strip().lower().startswith(("0x", "16#", "dw#")) else ""
                 raise UserError(f"{path}:{line}:{c + 1}: column {header[c]!r}: expected a number, found {shown!r}{hint}")
             block[r, c] = value
     return block

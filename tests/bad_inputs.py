@@ -211,7 +211,12 @@ def _model_cases() -> list[Case]:
         ("key given twice", _model_edit(lambda d: None, lambda t: t.replace('"kind": "mlr"', '"kind": "kalman", "kind": "mlr"', 1)),
          "key 'kind' appears twice in one object"),
         ("a speed that is also the ambient", _model_edit(_set(["inputs", 0, "role"], "speed,ambient")),
-         "field 'inputs[0].role': 'speed,ambient' gives one signal two roles; only 'temperature,ambient' may be combined"),
+         "field 'inputs[0].role': 'speed,ambient' gives one signal two roles; only an ambient sensor that is also a "
+         "regression temperature has two ('temperature,ambient')"),
+        ("the roles of one input reversed", _model_edit(_set(["inputs", 0, "role"], "ambient,temperature")),
+         "field 'inputs[0].role': 'ambient,temperature' must be written 'temperature,ambient'"),
+        ("two inputs on one column", _model_edit(_set(["inputs", 1, "column"], "T_motor")),
+         "fields 'inputs[0]' and 'inputs[1]' both read column 'T_motor'; one column holds one signal"),
     ]
     cases = []
     for fault, prepare, message in faults:

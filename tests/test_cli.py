@@ -147,7 +147,7 @@ def test_a_trace_of_real_bit_patterns_verifies_and_one_bit_off_does_not(workdir)
     names = ("time_s", "T_motor", "T_bearing", "n_rpm", "T_env")
     lines = [",".join(names) + ",plc_E"]
     for j, word in enumerate(words):
-        written = f"16#{word >> 16:04X}_{word & 0xFFFF:04X}" if j % 2 else f"0x{word:08x}"
+        written = (f"0x{word:08x}", f"16#{word >> 16:04X}_{word & 0xFFFF:04X}", f"DW#16#{word:08X}")[j % 3]
         lines.append(",".join(repr(float(table.columns[c][j])) for c in names) + "," + written)
     (workdir / "hex.csv").write_text("\n".join(lines) + "\n")
     thermoplc("generate", "a.json", "-o", "a.scl", "--force", cwd=workdir)

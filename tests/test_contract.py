@@ -146,3 +146,18 @@ def test_an_output_limit_moved_out_of_var_constant_is_named(tmp_path):
     result = thermoplc("verify", "moved.scl", "--model", GOLDEN / "mlr.json", "--data", golden_twin_csv(tmp_path),
                        cwd=tmp_path, check=2)
     assert "moved.scl: c_OutMax declared outside VAR CONSTANT" in result.stderr
+
+
+@pytest.mark.parametrize("kind", ["kalman", "lumped"])
+def test_a_kind_that_needs_its_ambient_apart_refuses_an_input_that_is_both(kind, tmp_path):
+    """Found by review: kalman then said a coefficient was missing, lumped that two names were one."""
+    import json
+    from thermoplc.base.errors import UserError
+    doc = json.loads((GOLDEN / f"{kind}.json").read_text())
+    ambient = next(i for i, s in enumerate(doc["inputs"]) if s["role"] == "ambient")
+    doc["inputs"][0]["role"] = "temperature,ambient"
+    del doc["inputs"][ambient]
+    (tmp_path / "both.json").write_text(json.dumps(doc))
+    with pytest.raises(UserError, match=rf"both\.json: field 'inputs\[0\]\.role': a {kind} model drives each "
+                                        r"temperature by the ambient and needs its ambient sensor apart"):
+        load_model(tmp_path / "both.json")
