@@ -2,8 +2,8 @@
 
 The naming rule, written once: a model coefficient X is the constant `c_X`; a table `tab_Stem`
 (or `tab_Stem_i`) holds the coefficients `stem_k` (or `stem_i_k`) in order, k from 0 when the
-model has a `stem_0` and from 1 otherwise; the safety limits are the constants of
-`Limits.constants()`. What is neither is structure the model's settings fix (a ring buffer's
+model has a `stem_0` and from 1 otherwise; each value of the safety logic (`Limits.values()`) is
+the constant `LIMIT_NAMES` gives it. What is neither is structure the model's settings fix (a ring buffer's
 length, the interval counts of a configuration index) or a plain 0/1 the block computes with.
 """
 from __future__ import annotations
@@ -11,16 +11,43 @@ from __future__ import annotations
 import re
 
 from thermoplc.base.binary32 import round_f32
+from thermoplc.base.errors import UserError
 from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import Limits, axis_outputs, guards
 
 CONSTANT_PREFIX = "c_"
 TABLE_PREFIX = "tab_"
+LIMIT_NAMES = {"temp_min": "c_TempMin", "temp_max": "c_TempMax", "speed_min": "c_SpeedMin", "speed_max": "c_SpeedMax",
+               "other_min": "c_OtherMin", "other_max": "c_OtherMax", "jump_max": "c_JumpMax",
+               "settle_calls": "c_SettleCalls", "one_call": "c_OneCall", "step_max": "c_StepMax",
+               "step_min": "c_StepMin", "out_max": "c_OutMax", "out_min": "c_OutMin", "k0_mm": "c_K0_mm",
+               "real_max": "c_RealMax"}  # a value of the safety logic -> the constant that holds it
+NEEDED_LIMITS = ("step_max", "out_max")  # every block limits its outputs: without them it is not one of ours
 _TABLE = re.compile(r"tab_([A-Za-z][A-Za-z0-9]*)(?:_(\d+))?\Z", re.IGNORECASE)  # ST names ignore case
 
 
 def constant_name(coefficient: str) -> str:
     return CONSTANT_PREFIX + coefficient
+
+
+def limit_name(key: str) -> str:
+    return LIMIT_NAMES[key]
+
+
+def limit_constants(limits: Limits) -> dict:
+    """The safety logic's constants as the block declares them (name -> binary32 value or INT)."""
+    return {limit_name(key): value for key, value in limits.values().items()}
+
+
+def limits_of_block(declared: dict, source: str) -> Limits:
+    """The limits a block was generated with, read back from its constants (name -> value)."""
+    upper = {name.upper(): value for name, value in declared.items()}
+    missing = [limit_name(key) for key in NEEDED_LIMITS if limit_name(key).upper() not in upper]
+    if missing:
+        raise UserError(f"{source}: the block has no safety constants ({', '.join(missing)}); "
+                        f"regenerate it with this version of thermoplc")
+    # a limit the block does not use (no speed input, say) keeps its default: it cannot change an output
+    return Limits.from_values({key: upper[name.upper()] for key, name in LIMIT_NAMES.items() if name.upper() in upper})
 
 
 def table_coefficients(model: Model, table: str) -> tuple[str, ...] | None:
@@ -42,14 +69,14 @@ def required(model: Model) -> set[str]:
     """The constants every block of this model declares whatever its coefficients: the structure,
     each guard's range, the jump and settle rule of a held temperature, the output limiter and the
     K0 factor of an output in um. A block without one of them computes with something else."""
-    names = set(structure(model)) | {"c_StepMax", "c_StepMin", "c_OutMax", "c_OutMin", "c_RealMax"}
+    keys = {"step_max", "step_min", "out_max", "out_min", "real_max"}
     for guard in guards(model):
-        names |= {guard.low, guard.high}
+        keys |= {guard.low, guard.high}
         if guard.kind == "temperature":
-            names |= {"c_JumpMax", "c_OneCall", "c_SettleCalls"}
+            keys |= {"jump_max", "one_call", "settle_calls"}
     if axis_outputs(model, [model.target.name, *(t["name"] for t in model.settings.get("targets", ()))]):
-        names.add("c_K0_mm")
-    return names
+        keys.add("k0_mm")
+    return set(structure(model)) | {limit_name(key) for key in keys}
 
 
 def structure(model: Model) -> dict:
@@ -75,7 +102,7 @@ def expected(model: Model, limits: Limits, declared: list[str]) -> tuple[dict, l
     each must hold (a tuple, one per entry); the declared names the model has no value for; and the
     model's coefficients the block holds nowhere."""
     wanted, unknown, placed = {}, [], set()
-    fixed = {k.upper(): v for k, v in {**limits.constants(), **structure(model)}.items()}
+    fixed = {k.upper(): v for k, v in {**limit_constants(limits), **structure(model)}.items()}
     coefficients = {constant_name(k).upper(): k for k in model.coefficients}
     for name in declared:
         key = name.upper()

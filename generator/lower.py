@@ -63,6 +63,6 @@ def prove(model: Model, block: Block, limits: Limits) -> RangeProof:
     """The static range proof of `block` with every input anywhere in its guard range and Reset either
     way. Enable is taken TRUE: a disabled call writes ENO and nothing else (with_commissioning gates
     every other region), so it keeps any state the proof finds."""
-    constants = limits.constants()
+    constants = limits.values()
     ranges = {g.name: (constants[g.low], constants[g.high]) for g in guards(model)}
     return prove_ranges(block, {**ranges, ENABLE: True}, partition=("Init", "Ready"))

@@ -11,6 +11,7 @@ from functools import reduce
 from thermoplc.generator.ir import (
     Assign, BinOp, Block, BoolConst, Call, Const, If, IntConst, Ref, Region, Unary, Var, rename, walk_exprs,
 )
+from thermoplc.contract.constants import limit_constants, limit_name
 from thermoplc.models.safety import Guard, Limits
 
 _CONSTANT_COMMENTS = {
@@ -29,7 +30,7 @@ _CONSTANT_COMMENTS = {
 
 def _guard_region(g: Guard, fault: str) -> Region:
     x, ok = Ref(g.name), Ref(f"InOk_{g.index}")
-    in_range = Assign(ok.name, BinOp("AND", BinOp(">=", x, Ref(g.low)), BinOp("<=", x, Ref(g.high))))
+    in_range = Assign(ok.name, BinOp("AND", BinOp(">=", x, Ref(limit_name(g.low))), BinOp("<=", x, Ref(limit_name(g.high)))))
     if g.kind == "fused":
         return Region(f"Input {g.index} {g.name}: range check (the filter decides the fault)", (
             in_range, If(((Unary("NOT", Ref("Ready")), (Assign(fault, Unary("NOT", ok)),)),))))
@@ -131,5 +132,5 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
              Var("Delta", "REAL", "wanted output change"))
     referenced = {e.name for e in walk_exprs(tuple(regions)) if isinstance(e, Ref)}
     constants = (*core.constants, *(Const(name, value, _CONSTANT_COMMENTS[name], "INT" if isinstance(value, int) else "REAL")
-                                    for name, value in limits.constants().items() if name in referenced))
+                                    for name, value in limit_constants(limits).items() if name in referenced))
     return replace(core, outputs=outputs, statics=tuple(statics), temps=temps, constants=constants, regions=tuple(regions))

@@ -240,8 +240,8 @@ def _limit(m, start, y_state, series, limited, clamped, invalid, real_max, step_
 def limit(model_values, start: int, y_state: np.ndarray, series, limited, clamped, invalid, constants: dict, f) -> None:
     """Rows start.. of series from model_values[0..]; flags OR-ed into limited/clamped/invalid."""
     _limit(np.ascontiguousarray(model_values, f), np.int64(start), y_state, series, limited, clamped, invalid,
-           f(constants["c_RealMax"]), f(constants["c_StepMax"]), f(constants["c_StepMin"]),
-           f(constants["c_OutMax"]), f(constants["c_OutMin"]))
+           f(constants["real_max"]), f(constants["step_max"]), f(constants["step_min"]),
+           f(constants["out_max"]), f(constants["out_min"]))
 
 
 # ---------------------------------------------------------------------------------------------

@@ -56,30 +56,25 @@ class Limits:
         if not 1 <= self.settle_calls <= 10000:
             raise UserError(f"settle calls must be 1..10000, got {self.settle_calls}")
 
-    def constants(self) -> dict:
-        """The block's named constants (name -> binary32 value or INT)."""
+    def values(self) -> dict:
+        """The values the safety logic computes with (key -> binary32 value or INT); the block holds
+        each as a named constant (contract/constants.py names them)."""
         f = lambda x: float(np.float32(x))
-        return {"c_TempMin": f(self.temp_min_C), "c_TempMax": f(self.temp_max_C),
-                "c_SpeedMin": f(-self.max_speed_rpm), "c_SpeedMax": f(self.max_speed_rpm),
-                "c_OtherMin": f(-self.max_other), "c_OtherMax": f(self.max_other),
-                "c_JumpMax": f(self.max_jump_K), "c_SettleCalls": int(self.settle_calls), "c_OneCall": 1,
-                "c_StepMax": f(self.max_step), "c_StepMin": f(-self.max_step),
-                "c_OutMax": f(self.max_output), "c_OutMin": f(-self.max_output), "c_K0_mm": f(K0_MM_PER_UM),
-                "c_RealMax": f(REAL_TEXT_MAX)}
+        return {"temp_min": f(self.temp_min_C), "temp_max": f(self.temp_max_C),
+                "speed_min": f(-self.max_speed_rpm), "speed_max": f(self.max_speed_rpm),
+                "other_min": f(-self.max_other), "other_max": f(self.max_other),
+                "jump_max": f(self.max_jump_K), "settle_calls": int(self.settle_calls), "one_call": 1,
+                "step_max": f(self.max_step), "step_min": f(-self.max_step),
+                "out_max": f(self.max_output), "out_min": f(-self.max_output), "k0_mm": f(K0_MM_PER_UM),
+                "real_max": f(REAL_TEXT_MAX)}
 
     @classmethod
-    def from_constants(cls, declared: dict, source: str) -> "Limits":
-        """The limits a block was generated with, read back from its constants."""
-        wanted = {"c_TempMin": "temp_min_C", "c_TempMax": "temp_max_C", "c_SpeedMax": "max_speed_rpm",
-                  "c_OtherMax": "max_other", "c_JumpMax": "max_jump_K", "c_SettleCalls": "settle_calls",
-                  "c_StepMax": "max_step", "c_OutMax": "max_output"}
-        upper = {k.upper(): v for k, v in declared.items()}
-        missing = [k for k in ("c_StepMax", "c_OutMax") if k.upper() not in upper]
-        if missing:
-            raise UserError(f"{source}: the block has no safety constants ({', '.join(missing)}); "
-                            f"regenerate it with this version of thermoplc")
-        # a limit the block does not use (no speed input, say) keeps its default: it cannot change an output
-        return cls(**{field: upper[k.upper()] for k, field in wanted.items() if k.upper() in upper})
+    def from_values(cls, given: dict) -> "Limits":
+        """The limits whose `values()` these are (a key not given keeps its default)."""
+        fields_of = {"temp_min": "temp_min_C", "temp_max": "temp_max_C", "speed_max": "max_speed_rpm",
+                     "other_max": "max_other", "jump_max": "max_jump_K", "settle_calls": "settle_calls",
+                     "step_max": "max_step", "out_max": "max_output"}
+        return cls(**{field: given[key] for key, field in fields_of.items() if key in given})
 
 
 @dataclass(frozen=True)
@@ -99,11 +94,11 @@ def guards(model: Model) -> tuple[Guard, ...]:
         roles = set(s.role.split(","))
         if roles & {"temperature", "ambient"}:
             kind = "fused" if kind_of(model.kind).fused_guards and "temperature" in roles else "temperature"
-            out.append(Guard(s.name, k, kind, "c_TempMin", "c_TempMax"))
+            out.append(Guard(s.name, k, kind, "temp_min", "temp_max"))
         elif "speed" in roles:
-            out.append(Guard(s.name, k, "range", "c_SpeedMin", "c_SpeedMax"))
+            out.append(Guard(s.name, k, "range", "speed_min", "speed_max"))
         else:
-            out.append(Guard(s.name, k, "range", "c_OtherMin", "c_OtherMax"))
+            out.append(Guard(s.name, k, "range", "other_min", "other_max"))
     return tuple(out)
 
 
@@ -172,7 +167,7 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     instance, the last values after a Reset."""
     held = held or {}
     f = np.float32 if precision == "f32" else np.float64
-    constants = limits.constants()
+    constants = limits.values()
     plan = guards(model)
     rows = len(next(iter(inputs.values())))
     raw = {g.name: np.asarray(inputs[g.name], f) for g in plan}
@@ -194,9 +189,9 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     limited = np.zeros(rows, bool)
     clamped = np.zeros(rows, bool)
     invalid = np.zeros(rows, bool)
-    real_max = f(constants["c_RealMax"])
-    step_max, step_min = f(constants["c_StepMax"]), f(constants["c_StepMin"])
-    out_max, out_min = f(constants["c_OutMax"]), f(constants["c_OutMin"])
+    real_max = f(constants["real_max"])
+    step_max, step_min = f(constants["step_max"]), f(constants["step_min"])
+    out_max, out_min = f(constants["out_max"]), f(constants["out_min"])
     for name in names:
         y = f(held.get(name, 0))
         series = np.full(rows, y, f)
@@ -225,7 +220,7 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
         out[name] = series
     for k, name in enumerate(axis_outputs(model, names), start=1):
         k0 = np.full(rows, held.get(f"K0_{k}", 0), f)
-        k0[ready_row:] = out[name][ready_row:] * f(constants["c_K0_mm"])
+        k0[ready_row:] = out[name][ready_row:] * f(constants["k0_mm"])
         out[f"K0_{k}"] = k0
     out.update(fault_flags(plan, valid, faults, core, ready_row))
     out["Ready"] = np.arange(rows) >= ready_row

@@ -53,7 +53,7 @@ class StreamingReference:
         self.model = model
         self.f = f = np.float32 if precision == "f32" else np.float64
         self.limits = limits
-        self.constants = limits.constants()
+        self.constants = limits.values()
         self.plan = guards(model)
         self.core = (kind_of(model.kind).stream_core or _FirstCallCore)(model, precision, f)
         self.names = _real_outputs_of(model, guarded_core, precision)  # what the limiter acts on, in order
@@ -101,7 +101,7 @@ class StreamingReference:
             out[name] = series
         for k, name in enumerate(self.axes, start=1):
             k0 = np.zeros(rows, f)
-            k0[local:] = out[name][local:] * f(constants["c_K0_mm"])
+            k0[local:] = out[name][local:] * f(constants["k0_mm"])
             out[f"K0_{k}"] = k0
         out.update(fault_flags(self.plan, valid, faults, core, local))
         out["Ready"] = np.arange(offset, offset + rows) >= self.ready

@@ -161,3 +161,18 @@ def test_a_kind_that_needs_its_ambient_apart_refuses_an_input_that_is_both(kind,
     with pytest.raises(UserError, match=rf"both\.json: field 'inputs\[0\]\.role': a {kind} model drives each "
                                         r"temperature by the ambient and needs its ambient sensor apart"):
         load_model(tmp_path / "both.json")
+
+
+def test_the_models_name_no_constant_of_the_block():
+    """The safety logic's values are keyed by what they are (temp_min, out_max); the block's names
+    for them (c_TempMin, c_OutMax) are the contract's, read by the generator and the verifier."""
+    import re
+    from pathlib import Path
+    from thermoplc.contract.constants import LIMIT_NAMES, limit_constants
+    from thermoplc.models.safety import Limits
+    root = Path(__file__).resolve().parents[1] / "models"
+    named = [f"{path.name}:{i}" for path in sorted(root.rglob("*.py"))
+             for i, line in enumerate(path.read_text("utf-8").splitlines(), 1) if re.search(r"[\"']c_[A-Z]", line)]
+    assert named == []
+    assert set(LIMIT_NAMES) == set(Limits().values())
+    assert limit_constants(Limits())["c_OutMax"] == Limits().values()["out_max"] == 300.0

@@ -113,7 +113,7 @@ def test_compiled_loops_contract_nothing():
     kernels.gm0n([np.ones(3, f)], 1.0, 1.0, [1.0], f)
     kernels.gm1n([np.ones(3, f)], 1.0, 1.0, 1.0, [1.0], f)
     kernels.limit(np.ones(3, f), 0, np.zeros(1, f), np.zeros(3, f), np.zeros(3, bool), np.zeros(3, bool),
-                  np.zeros(3, bool), Limits().constants(), f)
+                  np.zeros(3, bool), Limits().values(), f)
     kernels.lumped([np.ones(3, f)], np.ones(3, f), np.ones(3, f), None, (True,) * 6 + (False, True, True), {}, [(1.0, 1.0, 1.0)], 0, f)
     for fn in (kernels._kalman, kernels._hold, kernels._limit, kernels._gm0n, kernels._gm1n, kernels._lumped):
         fresh = kernels.numba.njit(**{**kernels.JIT_OPTIONS, "cache": False})(fn.py_func)  # cached code has no IR

@@ -168,7 +168,7 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
     names = block_names(model, [d.name for d in machine.outputs])
     cases = []
     for g in guards(model):
-        if g.low != "c_TempMin":
+        if g.low != "temp_min":
             continue
         for kind in FAULT_KINDS:
             inputs = dict(clean)

@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from thermoplc.base.binary32 import f32_bits, f32_hex, is_subnormal, ulp_distance
-from thermoplc.contract.constants import TABLE_PREFIX, constant_name, expected, required
+from thermoplc.contract.constants import (LIMIT_NAMES, TABLE_PREFIX, constant_name, expected, limits_of_block,
+                                          required)
 from thermoplc.contract.outputs import FAULT_PREFIX, block_names, named
 from thermoplc.base.errors import UserError
 from thermoplc.models.fit import SAMPLING_TOLERANCE, sample_period
@@ -282,9 +283,9 @@ def block_limits(program: Program, source: str) -> Limits:
     """The safety limits the block was generated with, from its named constants."""
     constants = {d.name: d.initial for d in program.decls if d.section == "constant"}
     try:
-        return Limits.from_constants(constants, source)
+        return limits_of_block(constants, source)
     except UserError:  # a limit it needs is missing: name those the block declares elsewhere
-        limits = {name.upper() for name in Limits().constants()}
+        limits = {name.upper() for name in LIMIT_NAMES.values()}
         elsewhere = [d.name for d in program.decls if d.section != "constant" and d.name.upper() in limits]
         if not elsewhere:
             raise

@@ -34,11 +34,11 @@ def stress_inputs(model: Model, limits: Limits, rows: int = STRESS_ROWS, seed: i
     """Per block input a float32 column: segments of 1..300 calls holding the low end, the high end,
     the middle or a random value of the input's guard range (speed also at 0); Reset and Enable at random."""
     rng = np.random.default_rng(seed)
-    constants = limits.constants()
+    constants = limits.values()
     columns = {}
     for g in guards(model):
         low, high = float(constants[g.low]), float(constants[g.high])
-        choices = [low, high, (low + high) / 2] + ([0.0] if g.low == "c_SpeedMin" else [])
+        choices = [low, high, (low + high) / 2] + ([0.0] if g.low == "speed_min" else [])
         values = np.empty(rows)
         row = 0
         while row < rows:
