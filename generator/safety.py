@@ -30,7 +30,8 @@ _CONSTANT_COMMENTS = {
 
 def _guard_region(g: Guard, fault: str) -> Region:
     x, ok = Ref(g.name), Ref(f"InOk_{g.index}")
-    in_range = Assign(ok.name, BinOp("AND", BinOp(">=", x, Ref(limit_name(g.low))), BinOp("<=", x, Ref(limit_name(g.high)))))
+    low, high = Ref(limit_name(g.low)), Ref(limit_name(g.high))
+    in_range = Assign(ok.name, BinOp("AND", BinOp(">=", x, low), BinOp("<=", x, high)))
     if g.kind == "fused":
         return Region(f"Input {g.index} {g.name}: range check (the filter decides the fault)", (
             in_range, If(((Unary("NOT", Ref("Ready")), (Assign(fault, Unary("NOT", ok)),)),))))

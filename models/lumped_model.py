@@ -24,7 +24,6 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.models import identify, kernels, ridge, simulation as sim_
-from thermoplc.models.effects import registry
 from thermoplc.models.kind import Kind
 from thermoplc.models.modelfile import Coefficient, Model
 from thermoplc.models.simulation import Simulation
@@ -129,17 +128,16 @@ def simulation_of(model: Model) -> Simulation:
         table_rpm=tuple(st.get("table_rpm", ())),
         relay=(st["relay_sensor"] - 1, c("CoolOn"), c("CoolOff")) if "relay_sensor" in st else None)
     structure = "AS" in model.coefficients
-    terms = {}
-    for record in registry().values():  # each displacement effect's lag and weights, where the file has them
-        term = record.displacement
-        if term and term.pole[0] in model.coefficients:
-            terms[term.tau_field] = tau(c(term.pole[0]))
-            terms[term.weight_field] = tuple(c(f"{term.weight}_{i}") for i in range(1, k + 1)) if term.per_sensor \
+    fitted = {}
+    for term in sim_.displacement_terms():  # each displacement effect's lag and weights, where the file has them
+        if term.pole[0] in model.coefficients:
+            fitted[term.tau_field] = tau(c(term.pole[0]))
+            fitted[term.weight_field] = tuple(c(f"{term.weight}_{i}") for i in range(1, k + 1)) if term.per_sensor \
                 else c(term.weight)
     displacement = sim_.DisplacementParams(
         tau_struct_s=tau(c("AS")) if structure else None, beta0=c("beta0"),
         beta=tuple(c(f"beta_{i}") for i in range(1, k + 1)),
-        gamma=tuple(c(f"gamma_{i}") for i in range(1, k + 1)) if structure else (), **terms)
+        gamma=tuple(c(f"gamma_{i}") for i in range(1, k + 1)) if structure else (), **fitted)
     return Simulation(effects, shared, sensors, displacement)
 
 

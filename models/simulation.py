@@ -550,10 +550,12 @@ def term_columns(series: Series, sim: Simulation, name: str, temps: np.ndarray, 
     return np.column_stack(_displacement_columns(series, temps, taus, ((name, None),))[-count:])
 
 
-def displacement_terms(effects) -> list[DisplacementTerm]:
-    """The displacement terms these effects add, in the order of their records (the columns' order)."""
-    names = {e for e, _ in effects}
-    return [record.displacement for name, record in registry().items() if name in names and record.displacement]
+def displacement_terms(effects=None) -> list[DisplacementTerm]:
+    """The displacement terms these effects add (every effect's when None), in the order of their
+    records (the columns' order)."""
+    names = None if effects is None else {e for e, _ in effects}
+    return [record.displacement for name, record in registry().items()
+            if record.displacement and (names is None or name in names)]
 
 
 def _displacement_columns(series, temps, taus: dict, effects):
@@ -669,9 +671,8 @@ def stopped_threshold(n: np.ndarray) -> float:
 
 def _fitted_taus(sim: Simulation, series: Series) -> dict:
     d = sim.displacement
-    terms = (record.displacement for record in registry().values() if record.displacement)
     return {"t0": first_temperatures(series, sim.sensors), "struct": d.tau_struct_s,
-            **{term.key: getattr(d, term.tau_field) for term in terms}}
+            **{term.key: getattr(d, term.tau_field) for term in displacement_terms()}}
 
 
 def displacement_term(sim: Simulation, series: Series, name: str) -> np.ndarray:
