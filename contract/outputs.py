@@ -1,4 +1,8 @@
-"""The block's names of the model's per-input outputs: each sensor's fault bit.
+"""The block's names for what the models key otherwise: each sensor's fault bit, the status flags,
+the K0 outputs and the commissioning inputs.
+
+The status flags, K0 and Enable/Reset have fixed names: Ready, Limited, Clamped, Invalid, ENO (the
+dialect's enable output), K0_<k> for the k-th output in um, Enable and Reset.
 
 The models key an input's per-call fault flags by `models.kind.fault_key(input)`, no ST name. The
 block declares them as `Fault_<input>` (`Fault_T_motor`) when that is an identifier within the
@@ -18,9 +22,27 @@ from typing import Iterable
 from thermoplc.base.identifiers import identifier_problem
 from thermoplc.models.kind import fault_key
 from thermoplc.models.modelfile import Model
-from thermoplc.models.safety import guards
+from thermoplc.models.safety import (CLAMPED, CONTROL_START, ENABLE, ENABLED, INVALID, LIMITED, READY, RESET,
+                                     guards, k0_key)
 
 FAULT_PREFIX = "Fault_"
+ENO, READY_OUTPUT, LIMITED_OUTPUT, CLAMPED_OUTPUT, INVALID_OUTPUT = "ENO", "Ready", "Limited", "Clamped", "Invalid"
+STATUS_OUTPUTS = {READY: READY_OUTPUT, LIMITED: LIMITED_OUTPUT, CLAMPED: CLAMPED_OUTPUT, INVALID: INVALID_OUTPUT,
+                  ENABLED: ENO}  # reference key -> block output
+ENABLE_INPUT, RESET_INPUT = "Enable", "Reset"
+CONTROL_INPUTS = {ENABLE: ENABLE_INPUT, RESET: RESET_INPUT}  # reference key -> block input
+CONTROL_INPUT_START = {CONTROL_INPUTS[key]: start for key, start in CONTROL_START.items()}  # unwired, by input name
+K0_PREFIX = "K0_"
+
+
+def k0_output(axis: int) -> str:
+    """The block's K0 output (SD43900, mm) of the `axis`-th output in um, counted from 1."""
+    return f"{K0_PREFIX}{axis}"
+
+
+def control_of(block_inputs: dict) -> dict:
+    """Enable and Reset per call by the block's input names -> the same under the reference's keys."""
+    return {key: block_inputs[name] for key, name in CONTROL_INPUTS.items() if name in block_inputs}
 
 
 def _model_names(model: Model) -> set[str]:
@@ -60,5 +82,7 @@ def block_names(model: Model, declared: Iterable[str] = ()) -> dict[str, str]:
 
 
 def named(reference: dict, names: dict[str, str]) -> dict:
-    """The reference's outputs under the block's names (`names` from block_names), in their order."""
-    return {names.get(key, key): values for key, values in reference.items()}
+    """The reference's outputs under the block's names (`names` from block_names; the status flags and K0
+    by their fixed names; the model's outputs by their own), in their order."""
+    k0 = {k0_key(axis): k0_output(axis) for axis in range(1, len(reference) + 1)}
+    return {names.get(key) or STATUS_OUTPUTS.get(key) or k0.get(key, key): values for key, values in reference.items()}

@@ -15,7 +15,7 @@ from thermoplc.generator.ir import (
     ENO, Assign, BinOp, Block, BoolConst, Const, For, GenerationError, If, IntConst, Ref, Region, Stmt, Var,
     assigned_names,
 )
-from thermoplc.models.safety import ENABLE, RESET
+from thermoplc.contract.outputs import CONTROL_INPUT_START, ENABLE_INPUT, RESET_INPUT
 
 RESET_INDEX = "ResetIdx"
 ZERO = "c_Zero"
@@ -43,8 +43,8 @@ def _gated(region: Region) -> Region:
     body = region.body
     if len(body) == 1 and isinstance(body[0], If) and len(body[0].branches) == 1 and not body[0].orelse:
         cond, stmts = body[0].branches[0]
-        return Region(region.title, (If(((BinOp("AND", Ref(ENABLE), cond), stmts),)),))
-    return Region(region.title, (If(((Ref(ENABLE), body),)),))
+        return Region(region.title, (If(((BinOp("AND", Ref(ENABLE_INPUT), cond), stmts),)),))
+    return Region(region.title, (If(((Ref(ENABLE_INPUT), body),)),))
 
 
 def with_commissioning(block: Block) -> Block:
@@ -52,8 +52,8 @@ def with_commissioning(block: Block) -> Block:
     assigned = set(assigned_names(block.regions))
     restart, needs_zero = _restart(block, assigned)
     commission = Region("Enable (ENO) and Reset: a reset call starts the block as a new instance would", (
-        Assign(ENO, Ref(ENABLE)),
-        If(((BinOp("AND", Ref(ENABLE), Ref(RESET)), restart),)),
+        Assign(ENO, Ref(ENABLE_INPUT)),
+        If(((BinOp("AND", Ref(ENABLE_INPUT), Ref(RESET_INPUT)), restart),)),
     ))
     constants = block.constants
     zero = next((c for c in constants if c.name == ZERO), None)
@@ -65,9 +65,11 @@ def with_commissioning(block: Block) -> Block:
     if any(isinstance(s, For) for s in restart):
         temps = (*temps, Var(RESET_INDEX, "INT", "array index while the state is reset"))
     inputs = (*block.inputs,
-              Var(ENABLE, "BOOL", "FALSE: the call is skipped (state frozen, outputs held, ENO FALSE)", initial=True),
-              Var(RESET, "BOOL", "TRUE: restart as a new instance, latching the temperatures as the cold reference - "
-                                 "only with the machine at ambient; not a fault acknowledge", initial=False))
+              Var(ENABLE_INPUT, "BOOL", "FALSE: the call is skipped (state frozen, outputs held, ENO FALSE)",
+                  initial=CONTROL_INPUT_START[ENABLE_INPUT]),
+              Var(RESET_INPUT, "BOOL", "TRUE: restart as a new instance, latching the temperatures as the cold "
+                  "reference - only with the machine at ambient; not a fault acknowledge",
+                  initial=CONTROL_INPUT_START[RESET_INPUT]))
     outputs = (*block.outputs, Var(ENO, "BOOL", "Enable of this call"))
     return replace(block, inputs=inputs, outputs=outputs, temps=temps, constants=constants,
                    regions=(commission, *(_gated(r) for r in block.regions)))

@@ -8,6 +8,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Union
 
+from thermoplc.contract import outputs as contract_outputs
+
 
 class GenerationError(Exception):
     """The model cannot become a valid block (bad identifier, a constant an INT cannot hold, zero
@@ -99,7 +101,7 @@ class Var:
     initial: tuple | bool | None = None  # start values of a table (REAL binary32 values), or a BOOL input's
 
 
-ENO = "ENO"  # the enable output: the dialect's system flag (TIA ENO, STEP 7 OK) or a declared output (IEC)
+ENO = contract_outputs.ENO  # the enable output: the dialect's system flag (TIA ENO, STEP 7 OK) or a declared output (IEC)
 
 
 @dataclass(frozen=True)

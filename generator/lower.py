@@ -7,13 +7,13 @@ import importlib
 import pkgutil
 from dataclasses import replace
 
-from thermoplc.contract.outputs import fault_outputs
 from thermoplc.generator.commissioning import with_commissioning
 from thermoplc.generator.ir import Block, GenerationError, Identity
 from thermoplc.generator.ranges import RangeProof, prove_ranges
 from thermoplc.generator.safety import with_safety
 from thermoplc.models.modelfile import Model
-from thermoplc.models.safety import ENABLE, Limits, axis_outputs, guards
+from thermoplc.contract.outputs import ENABLE_INPUT, READY_OUTPUT, fault_outputs
+from thermoplc.models.safety import Limits, axis_outputs, guards
 
 
 
@@ -65,4 +65,4 @@ def prove(model: Model, block: Block, limits: Limits) -> RangeProof:
     every other region), so it keeps any state the proof finds."""
     constants = limits.values()
     ranges = {g.name: (constants[g.low], constants[g.high]) for g in guards(model)}
-    return prove_ranges(block, {**ranges, ENABLE: True}, partition=("Init", "Ready"))
+    return prove_ranges(block, {**ranges, ENABLE_INPUT: True}, partition=("Init", READY_OUTPUT))

@@ -12,6 +12,7 @@ from thermoplc.generator.ir import (
     Assign, BinOp, Block, BoolConst, Call, Const, If, IntConst, Ref, Region, Unary, Var, rename, walk_exprs,
 )
 from thermoplc.contract.constants import limit_constants, limit_name
+from thermoplc.contract.outputs import CLAMPED_OUTPUT, INVALID_OUTPUT, LIMITED_OUTPUT, READY_OUTPUT, k0_output
 from thermoplc.models.safety import Guard, Limits
 
 _CONSTANT_COMMENTS = {
@@ -34,7 +35,7 @@ def _guard_region(g: Guard, fault: str) -> Region:
     in_range = Assign(ok.name, BinOp("AND", BinOp(">=", x, low), BinOp("<=", x, high)))
     if g.kind == "fused":
         return Region(f"Input {g.index} {g.name}: range check (the filter decides the fault)", (
-            in_range, If(((Unary("NOT", Ref("Ready")), (Assign(fault, Unary("NOT", ok)),)),))))
+            in_range, If(((Unary("NOT", Ref(READY_OUTPUT)), (Assign(fault, Unary("NOT", ok)),)),))))
     hold = If(((Unary("NOT", Ref(fault)), (Assign(f"Good_{g.index}", x),)),))
     if g.kind == "range":
         return Region(f"Input {g.index} {g.name}: range check, hold the last good value", (
@@ -45,7 +46,7 @@ def _guard_region(g: Guard, fault: str) -> Region:
     count = (Assign(settle, BinOp("+", Ref(settle), Ref("c_OneCall"))),
              If(((BinOp(">=", Ref(settle), Ref("c_SettleCalls")), (Assign(fault, BoolConst(False)), Assign(settle, IntConst(0)))),)))
     decide = If((
-        (Unary("NOT", Ref("Ready")), (Assign(fault, Unary("NOT", ok)), Assign(settle, IntConst(0)))),
+        (Unary("NOT", Ref(READY_OUTPUT)), (Assign(fault, Unary("NOT", ok)), Assign(settle, IntConst(0)))),
         (Unary("NOT", ok), reset),
         (Unary("NOT", steady), reset),
         (Ref(fault), count),
@@ -61,16 +62,16 @@ def _limit(name: str, model_value: str) -> tuple:
     step = (
         Assign("Delta", BinOp("-", Ref(model_value), y)),
         If(((BinOp(">", Ref("Delta"), Ref("c_StepMax")), (Assign(name, BinOp("+", y, Ref("c_StepMax"))),
-                                                          Assign("Limited", BoolConst(True)))),
+                                                          Assign(LIMITED_OUTPUT, BoolConst(True)))),
             (BinOp("<", Ref("Delta"), Ref("c_StepMin")), (Assign(name, BinOp("+", y, Ref("c_StepMin"))),
-                                                          Assign("Limited", BoolConst(True))))),
+                                                          Assign(LIMITED_OUTPUT, BoolConst(True))))),
            orelse=(Assign(name, Ref(model_value)),)),
     )
     finite = BinOp("<=", Call("ABS", (Ref(model_value),)), Ref("c_RealMax"))
     return (
-        If(((finite, step),), orelse=(Assign("Invalid", BoolConst(True)),)),
-        If(((BinOp(">", y, Ref("c_OutMax")), (Assign(name, Ref("c_OutMax")), Assign("Clamped", BoolConst(True)))),
-            (BinOp("<", y, Ref("c_OutMin")), (Assign(name, Ref("c_OutMin")), Assign("Clamped", BoolConst(True)))))),
+        If(((finite, step),), orelse=(Assign(INVALID_OUTPUT, BoolConst(True)),)),
+        If(((BinOp(">", y, Ref("c_OutMax")), (Assign(name, Ref("c_OutMax")), Assign(CLAMPED_OUTPUT, BoolConst(True)))),
+            (BinOp("<", y, Ref("c_OutMin")), (Assign(name, Ref("c_OutMin")), Assign(CLAMPED_OUTPUT, BoolConst(True)))))),
     )
 
 
@@ -92,17 +93,17 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
     body = rename(core.regions, {**model_names, **held})
     ready = reduce(lambda a, b: BinOp("AND", a, b), [Ref(f"InOk_{g.index}") for g in plan])
     # every model region runs only once the block is Ready; REGIONs stay at the top level (TIA)
-    gated = lambda title, stmts: Region(title, (If(((Ref("Ready"), tuple(stmts)),)),))
+    gated = lambda title, stmts: Region(title, (If(((Ref(READY_OUTPUT), tuple(stmts)),)),))
     regions = [
         *(_guard_region(g, faults[g.name]) for g in plan),
         Region("Start the model at the first call with every input in range", (
-            If(((Unary("NOT", Ref("Ready")), (Assign("Ready", ready),)),)),)),
+            If(((Unary("NOT", Ref(READY_OUTPUT)), (Assign(READY_OUTPUT, ready),)),)),)),
         *(gated(r.title, r.body) for r in body),
         Region("Output status: nothing limited yet in this call",
-               (Assign("Limited", BoolConst(False)), Assign("Clamped", BoolConst(False)),
-                Assign("Invalid", BoolConst(False)))),
+               (Assign(LIMITED_OUTPUT, BoolConst(False)), Assign(CLAMPED_OUTPUT, BoolConst(False)),
+                Assign(INVALID_OUTPUT, BoolConst(False)))),
     ]
-    k0 = {name: f"K0_{k}" for k, name in enumerate(axis_outputs, start=1)}
+    k0 = {name: k0_output(k) for k, name in enumerate(axis_outputs, start=1)}
     for v in limited:
         stmts = _limit(v.name, model_names[v.name])
         if v.name in k0:
@@ -117,10 +118,10 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
     outputs = (*limited,
                *(Var(k0[v.name], "REAL", f"K0 of {v.name} for SD43900, mm") for v in limited if v.name in k0),
                *core_flags.values(), *fault_bits,
-               Var("Ready", "BOOL", "TRUE once every input was in range: the model runs"),
-               Var("Limited", "BOOL", "an output was rate-limited in this call"),
-               Var("Clamped", "BOOL", "an output was clamped in this call"),
-               Var("Invalid", "BOOL", "the model gave NaN or Inf in this call: the last output is held"))
+               Var(READY_OUTPUT, "BOOL", "TRUE once every input was in range: the model runs"),
+               Var(LIMITED_OUTPUT, "BOOL", "an output was rate-limited in this call"),
+               Var(CLAMPED_OUTPUT, "BOOL", "an output was clamped in this call"),
+               Var(INVALID_OUTPUT, "BOOL", "the model gave NaN or Inf in this call: the last output is held"))
     statics = [*core.statics]
     for g in plan:
         if g.kind == "temperature":

@@ -6,7 +6,7 @@ import numpy as np
 from thermoplc.base.errors import UserError
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
-from thermoplc.models.safety import CONTROL_START, Limits, commissioned_predict
+from thermoplc.models.safety import Limits, commissioned_predict
 from thermoplc.models.table import Table
 
 def predict(model: Model, inputs: dict, precision: str) -> dict:
@@ -42,22 +42,3 @@ def model_inputs(model: Model, table: Table, overrides: dict | None = None) -> d
                             f"map it with --inputs {s.name}=COLUMN")
         inputs[s.name] = table.real_column(column, f"model input {s.name!r}")
     return inputs
-
-
-def control_inputs(table: Table, overrides: dict | None = None) -> dict:
-    """Enable and Reset per call from the data: a column named like the input (or mapped with
-    --inputs Enable=COLUMN) holding 0 or 1; an input without a column keeps its start value."""
-    overrides = overrides or {}
-    control = {}
-    for name in CONTROL_START:
-        column = overrides.get(name, name)
-        if column in table.columns:
-            values = table.columns[column]
-            bad = ~np.isin(values, (0.0, 1.0))
-            if bad.any():
-                table.refuse_cell(column, bad, f"the {name} input (BOOL)", "0 or 1")
-            control[name] = values == 1.0
-        elif name in overrides:
-            raise UserError(f"{table.path}: no column {column!r} for block input {name!r}; the header has "
-                            f"{', '.join(table.columns)}")
-    return control

@@ -28,8 +28,17 @@ REAL_TEXT_MAX = 3.402823e38
 K0_MM_PER_UM = -0.001  # K0 opposes the predicted error: the NC moves the axis back by it
 
 
-ENABLE, RESET, ENO = "Enable", "Reset", "ENO"  # the block's commissioning inputs and its enable output
+# The reference's keys for what the safety logic takes and reports per call besides the model's own
+# outputs: no ST names (a colon is in no identifier), the block's names are contract/outputs.py's.
+ENABLE, RESET = "control:enable", "control:reset"  # the commissioning inputs
 CONTROL_START = {ENABLE: True, RESET: False}  # their values when the PLC program leaves them unwired
+ENABLED, READY, LIMITED, CLAMPED, INVALID = (f"status:{name}" for name in ("enabled", "ready", "limited", "clamped",
+                                                                            "invalid"))
+
+
+def k0_key(axis: int) -> str:
+    """The key of the K0 (SD43900, mm) of the `axis`-th output in um, counted from 1."""
+    return f"k0:{axis}"
 
 
 @dataclass(frozen=True)
@@ -184,7 +193,7 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     running = {name: values[ready_row:] for name, values in core_inputs.items()}
     fused_valid = {g.name: valid[g.name][ready_row:] for g in plan if g.kind == "fused"}
     core = core_predict(model, running, precision, fused_valid) if ready_row < rows else None
-    names = limited_outputs(core) if core is not None else _real_outputs_of(model, core_predict, precision)
+    names = limited_outputs(core) if core is not None else real_outputs_of(model, core_predict, precision)
     out = {}
     limited = np.zeros(rows, bool)
     clamped = np.zeros(rows, bool)
@@ -219,18 +228,18 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
             series[j] = y
         out[name] = series
     for k, name in enumerate(axis_outputs(model, names), start=1):
-        k0 = np.full(rows, held.get(f"K0_{k}", 0), f)
+        k0 = np.full(rows, held.get(k0_key(k), 0), f)
         k0[ready_row:] = out[name][ready_row:] * f(constants["k0_mm"])
-        out[f"K0_{k}"] = k0
+        out[k0_key(k)] = k0
     out.update(fault_flags(plan, valid, faults, core, ready_row))
-    out["Ready"] = np.arange(rows) >= ready_row
-    out["Limited"] = limited
-    out["Clamped"] = clamped
-    out["Invalid"] = invalid
+    out[READY] = np.arange(rows) >= ready_row
+    out[LIMITED] = limited
+    out[CLAMPED] = clamped
+    out[INVALID] = invalid
     return out
 
 
-def _real_outputs_of(model: Model, core_predict, precision: str) -> list[str]:
+def real_outputs_of(model: Model, core_predict, precision: str) -> list[str]:
     """Output names when the model never starts (no call had every input in range)."""
     probe = {s.name: np.full(1, 20.0, np.float32) for s in model.inputs}
     return limited_outputs(core_predict(model, probe, precision, {}))
@@ -239,20 +248,22 @@ def _real_outputs_of(model: Model, core_predict, precision: str) -> list[str]:
 def commissioned_predict(model: Model, inputs: dict, precision: str, limits: Limits, core_predict,
                          control: dict | None = None) -> dict:
     """Every block output with its Enable and Reset inputs per call (`control`, bool arrays; unwired
-    ones keep their start values). A disabled call is skipped: the outputs hold and ENO is FALSE. A
+    ones keep their start values). A disabled call is skipped: the outputs hold and ENABLED is FALSE. A
     reset call starts the guards and the model afresh while the limited outputs hold their values."""
     rows = len(next(iter(inputs.values())))
     control = control or {}
+    if unknown := set(control) - set(CONTROL_START):  # a block's input name here would be ignored silently
+        raise ValueError(f"control keys {sorted(unknown)}: expected {sorted(CONTROL_START)}")
     enable = np.asarray(control.get(ENABLE, np.full(rows, CONTROL_START[ENABLE])), bool)
     reset = np.asarray(control.get(RESET, np.full(rows, CONTROL_START[RESET])), bool)
     if enable.all() and not reset[1:].any():
         out = guarded_predict(model, inputs, precision, limits, core_predict)
-        out[ENO] = enable.copy()
+        out[ENABLED] = enable.copy()
         return out
     run = np.flatnonzero(enable)
     if not len(run):  # never enabled: every output keeps its start value; one call tells their types
         probe = guarded_predict(model, {k: np.asarray(v)[:1] for k, v in inputs.items()}, precision, limits, core_predict)
-        return {**{name: np.zeros(rows, values.dtype) for name, values in probe.items()}, ENO: enable.copy()}
+        return {**{name: np.zeros(rows, values.dtype) for name, values in probe.items()}, ENABLED: enable.copy()}
     starts = [0, *(int(k) for k in np.flatnonzero(reset[run]) if k > 0), len(run)]
     pieces: list[dict] = []
     held: dict = {}
@@ -268,5 +279,5 @@ def commissioned_predict(model: Model, inputs: dict, precision: str, limits: Lim
         full = np.zeros(rows, ran.dtype)
         full[shown >= 0] = ran[shown[shown >= 0]]
         out[name] = full
-    out[ENO] = enable.copy()
+    out[ENABLED] = enable.copy()
     return out

@@ -17,7 +17,8 @@ from thermoplc.models import kernels
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import guarded_core
-from thermoplc.models.safety import ENO, Limits, _real_outputs_of, axis_outputs, fault_flags, guards
+from thermoplc.models.safety import (CLAMPED, ENABLED, INVALID, LIMITED, READY, Limits, axis_outputs, fault_flags,
+                                     guards, k0_key, real_outputs_of)
 
 NOT_YET = np.iinfo(np.int64).max  # the ready row before any call had every input in range
 
@@ -56,7 +57,7 @@ class StreamingReference:
         self.constants = limits.values()
         self.plan = guards(model)
         self.core = (kind_of(model.kind).stream_core or _FirstCallCore)(model, precision, f)
-        self.names = _real_outputs_of(model, guarded_core, precision)  # what the limiter acts on, in order
+        self.names = real_outputs_of(model, guarded_core, precision)  # what the limiter acts on, in order
         self.axes = axis_outputs(model, self.names)
         self.holds = {g.name: kernels.HoldState(f) for g in self.plan if g.kind != "fused"}
         self.y = {name: np.zeros(1, f) for name in self.names}
@@ -102,12 +103,12 @@ class StreamingReference:
         for k, name in enumerate(self.axes, start=1):
             k0 = np.zeros(rows, f)
             k0[local:] = out[name][local:] * f(constants["k0_mm"])
-            out[f"K0_{k}"] = k0
+            out[k0_key(k)] = k0
         out.update(fault_flags(self.plan, valid, faults, core, local))
-        out["Ready"] = np.arange(offset, offset + rows) >= self.ready
-        out["Limited"] = limited
-        out["Clamped"] = clamped
-        out["Invalid"] = invalid
-        out[ENO] = np.ones(rows, bool)  # enabled on every call: the whole-recording path replays Enable and Reset
+        out[READY] = np.arange(offset, offset + rows) >= self.ready
+        out[LIMITED] = limited
+        out[CLAMPED] = clamped
+        out[INVALID] = invalid
+        out[ENABLED] = np.ones(rows, bool)  # enabled on every call: the whole-recording path replays Enable and Reset
         self.calls += rows
         return out

@@ -176,3 +176,27 @@ def test_the_models_name_no_constant_of_the_block():
     assert named == []
     assert set(LIMIT_NAMES) == set(Limits().values())
     assert limit_constants(Limits())["c_OutMax"] == Limits().values()["out_max"] == 300.0
+
+
+def test_the_models_name_no_status_output_or_commissioning_input_of_the_block():
+    """The reference keys Enable/Reset, ENO, Ready, Limited, Clamped, Invalid and K0 by what they are
+    (control:enable, status:ready, k0:1); the block's names are the contract's, and a control keyed
+    by a block input's name is refused rather than ignored."""
+    import re
+    from pathlib import Path
+    from thermoplc.contract.outputs import CONTROL_INPUTS, STATUS_OUTPUTS, named
+    from thermoplc.models.safety import CONTROL_START, commissioned_predict, k0_key
+    root = Path(__file__).resolve().parents[1] / "models"
+    block_names_ = "|".join(["Enable", "Reset", "ENO", "Ready", "Limited", "Clamped", "Invalid", "K0_"])
+    named_in_models = [f"{path.name}:{i}" for path in sorted(root.rglob("*.py"))
+                       for i, line in enumerate(path.read_text("utf-8").splitlines(), 1)
+                       if re.search(rf"[\"']({block_names_})", line)]
+    assert named_in_models == []
+    assert set(CONTROL_INPUTS) == set(CONTROL_START)
+    assert set(STATUS_OUTPUTS.values()) == {"ENO", "Ready", "Limited", "Clamped", "Invalid"}
+    assert list(named({k0_key(2): 1, "E_z_um": 2, **dict.fromkeys(STATUS_OUTPUTS, 3)}, {})) == \
+        ["K0_2", "E_z_um", "Ready", "Limited", "Clamped", "Invalid", "ENO"]
+    model = load_model(GOLDEN / "mlr.json")
+    inputs = {s.name: np.full(4, 20.0, np.float32) for s in model.inputs}
+    with pytest.raises(ValueError, match="control keys"):
+        commissioned_predict(model, inputs, "f32", Limits(), lambda *a: {}, {"Enable": np.ones(4, bool)})

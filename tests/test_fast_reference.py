@@ -8,7 +8,7 @@ from tests.golden_models import GOLDEN, KINDS, golden_twin_csv
 from thermoplc.models import kernels
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.reference import block_outputs, model_inputs
-from thermoplc.models.safety import Limits, guards
+from thermoplc.models.safety import ENABLE, ENABLED, RESET, Limits, guards
 from thermoplc.models.table import read_table
 from thermoplc.verifier.faults import FAULT_KINDS, inject
 
@@ -62,9 +62,9 @@ def test_fast_reference_equals_slow_with_enable_and_reset(kind, golden_table):
     reset[1500:1530] = True
     limits = Limits(max_step=0.05, max_output=3.0)  # held outputs ramp: the limiter's carried state matters
     for precision in ("f32", "f64"):
-        slow, fast = _both(model, inputs, precision, limits, {"Enable": enable, "Reset": reset})
+        slow, fast = _both(model, inputs, precision, limits, {ENABLE: enable, RESET: reset})
         _assert_same_bits(slow, fast, (kind, precision))
-        assert not slow["ENO"][300:420].any() and slow["ENO"][:300].all()
+        assert not slow[ENABLED][300:420].any() and slow[ENABLED][:300].all()
 
 
 @pytest.mark.parametrize("kind", KINDS)

@@ -170,11 +170,11 @@ def test_nan_never_reaches_the_nc_and_fails_verify(folder):
     result = thermoplc("verify", "huge.scl", "--model", "huge.json", "--data", "twin.csv", cwd=folder)
     assert result.returncode == 1 and "UNSAFE" in result.stdout, result.stdout + result.stderr
     from thermoplc.models.reference import block_outputs, model_inputs
-    from thermoplc.models.safety import Limits
+    from thermoplc.models.safety import INVALID, Limits, k0_key
     from thermoplc.models.table import read_table
     model = load_model(folder / "huge.json")
     out = block_outputs(model, model_inputs(model, read_table(folder / "twin.csv")), "f32", Limits())
-    assert np.isfinite(out["E_z_um"]).all() and np.isfinite(out["K0_1"]).all() and out["Invalid"].any()
+    assert np.isfinite(out["E_z_um"]).all() and np.isfinite(out[k0_key(1)]).all() and out[INVALID].any()
 
 
 @pytest.mark.parametrize("name", ["Init", "Ready", "K0_1", "Invalid", "METHOD", "POINTER", "INTERFACE", "REF_TO",

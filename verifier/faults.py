@@ -14,12 +14,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from thermoplc.models.modelfile import Model
-from thermoplc.contract.outputs import block_names, named
+from thermoplc.contract.outputs import (ENABLE_INPUT, ENO, K0_PREFIX, READY_OUTPUT, RESET_INPUT, block_names, control_of,
+                                       named)
 from thermoplc.models.kind import fault_key
 from thermoplc.models.reference import block_outputs, model_inputs
-from thermoplc.models.safety import ENABLE, ENO, RESET, Limits, guards
+from thermoplc.models.safety import Limits, guards
 from thermoplc.models.table import Table
-from thermoplc.verifier.replay import (_check_interface, _load, _replay_and_compare, block_limits, check_model_inputs,
+from thermoplc.verifier.replay import (check_interface, load_block, replay_and_compare, block_limits, check_model_inputs,
                                        compare_constants, constants_lines, subnormal_declarations)
 
 TRANSIENT_CALLS = 30
@@ -63,14 +64,14 @@ def _window(rows: int, first: int, calls: int, value: bool) -> np.ndarray:
 # what a PLC program does with the block's Enable and Reset: (kind, inputs per call, last row of the action)
 CONTROL_KINDS = (
     (FaultKind("reset", "TRUE 1 call, again 30 calls on", False, None),
-     lambda rows, first: {RESET: _pulses(rows, first, 0, TRANSIENT_CALLS)}, TRANSIENT_CALLS),
+     lambda rows, first: {RESET_INPUT: _pulses(rows, first, 0, TRANSIENT_CALLS)}, TRANSIENT_CALLS),
     (FaultKind("reset-held", "TRUE for 30 calls", False, None),
-     lambda rows, first: {RESET: _window(rows, first, TRANSIENT_CALLS, True)}, TRANSIENT_CALLS - 1),
+     lambda rows, first: {RESET_INPUT: _window(rows, first, TRANSIENT_CALLS, True)}, TRANSIENT_CALLS - 1),
     (FaultKind("disable", "Enable FALSE 300 calls", False, None),
-     lambda rows, first: {ENABLE: _window(rows, first, 10 * TRANSIENT_CALLS, False)}, 10 * TRANSIENT_CALLS - 1),
+     lambda rows, first: {ENABLE_INPUT: _window(rows, first, 10 * TRANSIENT_CALLS, False)}, 10 * TRANSIENT_CALLS - 1),
     (FaultKind("disable+reset", "off 300 calls, Reset in/after", False, None),
-     lambda rows, first: {ENABLE: _window(rows, first, 10 * TRANSIENT_CALLS, False),
-                          RESET: _pulses(rows, first, 5, 10 * TRANSIENT_CALLS)}, 10 * TRANSIENT_CALLS),
+     lambda rows, first: {ENABLE_INPUT: _window(rows, first, 10 * TRANSIENT_CALLS, False),
+                          RESET_INPUT: _pulses(rows, first, 5, 10 * TRANSIENT_CALLS)}, 10 * TRANSIENT_CALLS),
 )
 
 
@@ -149,7 +150,7 @@ def verify_faults(block: str, model: Model, table: Table, overrides: dict | None
                   engine: str = "auto") -> FaultReport:
     """The block replayed once per fault case against the model's reference, its declared values
     checked against the model's as plain verify checks them."""
-    program, machine = _load(block, engine)
+    program, machine = load_block(block, engine)
     limits: Limits = block_limits(program, block)
     cases = _cases(machine, block, model, table, overrides, limits)
     checked, errors = compare_constants(program, model, limits)
@@ -161,7 +162,7 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
     """Each fault on each temperature input in turn, then each Enable/Reset action, replayed and compared."""
     check_model_inputs(machine, block, model, "model file")  # the command line puts the file's name in
     clean = model_inputs(model, table, overrides)
-    _check_interface(machine, block, clean, "the model inputs")
+    check_interface(machine, block, clean, "the model inputs")
     times = table.columns[model.time_column] if model.time_column in table.columns else np.arange(table.rows) * 1.0
     baseline = block_outputs(model, clean, "f32", limits)[model.target.name]
     first = table.rows // 3
@@ -174,19 +175,19 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
             inputs = dict(clean)
             inputs[g.name], last = inject(clean[g.name], np.asarray(times), kind, first)
             expected = named(block_outputs(model, inputs, "f32", limits), names)
-            report = _replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
+            report = replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
             cases.append(_case(kind, g.name, first, last, expected, report, machine, limits, model, baseline,
                                np.asarray(expected[names[fault_key(g.name)]], bool)))
     declared = {d.name for d in machine.inputs}
-    for kind, control_of, length in CONTROL_KINDS:
-        control = control_of(table.rows, first)
+    for kind, action, length in CONTROL_KINDS:
+        control = action(table.rows, first)
         if not set(control) <= declared:
             continue  # a block generated before Enable and Reset existed
-        expected = named(block_outputs(model, clean, "f32", limits, control), names)
-        report = _replay_and_compare(machine, block, "reference", table, model.time_column, {**clean, **control},
+        expected = named(block_outputs(model, clean, "f32", limits, control_of(control)), names)
+        report = replay_and_compare(machine, block, "reference", table, model.time_column, {**clean, **control},
                                      expected, {})
         cases.append(_case(kind, "/".join(control), first, min(first + length, table.rows - 1), expected, report,
-                           machine, limits, model, baseline, ~np.asarray(expected["Ready"], bool)
+                           machine, limits, model, baseline, ~np.asarray(expected[READY_OUTPUT], bool)
                            | ~np.asarray(expected[ENO], bool)))
     return cases
 
@@ -196,7 +197,7 @@ def _case(kind: FaultKind, what: str, first: int, last: int, expected: dict, rep
     """A case's row of the table from the reference outputs and the replay's report."""
     real = [np.asarray(v, np.float32) for v in expected.values() if np.asarray(v).dtype.kind == "f"]
     limited = [np.asarray(expected[v.name], np.float32) for v in machine.outputs
-               if v.type.base == "REAL" and not v.name.startswith("K0_")]
+               if v.type.base == "REAL" and not v.name.startswith(K0_PREFIX)]
     return FaultCase(
         kind, what, first, last, report.mismatch is None and report.failure is None,
         all(bool(np.all(np.isfinite(v))) for v in real) and not any(f.kind in ("nan", "inf") for f in report.findings),

@@ -10,13 +10,14 @@ import numpy as np
 from thermoplc.base.binary32 import f32_bits, f32_hex, is_subnormal, ulp_distance
 from thermoplc.contract.constants import (LIMIT_NAMES, TABLE_PREFIX, constant_name, expected, limits_of_block,
                                           required)
-from thermoplc.contract.outputs import FAULT_PREFIX, block_names, named
+from thermoplc.contract.outputs import CONTROL_INPUT_START, FAULT_PREFIX, block_names, control_of, named
 from thermoplc.base.errors import UserError
 from thermoplc.models.fit import SAMPLING_TOLERANCE, sample_period
 from thermoplc.models.modelfile import Model
-from thermoplc.models.reference import block_outputs, control_inputs, model_inputs
-from thermoplc.models.safety import CONTROL_START, ENABLE, RESET, Limits
+from thermoplc.models.reference import block_outputs, model_inputs
+from thermoplc.models.safety import Limits
 from thermoplc.models.table import Table
+from thermoplc.verifier.control import control_inputs, control_summary
 from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.interpreter import BlockFailure, Finding
 from thermoplc.verifier.parser import parse_file
@@ -139,12 +140,15 @@ def _show(value) -> str:
     return repr(value)
 
 
-def _load(block_path: str, engine: str = "auto") -> tuple[Program, Replayer]:
+def load_block(block_path: str, engine: str = "auto") -> tuple[Program, Replayer]:
+    """The parsed block and the machine that runs it on the chosen engine (interpreter or native C)."""
     program = parse_file(block_path)
     return program, Replayer(program, str(block_path), engine)
 
 
-def _check_interface(machine, block: str, available: dict, what: str) -> None:
+def check_interface(machine, block: str, available: dict, what: str) -> None:
+    """Every block input without a start value has a column in `what`, and `what` has no column the block
+    lacks: a misspelt column would otherwise leave an input at its start value for the whole replay."""
     names = {d.name.upper() for d in machine.inputs}
     missing = sorted(d.name for d in machine.inputs if d.name not in available and d.initial is None)
     extra = sorted(n for n in available if n.upper() not in names)
@@ -237,8 +241,10 @@ def _unsafe(produced: dict, types: dict, findings, table: Table, block: str, inp
     return tuple(problems)
 
 
-def _replay_and_compare(replayer: Replayer, block: str, against: str, table: Table, time_column: str,
+def replay_and_compare(replayer: Replayer, block: str, against: str, table: Table, time_column: str,
                         inputs: dict, expected: dict, quantisation: dict) -> Report:
+    """Replay the block over `table` and compare every output bit for bit with `expected`; on the first
+    mismatch replay again up to that cycle so the report shows the block's state where it diverged."""
     rows = table.rows
     start = time.perf_counter()
     machine = replayer.machine
@@ -351,7 +357,7 @@ def mistyped(machine, reference: dict):
     """The first input or output the block declares with another type than the model's block has
     (BOOL outputs and Enable/Reset, REAL the rest, no arrays), with that type; or None."""
     wanted = {**{name: "BOOL" if np.asarray(values).dtype == bool else "REAL" for name, values in reference.items()},
-              **dict.fromkeys(CONTROL_START, "BOOL")}
+              **dict.fromkeys(CONTROL_INPUT_START, "BOOL")}
     for d in (*machine.outputs, *machine.inputs):
         expected = wanted.get(d.name, "REAL")
         if d.type.base != expected or d.type.bounds:
@@ -361,15 +367,15 @@ def mistyped(machine, reference: dict):
 
 def verify_against_model(block: str, model: Model, model_path: str, table: Table,
                          overrides: dict | None = None, engine: str = "auto") -> Report:
-    program, machine = _load(block, engine)
+    program, machine = load_block(block, engine)
     limits = block_limits(program, block)
     check_model_inputs(machine, block, model, model_path)
     _check_period(model, table)
-    overrides = known_overrides(overrides, [*(s.name for s in model.inputs), *CONTROL_START], model_path)
+    overrides = known_overrides(overrides, [*(s.name for s in model.inputs), *CONTROL_INPUT_START], model_path)
     inputs = model_inputs(model, table, overrides)
     control = control_inputs(table, overrides)
-    _check_interface(machine, block, {**inputs, **control}, f"the inputs of {Path(model_path).name}")
-    block32 = named(block_outputs(model, inputs, "f32", limits, control),
+    check_interface(machine, block, {**inputs, **control}, f"the inputs of {Path(model_path).name}")
+    block32 = named(block_outputs(model, inputs, "f32", limits, control_of(control)),
                     block_names(model, [d.name for d in machine.outputs]))
     declared = [d.name for d in machine.outputs]
     unknown = [name for name in declared if name not in block32]
@@ -382,27 +388,15 @@ def verify_against_model(block: str, model: Model, model_path: str, table: Table
         d, expected = wrong
         raise UserError(f"{block}:{d.pos[0]}:{d.pos[1]}: {d.name} is declared {d.type.base}; the model's block "
                         f"has it as {expected}")
-    ideal = block_outputs(model, inputs, "f64", limits, control)
+    ideal = block_outputs(model, inputs, "f64", limits, control_of(control))
     quantisation = {model.target.name: float(np.max(np.abs(block32[model.target.name].astype(np.float64)
                                                           - ideal[model.target.name])))}
     against = f"the float32 reference of {Path(model_path).name} ({model.kind})"
-    report = _replay_and_compare(machine, block, against, table, model.time_column, {**inputs, **control}, block32,
+    report = replay_and_compare(machine, block, against, table, model.time_column, {**inputs, **control}, block32,
                                  quantisation)
     checked, errors = compare_constants(program, model, limits)
     return replace(report, constants_checked=checked, constant_errors=errors, limits=limits,
-                   control=_control_summary(control, table.rows))
-
-
-def _control_summary(control: dict, rows: int) -> str:
-    """What the data asked of Enable and Reset; a recording in which the block never ran says so."""
-    if not control:
-        return ""
-    enabled = int(np.count_nonzero(control.get(ENABLE, np.ones(rows, bool))))
-    resets = int(np.count_nonzero(control.get(RESET, np.zeros(rows, bool)) & control.get(ENABLE, np.ones(rows, bool))))
-    if enabled == 0:
-        return "Enable is FALSE on every call: the block never ran, so only its held start values were compared"
-    return (f"Enable and Reset from the data: enabled on {enabled} of {rows} calls, {resets} reset call(s) "
-            f"(a Reset on a disabled call does nothing)")
+                   control=control_summary(control, table.rows))
 
 
 def _numbered_fault(output: str, column: str, declared: list[str]) -> str:
@@ -421,7 +415,7 @@ def _numbered_fault(output: str, column: str, declared: list[str]) -> str:
 def verify_against_trace(block: str, table: Table, expect: dict, overrides: dict | None = None,
                          time_column: str = "time_s", engine: str = "auto") -> Report:
     """expect maps block output names to trace columns holding what the PLC produced."""
-    _, machine = _load(block, engine)
+    _, machine = load_block(block, engine)
     inputs = block_columns(machine.inputs, table, overrides, block)
     outputs = {d.name: d for d in machine.outputs}
     expected = {}
@@ -430,7 +424,7 @@ def verify_against_trace(block: str, table: Table, expect: dict, overrides: dict
             raise UserError(f"{block}: no output {output!r} to compare with column {column!r}; outputs are {', '.join(outputs)}"
                             + _numbered_fault(output, column, list(outputs)))
         expected[output] = cells_as(table, column, outputs[output].type.base, f"the recorded output {output}")
-    report = _replay_and_compare(machine, block, f"the recorded outputs ({', '.join(expect.values())})", table,
+    report = replay_and_compare(machine, block, f"the recorded outputs ({', '.join(expect.values())})", table,
                                  time_column, inputs, expected, {})
     if report.mismatch is not None and isinstance(report.mismatch.expected_value, float):
         report = replace(report, control="a trace must hold every REAL to 9 significant digits (or as hex): exported "

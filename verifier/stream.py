@@ -22,13 +22,12 @@ from pathlib import Path
 import numpy as np
 
 from thermoplc.base.errors import UserError
-from thermoplc.contract.outputs import block_names, named
+from thermoplc.contract.outputs import CONTROL_INPUT_START, block_names, named
 from thermoplc.models.fit import SAMPLING_TOLERANCE
 from thermoplc.models.modelfile import Model
-from thermoplc.models.safety import CONTROL_START
 from thermoplc.models.streaming import StreamingReference, streamable
 from thermoplc.models.table import CannotStream, read_table, stream_columns
-from thermoplc.verifier.replay import (Report, _check_interface, compare_constants, _load, block_limits,
+from thermoplc.verifier.replay import (Report, check_interface, compare_constants, load_block, block_limits,
                                        known_overrides, mistyped, subnormal_declarations, unsafe_findings,
                                        verify_against_model)
 from thermoplc.verifier.typed import differing_rows, first_non_finite
@@ -122,7 +121,7 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
     t = time.perf_counter()
     if engine == "interp" or not streamable(model):
         raise _GiveUp(f"no streaming for {model.kind} models or engine {engine}")
-    program, replayer = _load(block, engine)
+    program, replayer = load_block(block, engine)
     if replayer.native is None:
         raise _GiveUp("no fast engine")
     if subnormal_declarations(program.decls, block):
@@ -131,8 +130,8 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
     mapping = known_overrides(overrides, [s.name for s in model.inputs], model_path)
     column_of = {s.name: mapping.get(s.name, s.column) for s in model.inputs}
     names = list(dict.fromkeys([model.time_column, *column_of.values()]))
-    controls = tuple(c for c in CONTROL_START if c not in names)  # columns that would drive Enable or Reset
-    _check_interface(replayer.machine, block, column_of, f"the inputs of {Path(model_path).name}")
+    controls = tuple(c for c in CONTROL_INPUT_START if c not in names)  # columns that would drive Enable or Reset
+    check_interface(replayer.machine, block, column_of, f"the inputs of {Path(model_path).name}")
     ref32, ref64 = StreamingReference(model, limits, "f32"), StreamingReference(model, limits, "f64")
     output_names = block_names(model, [d.name for d in replayer.machine.outputs])
     types, steps, rows, quantisation = None, _Steps(), 0, 0.0
@@ -149,7 +148,7 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
         t = time.perf_counter()
         steps.add(chunk.columns[model.time_column])
         for name in controls:  # the streamed reference is the always-enabled, never-reset block
-            if name in chunk.columns and (chunk.columns[name] != CONTROL_START[name]).any():
+            if name in chunk.columns and (chunk.columns[name] != CONTROL_INPUT_START[name]).any():
                 raise _GiveUp(f"the data drive {name}")
         inputs = {}
         for name, column in column_of.items():

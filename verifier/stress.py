@@ -14,7 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from thermoplc.models.modelfile import Model
-from thermoplc.models.safety import ENABLE, RESET, Limits, guards
+from thermoplc.contract.outputs import ENABLE_INPUT, RESET_INPUT
+from thermoplc.models.safety import Limits, guards
 from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.replay import unsafe_findings
 from thermoplc.verifier.syntax import Program
@@ -47,8 +48,8 @@ def stress_inputs(model: Model, limits: Limits, rows: int = STRESS_ROWS, seed: i
             values[row:row + length] = choices[pick] if pick < len(choices) else rng.uniform(low, high)
             row += length
         columns[g.name] = values.astype(np.float32)
-    columns[RESET] = rng.random(rows) < 0.01  # about every 100 calls a restart
-    columns[ENABLE] = rng.random(rows) >= 0.05  # and a skipped call now and then
+    columns[RESET_INPUT] = rng.random(rows) < 0.01  # about every 100 calls a restart
+    columns[ENABLE_INPUT] = rng.random(rows) >= 0.05  # and a skipped call now and then
     return columns
 
 

@@ -1,0 +1,41 @@
+"""Enable and Reset as the data drive them: read by the block's input names, handed to the
+reference under its own keys (contract/outputs.py), summarised for the report."""
+from __future__ import annotations
+
+import numpy as np
+
+from thermoplc.base.errors import UserError
+from thermoplc.contract.outputs import CONTROL_INPUT_START, ENABLE_INPUT, RESET_INPUT
+from thermoplc.models.table import Table
+
+
+def control_inputs(table: Table, overrides: dict | None = None) -> dict:
+    """Enable and Reset per call from the data, by input name: a column named like the input (or mapped
+    with --inputs Enable=COLUMN) holding 0 or 1; an input without a column keeps its start value."""
+    overrides = overrides or {}
+    control = {}
+    for name in CONTROL_INPUT_START:
+        column = overrides.get(name, name)
+        if column in table.columns:
+            values = table.columns[column]
+            bad = ~np.isin(values, (0.0, 1.0))
+            if bad.any():
+                table.refuse_cell(column, bad, f"the {name} input (BOOL)", "0 or 1")
+            control[name] = values == 1.0
+        elif name in overrides:
+            raise UserError(f"{table.path}: no column {column!r} for block input {name!r}; the header has "
+                            f"{', '.join(table.columns)}")
+    return control
+
+
+def control_summary(control: dict, rows: int) -> str:
+    """What the data asked of Enable and Reset; a recording in which the block never ran says so."""
+    if not control:
+        return ""
+    enable = control.get(ENABLE_INPUT, np.ones(rows, bool))
+    enabled = int(np.count_nonzero(enable))
+    resets = int(np.count_nonzero(control.get(RESET_INPUT, np.zeros(rows, bool)) & enable))
+    if enabled == 0:
+        return "Enable is FALSE on every call: the block never ran, so only its held start values were compared"
+    return (f"Enable and Reset from the data: enabled on {enabled} of {rows} calls, {resets} reset call(s) "
+            f"(a Reset on a disabled call does nothing)")
