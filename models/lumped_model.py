@@ -38,7 +38,9 @@ def has(model: Model, name: str) -> bool:
 
 
 def segments(model: Model) -> int:
-    return int(model.settings.get("speed_table_segments", 0))
+    """The speed table's segments: the n^p heat of nonlinear_speed_heat (check_settings refuses a file
+    with a table and without the effect, or the other way round)."""
+    return int(model.settings.get("speed_table_segments", 0)) if has(model, "nonlinear_speed_heat") else 0
 
 
 def _pair(a: float) -> tuple[Coefficient, Coefficient]:
@@ -257,6 +259,11 @@ def check_settings(model: Model, path: str) -> None:
         if effect.get("sensor") is not None and not 1 <= effect["sensor"] <= temps:
             raise UserError(f"{path}: field 'settings.effects[{i}].sensor': {effect['sensor']} but the model has "
                             f"{temps} temperature inputs (numbered from 1)")
+    table, nonlinear = int(s.get("speed_table_segments", 0)), has(model, "nonlinear_speed_heat")
+    if bool(table) != nonlinear:  # the table is that effect's heat: one without the other is an edited file
+        raise UserError(f"{path}: field 'settings.speed_table_segments': {table}, but settings.effects "
+                        + ("does not list nonlinear_speed_heat, whose speed heat table it is" if table else
+                           "lists nonlinear_speed_heat, which needs a speed heat table of at least 1 segment"))
 
 
 class StreamCore:

@@ -375,6 +375,8 @@ def _schema_cases() -> list[Case]:
         ("lumped", "effects as text", ["settings", "effects"], "abc", "field 'settings.effects' must be a list"),
         ("lumped", "relay sensor that does not exist", ["settings", "relay_sensor"], 9,
          "field 'settings.relay_sensor': 9 but the model has 2 temperature inputs"),
+        ("lumped", "nonlinear_speed_heat without its speed table", ["settings", "speed_table_segments"], 0,
+         "field 'settings.speed_table_segments': 0, but settings.effects lists nonlinear_speed_heat"),
         ("mlr", "no inputs", ["inputs"], [], "field 'inputs': [] should be non-empty"),
         ("bayes", "configurations that do not fit the intervals", ["settings", "configurations"], 2,
          "intervals [8, 8] and configurations 2 do not fit 2 parents"),

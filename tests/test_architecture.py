@@ -41,3 +41,14 @@ def test_a_broken_arrow_is_caught(tmp_path):
     result = subprocess.run([str(linter), "--config", "pyproject.toml", "--no-cache"], cwd=tree, capture_output=True,
                             text=True, env={**os.environ, "PYTHONPATH": str(tree)}, stdin=subprocess.DEVNULL)
     assert result.returncode != 0 and "thermoplc.verifier.leak -> thermoplc.generator.lower" in result.stdout
+
+
+def test_every_package_folder_is_installed():
+    """A folder with an __init__.py that pyproject.toml does not list is missing from `pip install .`
+    (an editable install still finds it, so only a real install would fail)."""
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text("utf-8"))["tool"]["setuptools"]
+    folders = {ROOT / folder for folder in config["package-dir"].values()}
+    found = {init.parent for folder in folders for init in folder.rglob("__init__.py")
+             if "__pycache__" not in init.parts}
+    assert found == folders, sorted(str(f.relative_to(ROOT)) for f in found ^ folders)
+    assert set(config["packages"]) == set(config["package-dir"])

@@ -47,7 +47,8 @@ def test_the_parameter_count_grows_by_what_the_record_declares(name):
     assert extended.parameter_count() - base.parameter_count() == registry()[name].added_parameters(3) > 0
 
 
-@pytest.mark.parametrize("folder", ["diagnosis", "machines/random_effects.py"])
+@pytest.mark.parametrize("folder", ["diagnosis", "machines/random_effects.py", "generator/lower_lumped.py",
+                                    "generator/lumped_effects/lowering.py", "generator/lumped_effects/__init__.py"])
 def test_the_diagnosis_and_the_random_draws_name_no_effect(folder):
     """Their rules live in the effect records; a name here is a branch the next effect would need."""
     pattern = re.compile("|".join(NAMES))
@@ -133,3 +134,37 @@ def test_a_displacement_term_round_trips_through_the_model_file(name):
     back = lumped_model.simulation_of(model).displacement
     assert getattr(back, term.tau_field) == pytest.approx(7200.0, rel=1e-9)
     assert term.weights(back) == term.weights(displacement)
+
+
+def test_each_effect_with_block_arithmetic_has_its_lowering_and_the_file_order_does_not_matter():
+    """The lumped block takes each effect's statements from generator/lumped_effects/<name>.py, in rank
+    order: the block of a model file listing its effects in another order is the same block."""
+    import dataclasses
+    from thermoplc.generator import lumped_effects
+    from thermoplc.generator.lower import lower
+    from thermoplc.models.modelfile import load_model
+    from tests.golden_models import GOLDEN
+    reading = {name for name, record in registry().items() if record.part == "reading"}
+    assert set(lumped_effects.lowerings()) == set(NAMES) - reading
+    assert list(lumped_effects.lowerings()) == [name for name in NAMES if name not in reading]
+    model = load_model(GOLDEN / "lumped.json")
+    effects = model.settings["effects"]
+    assert len(effects) > 3
+    reordered = dataclasses.replace(model, settings={**model.settings, "effects": effects[::-1]})
+    first, second = lower(model), lower(reordered)
+    assert (first.statics, first.constants, first.regions) == (second.statics, second.constants, second.regions)
+
+
+@pytest.mark.parametrize("edit", ["drop the effect", "drop the table"])
+def test_a_speed_table_without_its_effect_or_the_effect_without_a_table_is_refused(tmp_path, edit):
+    import json
+    from thermoplc.models.modelfile import load_model
+    from tests.golden_models import GOLDEN
+    doc = json.loads((GOLDEN / "lumped.json").read_text())
+    if edit == "drop the effect":
+        doc["settings"]["effects"] = [e for e in doc["settings"]["effects"] if e["name"] != "nonlinear_speed_heat"]
+    else:
+        doc["settings"]["speed_table_segments"] = 0
+    (tmp_path / "m.json").write_text(json.dumps(doc))
+    with pytest.raises(UserError, match=r"m\.json: field 'settings\.speed_table_segments'"):
+        load_model(tmp_path / "m.json")

@@ -3,8 +3,8 @@ declare one (`EFFECT = EffectDefinition(...)`, see `definition.py`): the single 
 `--effect`, the model file, the simulation's bookkeeping and the diagnosis read. Adding an effect
 is a new module here (a displacement effect's fitted term is its record's `DisplacementTerm`), the
 term of any other part in the simulation it extends (`models/simulation.py`), its per-call
-arithmetic in the block (`models/lumped_model.py`, `models/kernels.py`, `generator/lower_lumped.py`)
-and its physics in each synthetic machine."""
+arithmetic in the reference (`models/lumped_model.py`, `models/kernels.py`) and in the block (a module
+of `generator/lumped_effects/`), and its physics in each synthetic machine."""
 from __future__ import annotations
 
 import functools
