@@ -27,6 +27,7 @@ def round_f32(x: float) -> float:
 
 
 def is_f32(x: float) -> bool:
+    """True when `x` is exactly a binary32 value (NaN and the infinities included): rounding it changes nothing."""
     return math.isnan(x) or round_f32(x) == x
 
 
@@ -36,14 +37,17 @@ def f32_bits(x: float) -> int:
 
 
 def f32_from_bits(word: int) -> float:
+    """The binary32 value with bit pattern `word` (0 to 0xFFFFFFFF) as a Python float; struct.error outside."""
     return _bits.unpack(_word.pack(word))[0]
 
 
 def f32_hex(x: float) -> str:
+    """`x` rounded to binary32, as its bit pattern: "0x" and 8 upper-case hex digits (the f32 form of model files)."""
     return f"0x{f32_bits(x):08X}"
 
 
 def parse_f32_hex(text: str) -> float:
+    """The binary32 value of a bit pattern written as "0x" and 8 hex digits (f32_hex's form); ValueError else."""
     if not (text.startswith("0x") and len(text) == 10):
         raise ValueError(f"expected 0x followed by 8 hex digits, found {text!r}")
     return f32_from_bits(int(text[2:], 16))
@@ -60,6 +64,7 @@ def ulp_distance(a: float, b: float) -> int:
 
 
 def is_subnormal(x: float) -> bool:
+    """True for a nonzero value below binary32's least normal magnitude (about 1.18e-38): a binary32 subnormal."""
     return x != 0.0 and abs(x) < FLT_MIN_NORMAL
 
 

@@ -22,6 +22,7 @@ REPORT_MANIFEST = ".thermoplc-report"
 
 
 def same_file(a: Path, b: Path) -> bool:
+    """Whether two paths name the same file; when either does not exist (yet), whether both resolve alike."""
     try:
         return os.path.samefile(a, b)
     except OSError:
@@ -85,6 +86,7 @@ def check_report_folder(folder: str | Path, names: list[str], inputs=(), recogni
 
 
 def report_manifest(names: list[str]) -> str:
+    """The text of a report folder's `.thermoplc-report`: a comment line, then the names of the files it owns."""
     return "\n".join(["# files of a thermoplc report; only these are replaced when it is written again", *names]) + "\n"
 
 
@@ -131,4 +133,5 @@ def write_outputs(items: list[tuple[str | Path, str | bytes]], remove: list[str 
 
 
 def write_atomic(path: str | Path, data: str | bytes) -> None:
+    """Write one output all or nothing (`write_outputs` for a single file); a UserError says why it could not."""
     write_outputs([(path, data)])

@@ -27,10 +27,12 @@ _TABLE = re.compile(r"tab_([A-Za-z][A-Za-z0-9]*)(?:_(\d+))?\Z", re.IGNORECASE)  
 
 
 def constant_name(coefficient: str) -> str:
+    """The block constant that holds model coefficient `coefficient`: its name after `c_`, case kept."""
     return CONSTANT_PREFIX + coefficient
 
 
 def limit_name(key: str) -> str:
+    """The block constant that holds safety value `key` (a key of Limits.values()); KeyError for others."""
     return LIMIT_NAMES[key]
 
 

@@ -73,6 +73,8 @@ def _check_baseline(model: Model, request: DiagnoseRequest, path: str) -> None:
 
 
 def series_of(table: Table, request: DiagnoseRequest, dt: float) -> Series:
+    """The request's columns as a Series at period `dt` s; refuses a missing column, a --temps or --ambient
+    column that is no temperature, and an input that leaks the target."""
     for column in (*request.temps, request.speed, request.ambient, request.target,
                    *((request.feed,) if request.feed else ())):
         table.column(column)
@@ -109,6 +111,8 @@ def augmented_model(final: Simulation, added: list[dict], request: DiagnoseReque
 
 def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report_dir: str | None,
         progress: Callable[[str], None] | None = None) -> dict:
+    """`thermoplc diagnose`: fit and search, then write the augmented model, the findings JSON and the report
+    folder when asked, all or nothing; returns the findings document."""
     table = read_table(request.data, request.time_column, decimal=request.decimal)
     dt = sample_period(table, request.time_column)
     n_train = _training_rows(table, request)

@@ -43,6 +43,8 @@ def _window(series: Series, w: Window, d: Diagnosis, after: bool) -> dict:
 
 
 def document(d: Diagnosis, series: Series, n_train: int, source: dict, model_path: str | None) -> dict:
+    """The findings document (findings.json) as a dict: verdict and summary, the effects named, the disagreement
+    windows before and after, and each channel's training and held-out errors (um for the target, else K)."""
     target = d.channels[-1]
     channels = {c: {"unit": "um" if c == target else "K", "noise_sigma": d.sigma[c],
                     "train_rmse_before": d.before.rmse_train[c], "train_rmse_after": d.after.rmse_train[c],
@@ -73,6 +75,7 @@ def document(d: Diagnosis, series: Series, n_train: int, source: dict, model_pat
 
 
 def summary(d: Diagnosis) -> str:
+    """The verdict as one sentence for people: what was named, how many disagreement windows are left, and why."""
     if d.verdict == "insufficient_data":
         return f"the data cannot decide: {d.insufficient}"
     if d.verdict == "no_missing_effect":
@@ -103,6 +106,8 @@ def display(value, braces: bool = True) -> str:
 
 
 def text(doc: dict) -> str:
+    """The console report of findings document `doc`: verdict, each named effect with its evidence, the channels'
+    held-out errors before and after, and the commands to run next."""
     lines = [f"verdict: {doc['verdict']} - {doc['summary']}"]
     for k, e in enumerate(doc["effects"], start=1):
         ev = e["evidence"]

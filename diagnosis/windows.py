@@ -36,6 +36,7 @@ def noise_sigma(residual: np.ndarray) -> float:
 
 
 def smoothing_rows(dt: float) -> int:
+    """Rows the residual is averaged over: `SMOOTHING_S` at the sample period `dt` (s), at least 3."""
     return max(3, int(round(SMOOTHING_S / dt)))
 
 
@@ -48,6 +49,8 @@ def smooth(residual: np.ndarray, width: int) -> np.ndarray:
 
 
 def band(sigma: float, width: int) -> float:
+    """Half-width of the band the smoothed residual must leave: `BAND_SIGMAS` standard errors of a mean over
+    `width` rows, never below the noise `sigma` itself."""
     return max(BAND_SIGMAS * sigma / np.sqrt(width), BAND_FLOOR * sigma)
 
 
@@ -60,6 +63,8 @@ def settling_s(time_constant_s: float) -> float:
 
 def find_windows(channel: str, residual: np.ndarray, sigma: float, dt: float, settling: float = SETTLING_S
                  ) -> list[Window]:
+    """The runs where the smoothed residual leaves the noise band, none in the first `settling` s: runs less
+    than a smoothing width apart merge, and runs shorter than half of one are dropped."""
     width = smoothing_rows(dt)
     outside = np.abs(smooth(residual, width)) > band(sigma, width)
     outside[:int(round(settling / dt))] = False

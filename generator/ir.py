@@ -8,8 +8,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Union
 
-from thermoplc.contract import outputs as contract_outputs
-
 
 class GenerationError(Exception):
     """The model cannot become a valid block (bad identifier, a constant an INT cannot hold, zero
@@ -101,7 +99,9 @@ class Var:
     initial: tuple | bool | None = None  # start values of a table (REAL binary32 values), or a BOOL input's
 
 
-ENO = contract_outputs.ENO  # the enable output: the dialect's system flag (TIA ENO, STEP 7 OK) or a declared output (IEC)
+# the enable output, IEC 61131-3's name: the dialect's system flag (TIA ENO, STEP 7 OK) or a declared output (IEC);
+# the IR imports nothing, so the contract's ENO (contract/outputs.py) is the same name written once more, tested equal
+ENO = "ENO"
 
 
 @dataclass(frozen=True)

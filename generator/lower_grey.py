@@ -24,6 +24,8 @@ def _accumulate(model: Model) -> Region:
 
 
 def lower_gm0n(model: Model) -> Block:
+    """The GM(0,N) block: running sums of the temperatures, output the first difference of a + sum b_i*S_i
+    (X1 at the first call)."""
     temps = model.signals("temperature")
     level = sum_of([const("a")] + [BinOp("*", const(f"b_{i}"), Ref(f"S_{i}")) for i in range(1, len(temps) + 1)])
     return _grey_block(
@@ -45,6 +47,8 @@ def lower_gm0n(model: Model) -> Block:
 
 
 def lower_gm1n(model: Model) -> Block:
+    """The GM(1,N) block: running sums of the temperatures and the grey difference equation run forward,
+    output the first difference of its level (X1 at the first call)."""
     temps = model.signals("temperature")
     forced = sum_of([BinOp("*", const(f"b_{i}"), Ref(f"S_{i}")) for i in range(1, len(temps) + 1)])
     step = If(((Unary("NOT", Ref("Init")), (Assign("X", const("X1")), Assign("Init", BoolConst(True)))),),

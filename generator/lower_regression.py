@@ -11,6 +11,7 @@ from thermoplc.generator.lower_shared import (
 
 
 def lower_mlr(model: Model) -> Block:
+    """The mlr block: the temperatures latched at the first call, then eq. 10 on their rises at every call."""
     temps = model.signals("temperature")
     return Block(
         name=model.block_name,
@@ -28,6 +29,8 @@ def lower_mlr(model: Model) -> Block:
     )
 
 def lower_piecewise(model: Model) -> Block:
+    """The piecewise block: the first call latches the ambient and picks the two nodes around it and their
+    weights; every call blends those two nodes' regressions (eq. 1)."""
     temps = model.signals("temperature")
     ambient = model.signals("ambient")[0].name
     count = node_count(model)
@@ -85,6 +88,8 @@ def lower_piecewise(model: Model) -> Block:
     )
 
 def lower_dlag(model: Model) -> Block:
+    """The dlag block: a ring buffer of lags * lag_step_samples + 1 samples per temperature, filled with the
+    first reading, and the regression on the current and lagged rises."""
     temps = model.signals("temperature")
     lags, step = model.settings["lags"], model.settings["lag_step_samples"]
     length = lags * step + 1

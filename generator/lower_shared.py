@@ -10,14 +10,18 @@ from thermoplc.models.modelfile import Model
 
 
 def sum_of(terms):
+    """The terms as one left-to-right sum, ((t1 + t2) + t3) + ...: the addition order the references round in."""
     return reduce(lambda left, right: BinOp("+", left, right), terms)
 
 
 def const(name: str) -> Ref:
+    """A reference to the block constant `c_<name>`, the name the lowerings declare its Const under."""
     return Ref(f"c_{name}")
 
 
 def header(model: Model) -> tuple[str, ...]:
+    """The comment lines atop every block: generator version, model fingerprint, inputs with roles and units,
+    output unit and call period, and the binary32 assumption the proof rests on."""
     signals = ", ".join(f"{s.name} ({s.role}, {s.unit}" + (f", column {s.column}" if s.column != s.name else "") + ")"
                         for s in model.inputs)
     return (
@@ -41,6 +45,7 @@ def regression(model: Model, measured) -> Region:
 
 
 def regression_constants(model: Model) -> list[Const]:
+    """The constants `regression` reads: c_beta0 (um) and c_beta_i (um per K) of each temperature input."""
     temps = model.signals("temperature")
     return [Const("c_beta0", model.coef("beta0"), "intercept, um")] + [
         Const(f"c_beta_{i}", model.coef(f"beta_{i}"), f"um per K of {s.name}") for i, s in enumerate(temps, start=1)]
@@ -55,6 +60,7 @@ def references(temps) -> tuple[Assign, ...]:
 
 
 def reference_vars(temps) -> tuple[Var, ...]:
+    """The statics T0_i (REAL, i from 1) that `references` latches with each temperature at the first call."""
     return tuple(Var(f"T0_{i}", "REAL", f"{s.name} at the first call") for i, s in enumerate(temps, start=1))
 
 
@@ -64,8 +70,10 @@ def first_call(title: str, body) -> Region:
 
 
 def inputs_of(signals) -> tuple[Var, ...]:
+    """One REAL block input per signal, in the order given, commented with its role and unit."""
     return tuple(Var(s.name, "REAL", f"{s.role}, {s.unit}") for s in signals)
 
 
 def error_output(model: Model) -> Var:
+    """The block's REAL output, named as the model's target and commented with its unit."""
     return Var(model.target.name, "REAL", f"predicted thermal error, {model.target.unit}")

@@ -127,6 +127,8 @@ def fit_rises(rises: np.ndarray, target: np.ndarray, bins: int | list[int], prec
 
 
 def edges_of(model: Model, sensor: int, precision: str = "f32") -> list:
+    """The interior interval edges of parent `sensor` (from 1; the time parent after the temperatures),
+    ascending, at `precision`: one fewer than its interval count."""
     count = model.settings["intervals"][sensor - 1] - 1
     return [model.coef(f"edge_{sensor}_{m}", precision) for m in range(count)]
 
@@ -140,6 +142,8 @@ def predict_rises(coefficients: dict, settings: dict, rises: np.ndarray) -> np.n
 
 
 def predict(model: Model, inputs: dict, precision: str) -> dict:
+    """Reference in binary32 ('f32') or float64, as the block reads it: each parent's interval, the configuration,
+    that entry of the prediction table; returns {target name: error per row}."""
     f = np.float32 if precision == "f32" else np.float64
     temps = model.signals("temperature")
     rises = [np.asarray(inputs[s.name], f) - np.asarray(inputs[s.name], f)[0] for s in temps]

@@ -23,6 +23,8 @@ MAX_BUFFER_SAMPLES = INT_RANGES["INT"][1]  # a PLC INT indexes the ring buffer
 
 
 def fit_dlag(temps: np.ndarray, target: np.ndarray, names: list[str], lags: int, lag_step_s: float, dt: float):
+    """Least squares on each sensor's rise now and at `lags` lags `lag_step_s` apart (rounded to whole samples
+    of `dt`); refuses a lag step under one sample or a ring buffer an INT cannot index."""
     step = int(round(lag_step_s / dt))
     if lags < 1 or step < 1:
         raise UserError(f"--lags must be at least 1 and --lag-step at least one sample ({dt:g} s)")
@@ -48,6 +50,8 @@ def fit_dlag(temps: np.ndarray, target: np.ndarray, names: list[str], lags: int,
 
 
 def predict(model: Model, inputs: dict, precision: str) -> dict:
+    """Reference in binary32 ('f32') or float64, adding lag by lag and sensor by sensor as the block does;
+    returns {target name: error per row}."""
     f = np.float32 if precision == "f32" else np.float64
     lags, step = model.settings["lags"], model.settings["lag_step_samples"]
     temps = [np.asarray(inputs[s.name], f) for s in model.signals("temperature")]

@@ -42,6 +42,8 @@ class FitRequest:
 
 
 def training_rows(table: Table, time_column: str, until: float | None, rows: int | None) -> int:
+    """How many leading rows train: `rows`, or those timed at or before `until` s; refuses both or neither
+    given, fewer than 10, or more than the table has."""
     if (until is None) == (rows is None):
         raise UserError("give exactly one of --train-until SECONDS and --train-rows N")
     if rows is None:
@@ -58,6 +60,8 @@ def training_rows(table: Table, time_column: str, until: float | None, rows: int
 
 
 def sample_period(table: Table, time_column: str) -> float:
+    """The table's sample period in s, the median time step; refuses fewer than two rows or any step more
+    than 5 % off it (the block runs on a fixed cycle)."""
     t = table.columns[time_column]
     if len(t) < 2:
         raise UserError(f"{table.path}: need at least two rows to know the sample period")

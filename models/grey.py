@@ -30,6 +30,7 @@ DEVELOPMENT_GRID = 16  # candidate development coefficients a, log-spaced in tim
 
 
 def accumulate(x: np.ndarray) -> np.ndarray:
+    """The 1-AGO running sums S(k) = x(1) + ... + x(k), down each column (rows are samples)."""
     return np.cumsum(x, axis=0)
 
 
@@ -137,6 +138,8 @@ def gm11_predict(target_train: np.ndarray, rows: int) -> np.ndarray:
 
 
 def predict_gm0n(model: Model, inputs: dict, precision: str) -> dict:
+    """Reference in binary32 ('f32') or float64, in the block's operation order: {target name: error
+    estimate per row}, X1 at the first row."""
     f = np.float32 if precision == "f32" else np.float64
     temps = [np.asarray(inputs[s.name], f) for s in model.signals("temperature")]
     a, x1 = f(model.coef("a", precision)), f(model.coef("X1", precision))
@@ -160,6 +163,8 @@ def predict_gm0n(model: Model, inputs: dict, precision: str) -> dict:
 
 
 def predict_gm1n(model: Model, inputs: dict, precision: str) -> dict:
+    """Reference in binary32 ('f32') or float64, in the block's operation order: {target name: error
+    estimate per row}, X1 at the first row."""
     f = np.float32 if precision == "f32" else np.float64
     temps = [np.asarray(inputs[s.name], f) for s in model.signals("temperature")]
     c = lambda name: f(model.coef(name, precision))

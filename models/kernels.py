@@ -41,10 +41,6 @@ def enabled() -> bool:
     return numba is not None and _mode == "fast"
 
 
-def mode() -> str:
-    return "fast" if enabled() else "slow"
-
-
 @contextlib.contextmanager
 def reference(which: str):
     """Compute the reference with the compiled loops ('fast') or the numpy/Python loops ('slow')."""
@@ -295,6 +291,8 @@ class GreyState:
 
 
 def gm0n(temps: list, a, x1, b: list, f, state: GreyState | None = None) -> np.ndarray:
+    """GM(0,N) error estimates of `temps` (one array per sensor) by the compiled loop, bit for bit
+    those of grey.predict_gm0n; `state` carries the sums and the last level from chunk to chunk."""
     state = state or GreyState(len(temps), f)
     stacked = np.array(temps, f).reshape(len(temps), -1)
     out = np.empty(stacked.shape[1], f)
@@ -303,6 +301,8 @@ def gm0n(temps: list, a, x1, b: list, f, state: GreyState | None = None) -> np.n
 
 
 def gm1n(temps: list, x1, keep, gain, b: list, f, state: GreyState | None = None) -> np.ndarray:
+    """GM(1,N) error estimates of `temps` (one array per sensor) by the compiled loop, bit for bit
+    those of grey.predict_gm1n; `state` carries the sums and the last level from chunk to chunk."""
     state = state or GreyState(len(temps), f)
     stacked = np.array(temps, f).reshape(len(temps), -1)
     out = np.empty(stacked.shape[1], f)

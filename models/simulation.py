@@ -28,18 +28,22 @@ from thermoplc.models.effects.definition import DisplacementTerm
 
 
 def minimize(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
+    """scipy.optimize.minimize itself (same arguments, same result), imported on the first call."""
     from scipy.optimize import minimize as function
     return function(*args, **kwargs)
 
 def minimize_scalar(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
+    """scipy.optimize.minimize_scalar itself (same arguments, same result), imported on the first call."""
     from scipy.optimize import minimize_scalar as function
     return function(*args, **kwargs)
 
 def lfilter(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
+    """scipy.signal.lfilter itself (same arguments, same result), imported on the first call."""
     from scipy.signal import lfilter as function
     return function(*args, **kwargs)
 
 def savgol_filter(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
+    """scipy.signal.savgol_filter itself (same arguments, same result), imported on the first call."""
     from scipy.signal import savgol_filter as function
     return function(*args, **kwargs)
 
@@ -144,6 +148,7 @@ class Simulation:
 
 
 def pole(tau_s: float, dt: float) -> float:
+    """The share a = exp(-dt/tau) a first-order lag keeps of its last value per row of `dt` s (tau in s too)."""
     return float(np.exp(-dt / tau_s))
 
 
@@ -187,6 +192,7 @@ def lag_columns(x: np.ndarray, a: float, y0: np.ndarray) -> np.ndarray:
 
 
 def stopped(series: Series, shared: Shared) -> np.ndarray:
+    """Per row, True where the spindle counts as standing: speed at or below `shared.stopped_rpm`."""
     return series.n <= shared.stopped_rpm
 
 
@@ -199,6 +205,8 @@ def speed_table(shared: Shared) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def speed_heat(n: np.ndarray, shared: Shared) -> np.ndarray:
+    """The speed heat s(n) per row: n itself, or with an exponent fitted the n^p table interpolated at n as
+    the block interpolates it (extended linearly beyond its ends)."""
     if shared.exponent is None:
         return n
     nodes, values, slopes = speed_table(shared)
@@ -575,6 +583,8 @@ def _displacement_columns(series, temps, taus: dict, effects):
 
 def fit_displacement(series: Series, temps: np.ndarray, t0: np.ndarray, effects, structure_lag: bool = True,
                      start: DisplacementParams | None = None) -> tuple[DisplacementParams, float]:
+    """The displacement's time constants by grid search and polish, its weights by least squares on `temps`
+    (rises from `t0`); returns them and the squared error, starting from `start`'s time constants."""
     terms = displacement_terms(effects)
     wanted = (["struct"] if structure_lag else []) + [term.key for term in terms]
     bounds = {"struct": (np.log(600.0), np.log(48 * HOUR)),

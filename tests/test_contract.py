@@ -194,6 +194,9 @@ def test_the_models_name_no_status_output_or_commissioning_input_of_the_block():
     assert named_in_models == []
     assert set(CONTROL_INPUTS) == set(CONTROL_START)
     assert set(STATUS_OUTPUTS.values()) == {"ENO", "Ready", "Limited", "Clamped", "Invalid"}
+    from thermoplc.contract.outputs import ENO
+    from thermoplc.generator import ir
+    assert ir.ENO == ENO
     assert list(named({k0_key(2): 1, "E_z_um": 2, **dict.fromkeys(STATUS_OUTPUTS, 3)}, {})) == \
         ["K0_2", "E_z_um", "Ready", "Limited", "Clamped", "Invalid", "ENO"]
     model = load_model(GOLDEN / "mlr.json")

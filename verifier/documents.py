@@ -41,6 +41,8 @@ def _findings(findings: tuple[Finding, ...]) -> list[dict]:
 
 
 def verify_document(report: Report) -> dict:
+    """The `verify --json` document (the block against a model or a recorded trace): verdict, first mismatch
+    with its REALs as exact bits, the constants check, and what made the block unsafe."""
     m = report.mismatch
     return {
         "format": "thermoplc-verify", "version": VERSION, "ok": report.ok,
@@ -60,6 +62,8 @@ def verify_document(report: Report) -> dict:
 
 
 def faults_document(report: FaultReport) -> dict:
+    """The `verify --faults --json` document: per injected fault whether the block stayed bit-exact, finite,
+    within the clamp and rate, flagged it, was clear again at the end; constants check, what was unsafe."""
     return {
         "format": "thermoplc-verify-faults", "version": VERSION, "ok": report.ok, "block": report.block,
         "rows": report.rows,
@@ -74,6 +78,8 @@ def faults_document(report: FaultReport) -> dict:
 
 
 def diff_document(result: BlockDiff, with_data: bool) -> dict:
+    """The `diff --json` document: the structural differences and, with data (`with_data`), the outputs that
+    behave differently; `same` only when the structure, and with data the behaviour, agree."""
     behaviour = None if result.behaviour is None else [
         {"output": d.output, "type": "REAL" if d.real else "BOOL",
          "max_abs": (d.max_abs if math.isfinite(d.max_abs) else str(d.max_abs)) if d.real else None,
