@@ -358,6 +358,42 @@ def polish(sim: Simulation, sim_score: Score, train: Series, series: Series, cha
     return sim, sim_score
 
 
+def _named(name: str, series: Series, n_train: int, current: Simulation, current_score, residual: dict,
+           trial: Simulation, s, res: dict, excess_removed: float, windows0) -> dict:
+    """An accepted effect's entry of the findings: its parameters and the evidence that named it."""
+    return {"name": name, "parameters": describe(trial, name, series), "evidence": {
+        "bic_before": current_score.bic, "bic_after": s.bic, "delta_bic": s.bic - current_score.bic,
+        "delta_bic_white": effective_delta_bic(residual, res, trial.parameter_count() - current.parameter_count(),
+                                               n_train),
+        "held_out_rmse_before": current_score.rmse_held_out, "held_out_rmse_after": s.rmse_held_out,
+        "held_out_excess_removed": excess_removed,
+        "windows": _window_change(windows0, residual, res)}}
+
+
+def _try(series: Series, train: Series, channels, sigma: dict, n_train: int, current: Simulation, current_score,
+         residual: dict, name: str, sensor: int | None):
+    """One candidate fitted on top of `current` and judged: its row of the round's table; (fit, score,
+    residual, simulated) when the information criteria credit it and no physics rule objects, else None;
+    whether it also passed the held-out test; and, if it passed, the effect added before that it cannot
+    be told from (names, why) or None."""
+    trial = sim_.fit(train, (*current.effects, (name, sensor)), warm=current)
+    sim_out, res = _simulate(trial, series, channels)
+    s = score(trial, res, sigma, n_train)
+    gain = held_out_gain(current_score, s, n_train)
+    delta = s.bic - current_score.bic
+    effective = effective_delta_bic(residual, res, trial.parameter_count() - current.parameter_count(), n_train)
+    by_bic = delta < -BIC_MARGIN and effective < -BIC_MARGIN
+    why = (not_the_named_physics(trial, name, series, train, channels, sigma, current_score, s, by_bic)
+           or definition_of(name).after_fit(trial, train))
+    if why is None and delta < -BIC_MARGIN and not effective < -BIC_MARGIN:
+        why = (f"the residual it leaves is still a slow misfit, not noise: counted over its effective rows "
+               f"(lag-1 autocorrelation) the BIC changes by {effective:+.1f}, not below -{BIC_MARGIN:g}")
+    judged = by_bic and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
+    alike = definition_of(name).alike_after(current, trial, train) if judged else None
+    row = Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False, why)
+    return row, (trial, s, res, sim_out) if by_bic and why is None else None, judged, alike
+
+
 def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulation | None = None,
              progress: Callable[[str], None] | None = None, structure_lag: bool = True) -> Diagnosis:
     """Search for missing effects; `structure_lag` keeps the displacement's structure lag in the
@@ -389,26 +425,12 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
         for k, (name, sensor) in enumerate(options, start=1):
             say(f"round {len(rounds) + 1}: testing {name}" + (f" on {series.names[sensor]}" if sensor is not None else "")
                 + f" ({k}/{len(options)})")
-            trial = sim_.fit(train, (*current.effects, (name, sensor)), warm=current)
-            sim_out, res = _simulate(trial, series, channels)
-            s = score(trial, res, sigma, n_train)
-            gain = held_out_gain(current_score, s, n_train)
-            delta = s.bic - current_score.bic
-            effective = effective_delta_bic(residual, res, trial.parameter_count() - current.parameter_count(),
-                                            n_train)
-            by_bic = delta < -BIC_MARGIN and effective < -BIC_MARGIN
-            why = (not_the_named_physics(trial, name, series, train, channels, sigma, current_score, s, by_bic)
-                   or definition_of(name).after_fit(trial, train))
-            if why is None and delta < -BIC_MARGIN and not effective < -BIC_MARGIN:
-                why = (f"the residual it leaves is still a slow misfit, not noise: counted over its effective rows "
-                       f"(lag-1 autocorrelation) the BIC changes by {effective:+.1f}, not below -{BIC_MARGIN:g}")
-            judged = by_bic and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
-            if judged and (alike := definition_of(name).alike_after(current, trial, train)):
-                undecided = alike
-            trials.append(Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False,
-                                why))
-            if by_bic and why is None:
-                credible.append((trial, s, res, sim_out, len(trials) - 1, name))
+            row, fitted, judged, alike = _try(series, train, channels, sigma, n_train, current, current_score,
+                                              residual, name, sensor)
+            undecided = alike or undecided
+            trials.append(row)
+            if fitted is not None:
+                credible.append((*fitted, len(trials) - 1, name))
                 if judged:
                     passed.append(credible[-1])
         if undecided:  # an effect added before leaves what this one still fits
@@ -431,13 +453,8 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
         trial, s, res, sim_out, index, name = best
         trials[index] = Trial(**{**trials[index].__dict__, "accepted": True})
         rounds.append(trials)
-        added.append({"name": name, "parameters": describe(trial, name, series), "evidence": {
-            "bic_before": current_score.bic, "bic_after": s.bic, "delta_bic": s.bic - current_score.bic,
-            "delta_bic_white": effective_delta_bic(residual, res, trial.parameter_count() - current.parameter_count(),
-                                               n_train),
-            "held_out_rmse_before": current_score.rmse_held_out, "held_out_rmse_after": s.rmse_held_out,
-            "held_out_excess_removed": trials[index].held_out_gain,
-            "windows": _window_change(windows0, residual, res)}})
+        added.append(_named(name, series, n_train, current, current_score, residual, trial, s, res,
+                            trials[index].held_out_gain, windows0))
         current, current_score = polish(trial, s, train, series, channels, sigma, n_train)
         simulated, residual = (sim_out, res) if current is trial else _simulate(current, series, channels)
         windows = all_windows(current, residual, sigma, series.dt)

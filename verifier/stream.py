@@ -147,16 +147,7 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
             break
         t = time.perf_counter()
         steps.add(chunk.columns[model.time_column])
-        for name in controls:  # the streamed reference is the always-enabled, never-reset block
-            if name in chunk.columns and (chunk.columns[name] != CONTROL_INPUT_START[name]).any():
-                raise _GiveUp(f"the data drive {name}")
-        inputs = {}
-        for name, column in column_of.items():
-            values = chunk.columns[column]
-            with np.errstate(over="ignore"):
-                inputs[name] = values.astype(np.float32)
-            if np.isinf(inputs[name]).any():
-                raise _GiveUp("a cell beyond the largest REAL")
+        inputs = _chunk_inputs(chunk, column_of, controls)
         timings["read"] += time.perf_counter() - t
         t = time.perf_counter()
         expected = named(ref32.step(inputs), output_names)
@@ -170,17 +161,7 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
         if result is None or result[1]:
             raise _GiveUp("the fast engine met a value the interpreter reports")
         t = time.perf_counter()
-        produced = result[0]
-        for name, want in expected.items():
-            if len(differing_rows(types[name], produced[name], want)):
-                raise _GiveUp("a mismatch (the whole-recording path reports it)")
-            if types[name] == "REAL" and first_non_finite(produced[name]) is not None:
-                raise _GiveUp("an output is not finite")
-        if len(expected[target]):
-            gap = float(np.max(np.abs(expected[target].astype(np.float64) - ideal[target])))
-            if not np.isfinite(gap):
-                raise _GiveUp("the quantisation error is not finite")
-            quantisation = max(quantisation, gap)
+        quantisation = max(quantisation, _compare_chunk(result[0], expected, types, ideal[target], target))
         rows += chunk.rows
         timings["compare"] += time.perf_counter() - t
         if progress is not None:
@@ -201,6 +182,38 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
     LAST_TIMINGS.update(timings)
     LAST_TIMINGS["rows"] = rows
     return replace(report, constants_checked=checked, constant_errors=errors, limits=limits)
+
+
+def _chunk_inputs(chunk, column_of: dict, controls: tuple) -> dict:
+    """The model inputs of one chunk as float32; gives up where only the whole-recording path is right:
+    the data drive Enable or Reset (the streamed reference is the always-enabled, never-reset block),
+    or a cell is beyond the largest REAL."""
+    for name in controls:
+        if name in chunk.columns and (chunk.columns[name] != CONTROL_INPUT_START[name]).any():
+            raise _GiveUp(f"the data drive {name}")
+    inputs = {}
+    for name, column in column_of.items():
+        with np.errstate(over="ignore"):
+            inputs[name] = chunk.columns[column].astype(np.float32)
+        if np.isinf(inputs[name]).any():
+            raise _GiveUp("a cell beyond the largest REAL")
+    return inputs
+
+
+def _compare_chunk(produced: dict, expected: dict, types: dict, ideal, target: str) -> float:
+    """The chunk's quantisation error of the target (0 for no rows); gives up on any differing bit or
+    non-finite REAL output, which the whole-recording path then reports with its row."""
+    for name, want in expected.items():
+        if len(differing_rows(types[name], produced[name], want)):
+            raise _GiveUp("a mismatch (the whole-recording path reports it)")
+        if types[name] == "REAL" and first_non_finite(produced[name]) is not None:
+            raise _GiveUp("an output is not finite")
+    if not len(expected[target]):
+        return 0.0
+    gap = float(np.max(np.abs(expected[target].astype(np.float64) - ideal)))
+    if not np.isfinite(gap):
+        raise _GiveUp("the quantisation error is not finite")
+    return gap
 
 
 def _output_types(replayer, block: str, model_path: str, expected: dict) -> dict:
