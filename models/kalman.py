@@ -135,6 +135,64 @@ def _minimize(objective, lower, upper, options: FitOptions, rng, progress):
     return result.x, result.cost, result.history, result.evaluations
 
 
+def _reporter(step: str, options: FitOptions, progress: Callable[[str], None] | None):
+    """Progress with an ETA from the time per generation so far in this step (None without progress)."""
+    if not progress:
+        return None
+    started = time.perf_counter()
+
+    def report(gen: int, cost: float) -> None:
+        left = (time.perf_counter() - started) / max(gen, 1) * max(options.generations - gen, 0)
+        progress(f"{step}: generation {gen}/{options.generations}, best RMS {cost:.4g}, about {left:.0f} s left")
+    return report
+
+
+def _lumped_mass(tm: np.ndarray, te: np.ndarray, n: np.ndarray, dt: float, name: str, options: FitOptions, rng,
+                 reporter, log: dict) -> tuple[float, float, float]:
+    """GA step 1 (eq. 12) for one sensor: its time constant (s), speed gain (K/rpm) and standstill rise (K)
+    fitted open loop to its readings; the step's entry goes into `log`."""
+    n_max = max(float(np.max(np.abs(n))), 1.0)
+    span = max(float(np.ptp(tm)), 0.1)
+    rest = tm - te
+    lower = np.array([np.log10(2 * dt), -3 * span / n_max, float(rest.min()) - span])
+    upper = np.array([np.log10(48 * 3600.0), 3 * span / n_max, float(rest.max()) + span])
+
+    def f1(pop):
+        a, b, c, d = lumped.discrete(10 ** pop[:, 0], pop[:, 1], pop[:, 2], dt)
+        return _rms(lumped.open_loop(a, b, c, d, te, n, tm[0]) - tm)
+
+    x, cost, history, evals = _minimize(f1, lower, upper, options, rng, reporter(f"{name} lumped-mass"))
+    log["steps"].append({"step": f"lumped-mass {name} (eq. 12)", "rms_K": cost, "evaluations": evals,
+                         "history": list(history)})
+    return 10 ** x[0], x[1], x[2]
+
+
+def _sensor_values(name: str, params: tuple, discrete: tuple, noise: tuple, measured: np.ndarray, fused: np.ndarray,
+                   forcing: np.ndarray, options: FitOptions) -> tuple[dict[str, Coefficient], dict]:
+    """One sensor's block coefficients (A, AA, B, C, D, N, R, P0, Jmp, Agr) and its settings entry; the
+    jump and recover limits, unless given, from the 99.9 % quantile of its steps and innovations."""
+    tau, g_n, g_0 = params
+    a, b, c, d = (float(v[0]) for v in discrete)
+    noise_n, noise_r = noise
+    innovation = np.abs(measured[1:] - (a * fused[:-1] + forcing[1:]))
+    jump = options.jump_limit
+    if jump is None:
+        jump = max(1.0, 3 * float(np.quantile(np.abs(np.diff(measured)), 0.999)))
+    recover = options.recover_limit
+    if recover is None:
+        recover = max(0.5, 3 * float(np.quantile(innovation, 0.999)))
+    coef_a = Coefficient.of(a)
+    values = {"A": coef_a, "AA": Coefficient(a * a, round_f32(coef_a.f32 * coef_a.f32)),
+              "B": Coefficient.of(b), "C": Coefficient.of(c), "D": Coefficient.of(d),
+              "N": Coefficient.of(noise_n), "R": Coefficient.of(noise_r), "P0": Coefficient.of(noise_r),
+              "Jmp": Coefficient.of(jump), "Agr": Coefficient.of(recover)}
+    described = {"name": name, "tau_s": tau, "gain_K_per_rpm": g_n, "standstill_K": g_0,
+                 "v1_per_s": 1 / tau, "v_speed_K_per_s_rpm": g_n / tau, "v0_K_per_s": g_0 / tau,
+                 "process_noise_N": noise_n, "measurement_noise_R": noise_r,
+                 "jump_limit_K": jump, "recover_limit_K": recover}
+    return values, described
+
+
 def fit_kalman(temps: np.ndarray, te: np.ndarray, n: np.ndarray, target: np.ndarray, dt: float,
                names: list[str], options: FitOptions,
                progress: Callable[[str], None] | None = None) -> tuple[dict[str, Coefficient], dict, dict]:
@@ -144,37 +202,10 @@ def fit_kalman(temps: np.ndarray, te: np.ndarray, n: np.ndarray, target: np.ndar
     """
     rng = np.random.default_rng(options.seed)
     k = temps.shape[1]
-    n_max = max(float(np.max(np.abs(n))), 1.0)
-    lumped_params = []
     log = {"optimizer": options.optimizer, "seed": options.seed, "population": options.population,
            "generations": options.generations, "steps": []}
-
-    def reporter(step: str):
-        """Progress with an ETA from the time per generation so far in this step."""
-        if not progress:
-            return None
-        started = time.perf_counter()
-
-        def report(gen: int, cost: float) -> None:
-            left = (time.perf_counter() - started) / max(gen, 1) * max(options.generations - gen, 0)
-            progress(f"{step}: generation {gen}/{options.generations}, best RMS {cost:.4g}, about {left:.0f} s left")
-        return report
-
-    for i in range(k):
-        tm = temps[:, i]
-        span = max(float(np.ptp(tm)), 0.1)
-        rest = tm - te
-        lower = np.array([np.log10(2 * dt), -3 * span / n_max, float(rest.min()) - span])
-        upper = np.array([np.log10(48 * 3600.0), 3 * span / n_max, float(rest.max()) + span])
-
-        def f1(pop, tm=tm):
-            a, b, c, d = lumped.discrete(10 ** pop[:, 0], pop[:, 1], pop[:, 2], dt)
-            return _rms(lumped.open_loop(a, b, c, d, te, n, tm[0]) - tm)
-
-        x, cost, history, evals = _minimize(f1, lower, upper, options, rng, reporter(f"{names[i]} lumped-mass"))
-        lumped_params.append((10 ** x[0], x[1], x[2]))
-        log["steps"].append({"step": f"lumped-mass {names[i]} (eq. 12)", "rms_K": cost, "evaluations": evals,
-                             "history": list(history)})
+    reporter = lambda step: _reporter(step, options, progress)
+    lumped_params = [_lumped_mass(temps[:, i], te, n, dt, names[i], options, rng, reporter, log) for i in range(k)]
 
     discrete = [lumped.discrete(np.array([tau]), np.array([g_n]), np.array([g_0]), dt)
                 for tau, g_n, g_0 in lumped_params]
@@ -208,27 +239,11 @@ def fit_kalman(temps: np.ndarray, te: np.ndarray, n: np.ndarray, target: np.ndar
     coefficients: dict[str, Coefficient] = {}
     settings = {"sensors": []}
     for i in range(k):
-        tau, g_n, g_0 = lumped_params[i]
-        a, b, c, d = (float(v[0]) for v in discrete[i])
-        noise_n, noise_r = 10 ** x[2 * i], 10 ** x[2 * i + 1]
-        innovation = np.abs(temps[1:, i] - (a * series[i][0][:-1] + forcing[i][1:]))
-        jump = options.jump_limit
-        if jump is None:
-            jump = max(1.0, 3 * float(np.quantile(np.abs(np.diff(temps[:, i])), 0.999)))
-        recover = options.recover_limit
-        if recover is None:
-            recover = max(0.5, 3 * float(np.quantile(innovation, 0.999)))
-        coef_a = Coefficient.of(a)
-        values = {"A": coef_a, "AA": Coefficient(a * a, round_f32(coef_a.f32 * coef_a.f32)),
-                  "B": Coefficient.of(b), "C": Coefficient.of(c), "D": Coefficient.of(d),
-                  "N": Coefficient.of(noise_n), "R": Coefficient.of(noise_r), "P0": Coefficient.of(noise_r),
-                  "Jmp": Coefficient.of(jump), "Agr": Coefficient.of(recover)}
+        noise = (10 ** x[2 * i], 10 ** x[2 * i + 1])
+        values, described = _sensor_values(names[i], lumped_params[i], discrete[i], noise, temps[:, i], series[i][0],
+                                           forcing[i], options)
         coefficients.update({f"{name}_{i + 1}": values[name] for name in SENSOR_COEFFICIENTS})
-        settings["sensors"].append({
-            "name": names[i], "tau_s": tau, "gain_K_per_rpm": g_n, "standstill_K": g_0,
-            "v1_per_s": 1 / tau, "v_speed_K_per_s_rpm": g_n / tau, "v0_K_per_s": g_0 / tau,
-            "process_noise_N": noise_n, "measurement_noise_R": noise_r,
-            "jump_limit_K": jump, "recover_limit_K": recover})
+        settings["sensors"].append(described)
     coefficients["beta0"] = Coefficient.of(beta[0])
     for i in range(k):
         coefficients[f"beta_{i + 1}"] = Coefficient.of(beta[i + 1])
