@@ -120,6 +120,36 @@ def _scale(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return 2.0 / span, -1.0 - 2.0 * low / span
 
 
+def _coefficients(net, scaled_in: tuple, scaled_out: tuple) -> dict[str, Coefficient]:
+    """The model file's coefficients in block order: input scaling, hidden layer, output layer with the
+    scaling back to um, then the activation's Pade constants and clip."""
+    (in_scale, in_shift), (out_scale, out_shift) = scaled_in, scaled_out
+    hidden, m = net.w1.shape
+    q = net.w2.shape[0]
+    coefficients = {}
+    for i in range(m):
+        coefficients[f"in_scale_{i + 1}"] = Coefficient.of(in_scale[i])
+        coefficients[f"in_shift_{i + 1}"] = Coefficient.of(in_shift[i])
+    for j in range(hidden):
+        coefficients[f"b1_{j + 1}"] = Coefficient.of(net.b1[j])
+        for i in range(m):
+            coefficients[f"w1_{j + 1}_{i + 1}"] = Coefficient.of(net.w1[j, i])
+    for k in range(q):
+        coefficients[f"b2_{k + 1}"] = Coefficient.of(net.b2[k])
+        for j in range(hidden):
+            coefficients[f"w2_{k + 1}_{j + 1}"] = Coefficient.of(net.w2[k, j])
+        coefficients[f"out_scale_{k + 1}"] = Coefficient.of(1.0 / out_scale[k])
+        coefficients[f"out_shift_{k + 1}"] = Coefficient.of(-out_shift[k] / out_scale[k])
+    for n, value in enumerate(PADE_P[1:], start=1):
+        coefficients[f"act_p{n}"] = Coefficient.of(value)
+    for n, value in enumerate(PADE_Q[1:], start=1):
+        coefficients[f"act_q{n}"] = Coefficient.of(value)
+    coefficients["act_one"] = Coefficient.of(1.0)
+    coefficients["act_clip"] = Coefficient.of(CLIP)
+    coefficients["act_nclip"] = Coefficient.of(-CLIP)
+    return coefficients
+
+
 def fit_bpnn(temps: np.ndarray, targets: np.ndarray, names: list[str], seed: int, population: int,
              generations: int, epochs: int = 3000, goal_mse: float = 2e-3,
              operators: str = "paper002") -> tuple[dict, dict, dict]:
@@ -168,27 +198,7 @@ def fit_bpnn(temps: np.ndarray, targets: np.ndarray, names: list[str], seed: int
     net, epochs_ga, mse_ga = train(_unpack(weight_ga.x, m, hidden, q), xs, ys, epochs, goal_mse)
     _, epochs_plain, mse_plain = train(_random_network(np.random.default_rng(seed), m, hidden, q), xs, ys,
                                        epochs, goal_mse)
-    coefficients = {}
-    for i in range(m):
-        coefficients[f"in_scale_{i + 1}"] = Coefficient.of(in_scale[i])
-        coefficients[f"in_shift_{i + 1}"] = Coefficient.of(in_shift[i])
-    for j in range(hidden):
-        coefficients[f"b1_{j + 1}"] = Coefficient.of(net.b1[j])
-        for i in range(m):
-            coefficients[f"w1_{j + 1}_{i + 1}"] = Coefficient.of(net.w1[j, i])
-    for k in range(q):
-        coefficients[f"b2_{k + 1}"] = Coefficient.of(net.b2[k])
-        for j in range(hidden):
-            coefficients[f"w2_{k + 1}_{j + 1}"] = Coefficient.of(net.w2[k, j])
-        coefficients[f"out_scale_{k + 1}"] = Coefficient.of(1.0 / out_scale[k])
-        coefficients[f"out_shift_{k + 1}"] = Coefficient.of(-out_shift[k] / out_scale[k])
-    for n, value in enumerate(PADE_P[1:], start=1):
-        coefficients[f"act_p{n}"] = Coefficient.of(value)
-    for n, value in enumerate(PADE_Q[1:], start=1):
-        coefficients[f"act_q{n}"] = Coefficient.of(value)
-    coefficients["act_one"] = Coefficient.of(1.0)
-    coefficients["act_clip"] = Coefficient.of(CLIP)
-    coefficients["act_nclip"] = Coefficient.of(-CLIP)
+    coefficients = _coefficients(net, (in_scale, in_shift), (out_scale, out_shift))
     settings = {"inputs": m, "hidden": hidden, "outputs": q, "activation": "Pade(7,6) tanh on clip(x, +-4.97)",
                 "activation_error_bound": ACTIVATION_ERROR_BOUND}
     log = {"method": f"GA with {OPERATOR_NAMES[operators]} (hidden size, initial weights) + back-propagation with "
