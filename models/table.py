@@ -223,6 +223,23 @@ def _delimiter(path: str, header_line: str, decimal: str) -> tuple[str, bool]:
     return ",", False
 
 
+def _header(path: str, first: str, decimal: str) -> tuple[str, bool, list[str]]:
+    """The delimiter, whether decimals are commas, and the column names of header line `first`; refuses a
+    comment line, an empty column name and a name given twice, by line and column."""
+    if first.lstrip().startswith("#"):
+        raise UserError(f"{path}:1: a comment line; expected the header (the column names) on the first line")
+    delimiter, comma_decimal = _delimiter(path, first, decimal)
+    header = [h.strip() for h in _fields(path, 1, first, delimiter)]
+    seen = set()
+    for col, name in enumerate(header, start=1):
+        if not name:
+            raise UserError(f"{path}:1:{col}: empty column name in the header")
+        if name in seen:
+            raise UserError(f"{path}:1:{col}: column {name!r} appears twice in the header")
+        seen.add(name)
+    return delimiter, comma_decimal, header
+
+
 def read_table(path: str | Path, time_column: str | None = "time_s", progress=None, decimal: str = "auto") -> Table:
     """Read a CSV file with one header line (or a .npz of columns); every cell must be a finite
     number. ',' separated with decimal points, or ';' separated with decimal commas (detected, or
@@ -255,17 +272,7 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
                 if handle.read(1):
                     raise UserError(f"{path}:1: the first line is blank; expected the header (the column names) there")
                 raise UserError(f"{path}: file is empty; expected a header line and data rows")
-            if first.lstrip().startswith("#"):
-                raise UserError(f"{path}:1: a comment line; expected the header (the column names) on the first line")
-            delimiter, comma_decimal = _delimiter(path, first, decimal)
-            header = [h.strip() for h in _fields(path, 1, first, delimiter)]
-            seen = set()
-            for col, name in enumerate(header, start=1):
-                if not name:
-                    raise UserError(f"{path}:1:{col}: empty column name in the header")
-                if name in seen:
-                    raise UserError(f"{path}:1:{col}: column {name!r} appears twice in the header")
-                seen.add(name)
+            delimiter, comma_decimal, header = _header(path, first, decimal)
             total = 0
             for text in handle:
                 line += 1
