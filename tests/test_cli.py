@@ -247,3 +247,16 @@ def test_demo_removes_an_earlier_block_of_a_model_it_now_refuses(tmp_path, monke
     assert f"removed {out / 'ThermalCompMlr.scl'}" in printed
     assert not (out / "ThermalCompMlr.scl").exists() and not (out / "ThermalCompMlr.verify.txt").exists()
     assert (out / "mlr.json").exists() and (out / "ThermalCompKalman.scl").exists()
+
+
+def test_the_dialect_choices_are_the_printers():
+    """`generate --dialect` lists its choices without importing the printer (90 ms on every call):
+    a dialect added to the printer must be added there too, and this says so."""
+    import argparse
+    from thermoplc.commands import generate
+    from thermoplc.generator.printer import DIALECTS
+    sub = argparse.ArgumentParser().add_subparsers()
+    generate.add_parser(sub)
+    parser = sub.choices["generate"]
+    dialect = next(a for a in parser._actions if a.dest == "dialect")
+    assert tuple(dialect.choices) == tuple(DIALECTS)
