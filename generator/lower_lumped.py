@@ -70,8 +70,9 @@ def lower_lumped(model: Model) -> Block:
     block = Lumped(model, Ref(model.signals("speed")[0].name), Ref(model.signals("ambient")[0].name),
                    structure="AS" in model.coefficients)
     effects = lumped_effects.of_model(lumped_model.effect_names(model))
-    in_tables = tuple(f"{stem}_" for effect in effects for stem in effect.table_stems)
-    constant_names = [name for name in model.coefficients if not in_tables or not name.startswith(in_tables)]
+    # table coefficients are never constants: without their effect they are unused, and generate refuses them
+    in_tables = tuple(f"{stem}_" for effect in lumped_effects.lowerings().values() for stem in effect.table_stems)
+    constant_names = [name for name in model.coefficients if not name.startswith(in_tables)]
     comments = {**_BASELINE_COMMENTS, **{stem: text for record in lumped_effects.lowerings().values()
                                          for stem, text in record.comments}}
     constants = [Const(f"c_{name}", model.coef(name), comments.get(name.split("_")[0], "")) for name in constant_names]

@@ -264,6 +264,12 @@ def check_settings(model: Model, path: str) -> None:
         raise UserError(f"{path}: field 'settings.speed_table_segments': {table}, but settings.effects "
                         + ("does not list nonlinear_speed_heat, whose speed heat table it is" if table else
                            "lists nonlinear_speed_heat, which needs a speed heat table of at least 1 segment"))
+    for stem in ("node", "heat", "slope"):  # the table's rows: exactly as many as it has segments
+        rows = sum(1 for name in model.coefficients if name.startswith(f"{stem}_"))
+        if rows != table or any(f"{stem}_{m}" not in model.coefficients for m in range(1, table + 1)):
+            raise UserError(f"{path}: field 'settings.speed_table_segments': {table}, but the file has {rows} "
+                            f"{stem}_ coefficients; expected {stem}_1 .. {stem}_{table}" if table else
+                            f"{path}: field 'coefficients': {rows} {stem}_ coefficients but no speed table")
 
 
 class StreamCore:

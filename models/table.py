@@ -353,7 +353,7 @@ def stream_columns(path: str | Path, names: list[str], decimal: str = "auto", ro
                    optional: tuple[str, ...] = ()):
     """Chunks of the named columns (float64), in order. Every column of the file is checked as
     read_table checks it (finite numbers), so the file is accepted exactly when read_table accepts
-    it; only `names` (and those of `optional` the file has) are kept. Raises CannotStream instead
+    it; only `names` (and those of `optional` the file has, in any case) are kept. Raises CannotStream instead
     of any error."""
     kind = stream_kind(path)
     try:
@@ -380,11 +380,19 @@ def _finite_numbers(columns: dict) -> None:
 
 
 def _keep(columns: dict, names: list[str], start: int, optional: tuple[str, ...] = ()) -> Chunk:
+    """The chunk of `names`, and of each `optional` name the file has, in any case (a block input's
+    column, as verifier/control.py finds it), kept under the name asked for."""
     missing = [n for n in names if n not in columns]
     if missing:
         raise CannotStream(f"no column {missing[0]!r}")
-    kept = [*names, *(n for n in optional if n in columns and n not in names)]
-    return Chunk(start, {n: np.asarray(columns[n], np.float64) for n in kept})
+    kept = {n: columns[n] for n in names}
+    for name in optional:
+        alike = [c for c in columns if c.upper() == name.upper()]
+        if len(alike) > 1 and name not in columns:
+            raise CannotStream(f"two columns could be {name}")
+        if alike and name not in kept:
+            kept[name] = columns[name if name in columns else alike[0]]
+    return Chunk(start, {n: np.asarray(values, np.float64) for n, values in kept.items()})
 
 
 def _stream_csv(path: str, names: list[str], decimal: str, optional: tuple[str, ...] = ()):

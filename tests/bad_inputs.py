@@ -377,6 +377,8 @@ def _schema_cases() -> list[Case]:
          "field 'settings.relay_sensor': 9 but the model has 2 temperature inputs"),
         ("lumped", "nonlinear_speed_heat without its speed table", ["settings", "speed_table_segments"], 0,
          "field 'settings.speed_table_segments': 0, but settings.effects lists nonlinear_speed_heat"),
+        ("lumped", "speed table of 15 segments holding 16 rows", ["settings", "speed_table_segments"], 15,
+         "field 'settings.speed_table_segments': 15, but the file has 16 node_ coefficients"),
         ("mlr", "no inputs", ["inputs"], [], "field 'inputs': [] should be non-empty"),
         ("bayes", "configurations that do not fit the intervals", ["settings", "configurations"], 2,
          "intervals [8, 8] and configurations 2 do not fit 2 parents"),

@@ -75,6 +75,26 @@ def test_enable_and_reset_columns_map_with_inputs_and_default_when_absent(folder
     assert "line 6" in result.stderr and "'Reset'" in result.stderr and "0 or 1" in result.stderr
 
 
+@pytest.mark.parametrize("engine", ["auto", "interp"])  # the streamed path first, and the whole-recording one
+def test_an_enable_column_in_another_case_drives_the_block_on_both_paths(folder, engine):
+    """ST names ignore case, so a column `enable` is the block's Enable: a block that ignores it fails
+    on the streamed path as on the whole-recording one (both read it); two such columns are refused."""
+    thermoplc("generate", GOLDEN / "kalman.json", "-o", "k.scl", "--force", cwd=folder)
+    (folder / "k_eno.scl").write_text((folder / "k.scl").read_text().replace("ENO := #Enable;", "ENO := TRUE;"))
+    text = (folder / "plc.csv").read_text()
+    (folder / "lower.csv").write_text(text.replace("Enable", "enable", 1).replace("Reset", "RESET", 1))
+    args = ("--model", GOLDEN / "kalman.json", "--engine", engine)
+    good = thermoplc("verify", "k.scl", "--data", "lower.csv", *args, cwd=folder)
+    assert good.stdout.startswith("bit-exact") and "enabled on 3958 of 4321 calls, 34 reset" in good.stdout, good.stdout
+    bad = thermoplc("verify", "k_eno.scl", "--data", "lower.csv", *args, cwd=folder, check=1)
+    assert bad.stdout.startswith("NOT bit-exact") and "output ENO" in bad.stdout
+    header, rest = text.split("\n", 1)
+    both = "\n".join(f"{line},{line.split(',')[header.split(',').index('Enable')]}" for line in rest.splitlines())
+    (folder / "twice.csv").write_text(f"{header.replace('Enable', 'enable')},ENABLE\n{both}\n")
+    twice = thermoplc("verify", "k.scl", "--data", "twice.csv", *args, cwd=folder, check=2)
+    assert "columns enable, ENABLE could each drive the block input Enable" in twice.stderr
+
+
 def _state(machine: Machine, skip=("ENO",)) -> dict:
     return {d.name: machine.values[machine.slots[d.name.upper()]] for d in machine.decls
             if d.section in ("static", "output") and d.name not in skip}

@@ -155,16 +155,21 @@ def test_each_effect_with_block_arithmetic_has_its_lowering_and_the_file_order_d
     assert (first.statics, first.constants, first.regions) == (second.statics, second.constants, second.regions)
 
 
-@pytest.mark.parametrize("edit", ["drop the effect", "drop the table"])
-def test_a_speed_table_without_its_effect_or_the_effect_without_a_table_is_refused(tmp_path, edit):
+@pytest.mark.parametrize("edit, message", [
+    ("drop the effect", "settings\\.speed_table_segments'"), ("drop the table", "settings\\.speed_table_segments'"),
+    ("drop the effect and the count", "coefficients': 16 node_ coefficients but no speed table"),
+    ("one segment fewer", "settings\\.speed_table_segments': 15, but the file has 16 node_ coefficients")])
+def test_a_speed_table_without_its_effect_or_the_effect_without_a_table_is_refused(tmp_path, edit, message):
     import json
     from thermoplc.models.modelfile import load_model
     from tests.golden_models import GOLDEN
     doc = json.loads((GOLDEN / "lumped.json").read_text())
-    if edit == "drop the effect":
+    if edit.startswith("drop the effect"):
         doc["settings"]["effects"] = [e for e in doc["settings"]["effects"] if e["name"] != "nonlinear_speed_heat"]
-    else:
+    if edit in ("drop the table", "drop the effect and the count"):
         doc["settings"]["speed_table_segments"] = 0
+    if edit == "one segment fewer":
+        doc["settings"]["speed_table_segments"] = 15
     (tmp_path / "m.json").write_text(json.dumps(doc))
-    with pytest.raises(UserError, match=r"m\.json: field 'settings\.speed_table_segments'"):
+    with pytest.raises(UserError, match=r"m\.json: field '" + message):
         load_model(tmp_path / "m.json")

@@ -10,12 +10,13 @@ from thermoplc.models.table import Table
 
 
 def control_inputs(table: Table, overrides: dict | None = None) -> dict:
-    """Enable and Reset per call from the data, by input name: a column named like the input (or mapped
-    with --inputs Enable=COLUMN) holding 0 or 1; an input without a column keeps its start value."""
+    """Enable and Reset per call from the data, by input name: a column named like the input, in any case
+    as ST names are (or mapped with --inputs Enable=COLUMN), holding 0 or 1; an input without a column
+    keeps its start value."""
     overrides = overrides or {}
     control = {}
     for name in CONTROL_INPUT_START:
-        column = overrides.get(name, name)
+        column = overrides.get(name) or _column_named(table, name)
         if column in table.columns:
             values = table.columns[column]
             bad = ~np.isin(values, (0.0, 1.0))
@@ -26,6 +27,17 @@ def control_inputs(table: Table, overrides: dict | None = None) -> dict:
             raise UserError(f"{table.path}: no column {column!r} for block input {name!r}; the header has "
                             f"{', '.join(table.columns)}")
     return control
+
+
+def _column_named(table: Table, name: str) -> str:
+    """The column named `name`, or else the one column named so in another case (`enable`); refuses two."""
+    if name in table.columns:
+        return name
+    alike = [column for column in table.columns if column.upper() == name.upper()]
+    if len(alike) > 1:
+        raise UserError(f"{table.path}: columns {', '.join(alike)} could each drive the block input {name}; "
+                        f"choose one with --inputs {name}=COLUMN")
+    return alike[0] if alike else name
 
 
 def control_summary(control: dict, rows: int) -> str:
