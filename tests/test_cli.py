@@ -260,3 +260,17 @@ def test_the_dialect_choices_are_the_printers():
     parser = sub.choices["generate"]
     dialect = next(a for a in parser._actions if a.dest == "dialect")
     assert tuple(dialect.choices) == tuple(DIALECTS)
+
+
+def test_fit_help_names_every_kind_that_needs_speed_or_ambient():
+    """The --speed and --ambient help is written out (the CLI does not import the kinds): it must name
+    each kind whose record reads the role."""
+    import argparse
+    from thermoplc.commands import fit as fit_command
+    from thermoplc.models.kinds import registry
+    sub = argparse.ArgumentParser().add_subparsers()
+    fit_command.add_parser(sub)
+    actions = {a.dest: a.help for a in sub.choices["fit"]._actions}
+    for role in ("speed", "ambient"):
+        needing = [kind.name for kind in registry().values() if role in kind.roles]
+        assert needing and all(name in actions[role] for name in needing), (role, needing, actions[role])

@@ -41,8 +41,8 @@ def add_parser(sub) -> None:
                    help="measured displacement column, um; bpnn takes several: elongation,yaw,pitch")
     p.add_argument("--temps", type=columns, required=True,
                    help="temperature columns, comma-separated, or @FILE written by select-sensors -o")
-    p.add_argument("--speed", help="spindle speed column, rpm (kalman)")
-    p.add_argument("--ambient", help="ambient temperature column, degC (kalman, piecewise)")
+    p.add_argument("--speed", help="spindle speed column, rpm (kalman, lumped; auto tries them only with it)")
+    p.add_argument("--ambient", help="ambient temperature column, degC (kalman, lumped, piecewise)")
     p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
     training_part(p, required=True).add_argument(
         "--folds", type=number(int, 2, 20, "blocks"), metavar="K",
