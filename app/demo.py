@@ -34,6 +34,9 @@ def recording() -> Path:
 
 
 def run_demo(out: Path, force: bool = False) -> int:
+    for kind, block_name in BLOCKS.items():  # every output checked before anything is printed or written
+        for path in (out / f"{kind}.json", out / f"{block_name}.scl", out / f"{block_name}.verify.txt"):
+            check_output(path, force)
     data = recording()
     table = read_table(data)
     hours = table.columns["time_s"][-1] / 3600
@@ -43,9 +46,6 @@ def run_demo(out: Path, force: bool = False) -> int:
     print(f"  fit on the first 24 h, predict the remaining {hours - 24:.1f} h, generate TIA blocks, verify every row")
     rows = []
     written = []
-    for kind, block_name in BLOCKS.items():  # every output checked before the first is written
-        for path in (out / f"{kind}.json", out / f"{block_name}.scl", out / f"{block_name}.verify.txt"):
-            check_output(path, force)
     for kind, block_name in BLOCKS.items():
         roles = kind_of(kind).roles
         request = FitRequest(kind, TARGET, TEMPS, SPEED if "speed" in roles else None,

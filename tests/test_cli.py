@@ -188,6 +188,8 @@ def test_demo_runs_on_the_bundled_recording(tmp_path):
     assert result.stdout.count("bit-exact over 11115 cycles") == 2
     for name in ("mlr.json", "kalman.json", "ThermalCompMlr.scl", "ThermalCompKalman.scl"):
         assert (tmp_path / "demo" / name).exists()
+    again = thermoplc("demo", "--out", "demo", cwd=tmp_path, check=2)  # refused before it says anything
+    assert again.stdout == "" and "demo/mlr.json: exists" in again.stderr
 
 
 def test_generate_stats_reports_cost(workdir):
