@@ -18,7 +18,8 @@ from thermoplc.base.fileio import check_output, same_file, write_atomic
 from thermoplc.commands.options import FORCE_HELP
 
 JSON_HELP = ("also write the result as a JSON document to FILE ('-': standard output, the text then goes to "
-             "standard error); format and schema: docs/json.md")
+             "standard error); its JSON Schema is installed with thermoplc (thermoplc/schemas/<command>_v1.json), "
+             "the format described in the repository's docs/json.md")
 
 
 def _file_name(text: str) -> str:
