@@ -33,6 +33,11 @@ class SensorFault:
             raise UserError(f"--sensor-fault {text!r}: start time must be a finite number of seconds")
         return SensorFault(kind, column, start_s)
 
+    def describe(self) -> str:
+        """What the fault adds to its column, as the twin's summary says it."""
+        wave = "+2*sin(t/350 s) degC (paper 000 eq. 18)" if self.kind == "sin" else "-2 degC (paper 000 eq. 19)"
+        return f"sensor fault {self.kind} on {self.column} from {self.start_s:g} s: {wave}"
+
     def error(self, t: np.ndarray) -> np.ndarray:
         active = t >= self.start_s
         wave = 2.0 * np.sin(t / 350.0) if self.kind == "sin" else np.full_like(t, -2.0)

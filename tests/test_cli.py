@@ -37,7 +37,9 @@ def test_twin_is_deterministic(workdir):
 
 
 def test_twin_sensor_faults_follow_paper_000(workdir):
-    thermoplc("twin", "--hours", 10, "--seed", 3, "--sensor-fault", "offset:T_motor@3600", "-o", "fault.csv", cwd=workdir)
+    said = thermoplc("twin", "--hours", 10, "--seed", 3, "--sensor-fault", "offset:T_motor@3600", "-o", "fault.csv",
+                     cwd=workdir).stdout
+    assert "  sensor fault offset on T_motor from 3600 s: -2 degC (paper 000 eq. 19)\n" in said
     clean, faulty = read_table(workdir / "twin.csv"), read_table(workdir / "fault.csv")
     shift = faulty.columns["T_motor"] - clean.columns["T_motor"]
     t = clean.columns["time_s"]

@@ -61,5 +61,7 @@ def run(args: argparse.Namespace) -> int:
     for e in effects:
         print(f"  hidden effect {e.name}: " + ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
                                                      for k, v in e.parameters))
+    for fault in faults:
+        print(f"  {fault.describe()}")
     print(f"  columns: {', '.join(columns)}")
     return 0
