@@ -379,19 +379,27 @@ def _finite_numbers(columns: dict) -> None:
             raise CannotStream("a cell is not a finite number")
 
 
+def columns_named(columns, name: str) -> list[str]:
+    """The column `name`, else every column named so in another case (a block input's column: ST names
+    ignore case): one is the column, more are ambiguous, none means no column."""
+    if name in columns:
+        return [name]
+    return [column for column in columns if column.upper() == name.upper()]
+
+
 def _keep(columns: dict, names: list[str], start: int, optional: tuple[str, ...] = ()) -> Chunk:
-    """The chunk of `names`, and of each `optional` name the file has, in any case (a block input's
-    column, as verifier/control.py finds it), kept under the name asked for."""
+    """The chunk of `names`, and of each `optional` name the file has in any case (columns_named), kept
+    under the name asked for."""
     missing = [n for n in names if n not in columns]
     if missing:
         raise CannotStream(f"no column {missing[0]!r}")
     kept = {n: columns[n] for n in names}
     for name in optional:
-        alike = [c for c in columns if c.upper() == name.upper()]
-        if len(alike) > 1 and name not in columns:
+        found = columns_named(columns, name)
+        if len(found) > 1:
             raise CannotStream(f"two columns could be {name}")
-        if alike and name not in kept:
-            kept[name] = columns[name if name in columns else alike[0]]
+        if found and name not in kept:
+            kept[name] = columns[found[0]]
     return Chunk(start, {n: np.asarray(values, np.float64) for n, values in kept.items()})
 
 

@@ -6,7 +6,7 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.contract.outputs import CONTROL_INPUT_START, ENABLE_INPUT, RESET_INPUT
-from thermoplc.models.table import Table
+from thermoplc.models.table import Table, columns_named
 
 
 def control_inputs(table: Table, overrides: dict | None = None) -> dict:
@@ -16,7 +16,7 @@ def control_inputs(table: Table, overrides: dict | None = None) -> dict:
     overrides = overrides or {}
     control = {}
     for name in CONTROL_INPUT_START:
-        column = overrides.get(name) or _column_named(table, name)
+        column = overrides.get(name) or _column_of(table, name)
         if column in table.columns:
             values = table.columns[column]
             bad = ~np.isin(values, (0.0, 1.0))
@@ -29,15 +29,13 @@ def control_inputs(table: Table, overrides: dict | None = None) -> dict:
     return control
 
 
-def _column_named(table: Table, name: str) -> str:
-    """The column named `name`, or else the one column named so in another case (`enable`); refuses two."""
-    if name in table.columns:
-        return name
-    alike = [column for column in table.columns if column.upper() == name.upper()]
-    if len(alike) > 1:
-        raise UserError(f"{table.path}: columns {', '.join(alike)} could each drive the block input {name}; "
+def _column_of(table: Table, name: str) -> str:
+    """The column of block input `name` in any case (`enable`); refuses two."""
+    found = columns_named(table.columns, name)
+    if len(found) > 1:
+        raise UserError(f"{table.path}: columns {', '.join(found)} could each drive the block input {name}; "
                         f"choose one with --inputs {name}=COLUMN")
-    return alike[0] if alike else name
+    return found[0] if found else name
 
 
 def control_summary(control: dict, rows: int) -> str:

@@ -375,7 +375,8 @@ def verify_against_model(block: str, model: Model, model_path: str, table: Table
     inputs = model_inputs(model, table, overrides)
     control = control_inputs(table, overrides)
     check_interface(machine, block, {**inputs, **control}, f"the inputs of {Path(model_path).name}")
-    block32 = named(block_outputs(model, inputs, "f32", limits, control_of(control)),
+    reference_control = control_of(control)
+    block32 = named(block_outputs(model, inputs, "f32", limits, reference_control),
                     block_names(model, [d.name for d in machine.outputs]))
     declared = [d.name for d in machine.outputs]
     unknown = [name for name in declared if name not in block32]
@@ -388,7 +389,7 @@ def verify_against_model(block: str, model: Model, model_path: str, table: Table
         d, expected = wrong
         raise UserError(f"{block}:{d.pos[0]}:{d.pos[1]}: {d.name} is declared {d.type.base}; the model's block "
                         f"has it as {expected}")
-    ideal = block_outputs(model, inputs, "f64", limits, control_of(control))
+    ideal = block_outputs(model, inputs, "f64", limits, reference_control)
     quantisation = {model.target.name: float(np.max(np.abs(block32[model.target.name].astype(np.float64)
                                                           - ideal[model.target.name])))}
     against = f"the float32 reference of {Path(model_path).name} ({model.kind})"

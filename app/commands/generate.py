@@ -54,7 +54,8 @@ def add_parser(sub) -> None:
                         "the next one (0.9 -> 0.10, 0.15 -> 1.0) for a changed model)")
     p.add_argument("--date", type=date, metavar="YYYY-MM-DD",
                    help="date in the header comment (default: today, or SOURCE_DATE_EPOCH when set)")
-    p.add_argument("--stats", action="store_true", help="print operations per call, bytes of state, the range proof and the stress replay")
+    p.add_argument("--stats", action="store_true",
+                   help="print operations per call, bytes of state, the range proof and the stress replay")
     p.add_argument("--accept-unvalidated", action="store_true",
                    help="write the block although the model file has no held-out evidence that it beats no "
                         "compensation (or has evidence that it does not); the header says so")
