@@ -83,7 +83,7 @@ def one(case: tuple[str, str, int]) -> dict:
     injected = series_of({**data, **{c: data[c] + change for c, change in changes.items()}}, channel)
     clean = series_of(data, channel)
     n = int(np.count_nonzero(data["time_s"] <= TRAIN_UNTIL_S))
-    sim, _ = identify.fit(injected.head(n))
+    sim, _ = identify.fit([injected.head(n)])
     (r_injected, e_injected), (r_clean, e_clean) = residuals(sim, injected), residuals(sim, clean)
     signature = (r_injected - r_clean, e_injected - e_clean)
     return {"channel": channel, "effect": name, "seed": seed, "parameters": parameters,

@@ -21,6 +21,8 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Callable
 
+import numpy as np
+
 from thermoplc.base.errors import UserError
 from thermoplc.models import acceptance, crossval
 from thermoplc.models.fit import FitRequest, training_rows
@@ -50,7 +52,7 @@ class Candidate:
 
 
 def forward_selection(tables: list[Table], request: FitRequest, folds: int | None, time_column: str,
-                      max_sensors: int) -> list[tuple[str, ...]]:
+                      max_sensors: int, groups: dict | None = None) -> list[tuple[str, ...]]:
     """Sensors added one at a time, each the one that gives MLR (the cheapest kind, same protocol) the
     lowest held-out RMSE with those before it: the sets of 1..`max_sensors` sensors it passes through."""
     chosen: list[str] = []
@@ -61,7 +63,8 @@ def forward_selection(tables: list[Table], request: FitRequest, folds: int | Non
             if column in chosen:
                 continue
             try:
-                model = crossval.fit_held_out(tables, replace(request, kind="mlr", temps=(*chosen, column)), folds, time_column)
+                model = crossval.fit_held_out(tables, replace(request, kind="mlr", temps=(*chosen, column)), folds,
+                                              time_column, groups=groups)
             except UserError:
                 continue  # a flat sensor, or one that fails a fold: the next one
             scored.append((model.metrics["held_out"]["rmse_um"], request.temps.index(column), column))
@@ -77,8 +80,10 @@ def sensor_sets(table: Table, request: FitRequest, train_rows: int, max_sensors:
     of sensors that move alike) for 2..`max_sensors` groups, each set once."""
     if len(request.temps) <= 2:
         return [request.temps]
-    columns = {c: table.columns[c][:train_rows] for c in request.temps}
     target = table.columns[request.target][:train_rows]
+    measured = np.isfinite(target)  # a probed target: its measured rows
+    columns = {c: table.columns[c][:train_rows][measured] for c in request.temps}
+    target = target[measured]
     sets = []
     for groups in range(2, min(max_sensors, len(request.temps)) + 1):
         chosen = tuple(select_sensors(columns, target, "fcm-grey", max_groups=groups).chosen)
@@ -96,35 +101,40 @@ def tried(request: FitRequest) -> list[Kind]:
 
 
 def rank(tables: list[Table], request: FitRequest, folds: int | None, time_column: str,
-         max_sensors: int = MAX_SENSORS, say: Callable[[str], None] | None = None) -> list[Candidate]:
+         max_sensors: int = MAX_SENSORS, say: Callable[[str], None] | None = None,
+         groups: dict | None = None) -> list[Candidate]:
     """Every applicable kind, best first: the models generate accepts by held-out RMSE, then those it
     would refuse, then the kinds that could not be fitted.
 
     Sensor sets: forward selection by MLR's held-out error, and paper 000's fcm-grey choice on rows
     every candidate trains on (the first block with folds, else the training part). The closed-form
     kinds run on every set; the iterative ones on the set of the best closed-form model."""
-    train_rows = (crossval.cuts(tables[0], time_column, folds, request.speed)[0] if folds
-                  else training_rows(tables[0], time_column, request.train_until, request.train_rows))
+    if len(tables) > 1 or groups is not None:  # a campaign: fcm-grey on the first run, whole
+        train_rows = tables[0].rows
+    elif folds:
+        train_rows = crossval.cuts(tables[0], time_column, folds, request.speed)[0]
+    else:
+        train_rows = training_rows(tables[0], time_column, request.train_until, request.train_rows)
     kinds = tried(request)
     if say:
         say("auto: forward selection of sensors")
-    sets = forward_selection(tables, request, folds, time_column, max_sensors)
+    sets = forward_selection(tables, request, folds, time_column, max_sensors, groups)
     seen = {frozenset(s) for s in sets}
     sets += [s for s in sensor_sets(tables[0], request, train_rows, max_sensors) if frozenset(s) not in seen]
-    found = [_candidate(tables, request, folds, time_column, kind.name, sensors, say)
+    found = [_candidate(tables, request, folds, time_column, kind.name, sensors, say, groups)
              for sensors in sets for kind in kinds if kind.auto == "closed-form"]
     best_set = min(found, key=Candidate.order).sensors
-    found += [_candidate(tables, request, folds, time_column, kind.name, best_set, say)
+    found += [_candidate(tables, request, folds, time_column, kind.name, best_set, say, groups)
               for kind in kinds if kind.auto == "iterative"]
     return sorted(found, key=Candidate.order)
 
 
-def _candidate(tables, request, folds, time_column, kind, sensors, say) -> Candidate:
+def _candidate(tables, request, folds, time_column, kind, sensors, say, groups=None) -> Candidate:
     if say:
         say(f"auto: {kind} on {', '.join(sensors)}")
     wanted = replace(request, kind=kind, temps=sensors)  # the speed read or not, folds cut alike
     try:
-        model = crossval.fit_held_out(tables, wanted, folds, time_column)
+        model = crossval.fit_held_out(tables, wanted, folds, time_column, groups=groups)
     except UserError as exc:
         return Candidate(kind, sensors, None, _without_paths(str(exc), tables))
     return Candidate(kind, sensors, model, not_accepted=acceptance.refusal(model))

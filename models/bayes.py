@@ -74,9 +74,11 @@ def fit_bayes(runs: list[tuple[np.ndarray, np.ndarray]], bins: int, precision_um
     rises = [temps - temps[0] for temps, _ in runs]
     if time_bins:
         rises = [np.column_stack([r, elapsed_s(len(r), dt)]) for r in rises]
+    measured = [np.isfinite(target) for _, target in runs]  # a probed target: its measured rows only
     bins_per_parent = [bins] * runs[0][0].shape[1] + ([time_bins] if time_bins else [])
-    coefficients, settings, log = fit_rises(np.vstack(rises), np.concatenate([t for _, t in runs]), bins_per_parent,
-                                            precision_um, unseen)
+    coefficients, settings, log = fit_rises(np.vstack([r[m] for r, m in zip(rises, measured)]),
+                                            np.concatenate([t[m] for (_, t), m in zip(runs, measured)]),
+                                            bins_per_parent, precision_um, unseen)
     settings["time_parent"] = bool(time_bins)
     return coefficients, settings, log
 
@@ -185,7 +187,6 @@ SETTINGS_SCHEMA = {
 
 KIND = Kind("bayes", 7, _fit, predict, owns_options=(("time_bins", "--time-bins is"),),
             reads_options=("bins", "precision_um", "unseen"),
-            several_files=lambda request: request.time_bins > 0,
-            several_files_text="bayes with --time-bins one file per repeated run", auto="closed-form",
+            auto="closed-form",
             settings_schema=SETTINGS_SCHEMA, check_settings=check_settings,
             streamable=lambda model: not model.settings.get("time_parent"))

@@ -150,12 +150,12 @@ def _coefficients(net, scaled_in: tuple, scaled_out: tuple) -> dict[str, Coeffic
     return coefficients
 
 
-def fit_bpnn(temps: np.ndarray, targets: np.ndarray, names: list[str], seed: int, population: int,
+def fit_bpnn(rises: np.ndarray, targets: np.ndarray, names: list[str], seed: int, population: int,
              generations: int, epochs: int = 3000, goal_mse: float = 2e-3,
              operators: str = "paper002") -> tuple[dict, dict, dict]:
-    """temps (rows, sensors), targets (rows, outputs): the training rows."""
+    """rises (rows, sensors) since each run's first row, targets (rows, outputs): the measured training
+    rows of every run, in run order."""
     rng = np.random.default_rng(seed)
-    rises = temps - temps[0]
     in_scale, in_shift = _scale(rises)
     x = rises * in_scale + in_shift
     out_scale, out_shift = _scale(targets)
@@ -264,9 +264,9 @@ def _unit_of(column: str) -> str:
 
 
 def _fit(parts, request, names, dt, progress):
-    part = parts[0]
-    targets = np.column_stack([part.target, part.extra])
-    coefficients, settings, log = fit_bpnn(part.temps, targets, names, request.options.seed,
+    rises = np.vstack([p.rises[p.measured] for p in parts])
+    targets = np.vstack([np.column_stack([p.target, p.extra])[p.measured] for p in parts])
+    coefficients, settings, log = fit_bpnn(rises, targets, names, request.options.seed,
                                            request.options.population, request.options.generations,
                                            operators=request.options.ga_operators)
     settings["targets"] = [{"name": block_identifier(c, "target"), "column": c, "unit": _unit_of(c)}

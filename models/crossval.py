@@ -8,8 +8,9 @@ recording has them.
 The folds run forward: fold k fits on blocks 1..k-1 and predicts block k, continuing from the
 end of the training part as the block on the PLC would (a model with state cannot be started in
 the middle of a day without its history, and the past never learns from the future). Several
-recordings (`--data` repeated) are folds of their own: each is predicted from its first row by
-a fit on the others.
+recordings (a campaign of runs) are held out whole: leave one run out (or K folds of whole runs,
+or the groups of an attribute of the runs table), each run predicted from its first row, as a
+freshly started block, by a fit on the other runs.
 
 The model `fit` writes is then fitted on every row; its held-out evidence is the pooled error of
 the folds, beside no compensation on the same rows, so `generate`'s acceptance rule judges the
@@ -27,6 +28,7 @@ import numpy as np
 from thermoplc.base.errors import UserError
 from thermoplc.models.fit import FitRequest, evaluate, fit
 from thermoplc.models.modelfile import Model
+from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.table import Table
 
 MIN_FOLDS, MAX_FOLDS = 2, 20
@@ -73,27 +75,63 @@ def _fold(label: str, train_rows: int, held: dict) -> Fold:
                 held["zero_max_abs_um"])
 
 
-def cross_validate(tables: list[Table], request: FitRequest, time_column: str, folds: int) -> list[Fold]:
+def run_folds(tables: list[Table], folds: int | None, groups: dict[str, list[int]] | None) -> list[tuple[str, list[int]]]:
+    """The held-out runs of each fold of a campaign, labelled: one group of the runs table per fold
+    (`groups`), or `folds` contiguous sets of runs in their order (as many folds as runs: leave one run
+    out, the default)."""
+    if groups is not None:
+        if len(groups) < 2:
+            raise UserError(f"--group-by: every run is in the one group {next(iter(groups))!r}; a group predicted by a "
+                            f"fit on the others needs at least two groups")
+        return [(str(value), members) for value, members in groups.items()]
+    folds = folds or len(tables)
+    if not MIN_FOLDS <= folds <= len(tables):
+        raise UserError(f"--folds {folds}: with {len(tables)} runs expected {MIN_FOLDS} to {len(tables)} folds "
+                        f"(each fold holds whole runs; {len(tables)} leaves one run out)")
+    bounds = np.linspace(0, len(tables), folds + 1).round().astype(int)
+    return [((Path(tables[a].path).name if b - a == 1 else f"runs {a + 1}..{b}"), list(range(a, b)))
+            for a, b in zip(bounds, bounds[1:])]
+
+
+def _refuse_copies(tables: list[Table]) -> None:
+    seen = {}
+    for table in tables:
+        if table.sha256 in seen:
+            raise UserError(f"{table.path}: the same recording as {seen[table.sha256]}; a fold predicted by a fit "
+                            "on its own copy is not held out")
+        seen[table.sha256] = table.path
+
+
+def cross_validate_runs(tables: list[Table], request: FitRequest, time_column: str, folds: int | None,
+                        groups: dict[str, list[int]] | None = None,
+                        predictions: dict | None = None) -> tuple[list[Fold], list[dict]]:
+    """Each fold's runs predicted from their first row by a fit on the other runs; the folds' and each
+    held-out run's errors beside no compensation. `predictions`, when given, receives each run's held-out
+    prediction (float64) by its path, for the report."""
+    _refuse_copies(tables)
+    results, per_run = [], []
+    for label, members in run_folds(tables, folds, groups):
+        others = [t for k, t in enumerate(tables) if k not in members]
+        held = [tables[k] for k in members]
+        model = _guarded(lambda: fit(others, replace(request, train_until=math.inf, train_rows=None), time_column),
+                         f"fold {label} (fitted without {', '.join(t.path for t in held)})")
+        results.append(_fold(label, sum(t.rows for t in others), evaluate(model, held, [0] * len(held))["held_out"]))
+        for table in held:
+            found = evaluate(model, [table], [0])["held_out"]
+            if predictions is not None:
+                predictions[table.path] = predict(model, model_inputs(model, table), "f64")[model.target.name]
+            per_run.append({"run": Path(table.path).name, "fold": label, **_fold(label, 0, found).as_dict(),
+                            "rows_total": table.rows})
+    return results, per_run
+
+
+def cross_validate(tables: list[Table], request: FitRequest, time_column: str, folds: int | None,
+                   groups: dict[str, list[int]] | None = None) -> list[Fold]:
     """Every fold's held-out errors, each fold fitted by `fit` itself: the very procedure whose
-    model is written."""
+    model is written. Several runs: whole runs held out (cross_validate_runs); one recording: blocks."""
+    if len(tables) > 1 or groups is not None:
+        return cross_validate_runs(tables, request, time_column, folds, groups)[0]
     results = []
-    if len(tables) > 1:
-        if folds != len(tables):
-            raise UserError(f"--folds {folds}: with {len(tables)} --data files each file is a fold; give --folds "
-                            f"{len(tables)}")
-        seen = {}
-        for table in tables:
-            if table.sha256 in seen:
-                raise UserError(f"{table.path}: the same recording as {seen[table.sha256]}; a fold predicted by a fit "
-                                "on its own copy is not held out")
-            seen[table.sha256] = table.path
-        for k, table in enumerate(tables):
-            others = tables[:k] + tables[k + 1:]
-            model = _guarded(lambda: fit(others, replace(request, train_until=math.inf, train_rows=None), time_column),
-                             f"fold {k + 1} (fitted without {table.path})")
-            held = evaluate(model, [table], [0])["held_out"]
-            results.append(_fold(Path(table.path).name, sum(t.rows for t in others), held))
-        return results
     table = tables[0]
     starts = cuts(table, time_column, folds, request.speed)
     for k, (start, stop) in enumerate(zip(starts, [*starts[1:], table.rows]), start=2):
@@ -120,22 +158,38 @@ def pooled(folds: list[Fold]) -> dict:
             "folds": len(folds), "fold_rmse_um": [min(f.rmse for f in folds), max(f.rmse for f in folds)]}
 
 
-def fit_cross_validated(tables: list[Table], request: FitRequest, folds: int, time_column: str = "time_s",
-                        progress: Callable[[str], None] | None = None) -> Model:
-    """Blocked cross-validation, then the fit on every row, carrying the folds' pooled errors as its
-    held-out evidence and each fold's beside them."""
-    found = cross_validate(tables, request, time_column, folds)
+def fit_cross_validated(tables: list[Table], request: FitRequest, folds: int | None, time_column: str = "time_s",
+                        progress: Callable[[str], None] | None = None,
+                        groups: dict[str, list[int]] | None = None,
+                        predictions: dict | None = None) -> Model:
+    """Cross-validation, then the fit on every row of every run, carrying the folds' pooled errors as its
+    held-out evidence, each fold's (and with several runs each run's) beside them."""
+    per_run: list[dict] = []
+    if len(tables) > 1 or groups is not None:
+        found, per_run = cross_validate_runs(tables, request, time_column, folds, groups, predictions)
+    else:
+        found = cross_validate(tables, request, time_column, folds)
     model = fit(tables, replace(request, train_until=math.inf, train_rows=None), time_column, progress)
-    protocol = ("leave-one-recording-out cross-validation" if len(tables) > 1
-                else f"forward cross-validation over {folds} blocks")
+    if groups is not None:
+        protocol = f"leave-one-group-out cross-validation over {len(groups)} groups of {len(tables)} runs"
+    elif len(tables) > 1:
+        protocol = (f"leave-one-run-out cross-validation over {len(tables)} runs" if len(found) == len(tables)
+                    else f"cross-validation over {len(found)} folds of whole runs ({len(tables)} runs)")
+    else:
+        protocol = f"forward cross-validation over {folds} blocks"
     held_out = {**pooled(found), "protocol": protocol}
+    extra = {"runs": per_run} if per_run else {}
     return Model(**{**model.__dict__, "metrics": {**model.metrics, "held_out": held_out,
-                                                   "cross_validation": [f.as_dict() for f in found]}})
+                                                   "cross_validation": [f.as_dict() for f in found], **extra}})
 
 
 def fit_held_out(tables: list[Table], request: FitRequest, folds: int | None, time_column: str = "time_s",
-                 progress: Callable[[str], None] | None = None) -> Model:
-    """`fit` with its held-out evidence: blocked cross-validation over `folds` blocks, or the
-    request's own training split when `folds` is None."""
-    return (fit_cross_validated(tables, request, folds, time_column, progress) if folds
-            else fit(tables, request, time_column, progress))
+                 progress: Callable[[str], None] | None = None,
+                 groups: dict[str, list[int]] | None = None,
+                 predictions: dict | None = None) -> Model:
+    """`fit` with its held-out evidence: cross-validation (blocks of one recording, whole runs of a
+    campaign, or the groups of the runs table), or the request's own training split when neither
+    `folds` nor `groups` is given."""
+    if folds or groups is not None:
+        return fit_cross_validated(tables, request, folds, time_column, progress, groups, predictions)
+    return fit(tables, request, time_column, progress)

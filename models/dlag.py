@@ -9,7 +9,7 @@ import numpy as np
 
 from thermoplc.base.binary32 import INT_RANGES
 from thermoplc.base.errors import UserError
-from thermoplc.models.kind import Kind
+from thermoplc.models.kind import Kind, Part, measured_rows
 from thermoplc.models.mlr import least_squares
 from thermoplc.models.modelfile import Coefficient, Model
 
@@ -22,9 +22,10 @@ def lagged(x: np.ndarray, step: int) -> np.ndarray:
 MAX_BUFFER_SAMPLES = INT_RANGES["INT"][1]  # a PLC INT indexes the ring buffer
 
 
-def fit_dlag(temps: np.ndarray, target: np.ndarray, names: list[str], lags: int, lag_step_s: float, dt: float):
+def fit_dlag(parts: list[Part], names: list[str], lags: int, lag_step_s: float, dt: float):
     """Least squares on each sensor's rise now and at `lags` lags `lag_step_s` apart (rounded to whole samples
-    of `dt`); refuses a lag step under one sample or a ring buffer an INT cannot index."""
+    of `dt`), each run lagged from its own first row, the measured rows pooled; refuses a lag step under one
+    sample or a ring buffer an INT cannot index."""
     step = int(round(lag_step_s / dt))
     if lags < 1 or step < 1:
         raise UserError(f"--lags must be at least 1 and --lag-step at least one sample ({dt:g} s)")
@@ -32,15 +33,14 @@ def fit_dlag(temps: np.ndarray, target: np.ndarray, names: list[str], lags: int,
         raise UserError(f"--lags {lags} x --lag-step {lag_step_s:g} s needs a ring buffer of {lags * step + 1} samples "
                         f"at {dt:g} s; the block indexes it with an INT, so at most {MAX_BUFFER_SAMPLES}: "
                         f"use fewer or shorter lags")
-    columns, labels = [], []
-    for i in range(temps.shape[1]):
-        for lag in range(lags + 1):
-            columns.append(lagged(temps[:, i], lag * step) - temps[0, i])
-            labels.append(f"{names[i]}(t-{lag * step * dt:g}s)")
-    beta, log = least_squares(np.column_stack(columns), target, labels)
+    sensors = parts[0].temps.shape[1]
+    labels = [f"{names[i]}(t-{lag * step * dt:g}s)" for i in range(sensors) for lag in range(lags + 1)]
+    columns = lambda part: np.column_stack([lagged(part.temps[:, i], lag * step) - part.temps[0, i]
+                                            for i in range(sensors) for lag in range(lags + 1)])
+    beta, log = least_squares(*measured_rows(parts, columns), labels)
     coefficients = {"beta0": Coefficient.of(beta[0])}
     k = 1
-    for i in range(temps.shape[1]):
+    for i in range(sensors):
         for lag in range(lags + 1):
             coefficients[f"beta_{i + 1}_{lag}"] = Coefficient.of(beta[k])
             k += 1
@@ -63,7 +63,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
 
 
 def _fit(parts, request, names, dt, progress):
-    return fit_dlag(parts[0].temps, parts[0].target, names, request.lags, request.lag_step_s, dt)
+    return fit_dlag(parts, names, request.lags, request.lag_step_s, dt)
 
 
 class StreamCore:

@@ -122,11 +122,9 @@ def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
 
 def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
         progress: Callable[[str], None] | None = None) -> Model:
-    """Fit `request.kind` on the training part of each table (one table, or one per batch for piecewise)."""
+    """Fit `request.kind` on the training part of each run (one table per run, one part each): every kind
+    takes its rises, lags, sums and filter states from each run's first row, as a freshly started block."""
     kind = kind_of(request.kind)
-    if not kind.several_files(request) and len(tables) != 1:
-        several = ", and ".join(k.several_files_text for k in registry().values() if k.several_files_text)
-        raise UserError(f"--model {request.kind} fits one --data file; only {several}")
     signals = _signals(tables, request)
     target = Signal(block_identifier(request.target, "target"), request.target, "target", "um")
     named = [*signals, target]
@@ -143,6 +141,10 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
         raise UserError(f"block name {request.block_name!r} {problem}")
     n_train = [training_rows(t, time_column, request.train_until, request.train_rows) for t in tables]
     for table, n in zip(tables, n_train):
+        measured = int(np.count_nonzero(np.isfinite(table.columns[request.target][:n])))
+        if measured < 2:
+            raise UserError(f"{table.path}: the target {request.target!r} is measured on {measured} of the "
+                            f"{n} training rows; a fit needs at least 2 measurements per run")
         for s in signals:
             option = "--" + s.role.split(",")[-1].replace("temperature", "temps").replace("_", "-")
             if s.unit == "degC":
@@ -178,19 +180,27 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
 def evaluate(model: Model, tables: list[Table], n_train: list[int]) -> dict:
     """Fit (training rows) and prediction (held-out rows) errors of the float64 model, and the
     float32-vs-float64 quantisation error over all rows, pooled over the tables (each replayed
-    from its first row, as the block would be)."""
-    train, held_out, zero, quantisation = [], [], [], 0.0
+    from its first row, as the block would be). A probed target counts its measured rows only; the
+    rows each error was taken on are `rows`, the calls they span `calls`."""
+    train, held_out, zero, quantisation, calls = [], [], [], 0.0, [0, 0]
     for table, n in zip(tables, n_train):
         inputs = model_inputs(model, table)
         ideal = predict(model, inputs, "f64")[model.target.name]
         block = predict(model, inputs, "f32")[model.target.name]
-        residual = table.columns[model.target.column] - ideal
-        train.append(residual[:n])
-        held_out.append(residual[n:])
-        zero.append(table.columns[model.target.column][n:])
+        measured = table.columns[model.target.column]
+        residual = measured - ideal
+        taken = np.isfinite(measured)
+        train.append(residual[:n][taken[:n]])
+        held_out.append(residual[n:][taken[n:]])
+        zero.append(measured[n:][taken[n:]])
+        calls = [calls[0] + n, calls[1] + table.rows - n]
         quantisation = max(quantisation, float(np.max(np.abs(block.astype(np.float64) - ideal))))
     held = _metrics(np.concatenate(held_out))
     if held["rows"]:
         nothing = _metrics(np.concatenate(zero))  # the error of compensating nothing
         held["zero_rmse_um"], held["zero_max_abs_um"] = nothing["rmse_um"], nothing["max_abs_um"]
-    return {"train": _metrics(np.concatenate(train)), "held_out": held, "float32_vs_float64_max_um": quantisation}
+    trained = _metrics(np.concatenate(train))
+    for section, spanned in ((trained, calls[0]), (held, calls[1])):
+        if section["rows"] != spanned:  # a probed target: measurements among the calls
+            section["calls"] = spanned
+    return {"train": trained, "held_out": held, "float32_vs_float64_max_um": quantisation}

@@ -23,7 +23,7 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.models import kernels, ridge
-from thermoplc.models.kind import Kind
+from thermoplc.models.kind import Kind, Part
 from thermoplc.models.modelfile import Coefficient, Model
 
 DEVELOPMENT_GRID = 16  # candidate development coefficients a, log-spaced in time constant
@@ -34,17 +34,28 @@ def accumulate(x: np.ndarray) -> np.ndarray:
     return np.cumsum(x, axis=0)
 
 
-def fit_gm0n(temps: np.ndarray, target: np.ndarray, names: list[str]):
-    """X1(k) = a + sum_i b_i*S_i(k) on k = 2..n by least squares (paper 003). Shrinking the b_i by a
-    forward-validated ridge made the held-out error worse on FL_THERMAL (ch3 7.1 -> 10.2 um) and on
-    the twin, so only sums too collinear for binary32 get it."""
-    sums, target_sums = accumulate(temps)[1:], accumulate(target)[1:]
-    steps, errors = temps[1:], target[1:]
+def fit_gm0n(parts: list[Part], names: list[str]):
+    """X1(k) = a + sum_i b_i*S_i(k) on k = 2..n of every run by least squares (paper 003), each run's sums
+    from its own first row. Shrinking the b_i by a forward-validated ridge made the held-out error worse
+    on FL_THERMAL (ch3 7.1 -> 10.2 um) and on the twin, so only sums too collinear for binary32 get it.
+    A probed target is filled between its measurements for the running sums (`Part.filled_target`); the
+    validation scores the measured rows only."""
+    targets = [p.filled_target() for p in parts]
+    sums = np.vstack([accumulate(p.temps)[1:] for p in parts])
+    target_sums = np.concatenate([accumulate(t)[1:] for t in targets])
+    steps = np.vstack([p.temps[1:] for p in parts])
+    errors = np.concatenate([p.target[1:] for p in parts])
+    measured = np.isfinite(errors)
     fitted = ridge.fit_linear(sums, target_sums, names, weights=(0.0,),
-                              output_error=lambda offset, b, rows: errors[rows] - steps[rows] @ b)
-    coefficients = {"a": Coefficient.of(fitted.intercept), "X1": Coefficient.of(target[0]),
+                              output_error=lambda offset, b, rows: (errors[rows] - steps[rows] @ b)[measured[rows]])
+    coefficients = {"a": Coefficient.of(fitted.intercept), "X1": Coefficient.of(_first_error(targets)),
                     **{f"b_{i}": Coefficient.of(b) for i, b in enumerate(fitted.slopes, start=1)}}
     return coefficients, {}, {"method": "least squares on 1-AGO sequences (paper 003, GM(0,N))", **fitted.log()}
+
+
+def _first_error(targets: list[np.ndarray]) -> float:
+    """x1(1), the block's output at its first call: the runs' first errors on average (one run: its own)."""
+    return float(np.mean([t[0] for t in targets]))
 
 
 def _background(target: np.ndarray) -> np.ndarray:
@@ -53,9 +64,10 @@ def _background(target: np.ndarray) -> np.ndarray:
     return 0.5 * (target_sums[1:] + target_sums[:-1])
 
 
-def _gm1n_parameters(sums: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """[a, b_1..b_N] by least squares: x1(k) = -a*z1(k) + sum_i b_i*S_i(k), k = 2..n."""
-    return np.linalg.lstsq(np.column_stack([-_background(target), sums[1:]]), target[1:], rcond=None)[0]
+def _gm1n_parameters(runs: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+    """[a, b_1..b_N] by least squares on every run's x1(k) = -a*z1(k) + sum_i b_i*S_i(k), k = 2..n."""
+    design = np.vstack([np.column_stack([-_background(target), sums[1:]]) for sums, target in runs])
+    return np.linalg.lstsq(design, np.concatenate([target[1:] for _, target in runs]), rcond=None)[0]
 
 
 def run_gm1n(sums: np.ndarray, first: float, a: float, b: np.ndarray) -> np.ndarray:
@@ -73,9 +85,12 @@ def _keep_and_gain(a: float) -> tuple[float, float]:
     return (1 - a / 2) / (1 + a / 2), 1 / (1 + a / 2)
 
 
-def _gm1n_slopes(sums: np.ndarray, target: np.ndarray, a: float, weight: float) -> np.ndarray:
-    """b for a given a: x1(k) + a*z1(k) = sum_i b_i*S_i(k), ridge with no intercept (the equation has none)."""
-    return ridge.ridge(sums[1:], target[1:] + a * _background(target), weight, intercept=False)[1]
+def _gm1n_slopes(runs: list[tuple[np.ndarray, np.ndarray]], a: float, weight: float) -> np.ndarray:
+    """b for a given a: x1(k) + a*z1(k) = sum_i b_i*S_i(k) on every run, ridge with no intercept (the
+    equation has none)."""
+    design = np.vstack([sums[1:] for sums, _ in runs])
+    y = np.concatenate([target[1:] + a * _background(target) for _, target in runs])
+    return ridge.ridge(design, y, weight, intercept=False)[1]
 
 
 def development_candidates(dt: float, rows: int) -> np.ndarray:
@@ -84,38 +99,45 @@ def development_candidates(dt: float, rows: int) -> np.ndarray:
     return dt / np.exp(np.linspace(np.log(2 * dt), np.log(longest), DEVELOPMENT_GRID))
 
 
-def fit_gm1n(temps: np.ndarray, target: np.ndarray, names: list[str], dt: float):
+def fit_gm1n(parts: list[Part], names: list[str], dt: float):
     """The paper's least-squares a and b when a settles within the training span; else a working
     alternative: a among the time constants the span can show, with a ridge weight for b, both
-    chosen by forward validation of what the block outputs."""
-    sums = accumulate(temps)
-    ridge.refuse_flat(temps, names)
-    params = _gm1n_parameters(sums, target)
+    chosen by forward validation of what the block outputs. Every run has its own sums and its own
+    start; the validation fits on the first two thirds of each run and scores the rest of each, run
+    forward from its start, on the measured rows (a probed target is filled between its measurements
+    for the sums, `Part.filled_target`)."""
+    runs = [(accumulate(p.temps), p.filled_target()) for p in parts]
+    ridge.refuse_flat(np.vstack([p.temps for p in parts]), names)
+    params = _gm1n_parameters(runs)
     paper_a = float(params[0])
-    span_s = len(target) * dt
-    resolvable = ridge.condition(sums[1:], intercept=False) <= ridge.CONDITION_LIMIT
+    rows = [len(p.target) for p in parts]
+    span_s = max(rows) * dt
+    resolvable = ridge.condition(np.vstack([sums[1:] for sums, _ in runs]), intercept=False) <= ridge.CONDITION_LIMIT
     if 0 < paper_a < 2 and dt / paper_a <= span_s and resolvable:
         a, b, weight, rmse = paper_a, params[1:], 0.0, None
         chosen = "the paper's least-squares a and b"
     else:
-        cut = ridge.validation_cut(len(target))
-        if cut is None:
+        cuts = [ridge.validation_cut(n) for n in rows]
+        if all(cut is None for cut in cuts):
             raise UserError(f"GM(1,N) fit gives development coefficient a = {paper_a:.4g}: "
-                            f"{_unsettled(paper_a, dt, resolvable)}; {len(target)} rows are too few to choose another "
+                            f"{_unsettled(paper_a, dt, resolvable)}; {max(rows)} rows are too few to choose another "
                             f"a by validation (use --model gm0n, or more rows)")
+        early = [(sums[:cut or len(target)], target[:cut or len(target)]) for (sums, target), cut in zip(runs, cuts)]
         scored = []
-        for candidate in development_candidates(dt, cut):
+        for candidate in development_candidates(dt, max(cut or 0 for cut in cuts)):
             for candidate_weight in ridge.WEIGHTS:
-                slopes = _gm1n_slopes(sums[:cut], target[:cut], candidate, candidate_weight)
-                out = run_gm1n(sums, target[0], candidate, slopes)
-                scored.append((ridge.rms(target[cut:] - out[cut:]), float(candidate), candidate_weight))
+                slopes = _gm1n_slopes(early, candidate, candidate_weight)
+                late = [(p.target - run_gm1n(sums, target[0], candidate, slopes))[cut:]
+                        for p, (sums, target), cut in zip(parts, runs, cuts) if cut is not None]
+                residual = np.concatenate(late)
+                scored.append((ridge.rms(residual[np.isfinite(residual)]), float(candidate), candidate_weight))
         rmse, a, weight = min(scored)
-        b = _gm1n_slopes(sums, target, a, weight)
+        b = _gm1n_slopes(runs, a, weight)
         chosen = (f"the paper's least-squares a = {paper_a:.4g} {_unsettled(paper_a, dt, resolvable)}, so a and "
                   f"a ridge weight for b were chosen by forward validation")
     keep, gain = _keep_and_gain(a)
-    coefficients = {"X1": Coefficient.of(target[0]), "Keep": Coefficient.of(keep), "In": Coefficient.of(gain),
-                    **{f"b_{i}": Coefficient.of(bi) for i, bi in enumerate(b, start=1)}}
+    coefficients = {"X1": Coefficient.of(_first_error([target for _, target in runs])), "Keep": Coefficient.of(keep),
+                    "In": Coefficient.of(gain), **{f"b_{i}": Coefficient.of(bi) for i, bi in enumerate(b, start=1)}}
     settings = {"a": a, "b": [float(x) for x in b], "time_constant_s": dt / a}
     return coefficients, settings, {
         "method": f"grey difference equation on 1-AGO sequences (paper 003, GM(1,N)), {chosen}",
@@ -132,7 +154,7 @@ def _unsettled(a: float, dt: float, resolvable: bool) -> str:
 
 def gm11_predict(target_train: np.ndarray, rows: int) -> np.ndarray:
     """GM(1,1) baseline (float64): fitted on the training target, extrapolated over `rows` samples."""
-    a, b = _gm1n_parameters(np.ones((len(target_train), 1)), target_train)
+    a, b = _gm1n_parameters([(np.ones((len(target_train), 1)), target_train)])
     accumulated = (target_train[0] - b / a) * np.exp(-a * np.arange(rows)) + b / a
     return np.diff(accumulated, prepend=0.0)
 
@@ -207,9 +229,9 @@ class StreamCore:
         return {self.target: out}
 
 
-GM0N = Kind("gm0n", 5, lambda parts, request, names, dt, progress: fit_gm0n(parts[0].temps, parts[0].target, names),
+GM0N = Kind("gm0n", 5, lambda parts, request, names, dt, progress: fit_gm0n(parts, names),
             predict_gm0n, auto="closed-form", stream_core=StreamCore)
-GM1N = Kind("gm1n", 6, lambda parts, request, names, dt, progress: fit_gm1n(parts[0].temps, parts[0].target, names, dt),
+GM1N = Kind("gm1n", 6, lambda parts, request, names, dt, progress: fit_gm1n(parts, names, dt),
             predict_gm1n, auto="closed-form",
             settings_schema={"type": "object", "properties": {"a": {"type": "number"},
                                                               "b": {"type": "array", "items": {"type": "number"}}}},

@@ -54,60 +54,90 @@ def _prediction_design(series: Series, i: int, heat: list[np.ndarray], a: float,
     return predicted_known, [*columns, sim_.filtered(zero, a, zero, gain, 1.0)[0]]
 
 
-def _cost(series: Series, i: int, heat: list[np.ndarray], tau_s: float, gain: float):
-    a = sim_.pole(tau_s, series.dt)
-    known, columns = _prediction_design(series, i, heat, a, gain)
-    coef, sse = sim_._solve(series.temps[:, i] - known, columns)
+def _cost(runs: list[Series], i: int, heats: list[list[np.ndarray]], tau_s: float, gain: float):
+    """Squared one-step prediction error of sensor i over the runs, and its coefficients: the heat gains
+    shared by every run, then one initial-state departure per run (each run starts from its own state)."""
+    a = sim_.pole(tau_s, runs[0].dt)
+    designs = [_prediction_design(series, i, heat, a, gain) for series, heat in zip(runs, heats)]
+    if len(runs) == 1:
+        known, columns = designs[0]
+        coef, sse = sim_._solve(runs[0].temps[:, i] - known, columns)
+        return sse, coef
+    y = np.concatenate([series.temps[:, i] - known for series, (known, _) in zip(runs, designs)])
+    gains = [np.concatenate([columns[g] for _, columns in designs]) for g in range(len(designs[0][1]) - 1)]
+    starts = [np.concatenate([columns[-1] if r == q else np.zeros(series.rows)
+                              for q, (series, (_, columns)) in enumerate(zip(runs, designs))])
+              for r in range(len(runs))]
+    coef, sse = sim_._solve(y, [*gains, *starts])
     return sse, coef
 
 
-def fit_sensor(series: Series, i: int, shared: Shared) -> SensorParams:
-    """Pole, filter gain and heat gains of sensor i by least one-step prediction error."""
-    heat = [x for _, x in sim_._heat_inputs(series, shared, ())]
-    low, high = np.log(2 * series.dt), np.log(72 * sim_.HOUR)
+def fit_sensor(runs: list[Series], i: int, shared: Shared) -> SensorParams:
+    """Pole, filter gain and heat gains of sensor i by least one-step prediction error over the runs."""
+    heats = [[x for _, x in sim_._heat_inputs(series, shared, ())] for series in runs]
+    low, high = np.log(2 * runs[0].dt), np.log(72 * sim_.HOUR)
     unpack = lambda x: (float(np.exp(np.clip(x[0], low, high))), _gain(x[1]))
-    cost = lambda x: _cost(series, i, heat, *unpack(x))[0]
+    cost = lambda x: _cost(runs, i, heats, *unpack(x))[0]
     taus = np.linspace(np.log(120.0), np.log(24 * sim_.HOUR), TAU_GRID)
     start = min(itertools.product(taus, GAIN_GRID), key=cost)
     x = sim_.minimize(cost, list(start), method="Nelder-Mead",
                       options={"xatol": 1e-5, "fatol": 1e-12, "maxiter": 600}).x
     tau_s, gain = unpack(x)
-    _, (g, h, _initial) = _cost(series, i, heat, tau_s, gain)
-    return SensorParams(tau_s=tau_s, gain=float(g), load_K=float(h), filter_gain=gain)
+    _, coef = _cost(runs, i, heats, tau_s, gain)
+    return SensorParams(tau_s=tau_s, gain=float(coef[0]), load_K=float(coef[1]), filter_gain=gain)
 
 
-def fit_displacement(series: Series, temps: np.ndarray, t0: np.ndarray) -> tuple[DisplacementParams, dict]:
-    """Structure time constant and ridge weight by forward validation, then the map on all rows."""
-    rows = series.rows
-    cut = ridge.validation_cut(rows)
+def fit_displacement(runs: list[Series], temps: list[np.ndarray], t0: list[np.ndarray]
+                     ) -> tuple[DisplacementParams, dict]:
+    """Structure time constant and ridge weight by forward validation (fitted on the first two thirds
+    of each run, scored on the rest of each), then the map on the measured rows of every run."""
+    cuts = [ridge.validation_cut(series.rows) for series in runs]
     taus = np.exp(np.linspace(np.log(600.0), np.log(48 * sim_.HOUR), sim_.GRID_POINTS))
-    design_of = lambda tau: np.column_stack(sim_._displacement_columns(series, temps, {"t0": t0, "struct": tau}, ()))
-    if cut is None:  # too short to validate: least squares
-        params, _ = sim_.fit_displacement(series, temps, t0, ())
+    measured = [np.isfinite(series.target) for series in runs]
+
+    def design_of(tau: float, r: int) -> np.ndarray:
+        return np.column_stack(sim_._displacement_columns(runs[r], temps[r], {"t0": t0[r], "struct": tau}, ()))
+
+    def rows(tau: float, pick) -> tuple[np.ndarray, np.ndarray]:
+        """Design and target of the rows `pick(r, cut)` selects from each run, measured rows only."""
+        selected = [(design_of(tau, r)[pick(r, cut) & measured[r]], runs[r].target[pick(r, cut) & measured[r]])
+                    for r, cut in enumerate(cuts)]
+        return np.vstack([d for d, _ in selected]), np.concatenate([y for _, y in selected])
+
+    if all(cut is None for cut in cuts) and len(runs) == 1:  # too short to validate: least squares
+        params, _ = sim_.fit_displacement(runs[0], temps[0], t0[0], ())
         return params, {"validation": "none (too few rows)"}
+    index = [np.arange(series.rows) for series in runs]
+    early = lambda r, cut: index[r] < (cut if cut is not None else runs[r].rows)
+    late = lambda r, cut: index[r] >= (cut if cut is not None else runs[r].rows)
     scored = []
     for tau in taus:
-        design = design_of(tau)
+        (fit_design, fit_y), (check_design, check_y) = rows(tau, early), rows(tau, late)
         for weight in ridge.WEIGHTS:
-            offset, slopes = ridge.ridge(design[:cut], series.target[:cut], weight)
-            scored.append((ridge.rms(series.target[cut:] - offset - design[cut:] @ slopes), float(tau), float(weight)))
+            offset, slopes = ridge.ridge(fit_design, fit_y, weight)
+            scored.append((ridge.rms(check_y - offset - check_design @ slopes) if len(check_y) else 0.0,
+                           float(tau), float(weight)))
     rmse, tau, weight = min(scored)
-    offset, slopes = ridge.ridge(design_of(tau), series.target, weight)
-    k = temps.shape[1]
+    offset, slopes = ridge.ridge(*rows(tau, lambda r, cut: index[r] >= 0), weight)
+    k = temps[0].shape[1]
     params = DisplacementParams(tau_struct_s=tau, beta0=offset, beta=tuple(float(b) for b in slopes[:k]),
                                 gamma=tuple(float(b) for b in slopes[k:]))
-    return params, {"validation_rmse": rmse, "ridge_weight": weight, "validation_rows": rows - cut}
+    return params, {"validation_rmse": rmse, "ridge_weight": weight,
+                    "validation_rows": int(sum(np.count_nonzero(late(r, c) & measured[r]) for r, c in enumerate(cuts)))}
 
 
-def fit(series: Series) -> tuple[Simulation, dict]:
-    """The identified baseline (no effects) on `series`, the training part; and what was measured."""
-    shared = Shared(stopped_rpm=sim_.stopped_threshold(series.n))
-    sensors = tuple(fit_sensor(series, i, shared) for i in range(len(series.names)))
-    predicted, temps = sim_.temperatures(series, shared, sensors, ())  # one step ahead, and filtered
-    displacement, chosen = fit_displacement(series, temps, sim_.first_temperatures(series, sensors))
+def fit(runs: list[Series]) -> tuple[Simulation, dict]:
+    """The identified baseline (no effects) on the runs' training parts; and what was measured. Each run
+    starts from its own state; the parameters are shared."""
+    shared = Shared(stopped_rpm=sim_.stopped_threshold(np.concatenate([series.n for series in runs])))
+    sensors = tuple(fit_sensor(runs, i, shared) for i in range(len(runs[0].names)))
+    filtered = [sim_.temperatures(series, shared, sensors, ()) for series in runs]  # one step ahead, and filtered
+    displacement, chosen = fit_displacement(runs, [temps for _, temps in filtered],
+                                            [sim_.first_temperatures(series, sensors) for series in runs])
     sim = Simulation((), shared, sensors, displacement)
     open_loop = tuple(replace(p, filter_gain=0.0) for p in sensors)
-    simulated, _ = sim_.temperatures(series, shared, open_loop, ())
+    simulated = [sim_.temperatures(series, shared, open_loop, ())[0] for series in runs]
     rms = lambda x: [float(v) for v in np.sqrt(np.mean(x ** 2, axis=0))]
-    return sim, {**chosen, "one_step_rmse_K": rms(series.temps - predicted),
-                 "open_loop_rmse_K": rms(series.temps - simulated)}
+    return sim, {**chosen,
+                 "one_step_rmse_K": rms(np.vstack([s.temps - p for s, (p, _) in zip(runs, filtered)])),
+                 "open_loop_rmse_K": rms(np.vstack([s.temps - o for s, o in zip(runs, simulated)]))}

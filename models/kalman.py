@@ -21,7 +21,7 @@ from thermoplc.base.binary32 import round_f32
 from thermoplc.models import kernels, lumped
 from thermoplc.models.ga import genetic_minimize
 from thermoplc.models.mlr import least_squares
-from thermoplc.models.kind import Kind, fault_key
+from thermoplc.models.kind import Kind, Part, fault_key
 from thermoplc.models.modelfile import Coefficient, Model
 
 
@@ -147,19 +147,22 @@ def _reporter(step: str, options: FitOptions, progress: Callable[[str], None] | 
     return report
 
 
-def _lumped_mass(tm: np.ndarray, te: np.ndarray, n: np.ndarray, dt: float, name: str, options: FitOptions, rng,
-                 reporter, log: dict) -> tuple[float, float, float]:
-    """GA step 1 (eq. 12) for one sensor: its time constant (s), speed gain (K/rpm) and standstill rise (K)
-    fitted open loop to its readings; the step's entry goes into `log`."""
-    n_max = max(float(np.max(np.abs(n))), 1.0)
-    span = max(float(np.ptp(tm)), 0.1)
-    rest = tm - te
+def _lumped_mass(parts: list[Part], i: int, dt: float, name: str, options: FitOptions, rng, reporter,
+                 log: dict) -> tuple[float, float, float]:
+    """GA step 1 (eq. 12) for sensor i: its time constant (s), speed gain (K/rpm) and standstill rise (K)
+    fitted open loop to its readings, each run simulated from its own first reading; the step's entry
+    goes into `log`."""
+    readings = [p.temps[:, i] for p in parts]
+    n_max = max(max(float(np.max(np.abs(p.speed))) for p in parts), 1.0)
+    span = max(float(np.ptp(np.concatenate(readings))), 0.1)
+    rest = np.concatenate([tm - p.ambient for tm, p in zip(readings, parts)])
     lower = np.array([np.log10(2 * dt), -3 * span / n_max, float(rest.min()) - span])
     upper = np.array([np.log10(48 * 3600.0), 3 * span / n_max, float(rest.max()) + span])
 
     def f1(pop):
         a, b, c, d = lumped.discrete(10 ** pop[:, 0], pop[:, 1], pop[:, 2], dt)
-        return _rms(lumped.open_loop(a, b, c, d, te, n, tm[0]) - tm)
+        return _rms(np.concatenate([lumped.open_loop(a, b, c, d, p.ambient, p.speed, tm[0]) - tm
+                                    for tm, p in zip(readings, parts)], axis=-1))
 
     x, cost, history, evals = _minimize(f1, lower, upper, options, rng, reporter(f"{name} lumped-mass"))
     log["steps"].append({"step": f"lumped-mass {name} (eq. 12)", "rms_K": cost, "evaluations": evals,
@@ -167,17 +170,20 @@ def _lumped_mass(tm: np.ndarray, te: np.ndarray, n: np.ndarray, dt: float, name:
     return 10 ** x[0], x[1], x[2]
 
 
-def _sensor_values(name: str, params: tuple, discrete: tuple, noise: tuple, measured: np.ndarray, fused: np.ndarray,
-                   forcing: np.ndarray, options: FitOptions) -> tuple[dict[str, Coefficient], dict]:
+def _sensor_values(name: str, params: tuple, discrete: tuple, noise: tuple, runs: list[tuple[np.ndarray, ...]],
+                   options: FitOptions) -> tuple[dict[str, Coefficient], dict]:
     """One sensor's block coefficients (A, AA, B, C, D, N, R, P0, Jmp, Agr) and its settings entry; the
-    jump and recover limits, unless given, from the 99.9 % quantile of its steps and innovations."""
+    jump and recover limits, unless given, from the 99.9 % quantile of its steps and innovations over the
+    runs (measured, fused and forcing per run)."""
     tau, g_n, g_0 = params
     a, b, c, d = (float(v[0]) for v in discrete)
     noise_n, noise_r = noise
-    innovation = np.abs(measured[1:] - (a * fused[:-1] + forcing[1:]))
+    innovation = np.concatenate([np.abs(measured[1:] - (a * fused[:-1] + forcing[1:]))
+                                 for measured, fused, forcing in runs])
     jump = options.jump_limit
     if jump is None:
-        jump = max(1.0, 3 * float(np.quantile(np.abs(np.diff(measured)), 0.999)))
+        steps = np.concatenate([np.abs(np.diff(measured)) for measured, _, _ in runs])
+        jump = max(1.0, 3 * float(np.quantile(steps, 0.999)))
     recover = options.recover_limit
     if recover is None:
         recover = max(0.5, 3 * float(np.quantile(innovation, 0.999)))
@@ -193,35 +199,42 @@ def _sensor_values(name: str, params: tuple, discrete: tuple, noise: tuple, meas
     return values, described
 
 
-def fit_kalman(temps: np.ndarray, te: np.ndarray, n: np.ndarray, target: np.ndarray, dt: float,
-               names: list[str], options: FitOptions,
+def fit_kalman(parts: list[Part], dt: float, names: list[str], options: FitOptions,
                progress: Callable[[str], None] | None = None) -> tuple[dict[str, Coefficient], dict, dict]:
-    """Fit on training rows: GA step 1 per sensor (eq. 12), GA step 2 for N, R (eq. 13), then eq. 11.
+    """Fit on the runs' training rows: GA step 1 per sensor (eq. 12), GA step 2 for N, R (eq. 13), then
+    eq. 11 on the measured rows; every run is simulated and filtered from its own first row.
 
-    temps: (rows, sensors). Returns coefficients, human-readable settings and a fit log.
+    Returns coefficients, human-readable settings and a fit log.
     """
     rng = np.random.default_rng(options.seed)
-    k = temps.shape[1]
+    k = parts[0].temps.shape[1]
     log = {"optimizer": options.optimizer, "seed": options.seed, "population": options.population,
            "generations": options.generations, "steps": []}
     reporter = lambda step: _reporter(step, options, progress)
-    lumped_params = [_lumped_mass(temps[:, i], te, n, dt, names[i], options, rng, reporter, log) for i in range(k)]
+    lumped_params = [_lumped_mass(parts, i, dt, names[i], options, rng, reporter, log) for i in range(k)]
 
     discrete = [lumped.discrete(np.array([tau]), np.array([g_n]), np.array([g_0]), dt)
                 for tau, g_n, g_0 in lumped_params]
-    forcing = [d[1][0] * te + d[2][0] * n + d[3][0] for d in discrete]
+    forcing = [[d[1][0] * p.ambient + d[2][0] * p.speed + d[3][0] for d in discrete] for p in parts]
+    measured = [p.measured for p in parts]
+    target = np.concatenate([p.target[m] for p, m in zip(parts, measured)])
 
     def fused_all(pop):
+        """Per run, per sensor: the filtered temperatures of every individual."""
         noise_n, noise_r = 10 ** pop[:, 0::2], 10 ** pop[:, 1::2]
-        return [lumped.fused(discrete[i][0][0], forcing[i], temps[:, i], noise_n[:, i], noise_r[:, i], noise_r[:, i])
-                for i in range(k)]
+        return [[lumped.fused(discrete[i][0][0], forcing[r][i], p.temps[:, i], noise_n[:, i], noise_r[:, i],
+                              noise_r[:, i]) for i in range(k)] for r, p in enumerate(parts)]
+
+    def rises(series, individual: int) -> np.ndarray:
+        """The map's columns: each run's filtered rises on its measured rows, stacked."""
+        return np.vstack([np.column_stack([s[individual] - p.temps[0, i] for i, s in enumerate(run)])[m]
+                          for run, p, m in zip(series, parts, measured)])
 
     def f2(pop):
         series = fused_all(pop)
         cost = np.empty(len(pop))
         for p in range(len(pop)):
-            features = np.column_stack([s[p] - temps[0, i] for i, s in enumerate(series)])
-            design = np.column_stack([np.ones(len(target)), features])
+            design = np.column_stack([np.ones(len(target)), rises(series, p)])
             beta = np.linalg.lstsq(design, target, rcond=None)[0]
             cost[p] = _rms(target - design @ beta)
         return cost
@@ -232,16 +245,15 @@ def fit_kalman(temps: np.ndarray, te: np.ndarray, n: np.ndarray, target: np.ndar
     log["steps"].append({"step": "Kalman covariances (eq. 13)", "rms_um": cost, "evaluations": evals,
                          "history": list(history)})
     series = fused_all(x[None, :])
-    features = np.column_stack([s[0] - temps[0, i] for i, s in enumerate(series)])
-    beta, map_log = least_squares(features, target, names)
+    beta, map_log = least_squares(rises(series, 0), target, names)
     log.update(map_log)
 
     coefficients: dict[str, Coefficient] = {}
     settings = {"sensors": []}
     for i in range(k):
         noise = (10 ** x[2 * i], 10 ** x[2 * i + 1])
-        values, described = _sensor_values(names[i], lumped_params[i], discrete[i], noise, temps[:, i], series[i][0],
-                                           forcing[i], options)
+        runs = [(p.temps[:, i], run[i][0], forcing[r][i]) for r, (p, run) in enumerate(zip(parts, series))]
+        values, described = _sensor_values(names[i], lumped_params[i], discrete[i], noise, runs, options)
         coefficients.update({f"{name}_{i + 1}": values[name] for name in SENSOR_COEFFICIENTS})
         settings["sensors"].append(described)
     coefficients["beta0"] = Coefficient.of(beta[0])
@@ -251,8 +263,7 @@ def fit_kalman(temps: np.ndarray, te: np.ndarray, n: np.ndarray, target: np.ndar
 
 
 def _fit(parts, request, names, dt, progress):
-    part = parts[0]
-    return fit_kalman(part.temps, part.ambient, part.speed, part.target, dt, names, request.options, progress)
+    return fit_kalman(parts, dt, names, request.options, progress)
 
 
 class StreamCore:

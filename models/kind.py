@@ -18,12 +18,40 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class Part:
-    """The training rows of one file, by role: what a kind's fitter receives."""
+    """The training rows of one run (one recording), by role: what a kind's fitter receives, one per
+    run. The block starts afresh at a run's first row, so every kind takes its rises, lags, sums and
+    filter states from there. A probed target is NaN between its measurements: a fitter fits on the
+    measured rows (`measured`) with its inputs at the full rate."""
     temps: np.ndarray  # (rows, sensors)
     target: np.ndarray
     extra: np.ndarray  # (rows, further targets)
     speed: np.ndarray | None
     ambient: np.ndarray | None
+
+    @property
+    def measured(self) -> np.ndarray:
+        """Rows where the target (and every further target) was measured."""
+        return np.isfinite(self.target) & np.all(np.isfinite(self.extra), axis=1)
+
+    @property
+    def rises(self) -> np.ndarray:
+        """Each temperature's rise since the run's first row, as the block takes it."""
+        return self.temps - self.temps[0]
+
+    def filled_target(self) -> np.ndarray:
+        """The target at every row for a fit that needs it so (running sums of the grey models): linear
+        between measurements, held before the first and after the last."""
+        measured = np.flatnonzero(np.isfinite(self.target))
+        if len(measured) == len(self.target):
+            return self.target
+        return np.interp(np.arange(len(self.target)), measured, self.target[measured])
+
+
+def measured_rows(parts: list[Part], columns: Callable[[Part], np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The fit's design and target pooled over runs: `columns(part)` is computed on each run at the full
+    rate (its own first row, its own lags), then only the measured rows are kept and stacked."""
+    designs = [np.asarray(columns(p), float).reshape(len(p.target), -1)[p.measured] for p in parts]
+    return np.vstack(designs), np.concatenate([p.target[p.measured] for p in parts])
 
 
 # fit(parts, request, temperature names, sample period s, progress) -> (coefficients, settings, fit log)
@@ -63,8 +91,6 @@ class Kind:
     # further FitRequest / kalman.FitOptions fields its fitter reads (beside the target, the temperatures
     # and the training part); `fit` refuses such an option given for a kind that does not read it
     reads_options: tuple[str, ...] = ()
-    several_files: Callable[[Any], bool] = lambda request: False  # fit takes one file per batch or run
-    several_files_text: str = ""  # when it does, in words, for the error of a kind that does not
     auto: str | None = None  # "closed-form" (tried on every sensor set), "iterative" (on the best), None
     settings_schema: dict | None = None  # JSON schema of the model file's `settings` for this kind
     check_settings: Callable[["Model", str], None] = _no_settings_check  # what the schema cannot say

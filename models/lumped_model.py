@@ -236,12 +236,11 @@ def kernel_arguments(model: Model, inputs: dict, precision: str, state=None):
 
 
 def _fit(parts, request, names, dt, progress):
-    """The identified baseline (no effects): models/identify.py."""
-    part = parts[0]
-    ridge.refuse_flat(part.temps, names)
-    series = sim_.Series(dt, np.arange(len(part.target)) * dt, part.speed, part.ambient, part.temps,
-                         tuple(names), part.target)
-    fitted, measured = identify.fit(series)
+    """The identified baseline (no effects) on every run: models/identify.py."""
+    ridge.refuse_flat(np.vstack([part.temps for part in parts]), names)
+    runs = [sim_.Series(dt, np.arange(len(part.target)) * dt, part.speed, part.ambient, part.temps, tuple(names),
+                        part.target) for part in parts]
+    fitted, measured = identify.fit(runs)
     coefficients_, settings = coefficients(fitted, dt)
     return coefficients_, settings, {
         "method": "lumped-mass model identified by least one-step prediction error (steady-state Kalman filter on "

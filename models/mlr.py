@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.models import ridge
-from thermoplc.models.kind import Kind
+from thermoplc.models.kind import Kind, Part, measured_rows
 from thermoplc.models.modelfile import Coefficient, Model
 
 
@@ -14,9 +14,9 @@ def least_squares(features: np.ndarray, target: np.ndarray, names: list[str]) ->
     return np.r_[fitted.intercept, fitted.slopes], fitted.log()
 
 
-def fit_mlr(temps: np.ndarray, target: np.ndarray, names: list[str]) -> tuple[dict[str, float], dict]:
-    """temps: (rows, sensors) training rows; ΔT is taken from the first training row, as the block does."""
-    beta, log = least_squares(temps - temps[0], target, names)
+def fit_mlr(parts: list[Part], names: list[str]) -> tuple[dict[str, float], dict]:
+    """The runs' training rows pooled; ΔT is taken from each run's first row, as the block does."""
+    beta, log = least_squares(*measured_rows(parts, lambda part: part.rises), names)
     return {"beta0": beta[0], **{f"beta_{i + 1}": b for i, b in enumerate(beta[1:])}}, log
 
 
@@ -36,8 +36,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
 
 
 def _fit(parts, request, names, dt, progress):
-    part = parts[0]
-    values, log = fit_mlr(part.temps, part.target, names)
+    values, log = fit_mlr(parts, names)
     coefficients = {k: Coefficient.of(v) for k, v in values.items()}
     return coefficients, {}, {"method": "least squares (eq. 11), ridge weight by forward validation", **log}
 

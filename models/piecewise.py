@@ -28,7 +28,9 @@ def fit_piecewise(batches: list[tuple[np.ndarray, np.ndarray, np.ndarray]], name
     """batches: (temps (rows, sensors), ambient, target) training rows per file."""
     groups: dict[float, list] = {}
     for temps, ambient, target in batches:
-        groups.setdefault(node_of(float(ambient[0])), []).append((temps - temps[0], target, float(ambient[0])))
+        measured = np.isfinite(target)  # a probed target: its measured rows only
+        groups.setdefault(node_of(float(ambient[0])), []).append(((temps - temps[0])[measured], target[measured],
+                                                                   float(ambient[0])))
     coefficients: dict[str, Coefficient] = {}
     settings = {"nodes": []}
     for m, node in enumerate(sorted(groups), start=1):
@@ -105,6 +107,5 @@ SETTINGS_SCHEMA = {
                              "items": {"type": "object", "required": ["node_C"],
                                        "properties": {"node_C": {"type": "number"}}}}}}
 
-KIND = Kind("piecewise", 3, _fit, predict, roles=("ambient",), several_files=lambda request: True,
-            several_files_text="piecewise takes one file per batch", settings_schema=SETTINGS_SCHEMA,
+KIND = Kind("piecewise", 3, _fit, predict, roles=("ambient",), settings_schema=SETTINGS_SCHEMA,
             check_settings=check_settings)

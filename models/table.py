@@ -112,18 +112,21 @@ def _fields(path: str, line: int, text: str, delimiter: str) -> list[str]:
 
 
 def _parse_cells(path: str, header: list[str], text_lines: list[str], numbers: list[int], delimiter: str,
-                 comma_decimal: bool) -> np.ndarray:
-    """Rows of numbers; the fast C parser first, the careful one for the message when it fails."""
+                 comma_decimal: bool, sparse: frozenset = frozenset()) -> np.ndarray:
+    """Rows of numbers; the fast C parser first, the careful one for the message when it fails. An empty
+    cell of a `sparse` column (a probed target between its measurements) is NaN; anywhere else, and a
+    NaN written out anywhere, is refused."""
     if comma_decimal:
         text_lines = [text.replace(",", ".") for text in text_lines]
     try:
         with np.errstate(all="ignore"):
             block = np.loadtxt(text_lines, delimiter=delimiter, dtype=np.float64, ndmin=2, quotechar='"', comments=None)
+        empty = np.zeros(block.shape, bool)
     except ValueError:
         block = None
     if block is None or block.shape[1] != len(header):
-        block = _parse_cells_one_by_one(path, header, text_lines, numbers, delimiter)
-    bad = np.argwhere(~np.isfinite(block))
+        block, empty = _parse_cells_one_by_one(path, header, text_lines, numbers, delimiter, sparse)
+    bad = np.argwhere(~np.isfinite(block) & ~empty)
     if len(bad):
         r, c = bad[0]
         cell = _fields(path, numbers[r], text_lines[r], delimiter)[c]
@@ -133,26 +136,34 @@ def _parse_cells(path: str, header: list[str], text_lines: list[str], numbers: l
 
 
 def _parse_cells_one_by_one(path: str, header: list[str], text_lines: list[str], numbers: list[int],
-                            delimiter: str) -> np.ndarray:
-    """The rows the C parser refused: binary32 bit patterns are read here, anything else is named."""
+                            delimiter: str, sparse: frozenset) -> tuple[np.ndarray, np.ndarray]:
+    """The rows the C parser refused: binary32 bit patterns are read here, an empty cell of a sparse column
+    is NaN (and marked in the second array), anything else is named."""
     block = np.empty((len(text_lines), len(header)))
+    empty = np.zeros(block.shape, bool)
     for r, (line, text) in enumerate(zip(numbers, text_lines)):
         row = _fields(path, line, text, delimiter)
         if len(row) != len(header):
             quote = " (a '\"' opens a quoted field that runs to the end of the line)" if '"' in text else ""
             raise UserError(f"{path}:{line}: {len(row)} fields, expected {len(header)} as in the header{quote}")
         for c, cell in enumerate(row):
+            if not cell.strip() and header[c] in sparse:
+                block[r, c], empty[r, c] = np.nan, True
+                continue
             value = _cell_value(cell)
             if value is None:
                 shown = cell.strip() if len(cell) <= 40 else cell.strip()[:30] + f"... ({len(cell)} characters)"
                 hint = " (a REAL's 32 bits are 8 hexadecimal digits: 16#3F800000 or 0x3F800000)" \
                     if cell.strip().lower().startswith(("0x", "16#", "dw#")) else ""
-                raise UserError(f"{path}:{line}:{c + 1}: column {header[c]!r}: expected a number, found {shown!r}{hint}")
+                probed = " (a column that is probed, empty between measurements, is a --target)" \
+                    if not cell.strip() and not sparse else ""
+                raise UserError(f"{path}:{line}:{c + 1}: column {header[c]!r}: expected a number, found "
+                                f"{shown!r}{hint}{probed}")
             block[r, c] = value
-    return block
+    return block, empty
 
 
-def _read_npz(path: str, time_column: str | None) -> Table:
+def _read_npz(path: str, time_column: str | None, sparse: frozenset = frozenset()) -> Table:
     """Columns stored with numpy.savez: the fast way in for very long recordings."""
     try:
         with open(path, "rb") as f:
@@ -185,7 +196,7 @@ def _read_npz(path: str, time_column: str | None) -> Table:
         if a.dtype.kind not in "biuf":  # bool: the natural type of a recorded Enable or Reset
             raise UserError(f"{path}: column {name!r} holds {a.dtype}, expected numbers")
         columns[name] = a.astype(np.float64)
-        bad = np.nonzero(~np.isfinite(columns[name]))[0]
+        bad = np.nonzero(~np.isfinite(columns[name]) & ~(np.isnan(columns[name]) & (name in sparse)))[0]
         if len(bad):
             raise UserError(f"{path}: column {name!r} row {bad[0] + 1}: expected a finite number, found {a[bad[0]]!r}")
     if not len(next(iter(columns.values()))):
@@ -240,15 +251,17 @@ def _header(path: str, first: str, decimal: str) -> tuple[str, bool, list[str]]:
     return delimiter, comma_decimal, header
 
 
-def read_table(path: str | Path, time_column: str | None = "time_s", progress=None, decimal: str = "auto") -> Table:
+def read_table(path: str | Path, time_column: str | None = "time_s", progress=None, decimal: str = "auto",
+               sparse: tuple[str, ...] = ()) -> Table:
     """Read a CSV file with one header line (or a .npz of columns); every cell must be a finite
-    number. ',' separated with decimal points, or ';' separated with decimal commas (detected, or
+    number, but for the `sparse` columns (a probed target), whose empty cells (NaN in .npz/.parquet) read
+    as NaN. ',' separated with decimal points, or ';' separated with decimal commas (detected, or
     decimal=','). The text is streamed in chunks, so memory stays near the size of the numbers."""
     path = str(path)
     if path.lower().endswith(".npz"):
-        return _read_npz(path, time_column)
+        return _read_npz(path, time_column, frozenset(sparse))
     if path.lower().endswith(".parquet"):
-        return _read_parquet(path, time_column)
+        return _read_parquet(path, time_column, frozenset(sparse))
     digest = hashlib.sha256()
     try:
         raw = sys.stdin.buffer if path == "-" else open(path, "rb")  # `--data -`: the CSV on standard input
@@ -261,7 +274,7 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
     line = 0
 
     def flush() -> None:
-        blocks.append(_parse_cells(path, header, text_lines, numbers, delimiter, comma_decimal))
+        blocks.append(_parse_cells(path, header, text_lines, numbers, delimiter, comma_decimal, frozenset(sparse)))
         numbers_all.append(np.asarray(numbers, np.int64))
 
     try:
@@ -532,8 +545,8 @@ def _stream_parquet(path: str, names: list[str], rows_per_chunk: int, optional: 
             start += batch.num_rows
 
 
-def _read_parquet(path: str, time_column: str | None) -> Table:
-    """Columns of a Parquet file (pyarrow): numbers only, no empty cells."""
+def _read_parquet(path: str, time_column: str | None, sparse: frozenset = frozenset()) -> Table:
+    """Columns of a Parquet file (pyarrow): numbers only, no empty cells but in the `sparse` columns."""
     try:
         import pyarrow.parquet as pq
     except ImportError:
@@ -551,14 +564,14 @@ def _read_parquet(path: str, time_column: str | None) -> Table:
     columns = {}
     for name in table.column_names:
         column = table.column(name)
-        if column.null_count:
+        if column.null_count and name not in sparse:
             row = int(np.flatnonzero(column.is_null().to_numpy(zero_copy_only=False))[0])
             raise UserError(f"{path}: column {name!r} row {row + 1}: expected a finite number, found an empty cell")
         a = column.to_numpy()
         if a.dtype.kind not in "iuf":
             raise UserError(f"{path}: column {name!r} holds {column.type}, expected numbers")
         columns[name] = a.astype(np.float64)
-        bad = np.nonzero(~np.isfinite(columns[name]))[0]
+        bad = np.nonzero(~np.isfinite(columns[name]) & ~(np.isnan(columns[name]) & (name in sparse)))[0]
         if len(bad):
             raise UserError(f"{path}: column {name!r} row {bad[0] + 1}: expected a finite number, found {a[bad[0]]!r}")
     result = Table(path, columns, _sha256(path), np.arange(1, table.num_rows + 1))

@@ -11,6 +11,7 @@ from thermoplc.models.kalman import FitOptions
 from thermoplc.models.mlr import fit_mlr
 from thermoplc.models.table import read_table, write_table
 from thermoplc.machines.cascade import simulate
+from thermoplc.models.kind import Part
 
 # training RMSE at most this many times MLR's (measured on seeds 3 and 4: at most 0.4x for lumped,
 # 1.0x kalman, 0.82x dlag, 1.82x gm0n, 0.72x gm1n, 2.16x bayes (8 intervals of 2 sensors), 1.12x bpnn)
@@ -49,7 +50,7 @@ def test_mlr_recovers_its_equation():
     temps = _temperatures(3000, 3, 1)
     beta = np.array([1.5, 2.0, -0.7, 0.3])
     target = beta[0] + (temps - temps[0]) @ beta[1:]
-    fitted, log = fit_mlr(temps, target, ["a", "b", "c"])
+    fitted, log = fit_mlr([Part(temps, target, np.empty((len(target), 0)), None, None)], ["a", "b", "c"])
     assert log["ridge_weight"] == 0.0  # noise-free: forward validation keeps least squares
     assert np.allclose([fitted["beta0"], fitted["beta_1"], fitted["beta_2"], fitted["beta_3"]], beta, atol=1e-9)
 
@@ -59,7 +60,7 @@ def test_dlag_recovers_its_equation():
     step, lags = 30, 2
     beta0, beta = 0.8, {(0, 0): 1.2, (0, 1): -0.4, (0, 2): 0.1, (1, 0): 0.5, (1, 1): 0.2, (1, 2): -0.3}
     target = beta0 + sum(b * (lagged(temps[:, i], lag * step) - temps[0, i]) for (i, lag), b in beta.items())
-    coefficients, _, _ = fit_dlag(temps, target, ["a", "b"], lags, lag_step_s=step * 10.0, dt=10.0)
+    coefficients, _, _ = fit_dlag([Part(temps, target, np.empty((len(target), 0)), None, None)], ["a", "b"], lags, lag_step_s=step * 10.0, dt=10.0)
     assert coefficients["beta0"].f64 == pytest.approx(beta0, abs=1e-8)
     for (i, lag), b in beta.items():
         assert coefficients[f"beta_{i + 1}_{lag}"].f64 == pytest.approx(b, abs=1e-8)
@@ -70,7 +71,7 @@ def test_gm0n_recovers_its_equation():
     a, b = 4.0, np.array([0.02, -0.015])
     accumulated = a + np.cumsum(temps, axis=0) @ b
     target = np.diff(accumulated, prepend=accumulated[0] - 3.0)
-    coefficients, _, _ = grey.fit_gm0n(temps, target, ["a", "b"])
+    coefficients, _, _ = grey.fit_gm0n([Part(temps, target, np.empty((len(target), 0)), None, None)], ["a", "b"])
     assert coefficients["b_1"].f64 == pytest.approx(b[0], rel=1e-6)
     assert coefficients["b_2"].f64 == pytest.approx(b[1], rel=1e-6)
 

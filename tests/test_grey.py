@@ -8,6 +8,7 @@ from thermoplc.models.fit import FitRequest, fit
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.table import read_table, write_table
 from thermoplc.machines.cascade import simulate
+from thermoplc.models.kind import Part
 
 
 def _grey_difference_data(a: float, b: np.ndarray, rows: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -29,7 +30,7 @@ def _grey_difference_data(a: float, b: np.ndarray, rows: int, seed: int) -> tupl
                                          (0.0016, [0.0003, 0.0001], 3)])
 def test_gm1n_recovers_the_equation_that_made_its_data(tmp_path, a, b, seed):
     temps, x = _grey_difference_data(a, np.array(b), 2000, seed)
-    coefficients, settings, log = grey.fit_gm1n(temps, x, [f"T_{i}" for i in range(len(b))], 10.0)
+    coefficients, settings, log = grey.fit_gm1n([Part(temps, x, np.empty((len(x), 0)), None, None)], [f"T_{i}" for i in range(len(b))], 10.0)
     assert log["least_squares_a"] == settings["a"]  # it settles within the training span: the paper's a is kept
     assert settings["a"] == pytest.approx(a, rel=1e-6)
     assert np.allclose(settings["b"], b, rtol=1e-5, atol=1e-12)

@@ -44,7 +44,7 @@ def _node(seed: int, process_sigma: float, rows: int = 6000, tau_s: float = 1800
 @pytest.mark.parametrize("process_sigma", [0.0, 0.005, 0.02, 0.08])
 def test_filter_gain_is_the_kalman_gain_of_the_noise(process_sigma):
     series, a = _node(3, process_sigma)
-    fitted = identify.fit_sensor(series, 0, Shared(stopped_rpm=0.0))
+    fitted = identify.fit_sensor([series], 0, Shared(stopped_rpm=0.0))
     want = _kalman_gain(a, process_sigma ** 2, 0.02 ** 2) if process_sigma else 0.0
     assert abs(fitted.filter_gain - want) < 0.06 + 0.15 * want, (fitted.filter_gain, want)
     assert abs(fitted.tau_s - 1800.0) < 0.15 * 1800.0 or process_sigma >= 0.08  # a random walk hides the pole
@@ -54,7 +54,7 @@ def test_filter_gain_is_the_kalman_gain_of_the_noise(process_sigma):
 
 def test_a_model_that_fits_keeps_the_filter_gain_small_and_one_step_equals_open_loop():
     series, _ = _node(4, 0.0)
-    sim, measured = identify.fit(series)
+    sim, measured = identify.fit([series])
     assert sim.sensors[0].filter_gain < 0.05
     assert measured["one_step_rmse_K"][0] == pytest.approx(measured["open_loop_rmse_K"][0], rel=0.05)
 

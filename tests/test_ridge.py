@@ -9,6 +9,7 @@ from thermoplc.models import grey, ridge
 from thermoplc.models.fit import FitRequest, fit
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.table import read_table, write_table
+from thermoplc.models.kind import Part
 from tests.cli_runner import thermoplc
 
 
@@ -77,7 +78,7 @@ def _growing_error(rows: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
 
 def test_gm1n_with_a_development_coefficient_that_does_not_settle_gives_a_working_model(tmp_path):
     temps, error = _growing_error(3000, 9)
-    _, settings, log = grey.fit_gm1n(temps, error, ["T_0", "T_1"], 10.0)
+    _, settings, log = grey.fit_gm1n([Part(temps, error, np.empty((len(error), 0)), None, None)], ["T_0", "T_1"], 10.0)
     assert log["least_squares_a"] <= 0.0  # the paper's estimate: the recursion would never settle
     assert 0.0 < settings["a"] < 2.0 and "chosen by forward validation" in log["method"]
     columns = {"time_s": np.arange(len(error)) * 10.0, "E": error, "T_0": temps[:, 0], "T_1": temps[:, 1]}
@@ -96,4 +97,4 @@ def test_gm1n_too_short_to_validate_still_refuses_a_coefficient_that_does_not_se
     temps, error = _growing_error(30, 9)
     error = 0.8 * (temps[:, 0] - 20.0) + 0.01 * np.arange(30) ** 2  # a convex rise: a = -0.04
     with pytest.raises(UserError, match="too few to choose another a"):
-        grey.fit_gm1n(temps, error, ["T_0", "T_1"], 10.0)
+        grey.fit_gm1n([Part(temps, error, np.empty((len(error), 0)), None, None)], ["T_0", "T_1"], 10.0)

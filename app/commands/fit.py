@@ -31,24 +31,43 @@ def add_parser(sub) -> None:
     p = sub.add_parser("fit", help="fit a thermal-error model to a CSV file")
     p.register("action", None, Given)  # every plain option notes that it was given (fit_options.py)
     p.set_defaults(given=())
-    p.add_argument("--data", required=True, action="append",
-                   help="CSV file; repeat for piecewise (one file per batch, initial ambient read from each)")
+    p.add_argument("--data", action="append",
+                   help="a run's recording (CSV, .npz or Parquet) or a folder of them; repeat for a campaign of runs, "
+                        "each started as a fresh block (piecewise: one run per batch, its initial ambient read from "
+                        "each)")
+    p.add_argument("--runs", metavar="TABLE",
+                   help="runs table instead of --data: a CSV with a 'file' column (relative to the table) and free "
+                        "attribute columns (hall air setpoint, programme, date, ...), one row per run")
     p.add_argument("--model", choices=_KindChoices(), metavar="KIND", required=True,
                    help="kalman (paper 000), lumped, mlr, dlag and piecewise (paper 001), bpnn (paper 002), gm0n and "
                         "gm1n (paper 003), bayes (paper 004); auto: every kind the given roles allow on sensor "
                         "sets from --temps (forward selection and fcm-grey), ranked by held-out RMSE, the best written")
     p.add_argument("--target", type=columns, required=True,
-                   help="measured displacement column, um; bpnn takes several: elongation,yaw,pitch")
+                   help="measured displacement column, um; bpnn takes several: elongation,yaw,pitch. A probed "
+                        "target may be empty between probings: the fit and every error use the measured rows, the "
+                        "temperatures every row")
     p.add_argument("--temps", type=columns, required=True,
                    help="temperature columns, comma-separated, or @FILE written by select-sensors -o")
     p.add_argument("--speed", help="spindle speed column, rpm (kalman, lumped; auto tries them only with it)")
     p.add_argument("--ambient", help="ambient temperature column, degC (kalman, lumped, piecewise)")
     p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
-    training_part(p, required=True).add_argument(
-        "--folds", type=number(int, 2, 20, "blocks"), metavar="K",
-        help="fit on every row, with held-out evidence from blocked cross-validation: K contiguous blocks (cut at "
-             "standstills when --speed is given), each predicted by a fit on the blocks before it; with several "
-             "--data files, each file predicted by a fit on the others")
+    part = training_part(p, required=True)
+    part.add_argument(
+        "--folds", type=number(int, 2, 1_000_000, "folds"), metavar="K",
+        help="fit on every row, with held-out evidence from cross-validation. One recording: K (2 to 20) contiguous "
+             "blocks (cut at standstills when --speed is given), each predicted by a fit on the blocks before it. "
+             "Several runs: K folds of whole runs, each run predicted from its first row by a fit on the other runs "
+             "(K = the number of runs: leave one run out)")
+    part.add_argument("--group-by", metavar="COLUMN",
+                      help="fit on every row, with held-out evidence from leave-one-group-out cross-validation over "
+                           "the groups of this column of the --runs table (fit on the cool days, predict the warm "
+                           "ones)")
+    p.add_argument("--held-target", action="store_true",
+                   help="the target holds its last probing between probings: only the first row and the rows where "
+                        "it changes are measurements (an empty target cell is always a row without a measurement)")
+    p.add_argument("--report", metavar="DIR",
+                   help="also write a report folder: per run measured, predicted and no compensation, the residual, "
+                        "the fold and group tables, one PNG per run and an index.html")
     p.add_argument("--optimizer", choices=("ga", "de"), default="ga",
                    help="ga: paper 000's genetic algorithm; de: scipy differential evolution")
     p.add_argument("--seed", type=SEED, default=0, help="random seed of the optimiser (default: %(default)s)")
@@ -93,8 +112,9 @@ def run(args: argparse.Namespace) -> int:
     from thermoplc.models.crossval import fit_held_out
     from thermoplc.models.fit import FitRequest
     from thermoplc.models.kalman import FitOptions
-    from thermoplc.models.table import read_table
+    from thermoplc.models.campaign import read_campaign
     from thermoplc.pipeline import becomes_block
+    from thermoplc.commands.fit_report import check_report, write_report
     options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
                          args.recover_limit, args.ga_operators)
     request = FitRequest(kind=args.model, target=args.target[0], temps=args.temps, speed=args.speed,
@@ -103,17 +123,25 @@ def run(args: argparse.Namespace) -> int:
                          lags=args.lags, lag_step_s=args.lag_step_s, extra_targets=args.target[1:],
                          tool_length=args.tool_length, unseen=args.unseen, time_bins=args.time_bins)
     refuse_options_not_read(args, request)
-    check_output(args.output, args.force, inputs=args.data)
-    json_output.check(args, args.data, output=args.output)
-    tables = [read_table(path, args.time, decimal=args.decimal) for path in args.data]
+    inputs = args.data or ([args.runs] if args.runs else [])
+    check_output(args.output, args.force, inputs=inputs)
+    json_output.check(args, inputs, output=args.output)
+    campaign = read_campaign(args.data, args.runs, args.time, args.decimal, probed=args.target,
+                             held=args.held_target)
+    stale = check_report(args.report, campaign, inputs) if args.report else []
+    groups = campaign.groups(args.group_by) if args.group_by else None
+    tables = campaign.tables
+    predictions: dict = {}
     if args.model == "auto":
-        model = fit_auto(tables, request, args.folds, args.time, progress())
+        model = fit_auto(tables, request, args.folds, args.time, progress(), groups)
     else:
-        model = fit_held_out(tables, request, args.folds, args.time, progress())
+        model = fit_held_out(tables, request, args.folds, args.time, progress(), groups, predictions)
     end_progress()
     becomes_block(model, args.output)
+    report = write_report(args.report, model, campaign, predictions, stale) if args.report else None
     write_atomic(args.output, model.to_json())
-    json_output.emit(args, f"{format_fit(model)}\nwrote {args.output}", fit_document(model, args.output))
+    text = f"{format_fit(model, campaign)}\nwrote {args.output}" + (f"\nwrote {report}" if report else "")
+    json_output.emit(args, text, fit_document(model, args.output))
     refused = refusal(model)
     if refused:
         print(f"thermoplc: WARNING: generate will refuse this model: {refused}", file=sys.stderr)

@@ -6,21 +6,36 @@ from thermoplc.base.identifiers import renaming_note
 from thermoplc.models.acceptance import refusal
 
 
-def format_fit(model) -> str:
-    """The errors of a fitted model: training, held out (each fold with cross-validation), float32 vs float64."""
+def _runs_named(batches: list[dict]) -> str:
+    """The runs by file name; a campaign of many by its count, first and last."""
+    if len(batches) <= 3:
+        return ", ".join(t["file"] for t in batches)
+    return f"{len(batches)} runs ({batches[0]['file']} .. {batches[-1]['file']})"
+
+
+def format_fit(model, campaign=None) -> str:
+    """The errors of a fitted model: training, held out (each fold, each run with cross-validation over
+    runs), float32 vs float64; with a probed target, how many measurements each error used."""
     m = model.metrics
     batches = model.training.get("batches", [model.training])
-    files = ", ".join(t["file"] for t in batches)
-    lines = [f"fitted {model.kind} on {files}: {m['train']['rows']} training rows "
-             f"(until {batches[0]['until_s']:g} s{' in each file' if len(batches) > 1 else ''}), "
-             f"{m['held_out']['rows']} held out" + (" in cross-validation" if "cross_validation" in m else ""),
+    probed = "calls" in m["train"] or "calls" in m["held_out"]
+    measured = lambda section: (f" ({section['rows']} probings of {section['calls']} calls)"
+                                if "calls" in section else "")
+    lines = [f"fitted {model.kind} on {_runs_named(batches)}: {m['train']['rows']} training rows"
+             f"{measured(m['train'])} (until {batches[0]['until_s']:g} s{' in each run' if len(batches) > 1 else ''}), "
+             f"{m['held_out']['rows']} held out" + (" in cross-validation" if "cross_validation" in m else "")
+             + measured(m["held_out"]),
              f"  {'':<22}{'RMSE um':>10}{'max |residual| um':>20}"]
+    if probed:
+        lines.insert(1, "  probed target: errors on the measured rows only, the temperatures at every call")
     held_label = "prediction (all folds)" if "cross_validation" in m else "prediction (held out)"
     for label, key in (("fit (training)", "train"), (held_label, "held_out")):
         if m[key]["rows"]:
             lines.append(f"  {label:<22}{m[key]['rmse_um']:>10.3f}{m[key]['max_abs_um']:>20.3f}")
     if "cross_validation" in m:
         lines += _format_folds(m)
+    if m.get("runs") and len(m["runs"]) != len(m["cross_validation"]):
+        lines += _format_runs(m, campaign)
     lines.append(f"  float32 block vs float64 model: max {m['float32_vs_float64_max_um']:.3g} um")
     lines += [f"  {note}" for s in (*model.inputs, model.target) if (note := renaming_note(s.column, s.name))]
     if "one_step_rmse_K" in model.fit:  # an identified model: how far its temperatures are from the readings
@@ -45,6 +60,15 @@ def _format_folds(m: dict) -> list[str]:
     lines.append(f"  {'all folds':<26}{held['rows']:>12}{held['rmse_um']:>10.3f}{held['max_abs_um']:>9.3f}"
                  f"{held['zero_rmse_um']:>14.3f}{held['zero_max_abs_um']:>13.3f}")
     lines.append(f"  spread: fold RMSE {low:.3f} to {high:.3f} um")
+    return lines
+
+
+def _format_runs(m: dict, campaign) -> list[str]:
+    """Each held-out run beside no compensation, when the folds hold several runs (grouped folds)."""
+    attributes = {run.name: run.attributes for run in campaign.runs} if campaign else {}
+    lines = [f"  {'run (fold)':<34}{'rows':>8}{'RMSE um':>10}{'max um':>9}{'none RMSE um':>14}{'none max um':>13}"]
+    lines += [f"  {r['run'] + ' (' + r['fold'] + ')':<34}{r['rows']:>8}{r['rmse']:>10.3f}{r['max_abs']:>9.3f}"
+              f"{r['zero_rmse']:>14.3f}{r['zero_max_abs']:>13.3f}" for r in m["runs"]]
     return lines
 
 

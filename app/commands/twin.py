@@ -31,9 +31,28 @@ def add_parser(sub) -> None:
     p.add_argument("--effect", action="append", default=[], metavar="NAME[:KEY=VALUE,...]",
                    help=f"hide a physical effect in the data; repeatable. Names: {', '.join(EFFECT_NAMES)}")
     p.add_argument("--noise", type=number(float, 0.0, 100.0, "a scale"), default=1.0, help="scale of the sensor noise (default: %(default)s)")
+    p.add_argument("--runs", type=number(int, 1, 10000, "runs"), metavar="N",
+                   help="a campaign: N runs of --hours each of the same machine (hall air held at levels from 14 to "
+                        "34 degC or swinging, cold and warm starts, the seed's speed programmes), written into the "
+                        "folder -o with a runs table runs.csv")
+    p.add_argument("--probe-minutes", type=number(float, 0.0, 1e6, "minutes"), default=0.0, metavar="M",
+                   help="with --runs: the drift E_z_um probed every M minutes and held between probings, relative "
+                        "to the run's first probing (E_z_true_um beside it); 0: every call (default: %(default)s)")
+    p.add_argument("--effect-runs", type=_run_numbers, metavar="K,K,...",
+                   help="with --runs: hide the --effect only in these runs (numbered from 1; default: every run)")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
-    p.add_argument("-o", "--output", required=True, help="CSV file to write")
+    p.add_argument("-o", "--output", required=True, help="CSV file to write (with --runs: a new or empty folder)")
     p.set_defaults(func=run)
+
+
+def _run_numbers(text: str) -> tuple[int, ...]:
+    try:
+        numbers = tuple(int(k) for k in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected run numbers K,K,... (from 1), found {text!r}") from None
+    if not numbers or min(numbers) < 1:
+        raise argparse.ArgumentTypeError(f"expected run numbers K,K,... (from 1), found {text!r}")
+    return numbers
 
 
 def run(args: argparse.Namespace) -> int:
@@ -50,6 +69,13 @@ def run(args: argparse.Namespace) -> int:
     names = [e.name for e in effects]
     if len(set(names)) != len(names):
         raise UserError("--effect: each effect can be switched on once")
+    if args.runs is None:
+        if args.probe_minutes or args.effect_runs:
+            raise UserError("--probe-minutes and --effect-runs describe a campaign: give --runs N")
+    else:
+        if faults:
+            raise UserError("--sensor-fault: not with --runs (a campaign's runs are clean of sensor faults)")
+        return _campaign(args, effects)
     check_output(args.output, args.force)
     options = {} if args.ambient_swing is None else {"ambient_swing": args.ambient_swing}
     columns = chosen.simulate(args.hours, args.seed, args.dt, args.ambient_start, faults=faults, effects=effects,
@@ -64,4 +90,32 @@ def run(args: argparse.Namespace) -> int:
     for fault in faults:
         print(f"  {fault.describe()}")
     print(f"  columns: {', '.join(columns)}")
+    return 0
+
+
+def _campaign(args: argparse.Namespace, effects: tuple) -> int:
+    """`twin --runs N`: the runs and their runs table into a folder, all files or none."""
+    from pathlib import Path
+    from thermoplc.base.fileio import write_outputs
+    from thermoplc.machines.campaign import plan, simulate_run
+    from thermoplc.models.table import write_table
+    folder = Path(args.output)
+    if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
+        raise UserError(f"-o {folder}: with --runs, a new or empty folder (the runs and runs.csv are written in it)")
+    runs = plan(args.runs, args.seed, effects, args.effect_runs)
+    files, rows = [], ["file,hall_air_C,hall,air,start,seed,effects"]
+    for run in runs:
+        name = f"run_{run.index + 1:03d}.csv"
+        columns = simulate_run(args.machine, run, args.hours, args.dt, args.probe_minutes, args.noise)
+        files.append((folder / name, write_table(columns)))
+        rows.append(",".join([name, *run.attributes().values()]))
+    files.append((folder / "runs.csv", "\n".join(rows) + "\n"))
+    write_outputs(files)
+    probing = f", drift probed every {args.probe_minutes:g} min and held" if args.probe_minutes else ""
+    print(f"wrote {folder}: {len(runs)} runs of {args.hours:g} h every {args.dt:g} s, seed {args.seed}, machine "
+          f"{args.machine}{probing}; runs table {folder / 'runs.csv'}")
+    for e in effects:
+        where = "every run" if args.effect_runs is None else "runs " + ",".join(map(str, args.effect_runs))
+        print(f"  hidden effect {e.name} in {where}: " + ", ".join(
+            f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in e.parameters))
     return 0
