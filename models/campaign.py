@@ -21,6 +21,7 @@ from thermoplc.models.table import Table, read_table
 
 RECORDING_SUFFIXES = (".csv", ".npz", ".parquet")
 FILE_COLUMN = "file"
+RUNS_TABLE = "runs.csv"  # in a folder given as --data: its runs table, not a run
 
 
 @dataclass(frozen=True)
@@ -55,12 +56,14 @@ class Campaign:
 
 
 def recording_paths(data: list[str]) -> list[str]:
-    """`--data` values: files as given, a folder as the recordings in it (CSV, .npz, Parquet) by name."""
+    """`--data` values: files as given, a folder as the recordings in it (CSV, .npz, Parquet) by name, but
+    for its runs table `runs.csv`."""
     paths = []
     for given in data:
         folder = Path(given)
         if given != "-" and folder.is_dir():
-            found = sorted(str(p) for p in folder.iterdir() if p.is_file() and p.suffix.lower() in RECORDING_SUFFIXES)
+            found = sorted(str(p) for p in folder.iterdir()
+                           if p.is_file() and p.suffix.lower() in RECORDING_SUFFIXES and p.name != RUNS_TABLE)
             if not found:
                 raise UserError(f"{given}: a folder with no recordings in it (expected files ending in "
                                 f"{', '.join(RECORDING_SUFFIXES)})")
@@ -125,6 +128,8 @@ def read_campaign(data: list[str] | None, runs_table: str | None, time_column: s
     measurements (or, `held`, repeat the last measurement: only changes count)."""
     if (data is None) == (runs_table is None):
         raise UserError("give the runs as --data FILE|FOLDER (repeated) or as --runs TABLE, one of the two")
+    if data is not None and len(data) == 1 and (Path(data[0]) / RUNS_TABLE).is_file():
+        data, runs_table = None, str(Path(data[0]) / RUNS_TABLE)  # a campaign's folder: its runs table
     if runs_table is not None:
         paths, attributes, names = read_runs_table(runs_table)
     else:

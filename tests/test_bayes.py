@@ -44,7 +44,7 @@ def test_an_unseen_configuration_answers_as_the_nearest_seen_one():
     assert predict_rises(frequent, settings, probe)[0] == 1.5  # the interval most frequent overall
 
 
-def test_time_parent_over_repeated_runs_is_bit_exact_and_needs_the_option(tmp_path):
+def test_time_parent_over_repeated_runs_is_bit_exact(tmp_path):
     from tests.cli_runner import thermoplc
     from thermoplc.models.table import write_table
     from thermoplc.machines.cascade import simulate
@@ -63,6 +63,6 @@ def test_time_parent_over_repeated_runs_is_bit_exact_and_needs_the_option(tmp_pa
     assert cli("generate", "bt.json", "-o", "bt.st", "--dialect", "iec", "--accept-unvalidated").returncode == 0
     verified = cli("verify", "bt.st", "--model", "bt.json", "--data", runs[7])
     assert verified.returncode == 0 and "bit-exact" in verified.stdout, verified.stdout + verified.stderr
-    refused = cli("fit", *data, "--model", "bayes", "--target", "E_z_um", "--temps", "T_env", "--train-until", "99999",
-                  "-o", "no.json")
-    assert refused.returncode == 2 and "--time-bins" in refused.stderr
+    plain = cli("fit", *data, "--model", "bayes", "--target", "E_z_um", "--temps", "T_env", "--train-until", "99999",
+                "-o", "plain.json")  # runs without the time parent: every kind fits a campaign (issue 37)
+    assert plain.returncode == 0 and "fitted bayes on 7 runs" in plain.stdout, plain.stderr

@@ -79,6 +79,12 @@ def read_manifest(path: str) -> list[Pair]:
     return pairs
 
 
+def model_targets(model) -> tuple[str, ...]:
+    """The recording's columns the model was fitted to (a probed target may be empty between probings);
+    a replay never reads them."""
+    return (model.target.column, *(t["column"] for t in model.settings.get("targets", [])))
+
+
 def verify_pair(pair: Pair, engine: str) -> Outcome:
     """One pair, in a worker process; errors become an outcome, never an exception."""
     started = time.perf_counter()
@@ -91,7 +97,7 @@ def verify_pair(pair: Pair, engine: str) -> Outcome:
             model = load_model(pair.model)
             report = verify_streaming(pair.block, model, pair.model, pair.data, pair.inputs, engine)
             if report is None:
-                table = read_table(pair.data, model.time_column)
+                table = read_table(pair.data, model.time_column, sparse=model_targets(model))
                 report = verify_against_model(pair.block, model, pair.model, table, pair.inputs, engine)
         else:
             table = read_table(pair.data)

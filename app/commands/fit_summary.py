@@ -8,7 +8,7 @@ from thermoplc.models.acceptance import refusal
 
 def _runs_named(batches: list[dict]) -> str:
     """The runs by file name; a campaign of many by its count, first and last."""
-    if len(batches) <= 3:
+    if len(batches) <= 4:
         return ", ".join(t["file"] for t in batches)
     return f"{len(batches)} runs ({batches[0]['file']} .. {batches[-1]['file']})"
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.commands import json_output
@@ -13,8 +14,12 @@ from thermoplc.commands.terminal import progress
 def add_parser(sub) -> None:
     p = sub.add_parser("verify", help="replay data through a block and compare every output bit for bit")
     p.add_argument("block", nargs="?", help="the block: its ST source, or the PLCopen XML of generate --format plcopen")
-    p.add_argument("--data", help="the recording (CSV, .npz or Parquet of columns), one row per call; columns "
-                                   "Enable and Reset (0/1), when present, drive those block inputs")
+    p.add_argument("--data", action="append",
+                   help="the recording (CSV, .npz or Parquet of columns), one row per call; columns Enable and Reset "
+                        "(0/1), when present, drive those block inputs. Repeat it, or give a folder, for a campaign: "
+                        "each run replayed from a freshly started block, one line per run, one verdict")
+    p.add_argument("--runs", metavar="TABLE",
+                   help="a campaign's runs table (fit --runs) instead of --data: each run verified from a fresh block")
     p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--model", help="compare with this model's float32 reference")
     p.add_argument("--expect", type=columns, help="compare with recorded outputs: COLUMN or OUTPUT=COLUMN, comma-separated")
@@ -36,23 +41,62 @@ def run(args: argparse.Namespace) -> int:
     try:
         if args.manifest:
             return _fleet(args)
-        if not args.block or not args.data:
-            raise UserError("verify needs BLOCK and --data (or --manifest FILE for many pairs)")
-        if args.jobs != 1:
-            raise UserError("--jobs runs the pairs of a --manifest in parallel; give --manifest FILE")
+        if not args.block or not (args.data or args.runs):
+            raise UserError("verify needs BLOCK and --data (or --runs TABLE; or --manifest FILE for many pairs)")
         if (args.model is None) == (args.expect is None):
             raise UserError("verify needs either --model MODEL.json or --expect COLUMN[,COLUMN] (a recorded PLC trace)")
+        runs = _runs(args)
+        if len(runs) > 1 or args.runs:
+            return _campaign(args, runs)
+        if args.jobs != 1:
+            raise UserError("--jobs runs the pairs of a --manifest or the runs of a campaign in parallel")
+        args.data = runs[0]
         json_output.check(args, [args.block, args.data, args.model])
         return _against_model(args) if args.model else _against_trace(args)
     except UserError as exc:  # a model file that lacks what its kind needs: name the file
         raise UserError(str(exc).replace("model file:", f"{args.model}:", 1) if args.model else str(exc)) from None
 
 
+def _runs(args: argparse.Namespace) -> list[str]:
+    """The recordings to replay: --data (files, folders) or the runs table's files."""
+    from thermoplc.models.campaign import read_runs_table, recording_paths
+    if args.data and args.runs:
+        raise UserError("give the runs as --data FILE|FOLDER (repeated) or as --runs TABLE, one of the two")
+    return read_runs_table(args.runs)[0] if args.runs else recording_paths(args.data)
+
+
+def _campaign(args: argparse.Namespace, runs: list[str]) -> int:
+    """A campaign: every run replayed from a fresh block (a pair each, as a manifest's), one line per run
+    and one verdict: 2 when a run could not be read, else 1 when any is not bit-exact."""
+    if args.json or args.faults:
+        raise UserError("--json and --faults take one recording; a campaign's runs are listed one line each "
+                        "(verify a run alone for its --json or --faults)")
+    if "-" in runs:
+        raise UserError("--data -: standard input holds one recording; give a campaign's runs as files")
+    from thermoplc.verifier.fleet import Pair, verify_fleet
+    expect = dict(item.partition("=")[::2] if "=" in item else (item, item) for item in args.expect or ()) or None
+    pairs = [Pair(k, args.block, path, args.model, expect, args.inputs) for k, path in enumerate(runs, start=1)]
+    outcomes, seconds = verify_fleet(pairs, args.jobs, args.engine)
+    width = max(len(Path(o.pair.data).name) for o in outcomes) + 2
+    print(f"campaign: {args.block} against {args.model or 'the recorded outputs'} on {len(runs)} runs, each from a "
+          f"freshly started block")
+    print(f"  {'run':<{width}}{'status':<15}detail")
+    for o in outcomes:
+        print(f"  {Path(o.pair.data).name:<{width}}{o.status:<15}{o.detail}")
+    counts = {s: sum(o.status == s for o in outcomes) for s in ("bit-exact", "NOT bit-exact", "error")}
+    exact = counts["bit-exact"] == len(outcomes)
+    print(("bit-exact: every run reproduces the reference" if exact else "NOT bit-exact: "
+           + ", ".join(f"{n} {s}" for s, n in counts.items() if n)) + f" ({len(outcomes)} runs, {seconds:.1f} s)")
+    if counts["error"]:
+        return 2
+    return 0 if exact else 1
+
+
 def _fleet(args: argparse.Namespace) -> int:
     """Many pairs from a manifest: 2 when any pair could not be read, else 1 when any is not bit-exact."""
     if args.json:
         raise UserError("--json reports one pair; with --manifest each pair's result is in the table")
-    if args.block or args.data or args.model or args.expect or args.faults:
+    if args.block or args.data or args.runs or args.model or args.expect or args.faults:
         raise UserError("--manifest lists the blocks, data and models itself; give no BLOCK, --data, --model, --expect or --faults")
     from thermoplc.verifier.fleet import format_fleet, read_manifest, verify_fleet
     outcomes, seconds = verify_fleet(read_manifest(args.manifest), args.jobs, args.engine)
@@ -76,7 +120,8 @@ def _against_model(args: argparse.Namespace) -> int:
         report = verify_streaming(args.block, model, args.model, args.data, args.inputs, args.engine,
                                   args.decimal, progress())
     if report is None:
-        table = read_table(args.data, model.time_column, progress(), args.decimal)
+        from thermoplc.verifier.fleet import model_targets
+        table = read_table(args.data, model.time_column, progress(), args.decimal, sparse=model_targets(model))
         if args.faults:
             return _faults(args, model, table)
         report = verify_against_model(args.block, model, args.model, table, args.inputs, args.engine)
