@@ -1,0 +1,158 @@
+"""Campaigns: every kind fitted on runs and judged on runs it never saw, beside no compensation and a
+plain ridge regression on every sensor (the floor any compensation tool must beat).
+
+Real data first: FL_THERMAL (46 h) cut into runs of `--run-hours`, each a fresh block start with its
+drift taken from the run's start (as a probing campaign measures it), full rate and probed every 30
+minutes (held). Then twin campaigns of both machines over several seeds: leave one run out, grouped
+(fit on the cool days, predict the warm ones: the runs table's `hall`), and probed every 30 min.
+Seconds are per fit on this machine (2 cores, shared: noisy; compare within one run).
+
+    python -m benchmarks.campaign            # the whole table (about 15 min on 2 cores)
+    python -m benchmarks.campaign --quick    # the real data and one twin campaign
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from thermoplc.base.errors import UserError
+from thermoplc.machines.campaign import TARGET, plan, simulate_run
+from thermoplc.models import ridge
+from thermoplc.models.campaign import Campaign, Run, held_to_probed
+from thermoplc.models.crossval import cross_validate_runs, pooled
+from thermoplc.models.fit import FitRequest
+from thermoplc.models.kalman import FitOptions
+from thermoplc.models.table import Table, read_table
+
+ROOT = Path(__file__).resolve().parent.parent
+FL_THERMAL = ROOT / "app" / "data" / "fl_thermal" / "fl_thermal.csv"
+KINDS = ("mlr", "dlag", "gm0n", "gm1n", "bayes", "bpnn", "lumped", "kalman")
+QUICK_GA = FitOptions(population=20, generations=15)  # kalman's GA held short so the table runs in minutes
+FL_RUN_HOURS = 6.0
+
+
+def fl_thermal_runs(target: str, hours: float, probe_minutes: float) -> list[Table]:
+    """FL_THERMAL cut into runs of `hours`, each a fresh start: time and drift from the run's first row."""
+    whole = read_table(FL_THERMAL)
+    t = whole.columns["time_s"]
+    dt = float(np.median(np.diff(t)))
+    rows = int(round(hours * 3600 / dt))
+    runs = []
+    for k, start in enumerate(range(0, whole.rows - rows // 2, rows)):
+        stop = min(start + rows, whole.rows)
+        columns = {c: v[start:stop].copy() for c, v in whole.columns.items()}
+        columns["time_s"] = columns["time_s"] - columns["time_s"][0]
+        columns[target] = columns[target] - columns[target][0]
+        if probe_minutes:
+            step = int(round(probe_minutes * 60 / dt))
+            columns[target] = columns[target][(np.arange(stop - start) // step) * step]
+        table = Table(f"fl_thermal_run{k + 1}.csv", columns, f"{whole.sha256}:{start}", whole.lines[start:stop])
+        runs.append(held_to_probed(table, target) if probe_minutes else table)
+    return runs
+
+
+def twin_runs(machine: str, seed: int, runs: int, hours: float, probe_minutes: float) -> Campaign:
+    plans = plan(runs, seed)
+    out = []
+    for p in plans:
+        columns = simulate_run(machine, p, hours, 60.0, probe_minutes)
+        table = Table(f"{machine}_s{seed}_run{p.index + 1:02d}.csv", columns, f"{machine}:{p.seed}",
+                      np.arange(2, len(columns["time_s"]) + 2))
+        out.append(Run(held_to_probed(table, TARGET) if probe_minutes else table, p.attributes()))
+    return Campaign(tuple(out), tuple(plans[0].attributes()))
+
+
+def ridge_floor(tables: list[Table], target: str, temps: tuple[str, ...], groups=None) -> dict:
+    """Ridge on every sensor's absolute reading (no run start, no dynamics), the weight by forward
+    validation, leave one run (or group) out: the floor of the issue."""
+    folds = list(groups.values()) if groups else [[k] for k in range(len(tables))]
+    residuals, zeros = [], []
+    for held in folds:
+        train = [t for k, t in enumerate(tables) if k not in held]
+        x = np.vstack([np.column_stack([t.columns[c] for c in temps]) for t in train])
+        y = np.concatenate([t.columns[target] for t in train])
+        keep = np.isfinite(y)
+        fitted = ridge.fit_linear(x[keep], y[keep], list(temps))
+        for k in held:
+            t = tables[k]
+            y_held = t.columns[target]
+            keep = np.isfinite(y_held)
+            predicted = fitted.intercept + np.column_stack([t.columns[c] for c in temps]) @ fitted.slopes
+            residuals.append((y_held - predicted)[keep])
+            zeros.append(y_held[keep])
+    rms = lambda v: float(np.sqrt(np.mean(np.concatenate(v) ** 2)))
+    return {"rmse": rms(residuals), "zero": rms(zeros), "rows": int(sum(len(r) for r in residuals))}
+
+
+def judge(tables: list[Table], request: FitRequest, groups=None) -> dict:
+    started = time.perf_counter()
+    try:
+        folds, _ = cross_validate_runs(tables, request, "time_s", None, groups)
+    except UserError as exc:
+        return {"kind": request.kind, "refused": str(exc)[:70]}
+    seconds = (time.perf_counter() - started) / len(folds)
+    held = pooled(folds)
+    return {"kind": request.kind, "rmse": held["rmse_um"], "zero": held["zero_rmse_um"], "rows": held["rows"],
+            "seconds_per_fit": seconds}
+
+
+def request_for(kind: str, target: str, temps: tuple[str, ...], speed: str, ambient: str) -> FitRequest:
+    options = QUICK_GA if kind == "kalman" else FitOptions()
+    return FitRequest(kind=kind, target=target, temps=temps, speed=speed, ambient=ambient, options=options,
+                      train_until=math.inf)
+
+
+def table_rows(label: str, tables: list[Table], target: str, temps: tuple[str, ...], every: tuple[str, ...],
+               speed: str, ambient: str, groups=None, kinds=KINDS) -> list[str]:
+    floor = ridge_floor(tables, target, every, groups)
+    lines = [f"{label}: {len(tables)} runs, {floor['rows']} measured rows; no compensation {floor['zero']:.2f} um, "
+             f"ridge on all {len(every)} sensors {floor['rmse']:.2f} um"]
+    for kind in kinds:
+        found = judge(tables, request_for(kind, target, temps, speed, ambient), groups)
+        if "refused" in found:
+            lines.append(f"  {kind:<8} refused: {found['refused']}")
+            continue
+        verdict = "beats none" if found["rmse"] < found["zero"] else "WORSE than none"
+        lines.append(f"  {kind:<8}{found['rmse']:>9.2f} um  ({found['rmse'] / floor['rmse']:.2f}x ridge, {verdict})"
+                     f"{found['seconds_per_fit']:>8.2f} s/fit")
+    return lines
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="real data and one twin campaign only")
+    parser.add_argument("--seeds", type=int, default=2, help="twin seeds per machine (default 2)")
+    args = parser.parse_args()
+    print("## FL_THERMAL cut into 6 h runs (real data; drift from each run's start)")
+    every = tuple(f"t{i}_C" for i in range(1, 17) if i != 6)
+    for target, temps in (("ch3_um", ("t5_C", "t4_C")), ("ch5_um", ("t8_C", "t4_C", "t5_C", "t11_C"))):
+        for probe in (0.0, 30.0):
+            runs = fl_thermal_runs(target, FL_RUN_HOURS, probe)
+            label = f"FL_THERMAL {target}, {'probed every 30 min' if probe else 'full rate'}"
+            print("\n".join(table_rows(label, runs, target, temps, every, "spindle_rpm", "t6_C")))
+    temps = ("T_motor", "T_bearing", "T_struct")
+    every = ("T_env", "T_motor", "T_bearing", "T_struct", "T_base")
+    cases = [("cascade", 1)] if args.quick else [(m, s) for m in ("cascade", "portal") for s in range(1, args.seeds + 1)]
+    for machine, seed in cases:
+        print(f"\n## twin campaign: machine {machine}, seed {seed}, 10 runs of 6 h at 60 s")
+        campaign = twin_runs(machine, seed, 10, 6.0, 0.0)
+        machine_temps = temps if machine == "cascade" else tuple(c for c in campaign.tables[0].columns
+                                                               if c.startswith("T_") and c != "T_env")[:3]
+        machine_every = tuple(c for c in campaign.tables[0].columns if c.startswith("T_"))
+        tables = campaign.tables
+        print("\n".join(table_rows("leave one run out", tables, TARGET, machine_temps, machine_every, "n_rpm",
+                                   "T_env")))
+        print("\n".join(table_rows("grouped: cool runs predict warm ones and back", tables, TARGET, machine_temps,
+                                   machine_every, "n_rpm", "T_env", campaign.groups("hall"))))
+        probed = twin_runs(machine, seed, 10, 6.0, 30.0).tables
+        print("\n".join(table_rows("probed every 30 min (held)", probed, TARGET, machine_temps, machine_every,
+                                   "n_rpm", "T_env")))
+
+
+if __name__ == "__main__":
+    main()
