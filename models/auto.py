@@ -24,8 +24,8 @@ from typing import Callable
 import numpy as np
 
 from thermoplc.base.errors import UserError
-from thermoplc.models import acceptance, crossval
-from thermoplc.models.fit import FitRequest, training_rows
+from thermoplc.models import acceptance, auto_nested, crossval
+from thermoplc.models.fit import FitRequest, runs_named, training_rows
 from thermoplc.models.kind import Kind
 from thermoplc.models.kinds import registry
 from thermoplc.models.modelfile import Model
@@ -118,7 +118,12 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
     kinds = tried(request)
     if say:
         say("auto: forward selection of sensors")
-    sets = forward_selection(tables, request, folds, time_column, max_sensors, groups)
+    if len(tables) > 1 or groups is not None:  # a campaign: the direct ridge path, rises computed once
+        held_out = [members for _, members in crossval.run_folds(tables, folds, groups)]
+        sets = auto_nested.forward_selection(auto_nested.run_rises(tables, request), request.temps, held_out,
+                                             max_sensors)
+    else:
+        sets = forward_selection(tables, request, folds, time_column, max_sensors)
     seen = {frozenset(s) for s in sets}
     sets += [s for s in sensor_sets(tables[0], request, train_rows, max_sensors) if frozenset(s) not in seen]
     found = [_candidate(tables, request, folds, time_column, kind.name, sensors, say, groups)
@@ -141,6 +146,8 @@ def _candidate(tables, request, folds, time_column, kind, sensors, say, groups=N
 
 
 def _without_paths(text: str, tables: list[Table]) -> str:
+    for named in (runs_named(tables[:k] + tables[k + 1:]) for k in range(len(tables))):
+        text = text.replace(f"{named}: ", "")
     for table in tables:
         text = text.replace(f"{table.path}: ", "")
     return text

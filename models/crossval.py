@@ -26,7 +26,7 @@ from typing import Callable
 import numpy as np
 
 from thermoplc.base.errors import UserError
-from thermoplc.models.fit import FitRequest, evaluate, fit
+from thermoplc.models.fit import FitRequest, evaluate, fit, runs_named
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.table import Table
@@ -114,8 +114,8 @@ def cross_validate_runs(tables: list[Table], request: FitRequest, time_column: s
         others = [t for k, t in enumerate(tables) if k not in members]
         held = [tables[k] for k in members]
         model = _guarded(lambda: fit(others, replace(request, train_until=math.inf, train_rows=None), time_column),
-                         f"fold {label} (fitted without {', '.join(t.path for t in held)})")
-        results.append(_fold(label, sum(t.rows for t in others), evaluate(model, held, [0] * len(held))["held_out"]))
+                         f"fold {label} (fitted without {runs_named(held)})")
+        results.append(_fold(label, model.metrics["train"]["rows"], evaluate(model, held, [0] * len(held))["held_out"]))
         for table in held:
             found = evaluate(model, [table], [0])["held_out"]
             if predictions is not None:

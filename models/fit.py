@@ -74,6 +74,13 @@ def sample_period(table: Table, time_column: str) -> float:
     return dt
 
 
+def runs_named(tables: list[Table]) -> str:
+    """The recordings a message is about: the path of one, the count, first and last of a campaign."""
+    if len(tables) <= 2:
+        return ", ".join(t.path for t in tables)
+    return f"{len(tables)} runs ({tables[0].path} .. {tables[-1].path})"
+
+
 def _metrics(residual: np.ndarray) -> dict:
     if not len(residual):
         return {"rows": 0, "rmse_um": None, "max_abs_um": None}
@@ -166,7 +173,7 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
     try:
         coefficients, settings, log = kind.fit(parts, request, names, dt, progress)
     except UserError as exc:
-        raise UserError(f"{', '.join(t.path for t in tables)}: {exc}") from None
+        raise UserError(f"{runs_named(tables)}: {exc}") from None
     training = [{"file": Path(t.path).name, "sha256": t.sha256, "rows": n, "total_rows": t.rows,
                  "until_s": float(t.columns[time_column][n - 1])} for t, n in zip(tables, n_train)]
     model = Model(

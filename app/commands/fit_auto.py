@@ -40,4 +40,25 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
               f"{cheaper.rmse:.3f} um, {cost[id(cheaper)]} operations per call (fit it with --model {cheaper.kind} "
               f"--temps {','.join(cheaper.sensors)})")
     print(f"  writing the best: {best.kind} on {','.join(best.sensors)}")
+    if len(tables) > 1 or groups is not None:
+        return _nested(tables, request, best, groups, progress)
     return best.model
+
+
+def _nested(tables: list, request, best, groups, progress):
+    """A campaign: the best kind's held-out evidence with the sensor choice made inside each fold."""
+    from dataclasses import replace
+    from thermoplc.models.auto import MAX_SENSORS
+    from thermoplc.models.auto_nested import nested_auto
+    from thermoplc.models.modelfile import Model
+    held = nested_auto(tables, replace(request, kind=best.kind), MAX_SENSORS, groups, progress)
+    end_progress()
+    ranked = best.model.metrics["held_out"]["rmse_um"]
+    print(f"  held out with the sensor choice inside the folds ({held['folds']} folds): RMSE {held['rmse_um']:.3f} um "
+          f"(ranked on the same folds: {ranked:.3f} um), no compensation {held['zero_rmse_um']:.3f} um; the model "
+          f"file carries this")
+    ranking = best.model.metrics
+    metrics = {key: value for key, value in ranking.items() if key not in ("runs", "cross_validation")}
+    metrics.update(held_out={k: v for k, v in held.items() if k != "folds_detail"},
+                   cross_validation=held["folds_detail"], ranking_held_out=ranking["held_out"])
+    return Model(**{**best.model.__dict__, "metrics": metrics})
