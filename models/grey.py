@@ -1,12 +1,16 @@
 """Grey models GM(0,N) and GM(1,N) on first-order accumulated (1-AGO) sequences (paper 003).
 
 With S_i(k) = x_i(1) + ... + x_i(k) the running sums of the temperatures:
-- GM(0,N): X1(k) = a + sum_i b_i*S_i(k); the error estimate is X1(k) - X1(k-1), and x1(1) (the
-  error at the first sample of the fit) at the first call, where X1(0) is not defined.
+- GM(0,N): X1(k) = a + sum_i b_i*S_i(k); the error estimate is X1(k) - X1(k-1) = sum_i b_i*x_i(k),
+  and x1(1) (the error at the first sample of the fit) at the first call, where X1(0) is not defined.
 - GM(1,N): the grey difference equation the parameters are estimated from,
   x1(k) + a*z1(k) = sum_i b_i*S_i(k) with the background value z1(k) = (X1(k) + X1(k-1))/2,
   run forward: X1(k) = Keep*X1(k-1) + In*sum_i b_i*S_i(k), Keep = (1 - a/2)/(1 + a/2),
   In = 1/(1 + a/2), and the error estimate x1(k) = X1(k) - X1(k-1); x1(1) at the first call.
+  The block (and the reference) compute both without running sums, which in binary32 move the output
+  by um over two days and grow without bound on a PLC that runs for weeks: GM(0,N) as sum_i b_i*x_i(k),
+  GM(1,N) differenced once, x1(k) = Keep*x1(k-1) + In*sum_i b_i*x_i(k) (exact from the third call; the
+  second is the equation's own start), a first-order filter whose state stays bounded.
   The paper estimates a with the b_i by least squares, and that is the model whenever its time
   constant dt/a is positive and within the training span. On real recordings it often is not:
   a <= 0 (FL_THERMAL ch3: -9.4e-5), where the recursion never settles, or a time constant of 73 h
@@ -48,9 +52,10 @@ def fit_gm0n(parts: list[Part], names: list[str]):
     measured = np.isfinite(errors)
     fitted = ridge.fit_linear(sums, target_sums, names, weights=(0.0,),
                               output_error=lambda offset, b, rows: (errors[rows] - steps[rows] @ b)[measured[rows]])
-    coefficients = {"a": Coefficient.of(fitted.intercept), "X1": Coefficient.of(_first_error(targets)),
+    coefficients = {"X1": Coefficient.of(_first_error(targets)),
                     **{f"b_{i}": Coefficient.of(b) for i, b in enumerate(fitted.slopes, start=1)}}
-    return coefficients, {}, {"method": "least squares on 1-AGO sequences (paper 003, GM(0,N))", **fitted.log()}
+    settings = {"a": fitted.intercept}  # the constant of the accumulated equation: its first difference drops it
+    return coefficients, settings, {"method": "least squares on 1-AGO sequences (paper 003, GM(0,N))", **fitted.log()}
 
 
 def _first_error(targets: list[np.ndarray]) -> float:
@@ -161,32 +166,32 @@ def gm11_predict(target_train: np.ndarray, rows: int) -> np.ndarray:
 
 def predict_gm0n(model: Model, inputs: dict, precision: str) -> dict:
     """Reference in binary32 ('f32') or float64, in the block's operation order: {target name: error
-    estimate per row}, X1 at the first row."""
+    estimate per row}. X1 at the first call, then the first difference of a + sum_i b_i*S_i(k), which is
+    sum_i b_i*x_i(k) exactly: no running sums, so nothing grows on a PLC that runs for weeks."""
     f = np.float32 if precision == "f32" else np.float64
     temps = [np.asarray(inputs[s.name], f) for s in model.signals("temperature")]
-    a, x1 = f(model.coef("a", precision)), f(model.coef("X1", precision))
+    x1 = f(model.coef("X1", precision))
     b = [f(model.coef(f"b_{i}", precision)) for i in range(1, len(temps) + 1)]
     if kernels.enabled():  # the same loop, compiled (models/kernels.py)
-        return {model.target.name: kernels.gm0n(temps, a, x1, b, f)}
-    sums = [f(0.0)] * len(temps)
-    previous = f(0.0)
+        return {model.target.name: kernels.gm0n(temps, x1, b, f)}
     out = np.empty(len(temps[0]), f)
     for k in range(len(out)):
-        for i, x in enumerate(temps):
-            sums[i] = sums[i] + x[k]
-        level = a
-        for i in range(len(temps)):
-            level = level + b[i] * sums[i]
         if k == 0:
-            previous = level - x1
-        out[k] = level - previous
-        previous = level
+            out[k] = x1
+            continue
+        level = b[0] * temps[0][k]
+        for i in range(1, len(temps)):
+            level = level + b[i] * temps[i][k]
+        out[k] = level
     return {model.target.name: out}
 
 
 def predict_gm1n(model: Model, inputs: dict, precision: str) -> dict:
     """Reference in binary32 ('f32') or float64, in the block's operation order: {target name: error
-    estimate per row}, X1 at the first row."""
+    estimate per row}. The grey difference equation X1(k) = Keep*X1(k-1) + In*sum_i b_i*S_i(k) differenced
+    once: x1(k) = Keep*x1(k-1) + In*sum_i b_i*x_i(k) from the third call, the same estimates without
+    running sums (bounded however long the block runs); the first call gives X1 and the second
+    (Keep*X1 + In*sum_i b_i*(x_i(1) + x_i(2))) - X1, the equation's own start."""
     f = np.float32 if precision == "f32" else np.float64
     temps = [np.asarray(inputs[s.name], f) for s in model.signals("temperature")]
     c = lambda name: f(model.coef(name, precision))
@@ -194,30 +199,35 @@ def predict_gm1n(model: Model, inputs: dict, precision: str) -> dict:
     x1, keep, gain = c("X1"), c("Keep"), c("In")
     if kernels.enabled():  # the same loop, compiled (models/kernels.py)
         return {model.target.name: kernels.gm1n(temps, x1, keep, gain, b, f)}
-    sums = [f(0.0)] * len(temps)
-    previous = f(0.0)
     out = np.empty(len(temps[0]), f)
+    previous = f(0.0)
     for k in range(len(out)):
-        for i, x in enumerate(temps):
-            sums[i] = sums[i] + x[k]
-        forced = b[0] * sums[0]
-        for i in range(1, len(temps)):
-            forced = forced + b[i] * sums[i]
-        level = x1 if k == 0 else keep * previous + gain * forced
-        out[k] = level - previous
+        if k == 0:
+            level = x1
+        elif k == 1:
+            forced = b[0] * (temps[0][0] + temps[0][1])
+            for i in range(1, len(temps)):
+                forced = forced + b[i] * (temps[i][0] + temps[i][1])
+            level = (keep * previous + gain * forced) - x1
+        else:
+            forced = b[0] * temps[0][k]
+            for i in range(1, len(temps)):
+                forced = forced + b[i] * temps[i][k]
+            level = keep * previous + gain * forced
+        out[k] = level
         previous = level
     return {model.target.name: out}
 
 
 class StreamCore:
-    """predict_gm0n / predict_gm1n with the sums and the last level kept."""
+    """predict_gm0n / predict_gm1n with the first temperatures and the last estimate kept."""
 
     def __init__(self, model: Model, precision: str, f):
         self.f, self.kind, self.target = f, model.kind, model.target.name
         self.temps = model.signals("temperature")
         c = lambda name: f(model.coef(name, precision))
         self.b = [c(f"b_{i}") for i in range(1, len(self.temps) + 1)]
-        self.scalars = (c("a"), c("X1")) if model.kind == "gm0n" else (c("X1"), c("Keep"), c("In"))
+        self.scalars = (c("X1"),) if model.kind == "gm0n" else (c("X1"), c("Keep"), c("In"))
         self.state = kernels.GreyState(len(self.temps), f)
 
     def __call__(self, running: dict, fused_valid: dict) -> dict:
@@ -230,7 +240,8 @@ class StreamCore:
 
 
 GM0N = Kind("gm0n", 5, lambda parts, request, names, dt, progress: fit_gm0n(parts, names),
-            predict_gm0n, auto="closed-form", stream_core=StreamCore)
+            predict_gm0n, auto="closed-form", settings_schema={"type": "object", "properties": {"a": {"type": "number"}}},
+            stream_core=StreamCore)
 GM1N = Kind("gm1n", 6, lambda parts, request, names, dt, progress: fit_gm1n(parts, names, dt),
             predict_gm1n, auto="closed-form",
             settings_schema={"type": "object", "properties": {"a": {"type": "number"},

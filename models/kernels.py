@@ -244,69 +244,71 @@ def limit(model_values, start: int, y_state: np.ndarray, series, limited, clampe
 # Grey models (models/grey.py::predict_gm0n, predict_gm1n). temps: (k, rows).
 
 @jit
-def _gm0n(temps, a, x1, b, sums, prev, started, out):
+def _gm0n(temps, x1, b, started, out):
     k = temps.shape[0]
-    previous = prev[0]
     for j in range(out.shape[0]):
-        for i in range(k):
-            sums[i] = sums[i] + temps[i, j]
-        level = a
-        for i in range(k):
-            level = level + b[i] * sums[i]
         if started[0] == 0:
-            previous = level - x1
+            out[j] = x1
             started[0] = 1
-        out[j] = level - previous
-        previous = level
-    prev[0] = previous
+            continue
+        level = b[0] * temps[0, j]
+        for i in range(1, k):
+            level = level + b[i] * temps[i, j]
+        out[j] = level
 
 
 @jit
-def _gm1n(temps, x1, keep, gain, b, sums, prev, started, out):
+def _gm1n(temps, x1, keep, gain, b, first, prev, started, out):
     k = temps.shape[0]
     previous = prev[0]
     for j in range(out.shape[0]):
-        for i in range(k):
-            sums[i] = sums[i] + temps[i, j]
-        forced = b[0] * sums[0]
-        for i in range(1, k):
-            forced = forced + b[i] * sums[i]
         if started[0] == 0:
+            for i in range(k):
+                first[i] = temps[i, j]
             level = x1
             started[0] = 1
+        elif started[0] == 1:
+            forced = b[0] * (first[0] + temps[0, j])
+            for i in range(1, k):
+                forced = forced + b[i] * (first[i] + temps[i, j])
+            level = (keep * previous + gain * forced) - x1
+            started[0] = 2
         else:
+            forced = b[0] * temps[0, j]
+            for i in range(1, k):
+                forced = forced + b[i] * temps[i, j]
             level = keep * previous + gain * forced
-        out[j] = level - previous
+        out[j] = level
         previous = level
     prev[0] = previous
 
 
 class GreyState:
-    """Accumulated sums, the previous level and whether the first call happened."""
+    """The first call's temperatures, the previous error estimate and how many calls happened (0, 1, 2+)."""
 
     def __init__(self, k: int, f):
-        self.sums = np.zeros(k, f)
+        self.first = np.zeros(k, f)
         self.prev = np.zeros(1, f)
         self.started = np.zeros(1, np.int64)
 
 
-def gm0n(temps: list, a, x1, b: list, f, state: GreyState | None = None) -> np.ndarray:
+def gm0n(temps: list, x1, b: list, f, state: GreyState | None = None) -> np.ndarray:
     """GM(0,N) error estimates of `temps` (one array per sensor) by the compiled loop, bit for bit
-    those of grey.predict_gm0n; `state` carries the sums and the last level from chunk to chunk."""
+    those of grey.predict_gm0n; `state` carries whether the first call happened from chunk to chunk."""
     state = state or GreyState(len(temps), f)
     stacked = np.array(temps, f).reshape(len(temps), -1)
     out = np.empty(stacked.shape[1], f)
-    _gm0n(stacked, f(a), f(x1), np.array(b, f), state.sums, state.prev, state.started, out)
+    _gm0n(stacked, f(x1), np.array(b, f), state.started, out)
     return out
 
 
 def gm1n(temps: list, x1, keep, gain, b: list, f, state: GreyState | None = None) -> np.ndarray:
     """GM(1,N) error estimates of `temps` (one array per sensor) by the compiled loop, bit for bit
-    those of grey.predict_gm1n; `state` carries the sums and the last level from chunk to chunk."""
+    those of grey.predict_gm1n; `state` carries the first temperatures and the last estimate."""
     state = state or GreyState(len(temps), f)
     stacked = np.array(temps, f).reshape(len(temps), -1)
     out = np.empty(stacked.shape[1], f)
-    _gm1n(stacked, f(x1), f(keep), f(gain), np.array(b, f), state.sums, state.prev, state.started, out)
+    _gm1n(stacked, f(x1), f(keep), f(gain), np.array(b, f), state.first, state.prev, state.started, out)
     return out
 
 

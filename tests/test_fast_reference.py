@@ -110,7 +110,7 @@ def test_compiled_loops_contract_nothing():
     kernels.kalman(np.ones(3, f), np.ones(3, f), [np.ones(3, f)], [np.ones(3, bool)],
                    np.ones((1, 10), f), np.ones(1, f), f(0), f)
     kernels.hold(np.ones(3, f), np.ones(3, bool), False, 0, 3, 1.0, f)
-    kernels.gm0n([np.ones(3, f)], 1.0, 1.0, [1.0], f)
+    kernels.gm0n([np.ones(3, f)], 1.0, [1.0], f)
     kernels.gm1n([np.ones(3, f)], 1.0, 1.0, 1.0, [1.0], f)
     kernels.limit(np.ones(3, f), 0, np.zeros(1, f), np.zeros(3, f), np.zeros(3, bool), np.zeros(3, bool),
                   np.zeros(3, bool), Limits().values(), f)
