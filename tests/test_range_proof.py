@@ -46,7 +46,7 @@ def _edited(tmp_path, kind: str, coefficients: dict):
 
 @pytest.mark.parametrize("kind, coefficients, statement, what", [
     ("mlr", {"beta_1": 3e37}, "c_beta_1", "overflow to Inf"),
-    ("gm0n", {"b_1": 1e30}, "c_b_1", "overflow to Inf"),
+    ("gm0n", {"b_1": 3e37}, "c_b_1", "overflow to Inf"),  # no running sums since issue 37: b_i*T_i only
     ("kalman", {"N_1": 1e-36, "P0_1": 1e-36}, "Gain * P_pred", "subnormal"),
     ("kalman", {"R_1": 3e38}, "Gain := P_pred / (P_pred + c_R_1)", "underflow to 0"),
     ("bpnn", {"w1_1_1": 3e38}, "c_w1_1_1", "overflow to Inf"),
