@@ -767,9 +767,85 @@ def _plcopen_cases() -> list[Case]:
     return cases
 
 
+def _files(texts: dict[str, Callable[[str], str]]):
+    """Write each file (a path relative to the case's folder) with a text made from good.csv's."""
+    def prepare(folder: Path) -> None:
+        good = good_csv(folder)
+        for name, make in texts.items():
+            path = folder / name
+            path.parent.mkdir(exist_ok=True)
+            path.write_text(make(good))
+    return prepare
+
+
+def _coarser(text: str) -> str:
+    """The recording at twice the sample period (every other row)."""
+    lines = text.splitlines()
+    return "\n".join([lines[0], *lines[1::2]]) + "\n"
+
+
+def _campaign_cases() -> list[Case]:
+    """Runs tables, folders of runs, grouped folds and a campaign's verify (issue 37)."""
+    campaign = ("fit", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "-o", "out.json")
+    run_b = lambda text: _cell(text, 5, "E_z_um", "0.125")  # another run: not a copy
+    return [
+        Case("campaign", "runs table without a 'file' column", "fit", (*campaign, "--runs", "runs.csv", "--folds", "2"),
+             _files({"runs.csv": lambda _: "name,hall\ngood.csv,cool\n"}), "error", "runs.csv:1: no 'file' column"),
+        Case("campaign", "runs table lists a run twice", "fit", (*campaign, "--runs", "runs.csv", "--folds", "2"),
+             _files({"runs.csv": lambda _: "file,hall\ngood.csv,cool\ngood.csv,warm\n"}), "error",
+             "runs.csv:3: good.csv is listed twice (first on line 2)"),
+        Case("campaign", "runs table row of another width", "fit", (*campaign, "--runs", "runs.csv", "--folds", "2"),
+             _files({"runs.csv": lambda _: "file,hall\ngood.csv,cool,extra\n"}), "error",
+             "runs.csv:2: 3 fields, expected 2 as in the header"),
+        Case("campaign", "runs table names a file that is not there", "fit",
+             (*campaign, "--runs", "runs.csv", "--folds", "2"),
+             _files({"runs.csv": lambda _: "file,hall\ngood.csv,cool\ngone.csv,warm\n"}), "error", "gone.csv: cannot read"),
+        Case("campaign", "--group-by a column the runs table lacks", "fit",
+             (*campaign, "--runs", "runs.csv", "--group-by", "colour"),
+             _files({"runs.csv": lambda _: "file,hall\ngood.csv,cool\nb.csv,warm\n", "b.csv": run_b}), "error",
+             "--group-by colour: not a column of the runs table"),
+        Case("campaign", "--group-by with every run in one group", "fit",
+             (*campaign, "--runs", "runs.csv", "--group-by", "hall"),
+             _files({"runs.csv": lambda _: "file,hall\ngood.csv,cool\nb.csv,cool\n", "b.csv": run_b}), "error",
+             "every run is in the one group 'cool'"),
+        Case("campaign", "--group-by without a runs table", "fit", (*campaign, "--data", "good.csv", "--group-by", "hall"),
+             lambda f: None, "error", "--group-by hall: not a column of the runs table"),
+        Case("campaign", "a run at another sample period", "fit",
+             (*campaign, "--data", "good.csv", "--data", "coarse.csv", "--folds", "2"),
+             _files({"coarse.csv": _coarser}), "error", "coarse.csv: sampled every 20 s, but good.csv every 10 s"),
+        Case("campaign", "more folds than runs", "fit", (*campaign, "--data", "good.csv", "--data", "b.csv", "--folds", "3"),
+             _files({"b.csv": run_b}), "error", "--folds 3: with 2 runs expected 2 to 2 folds"),
+        Case("campaign", "a run that is a copy of another", "fit",
+             (*campaign, "--data", "good.csv", "--data", "copy.csv", "--folds", "2"),
+             _files({"copy.csv": lambda text: text}), "error", "copy.csv: the same recording as good.csv"),
+        Case("campaign", "--data a folder with no recordings", "fit", (*campaign, "--data", "empty", "--folds", "2"),
+             lambda f: (f / "empty").mkdir(), "error", "empty: a folder with no recordings in it"),
+        Case("campaign", "--data and --runs together", "fit",
+             (*campaign, "--data", "good.csv", "--runs", "runs.csv", "--folds", "2"),
+             _files({"runs.csv": lambda _: "file\ngood.csv\n"}), "error", "one of the two"),
+        Case("campaign", "an empty cell in a temperature column", "fit", (*FIT, "bad.csv"),
+             with_text("bad.csv", lambda t: _cell(t, 3, "T_motor", "")), "error",
+             "column 'T_motor': expected a number, found ''"),
+        Case("campaign", "a target never measured in a run", "fit", (*FIT, "bad.csv"),
+             with_text("bad.csv", lambda t: "\n".join(
+                 [line if k == 0 else ",".join("" if c == 8 else cell for c, cell in enumerate(line.split(",")))
+                  for k, line in enumerate(t.splitlines())]) + "\n"), "error",
+             "the target 'E_z_um' is measured on 0 of the 200 training rows"),
+        Case("campaign", "verify a campaign with --json", "verify",
+             ("verify", "block.scl", "--model", "mlr.json", "--data", "good.csv", "--data", "b.csv", "--json", "-"),
+             _files({"b.csv": run_b}), "error", "--json and --faults take one recording"),
+        Case("campaign", "twin --runs into a folder with files", "twin",
+             ("twin", "--runs", "2", "--hours", "1", "-o", "full"), _files({"full/x.txt": lambda _: "x"}), "error",
+             "with --runs, a new or empty folder"),
+        Case("campaign", "twin --probe-minutes without --runs", "twin",
+             ("twin", "--hours", "1", "--probe-minutes", "30", "-o", "t.csv"), lambda f: None, "error",
+             "--probe-minutes and --effect-runs describe a campaign"),
+    ]
+
+
 CASES = [*_csv_cases(), *_model_cases(), *_st_cases(), *_injection_cases(), *_output_cases(), *_option_cases(),
          *_bounded_cases(), *_schema_cases(), *_nesting_cases(), *_data_file_cases(), *_verify_cases(),
-         *_review_cases(), *_plcopen_cases()]
+         *_review_cases(), *_plcopen_cases(), *_campaign_cases()]
 
 
 def setup_folder(folder: Path) -> None:
