@@ -123,11 +123,63 @@ def table_rows(label: str, tables: list[Table], target: str, temps: tuple[str, .
     return lines
 
 
+def scale_campaign(runs: int = 40, hours: float = 6.0, dt: float = 40.0, sensors: int = 23) -> list[Table]:
+    """The issue's size: `runs` runs of `hours` at `dt` with `sensors` temperatures: the cascade's five,
+    and mixtures of its nodes lagged and noisy (as extra sensors on a real machine read neighbouring
+    heat paths)."""
+    rng = np.random.default_rng(40)
+    tables = []
+    for p in plan(runs, 40):
+        columns = simulate_run("cascade", p, hours, dt, 30.0)
+        nodes = np.column_stack([columns[c] for c in ("T_motor", "T_bearing", "T_struct", "T_base", "T_env")])
+        for k in range(sensors - 5):
+            weights = rng.dirichlet(np.ones(5))
+            lag = int(rng.integers(1, 30))
+            mixed = nodes @ weights
+            mixed = np.r_[np.full(lag, mixed[0]), mixed[:-lag]] + rng.normal(0, 0.05, len(mixed))
+            columns[f"T_x{k + 1:02d}"] = np.round(mixed, 3)
+        table = Table(f"scale_run{p.index + 1:02d}.csv", columns, f"scale:{p.seed}",
+                      np.arange(2, len(columns["time_s"]) + 2))
+        tables.append(held_to_probed(table, TARGET))
+    return tables
+
+
+def scale_timings() -> list[str]:
+    """Seconds for the issue's targets: auto leave-one-run-out and one kind, 40 runs x 6 h at 40 s, 23 sensors."""
+    from thermoplc.models.auto import rank
+    from thermoplc.models.auto_nested import nested_auto
+    tables = scale_campaign()
+    temps = tuple(c for c in tables[0].columns if c.startswith("T_"))
+    lines = [f"## scale: {len(tables)} runs x 6 h at 40 s, {len(temps)} sensors, probed every 30 min"]
+    for kind in ("mlr", "dlag", "gm1n", "bayes"):
+        request = FitRequest(kind=kind, target=TARGET, temps=temps[:4] if kind == "bayes" else temps,
+                             train_until=math.inf)
+        found = judge(tables, request)
+        lines.append(f"  {kind:<8} leave-one-run-out: {found['seconds_per_fit'] * len(tables):6.1f} s for "
+                     f"{len(tables)} folds, {found['seconds_per_fit']:.2f} s per fit")
+    request = FitRequest(kind="auto", target=TARGET, temps=temps, train_until=math.inf)
+    started = time.perf_counter()
+    ranked = rank(tables, request, len(tables), "time_s")
+    ranking = time.perf_counter() - started
+    best = next(c for c in ranked if c.model is not None)
+    started = time.perf_counter()
+    held = nested_auto(tables, replace(request, kind=best.kind), 4)
+    nested = time.perf_counter() - started
+    lines.append(f"  auto     leave-one-run-out ranking {ranking:.1f} s ({len(ranked)} candidates, best {best.kind}), "
+                 f"nested sensor choice {nested:.1f} s; RMSE {held['rmse_um']:.2f} um nested against "
+                 f"{best.rmse:.2f} um ranked, none {held['zero_rmse_um']:.2f} um")
+    return lines
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="real data and one twin campaign only")
     parser.add_argument("--seeds", type=int, default=2, help="twin seeds per machine (default 2)")
+    parser.add_argument("--scale", action="store_true", help="only the timings at the issue's size")
     args = parser.parse_args()
+    if args.scale:
+        print("\n".join(scale_timings()))
+        return
     print("## FL_THERMAL cut into 6 h runs (real data; drift from each run's start)")
     every = tuple(f"t{i}_C" for i in range(1, 17) if i != 6)
     for target, temps in (("ch3_um", ("t5_C", "t4_C")), ("ch5_um", ("t8_C", "t4_C", "t5_C", "t11_C"))):

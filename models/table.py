@@ -155,10 +155,8 @@ def _parse_cells_one_by_one(path: str, header: list[str], text_lines: list[str],
                 shown = cell.strip() if len(cell) <= 40 else cell.strip()[:30] + f"... ({len(cell)} characters)"
                 hint = " (a REAL's 32 bits are 8 hexadecimal digits: 16#3F800000 or 0x3F800000)" \
                     if cell.strip().lower().startswith(("0x", "16#", "dw#")) else ""
-                probed = " (a column that is probed, empty between measurements, is a --target)" \
-                    if not cell.strip() and not sparse else ""
                 raise UserError(f"{path}:{line}:{c + 1}: column {header[c]!r}: expected a number, found "
-                                f"{shown!r}{hint}{probed}")
+                                f"{shown!r}{hint}")
             block[r, c] = value
     return block, empty
 

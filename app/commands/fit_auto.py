@@ -40,9 +40,15 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
               f"{cheaper.rmse:.3f} um, {cost[id(cheaper)]} operations per call (fit it with --model {cheaper.kind} "
               f"--temps {','.join(cheaper.sensors)})")
     print(f"  writing the best: {best.kind} on {','.join(best.sensors)}")
+    from thermoplc.models.modelfile import Model
+    ranking = [{"kind": c.kind, "sensors": list(c.sensors), "refused": c.refused} if c.model is None else
+               {"kind": c.kind, "sensors": list(c.sensors), "rmse_um": c.rmse,
+                "max_abs_um": c.model.metrics["held_out"]["max_abs_um"], "operations_per_call": cost[id(c)],
+                "generate_refuses": c.not_accepted} for c in ranked]
+    model = best.model
     if len(tables) > 1 or groups is not None:
-        return _nested(tables, request, best, groups, progress)
-    return best.model
+        model = _nested(tables, request, best, groups, progress)
+    return Model(**{**model.__dict__, "metrics": {**model.metrics, "auto_ranking": ranking}})
 
 
 def _nested(tables: list, request, best, groups, progress):

@@ -88,6 +88,12 @@ def _page(model, campaign, pngs: list[str]) -> str:
             ["run", "fold", *campaign.attributes, "rows measured", "RMSE um", "max um", "none RMSE um", "none max um"],
             [[r["run"], r["fold"], *(attributes.get(r["run"], {}).get(a, "") for a in campaign.attributes), r["rows"],
               r["rmse"], r["max_abs"], r["zero_rmse"], r["zero_max_abs"]] for r in m["runs"]])]
+    if m.get("auto_ranking"):
+        parts += ["<h2>auto: the candidates ranked</h2>", _table(
+            ["kind", "sensors", "RMSE um", "max um", "ops/call", "note"],
+            [[c["kind"], ",".join(c["sensors"]), c.get("rmse_um", ""), c.get("max_abs_um", ""),
+              c.get("operations_per_call", ""), c.get("refused") or c.get("generate_refuses") or ""]
+             for c in m["auto_ranking"]])]
     parts.append("<h2>Each run</h2>")
     parts += [f'<h3>{html.escape(run.name)}</h3><img src="{png}" alt="{html.escape(run.name)}">'
               for run, png in zip(campaign.runs, pngs)]
