@@ -47,6 +47,9 @@ def verify_streaming(block: str, model: Model, model_path: str, data: str, overr
     call depth it always had, so every message -- even a RecursionError's -- stays as it was)."""
     LAST_TIMINGS.clear()
     started = time.perf_counter()
+    if str(data) == "-":  # standard input on every path, never a file named '-' (read whole: one pass only)
+        LAST_TIMINGS["route"] = "whole recording (standard input)"
+        return None
     try:
         report = _verify_streaming(block, model, model_path, str(data), overrides, engine, decimal, progress)
     except (_GiveUp, CannotStream, UserError, RecursionError, MemoryError) as exc:
