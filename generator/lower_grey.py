@@ -15,6 +15,23 @@ def _grey_block(model: Model, title: str, statics, temps_, constants, regions) -
         statics=tuple(statics), temps=tuple(temps_), constants=tuple(constants), regions=tuple(regions))
 
 
+def _rises(model: Model) -> bool:
+    """Whether the model works on the rises since the first call (a campaign's choice) or the readings."""
+    return bool(model.settings.get("rises"))
+
+
+def _first(model: Model) -> tuple[list[Var], tuple]:
+    """The statics holding each temperature at the first call, and the statements that keep them."""
+    temps = model.signals("temperature")
+    return ([Var(f"T0_{i}", "REAL", f"{s.name} at the first call") for i, s in enumerate(temps, start=1)],
+            tuple(Assign(f"T0_{i}", Ref(s.name)) for i, s in enumerate(temps, start=1)))
+
+
+def _sequence(model: Model):
+    """x_i(k) as the block reads it: the reading, or its rise since the first call."""
+    return (lambda i, s: BinOp("-", Ref(s.name), Ref(f"T0_{i}"))) if _rises(model) else (lambda i, s: Ref(s.name))
+
+
 def _weighted(model: Model, term) -> BinOp:
     """((b_1*term(1) + b_2*term(2)) + ...), in the references' order."""
     return sum_of([BinOp("*", const(f"b_{i}"), term(i, s)) for i, s in enumerate(model.signals("temperature"), 1)])
@@ -22,33 +39,34 @@ def _weighted(model: Model, term) -> BinOp:
 
 def lower_gm0n(model: Model) -> Block:
     """The GM(0,N) block: X1 at the first call, then the first difference of a + sum b_i*S_i, which is
-    sum b_i*T_i (no running sums to grow)."""
+    sum b_i*x_i (no running sums to grow)."""
     temps = model.signals("temperature")
+    first, keep_first = _first(model) if _rises(model) else ([], ())
     return _grey_block(
         model, "Thermal compensation: grey model GM(0,N) (paper 003)",
-        statics=[INIT], temps_=[],
+        statics=[INIT, *first], temps_=[],
         constants=[Const("c_X1", model.coef("X1"), "error at the first sample of the fit, um")]
         + [Const(f"c_b_{i}", model.coef(f"b_{i}"), f"GM(0,N) coefficient of {s.name}")
            for i, s in enumerate(temps, start=1)],
         regions=[Region("GM(0,N): first difference of a + sum b_i*S_i(k), i.e. sum b_i*x_i(k); X1 at the first call",
-                        (If(((Unary("NOT", Ref("Init")), (Assign(model.target.name, const("X1")),
+                        (If(((Unary("NOT", Ref("Init")), (*keep_first, Assign(model.target.name, const("X1")),
                                                           Assign("Init", BoolConst(True)))),),
-                            orelse=(Assign(model.target.name, _weighted(model, lambda i, s: Ref(s.name))),)),))])
+                            orelse=(Assign(model.target.name, _weighted(model, _sequence(model))),)),))])
 
 
 def lower_gm1n(model: Model) -> Block:
     """The GM(1,N) block: the grey difference equation differenced once, x1(k) = Keep*x1(k-1) +
-    In*sum b_i*T_i(k), bounded however long it runs; X1 at the first call and the equation's own start at
+    In*sum b_i*x_i(k), bounded however long it runs; X1 at the first call and the equation's own start at
     the second (the first temperatures kept for it)."""
     temps = model.signals("temperature")
-    first = [Var(f"T0_{i}", "REAL", f"{s.name} at the first call") for i, s in enumerate(temps, start=1)]
-    start = (*(Assign(f"T0_{i}", Ref(s.name)) for i, s in enumerate(temps, start=1)),
-             Assign("X", const("X1")), Assign("Init", BoolConst(True)), Assign("Second", BoolConst(True)))
-    second = (Assign("F", _weighted(model, lambda i, s: BinOp("+", Ref(f"T0_{i}"), Ref(s.name)))),
+    first, keep_first = _first(model)
+    start = (*keep_first, Assign("X", const("X1")), Assign("Init", BoolConst(True)), Assign("Second", BoolConst(True)))
+    at_start = _sequence(model) if _rises(model) else (lambda i, s: BinOp("+", Ref(f"T0_{i}"), Ref(s.name)))
+    second = (Assign("F", _weighted(model, at_start)),
               Assign("X", BinOp("-", BinOp("+", BinOp("*", const("Keep"), Ref("Xprev")), BinOp("*", const("In"), Ref("F"))),
                                 const("X1"))),
               Assign("Second", BoolConst(False)))
-    later = (Assign("F", _weighted(model, lambda i, s: Ref(s.name))),
+    later = (Assign("F", _weighted(model, _sequence(model))),
              Assign("X", BinOp("+", BinOp("*", const("Keep"), Ref("Xprev")), BinOp("*", const("In"), Ref("F")))))
     return _grey_block(
         model, "Thermal compensation: grey model GM(1,N) (paper 003)",

@@ -38,23 +38,28 @@ def accumulate(x: np.ndarray) -> np.ndarray:
     return np.cumsum(x, axis=0)
 
 
-def fit_gm0n(parts: list[Part], names: list[str]):
+def sequences(part: Part, rises: bool) -> np.ndarray:
+    """A run's temperature sequences x_i: the readings (the paper's), or their rises since the run's start."""
+    return part.rises if rises else part.temps
+
+
+def fit_gm0n(parts: list[Part], names: list[str], rises: bool = False):
     """X1(k) = a + sum_i b_i*S_i(k) on k = 2..n of every run by least squares (paper 003), each run's sums
     from its own first row. Shrinking the b_i by a forward-validated ridge made the held-out error worse
     on FL_THERMAL (ch3 7.1 -> 10.2 um) and on the twin, so only sums too collinear for binary32 get it.
     A probed target is filled between its measurements for the running sums (`Part.filled_target`); the
     validation scores the measured rows only."""
     targets = [p.filled_target() for p in parts]
-    sums = np.vstack([accumulate(p.temps)[1:] for p in parts])
+    sums = np.vstack([accumulate(sequences(p, rises))[1:] for p in parts])
     target_sums = np.concatenate([accumulate(t)[1:] for t in targets])
-    steps = np.vstack([p.temps[1:] for p in parts])
+    steps = np.vstack([sequences(p, rises)[1:] for p in parts])
     errors = np.concatenate([p.target[1:] for p in parts])
     measured = np.isfinite(errors)
     fitted = ridge.fit_linear(sums, target_sums, names, weights=(0.0,),
                               output_error=lambda offset, b, rows: (errors[rows] - steps[rows] @ b)[measured[rows]])
     coefficients = {"X1": Coefficient.of(_first_error(targets)),
                     **{f"b_{i}": Coefficient.of(b) for i, b in enumerate(fitted.slopes, start=1)}}
-    settings = {"a": fitted.intercept}  # the constant of the accumulated equation: its first difference drops it
+    settings = {"a": fitted.intercept, **({"rises": True} if rises else {})}  # a: its difference drops it
     return coefficients, settings, {"method": "least squares on 1-AGO sequences (paper 003, GM(0,N))", **fitted.log()}
 
 
@@ -104,14 +109,14 @@ def development_candidates(dt: float, rows: int) -> np.ndarray:
     return dt / np.exp(np.linspace(np.log(2 * dt), np.log(longest), DEVELOPMENT_GRID))
 
 
-def fit_gm1n(parts: list[Part], names: list[str], dt: float):
+def fit_gm1n(parts: list[Part], names: list[str], dt: float, rises: bool = False):
     """The paper's least-squares a and b when a settles within the training span; else a working
     alternative: a among the time constants the span can show, with a ridge weight for b, both
     chosen by forward validation of what the block outputs. Every run has its own sums and its own
     start; the validation fits on the first two thirds of each run and scores the rest of each, run
     forward from its start, on the measured rows (a probed target is filled between its measurements
     for the sums, `Part.filled_target`)."""
-    runs = [(accumulate(p.temps), p.filled_target()) for p in parts]
+    runs = [(accumulate(sequences(p, rises)), p.filled_target()) for p in parts]
     ridge.refuse_flat(np.vstack([p.temps for p in parts]), names)
     params = _gm1n_parameters(runs)
     paper_a = float(params[0])
@@ -143,10 +148,46 @@ def fit_gm1n(parts: list[Part], names: list[str], dt: float):
     keep, gain = _keep_and_gain(a)
     coefficients = {"X1": Coefficient.of(_first_error([target for _, target in runs])), "Keep": Coefficient.of(keep),
                     "In": Coefficient.of(gain), **{f"b_{i}": Coefficient.of(bi) for i, bi in enumerate(b, start=1)}}
-    settings = {"a": a, "b": [float(x) for x in b], "time_constant_s": dt / a}
+    settings = {"a": a, "b": [float(x) for x in b], "time_constant_s": dt / a, **({"rises": True} if rises else {})}
     return coefficients, settings, {
         "method": f"grey difference equation on 1-AGO sequences (paper 003, GM(1,N)), {chosen}",
         "least_squares_a": paper_a, "ridge_weight": weight, "ridge_validation_rmse": rmse}
+
+
+def estimates(kind: str, coefficients: dict, settings: dict, part: Part) -> np.ndarray:
+    """The float64 error estimates of a fitted grey model on one run, from its first row."""
+    x = sequences(part, settings.get("rises", False))
+    b = np.array([coefficients[f"b_{i}"].f64 for i in range(1, x.shape[1] + 1)])
+    first = coefficients["X1"].f64
+    if kind == "gm0n":
+        return np.r_[first, x[1:] @ b]
+    return run_gm1n(accumulate(x), first, settings["a"], b)
+
+
+VALIDATION_RUNS = 3  # a campaign of at least this many runs chooses between readings and rises
+
+
+def fit_choosing(kind: str, parts: list[Part], names: list[str], fitter) -> tuple[dict, dict, dict]:
+    """The paper's readings on one or two runs. On a campaign the sequences are chosen: readings, or their
+    rises since each run's start (the drift of a campaign is often zeroed at each run's start, and the
+    hall air moves from run to run: readings then give each run an offset no coefficient removes),
+    whichever predicts the last third of the runs better from a fit on the first two thirds."""
+    if len(parts) < VALIDATION_RUNS:
+        return fitter(parts, names, rises=False)
+    cut = max(1, int(round(2 / 3 * len(parts))))
+    scored = []
+    for rises in (False, True):
+        try:
+            coefficients, settings, _ = fitter(parts[:cut], names, rises=rises)
+        except UserError:
+            continue
+        residual = np.concatenate([p.target - estimates(kind, coefficients, settings, p) for p in parts[cut:]])
+        scored.append((ridge.rms(residual[np.isfinite(residual)]), rises))
+    rises = min(scored)[1] if scored else False
+    coefficients, settings, log = fitter(parts, names, rises=rises)
+    log["sequences"] = {"chosen": "rises since each run's start" if rises else "readings (the paper's)",
+                        "validation_rmse_um": {("rises" if r else "readings"): e for e, r in scored}}
+    return coefficients, settings, log
 
 
 def _unsettled(a: float, dt: float, resolvable: bool) -> str:
@@ -167,21 +208,24 @@ def gm11_predict(target_train: np.ndarray, rows: int) -> np.ndarray:
 def predict_gm0n(model: Model, inputs: dict, precision: str) -> dict:
     """Reference in binary32 ('f32') or float64, in the block's operation order: {target name: error
     estimate per row}. X1 at the first call, then the first difference of a + sum_i b_i*S_i(k), which is
-    sum_i b_i*x_i(k) exactly: no running sums, so nothing grows on a PLC that runs for weeks."""
+    sum_i b_i*x_i(k) exactly: no running sums, so nothing grows on a PLC that runs for weeks (x_i the
+    readings, or with settings.rises their rises since the first call)."""
     f = np.float32 if precision == "f32" else np.float64
     temps = [np.asarray(inputs[s.name], f) for s in model.signals("temperature")]
     x1 = f(model.coef("X1", precision))
     b = [f(model.coef(f"b_{i}", precision)) for i in range(1, len(temps) + 1)]
+    rises = bool(model.settings.get("rises"))
     if kernels.enabled():  # the same loop, compiled (models/kernels.py)
-        return {model.target.name: kernels.gm0n(temps, x1, b, f)}
+        return {model.target.name: kernels.gm0n(temps, x1, b, f, rises=rises)}
+    xs = [x - x[0] for x in temps] if rises else temps
     out = np.empty(len(temps[0]), f)
     for k in range(len(out)):
         if k == 0:
             out[k] = x1
             continue
-        level = b[0] * temps[0][k]
-        for i in range(1, len(temps)):
-            level = level + b[i] * temps[i][k]
+        level = b[0] * xs[0][k]
+        for i in range(1, len(xs)):
+            level = level + b[i] * xs[i][k]
         out[k] = level
     return {model.target.name: out}
 
@@ -191,28 +235,32 @@ def predict_gm1n(model: Model, inputs: dict, precision: str) -> dict:
     estimate per row}. The grey difference equation X1(k) = Keep*X1(k-1) + In*sum_i b_i*S_i(k) differenced
     once: x1(k) = Keep*x1(k-1) + In*sum_i b_i*x_i(k) from the third call, the same estimates without
     running sums (bounded however long the block runs); the first call gives X1 and the second
-    (Keep*X1 + In*sum_i b_i*(x_i(1) + x_i(2))) - X1, the equation's own start."""
+    (Keep*X1 + In*sum_i b_i*(x_i(1) + x_i(2))) - X1, the equation's own start (x_i the readings, or with
+    settings.rises their rises since the first call, 0 at the first)."""
     f = np.float32 if precision == "f32" else np.float64
     temps = [np.asarray(inputs[s.name], f) for s in model.signals("temperature")]
     c = lambda name: f(model.coef(name, precision))
     b = [c(f"b_{i}") for i in range(1, len(temps) + 1)]
     x1, keep, gain = c("X1"), c("Keep"), c("In")
+    rises = bool(model.settings.get("rises"))
     if kernels.enabled():  # the same loop, compiled (models/kernels.py)
-        return {model.target.name: kernels.gm1n(temps, x1, keep, gain, b, f)}
+        return {model.target.name: kernels.gm1n(temps, x1, keep, gain, b, f, rises=rises)}
+    xs = [x - x[0] for x in temps] if rises else temps
     out = np.empty(len(temps[0]), f)
     previous = f(0.0)
     for k in range(len(out)):
         if k == 0:
             level = x1
-        elif k == 1:
-            forced = b[0] * (temps[0][0] + temps[0][1])
-            for i in range(1, len(temps)):
-                forced = forced + b[i] * (temps[i][0] + temps[i][1])
+        elif k == 1:  # the rises are 0 at the first call: x_i(1) + x_i(2) is x_i(2) itself
+            start = (lambda i: xs[i][1]) if rises else (lambda i: xs[i][0] + xs[i][1])
+            forced = b[0] * start(0)
+            for i in range(1, len(xs)):
+                forced = forced + b[i] * start(i)
             level = (keep * previous + gain * forced) - x1
         else:
-            forced = b[0] * temps[0][k]
-            for i in range(1, len(temps)):
-                forced = forced + b[i] * temps[i][k]
+            forced = b[0] * xs[0][k]
+            for i in range(1, len(xs)):
+                forced = forced + b[i] * xs[i][k]
             level = keep * previous + gain * forced
         out[k] = level
         previous = level
@@ -229,21 +277,25 @@ class StreamCore:
         self.b = [c(f"b_{i}") for i in range(1, len(self.temps) + 1)]
         self.scalars = (c("X1"),) if model.kind == "gm0n" else (c("X1"), c("Keep"), c("In"))
         self.state = kernels.GreyState(len(self.temps), f)
+        self.rises = bool(model.settings.get("rises"))
 
     def __call__(self, running: dict, fused_valid: dict) -> dict:
         temps = [np.asarray(running[s.name], self.f) for s in self.temps]
         if self.kind == "gm0n":
-            out = kernels.gm0n(temps, *self.scalars, self.b, self.f, self.state)
+            out = kernels.gm0n(temps, *self.scalars, self.b, self.f, self.state, self.rises)
         else:
-            out = kernels.gm1n(temps, *self.scalars, self.b, self.f, self.state)
+            out = kernels.gm1n(temps, *self.scalars, self.b, self.f, self.state, self.rises)
         return {self.target: out}
 
 
-GM0N = Kind("gm0n", 5, lambda parts, request, names, dt, progress: fit_gm0n(parts, names),
-            predict_gm0n, auto="closed-form", settings_schema={"type": "object", "properties": {"a": {"type": "number"}}},
+GM0N = Kind("gm0n", 5, lambda parts, request, names, dt, progress: fit_choosing("gm0n", parts, names, fit_gm0n),
+            predict_gm0n, auto="closed-form",
+            settings_schema={"type": "object", "properties": {"a": {"type": "number"}, "rises": {"type": "boolean"}}},
             stream_core=StreamCore)
-GM1N = Kind("gm1n", 6, lambda parts, request, names, dt, progress: fit_gm1n(parts, names, dt),
+GM1N = Kind("gm1n", 6, lambda parts, request, names, dt, progress: fit_choosing(
+                "gm1n", parts, names, lambda runs, labels, rises: fit_gm1n(runs, labels, dt, rises)),
             predict_gm1n, auto="closed-form",
             settings_schema={"type": "object", "properties": {"a": {"type": "number"},
-                                                              "b": {"type": "array", "items": {"type": "number"}}}},
+                                                              "b": {"type": "array", "items": {"type": "number"}},
+                                                              "rises": {"type": "boolean"}}},
             stream_core=StreamCore)

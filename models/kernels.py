@@ -244,21 +244,23 @@ def limit(model_values, start: int, y_state: np.ndarray, series, limited, clampe
 # Grey models (models/grey.py::predict_gm0n, predict_gm1n). temps: (k, rows).
 
 @jit
-def _gm0n(temps, x1, b, started, out):
+def _gm0n(temps, x1, b, rises, first, started, out):
     k = temps.shape[0]
     for j in range(out.shape[0]):
         if started[0] == 0:
+            for i in range(k):
+                first[i] = temps[i, j]
             out[j] = x1
             started[0] = 1
             continue
-        level = b[0] * temps[0, j]
+        level = b[0] * (temps[0, j] - first[0] if rises else temps[0, j])
         for i in range(1, k):
-            level = level + b[i] * temps[i, j]
+            level = level + b[i] * (temps[i, j] - first[i] if rises else temps[i, j])
         out[j] = level
 
 
 @jit
-def _gm1n(temps, x1, keep, gain, b, first, prev, started, out):
+def _gm1n(temps, x1, keep, gain, b, rises, first, prev, started, out):
     k = temps.shape[0]
     previous = prev[0]
     for j in range(out.shape[0]):
@@ -268,15 +270,15 @@ def _gm1n(temps, x1, keep, gain, b, first, prev, started, out):
             level = x1
             started[0] = 1
         elif started[0] == 1:
-            forced = b[0] * (first[0] + temps[0, j])
+            forced = b[0] * (temps[0, j] - first[0] if rises else first[0] + temps[0, j])
             for i in range(1, k):
-                forced = forced + b[i] * (first[i] + temps[i, j])
+                forced = forced + b[i] * (temps[i, j] - first[i] if rises else first[i] + temps[i, j])
             level = (keep * previous + gain * forced) - x1
             started[0] = 2
         else:
-            forced = b[0] * temps[0, j]
+            forced = b[0] * (temps[0, j] - first[0] if rises else temps[0, j])
             for i in range(1, k):
-                forced = forced + b[i] * temps[i, j]
+                forced = forced + b[i] * (temps[i, j] - first[i] if rises else temps[i, j])
             level = keep * previous + gain * forced
         out[j] = level
         previous = level
@@ -292,23 +294,23 @@ class GreyState:
         self.started = np.zeros(1, np.int64)
 
 
-def gm0n(temps: list, x1, b: list, f, state: GreyState | None = None) -> np.ndarray:
+def gm0n(temps: list, x1, b: list, f, state: GreyState | None = None, rises: bool = False) -> np.ndarray:
     """GM(0,N) error estimates of `temps` (one array per sensor) by the compiled loop, bit for bit
-    those of grey.predict_gm0n; `state` carries whether the first call happened from chunk to chunk."""
+    those of grey.predict_gm0n; `state` carries the first temperatures from chunk to chunk."""
     state = state or GreyState(len(temps), f)
     stacked = np.array(temps, f).reshape(len(temps), -1)
     out = np.empty(stacked.shape[1], f)
-    _gm0n(stacked, f(x1), np.array(b, f), state.started, out)
+    _gm0n(stacked, f(x1), np.array(b, f), rises, state.first, state.started, out)
     return out
 
 
-def gm1n(temps: list, x1, keep, gain, b: list, f, state: GreyState | None = None) -> np.ndarray:
+def gm1n(temps: list, x1, keep, gain, b: list, f, state: GreyState | None = None, rises: bool = False) -> np.ndarray:
     """GM(1,N) error estimates of `temps` (one array per sensor) by the compiled loop, bit for bit
     those of grey.predict_gm1n; `state` carries the first temperatures and the last estimate."""
     state = state or GreyState(len(temps), f)
     stacked = np.array(temps, f).reshape(len(temps), -1)
     out = np.empty(stacked.shape[1], f)
-    _gm1n(stacked, f(x1), f(keep), f(gain), np.array(b, f), state.first, state.prev, state.started, out)
+    _gm1n(stacked, f(x1), f(keep), f(gain), np.array(b, f), rises, state.first, state.prev, state.started, out)
     return out
 
 
