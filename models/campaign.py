@@ -11,6 +11,7 @@ joins runs into one series: the fit, the folds and the verdicts iterate over the
 from __future__ import annotations
 
 import csv
+import io
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -44,6 +45,11 @@ class Campaign:
     def tables(self) -> list[Table]:
         return [run.table for run in self.runs]
 
+    @property
+    def labels(self) -> list[str]:
+        """Each run's name in tables (run_labels)."""
+        return run_labels([run.table.path for run in self.runs])
+
     def groups(self, attribute: str) -> dict[str, list[int]]:
         """Run indices by their value of `attribute`, in order of first appearance."""
         if attribute not in self.attributes:
@@ -51,19 +57,38 @@ class Campaign:
             raise UserError(f"--group-by {attribute}: not a column of the runs table; its attribute columns: {known}")
         grouped: dict[str, list[int]] = {}
         for k, run in enumerate(self.runs):
+            if not run.attributes[attribute]:
+                raise UserError(f"--group-by {attribute}: run {self.labels[k]} has no value in that column; give "
+                                f"every run a group")
             grouped.setdefault(run.attributes[attribute], []).append(k)
         return grouped
 
 
+@dataclass(frozen=True)
+class RunList:
+    """Where a campaign's runs are, before any is read: each recording, its attributes, and the runs
+    table's name and line of each (empty without a table), so a run that cannot be read is named by its line."""
+    paths: tuple[str, ...]
+    attributes: tuple[dict, ...]
+    names: tuple[str, ...] = ()
+    table: str | None = None
+    lines: tuple[int, ...] = ()
+
+    def where(self, k: int) -> str:
+        """The runs table's line of run k, as a message's prefix ('' without a table)."""
+        return f"{self.table}:{self.lines[k]}: " if self.table else ""
+
+
 def recording_paths(data: list[str]) -> list[str]:
     """`--data` values: files as given, a folder as the recordings in it (CSV, .npz, Parquet) by name, but
-    for its runs table `runs.csv`."""
+    for its runs table `runs.csv` and hidden files (a '.' first: editors' and other systems' leftovers)."""
     paths = []
     for given in data:
         folder = Path(given)
         if given != "-" and folder.is_dir():
             found = sorted(str(p) for p in folder.iterdir()
-                           if p.is_file() and p.suffix.lower() in RECORDING_SUFFIXES and p.name != RUNS_TABLE)
+                           if p.is_file() and p.suffix.lower() in RECORDING_SUFFIXES and p.name != RUNS_TABLE
+                           and not p.name.startswith("."))
             if not found:
                 raise UserError(f"{given}: a folder with no recordings in it (expected files ending in "
                                 f"{', '.join(RECORDING_SUFFIXES)})")
@@ -75,18 +100,30 @@ def recording_paths(data: list[str]) -> list[str]:
     return paths
 
 
-def read_runs_table(path: str) -> tuple[list[str], list[dict], tuple[str, ...]]:
-    """The runs table: each row's recording (relative to the table's folder) and attributes, and the
-    attribute column names. Refuses a missing `file` column, an empty or repeated file, a row of another
-    width, naming the line."""
+def _rows(path: str) -> list[tuple[int, list[str]]]:
+    """The runs table's rows with their line numbers; blank lines skipped, ',' or ';' between the fields."""
+    if path == "-":
+        raise UserError("--runs -: a runs table is a file (its runs are named relative to its folder)")
+    if Path(path).is_dir():
+        raise UserError(f"--runs {path}: a folder; give its runs table (--runs {Path(path) / RUNS_TABLE}) or the "
+                        f"folder as --data {path}")
     try:
         with open(path, newline="", encoding="utf-8-sig") as handle:
-            rows = list(csv.reader(handle))
+            text = handle.read()
+        first = text.splitlines()[0] if text.strip() else ""
+        delimiter = ";" if ";" in first and "," not in first else ","
+        rows = list(csv.reader(io.StringIO(text), delimiter=delimiter))
     except OSError as exc:
         raise UserError(f"{path}: cannot read: {exc.strerror}") from None
     except (UnicodeDecodeError, csv.Error) as exc:
         raise UserError(f"{path}: not a CSV text file ({exc})") from None
-    rows = [(line, row) for line, row in enumerate(rows, start=1) if any(cell.strip() for cell in row)]
+    return [(line, row) for line, row in enumerate(rows, start=1) if row]
+
+
+def read_runs_table(path: str) -> RunList:
+    """The runs table: each row's recording (relative to the table's folder) and attributes. Refuses a
+    missing `file` column, an empty or repeated file, a row of another width, naming the line."""
+    rows = _rows(path)
     if not rows:
         raise UserError(f"{path}: empty; expected a header with a {FILE_COLUMN!r} column and one row per run")
     header = [h.strip() for h in rows[0][1]]
@@ -95,7 +132,7 @@ def read_runs_table(path: str) -> tuple[list[str], list[dict], tuple[str, ...]]:
     if len(set(header)) != len(header) or not all(header):
         raise UserError(f"{path}:1: every column needs a name of its own; found {', '.join(map(repr, header))}")
     base = Path(path).parent
-    files, attributes, seen = [], [], {}
+    files, attributes, lines, seen = [], [], [], {}
     for line, row in rows[1:]:
         if len(row) != len(header):
             raise UserError(f"{path}:{line}: {len(row)} fields, expected {len(header)} as in the header")
@@ -109,37 +146,56 @@ def read_runs_table(path: str) -> tuple[list[str], list[dict], tuple[str, ...]]:
         seen[file] = line
         files.append(file)
         attributes.append(values)
+        lines.append(line)
     if not files:
         raise UserError(f"{path}: header only; expected one row per run")
-    return files, attributes, tuple(h for h in header if h != FILE_COLUMN)
+    return RunList(tuple(files), tuple(attributes), tuple(h for h in header if h != FILE_COLUMN), path, tuple(lines))
+
+
+def run_list(data: list[str] | None, runs_table: str | None) -> RunList:
+    """The runs `--data` (files, folders; a lone folder with a runs.csv is read through it) or `--runs` names."""
+    if (data is None) == (runs_table is None):
+        raise UserError("give the runs as --data FILE|FOLDER (repeated) or as --runs TABLE, one of the two")
+    if data is not None and len(data) == 1 and data[0] != "-" and (Path(data[0]) / RUNS_TABLE).is_file():
+        runs_table = str(Path(data[0]) / RUNS_TABLE)  # a campaign's folder: its runs table says what the runs are
+    if runs_table is not None:
+        return read_runs_table(runs_table)
+    paths = recording_paths(data)
+    return RunList(tuple(paths), tuple({} for _ in paths))
 
 
 def held_to_probed(table: Table, column: str) -> Table:
     """A held probing signal (the last measurement repeated until the next) as measurements only: the
-    first row and every row where the value changes; NaN between."""
+    first value and every one that differs from the last value before it (cells without a value between
+    do not make the same value a new measurement); NaN between."""
     values = table.column(column)
-    measured = np.r_[True, values[1:] != values[:-1]] & np.isfinite(values)
+    finite = np.isfinite(values)
+    last = np.where(finite, np.arange(len(values)), -1)
+    np.maximum.accumulate(last, out=last)  # index of the latest finite value at or before each row
+    before = np.r_[-1, last[:-1]]
+    previous = np.where(before >= 0, values[np.maximum(before, 0)], np.nan)
+    measured = finite & ((before < 0) | (values != previous))
     return replace(table, columns={**table.columns, column: np.where(measured, values, np.nan)})
 
 
-def read_campaign(data: list[str] | None, runs_table: str | None, time_column: str, decimal: str = "auto",
-                  probed: tuple[str, ...] = (), held: bool = False, progress=None) -> Campaign:
-    """The runs of `--data` (files, folders) or of a runs table; the `probed` columns may be empty between
-    measurements (or, `held`, repeat the last measurement: only changes count)."""
-    if (data is None) == (runs_table is None):
-        raise UserError("give the runs as --data FILE|FOLDER (repeated) or as --runs TABLE, one of the two")
-    if data is not None and len(data) == 1 and (Path(data[0]) / RUNS_TABLE).is_file():
-        data, runs_table = None, str(Path(data[0]) / RUNS_TABLE)  # a campaign's folder: its runs table
-    if runs_table is not None:
-        paths, attributes, names = read_runs_table(runs_table)
-    else:
-        paths = recording_paths(data)
-        attributes, names = [{} for _ in paths], ()
-    runs = []
-    for path, values in zip(paths, attributes):
-        table = read_table(path, time_column, progress, decimal, sparse=probed)
+def read_campaign(runs: RunList, time_column: str, decimal: str = "auto", probed: tuple[str, ...] = (),
+                  held: bool = False, progress=None) -> Campaign:
+    """Every run read once; the `probed` columns may be empty between measurements (or, `held`, repeat the
+    last measurement: only changes count). A run that cannot be read is named by its runs table's line."""
+    read = []
+    for k, (path, values) in enumerate(zip(runs.paths, runs.attributes)):
+        try:
+            table = read_table(path, time_column, progress, decimal, sparse=probed)
+        except UserError as exc:
+            raise UserError(f"{runs.where(k)}{exc}") from None
         for column in probed if held else ():
             if column in table.columns:
                 table = held_to_probed(table, column)
-        runs.append(Run(table, values))
-    return Campaign(tuple(runs), names)
+        read.append(Run(table, values))
+    return Campaign(tuple(read), runs.names)
+
+
+def run_labels(paths: list[str]) -> list[str]:
+    """Each run's name in tables: its file name, or the path as given where two runs share a file name."""
+    names = [Path(p).name for p in paths]
+    return [name if names.count(name) == 1 else path for name, path in zip(names, paths)]

@@ -26,6 +26,7 @@ from typing import Callable
 import numpy as np
 
 from thermoplc.base.errors import UserError
+from thermoplc.models.campaign import run_labels
 from thermoplc.models.fit import FitRequest, evaluate, fit, runs_named
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import model_inputs, predict
@@ -89,7 +90,8 @@ def run_folds(tables: list[Table], folds: int | None, groups: dict[str, list[int
         raise UserError(f"--folds {folds}: with {len(tables)} runs expected {MIN_FOLDS} to {len(tables)} folds "
                         f"(each fold holds whole runs; {len(tables)} leaves one run out)")
     bounds = np.linspace(0, len(tables), folds + 1).round().astype(int)
-    return [((Path(tables[a].path).name if b - a == 1 else f"runs {a + 1}..{b}"), list(range(a, b)))
+    labels = run_labels([t.path for t in tables])
+    return [((labels[a] if b - a == 1 else f"runs {a + 1}..{b}"), list(range(a, b)))
             for a, b in zip(bounds, bounds[1:])]
 
 
@@ -110,18 +112,20 @@ def cross_validate_runs(tables: list[Table], request: FitRequest, time_column: s
     prediction (float64) by its path, for the report."""
     _refuse_copies(tables)
     results, per_run = [], []
+    labels = run_labels([t.path for t in tables])
     for label, members in run_folds(tables, folds, groups):
         others = [t for k, t in enumerate(tables) if k not in members]
         held = [tables[k] for k in members]
         model = _guarded(lambda: fit(others, replace(request, train_until=math.inf, train_rows=None), time_column),
                          f"fold {label} (fitted without {runs_named(held)})")
-        results.append(_fold(label, model.metrics["train"]["rows"], evaluate(model, held, [0] * len(held))["held_out"]))
-        for table in held:
-            found = evaluate(model, [table], [0])["held_out"]
+        trained = model.metrics["train"]["rows"]
+        results.append(_fold(label, trained, evaluate(model, held, [0] * len(held))["held_out"]))
+        for k in members:
+            found = evaluate(model, [tables[k]], [0])["held_out"]
             if predictions is not None:
-                predictions[table.path] = predict(model, model_inputs(model, table), "f64")[model.target.name]
-            per_run.append({"run": Path(table.path).name, "fold": label, **_fold(label, 0, found).as_dict(),
-                            "rows_total": table.rows})
+                predictions[tables[k].path] = predict(model, model_inputs(model, tables[k]), "f64")[model.target.name]
+            per_run.append({"run": labels[k], "fold": label, **_fold(label, trained, found).as_dict(),
+                            "rows_total": tables[k].rows})
     return results, per_run
 
 
@@ -165,11 +169,12 @@ def fit_cross_validated(tables: list[Table], request: FitRequest, folds: int | N
     """Cross-validation, then the fit on every row of every run, carrying the folds' pooled errors as its
     held-out evidence, each fold's (and with several runs each run's) beside them."""
     per_run: list[dict] = []
+    # the fit on every row first: a run's bad data is named as such, not as a fold's that left it out
+    model = fit(tables, replace(request, train_until=math.inf, train_rows=None), time_column, progress)
     if len(tables) > 1 or groups is not None:
         found, per_run = cross_validate_runs(tables, request, time_column, folds, groups, predictions)
     else:
         found = cross_validate(tables, request, time_column, folds)
-    model = fit(tables, replace(request, train_until=math.inf, train_rows=None), time_column, progress)
     if groups is not None:
         protocol = f"leave-one-group-out cross-validation over {len(groups)} groups of {len(tables)} runs"
     elif len(tables) > 1:

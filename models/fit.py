@@ -151,7 +151,8 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
         measured = int(np.count_nonzero(np.isfinite(table.columns[request.target][:n])))
         if measured < 2:
             raise UserError(f"{table.path}: the target {request.target!r} is measured on {measured} of the "
-                            f"{n} training rows; a fit needs at least 2 measurements per run")
+                            f"{n} training rows (a held target counts its changes only); a fit needs at least 2 "
+                            f"measurements per run")
         for s in signals:
             option = "--" + s.role.split(",")[-1].replace("temperature", "temps").replace("_", "-")
             if s.unit == "degC":

@@ -154,7 +154,8 @@ def _parse_cells_one_by_one(path: str, header: list[str], text_lines: list[str],
             if value is None:
                 shown = cell.strip() if len(cell) <= 40 else cell.strip()[:30] + f"... ({len(cell)} characters)"
                 hint = " (a REAL's 32 bits are 8 hexadecimal digits: 16#3F800000 or 0x3F800000)" \
-                    if cell.strip().lower().startswith(("0x", "16#", "dw#")) else ""
+                    if cell.strip().lower().startswith(("0x", "16#", "dw#")) else \
+                    " (a runs table? give it as --runs TABLE)" if header[c] == "file" else ""
                 raise UserError(f"{path}:{line}:{c + 1}: column {header[c]!r}: expected a number, found "
                                 f"{shown!r}{hint}")
             block[r, c] = value
@@ -196,7 +197,7 @@ def _read_npz(path: str, time_column: str | None, sparse: frozenset = frozenset(
         columns[name] = a.astype(np.float64)
         bad = np.nonzero(~np.isfinite(columns[name]) & ~(np.isnan(columns[name]) & (name in sparse)))[0]
         if len(bad):
-            raise UserError(f"{path}: column {name!r} row {bad[0] + 1}: expected a finite number, found {a[bad[0]]!r}")
+            raise UserError(f"{path}: column {name!r} row {bad[0] + 1}: expected a finite number, found {a[bad[0]]}")
     if not len(next(iter(columns.values()))):
         raise UserError(f"{path}: no data rows")
     table = Table(path, columns, _sha256(path), np.arange(1, len(next(iter(columns.values()))) + 1))

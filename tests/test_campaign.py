@@ -142,12 +142,13 @@ def test_verify_replays_each_run_from_a_fresh_block_and_gives_one_verdict(campai
     thermoplc("generate", "d.json", "-o", "d.scl", "--accept-unvalidated", cwd=tmp_path)
     ok = thermoplc("verify", "d.scl", "--model", "d.json", "--runs", campaign / "runs.csv", cwd=tmp_path).stdout
     assert ok.count(" bit-exact ") == 6 and "bit-exact: every run reproduces the reference (6 runs" in ok
+    assert "safety limits read from the block: outputs within +-300" in ok  # what the reference was judged in
     text = (tmp_path / "d.scl").read_text()
     edited = text.replace("c_beta0 : Real := ", "c_beta0 : Real := 1", 1)
     assert edited != text
     (tmp_path / "e.scl").write_text(edited)
     bad = thermoplc("verify", "e.scl", "--model", "d.json", "--data", campaign, cwd=tmp_path, check=1).stdout
-    assert "NOT bit-exact: 6 NOT bit-exact" in bad
+    assert "NOT bit-exact (6 NOT bit-exact; 6 runs" in bad
 
 
 def test_runs_tables_that_cannot_be_read_name_the_line(tmp_path):

@@ -8,6 +8,7 @@ Relative paths are taken from the manifest's folder. Results come back in manife
 from __future__ import annotations
 
 import csv
+import signal
 import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -118,10 +119,23 @@ def verify_fleet(pairs: list[Pair], jobs: int, engine: str) -> tuple[list[Outcom
     started = time.perf_counter()
     if jobs <= 1:
         outcomes = [verify_pair(p, engine) for p in pairs]
-    else:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
-            outcomes = list(pool.map(verify_pair, pairs, [engine] * len(pairs)))
+        return outcomes, time.perf_counter() - started
+    pool = ProcessPoolExecutor(max_workers=min(jobs, len(pairs)), initializer=_leave_signals_to_the_parent)
+    try:
+        outcomes = list(pool.map(verify_pair, pairs, [engine] * len(pairs)))
+    except BaseException:  # Ctrl-C, SIGTERM: stop the workers now, not after the pairs they are on
+        for worker in list(getattr(pool, "_processes", {}).values()):
+            worker.kill()  # they ignore SIGTERM (the parent decides)
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
     return outcomes, time.perf_counter() - started
+
+
+def _leave_signals_to_the_parent() -> None:
+    """A worker ignores SIGINT and SIGTERM: the parent decides, and ends the workers itself."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
 def format_fleet(outcomes: list[Outcome], manifest: str, seconds: float | None = None) -> str:

@@ -3,8 +3,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
-from thermoplc.base.fileio import check_output, write_atomic
+from thermoplc.base.errors import UserError
+from thermoplc.base.fileio import check_output, same_file, write_atomic
 from thermoplc.commands import json_output
 from thermoplc.commands.fit_options import Given, refuse_options_not_read
 from thermoplc.commands.options import DECIMAL, FORCE_HELP, SEED, columns, number, training_part
@@ -112,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
     from thermoplc.models.crossval import fit_held_out
     from thermoplc.models.fit import FitRequest
     from thermoplc.models.kalman import FitOptions
-    from thermoplc.models.campaign import read_campaign
+    from thermoplc.models.campaign import read_campaign, run_list
     from thermoplc.pipeline import becomes_block
     from thermoplc.commands.fit_report import check_report, write_report
     options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
@@ -123,12 +125,16 @@ def run(args: argparse.Namespace) -> int:
                          lags=args.lags, lag_step_s=args.lag_step_s, extra_targets=args.target[1:],
                          tool_length=args.tool_length, unseen=args.unseen, time_bins=args.time_bins)
     refuse_options_not_read(args, request)
-    inputs = args.data or ([args.runs] if args.runs else [])
+    runs = run_list(args.data, args.runs)
+    inputs = [*runs.paths, *([runs.table] if runs.table else [])]  # every run: none may become an output
     check_output(args.output, args.force, inputs=inputs)
     json_output.check(args, inputs, output=args.output)
-    campaign = read_campaign(args.data, args.runs, args.time, args.decimal, probed=args.target,
-                             held=args.held_target)
-    stale = check_report(args.report, campaign, inputs) if args.report else []
+    if args.report:
+        for other, what in ((args.output, "the model file (-o)"), (args.json, "the --json file")):
+            if other and other != "-" and same_file(Path(args.report), Path(other)):
+                raise UserError(f"--report {args.report}: is also {what}; give the report a folder of its own")
+    campaign = read_campaign(runs, args.time, args.decimal, probed=args.target, held=args.held_target)
+    stale = check_report(args.report, campaign, [*inputs, args.output]) if args.report else []
     groups = campaign.groups(args.group_by) if args.group_by else None
     tables = campaign.tables
     predictions: dict = {}

@@ -83,7 +83,7 @@ def _page(model, campaign, pngs: list[str]) -> str:
             [[f["label"], f["train_rows"], f["rows"], f["rmse"], f["max_abs"], f["zero_rmse"], f["zero_max_abs"]]
              for f in m["cross_validation"]])]
     if m.get("runs"):
-        attributes = {run.name: run.attributes for run in campaign.runs}
+        attributes = dict(zip(campaign.labels, (run.attributes for run in campaign.runs)))
         parts += ["<h2>Runs, each predicted by the fold that never saw it</h2>", _table(
             ["run", "fold", *campaign.attributes, "rows measured", "RMSE um", "max um", "none RMSE um", "none max um"],
             [[r["run"], r["fold"], *(attributes.get(r["run"], {}).get(a, "") for a in campaign.attributes), r["rows"],
@@ -95,8 +95,8 @@ def _page(model, campaign, pngs: list[str]) -> str:
               c.get("operations_per_call", ""), c.get("refused") or c.get("generate_refuses") or ""]
              for c in m["auto_ranking"]])]
     parts.append("<h2>Each run</h2>")
-    parts += [f'<h3>{html.escape(run.name)}</h3><img src="{png}" alt="{html.escape(run.name)}">'
-              for run, png in zip(campaign.runs, pngs)]
+    parts += [f'<h3>{html.escape(label)}</h3><img src="{png}" alt="{html.escape(label)}">'
+              for label, png in zip(campaign.labels, pngs)]
     style = "body{font-family:sans-serif;max-width:1000px}table{border-collapse:collapse}td,th{border:1px solid #ccc;" \
             "padding:2px 6px;text-align:right}pre{font-size:12px}"
     return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>thermoplc fit</title><style>{style}</style>"

@@ -67,7 +67,6 @@ def _format_folds(m: dict) -> list[str]:
 
 def _format_runs(m: dict, campaign) -> list[str]:
     """Each held-out run beside no compensation, when the folds hold several runs (grouped folds)."""
-    attributes = {run.name: run.attributes for run in campaign.runs} if campaign else {}
     lines = [f"  {'run (fold)':<34}{'rows':>8}{'RMSE um':>10}{'max um':>9}{'none RMSE um':>14}{'none max um':>13}"]
     lines += [f"  {r['run'] + ' (' + r['fold'] + ')':<34}{r['rows']:>8}{r['rmse']:>10.3f}{r['max_abs']:>9.3f}"
               f"{r['zero_rmse']:>14.3f}{r['zero_max_abs']:>13.3f}" for r in m["runs"]]

@@ -23,7 +23,8 @@ def add_parser(sub) -> None:
                    help="length of the recording, h (default: %(default)s)")
     p.add_argument("--seed", type=SEED, default=0, help="random seed of the schedule and the noise (default: %(default)s)")
     p.add_argument("--dt", type=number(float, 1e-3, 86400.0, "seconds"), default=10.0, help="sample period, s (default: %(default)s)")
-    p.add_argument("--ambient-start", type=number(float, -40.0, 60.0, "degC"), default=20.0, help="ambient temperature at the start, degC")
+    p.add_argument("--ambient-start", type=number(float, -40.0, 60.0, "degC"),
+                   help="ambient temperature at the start, degC (default: 20; a campaign sets each run's own)")
     p.add_argument("--ambient-swing", type=number(float, 0.0, 30.0, "kelvin"), default=None,
                    help="day/night amplitude of the ambient, K (default: the machine's own, 0.5 cascade, 1 portal)")
     p.add_argument("--sensor-fault", action="append", default=[], metavar="KIND:COLUMN[@START_S]",
@@ -75,10 +76,25 @@ def run(args: argparse.Namespace) -> int:
     else:
         if faults:
             raise UserError("--sensor-fault: not with --runs (a campaign's runs are clean of sensor faults)")
+        if args.ambient_start is not None or args.ambient_swing is not None:
+            raise UserError("--ambient-start and --ambient-swing: not with --runs (each run has its own hall air, "
+                            "held at a level from 14 to 34 degC or swinging by 3 K; runs.csv says which)")
+        if args.effect_runs and not effects:
+            raise UserError("--effect-runs says in which runs the --effect hides; give --effect NAME")
+        if args.effect_runs and len(set(args.effect_runs)) != len(args.effect_runs):
+            raise UserError(f"--effect-runs {','.join(map(str, args.effect_runs))}: a run is named twice")
+        step = args.probe_minutes * 60 / args.dt
+        if args.probe_minutes and (step < 1 or abs(step - round(step)) > 1e-9):
+            raise UserError(f"--probe-minutes {args.probe_minutes:g}: a probing falls on a call, so a whole number of "
+                            f"--dt {args.dt:g} s periods (at least {args.dt / 60:g} min)")
+        if args.probe_minutes and args.probe_minutes * 60 * 2 > args.hours * 3600:
+            raise UserError(f"--probe-minutes {args.probe_minutes:g}: fewer than 3 probings in a run of "
+                            f"{args.hours:g} h; a fit needs several per run")
         return _campaign(args, effects)
     check_output(args.output, args.force)
     options = {} if args.ambient_swing is None else {"ambient_swing": args.ambient_swing}
-    columns = chosen.simulate(args.hours, args.seed, args.dt, args.ambient_start, faults=faults, effects=effects,
+    columns = chosen.simulate(args.hours, args.seed, args.dt, 20.0 if args.ambient_start is None else args.ambient_start,
+                              faults=faults, effects=effects,
                               noise=args.noise, **options)
     write_atomic(args.output, write_table(columns))
     rows = len(columns["time_s"])
@@ -112,7 +128,8 @@ def _campaign(args: argparse.Namespace, effects: tuple) -> int:
     files.append((folder / "runs.csv", "\n".join(rows) + "\n"))
     write_outputs(files)
     probing = f", drift probed every {args.probe_minutes:g} min and held" if args.probe_minutes else ""
-    print(f"wrote {folder}: {len(runs)} runs of {args.hours:g} h every {args.dt:g} s, seed {args.seed}, machine "
+    print(f"wrote {folder}: {len(runs)} run{'s' if len(runs) != 1 else ''} of {args.hours:g} h every {args.dt:g} s, "
+          f"seed {args.seed}, machine "
           f"{args.machine}{probing}; runs table {folder / 'runs.csv'}")
     for e in effects:
         where = "every run" if args.effect_runs is None else "runs " + ",".join(map(str, args.effect_runs))

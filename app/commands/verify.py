@@ -58,38 +58,52 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _runs(args: argparse.Namespace) -> list[str]:
-    """The recordings to replay: --data (files, folders) or the runs table's files."""
-    from thermoplc.models.campaign import read_runs_table, recording_paths
-    if args.data and args.runs:
-        raise UserError("give the runs as --data FILE|FOLDER (repeated) or as --runs TABLE, one of the two")
-    return read_runs_table(args.runs)[0] if args.runs else recording_paths(args.data)
+    """The recordings to replay, as `fit` reads them: --data (files, folders; a folder's runs.csv) or the
+    runs table's files."""
+    from thermoplc.models.campaign import run_list
+    return list(run_list(args.data, args.runs).paths)
 
 
 def _campaign(args: argparse.Namespace, runs: list[str]) -> int:
     """A campaign: every run replayed from a fresh block (a pair each, as a manifest's), one line per run
-    and one verdict: 2 when a run could not be read, else 1 when any is not bit-exact."""
+    and one verdict: 1 when any run is not bit-exact, else 2 when a run could not be read, else 0."""
     if args.json or args.faults:
         raise UserError("--json and --faults take one recording; a campaign's runs are listed one line each "
                         "(verify a run alone for its --json or --faults)")
     if "-" in runs:
         raise UserError("--data -: standard input holds one recording; give a campaign's runs as files")
+    from thermoplc.models.campaign import run_labels
     from thermoplc.verifier.fleet import Pair, verify_fleet
     expect = dict(item.partition("=")[::2] if "=" in item else (item, item) for item in args.expect or ()) or None
     pairs = [Pair(k, args.block, path, args.model, expect, args.inputs) for k, path in enumerate(runs, start=1)]
-    outcomes, seconds = verify_fleet(pairs, args.jobs, args.engine)
-    width = max(len(Path(o.pair.data).name) for o in outcomes) + 2
+    outcomes, seconds = verify_fleet(pairs, min(args.jobs, len(pairs)), args.engine)
+    labels = run_labels(runs)
+    width = max(len(label) for label in labels) + 2
     print(f"campaign: {args.block} against {args.model or 'the recorded outputs'} on {len(runs)} runs, each from a "
           f"freshly started block")
     print(f"  {'run':<{width}}{'status':<15}detail")
-    for o in outcomes:
-        print(f"  {Path(o.pair.data).name:<{width}}{o.status:<15}{o.detail}")
+    for label, o in zip(labels, outcomes):
+        print(f"  {label:<{width}}{o.status:<15}{o.detail}")
+    for line in _block_lines(outcomes):
+        print(line)
     counts = {s: sum(o.status == s for o in outcomes) for s in ("bit-exact", "NOT bit-exact", "error")}
-    exact = counts["bit-exact"] == len(outcomes)
-    print(("bit-exact: every run reproduces the reference" if exact else "NOT bit-exact: "
-           + ", ".join(f"{n} {s}" for s, n in counts.items() if n)) + f" ({len(outcomes)} runs, {seconds:.1f} s)")
-    if counts["error"]:
-        return 2
-    return 0 if exact else 1
+    if counts["NOT bit-exact"]:
+        verdict, status = "NOT bit-exact", 1
+    elif counts["error"]:
+        verdict, status = "NOT VERIFIED (a run could not be read)", 2
+    else:
+        verdict, status = "bit-exact: every run reproduces the reference", 0
+    detail = "" if status == 0 else ", ".join(f"{n} {s}" for s, n in counts.items() if n) + "; "
+    print(f"{verdict} ({detail}{len(outcomes)} runs, {seconds:.1f} s)")
+    return status
+
+
+def _block_lines(outcomes) -> list[str]:
+    """What the block itself says, read once from a run's full report: the safety limits read from its
+    constants (they decide what the reference is compared in) and the constants checked against the model."""
+    texts = [o.text for o in outcomes if o.status != "error"]
+    wanted = ("  safety limits read from the block", "  constants and tables")
+    return [line for line in texts[0].splitlines() if line.startswith(wanted)] if texts else []
 
 
 def _fleet(args: argparse.Namespace) -> int:
