@@ -42,14 +42,21 @@ def _plot(series: Series, d: Diagnosis, channel: str, measured: np.ndarray, n_tr
     bottom.set_xlabel("time, h (dotted: end of the training part; shaded: disagreement windows)")
     bottom.set_ylabel(f"measured - simulated, {difference}")
     bottom.legend(loc="upper left", fontsize=8)
+    return png_bytes(fig, 90)
+
+
+def png_bytes(fig, dpi: int) -> bytes:
+    """The figure as PNG bytes without a software stamp (the same bytes for the same data), then closed."""
+    import matplotlib.pyplot as plt
     fig.tight_layout()
     buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=90, metadata={"Software": None})
+    fig.savefig(buffer, format="png", dpi=dpi, metadata={"Software": None})
     plt.close(fig)
     return buffer.getvalue()
 
 
-def _table(header: list[str], rows: list[list]) -> str:
+def html_table(header: list[str], rows: list[list]) -> str:
+    """An HTML table of escaped cells (floats to 4 significant digits, booleans yes/no): the reports' tables."""
     head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
     body = "".join("<tr>" + "".join(f"<td>{html.escape(_cell(v))}</td>" for v in row) + "</tr>" for row in rows)
     return f"<table><tr>{head}</tr>{body}</table>"
@@ -105,23 +112,23 @@ def report(doc: dict, d: Diagnosis, series: Series, n_train: int) -> dict:
         name = f"channel_{k}.png"
         files[name] = _plot(series, d, channel, measured[channel], n_train, _unit(channel, target))
         figures.append(f'<h3>{html.escape(channel)}</h3><img src="{name}" alt="{html.escape(channel)}">')
-    effects = _table(["#", "effect", "parameters", "delta BIC", "held-out excess above noise removed"],
+    effects = html_table(["#", "effect", "parameters", "delta BIC", "held-out excess above noise removed"],
                      [[k, e["name"], e["parameters"], _number(e["evidence"]["delta_bic"], 1),
                        _percent(e["evidence"]["held_out_excess_removed"])]
                       for k, e in enumerate(doc["effects"], start=1)] or [["", "none", "", "", ""]])
 
     def gap(c: str) -> str:
         return "um" if c == target else "K"
-    channels = _table(["channel", "unit", "noise", "held-out RMSE before", "after", "max |residual| before", "after"],
+    channels = html_table(["channel", "unit", "noise", "held-out RMSE before", "after", "max |residual| before", "after"],
                       [[c, gap(c), _number(v["noise_sigma"]), _number(v["held_out_rmse_before"]),
                         _number(v["held_out_rmse_after"]), _number(v["held_out_max_abs_before"]),
                         _number(v["held_out_max_abs_after"])] for c, v in doc["channels"].items()])
-    windows = _table(["channel", "start, h from the first row", "end, h", "unit", "RMS before", "RMS after", "conditions"],
+    windows = html_table(["channel", "start, h from the first row", "end, h", "unit", "RMS before", "RMS after", "conditions"],
                      [[w["channel"], _hours(w["start_s"] - series.t[0]), _hours(w["end_s"] - series.t[0]),
                        gap(w["channel"]), _number(w["rms"]), _number(w.get("rms_after")),
                        _conditions(w["conditions"], gap(w["channel"]))]
                       for w in doc["disagreements"]])
-    trials = "".join(f"<h3>round {k}</h3>" + _table(["candidate", "sensor", "delta BIC", "held-out excess removed",
+    trials = "".join(f"<h3>round {k}</h3>" + html_table(["candidate", "sensor", "delta BIC", "held-out excess removed",
                                                      "kept", "implausible because"],
                                                     [[t["name"], t["sensor"], _number(t["delta_bic"], 1),
                                                       _percent(t["held_out_gain"]), bool(t["accepted"]),

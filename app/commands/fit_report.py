@@ -5,7 +5,6 @@ residual), the fold, run and group tables, and an index.html; written with the r
 from __future__ import annotations
 
 import html
-import io
 from pathlib import Path
 
 import numpy as np
@@ -57,18 +56,14 @@ def _plot(run, model, held_out: np.ndarray | None, written: np.ndarray) -> bytes
     bottom.set_xlabel(f"time since the run's start, h ({run.name})")
     for ax in (top, bottom):
         ax.grid(alpha=0.3)
-    fig.tight_layout()
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=80, metadata={"Software": None})
-    plt.close(fig)
-    return buffer.getvalue()
+    from thermoplc.diagnosis.report import png_bytes
+    return png_bytes(fig, 80)
 
 
 def _table(header: list[str], rows: list[list]) -> str:
-    cell = lambda v: f"{v:.3f}" if isinstance(v, float) else str(v)
-    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
-    body = "".join("<tr>" + "".join(f"<td>{html.escape(cell(v))}</td>" for v in row) + "</tr>" for row in rows)
-    return f"<table><tr>{head}</tr>{body}</table>"
+    """The diagnosis report's table, the errors in um to 3 decimals as the console prints them."""
+    from thermoplc.diagnosis.report import html_table
+    return html_table(header, [[f"{v:.3f}" if isinstance(v, float) else v for v in row] for row in rows])
 
 
 def _page(model, campaign, pngs: list[str]) -> str:
