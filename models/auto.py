@@ -33,6 +33,10 @@ from thermoplc.models.selection import select_sensors
 from thermoplc.models.table import Table
 
 MAX_SENSORS = 4
+# a campaign's candidates are ranked on at most this many folds of whole runs (leave-one-run-out over 40 runs
+# would fit every candidate 40 times); the written model's evidence is then measured with the sensor choice
+# nested inside folds of whole runs (models/auto_nested.py)
+RANKING_FOLDS = 5
 
 
 @dataclass(frozen=True)
@@ -118,6 +122,8 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
     kinds = tried(request)
     if say:
         say("auto: forward selection of sensors")
+    if (len(tables) > 1 or groups is not None) and groups is None:
+        folds = min(folds or len(tables), RANKING_FOLDS)  # a campaign's candidates: whole runs, a few folds
     if len(tables) > 1 or groups is not None:  # a campaign: the direct ridge path, rises computed once
         held_out = [members for _, members in crossval.run_folds(tables, folds, groups)]
         sets = auto_nested.forward_selection(auto_nested.run_rises(tables, request), request.temps, held_out,

@@ -18,6 +18,10 @@ from thermoplc.models.leaks import refuse_leaks, refuse_non_temperatures
 from thermoplc.models.table import Table
 
 SAMPLING_TOLERANCE = 0.05  # relative deviation of a time step from the median step
+# (content digest, column, target, training rows, option) that passed the input checks: cross-validation
+# fits every run again in each fold, and the checks (a copy of the target, a temperature range) depend
+# on the data alone
+_CHECKED: set[tuple] = set()
 
 
 @dataclass(frozen=True)
@@ -155,10 +159,13 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
                             f"measurements per run")
         for s in signals:
             option = "--" + s.role.split(",")[-1].replace("temperature", "temps").replace("_", "-")
+            if (table.sha256, s.column, request.target, n, option) in _CHECKED:
+                continue  # a fold's fit: the same run, the same part, already checked
             if s.unit == "degC":
                 refuse_non_temperatures(table, [s.column], option)
             refuse_leaks({s.column: table.columns[s.column][:n]}, request.target, table.columns[request.target][:n],
                          table.path, option)
+            _CHECKED.add((table.sha256, s.column, request.target, n, option))
     periods = [sample_period(t, time_column) for t in tables]
     dt = periods[0]
     for table, period in zip(tables, periods):

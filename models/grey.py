@@ -43,6 +43,24 @@ def sequences(part: Part, rises: bool) -> np.ndarray:
     return part.rises if rises else part.temps
 
 
+def _gm1n_slopes_path(runs: list[tuple[np.ndarray, np.ndarray]], a: float, weights) -> list[np.ndarray]:
+    """_gm1n_slopes for every weight from one SVD of the standardised sums (the validation tries 14 weights
+    for each of 16 a: one factorisation per a instead of one least-squares solve per pair)."""
+    design = np.vstack([sums[1:] for sums, _ in runs])
+    y = np.concatenate([target[1:] + a * _background(target) for _, target in runs])
+    spread = np.sqrt(np.mean(design ** 2, axis=0))
+    spread[spread == 0.0] = 1.0
+    u, singular, vt = np.linalg.svd(design / spread, full_matrices=False)
+    projected = u.T @ y
+    kept = singular > np.finfo(float).eps * max(design.shape) * singular[0]  # lstsq's default cut-off
+    path = []
+    for weight in weights:
+        shrink = np.where(kept, singular / (singular ** 2 + weight * len(y)), 0.0) if weight else \
+            np.where(kept, 1.0 / np.where(kept, singular, 1.0), 0.0)
+        path.append((vt.T @ (shrink * projected)) / spread)
+    return path
+
+
 def fit_gm0n(parts: list[Part], names: list[str], rises: bool = False):
     """X1(k) = a + sum_i b_i*S_i(k) on k = 2..n of every run by least squares (paper 003), each run's sums
     from its own first row. Shrinking the b_i by a forward-validated ridge made the held-out error worse
@@ -90,6 +108,16 @@ def run_gm1n(sums: np.ndarray, first: float, a: float, b: np.ndarray) -> np.ndar
     return np.diff(level, prepend=0.0)
 
 
+def _responses(sums: np.ndarray, first: float, a: float) -> tuple[np.ndarray, np.ndarray]:
+    """run_gm1n taken apart, as it is linear in b: each sensor's sums through the recursion, and the start's
+    decay, so that the level after the first call is filtered @ b + start for any b."""
+    from scipy.signal import lfilter
+    keep, gain = _keep_and_gain(a)
+    filtered = lfilter([gain], [1.0, -keep], sums[1:], axis=0)
+    start = lfilter([gain], [1.0, -keep], np.zeros(len(sums) - 1), zi=[keep * first])[0]
+    return filtered, start
+
+
 def _keep_and_gain(a: float) -> tuple[float, float]:
     """Keep = (1 - a/2)/(1 + a/2) and In = 1/(1 + a/2) of X1(k) = Keep*X1(k-1) + In*sum_i b_i*S_i(k)."""
     return (1 - a / 2) / (1 + a / 2), 1 / (1 + a / 2)
@@ -135,10 +163,12 @@ def fit_gm1n(parts: list[Part], names: list[str], dt: float, rises: bool = False
         early = [(sums[:cut or len(target)], target[:cut or len(target)]) for (sums, target), cut in zip(runs, cuts)]
         scored = []
         for candidate in development_candidates(dt, max(cut or 0 for cut in cuts)):
-            for candidate_weight in ridge.WEIGHTS:
-                slopes = _gm1n_slopes(early, candidate, candidate_weight)
-                late = [(p.target - run_gm1n(sums, target[0], candidate, slopes))[cut:]
-                        for p, (sums, target), cut in zip(parts, runs, cuts) if cut is not None]
+            responses = [_responses(sums, target[0], candidate) for sums, target in runs]  # once per a, not per weight
+            path = _gm1n_slopes_path(early, candidate, ridge.WEIGHTS)
+            for candidate_weight, slopes in zip(ridge.WEIGHTS, path):
+                late = [(p.target - np.diff(np.r_[target[0], filtered @ slopes + start], prepend=0.0))[cut:]
+                        for p, (_, target), (filtered, start), cut in zip(parts, runs, responses, cuts)
+                        if cut is not None]
                 residual = np.concatenate(late)
                 scored.append((ridge.rms(residual[np.isfinite(residual)]), float(candidate), candidate_weight))
         rmse, a, weight = min(scored)

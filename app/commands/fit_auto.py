@@ -22,8 +22,10 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
         raise UserError("--model auto: no kind could be fitted: " + "; ".join(f"{c.kind} ({c.refused})" for c in ranked))
     cost = {id(c): block_stats(lower_model(c.model))["arithmetic_per_call"] for c in fitted}
     none = fitted[0].model.metrics["held_out"].get("zero_rmse_um")
+    campaign = len(tables) > 1 or groups is not None
     print(f"auto: {len(ranked)} candidates ranked by held-out RMSE"
-          + (f" (no compensation {none:.3f} um)" if none is not None else ""))
+          + (f" (no compensation {none:.3f} um)" if none is not None else "")
+          + (f", {fitted[0].model.metrics['held_out']['protocol']}" if campaign else ""))
     print(f"  {'rank':<6}{'kind':<8}{'sensors':<32}{'RMSE um':>9}{'max um':>9}{'ops/call':>10}")
     for k, c in enumerate(ranked, start=1):
         if c.model is None:
@@ -46,7 +48,7 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
                 "max_abs_um": c.model.metrics["held_out"]["max_abs_um"], "operations_per_call": cost[id(c)],
                 "generate_refuses": c.not_accepted} for c in ranked]
     model = best.model
-    if len(tables) > 1 or groups is not None:
+    if campaign:
         model = _nested(tables, request, best, groups, progress)
     return Model(**{**model.__dict__, "metrics": {**model.metrics, "auto_ranking": ranking}})
 
