@@ -187,7 +187,9 @@ def read_campaign(runs: RunList, time_column: str, decimal: str = "auto", probed
         try:
             table = read_table(path, time_column, progress, decimal, sparse=probed)
         except UserError as exc:
-            raise UserError(f"{runs.where(k)}{exc}") from None
+            relative = (f" (a runs table names its files relative to its own folder, "
+                        f"{Path(runs.table).parent}/)" if runs.table and not Path(path).exists() else "")
+            raise UserError(f"{runs.where(k)}{exc}{relative}") from None
         for column in probed if held else ():
             if column in table.columns:
                 table = held_to_probed(table, column)

@@ -26,6 +26,10 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
     print(f"auto: {len(ranked)} candidates ranked by held-out RMSE"
           + (f" (no compensation {none:.3f} um)" if none is not None else "")
           + (f", {fitted[0].model.metrics['held_out']['protocol']}" if campaign else ""))
+    from thermoplc.models.auto import RANKING_FOLDS
+    if campaign and groups is None and (folds or len(tables)) > RANKING_FOLDS:
+        print(f"  (--folds {folds or len(tables)}: a campaign's candidates are ranked on {RANKING_FOLDS} folds of whole "
+              f"runs; the model written is judged again with its sensor choice nested)")
     print(f"  {'rank':<6}{'kind':<8}{'sensors':<32}{'RMSE um':>9}{'max um':>9}{'ops/call':>10}")
     for k, c in enumerate(ranked, start=1):
         if c.model is None:

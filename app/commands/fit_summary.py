@@ -22,7 +22,7 @@ def format_fit(model, campaign=None) -> str:
     measured = lambda section: (f" ({section['rows']} probings of {section['calls']} calls)"
                                 if "calls" in section else "")
     part = (f"until {batches[0]['until_s']:g} s" if len(batches) == 1 else
-            "every row of each run" if "cross_validation" in m else f"until {batches[0]['until_s']:g} s in each run")
+            "each run whole" if "cross_validation" in m else f"until {batches[0]['until_s']:g} s in each run")
     lines = [f"fitted {model.kind} on {_runs_named(batches)}: {m['train']['rows']} training rows"
              f"{measured(m['train'])} ({part}), "
              f"{m['held_out']['rows']} held out" + (" in cross-validation" if "cross_validation" in m else "")
