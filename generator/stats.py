@@ -55,8 +55,15 @@ def _stmts(body, constants: dict) -> Counter:
                 costs.append(_stmts(branch, constants))
             costs.append(_stmts(s.orelse, constants))
             tally.update(conditions)
-            tally.update(max(costs, key=lambda c: sum(c.values())))
+            tally.update(max(costs, key=lambda c: (sum(c.values()), _arithmetic(c))))  # ties: the costlier sums
     return tally
+
+
+ARITHMETIC = ("add/sub", "mul", "div", "negate", "abs", "sqrt", "min", "max")
+
+
+def _arithmetic(counts: Counter) -> int:
+    return sum(counts[k] for k in ARITHMETIC)
 
 
 def block_stats(block: Block) -> dict:
@@ -68,7 +75,7 @@ def block_stats(block: Block) -> dict:
     state = sum(STATE_BYTES[v.type] * (v.length or 1) for v in (*block.outputs, *block.statics) if v.initial is None)
     tables = sum(STATE_BYTES[v.type] * (v.length or 1) for v in block.statics if v.initial is not None)
     return {"operations_per_call": dict(sorted(total.items())), "arithmetic_per_call":
-            sum(total[k] for k in ("add/sub", "mul", "div", "negate", "abs", "sqrt", "min", "max")),
+            _arithmetic(total),
             "state_bytes": state, "table_bytes": tables, "constants": len(block.constants),
             "regions": per_region}
 
