@@ -22,7 +22,7 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.models import ridge
-from thermoplc.models.crossval import pooled, run_folds, Fold
+from thermoplc.models.crossval import contiguous, fold_of, pooled, run_folds
 from thermoplc.models.fit import FitRequest, evaluate, fit
 from thermoplc.models.table import Table
 
@@ -44,13 +44,6 @@ def run_rises(tables: list[Table], request: FitRequest) -> list[RunRises]:
         measured = np.isfinite(y)
         out.append(RunRises({c: (t.columns[c] - t.columns[c][0])[measured] for c in request.temps}, y[measured]))
     return out
-
-
-def _folds_of(indices: list[int], count: int) -> list[list[int]]:
-    """`count` contiguous folds of whole runs from `indices` (fewer when there are fewer runs)."""
-    count = min(count, len(indices))
-    bounds = np.linspace(0, len(indices), count + 1).round().astype(int)
-    return [indices[a:b] for a, b in zip(bounds, bounds[1:]) if b > a]
 
 
 def mlr_error(runs: list[RunRises], columns: tuple[str, ...], folds: list[list[int]]) -> float:
@@ -107,15 +100,14 @@ def nested_auto(tables: list[Table], request: FitRequest, max_sensors: int, grou
         if say:
             say(f"auto, nested: choosing the sensors without {label}")
         train = [k for k in range(len(tables)) if k not in held]
-        inner = _folds_of(train, INNER_FOLDS)
+        inner = contiguous(train, INNER_FOLDS)
         if len(inner) < 2:
             raise UserError(f"auto on a campaign: fold {label} leaves {len(train)} run to choose the sensors on; "
                             f"give more runs")
         sensors = _best_set(runs, request.temps, inner, max_sensors)
         model = fit([tables[k] for k in train], replace(request, temps=sensors, train_until=math.inf, train_rows=None))
         metrics = evaluate(model, [tables[k] for k in held], [0] * len(held))["held_out"]
-        found.append(Fold(label, model.metrics["train"]["rows"], metrics["rows"], metrics["rmse_um"],
-                          metrics["max_abs_um"], metrics["zero_rmse_um"], metrics["zero_max_abs_um"]))
+        found.append(fold_of(label, model.metrics["train"]["rows"], metrics))
         choices.append({"fold": label, "sensors": list(sensors)})
     protocol = (f"nested cross-validation: {request.kind} with the sensors chosen inside each of {len(found)} "
                 f"{'groups' if groups is not None else 'folds of whole runs'} ({len(tables)} runs)")

@@ -71,7 +71,8 @@ def cuts(table: Table, time_column: str, folds: int, speed: str | None) -> list[
     return starts
 
 
-def _fold(label: str, train_rows: int, held: dict) -> Fold:
+def fold_of(label: str, train_rows: int, held: dict) -> Fold:
+    """A fold from the held-out metrics of the model file's form."""
     return Fold(label, train_rows, held["rows"], held["rmse_um"], held["max_abs_um"], held["zero_rmse_um"],
                 held["zero_max_abs_um"])
 
@@ -89,10 +90,15 @@ def run_folds(tables: list[Table], folds: int | None, groups: dict[str, list[int
     if not MIN_FOLDS <= folds <= len(tables):
         raise UserError(f"--folds {folds}: with {len(tables)} runs expected {MIN_FOLDS} to {len(tables)} folds "
                         f"(each fold holds whole runs; {len(tables)} leaves one run out)")
-    bounds = np.linspace(0, len(tables), folds + 1).round().astype(int)
     labels = run_labels([t.path for t in tables])
-    return [((labels[a] if b - a == 1 else f"runs {a + 1}..{b}"), list(range(a, b)))
-            for a, b in zip(bounds, bounds[1:])]
+    return [((labels[members[0]] if len(members) == 1 else f"runs {members[0] + 1}..{members[-1] + 1}"), members)
+            for members in contiguous(list(range(len(tables))), folds)]
+
+
+def contiguous(indices: list[int], count: int) -> list[list[int]]:
+    """`indices` in `count` contiguous folds of (nearly) equal size, in order (fewer when there are fewer)."""
+    bounds = np.linspace(0, len(indices), min(count, len(indices)) + 1).round().astype(int)
+    return [indices[a:b] for a, b in zip(bounds, bounds[1:]) if b > a]
 
 
 def _refuse_copies(tables: list[Table]) -> None:
@@ -119,12 +125,12 @@ def cross_validate_runs(tables: list[Table], request: FitRequest, time_column: s
         model = _guarded(lambda: fit(others, replace(request, train_until=math.inf, train_rows=None), time_column),
                          f"fold {label} (fitted without {runs_named(held)})")
         trained = model.metrics["train"]["rows"]
-        results.append(_fold(label, trained, evaluate(model, held, [0] * len(held))["held_out"]))
+        results.append(fold_of(label, trained, evaluate(model, held, [0] * len(held))["held_out"]))
         for k in members:
             found = evaluate(model, [tables[k]], [0])["held_out"]
             if predictions is not None:
                 predictions[tables[k].path] = predict(model, model_inputs(model, tables[k]), "f64")[model.target.name]
-            per_run.append({"run": labels[k], "fold": label, **_fold(label, trained, found).as_dict(),
+            per_run.append({"run": labels[k], "fold": label, **fold_of(label, trained, found).as_dict(),
                             "rows_total": tables[k].rows})
     return results, per_run
 
@@ -142,7 +148,7 @@ def cross_validate(tables: list[Table], request: FitRequest, time_column: str, f
         model = _guarded(lambda: fit([table.head(stop)], replace(request, train_until=None, train_rows=start),
                                      time_column),
                          f"fold {k} (fitted on rows 1..{start})")
-        results.append(_fold(f"rows {start + 1}..{stop}", start, model.metrics["held_out"]))
+        results.append(fold_of(f"rows {start + 1}..{stop}", start, model.metrics["held_out"]))
     return results
 
 
