@@ -865,9 +865,32 @@ def _campaign_cases() -> list[Case]:
     ]
 
 
+def _read_two_ways_cases() -> list[Case]:
+    """Issue 38: input one path reads and another skips is refused where it is, never read two ways."""
+    verify = ("verify", "bad.xml", "--model", "mlr.json", "--data", "good.csv")
+    diff = ("diff", "block.scl", "bad.xml")
+    after_body = lambda t: t.replace("]]></xhtml:p>", "]]></xhtml:p>\nE_z_um := 250.0;", 1)
+    fbd_after = lambda t: t.replace("          </ST>\n", "          </ST>\n          <FBD/>\n", 1)
+    return [
+        Case("PLCopen XML", "a statement after </xhtml:p> in <ST>", "verify", verify, _xml_edit(after_body), "error",
+             "'E_z_um := 250.0;' in <ST> is not read by the verifier"),
+        Case("PLCopen XML", "a statement after </xhtml:p> in <ST>", "diff", diff, _xml_edit(after_body), "error",
+             "'E_z_um := 250.0;' in <ST> is not read by the verifier"),
+        Case("PLCopen XML", "<FBD> after <ST> in the body", "verify", verify, _xml_edit(fbd_after), "error",
+             "a second body language <FBD> after <ST> in POU 'ThermalComp'"),
+        Case("PLCopen XML", "text between interface sections", "verify", verify,
+             _xml_edit(lambda t: t.replace("</inputVars>", "</inputVars> x := 1;", 1)), "error",
+             "'x := 1;' in <interface> is not read by the verifier"),
+        Case("PLCopen XML", "an XML comment splitting the body", "verify", verify,
+             _xml_edit(lambda t: t.replace("    ENO := Enable;", "]]><!-- c --><![CDATA[    ENO := Enable;", 1)),
+             "error", "a comment in <xhtml:p> is not read by the verifier"),
+    ]
+
+
 CASES = [*_csv_cases(), *_model_cases(), *_st_cases(), *_injection_cases(), *_output_cases(), *_option_cases(),
          *_bounded_cases(), *_schema_cases(), *_nesting_cases(), *_data_file_cases(), *_verify_cases(),
-         *_review_cases(), *_plcopen_cases(), *_campaign_cases()]
+         *_review_cases(), *_plcopen_cases(), *_campaign_cases(),
+         *_read_two_ways_cases()]
 
 
 def setup_folder(folder: Path) -> None:

@@ -6,14 +6,17 @@ XML keeps the structure of TC6 XML 2.01 that the importers rely on."""
 import re
 import time
 from pathlib import Path
+from xml.etree import ElementTree as ET
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tests.cli_runner import thermoplc
 from tests.golden_models import GOLDEN, KINDS, golden_block, golden_twin_csv
 from thermoplc.base.errors import UserError
-from thermoplc.verifier.parser import parse_file
-from thermoplc.verifier.plcopen import read_plcopen
+from thermoplc.verifier.parser import parse_body, parse_file
+from thermoplc.verifier.plcopen import TC6, read_plcopen
 
 XML = golden_block("mlr", "plcopen")
 
@@ -623,3 +626,53 @@ def test_safety_limits_in_a_localvars_without_constant_are_named_as_such(tmp_pat
     result = thermoplc("verify", unconstant, "--model", GOLDEN / "mlr.json", "--data", data, cwd=tmp_path, check=2)
     assert ("c_StepMax, c_StepMin, c_OutMax, c_OutMin, c_K0_mm, c_RealMax declared outside VAR CONSTANT (in PLCopen "
             "XML: localVars without constant=\"true\"); a safety limit must be a constant") in result.stderr
+
+
+# --- every character of <ST> is parsed or refused (issue 38 item 1) ----------------------------------------------
+
+SNIPPETS = (" ", "\n  ", "E_z_um := 250.0;", "<FBD/>", "<xhtml:p>x := 1;</xhtml:p>", "<!-- c -->", "<?pi data?>",
+            "<![CDATA[ y := 2; ]]>", "&#32;", "&lt;", "<xhtml:br/>", "(* note *)")
+
+
+def _st_places(text: str) -> list[int]:
+    """Where in and around the <ST> element something can be put: its tags' edges and the body's line starts."""
+    start, end = text.index("<ST>"), text.index("</ST>")
+    marks = ("<ST>", "<xhtml:p>", "<![CDATA[", "]]>", "</xhtml:p>")
+    places = {start + len("<ST>"), end}
+    for mark in marks:
+        at = text.index(mark, start)
+        places |= {at, at + len(mark)}
+    body = text.index("<![CDATA[", start)
+    places |= {body + i + 1 for i, char in enumerate(text[body:end]) if char == "\n"}
+    places = sorted(p for p in places if start + len("<ST>") <= p <= end)
+    return places[:8] + places[-8:]  # the tags' edges and a few line starts at each end of the body
+
+
+ST_PLACES = _st_places(_text())
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.sampled_from(ST_PLACES), st.sampled_from(SNIPPETS)), min_size=1, max_size=3))
+def test_every_character_of_st_is_parsed_or_refused(insertions):
+    """Random mixed content put in the <ST> element: the reader refuses it, or it read every visible character
+    of <ST> as the body's text (the standard library's reading of the same XML is the judge)."""
+    text = _text()
+    for index, snippet in sorted(insertions, reverse=True):
+        text = text[:index] + snippet + text[index:]
+    try:
+        program = read_plcopen(text, "mixed.xml")
+    except UserError:
+        return
+    st_element = ET.fromstring(text).find(f".//{{{TC6}}}ST")
+    children = list(st_element)
+    assert len(children) == 1 and not len(children[0])
+    visible = "".join("".join(st_element.itertext()).split())
+    assert visible == "".join((children[0].text or "").split())
+    assert program.body == parse_body(children[0].text or "", "mixed.xml")
+
+
+def test_whitespace_documentation_and_vendor_text_are_not_refused():
+    """The rule is about what an importer could read as code: blank text and documentation stay accepted."""
+    text = _text().replace("]]></xhtml:p>", "]]></xhtml:p>\n   \t", 1)
+    text = text.replace("<xhtml:p>temperature, degC</xhtml:p>", "<xhtml:p>a := 1; temperature</xhtml:p>", 1)
+    assert read_plcopen(text, "ok.xml") == parse_file(XML)

@@ -19,6 +19,7 @@ not import the generator: the proof does not ask the code it proves.
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 from xml.etree import ElementTree as ET
 from xml.parsers import expat
 
@@ -52,6 +53,26 @@ def _local(element: ET.Element) -> str:
     return element.tag.rpartition("}")[2]
 
 
+@dataclass(frozen=True)
+class _Content:
+    """Character data (or a comment, a processing instruction) with the open elements it lies in."""
+    inside: tuple[ET.Element, ...]
+    after_child: bool
+    start: tuple[int, int]
+    what: str
+
+
+def _first_visible(chunk: str, line: int, column: int) -> tuple[int, int]:
+    """Where the first non-blank character of a chunk of character data is, from where the chunk starts."""
+    lead = chunk[:len(chunk) - len(chunk.lstrip())]
+    breaks = lead.count("\n")
+    return (line + breaks, len(lead) - lead.rfind("\n")) if breaks else (line, column + len(lead))
+
+
+def _is_tc6(element: ET.Element, local: str) -> bool:
+    return element.tag == _q(local)
+
+
 class _Document:
     """The element tree with where each element starts (and where its text starts) in the file."""
 
@@ -59,9 +80,11 @@ class _Document:
         self.source = source
         self.starts: dict[ET.Element, tuple[int, int]] = {}
         self.text_starts: dict[ET.Element, tuple[int, int]] = {}
+        self.content: list[_Content] = []
         parser = expat.ParserCreate(namespace_separator="}")
         builder = ET.TreeBuilder()
         open_elements: list[ET.Element] = []
+        has_child: set[ET.Element] = set()
 
         def here() -> tuple[int, int]:
             return parser.CurrentLineNumber, parser.CurrentColumnNumber + 1
@@ -69,6 +92,8 @@ class _Document:
         def start(tag, attributes):
             element = builder.start("{" + tag if "}" in tag else tag, attributes)
             self.starts[element] = here()
+            if open_elements:
+                has_child.add(open_elements[-1])
             open_elements.append(element)
 
         def end(tag):
@@ -78,7 +103,18 @@ class _Document:
         def data(chunk):
             if open_elements and open_elements[-1] not in self.text_starts:
                 self.text_starts[open_elements[-1]] = here()
+            if chunk.strip() and open_elements:
+                text = chunk.strip()
+                self.content.append(_Content(tuple(open_elements), open_elements[-1] in has_child,
+                                             _first_visible(chunk, *here()),
+                                             repr(text if len(text) <= 40 else text[:37] + "...")))
             builder.data(chunk)
+
+        def markup(kind):
+            def seen(*_):
+                if open_elements:
+                    self.content.append(_Content(tuple(open_elements), True, here(), kind))
+            return seen
 
         def doctype(*_):
             line, column = here()
@@ -90,12 +126,30 @@ class _Document:
 
         parser.StartElementHandler, parser.EndElementHandler, parser.CharacterDataHandler = start, end, data
         parser.StartDoctypeDeclHandler = doctype
+        parser.CommentHandler, parser.ProcessingInstructionHandler = markup("a comment"), markup("a processing instruction")
         try:
             parser.Parse(text, True)
         except expat.ExpatError as exc:
             raise UserError(f"{source}:{exc.lineno}:{exc.offset + 1}: not well-formed XML "
                             f"({expat.ErrorString(exc.code)}); {EXPECTED}") from None
         self.root = builder.close()
+
+    def refuse_unread_content(self, body_text: ET.Element) -> None:
+        """Text an importer could read as code and this reader would skip is refused where it starts: anything
+        but whitespace outside the body's one XHTML element (text after </xhtml:p>, between sections, after
+        <ST>), and markup splitting the body. Documentation is free text, as the importers read it; vendor data
+        (addData) is judged by its elements, elsewhere."""
+        for content in self.content:
+            if any(_is_tc6(element, "documentation") or _is_tc6(element, "addData") for element in content.inside):
+                continue
+            if content.inside[-1] is body_text and not content.after_child:
+                continue
+            line, column = content.start
+            inside = content.inside[-1]
+            where = f"xhtml:{_local(inside)}" if inside.tag.startswith(f"{{{XHTML}}}") else _local(inside)
+            raise UserError(f"{self.source}:{line}:{column}: {content.what} in <{where}> is not read by the verifier, "
+                            f"so it cannot prove the block with it; expected the body's ST text in one XHTML "
+                            f"element (<xhtml:p><![CDATA[...]]></xhtml:p>) and only whitespace between elements")
 
     def at(self, element: ET.Element) -> str:
         line, column = self.starts[element]
@@ -301,10 +355,14 @@ def _body(doc: _Document, body: ET.Element, pou: str) -> tuple[s.Stmt, ...]:
     st = languages[0]
     if _local(st) != "ST":
         doc.fail(st, f"the body of POU {pou!r} is in {_local(st)}; the verifier reads ST bodies only")
+    if len(languages) > 1:
+        doc.fail(languages[1], f"a second body language <{_local(languages[1])}> after <ST> in POU {pou!r}; "
+                               f"expected one ST body (an importer may read the other)")
     texts = list(st)
     if len(texts) != 1 or not texts[0].tag.startswith(f"{{{XHTML}}}") or len(texts[0]) or (st.text or "").strip():
         doc.fail(st, f"the ST body of POU {pou!r}: expected its text in one XHTML element "
                      f"(<xhtml:p><![CDATA[...]]></xhtml:p>)")
     text = texts[0]
+    doc.refuse_unread_content(text)
     line, column = doc.text_starts.get(text, doc.starts[text])
     return parse_body(text.text or "", doc.source, line, column)
