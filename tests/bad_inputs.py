@@ -881,6 +881,8 @@ def _read_two_ways_cases() -> list[Case]:
         Case("PLCopen XML", "text between interface sections", "verify", verify,
              _xml_edit(lambda t: t.replace("</inputVars>", "</inputVars> x := 1;", 1)), "error",
              "'x := 1;' in <interface> is not read by the verifier"),
+        Case("stdin", "--data - twice", "verify", ("verify", "block.scl", "--model", "mlr.json", "--data", "-", "--data", "-"),
+             lambda f: None, "error", "--data -: standard input can be read once; give the other runs as files"),
         Case("PLCopen XML", "an XML comment splitting the body", "verify", verify,
              _xml_edit(lambda t: t.replace("    ENO := Enable;", "]]><!-- c --><![CDATA[    ENO := Enable;", 1)),
              "error", "a comment in <xhtml:p> is not read by the verifier"),

@@ -182,3 +182,26 @@ def test_a_dash_is_standard_input_or_output_where_one_stream_makes_sense(tmp_pat
                  "--train-rows", "300", "-o", "-")
     assert fitted.returncode == 2 and "-o -: this command writes a file" in fitted.stderr
     assert not (tmp_path / "-").exists()
+
+
+def test_a_dash_is_standard_input_on_every_path_even_beside_a_file_named_dash(tmp_path):
+    """Issue 38 item 2: with a file called '-' in the folder, `--data -` streamed that file on one path and
+    read standard input on another; `--data - --data -` ended in a traceback."""
+    golden = GOLDEN / "mlr.json"
+    run = lambda *a, stdin=None: thermoplc(*a, cwd=tmp_path, check=None, stdin=stdin)
+    assert run("twin", "--hours", "6", "--seed", "3", "-o", "t.csv").returncode == 0
+    text = (tmp_path / "t.csv").read_text()
+    calls = len(text.splitlines()) - 1
+    (tmp_path / "-").write_text("\n".join(text.splitlines()[:50]) + "\n")
+    assert run("generate", golden, "-o", "b.scl").returncode == 0
+    for engine in ("fast", "interp"):
+        verified = run("verify", "b.scl", "--model", golden, "--data", "-", "--engine", engine, stdin=text)
+        assert verified.returncode == 0 and f"{calls} cycles" in verified.stdout, verified.stdout + verified.stderr
+    differ = run("diff", "b.scl", "b.scl", "--data", "-", stdin=text)
+    assert differ.returncode == 0 and f"({calls} calls)" in differ.stdout, differ.stdout + differ.stderr
+    fitted = run("fit", "--data", "-", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor",
+                 "--train-rows", "1000", "-o", "m.json", stdin=text)
+    assert fitted.returncode == 0 and f"{calls - 1000} held out" in fitted.stdout, fitted.stdout + fitted.stderr
+    twice = run("verify", "b.scl", "--model", golden, "--data", "-", "--data", "-", stdin=text)
+    assert twice.returncode == 2 and twice.stderr.strip().splitlines() == [
+        "thermoplc: error: --data -: standard input can be read once; give the other runs as files"]

@@ -52,7 +52,8 @@ def run(args: argparse.Namespace) -> int:
                                    args.method, args.threshold, args.max_groups)
     except UserError as exc:
         raise UserError(str(exc) if str(exc).startswith(args.data) else f"{args.data}: {exc}") from None
-    print(f"sensor selection ({selection.method}) for {args.target} on {Path(args.data).name}, {rows} rows")
+    source = "<stdin>" if args.data == "-" else Path(args.data).name
+    print(f"sensor selection ({selection.method}) for {args.target} on {source}, {rows} rows")
     print(f"  {selection.detail}")
     for column, why in skipped.items():
         print(f"  left out {column}: {why}")
