@@ -116,7 +116,9 @@ def _parse_cells(path: str, header: list[str], text_lines: list[str], numbers: l
     """Rows of numbers; the fast C parser first, the careful one for the message when it fails. An empty
     cell of a `sparse` column (a probed target between its measurements) is NaN; anywhere else, and a
     NaN written out anywhere, is refused."""
+    written = text_lines
     if comma_decimal:
+        _refuse_points(path, header, written, numbers, delimiter)
         text_lines = [text.replace(",", ".") for text in text_lines]
     try:
         with np.errstate(all="ignore"):
@@ -125,20 +127,33 @@ def _parse_cells(path: str, header: list[str], text_lines: list[str], numbers: l
     except ValueError:
         block = None
     if block is None or block.shape[1] != len(header):
-        block, empty = _parse_cells_one_by_one(path, header, text_lines, numbers, delimiter, sparse)
+        block, empty = _parse_cells_one_by_one(path, header, written, numbers, delimiter, sparse, comma_decimal)
     bad = np.argwhere(~np.isfinite(block) & ~empty)
     if len(bad):
         r, c = bad[0]
-        cell = _fields(path, numbers[r], text_lines[r], delimiter)[c]
+        cell = _fields(path, numbers[r], written[r], delimiter)[c]
         raise UserError(f"{path}:{numbers[r]}:{c + 1}: column {header[c]!r}: expected a finite number, "
                         f"found {cell.strip()!r}")
     return block
 
 
+def _refuse_points(path: str, header: list[str], text_lines: list[str], numbers: list[int], delimiter: str) -> None:
+    """In a file of decimal commas a '.' is a thousands separator (7.500 rpm) or a decimal point of another
+    convention: either way not a number this reader may guess, so it is named where it is, as written."""
+    for line, text in zip(numbers, text_lines):
+        if "." in text:
+            for column, cell in enumerate(_fields(path, line, text, delimiter)):
+                if "." in cell:
+                    raise UserError(f"{path}:{line}:{column + 1}: column {header[column]!r}: {cell.strip()!r} has a "
+                                    f"'.' in a file read with decimal commas (';' between the columns); expected "
+                                    f"a number such as 7500 or 21,5 (no thousands separator), or --decimal . if "
+                                    f"the file's decimals are points")
+
+
 def _parse_cells_one_by_one(path: str, header: list[str], text_lines: list[str], numbers: list[int],
-                            delimiter: str, sparse: frozenset) -> tuple[np.ndarray, np.ndarray]:
+                            delimiter: str, sparse: frozenset, comma_decimal: bool) -> tuple[np.ndarray, np.ndarray]:
     """The rows the C parser refused: binary32 bit patterns are read here, an empty cell of a sparse column
-    is NaN (and marked in the second array), anything else is named."""
+    is NaN (and marked in the second array), anything else is named as written."""
     block = np.empty((len(text_lines), len(header)))
     empty = np.zeros(block.shape, bool)
     for r, (line, text) in enumerate(zip(numbers, text_lines)):
@@ -150,7 +165,7 @@ def _parse_cells_one_by_one(path: str, header: list[str], text_lines: list[str],
             if not cell.strip() and header[c] in sparse:
                 block[r, c], empty[r, c] = np.nan, True
                 continue
-            value = _cell_value(cell)
+            value = _cell_value(cell.replace(",", ".") if comma_decimal else cell)
             if value is None:
                 shown = cell.strip() if len(cell) <= 40 else cell.strip()[:30] + f"... ({len(cell)} characters)"
                 hint = " (a REAL's 32 bits are 8 hexadecimal digits: 16#3F800000 or 0x3F800000)" \

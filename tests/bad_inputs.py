@@ -53,12 +53,12 @@ def with_text(name: str, make: Callable[[str], str | bytes]):
     return prepare
 
 
-def _cell(text: str, row: int, column: str, value: str) -> str:
+def _cell(text: str, row: int, column: str, value: str, delimiter: str = ",") -> str:
     lines = text.splitlines()
-    header = lines[0].split(",")
-    cells = lines[row].split(",")
+    header = lines[0].split(delimiter)
+    cells = lines[row].split(delimiter)
     cells[header.index(column)] = value
-    lines[row] = ",".join(cells)
+    lines[row] = delimiter.join(cells)
     return "\n".join(lines) + "\n"
 
 
@@ -881,6 +881,20 @@ def _read_two_ways_cases() -> list[Case]:
         Case("PLCopen XML", "text between interface sections", "verify", verify,
              _xml_edit(lambda t: t.replace("</inputVars>", "</inputVars> x := 1;", 1)), "error",
              "'x := 1;' in <interface> is not read by the verifier"),
+        Case("CSV", "7.500 (a thousands point) in a decimal-comma file", "fit", (*FIT, "bad.csv"),
+             with_text("bad.csv", lambda t: _cell(_german(t), 100, "n_rpm", "7.500", ";")), "error",
+             "bad.csv:101:2: column 'n_rpm': '7.500' has a '.' in a file read with decimal commas"),
+        Case("CSV", "7.500 (a thousands point) in a decimal-comma file", "verify", (*VERIFY, "bad.csv"),
+             with_text("bad.csv", lambda t: _cell(_german(t), 100, "n_rpm", "7.500", ";")), "error",
+             "bad.csv:101:2: column 'n_rpm': '7.500' has a '.' in a file read with decimal commas"),
+        Case("CSV", "a cell 21.000,02016 quoted as written", "fit", (*FIT, "bad.csv"),
+             with_text("bad.csv", lambda t: _cell(_german(t), 7, "T_env", "21.000,02016", ";")), "error",
+             "column 'T_env': '21.000,02016' has a '.'"),
+        Case("CSV", "--decimal , on a ';' file of decimal points", "fit", (*FIT, "bad.csv", "--decimal", ","),
+             with_text("bad.csv", lambda t: t.replace(",", ";")), "error",
+             "bad.csv:2:4: column 'T_env'"),
+        Case("CSV", "';' and decimal points with --decimal .", "fit", (*FIT, "bad.csv", "--decimal", "."),
+             with_text("bad.csv", lambda t: t.replace(",", ";")), "accepted", "wrote out.json"),
         Case("stdin", "--data - twice", "verify", ("verify", "block.scl", "--model", "mlr.json", "--data", "-", "--data", "-"),
              lambda f: None, "error", "--data -: standard input can be read once; give the other runs as files"),
         Case("PLCopen XML", "an XML comment splitting the body", "verify", verify,
