@@ -25,7 +25,7 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.models import acceptance, auto_nested, crossval
-from thermoplc.models.fit import FitRequest, runs_named, training_rows
+from thermoplc.models.fit import FitRequest, check_inputs, runs_named, training_rows
 from thermoplc.models.kind import Kind
 from thermoplc.models.kinds import registry
 from thermoplc.models.modelfile import Model
@@ -90,7 +90,7 @@ def sensor_sets(table: Table, request: FitRequest, train_rows: int, max_sensors:
     target = target[measured]
     sets = []
     for groups in range(2, min(max_sensors, len(request.temps)) + 1):
-        chosen = tuple(select_sensors(columns, target, "fcm-grey", max_groups=groups).chosen)
+        chosen = tuple(select_sensors(columns, target, "fcm-grey", max_groups=groups, option="--temps").chosen)
         if chosen not in sets:
             sets.append(chosen)
     return sets
@@ -120,6 +120,8 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
     else:
         train_rows = training_rows(tables[0], time_column, request.train_until, request.train_rows)
     kinds = tried(request)
+    check_inputs(tables, replace(request, kind="mlr"), time_column,
+                 [train_rows] + [t.rows for t in tables[1:]])  # what every kind refuses, before anything is fitted
     if say:
         say("auto: forward selection of sensors")
     if (len(tables) > 1 or groups is not None) and groups is None:

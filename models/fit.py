@@ -93,9 +93,25 @@ def _metrics(residual: np.ndarray) -> dict:
 
 
 
-def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
+def _refuse_misplaced_temps(request: FitRequest, time_column: str) -> None:
+    """A --temps column that is no candidate temperature, named for what it is: given twice, the target,
+    the time or an input of another role."""
     if not request.temps:
         raise UserError("--temps needs at least one column")
+    twice = next((c for k, c in enumerate(request.temps) if c in request.temps[:k]), None)
+    if twice is not None:
+        raise UserError(f"--temps: column {twice!r} is given twice; name each sensor once")
+    roles = {request.target: "the target (--target): a thermal model explains it from temperatures",
+             **{extra: "a target (a further --target): a thermal model explains it from temperatures"
+                for extra in request.extra_targets},
+             time_column: "the time column (--time): the block runs on a fixed cycle, time is no input",
+             request.speed: "the --speed input: a speed is not a temperature"}
+    for column in request.temps:
+        if column in roles:
+            raise UserError(f"--temps {column}: the column is {roles[column]}")
+
+
+def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
     signals = [Signal(block_identifier(c, "temperature"), c, "temperature", "degC") for c in request.temps]
     for owner in registry().values():
         for option, text in owner.owns_options:
@@ -131,11 +147,11 @@ def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
     return signals
 
 
-def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
-        progress: Callable[[str], None] | None = None) -> Model:
-    """Fit `request.kind` on the training part of each run (one table per run, one part each): every kind
-    takes its rises, lags, sums and filter states from each run's first row, as a freshly started block."""
-    kind = kind_of(request.kind)
+def check_inputs(tables: list[Table], request: FitRequest, time_column: str, n_train: list[int]) -> list[Signal]:
+    """The block's inputs of a request, or the UserError every kind gives for them: columns that are
+    missing, misplaced, clashing as block names, no temperatures, or leaking the target on the training
+    rows. `auto` asks it once for every candidate sensor before it fits anything."""
+    _refuse_misplaced_temps(request, time_column)
     signals = _signals(tables, request)
     target = Signal(block_identifier(request.target, "target"), request.target, "target", "um")
     named = [*signals, target]
@@ -150,7 +166,6 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
     problem = identifier_problem(request.block_name)
     if problem:
         raise UserError(f"block name {request.block_name!r} {problem}")
-    n_train = [training_rows(t, time_column, request.train_until, request.train_rows) for t in tables]
     for table, n in zip(tables, n_train):
         measured = int(np.count_nonzero(np.isfinite(table.columns[request.target][:n])))
         if measured < 2:
@@ -166,6 +181,17 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
             refuse_leaks({s.column: table.columns[s.column][:n]}, request.target, table.columns[request.target][:n],
                          table.path, option)
             _CHECKED.add((table.sha256, s.column, request.target, n, option))
+    return signals
+
+
+def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
+        progress: Callable[[str], None] | None = None) -> Model:
+    """Fit `request.kind` on the training part of each run (one table per run, one part each): every kind
+    takes its rises, lags, sums and filter states from each run's first row, as a freshly started block."""
+    kind = kind_of(request.kind)
+    n_train = [training_rows(t, time_column, request.train_until, request.train_rows) for t in tables]
+    signals = check_inputs(tables, request, time_column, n_train)
+    target = Signal(block_identifier(request.target, "target"), request.target, "target", "um")
     periods = [sample_period(t, time_column) for t in tables]
     dt = periods[0]
     for table, period in zip(tables, periods):

@@ -103,14 +103,14 @@ def grey_comprehensive_degree(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def select_sensors(columns: dict, target: np.ndarray, method: str, threshold: float = 0.9,
-                   max_groups: int = 5) -> Selection:
+                   max_groups: int = 5, option: str = "--candidates") -> Selection:
     names = list(columns)
     if len(names) < 2:
         raise UserError("select-sensors needs at least two candidate temperature columns")
     series = np.array([columns[n] for n in names])
     flat = [n for n, s in zip(names, series) if np.ptp(s) == 0]
     if flat:
-        raise UserError(f"{', '.join(flat)} does not change: not a sensor to choose from; leave it out of --candidates")
+        raise UserError(f"{', '.join(flat)} does not change: not a sensor to choose from; leave it out of {option}")
     if method == "fcm-grey":
         groups, level, f = fuzzy_cluster(series, max_groups)
         scores = dict(zip(names, grey_relational_grades(series, target).tolist()))

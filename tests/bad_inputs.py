@@ -895,6 +895,14 @@ def _read_two_ways_cases() -> list[Case]:
              "bad.csv:2:4: column 'T_env'"),
         Case("CSV", "';' and decimal points with --decimal .", "fit", (*FIT, "bad.csv", "--decimal", "."),
              with_text("bad.csv", lambda t: t.replace(",", ";")), "accepted", "wrote out.json"),
+        *[Case("options", f"--model {kind}: --temps {fault}", "fit",
+               ("fit", "--model", kind, "--target", "E_z_um", "--temps", temps, "--train-rows", "200", "-o", "out.json",
+                "--data", "good.csv"), lambda f: None, "error", message)
+          for kind in ("mlr", "auto") for fault, temps, message in (
+              ("with a typo", "T_motor,T_typo", "good.csv: no column 'T_typo'"),
+              ("holding the target", "T_motor,E_z_um", "--temps E_z_um: the column is the target (--target)"),
+              ("holding time_s", "T_motor,time_s", "--temps time_s: the column is the time column (--time)"),
+              ("naming a sensor twice", "T_motor,T_bearing,T_motor", "--temps: column 'T_motor' is given twice"))],
         Case("stdin", "--data - twice", "verify", ("verify", "block.scl", "--model", "mlr.json", "--data", "-", "--data", "-"),
              lambda f: None, "error", "--data -: standard input can be read once; give the other runs as files"),
         Case("PLCopen XML", "an XML comment splitting the body", "verify", verify,

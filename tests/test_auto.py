@@ -52,3 +52,31 @@ def test_ga_operators_reach_the_bpnn_fit_from_the_command_line(tmp_path):
     assert thermoplc("fit", "--data", "t.csv", "--model", "bpnn", "--target", "E_z_um", "--temps", "T_motor",
                      "--train-until", 7200, "--ga-operators", "roulette", "-o", "x.json", cwd=tmp_path,
                      check=2).stderr.count("invalid choice") == 1
+
+
+BAD_TEMPS = {
+    "a typo": ("T_motor,T_typo", "t.csv: no column 'T_typo'"),
+    "the target": ("T_motor,E_z_um", "--temps E_z_um: the column is the target (--target)"),
+    "the time column": ("T_motor,time_s", "--temps time_s: the column is the time column (--time)"),
+    "the --speed column": ("T_motor,n_rpm", "--temps n_rpm: the column is the --speed input"),
+    "a duplicate": ("T_motor,T_bearing,T_motor", "--temps: column 'T_motor' is given twice"),
+    "a copy of the target": ("T_motor,E_z_true_um", "--temps column 'E_z_true_um' is named like the target"),
+}
+
+
+@pytest.fixture(scope="module")
+def twin_two_hours(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("auto_temps")
+    thermoplc("twin", "--hours", 2, "--seed", 8, "-o", "t.csv", cwd=folder)
+    return folder
+
+
+@pytest.mark.parametrize("case", BAD_TEMPS)
+def test_auto_refuses_what_every_kind_refuses_before_it_fits_anything(twin_two_hours, case):
+    """Issue 38 item 4: auto dropped a bad --temps column and wrote a smaller model (exit 0) where mlr exited 2."""
+    temps, message = BAD_TEMPS[case]
+    for kind in ("mlr", "auto"):
+        result = thermoplc("fit", "--data", "t.csv", "--model", kind, "--target", "E_z_um", "--temps", temps,
+                           "--speed", "n_rpm", "--train-rows", 400, "-o", f"{kind}.json", cwd=twin_two_hours, check=2)
+        assert message in result.stderr and result.stdout == "", (kind, result.stderr)
+        assert len(result.stderr.strip().splitlines()) == 1 and not (twin_two_hours / f"{kind}.json").exists()
