@@ -40,6 +40,9 @@ def _terminate(signum, frame):
 
 def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, _terminate)
+    # `kill -INT` stops a run started in the background of a script too (such a shell starts it with SIGINT
+    # ignored): an interrupt is always the clean stop, never a fit that goes on for hours
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         return _run(argv)
     finally:

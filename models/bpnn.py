@@ -18,11 +18,12 @@ elongation far below L): Dx = L*yaw, Dy = L*pitch, Dz = elongation (um with L in
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
 from thermoplc.base.errors import UserError
-from thermoplc.models.ga import genetic_minimize
+from thermoplc.models.ga import genetic_minimize, step_reporter
 from thermoplc.base.identifiers import block_identifier
 from thermoplc.models.kind import Kind
 from thermoplc.models.modelfile import Coefficient, Model
@@ -32,6 +33,7 @@ PADE_Q = (1.0, 62370 / 135135, 3150 / 135135, 28 / 135135)
 CLIP = 4.97
 ACTIVATION_ERROR_BOUND = 9.6e-5
 HIDDEN_RANGE = (2, 12)
+PROGRESS_EPOCHS = 100  # back-propagation reports every this many epochs
 PAPER_002_MUTATION = 0.1  # share of individuals mutated at one position (paper 002 gives no value)
 # paper 000's Gaussian mutation draws per gene: its rate as in the Kalman fit (models/ga.py's default)
 MUTATION = {"paper002": PAPER_002_MUTATION, "paper000": 0.02}
@@ -86,7 +88,8 @@ def _unpack(genes: np.ndarray, inputs: int, hidden: int, outputs: int) -> Networ
 
 
 def train(net: Network, x: np.ndarray, y: np.ndarray, epochs: int, goal_mse: float,
-          rate: float = 0.2, momentum: float = 0.9) -> tuple[Network, int, float]:
+          rate: float = 0.2, momentum: float = 0.9,
+          progress: Callable[[int, float], None] | None = None) -> tuple[Network, int, float]:
     """Batch gradient descent with momentum until the training MSE reaches goal_mse.
     Returns the network, the epochs used, and the final MSE."""
     w1, b1, w2, b2 = (a.copy() for a in (net.w1, net.b1, net.w2, net.b2))
@@ -97,6 +100,8 @@ def train(net: Network, x: np.ndarray, y: np.ndarray, epochs: int, goal_mse: flo
         hidden = activation(pre)
         error = hidden @ w2.T + b2 - y
         mse = float(np.mean(error ** 2))
+        if progress and epoch % PROGRESS_EPOCHS == 0:
+            progress(epoch, mse)
         if mse <= goal_mse:
             return Network(w1, b1, w2, b2), epoch - 1, mse
         grad_out = 2 * error / error.size
@@ -152,9 +157,10 @@ def _coefficients(net, scaled_in: tuple, scaled_out: tuple) -> dict[str, Coeffic
 
 def fit_bpnn(rises: np.ndarray, targets: np.ndarray, names: list[str], seed: int, population: int,
              generations: int, epochs: int = 3000, goal_mse: float = 2e-3,
-             operators: str = "paper002") -> tuple[dict, dict, dict]:
+             operators: str = "paper002", progress: Callable[[str], None] | None = None) -> tuple[dict, dict, dict]:
     """rises (rows, sensors) since each run's first row, targets (rows, outputs): the measured training
-    rows of every run, in run order."""
+    rows of every run, in run order. `progress` hears each of the four steps with an estimate of its time
+    left (the weight GA is the long one: population x generations forward passes)."""
     rng = np.random.default_rng(seed)
     in_scale, in_shift = _scale(rises)
     x = rises * in_scale + in_shift
@@ -180,9 +186,12 @@ def fit_bpnn(rises: np.ndarray, targets: np.ndarray, names: list[str], seed: int
             out.append(scores[n])
         return np.array(out)
 
+    hidden_generations = max(3, generations // 4)
     hidden_ga = genetic_minimize(hidden_fitness, np.array([HIDDEN_RANGE[0]]), np.array([HIDDEN_RANGE[1] + 0.999]),
-                                 rng, population=max(6, population // 4), generations=max(3, generations // 4),
-                                 p_mutation=MUTATION[operators], operators=operators)
+                                 rng, population=max(6, population // 4), generations=hidden_generations,
+                                 p_mutation=MUTATION[operators], operators=operators,
+                                 progress=step_reporter("bpnn 1/4 hidden size", hidden_generations, progress,
+                                                        cost="best error"))
     hidden = int(hidden_ga.x[0])
     length = hidden * m + hidden + q * hidden + q
     xs, ys = x[fit_rows], y[fit_rows]
@@ -194,10 +203,17 @@ def fit_bpnn(rises: np.ndarray, targets: np.ndarray, names: list[str], seed: int
         return sse
 
     weight_ga = genetic_minimize(weight_fitness, -np.ones(length), np.ones(length), rng, population, generations,
-                                 p_mutation=MUTATION[operators], operators=operators)
-    net, epochs_ga, mse_ga = train(_unpack(weight_ga.x, m, hidden, q), xs, ys, epochs, goal_mse)
+                                 p_mutation=MUTATION[operators], operators=operators,
+                                 progress=step_reporter(f"bpnn 2/4 weights of {hidden} hidden neurons", generations,
+                                                        progress, cost="best SSE"))
+    net, epochs_ga, mse_ga = train(_unpack(weight_ga.x, m, hidden, q), xs, ys, epochs, goal_mse,
+                                   progress=step_reporter("bpnn 3/4 back-propagation from the GA's weights", epochs,
+                                                          progress, unit="epoch", cost="MSE"))
     _, epochs_plain, mse_plain = train(_random_network(np.random.default_rng(seed), m, hidden, q), xs, ys,
-                                       epochs, goal_mse)
+                                       epochs, goal_mse,
+                                       progress=step_reporter("bpnn 4/4 plain back-propagation (the paper's "
+                                                              "comparison)", epochs, progress, unit="epoch",
+                                                              cost="MSE"))
     coefficients = _coefficients(net, (in_scale, in_shift), (out_scale, out_shift))
     settings = {"inputs": m, "hidden": hidden, "outputs": q, "activation": "Pade(7,6) tanh on clip(x, +-4.97)",
                 "activation_error_bound": ACTIVATION_ERROR_BOUND}
@@ -268,7 +284,7 @@ def _fit(parts, request, names, dt, progress):
     targets = np.vstack([np.column_stack([p.target, p.extra])[p.measured] for p in parts])
     coefficients, settings, log = fit_bpnn(rises, targets, names, request.options.seed,
                                            request.options.population, request.options.generations,
-                                           operators=request.options.ga_operators)
+                                           operators=request.options.ga_operators, progress=progress)
     settings["targets"] = [{"name": block_identifier(c, "target"), "column": c, "unit": _unit_of(c)}
                            for c in (request.target, *request.extra_targets)]
     if request.tool_length:

@@ -10,6 +10,8 @@ generation (elitism), so the result never gets worse from one generation to the 
 """
 from __future__ import annotations
 
+import time
+
 from dataclasses import dataclass
 from typing import Callable
 
@@ -112,3 +114,17 @@ def _gaussian_mutation(pop, lower, upper, scale, p_mutation, rng) -> None:
 
 OPERATORS = {"paper000": (_arithmetic_crossover, _gaussian_mutation),
              "paper002": (_single_point_crossover, _one_position_mutation)}
+
+
+def step_reporter(step: str, steps: int, progress: Callable[[str], None] | None, unit: str = "generation",
+                  cost: str = "best RMS") -> Callable[[int, float], None] | None:
+    """Progress of one step of a long fit with an estimate of the time it has left, from the time per
+    generation (or epoch) so far; None without progress."""
+    if not progress:
+        return None
+    started = time.perf_counter()
+
+    def report(done: int, value: float) -> None:
+        left = (time.perf_counter() - started) / max(done, 1) * max(steps - done, 0)
+        progress(f"{step}: {unit} {done}/{steps}, {cost} {value:.4g}, about {left:.0f} s left")
+    return report

@@ -10,8 +10,6 @@ then E = beta0 + sum_i beta_i*(TF_i - T0_i) with T0_i the measured temperature a
 """
 from __future__ import annotations
 
-import time
-
 from dataclasses import dataclass
 from typing import Callable
 
@@ -19,7 +17,7 @@ import numpy as np
 
 from thermoplc.base.binary32 import round_f32
 from thermoplc.models import kernels, lumped
-from thermoplc.models.ga import genetic_minimize
+from thermoplc.models.ga import genetic_minimize, step_reporter
 from thermoplc.models.mlr import least_squares
 from thermoplc.models.kind import Kind, Part, fault_key
 from thermoplc.models.modelfile import Coefficient, Model
@@ -135,18 +133,6 @@ def _minimize(objective, lower, upper, options: FitOptions, rng, progress):
     return result.x, result.cost, result.history, result.evaluations
 
 
-def _reporter(step: str, options: FitOptions, progress: Callable[[str], None] | None):
-    """Progress with an ETA from the time per generation so far in this step (None without progress)."""
-    if not progress:
-        return None
-    started = time.perf_counter()
-
-    def report(gen: int, cost: float) -> None:
-        left = (time.perf_counter() - started) / max(gen, 1) * max(options.generations - gen, 0)
-        progress(f"{step}: generation {gen}/{options.generations}, best RMS {cost:.4g}, about {left:.0f} s left")
-    return report
-
-
 def _lumped_mass(parts: list[Part], i: int, dt: float, name: str, options: FitOptions, rng, reporter,
                  log: dict) -> tuple[float, float, float]:
     """GA step 1 (eq. 12) for sensor i: its time constant (s), speed gain (K/rpm) and standstill rise (K)
@@ -210,7 +196,7 @@ def fit_kalman(parts: list[Part], dt: float, names: list[str], options: FitOptio
     k = parts[0].temps.shape[1]
     log = {"optimizer": options.optimizer, "seed": options.seed, "population": options.population,
            "generations": options.generations, "steps": []}
-    reporter = lambda step: _reporter(step, options, progress)
+    reporter = lambda step: step_reporter(step, options.generations, progress)
     lumped_params = [_lumped_mass(parts, i, dt, names[i], options, rng, reporter, log) for i in range(k)]
 
     discrete = [lumped.discrete(np.array([tau]), np.array([g_n]), np.array([g_0]), dt)
