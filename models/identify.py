@@ -21,7 +21,9 @@ compensation), and slopes on nearly collinear temperatures need shrinking.
 from __future__ import annotations
 
 import itertools
+import time
 from dataclasses import replace
+from typing import Callable
 
 import numpy as np
 
@@ -126,11 +128,22 @@ def fit_displacement(runs: list[Series], temps: list[np.ndarray], t0: list[np.nd
                     "validation_rows": int(sum(np.count_nonzero(late(r, c) & measured[r]) for r, c in enumerate(cuts)))}
 
 
-def fit(runs: list[Series]) -> tuple[Simulation, dict]:
+def fit(runs: list[Series], progress: Callable[[str], None] | None = None) -> tuple[Simulation, dict]:
     """The identified baseline (no effects) on the runs' training parts; and what was measured. Each run
-    starts from its own state; the parameters are shared."""
+    starts from its own state; the parameters are shared. `progress` hears each sensor and the map."""
     shared = Shared(stopped_rpm=sim_.stopped_threshold(np.concatenate([series.n for series in runs])))
-    sensors = tuple(fit_sensor(runs, i, shared) for i in range(len(runs[0].names)))
+    count = len(runs[0].names)
+    started = time.perf_counter()
+    sensors = []
+    for i, name in enumerate(runs[0].names):
+        if progress:
+            left = (time.perf_counter() - started) / i * (count - i) if i else None
+            progress(f"lumped: sensor {i + 1}/{count} ({name})"
+                     + (f", about {left:.0f} s left for the sensors" if left is not None else ""))
+        sensors.append(fit_sensor(runs, i, shared))
+    sensors = tuple(sensors)
+    if progress:
+        progress("lumped: the displacement map (structure lag and ridge weight by forward validation)")
     filtered = [sim_.temperatures(series, shared, sensors, ()) for series in runs]  # one step ahead, and filtered
     displacement, chosen = fit_displacement(runs, [temps for _, temps in filtered],
                                             [sim_.first_temperatures(series, sensors) for series in runs])
