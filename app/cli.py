@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import errno
 import os
+import re
 import signal
 import sys
 
@@ -11,11 +12,29 @@ from thermoplc.base.version import __version__
 from thermoplc.base.errors import UserError
 
 
+NUMBERS = re.compile(r"-[0-9.][0-9.eE+-]*(,[+-]?[0-9.][0-9.eE+-]*)*\Z")  # -40,150 or -1e-3
+
+
 class _Parser(argparse.ArgumentParser):
     """Command-line mistakes in one line, like every other error (the usage is one --help away)."""
 
     def error(self, message: str):
         self.exit(2, f"thermoplc: error: {message} (see {self.prog} --help)\n")
+
+    def parse_known_args(self, args=None, namespace=None):
+        """A value that starts with '-' but is a number or a list of numbers (`--temp-range -40,150`, as --help
+        prints the default) is the option's value, not another option: argparse only knows lone numbers."""
+        args = list(sys.argv[1:] if args is None else args)
+        glued, k = [], 0
+        while k < len(args):
+            action = self._option_string_actions.get(args[k])
+            if action is not None and action.nargs is None and k + 1 < len(args) and NUMBERS.match(args[k + 1]):
+                glued.append(f"{args[k]}={args[k + 1]}")
+                k += 2
+                continue
+            glued.append(args[k])
+            k += 1
+        return super().parse_known_args(glued, namespace)
 
 
 def build_parser() -> argparse.ArgumentParser:

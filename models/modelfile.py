@@ -169,6 +169,40 @@ def _check_shape(model: "Model", path: str) -> None:
     if not model.signals("temperature"):
         raise UserError(f"{path}: field 'inputs': no input has the role temperature")
     kind_of(model.kind).check_settings(model, path)
+    _check_counts(model, path)
+
+
+MAX_RECORDED_ROWS = 10 ** 10  # a year at 300 Hz: far beyond any thermal recording (they are sampled at seconds)
+
+
+def _count(value, path: str, where: str, most: int, bound: str) -> int:
+    if not isinstance(value, int) or isinstance(value, bool) or not 0 <= value <= most:
+        raise UserError(f"{path}: field {where!r}: {value!r}; expected a whole number of rows from 0 to {most:,} "
+                        f"({bound})")
+    return value
+
+
+def _check_counts(model: "Model", path: str) -> None:
+    """Row counts are what generate and the acceptance gate quote ('accepted on N held-out rows'): each is
+    bounded by the rows the training says were recorded, and those by a plausible recording."""
+    batches = model.training.get("batches", [model.training])
+    recorded = 0
+    for k, batch in enumerate(batches if isinstance(batches, list) else []):
+        where = f"training.batches[{k}]" if "batches" in model.training else "training"
+        if not isinstance(batch, dict) or "total_rows" not in batch:
+            recorded = None
+            break
+        total = _count(batch["total_rows"], path, f"{where}.total_rows", MAX_RECORDED_ROWS, "a plausible recording")
+        if "rows" in batch:
+            _count(batch["rows"], path, f"{where}.rows", total, "at most the rows recorded")
+        recorded += total
+    most, bound = (MAX_RECORDED_ROWS, "a plausible recording") if not recorded else \
+        (recorded, "at most the rows the training recorded")
+    for section in ("train", "held_out"):
+        counts = model.metrics.get(section)
+        for key in ("rows", "calls"):
+            if isinstance(counts, dict) and key in counts:
+                _count(counts[key], path, f"metrics.{section}.{key}", most, bound)
 
 
 MAX_FOLDING_ULP = 8  # f32 folded in binary32 (A*A) may sit a few ULP from f64 rounded; more is an edit

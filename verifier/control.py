@@ -49,3 +49,18 @@ def control_summary(control: dict, rows: int) -> str:
         return "Enable is FALSE on every call: the block never ran, so only its held start values were compared"
     return (f"Enable and Reset from the data: enabled on {enabled} of {rows} calls, {resets} reset call(s) "
             f"(a Reset on a disabled call does nothing)")
+
+
+def unread_control_columns(table: Table, inputs) -> str:
+    """A note when the data has an Enable or Reset column but the block no such input (a hand-written block
+    compared with a trace): the column is not read, and the user should know the replay ran every call."""
+    declared = {d.name.upper() for d in inputs}
+    unread = [column for name in CONTROL_INPUT_START if name.upper() not in declared
+              for column in columns_named(table.columns, name)]
+    if not unread:
+        return ""
+    missing = " or ".join(name for name in CONTROL_INPUT_START if name.upper() not in declared
+                          and columns_named(table.columns, name))
+    shown = ", ".join(repr(c) for c in unread)
+    return (f"{'columns' if len(unread) > 1 else 'column'} {shown} of the data not read: the block has no {missing} "
+            f"input, so every call ran as written")

@@ -58,6 +58,7 @@ def verify_document(report: Report) -> dict:
         "findings": _findings(report.findings),
         "float32_vs_float64_um": dict(report.quantisation_um),
         "engine": report.engine,
+        "note": report.control,
     }
 
 

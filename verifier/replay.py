@@ -17,7 +17,7 @@ from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits
 from thermoplc.models.table import Table
-from thermoplc.verifier.control import control_inputs, control_summary
+from thermoplc.verifier.control import control_inputs, control_summary, unread_control_columns
 from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.interpreter import BlockFailure, Finding
 from thermoplc.verifier.parser import parse_file
@@ -427,7 +427,8 @@ def verify_against_trace(block: str, table: Table, expect: dict, overrides: dict
         expected[output] = cells_as(table, column, outputs[output].type.base, f"the recorded output {output}")
     report = replay_and_compare(machine, block, f"the recorded outputs ({', '.join(expect.values())})", table,
                                  time_column, inputs, expected, {})
+    notes = [unread_control_columns(table, machine.inputs)]
     if report.mismatch is not None and isinstance(report.mismatch.expected_value, float):
-        report = replace(report, control="a trace must hold every REAL to 9 significant digits (or as hex): exported "
-                                         "with fewer, a value differs by its rounding alone")
-    return report
+        notes.append("a trace must hold every REAL to 9 significant digits (or as hex): exported with fewer, a value "
+                     "differs by its rounding alone")
+    return replace(report, control="; ".join(note for note in notes if note))

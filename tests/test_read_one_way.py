@@ -1,0 +1,59 @@
+"""Issue 38 item 6: small inputs that one path read and another skipped, each as a user types it."""
+import json
+
+from tests.cli_runner import thermoplc
+from tests.golden_models import GOLDEN
+
+
+def test_a_negative_range_follows_its_option_as_help_prints_it(tmp_path):
+    default = thermoplc("generate", GOLDEN / "mlr.json", "-o", "-", cwd=tmp_path).stdout
+    for argv in (("--temp-range", "-40,150"), ("--temp-range=-40,150",)):
+        assert thermoplc("generate", GOLDEN / "mlr.json", *argv, "-o", "-", cwd=tmp_path).stdout == default
+    narrowed = thermoplc("generate", GOLDEN / "mlr.json", "--temp-range", "-20.5,80", "-o", "-", cwd=tmp_path).stdout
+    assert narrowed != default and "-20.5" in narrowed
+    one = thermoplc("generate", GOLDEN / "mlr.json", "--temp-range", "-40", "-o", "x.scl", cwd=tmp_path, check=2)
+    assert "expected LOW,HIGH (two numbers), found '-40'" in one.stderr and not (tmp_path / "x.scl").exists()
+
+
+def test_an_output_ending_in_a_separator_names_a_folder_and_is_refused(tmp_path):
+    for argv in (("generate", GOLDEN / "mlr.json", "-o", "new.scl/"),
+                 ("twin", "--hours", "1", "-o", "t1/"),
+                 ("verify", GOLDEN / "mlr.tia.scl", "--model", GOLDEN / "mlr.json", "--data", "-", "--json", "out/")):
+        result = thermoplc(*argv, cwd=tmp_path, check=2)
+        assert "ends in a separator, so it names a folder; expected a file name" in result.stderr
+        assert list(tmp_path.iterdir()) == []
+
+
+def test_row_counts_of_a_model_file_are_bounded_by_what_was_recorded(tmp_path):
+    doc = json.loads((GOLDEN / "mlr.json").read_text())
+    recorded = doc["training"]["total_rows"]
+    for field, value, bound in ((("metrics", "held_out", "rows"), 10 ** 12, f"from 0 to {recorded:,}"),
+                                (("metrics", "train", "rows"), recorded + 1, f"from 0 to {recorded:,}"),
+                                (("training", "total_rows"), 10 ** 12, "from 0 to 10,000,000,000"),
+                                (("metrics", "held_out", "rows"), -1, "a whole number"),
+                                (("metrics", "held_out", "rows"), 2.5, "a whole number")):
+        edited = json.loads(json.dumps(doc))
+        target = edited
+        for key in field[:-1]:
+            target = target[key]
+        target[field[-1]] = value
+        (tmp_path / "m.json").write_text(json.dumps(edited))
+        result = thermoplc("generate", "m.json", "-o", "b.scl", cwd=tmp_path, check=2)
+        assert f"field {'.'.join(field)!r}: {value!r}" in result.stderr and bound in result.stderr, result.stderr
+        assert not (tmp_path / "b.scl").exists()
+
+
+def test_a_control_column_the_block_has_no_input_for_is_named(tmp_path):
+    (tmp_path / "twice.st").write_text("FUNCTION_BLOCK Twice\nVAR_INPUT\n    x : REAL;\nEND_VAR\nVAR_OUTPUT\n"
+                                       "    y : REAL;\nEND_VAR\n    y := x + x;\nEND_FUNCTION_BLOCK\n")
+    rows = ["time_s,x,y_plc,Enable"] + [f"{10 * i},{i}.5,{2 * i + 1},{i % 2}" for i in range(20)]
+    (tmp_path / "trace.csv").write_text("\n".join(rows) + "\n")
+    result = thermoplc("verify", "twice.st", "--data", "trace.csv", "--expect", "y=y_plc", "--json", "v.json",
+                       cwd=tmp_path)
+    note = "column 'Enable' of the data not read: the block has no Enable input, so every call ran as written"
+    assert note in result.stdout
+    assert json.loads((tmp_path / "v.json").read_text())["note"] == note
+    rows = ["time_s,x,y_plc"] + [f"{10 * i},{i}.5,{2 * i + 1}" for i in range(20)]
+    (tmp_path / "plain.csv").write_text("\n".join(rows) + "\n")
+    plain = thermoplc("verify", "twice.st", "--data", "plain.csv", "--expect", "y=y_plc", cwd=tmp_path)
+    assert "not read" not in plain.stdout
