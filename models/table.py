@@ -142,7 +142,8 @@ def _refuse_points(path: str, header: list[str], text_lines: list[str], numbers:
     convention: either way not a number this reader may guess, so it is named where it is, as written."""
     for line, text in zip(numbers, text_lines):
         if "." in text:
-            for column, cell in enumerate(_fields(path, line, text, delimiter)):
+            fields = _fields(path, line, text, delimiter)
+            for column, cell in enumerate(fields if len(fields) == len(header) else ()):  # else: the count is named
                 if "." in cell:
                     raise UserError(f"{path}:{line}:{column + 1}: column {header[column]!r}: {cell.strip()!r} has a "
                                     f"'.' in a file read with decimal commas (';' between the columns); expected "
