@@ -114,6 +114,10 @@ def text(doc: dict) -> str:
         lines.append(f"  {k}. {e['name']}: {display(e['parameters'])}")
         lines.append(f"     delta BIC {ev['delta_bic']:.1f}; held-out excess above noise removed "
                      f"{ev['held_out_excess_removed']:.0%}")
+        if ev.get("held_out_size_um") is not None:
+            lines.append(f"     held out: moves the target {ev['held_out_size_um']:.3g} um (RMS), removes "
+                         f"{ev['held_out_error_removed']:.0%} of its squared error; {e['matters']} "
+                         f"({doc['rmse_after_um']:.3g} um left)")
     lines.append(f"  disagreement windows: {len(doc['disagreements'])} before, {len(doc['remaining_disagreements'])} after")
     lines.append(f"  {'channel':<16}{'unit':<6}{'noise':>9}{'held-out RMSE before':>22}{'after':>10}{'max before':>12}"
                  f"{'after':>10}")

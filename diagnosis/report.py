@@ -112,10 +112,13 @@ def report(doc: dict, d: Diagnosis, series: Series, n_train: int) -> dict:
         name = f"channel_{k}.png"
         files[name] = _plot(series, d, channel, measured[channel], n_train, _unit(channel, target))
         figures.append(f'<h3>{html.escape(channel)}</h3><img src="{name}" alt="{html.escape(channel)}">')
-    effects = html_table(["#", "effect", "parameters", "delta BIC", "held-out excess above noise removed"],
+    effects = html_table(["#", "effect", "parameters", "delta BIC", "held-out excess above noise removed",
+                          "held-out size um", "held-out squared error removed", "against the misfit left"],
                      [[k, e["name"], e["parameters"], _number(e["evidence"]["delta_bic"], 1),
-                       _percent(e["evidence"]["held_out_excess_removed"])]
-                      for k, e in enumerate(doc["effects"], start=1)] or [["", "none", "", "", ""]])
+                       _percent(e["evidence"]["held_out_excess_removed"]),
+                       _number(e["evidence"].get("held_out_size_um"), 3),
+                       _percent(e["evidence"].get("held_out_error_removed")), e.get("matters", "")]
+                      for k, e in enumerate(doc["effects"], start=1)] or [["", "none", "", "", "", "", "", ""]])
 
     def gap(c: str) -> str:
         return "um" if c == target else "K"

@@ -360,14 +360,30 @@ def polish(sim: Simulation, sim_score: Score, train: Series, series: Series, cha
 
 def _named(name: str, series: Series, n_train: int, current: Simulation, current_score, residual: dict,
            trial: Simulation, s, res: dict, excess_removed: float, windows0) -> dict:
-    """An accepted effect's entry of the findings: its parameters and the evidence that named it."""
+    """An accepted effect's entry of the findings: its parameters and the evidence that named it, with
+    what it changes in the held-out prediction of the target (um) and the share of the held-out squared
+    error of the target it removes."""
+    target = next(reversed(residual))
+    change = residual[target][n_train:] - res[target][n_train:]
+    before, after = current_score.rmse_held_out[target], s.rmse_held_out[target]
     return {"name": name, "parameters": describe(trial, name, series), "evidence": {
+        "held_out_size_um": float(np.sqrt(np.mean(change ** 2))) if len(change) else None,
+        "held_out_error_removed": 1.0 - (after / before) ** 2 if before else None,
         "bic_before": current_score.bic, "bic_after": s.bic, "delta_bic": s.bic - current_score.bic,
         "delta_bic_white": effective_delta_bic(residual, res, trial.parameter_count() - current.parameter_count(),
                                                n_train),
         "held_out_rmse_before": current_score.rmse_held_out, "held_out_rmse_after": s.rmse_held_out,
         "held_out_excess_removed": excess_removed,
         "windows": _window_change(windows0, residual, res)}}
+
+
+def matters(effect: dict, misfit_um: float | None) -> str:
+    """Whether a named effect is larger on the held-out part than the misfit the final model leaves there:
+    one below it is real evidence but moves the compensation less than what no effect explains."""
+    size = effect["evidence"]["held_out_size_um"]
+    if size is None or misfit_um is None:
+        return "not measured (no held-out rows)"
+    return "above the misfit" if size >= misfit_um else "below the misfit"
 
 
 def _try(series: Series, train: Series, channels, sigma: dict, n_train: int, current: Simulation, current_score,
@@ -460,6 +476,7 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
         windows = all_windows(current, residual, sigma, series.dt)
     for effect in added:  # later refits move them: the parameters are those of the final model
         effect["parameters"] = describe(current, effect["name"], series)
+        effect["matters"] = matters(effect, current_score.rmse_held_out[channels[-1]])
     if not windows0 or insufficient:
         skipped = candidates(series, base, train)[1]
     unseen = {k: text for k, w in enumerate(windows)

@@ -222,6 +222,11 @@ def test_diagnose_cli_end_to_end(tmp_path, monkeypatch, capsys):
     assert findings["verdict"] == "explained"
     assert sorted(e["name"] for e in findings["effects"]) == ["feed_axis_heat", "gear_ratio_switch"]
     assert findings["rmse_after_um"] < findings["rmse_before_um"]
+    for effect in findings["effects"]:  # issue 39 item 3: each named effect's size against the misfit left
+        size = effect["evidence"]["held_out_size_um"]
+        assert size > 0 and 0 < effect["evidence"]["held_out_error_removed"] <= 1
+        assert effect["matters"] == ("above the misfit" if size >= findings["rmse_after_um"] else "below the misfit")
+    assert "held out: moves the target" in capsys.readouterr().out
     assert all({"start_s", "end_s", "channel", "rms", "conditions"} <= set(w) for w in findings["disagreements"])
     page = (tmp_path / "diag" / "index.html").read_text()
     assert "gear_ratio_switch" in page and 'src="channel_3.png"' in page
