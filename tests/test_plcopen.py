@@ -319,6 +319,37 @@ HOSTILE = {
                                  r"CONSTANT; expected <localVars constant=\"true\">"),
     "a variable name ST cannot hold": (_swap('<variable name="T_motor">', '<variable name="T motor">'),
                                        r"bad\.xml:17:13: variable name 'T motor': expected an ST identifier"),
+    # issue 38: what an importer reads and this reader skipped
+    "a comment nested in a comment": (_swap("    ENO := Enable;", "    (* n (* x *) // *) ENO := FALSE;\n    ENO := Enable;"),
+                                      r"bad\.xml:\d+:10: \(\* inside a \(\* comment: compilers disagree whether comments "
+                                      r"nest"),
+    "a carriage return ending a // comment": (_swap("    ENO := Enable;", "    // note]]>&#13;<![CDATA[ENO := FALSE;\n"
+                                                                          "    ENO := Enable;"),
+                                              r"bad\.xml:\d+:12: a carriage return without a line feed \(U\+000D\)"),
+    "an encoding the file is not in": (_swap('encoding="utf-8"', 'encoding="UTF-7"'),
+                                       r"bad\.xml:1:31: the XML declaration says encoding='UTF-7', but the file has no "
+                                       r"byte order mark and is read as UTF-8"),
+    "a second start value": (_swap('<simpleValue value="30"/></initialValue>',
+                                   '<simpleValue value="30"/></initialValue><initialValue><simpleValue value="1"/>'
+                                   '</initialValue>'),
+                             r"bad\.xml:\d+:\d+: a second <initialValue> in variable 'c_SettleCalls'"),
+    "a second type": (_swap("<type><REAL/></type>", "<type><REAL/></type><type><INT/></type>"),
+                      r"bad\.xml:18:35: a second <type> in variable 'T_motor'"),
+    "an unknown element in a variable": (_swap("<type><REAL/></type>", "<type><REAL/></type><foo/>"),
+                                         r"bad\.xml:18:35: <foo> in variable 'T_motor' is not read by the verifier"),
+    "vendor data in the body": (_swap("          <ST>", '          <addData><data name="x" handleUnknown="implementation">'
+                                                       '<Method/></data></addData>\n          <ST>'),
+                                r"bad\.xml:\d+:\d+: vendor data in the body of POU 'ThermalComp'"),
+    "a POU outside <pous>": (_swap("    <dataTypes/>", '    <dataTypes/><pou name="X" pouType="functionBlock"/>'),
+                             r"bad\.xml:12:17: <pou> in <types> is not read by the verifier"),
+    "a configuration": (_swap("<configurations/>", '<configurations><configuration name="c"/></configurations>'),
+                        r"bad\.xml:\d+:\d+: <configurations> holds what the verifier does not read"),
+    "the body in <xhtml:div>": (lambda t: t.replace("<xhtml:p><![CDATA[", "<xhtml:div><![CDATA[", 1)
+                                .replace("]]></xhtml:p>", "]]></xhtml:div>", 1),
+                                r"bad\.xml:\d+:13: the ST body of POU 'ThermalComp' is in <xhtml:div>; expected <xhtml:p>"),
+    "an attribute on <ST>": (_swap("<ST>", '<ST foo="bar">'), r"bad\.xml:\d+:11: attribute 'foo' on <ST> is not read"),
+    "a processing instruction before <project>": (_swap("<project ", "<?foo bar?>\n<project "),
+                                                  r"bad\.xml:2:1: a processing instruction outside <project> is not read"),
 }
 
 
@@ -676,3 +707,26 @@ def test_whitespace_documentation_and_vendor_text_are_not_refused():
     text = _text().replace("]]></xhtml:p>", "]]></xhtml:p>\n   \t", 1)
     text = text.replace("<xhtml:p>temperature, degC</xhtml:p>", "<xhtml:p>a := 1; temperature</xhtml:p>", 1)
     assert read_plcopen(text, "ok.xml") == parse_file(XML)
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda t: t.replace("    ENO := Enable;", "    (* n (* x *) // *) ENO := FALSE;\n    ENO := Enable;", 1),
+     r"bad\.st:\d+:10: \(\* inside a \(\* comment"),
+    (lambda t: t.replace("    ENO := Enable;", "    /* a /* b */ ENO := FALSE; */\n    ENO := Enable;", 1),
+     r"bad\.st:\d+:10: /\* inside a /\* comment"),
+    (lambda t: t.replace("    ENO := Enable;", "    // note\rENO := FALSE;\n    ENO := Enable;", 1),
+     r"bad\.st:\d+:12: a carriage return without a line feed"),
+    (lambda t: t.replace("    ENO := Enable;", "    // note\u2028ENO := FALSE;\n    ENO := Enable;", 1),
+     r"bad\.st:\d+:12: a Unicode line separator \(U\+2028\)"),
+])
+def test_st_text_compilers_read_two_ways_is_refused_where_it_is(tmp_path, edit, message):
+    """Issue 38 review: CODESYS nests comments and some tools end a // comment at a lone CR; ours did not,
+    so `ENO := FALSE;` hidden there verified bit-exact."""
+    bad = tmp_path / "bad.st"
+    bad.write_bytes(edit(golden_block("mlr", "iec").read_text()).encode())
+    with pytest.raises(UserError) as caught:
+        parse_file(bad)
+    assert re.match(message, str(caught.value).replace(str(tmp_path) + "/", "")), str(caught.value)
+    crlf = tmp_path / "crlf.st"
+    crlf.write_bytes(golden_block("mlr", "iec").read_text().replace("\n", "\r\n").encode())
+    assert parse_file(crlf) == parse_file(golden_block("mlr", "iec"))

@@ -13,8 +13,9 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 
 from thermoplc.base.binary32 import decimal_to_f32
 from thermoplc.base.errors import UserError
-from thermoplc.base.text import decode
+from thermoplc.base.text import decode, encoding_of
 from thermoplc.verifier import syntax as s
+from thermoplc.verifier.one_reading import refuse_two_readings
 
 MAX_SOURCE_CHARACTERS = 4_000_000  # 20x the largest generated block; bounds parse time and memory
 MAX_ARRAY_ELEMENTS = 1_000_000
@@ -371,6 +372,7 @@ def parse_text(text: str, source: str = "<text>") -> s.Program:
     if len(text) > MAX_SOURCE_CHARACTERS:
         raise StSyntaxError(f"{source}: {len(text):,} characters; a function block source is at most "
                             f"{MAX_SOURCE_CHARACTERS:,} here (the largest generated block is about 200,000)")
+    refuse_two_readings(text, source)
     try:
         tree = _lark().parse(text, start="start")
     except UnexpectedInput as exc:
@@ -398,6 +400,7 @@ def parse_body(text: str, source: str, line: int = 1, column: int = 1) -> tuple[
         raise StSyntaxError(f"{source}:{line}:{column}: {len(text):,} characters of ST; a function block body is at "
                             f"most {MAX_SOURCE_CHARACTERS:,} here (the largest generated block is about 200,000)")
     padded = "\n" * (line - 1) + " " * (column - 1) + text  # lark counts positions from here: the file's own
+    refuse_two_readings(padded, source)
     try:
         tree = _lark().parse(padded, start="st_body")
     except UnexpectedInput as exc:
@@ -437,6 +440,8 @@ def parse_file(path: str | Path) -> s.Program:
     text = read_source(path)
     from thermoplc.verifier.plcopen import is_xml, read_plcopen  # it reads its bodies with this module
     if is_xml(text) or path.lower().endswith(".xml"):  # the PLCopen XML of generate --format plcopen
-        return read_plcopen(text, path)
+        with open(path, "rb") as f:
+            encoding = encoding_of(f.read(4))
+        return read_plcopen(text, path, encoding)
     return parse_text(text, path)
 

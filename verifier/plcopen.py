@@ -38,6 +38,10 @@ LANGUAGES = ("IL", "ST", "FBD", "LD", "SFC")
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")  # the grammar's NAME
 BOOLEAN = {"true": True, "1": True, "false": False, "0": False}  # xsd:boolean
 INTEGER = re.compile(r"[+-]?[0-9]+\Z")
+DECLARED_ENCODING = re.compile(r"""<\?xml[^>]*?\sencoding\s*=\s*(["'])([^"']*)\1""")
+PROJECT_CHILDREN = ("fileHeader", "contentHeader", "types", "instances", "addData", "documentation")
+CONTAINER_CHILDREN = {"types": ("dataTypes", "pous"), "instances": ("configurations",)}
+VARIABLE_CHILDREN = ("type", "initialValue", "documentation", "addData")
 
 
 def is_xml(text: str) -> bool:
@@ -112,8 +116,7 @@ class _Document:
 
         def markup(kind):
             def seen(*_):
-                if open_elements:
-                    self.content.append(_Content(tuple(open_elements), True, here(), kind))
+                self.content.append(_Content(tuple(open_elements), True, here(), kind))
             return seen
 
         def doctype(*_):
@@ -142,12 +145,13 @@ class _Document:
         for content in self.content:
             if any(_is_tc6(element, "documentation") or _is_tc6(element, "addData") for element in content.inside):
                 continue
-            if content.inside[-1] is body_text and not content.after_child:
+            if content.inside and content.inside[-1] is body_text and not content.after_child:
                 continue
             line, column = content.start
-            inside = content.inside[-1]
-            where = f"xhtml:{_local(inside)}" if inside.tag.startswith(f"{{{XHTML}}}") else _local(inside)
-            raise UserError(f"{self.source}:{line}:{column}: {content.what} in <{where}> is not read by the verifier, "
+            inside = content.inside[-1] if content.inside else None
+            where = "outside <project>" if inside is None else \
+                f"in <xhtml:{_local(inside)}>" if inside.tag.startswith(f"{{{XHTML}}}") else f"in <{_local(inside)}>"
+            raise UserError(f"{self.source}:{line}:{column}: {content.what} {where} is not read by the verifier, "
                             f"so it cannot prove the block with it; expected the body's ST text in one XHTML "
                             f"element (<xhtml:p><![CDATA[...]]></xhtml:p>) and only whitespace between elements")
 
@@ -159,17 +163,42 @@ class _Document:
         raise UserError(f"{self.at(element)}: {message}")
 
 
-def read_plcopen(text: str, source: str) -> s.Program:
+def _refuse_other_encoding(text: str, source: str, encoding: str) -> None:
+    """A file without a byte order mark is decoded as UTF-8: an XML declaration naming another encoding
+    would make an importer read other characters than the ones proven (a mark decides before any
+    declaration, for every XML reader, so a marked file is read as its mark says)."""
+    declared = DECLARED_ENCODING.match(text)
+    if declared is None or encoding != "utf-8" or declared.group(2).lower().replace("_", "-") in ("utf-8", "utf8"):
+        return
+    offset = declared.start(2)
+    line, column = text.count("\n", 0, offset) + 1, offset - (text.rfind("\n", 0, offset) + 1) + 1
+    raise UserError(f"{source}:{line}:{column}: the XML declaration says encoding={declared.group(2)!r}, but the file "
+                    f"has no byte order mark and is read as UTF-8; an importer would read other characters; "
+                    f"expected encoding=\"utf-8\" (generate writes it)")
+
+
+def read_plcopen(text: str, source: str, encoding: str = "utf-8") -> s.Program:
     """The one function block of a PLCopen XML file as the verifier's AST, or a UserError naming
-    the file, the line and column, and what was expected."""
+    the file, the line and column, and what was expected. `encoding` is what the file was decoded
+    as; the XML declaration must not name another."""
     if not is_xml(text):
         found = (text.lstrip().splitlines() or [""])[0][:20]
         raise UserError(f"{source}:1:1: not XML (it starts with {found!r}, not '<?xml' or '<project'); {EXPECTED}")
+    _refuse_other_encoding(text, source, encoding)
     doc = _Document(text, source)
     root = doc.root
     if root.tag != _q("project"):
         namespace = root.tag[1:].partition("}")[0] if root.tag.startswith("{") else "no namespace"
         doc.fail(root, f"the root element is <{_local(root)}> in {namespace}; {EXPECTED} (<project> in {TC6})")
+    _only_known_children(doc, root, PROJECT_CHILDREN, "the project")
+    for child in root:
+        if child.tag in (_q("types"), _q("instances")):
+            _only_known_children(doc, child, CONTAINER_CHILDREN[_local(child)], f"<{_local(child)}>")
+            for empty in (c for c in child if c.tag in (_q("dataTypes"), _q("configurations"))):
+                _empty(doc, empty, f"<{_local(empty)}> holds what the verifier does not read (types or "
+                                   f"configurations beside the block)")
+            for pous in (c for c in child if c.tag == _q("pous")):
+                _only_known_children(doc, pous, ("pou",), "<pous>")
     pous = root.findall(f"{_q('types')}/{_q('pous')}/{_q('pou')}")
     if not pous:
         doc.fail(root, f"no <pou> in <types><pous>; {EXPECTED}")
@@ -177,6 +206,24 @@ def read_plcopen(text: str, source: str) -> s.Program:
         doc.fail(pous[1], f"a second POU {pous[1].get('name')!r} after {pous[0].get('name')!r}; expected one "
                           f"function block per file (generate writes one)")
     return _pou(doc, pous[0])
+
+
+def _only_known_children(doc: _Document, element: ET.Element, known: tuple[str, ...], what: str) -> None:
+    """Every child a TC6 element this reader knows, each at most once (an importer may take the other copy)."""
+    seen: set[str] = set()
+    for child in element:
+        local = _local(child)
+        if not child.tag.startswith(f"{{{TC6}}}") or local not in known:
+            doc.fail(child, f"<{local}> in {what} is not read by the verifier, so it cannot prove the block with it; "
+                            f"expected {', '.join(f'<{k}>' for k in known)}")
+        if local in seen and local not in ("pou", "documentation"):
+            doc.fail(child, f"a second <{local}> in {what}; expected one (an importer may read the other)")
+        seen.add(local)
+
+
+def _empty(doc: _Document, element: ET.Element, message: str) -> None:
+    if len(element):
+        doc.fail(element[0], message)
 
 
 def _pou(doc: _Document, pou: ET.Element) -> s.Program:
@@ -230,7 +277,11 @@ def _interface(doc: _Document, interface: ET.Element, pou: str) -> tuple[tuple[s
     retained: list[str] = []
     for group in interface:
         local = _local(group) if group.tag.startswith(f"{{{TC6}}}") else group.tag
-        if local in ("documentation", "addData"):
+        if local == "addData":
+            _empty(doc, group, f"vendor data in the interface of POU {pou!r} is not read by the verifier, so it "
+                               f"cannot prove the block with it")
+            continue
+        if local == "documentation":
             continue
         if local in UNSUPPORTED_SECTIONS:
             doc.fail(group, f"<{local}> ({UNSUPPORTED_SECTIONS[local]} section) is not supported")
@@ -257,7 +308,11 @@ def _interface(doc: _Document, interface: ET.Element, pou: str) -> tuple[tuple[s
             retained.append(section)
         for variable in group:
             kind = _local(variable) if variable.tag.startswith(f"{{{TC6}}}") else variable.tag
-            if kind in ("documentation", "addData"):
+            if kind == "addData":
+                _empty(doc, variable, f"vendor data in <{local}> is not read by the verifier, so it cannot prove "
+                                      f"the block with it")
+                continue
+            if kind == "documentation":
                 continue
             if kind != "variable":
                 doc.fail(variable, f"<{kind}> in <{local}>: expected <variable> elements")
@@ -267,6 +322,10 @@ def _interface(doc: _Document, interface: ET.Element, pou: str) -> tuple[tuple[s
 
 def _variable(doc: _Document, variable: ET.Element, section: str) -> s.VarDecl:
     name = _identifier(doc, variable, "variable")
+    _only_known_children(doc, variable, VARIABLE_CHILDREN, f"variable {name!r}")
+    for data in variable.findall(_q("addData")):
+        _empty(doc, data, f"vendor data on variable {name!r} is not read by the verifier, so it cannot prove the "
+                          f"block with it")
     if variable.get("address") is not None:
         doc.fail(variable, f"variable {name!r} at address {variable.get('address')!r}: AT address is not supported")
     type_element = variable.find(_q("type"))
@@ -347,7 +406,10 @@ def _simple(doc: _Document, element: ET.Element, variable: str):
 
 def _body(doc: _Document, body: ET.Element, pou: str) -> tuple[s.Stmt, ...]:
     languages = [child for child in body if child.tag.startswith(f"{{{TC6}}}") and _local(child) in LANGUAGES]
-    others = [child for child in body if child not in languages and _local(child) not in ("addData", "documentation")]
+    others = [child for child in body if child not in languages and child.tag not in (_q("addData"), _q("documentation"))]
+    for data in body.findall(_q("addData")):
+        _empty(doc, data, f"vendor data in the body of POU {pou!r} (a method or an action?) is not read by the "
+                          f"verifier, so it cannot prove the block with it")
     if others:
         doc.fail(others[0], f"<{_local(others[0])}> in the body of POU {pou!r}; expected <ST>")
     if not languages:
@@ -363,6 +425,12 @@ def _body(doc: _Document, body: ET.Element, pou: str) -> tuple[s.Stmt, ...]:
         doc.fail(st, f"the ST body of POU {pou!r}: expected its text in one XHTML element "
                      f"(<xhtml:p><![CDATA[...]]></xhtml:p>)")
     text = texts[0]
+    if text.tag != f"{{{XHTML}}}p":
+        doc.fail(text, f"the ST body of POU {pou!r} is in <xhtml:{_local(text)}>; expected <xhtml:p>")
+    for element in (st, text):
+        if element.attrib:
+            doc.fail(element, f"attribute {next(iter(element.attrib))!r} on <{_local(element)}> is not read by the "
+                              f"verifier; expected none")
     doc.refuse_unread_content(text)
     line, column = doc.text_starts.get(text, doc.starts[text])
     return parse_body(text.text or "", doc.source, line, column)

@@ -1,0 +1,53 @@
+"""ST text that compilers read in more than one way is refused before it is parsed.
+
+The verifier's grammar ends a `//` comment at LF and a block comment at its first closer. Other
+tools differ exactly there: CODESYS and TwinCAT nest `(* (* *) *)` comments, so a comment opened
+inside a comment hides or reveals the code after the first closer; a lone CR, a form feed or a
+Unicode line separator ends a `//` comment for some editors and importers and not for others. A
+proof about one reading says nothing about the other, so such text is named at its line and
+column, never read one way.
+"""
+from __future__ import annotations
+
+import re
+
+from thermoplc.base.errors import UserError
+
+LINE_BREAKS = {"\r": "carriage return without a line feed", "\x0b": "vertical tab", "\x0c": "form feed",
+               "\x85": "next-line character", "\u2028": "Unicode line separator",
+               "\u2029": "Unicode paragraph separator"}
+_BREAK = re.compile("\r(?!\n)|[\x0b\x0c\x85\u2028\u2029]")
+_COMMENT_MARK = re.compile(r"//|\(\*|\*\)|/\*|\*/|\n")
+_CLOSER = {"(*": "*)", "/*": "*/"}
+
+
+def _place(text: str, index: int) -> tuple[int, int]:
+    line = text.count("\n", 0, index) + 1
+    return line, index - (text.rfind("\n", 0, index) + 1) + 1
+
+
+def refuse_two_readings(text: str, source: str) -> None:
+    """A UserError at the first place where tools read `text` differently, or None."""
+    found = _BREAK.search(text)
+    if found:
+        line, column = _place(text, found.start())
+        char = found.group()
+        raise UserError(f"{source}:{line}:{column}: a {LINE_BREAKS[char]} (U+{ord(char):04X}): tools disagree "
+                        f"whether it ends a line, and so a // comment; expected lines ending in LF or CRLF")
+    opened, in_line_comment = None, False
+    for mark in _COMMENT_MARK.finditer(text):
+        token = mark.group()
+        if in_line_comment:
+            in_line_comment = token != "\n"
+        elif opened is None:
+            if token == "//":
+                in_line_comment = True
+            elif token in _CLOSER:
+                opened = token
+        elif token in _CLOSER:
+            line, column = _place(text, mark.start())
+            raise UserError(f"{source}:{line}:{column}: {token} inside a {opened} comment: compilers disagree "
+                            f"whether comments nest (CODESYS and TwinCAT nest them), so the code after the "
+                            f"first {_CLOSER[opened]} is read two ways; close the comment first")
+        elif token == _CLOSER[opened]:
+            opened = None
