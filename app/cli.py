@@ -12,11 +12,28 @@ from thermoplc.base.version import __version__
 from thermoplc.base.errors import UserError
 
 
-NUMBERS = re.compile(r"-[0-9.][0-9.eE+-]*(,[+-]?[0-9.][0-9.eE+-]*)*\Z")  # -40,150 or -1e-3
+NUMBERS = re.compile(r"-(\d|\.\d|inf|nan|0x)", re.IGNORECASE)  # a value: -40,150, -1e-3, -inf,150 (not an option)
+
+
+class _StoreOnce(argparse._StoreAction):
+    """An option of one value given twice is refused: argparse would keep the last and drop the first without
+    a word (`diff a b --data x.csv --data y.csv` replayed y.csv only)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if getattr(self, "given", None) is not None:
+            parser.error(f"{option_string or self.dest} given twice ({self.given} and {values}); this option takes "
+                         f"one value")
+        self.given = values
+        super().__call__(parser, namespace, values, option_string)
 
 
 class _Parser(argparse.ArgumentParser):
     """Command-line mistakes in one line, like every other error (the usage is one --help away)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.register("action", None, _StoreOnce)
+        self.register("action", "store", _StoreOnce)
 
     def error(self, message: str):
         self.exit(2, f"thermoplc: error: {message} (see {self.prog} --help)\n")

@@ -34,6 +34,8 @@ def check_output(path: str | Path, force: bool, inputs=()) -> None:
     if str(path) == "-":
         raise UserError("-o -: this command writes a file (only generate writes its block to standard output); "
                         "give a file name")
+    if not str(path):
+        raise UserError("-o '': an empty name; expected a file name for the output")
     if str(path).endswith(("/", os.sep)):
         raise UserError(f"{path}: ends in a separator, so it names a folder; expected a file name for the output")
     path = Path(path)

@@ -24,7 +24,7 @@ from typing import Callable
 import numpy as np
 
 from thermoplc.base.errors import UserError
-from thermoplc.models import acceptance, auto_nested, crossval
+from thermoplc.models import acceptance, auto_nested, crossval, ridge
 from thermoplc.models.fit import FitRequest, check_inputs, runs_named, training_rows
 from thermoplc.models.kind import Kind
 from thermoplc.models.kinds import registry
@@ -120,8 +120,13 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
     else:
         train_rows = training_rows(tables[0], time_column, request.train_until, request.train_rows)
     kinds = tried(request)
-    check_inputs(tables, replace(request, kind="mlr"), time_column,
-                 [train_rows] + [t.rows for t in tables[1:]])  # what every kind refuses, before anything is fitted
+    rows = [train_rows] + [t.rows for t in tables[1:]]
+    check_inputs(tables, replace(request, kind="mlr"), time_column, rows)  # what every kind refuses, up front
+    try:  # a sensor that never moves: every kind refuses it, so auto must not quietly leave it out
+        ridge.refuse_flat(np.vstack([np.column_stack([t.columns[c][:n] for c in request.temps])
+                                     for t, n in zip(tables, rows)]), list(request.temps))
+    except UserError as exc:
+        raise UserError(f"{runs_named(tables)}: --temps {exc}") from None
     if say:
         say("auto: forward selection of sensors")
     if (len(tables) > 1 or groups is not None) and groups is None:
@@ -155,7 +160,8 @@ def _candidate(tables, request, folds, time_column, kind, sensors, say, groups=N
 
 def _without_paths(text: str, tables: list[Table]) -> str:
     for named in (runs_named(tables[:k] + tables[k + 1:]) for k in range(len(tables))):
-        text = text.replace(f"{named}: ", "")
+        if named:  # one table less than none is no name
+            text = text.replace(f"{named}: ", "")
     for table in tables:
         text = text.replace(f"{table.path}: ", "")
     return text

@@ -416,14 +416,14 @@ def columns_named(columns, name: str) -> list[str]:
 
 
 def _keep(columns: dict, names: list[str], start: int, optional: tuple[str, ...] = ()) -> Chunk:
-    """The chunk of `names`, and of each `optional` name the file has in any case (columns_named), kept
-    under the name asked for."""
+    """The chunk of `names`, and of each `optional` name the file has in any case, kept under the name
+    asked for (a block input's name ignores case, so two spellings of it are refused)."""
     missing = [n for n in names if n not in columns]
     if missing:
         raise CannotStream(f"no column {missing[0]!r}")
     kept = {n: columns[n] for n in names}
     for name in optional:
-        found = columns_named(columns, name)
+        found = [column for column in columns if column.upper() == name.upper()]  # 'Enable' and 'enable': two
         if len(found) > 1:
             raise CannotStream(f"two columns could be {name}")
         if found and name not in kept:

@@ -27,7 +27,8 @@ def test_an_output_ending_in_a_separator_names_a_folder_and_is_refused(tmp_path)
 def test_row_counts_of_a_model_file_are_bounded_by_what_was_recorded(tmp_path):
     doc = json.loads((GOLDEN / "mlr.json").read_text())
     recorded = doc["training"]["total_rows"]
-    for field, value, bound in ((("metrics", "held_out", "rows"), 10 ** 12, f"from 0 to {recorded:,}"),
+    after = recorded - doc["training"]["rows"]
+    for field, value, bound in ((("metrics", "held_out", "rows"), 10 ** 12, f"from 0 to {after:,}"),
                                 (("metrics", "train", "rows"), recorded + 1, f"from 0 to {recorded:,}"),
                                 (("training", "total_rows"), 10 ** 12, "from 0 to 10,000,000,000"),
                                 (("metrics", "held_out", "rows"), -1, "a whole number"),
@@ -57,3 +58,47 @@ def test_a_control_column_the_block_has_no_input_for_is_named(tmp_path):
     (tmp_path / "plain.csv").write_text("\n".join(rows) + "\n")
     plain = thermoplc("verify", "twice.st", "--data", "plain.csv", "--expect", "y=y_plc", cwd=tmp_path)
     assert "not read" not in plain.stdout
+
+
+def test_an_option_of_one_value_given_twice_is_refused_not_the_last_kept(tmp_path):
+    """diff, select-sensors and diagnose kept the last --data of two and replayed it without a word."""
+    thermoplc("twin", "--hours", "2", "--seed", "3", "-o", "t.csv", cwd=tmp_path)
+    block = str(GOLDEN / "mlr.tia.scl")
+    for argv, option in ((("diff", block, block, "--data", "t.csv", "--data", "t.csv"), "--data"),
+                         (("twin", "--hours", "1", "--seed", "1", "--seed", "2", "-o", "u.csv"), "--seed"),
+                         (("generate", GOLDEN / "mlr.json", "-o", "a.scl", "-o", "b.scl"), "-o")):
+        result = thermoplc(*argv, cwd=tmp_path, check=2)
+        assert f"{option} given twice" in result.stderr and len(result.stderr.splitlines()) == 1, result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.csv"]
+
+
+def test_two_spellings_of_a_control_input_are_refused_on_every_engine(tmp_path):
+    """'Enable' (always 1) beside 'enable' (0 after row 500): the streamed path took 'Enable' silently."""
+    thermoplc("twin", "--hours", "2", "--seed", "3", "-o", "t.csv", cwd=tmp_path)
+    lines = (tmp_path / "t.csv").read_text().splitlines()
+    rows = [lines[0] + ",Enable,enable"] + [f"{row},1,{int(k < 500)}" for k, row in enumerate(lines[1:])]
+    (tmp_path / "en.csv").write_text("\n".join(rows) + "\n")
+    for engine in ("fast", "interp"):
+        result = thermoplc("verify", GOLDEN / "mlr.tia.scl", "--model", GOLDEN / "mlr.json", "--data", "en.csv",
+                           "--engine", engine, cwd=tmp_path, check=2)
+        assert "columns Enable, enable could each drive the block input Enable" in result.stderr, result.stderr
+
+
+def test_held_out_rows_of_a_split_fit_add_up_with_the_training_rows(tmp_path):
+    doc = json.loads((GOLDEN / "mlr.json").read_text())
+    doc["training"]["total_rows"] = doc["training"]["rows"] + 10
+    (tmp_path / "m.json").write_text(json.dumps(doc))
+    result = thermoplc("generate", "m.json", "-o", "b.scl", cwd=tmp_path, check=2)
+    assert "field 'metrics.held_out.rows'" in result.stderr and "from 0 to 10 (the rows recorded after" in result.stderr
+
+
+def test_auto_refuses_a_sensor_that_never_moves_as_mlr_does(tmp_path):
+    thermoplc("twin", "--hours", "2", "--seed", "3", "-o", "t.csv", cwd=tmp_path)
+    lines = (tmp_path / "t.csv").read_text().splitlines()
+    (tmp_path / "x.csv").write_text("\n".join([lines[0] + ",T_const"] + [r + ",20.0" for r in lines[1:]]) + "\n")
+    for kind in ("mlr", "auto"):
+        result = thermoplc("fit", "--data", "x.csv", "--model", kind, "--target", "E_z_um", "--temps",
+                           "T_motor,T_const", "--train-rows", "400", "-o", f"{kind}.json", cwd=tmp_path, check=2)
+        assert "x.csv: " in result.stderr and "T_const does not change on the training rows" in result.stderr
+    assert thermoplc("generate", GOLDEN / "mlr.json", "-o", "", cwd=tmp_path, check=2).stderr.startswith(
+        "thermoplc: error: -o '': an empty name")

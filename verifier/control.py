@@ -6,7 +6,7 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.contract.outputs import CONTROL_INPUT_START, ENABLE_INPUT, RESET_INPUT
-from thermoplc.models.table import Table, columns_named
+from thermoplc.models.table import Table
 
 
 def control_inputs(table: Table, overrides: dict | None = None) -> dict:
@@ -31,8 +31,8 @@ def control_inputs(table: Table, overrides: dict | None = None) -> dict:
 
 def _column_of(table: Table, name: str) -> str:
     """The column of block input `name` in any case (`enable`); refuses two."""
-    found = columns_named(table.columns, name)
-    if len(found) > 1:
+    found = [column for column in table.columns if column.upper() == name.upper()]  # an exact one does not win:
+    if len(found) > 1:  # the block's input names ignore case, so 'Enable' and 'enable' both name it
         raise UserError(f"{table.path}: columns {', '.join(found)} could each drive the block input {name}; "
                         f"choose one with --inputs {name}=COLUMN")
     return found[0] if found else name
@@ -55,12 +55,12 @@ def unread_control_columns(table: Table, inputs) -> str:
     """A note when the data has an Enable or Reset column but the block no such input (a hand-written block
     compared with a trace): the column is not read, and the user should know the replay ran every call."""
     declared = {d.name.upper() for d in inputs}
-    unread = [column for name in CONTROL_INPUT_START if name.upper() not in declared
-              for column in columns_named(table.columns, name)]
+    named = {name: [column for column in table.columns if column.upper() == name.upper()]
+             for name in CONTROL_INPUT_START if name.upper() not in declared}
+    unread = [column for columns in named.values() for column in columns]
     if not unread:
         return ""
-    missing = " or ".join(name for name in CONTROL_INPUT_START if name.upper() not in declared
-                          and columns_named(table.columns, name))
+    missing = " or ".join(name for name, columns in named.items() if columns)
     shown = ", ".join(repr(c) for c in unread)
     return (f"{'columns' if len(unread) > 1 else 'column'} {shown} of the data not read: the block has no {missing} "
             f"input, so every call ran as written")
