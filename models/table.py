@@ -423,7 +423,7 @@ def _keep(columns: dict, names: list[str], start: int, optional: tuple[str, ...]
         raise CannotStream(f"no column {missing[0]!r}")
     kept = {n: columns[n] for n in names}
     for name in optional:
-        found = [column for column in columns if column.upper() == name.upper()]  # 'Enable' and 'enable': two
+        found = [column for column in columns if column.upper() == name.upper()]  # both spellings of an input: two
         if len(found) > 1:
             raise CannotStream(f"two columns could be {name}")
         if found and name not in kept:
