@@ -20,10 +20,11 @@ class _StoreOnce(argparse._StoreAction):
     a word (`diff a b --data x.csv --data y.csv` replayed y.csv only)."""
 
     def __call__(self, parser, namespace, values, option_string=None):
+        shown = ",".join(map(str, values)) if isinstance(values, (tuple, list)) else str(values)
         if getattr(self, "given", None) is not None:
-            parser.error(f"{option_string or self.dest} given twice ({self.given} and {values}); this option takes "
+            parser.error(f"{option_string or self.dest} given twice ({self.given} and {shown}); this option takes "
                          f"one value")
-        self.given = values
+        self.given = shown
         super().__call__(parser, namespace, values, option_string)
 
 

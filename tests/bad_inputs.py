@@ -564,7 +564,7 @@ def _option_cases() -> list[Case]:
         Case("option", "-o replaces a block whose VERSION was edited to 16.3", "generate", (*generate, "--force"),
              _replaced_block("16.3"), "error", "out.scl is a block thermoplc wrote, but its VERSION 16.3 is outside"),
         Case("option", "select-sensors --candidates with the target's twin", "select-sensors",
-             (*select, "--candidates", "T_motor,E_z_true_um"), lambda f: None, "error",
+             (*select[:-1], "T_motor,E_z_true_um"), lambda f: None, "error",
              "--candidates column 'E_z_true_um' is named like the target 'E_z_um'"),
         Case("option", "fit --temps with a feed rate", "fit",
              ("fit", "--data", "good.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,v_feed_mm_min",
