@@ -17,7 +17,7 @@ LINE_BREAKS = {"\r": "carriage return without a line feed", "\x0b": "vertical ta
                "\x85": "next-line character", "\u2028": "Unicode line separator",
                "\u2029": "Unicode paragraph separator"}
 _BREAK = re.compile("\r(?!\n)|[\x0b\x0c\x85\u2028\u2029]")
-_COMMENT_MARK = re.compile(r"//|\(\*|\*\)|/\*|\*/|\n")
+_COMMENT_MARK = re.compile(r"(?=(//|\(\*|\*\)|/\*|\*/|\n))")
 _CLOSER = {"(*": "*)", "/*": "*/"}
 
 
@@ -34,20 +34,22 @@ def refuse_two_readings(text: str, source: str) -> None:
         char = found.group()
         raise UserError(f"{source}:{line}:{column}: a {LINE_BREAKS[char]} (U+{ord(char):04X}): tools disagree "
                         f"whether it ends a line, and so a // comment; expected lines ending in LF or CRLF")
-    opened, in_line_comment = None, False
-    for mark in _COMMENT_MARK.finditer(text):
-        token = mark.group()
+    opened, in_line_comment, end = None, False, 0
+    for mark in _COMMENT_MARK.finditer(text):  # every place a mark starts, overlapping ones too ('//*')
+        start, token = mark.start(), mark.group(1)
+        if start < end:
+            continue  # inside a mark already taken
         if in_line_comment:
-            in_line_comment = token != "\n"
+            in_line_comment, end = (False, start + 1) if token == "\n" else (True, end)
         elif opened is None:
             if token == "//":
-                in_line_comment = True
+                in_line_comment, end = True, start + 2
             elif token in _CLOSER:
-                opened = token
+                opened, end = token, start + 2
         elif token in _CLOSER:
-            line, column = _place(text, mark.start())
+            line, column = _place(text, start)
             raise UserError(f"{source}:{line}:{column}: {token} inside a {opened} comment: compilers disagree "
                             f"whether comments nest (CODESYS and TwinCAT nest them), so the code after the "
                             f"first {_CLOSER[opened]} is read two ways; close the comment first")
         elif token == _CLOSER[opened]:
-            opened = None
+            opened, end = None, start + 2
