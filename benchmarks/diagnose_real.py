@@ -1,7 +1,7 @@
 """Detection table of `diagnose` on REAL data: effects injected into the FL_THERMAL recording.
 
     python benchmarks/diagnose_real.py [--channels ch3_um ch5_um] [--effects ...] [--seeds 3]
-                                       [--first-seed 1] [--jobs 2] [--json results.json]
+                                       [--first-seed 1] [--jobs 2] [--json results.json] [--size 0.6 1.0]
 
 The synthetic machines (benchmarks/diagnose.py) are inside the baseline's class by construction;
 a real machine is not. Here each effect is added, alone, to the measured columns of FL_THERMAL
@@ -126,10 +126,13 @@ def heat_changes(heat: np.ndarray, rng: np.random.Generator, channel: str, ampli
     return changes, {"tau_T_min": tau_t / 60, "tau_E_min": tau_e / 60, "rise_K": rises, "amplitude_um": amplitude}
 
 
-def inject(name: str, data: dict, channel: str, seed: int) -> tuple[dict[str, np.ndarray], dict]:
-    """The changes to add per column and the drawn parameters."""
+def inject(name: str, data: dict, channel: str, seed: int, size: tuple[float, float] | None = None
+           ) -> tuple[dict[str, np.ndarray], dict]:
+    """The changes to add per column and the drawn parameters. `size`: the displacement's peak drawn in
+    this range of multiples of the channel's standard deviation over the recording, instead of the fixed
+    um ranges (about 0.2-0.4x); temperature changes, offsets and drifts keep their ranges."""
     rng = np.random.default_rng(seed * 1000 + EFFECTS.index(name))
-    low, high = AMPLITUDE_UM[channel]
+    low, high = AMPLITUDE_UM[channel] if size is None else (float(np.std(data[channel])) * s for s in size)
     amplitude = float(rng.choice([-1.0, 1.0]) * rng.uniform(low, high))
     t, n = data["time_s"], data[SPEED]
     train = t <= TRAIN_UNTIL_S
@@ -183,10 +186,10 @@ def inject(name: str, data: dict, channel: str, seed: int) -> tuple[dict[str, np
     raise ValueError(name)
 
 
-def one(case: tuple[str, str, int]) -> dict:
-    channel, name, seed = case
+def one(case: tuple) -> dict:
+    channel, name, seed, size = case
     data = columns()
-    changes, parameters = inject(name, data, channel, seed)
+    changes, parameters = inject(name, data, channel, seed, size)
     use = {**data, **{c: data[c] + change for c, change in changes.items()}}
     series = Series(DT, use["time_s"], use[SPEED], use[AMBIENT], np.column_stack([use[c] for c in TEMPS]), TEMPS,
                     use[channel], None)
@@ -264,8 +267,9 @@ def summary(results: list[dict]) -> list[str]:
     return lines
 
 
-def arguments(description: str, effects: tuple[str, ...]) -> argparse.Namespace:
-    """The options every FL_THERMAL injection benchmark takes: channels, effects, seeds, jobs, JSON."""
+def arguments(description: str, effects: tuple[str, ...], beside: bool = False) -> argparse.Namespace:
+    """The options every FL_THERMAL injection benchmark takes: channels, effects, seeds, jobs, JSON, size;
+    `beside`: also --with-diagnose (the oracle's benchmark runs diagnose on the same runs)."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--channels", nargs="+", choices=CHANNELS, default=list(CHANNELS))
     parser.add_argument("--effects", nargs="+", choices=effects, default=list(effects))
@@ -273,6 +277,11 @@ def arguments(description: str, effects: tuple[str, ...]) -> argparse.Namespace:
     parser.add_argument("--first-seed", type=int, default=1)
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--json", help="also write every run's result here")
+    parser.add_argument("--size", nargs=2, type=float, metavar=("LOW", "HIGH"),
+                        help="the injected displacement's peak in this range of multiples of the channel's standard "
+                             "deviation (default: 4-8 um on ch3, 2-4 um on ch5, about 0.2-0.4x)")
+    if beside:
+        parser.add_argument("--with-diagnose", action="store_true", help="run diagnose on each run too, beside the oracle")
     return parser.parse_args()
 
 
@@ -281,7 +290,8 @@ def main() -> None:
     for name, why in SKIPPED.items():
         print(f"not injected: {name}: {why}")
     seeds = range(args.first_seed, args.first_seed + args.seeds)
-    cases = [(channel, name, seed) for channel in args.channels for name in args.effects
+    size = tuple(args.size) if args.size else None
+    cases = [(channel, name, seed, size) for channel in args.channels for name in args.effects
              for seed in (seeds[:1] if name == "none" else seeds)]
     results = run_and_print(one, cases, args.jobs, args.json, table, summary)
     for r in results:

@@ -1,6 +1,7 @@
 """How much evidence an injected effect leaves in FL_THERMAL, even for a judge that knows its shape.
 
     python benchmarks/evidence_real.py [--channels ch3_um ch5_um] [--seeds 3] [--first-seed 1]
+                                       [--size 0.6 1.0] [--with-diagnose]
 
 A bound on every detector, not a detector: each run of `benchmarks/diagnose_real.py` (same
 injections, same seeds) is fitted with the identified baseline `fit --model lumped` uses
@@ -20,7 +21,9 @@ statistic of that single parameter:
 The same column against the clean recording's residual gives the evidence the machine's own
 misfit lends to that shape by chance. An effect a judge could name needs evidence above the
 BIC penalty of one parameter plus `diagnose`'s margin (log n + 10, about 18.7 here) on the
-injected run and below it on the clean one. Deterministic for the same arguments.
+injected run and below it on the clean one. Each row also gives the injected peak, the identified
+baseline's held-out RMSE beside no compensation (the training mean), and with `--with-diagnose`
+what `diagnose` said on the same run, beside the oracle. Deterministic for the same arguments.
 """
 from __future__ import annotations
 
@@ -35,6 +38,7 @@ import numpy as np  # noqa: E402
 
 from benchmarks.diagnose_real import (AMBIENT, CHANNELS, DT, LIBRARY, OUTSIDE, SPEED, TEMPS,  # noqa: E402
                                       TRAIN_UNTIL_S, arguments, columns, inject)
+from benchmarks.diagnose_real import one as diagnose_run  # noqa: E402
 from thermoplc.diagnosis.search import BIC_MARGIN, effective_rows  # noqa: E402
 from thermoplc.models import identify  # noqa: E402
 from thermoplc.models import simulation as sim_  # noqa: E402
@@ -76,21 +80,29 @@ def evidence(residual: np.ndarray, innovations: np.ndarray, signature: tuple[np.
     return out
 
 
-def one(case: tuple[str, str, int]) -> dict:
-    channel, name, seed = case
+def one(case: tuple) -> dict:
+    channel, name, seed, size, beside = case
     data = columns()
-    changes, parameters = inject(name, data, channel, seed)
+    changes, parameters = inject(name, data, channel, seed, size)
     injected = series_of({**data, **{c: data[c] + change for c, change in changes.items()}}, channel)
     clean = series_of(data, channel)
     n = int(np.count_nonzero(data["time_s"] <= TRAIN_UNTIL_S))
     sim, _ = identify.fit([injected.head(n)])
     (r_injected, e_injected), (r_clean, e_clean) = residuals(sim, injected), residuals(sim, clean)
     signature = (r_injected - r_clean, e_injected - e_clean)
-    return {"channel": channel, "effect": name, "seed": seed, "parameters": parameters,
-            "injected": evidence(r_injected, e_injected, signature, n),
-            "clean": evidence(r_clean, e_clean, signature, n),
-            "signature_um": float(np.std(signature[0][:n])), "misfit_um": float(np.std(r_clean[:n])),
-            "effective_rows": effective_rows(r_clean[:n] - r_clean[:n].mean()), "rows": n}
+    rms = lambda x: float(np.sqrt(np.mean(x ** 2)))
+    result = {"channel": channel, "effect": name, "seed": seed, "parameters": parameters,
+              "injected": evidence(r_injected, e_injected, signature, n),
+              "clean": evidence(r_clean, e_clean, signature, n),
+              "signature_um": float(np.std(signature[0][:n])), "misfit_um": float(np.std(r_clean[:n])),
+              "effective_rows": effective_rows(r_clean[:n] - r_clean[:n].mean()), "rows": n,
+              "peak_um": float(np.max(np.abs(changes.get(channel, np.zeros(1))))),
+              "baseline_held_out_um": rms(r_injected[n:]),
+              "none_held_out_um": rms(injected.target[n:] - np.mean(injected.target[:n]))}
+    if beside:  # diagnose on the same run, beside the oracle
+        said = diagnose_run((channel, name, seed, size))
+        result["diagnose"] = said["verdict"] + (f" naming {', '.join(said['found'])}" if said["found"] else "")
+    return result
 
 
 def penalty(rows: int) -> float:
@@ -98,14 +110,16 @@ def penalty(rows: int) -> float:
 
 
 def table(results: list[dict]) -> list[str]:
-    lines = ["| channel | effect | seed | signature µm | misfit µm | effective rows | levels injected / clean "
-             "| innovations injected / clean | temperatures injected / clean | oracle could name |",
-             "| --- | --- | ---: | ---: | ---: | ---: | --- | --- | --- | --- |"]
+    lines = ["| channel | effect | seed | peak µm | signature µm | misfit µm | identified held out µm | none µm "
+             "| effective rows | levels injected / clean | innovations injected / clean | temperatures injected / clean "
+             "| oracle could name | diagnose said |",
+             "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | --- | --- | --- | --- |"]
     for r in results:
         cells = " | ".join(f"{r['injected'][k]:.1f} / {r['clean'][k]:.1f}"
                            for k in ("levels", "innovations", "temperatures"))
-        lines.append(f"| {r['channel']} | `{r['effect']}` | {r['seed']} | {r['signature_um']:.2f} | "
-                     f"{r['misfit_um']:.2f} | {r['effective_rows']:.1f} | {cells} | {nameable(r) or 'no'} |")
+        lines.append(f"| {r['channel']} | `{r['effect']}` | {r['seed']} | {r['peak_um']:.1f} | {r['signature_um']:.2f} | "
+                     f"{r['misfit_um']:.2f} | {r['baseline_held_out_um']:.2f} | {r['none_held_out_um']:.2f} | "
+                     f"{r['effective_rows']:.1f} | {cells} | {nameable(r) or 'no'} | {r.get('diagnose', 'not run')} |")
     return lines
 
 
@@ -129,9 +143,11 @@ def summary(results: list[dict]) -> list[str]:
 
 
 def main() -> None:
-    args = arguments(__doc__.splitlines()[0], EFFECTS)
+    args = arguments(__doc__.splitlines()[0], EFFECTS, beside=True)
     seeds = range(args.first_seed, args.first_seed + args.seeds)
-    cases = [(channel, name, seed) for channel in args.channels for name in args.effects for seed in seeds]
+    size = tuple(args.size) if args.size else None
+    cases = [(channel, name, seed, size, args.with_diagnose) for channel in args.channels for name in args.effects
+             for seed in seeds]
     run_and_print(one, cases, args.jobs, args.json, table, summary)
 
 

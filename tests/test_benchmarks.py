@@ -107,3 +107,19 @@ def test_evidence_bound_credits_a_shape_in_white_noise_not_in_a_slow_misfit_and_
     run = {"rows": rows, "injected": {"levels": bar + 1, "innovations": bar + 1, "temperatures": 0.0},
            "clean": {"levels": 0.0, "innovations": bar + 5, "temperatures": 0.0}}
     assert evidence_real.nameable(run) == "levels"
+
+
+def test_real_injections_scale_to_multiples_of_the_channels_spread_and_the_oracle_row_says_the_baseline():
+    """Issue 39 items 4-5: --size draws the displacement's peak in multiples of the channel's standard deviation;
+    the oracle's rows give the identified baseline's held-out RMSE beside none (the training mean)."""
+    from benchmarks import diagnose_real, evidence_real
+    data = diagnose_real.columns()
+    spread = float(np.std(data["ch3_um"]))
+    for name in ("slow_structure", "ambient_coupling", "gear_ratio_switch"):
+        changes, _ = diagnose_real.inject(name, data, "ch3_um", 2, (0.6, 1.0))
+        assert 0.6 * spread <= np.max(np.abs(changes["ch3_um"])) <= 1.0 * spread
+        default, _ = diagnose_real.inject(name, data, "ch3_um", 2)
+        assert 4.0 <= np.max(np.abs(default["ch3_um"])) <= 8.0
+    row = evidence_real.one(("ch3_um", "ambient_coupling", 1, (0.6, 1.0), False))
+    assert row["baseline_held_out_um"] < row["none_held_out_um"] and row["peak_um"] >= 0.6 * spread
+    assert "| not run |" in evidence_real.table([row])[-1]
