@@ -7,6 +7,7 @@ import io
 import os
 import re
 import sys
+import unicodedata
 import zipfile
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -121,6 +122,8 @@ def _parse_cells(path: str, header: list[str], text_lines: list[str], numbers: l
         _refuse_points(path, header, written, numbers, delimiter)
         text_lines = [text.replace(",", ".") for text in text_lines]
     try:
+        if not all(text.isascii() for text in text_lines):
+            raise ValueError("the C parser strips Unicode spaces the careful one refuses: the careful one decides")
         with np.errstate(all="ignore"):
             block = np.loadtxt(text_lines, delimiter=delimiter, dtype=np.float64, ndmin=2, quotechar='"', comments=None)
         empty = np.zeros(block.shape, bool)
@@ -168,7 +171,7 @@ def _parse_cells_one_by_one(path: str, header: list[str], text_lines: list[str],
                 continue
             value = _cell_value(cell.replace(",", ".") if comma_decimal else cell)
             if value is None:
-                shown = cell.strip() if len(cell) <= 40 else cell.strip()[:30] + f"... ({len(cell)} characters)"
+                shown = cell.strip(" \t") if len(cell) <= 40 else cell.strip(" \t")[:30] + f"... ({len(cell)} characters)"
                 hint = " (a REAL's 32 bits are 8 hexadecimal digits: 16#3F800000 or 0x3F800000)" \
                     if cell.strip().lower().startswith(("0x", "16#", "dw#")) else \
                     " (a runs table? give it as --runs TABLE)" if header[c] == "file" else ""
@@ -260,6 +263,10 @@ def _header(path: str, first: str, decimal: str) -> tuple[str, bool, list[str]]:
     for col, name in enumerate(header, start=1):
         if not name:
             raise UserError(f"{path}:1:{col}: empty column name in the header")
+        hidden = next((c for c in name if unicodedata.category(c) in ("Cf", "Cc", "Zl", "Zp")), None)
+        if hidden is not None:
+            raise UserError(f"{path}:1:{col}: column name {name!r} holds an invisible character (U+{ord(hidden):04X}); "
+                            f"a block input matched by name would miss it: rename the column")
         if name in seen:
             raise UserError(f"{path}:1:{col}: column {name!r} appears twice in the header")
         seen.add(name)
@@ -444,7 +451,7 @@ def _stream_csv(path: str, names: list[str], decimal: str, optional: tuple[str, 
             raise CannotStream("not a plain header")
         delimiter, comma_decimal = _delimiter(path, text, decimal)
         header = [h.strip() for h in _fields(path, 1, text, delimiter)]
-        if not all(header) or len(set(header)) != len(header):
+        if not all(header) or len(set(header)) != len(header) or not all(name.isprintable() for name in header):
             raise CannotStream("header needs the careful reader")
         options = dict(
             read_options=pacsv.ReadOptions(column_names=header, use_threads=False, block_size=STREAM_BYTES + (1 << 20)),

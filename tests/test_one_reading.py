@@ -52,11 +52,15 @@ def test_accepted_text_keeps_the_same_code_under_every_reading(text):
 
 
 @pytest.mark.parametrize("text, place", [("(* a (* b *) c *)", "1:6"), ("/* /* */ */", "1:4"),
-                                         ("x // y\rz", "1:7"), ("(* ok *)\n// \u2028", "2:4")])
+                                         ("x // y\rz", "1:7"), ("(* ok *)\n// \u2028", "2:4"),
+                                         ("{info '//'} (* x (* y *)\nM := 1;\n// *)", "1:18"),
+                                         ("x := 1;\n{IF defined(never)}\nx := 2;\n{END_IF}", "2:1"),
+                                         ("{ elsif x }", "1:1")])
 def test_the_first_place_read_two_ways_is_named(text, place):
     with pytest.raises(UserError, match=f"t.st:{place}: "):
         refuse_two_readings(text, "t.st")
 
 
-def test_plain_comments_and_windows_line_ends_are_read():
-    refuse_two_readings("x := 1; (* a *) // b\r\n/* c\r\n */ y := 2; // (* not a comment opener here\n", "t.st")
+def test_plain_comments_attributes_and_windows_line_ends_are_read():
+    refuse_two_readings("{ S7_Optimized_Access := 'TRUE' }\nx := 1; (* a *) // b\r\n/* c\r\n */ y := 2; "
+                        "// (* not a comment opener here\n{attribute 'qualified_only'} (* {IF} in a comment *)", "t.st")

@@ -78,10 +78,18 @@ def test_xml_is_told_by_its_content_not_its_name(tmp_path):
 def test_a_block_saved_with_a_byte_order_mark_reads_as_its_utf8_text(tmp_path, encoding):
     """Editors and exporters save XML as UTF-16 with a byte order mark; it was called 'Structured Text' unread."""
     marks = {"utf-16-be": "\ufeff"}  # the -be codec writes no mark of its own
-    for text, utf8 in ((_text(), XML), (golden_block("mlr", "iec").read_text(), golden_block("mlr", "iec"))):
+    declared = {"utf-16-be": "UTF-16", "utf-8-sig": "utf-8"}.get(encoding, encoding.upper())
+    xml = _text().replace('encoding="utf-8"', f'encoding="{declared}"', 1)  # as an exporter declares it
+    for text, utf8 in ((xml, XML), (golden_block("mlr", "iec").read_text(), golden_block("mlr", "iec"))):
         saved = tmp_path / f"saved{utf8.suffix}"
         saved.write_bytes((marks.get(encoding, "") + text).encode(encoding))
         assert parse_file(saved) == parse_file(utf8), encoding
+    if encoding != "utf-8-sig":  # a mark and a declaration that disagree: expat refuses, others follow one
+        saved = tmp_path / "saved.xml"
+        saved.write_bytes((marks.get(encoding, "") + _text()).encode(encoding))
+        with pytest.raises(UserError, match=r"saved\.xml:1:31: the XML declaration says encoding='utf-8', but the file "
+                                            r"is read as UTF-(16|32), as its byte order mark says"):
+            parse_file(saved)
 
 
 def test_a_block_that_is_no_text_names_the_byte_and_what_is_read(tmp_path):

@@ -102,3 +102,36 @@ def test_auto_refuses_a_sensor_that_never_moves_as_mlr_does(tmp_path):
         assert "x.csv: " in result.stderr and "T_const does not change on the training rows" in result.stderr
     assert thermoplc("generate", GOLDEN / "mlr.json", "-o", "", cwd=tmp_path, check=2).stderr.startswith(
         "thermoplc: error: -o '': an empty name")
+
+
+def test_a_real_literal_that_rounds_two_ways_and_misplaced_underscores_are_refused(tmp_path):
+    """A long decimal rounds to one REAL straight and to another through a double (strtod, then narrowed);
+    IEC 61131-3 allows an underscore only between digits."""
+    st = (GOLDEN / "mlr.iec.st").read_text()
+    (tmp_path / "long.st").write_text(st.replace("c_beta_1 : REAL := 10.538228;",
+                                                 "c_beta_1 : REAL := 9.608996868133544921874999999999;", 1))
+    (tmp_path / "under.st").write_text(st.replace("c_OutMax : REAL := 300.0;", "c_OutMax : REAL := 300_.0_;", 1))
+    (tmp_path / "fine.st").write_text(st.replace("c_OutMax : REAL := 300.0;", "c_OutMax : REAL := 3_00.0;", 1))
+    long = thermoplc("diff", GOLDEN / "mlr.iec.st", "long.st", cwd=tmp_path, check=2)
+    assert "long.st:49:24: REAL 9.608996868133544921874999999999 rounds to 9.608996391296387 straight to binary32 " \
+           "but to 9.608997344970703 through a double" in long.stderr
+    assert "under.st:58:27: syntax error" in thermoplc("diff", GOLDEN / "mlr.iec.st", "under.st", cwd=tmp_path,
+                                                       check=2).stderr
+    thermoplc("diff", GOLDEN / "mlr.iec.st", "fine.st", cwd=tmp_path, check=0)
+
+
+def test_a_csv_cell_or_header_with_invisible_characters_is_read_the_same_way_by_every_path(tmp_path):
+    """A no-break space before a number passed the C parser and failed the careful one, so whether a file
+    was read depended on a row far away; 'Reset' with a zero-width space drove nothing, without a word."""
+    thermoplc("twin", "--hours", "2", "--seed", "3", "-o", "t.csv", cwd=tmp_path)
+    lines = (tmp_path / "t.csv").read_text().splitlines()
+    cells = lines[101].split(",")
+    cells[4] = "\u00a0" + cells[4]
+    (tmp_path / "nb.csv").write_text("\n".join([*lines[:101], ",".join(cells), *lines[102:]]) + "\n")
+    (tmp_path / "zw.csv").write_text("\n".join([lines[0] + ",Reset\u200b"] + [r + ",0" for r in lines[1:]]) + "\n")
+    for engine in ("fast", "interp"):
+        verify = ("verify", GOLDEN / "mlr.tia.scl", "--model", GOLDEN / "mlr.json", "--engine", engine, "--data")
+        assert "nb.csv:102:5: column 'T_motor': expected a number, found '\\xa0" in \
+            thermoplc(*verify, "nb.csv", cwd=tmp_path, check=2).stderr
+        assert "zw.csv:1:14: column name 'Reset\\u200b' holds an invisible character (U+200B)" in \
+            thermoplc(*verify, "zw.csv", cwd=tmp_path, check=2).stderr

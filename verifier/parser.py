@@ -8,6 +8,7 @@ from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 
+import numpy as np
 from lark import Lark, Token, Transformer, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken, VisitError
 
@@ -217,7 +218,17 @@ class _ToAst(Transformer):
         value = decimal_to_f32(text)
         if math.isinf(value):
             self._fail(_at(items[-1]), f"REAL {text} is beyond the largest REAL (3.4028235e38)")
+        self._one_rounding(text, value, items[-1])
         return value
+
+    def _one_rounding(self, text: str, value: float, token) -> None:
+        """A decimal that rounds to one REAL straight and to another through a double (as a compiler that
+        parses with strtod and then narrows reads it) is read two ways: refused, with the shorter text."""
+        via_double = float(np.float32(float(text)))
+        if via_double != value and not (math.isnan(via_double) or math.isnan(value)):
+            self._fail(_at(token), f"REAL {text} rounds to {value!r} straight to binary32 but to {via_double!r} "
+                                   f"through a double, as some compilers read it; write it with at most 9 "
+                                   f"significant digits")
 
     def signed_int(self, items):
         value = int("".join(str(t) for t in items if t is not None).replace("_", ""))
@@ -306,6 +317,7 @@ class _ToAst(Transformer):
         value = decimal_to_f32(text)
         if math.isinf(value):
             self._fail(_at(token), f"REAL literal {token} is beyond the largest REAL (3.4028235e38)")
+        self._one_rounding(text, value, token)
         return s.RealLit(str(token), value, _at(token))
 
     def int(self, items):

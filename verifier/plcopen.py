@@ -164,17 +164,23 @@ class _Document:
 
 
 def _refuse_other_encoding(text: str, source: str, encoding: str) -> None:
-    """A file without a byte order mark is decoded as UTF-8: an XML declaration naming another encoding
-    would make an importer read other characters than the ones proven (a mark decides before any
-    declaration, for every XML reader, so a marked file is read as its mark says)."""
-    declared = DECLARED_ENCODING.match(text)
-    if declared is None or encoding != "utf-8" or declared.group(2).lower().replace("_", "-") in ("utf-8", "utf8"):
+    """The file is decoded as UTF-8, or as its byte order mark says: an XML declaration naming another
+    encoding makes importers disagree (some follow the declaration, some the mark, expat refuses), so
+    it is refused unless it names the encoding the file was read in."""
+    declared = DECLARED_ENCODING.match(text.lstrip("\ufeff"))
+    if declared is None:
         return
-    offset = declared.start(2)
+    name = declared.group(2).lower().replace("_", "-").replace("utf8", "utf-8")
+    family = {"utf-8-sig": "utf-8"}.get(encoding, encoding)
+    if name == family or (family in ("utf-16", "utf-32") and name in (family, f"{family}le", f"{family}be",
+                                                                      f"{family}-le", f"{family}-be")):
+        return
+    offset = len(text) - len(text.lstrip("\ufeff")) + declared.start(2)
     line, column = text.count("\n", 0, offset) + 1, offset - (text.rfind("\n", 0, offset) + 1) + 1
+    mark = "has no byte order mark and is read as UTF-8" if encoding == "utf-8" else \
+        f"is read as {family.upper()}, as its byte order mark says"
     raise UserError(f"{source}:{line}:{column}: the XML declaration says encoding={declared.group(2)!r}, but the file "
-                    f"has no byte order mark and is read as UTF-8; an importer would read other characters; "
-                    f"expected encoding=\"utf-8\" (generate writes it)")
+                    f"{mark}; importers would read other characters; expected encoding=\"{family}\"")
 
 
 def read_plcopen(text: str, source: str, encoding: str = "utf-8") -> s.Program:
