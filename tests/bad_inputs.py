@@ -935,6 +935,23 @@ def _read_two_ways_cases() -> list[Case]:
              with_text("bad.csv", lambda t: "\n".join([t.splitlines()[0] + ",Enable,enable"]
                                                       + [r + ",1,0" for r in t.splitlines()[1:]]) + "\n"),
              "error", "columns Enable, enable could each drive the block input Enable"),
+        Case("ST file", "an {IF} conditional-compilation pragma", "verify",
+             ("verify", "bad.scl", "--model", "mlr.json", "--data", "good.csv"),
+             _block_edit(lambda t: t.replace("    ENO := #Enable;", "    {IF defined(never)}\n    ENO := FALSE;\n    {END_IF}"
+                                               "\n    ENO := #Enable;", 1)),
+             "error", "a conditional-compilation pragma"),
+        Case("ST file", "a REAL literal that rounds differently through a double", "verify",
+             ("verify", "bad.scl", "--model", "mlr.json", "--data", "good.csv"),
+             _block_edit(lambda t: re.sub(r"(c_beta_1 : Real := )[^;]+;", r"\g<1>9.608996868133544921874999999999;", t,
+                                          count=1, flags=re.IGNORECASE)),
+             "error", "REAL 9.608996868133544921874999999999 rounds to"),
+        Case("CSV", "a no-break space before a number", "verify", (*VERIFY, "bad.csv"),
+             with_text("bad.csv", lambda t: _cell(t, 100, "T_motor", "\u00a025.5")), "error",
+             "bad.csv:101:5: column 'T_motor': expected a number, found '\\xa025.5'"),
+        Case("CSV", "a column name with a zero-width space", "verify", (*VERIFY, "bad.csv"),
+             with_text("bad.csv", lambda t: "\n".join([t.splitlines()[0] + ",Reset\u200b"]
+                                                      + [r + ",0" for r in t.splitlines()[1:]]) + "\n"),
+             "error", "holds an invisible character (U+200B)"),
         Case("stdin", "--data - twice", "verify", ("verify", "block.scl", "--model", "mlr.json", "--data", "-", "--data", "-"),
              lambda f: None, "error", "--data -: standard input can be read once; give the other runs as files"),
         Case("PLCopen XML", "an XML comment splitting the body", "verify", verify,
