@@ -100,7 +100,7 @@ def test_findings_subnormal_nan_inf_non_portable_and_literals():
 
 
 def test_type_errors_name_the_place():
-    with pytest.raises(InterpretError, match=r"b.scl:4:\d+: '\+' mixes REAL and DINT"):
+    with pytest.raises(InterpretError, match=r"b.scl:4:\d+: '\+' mixes REAL and INT"):
         run("#x := #x + #i;", "VAR x : Real; i : Int; END_VAR")
     with pytest.raises(InterpretError, match="call of FOO is not supported"):
         run("#x := FOO(#x);", "VAR x : Real; END_VAR")
@@ -112,3 +112,24 @@ def test_runaway_loop_is_bounded(monkeypatch):
     monkeypatch.setattr("thermoplc.verifier.interpreter.MAX_LOOP_ITERATIONS", 100)
     with pytest.raises(InterpretError, match="exceed 100 iterations"):
         run("FOR #i := 0 TO 1000 DO #i := #i; END_FOR;", "VAR i : DInt; END_VAR")
+
+
+@pytest.mark.parametrize("engine", ["interp", "fast"])
+def test_an_int_intermediate_beyond_int_is_an_overflow_on_both_engines(tmp_path, engine):
+    """TIA SCL computes INT with INT in 16 bits, CODESYS in 32: `(n * 2000 + 2000) / 2000` is 18 on one PLC and
+    an overflow on the other from n = 17, so the verifier reports it where the intermediate leaves INT. With a
+    DINT operand the same expression is computed in 32 bits everywhere and is no overflow."""
+    from tests.cli_runner import thermoplc
+    for declared, overflow in (("INT", True), ("DINT", False)):
+        (tmp_path / "b.st").write_text(
+            "FUNCTION_BLOCK B\nVAR_INPUT\n    x : REAL;\nEND_VAR\nVAR_OUTPUT\n    y : REAL;\nEND_VAR\n"
+            f"VAR\n    n : {declared};\nEND_VAR\n    n := (n * 2000 + 2000) / 2000;\n    y := x;\nEND_FUNCTION_BLOCK\n")
+        rows = ["time_s,x,y_plc"] + [f"{10 * k},{k}.5,{k}.5" for k in range(40)]
+        (tmp_path / "t.csv").write_text("\n".join(rows) + "\n")
+        result = thermoplc("verify", "b.st", "--data", "t.csv", "--expect", "y=y_plc", "--engine", engine,
+                           cwd=tmp_path, check=None)
+        if overflow:
+            assert result.returncode == 1 and "UNSAFE" in result.stdout and "outside INT" in result.stdout, \
+                result.stdout + result.stderr
+        else:
+            assert result.returncode == 0 and "INT overflow: none" in result.stdout, result.stdout + result.stderr

@@ -24,6 +24,19 @@ NON_PORTABLE_FUNCTIONS = {"EXP": np.exp, "LN": np.log, "LOG": np.log10, "SIN": n
 CONVERSIONS = {"INT_TO_REAL", "DINT_TO_REAL"}
 
 
+def literal_kind(value: int) -> str:
+    """An integer literal is an INT when it fits one, else a DINT (as TIA SCL types it by its value)."""
+    lo, hi = INT_RANGES["INT"]
+    return "INT" if lo <= value <= hi else "DINT"
+
+
+def int_result_kind(left: str, right: str) -> str:
+    """The type an integer operation is computed in: DINT when an operand is one, else INT. TIA SCL computes
+    INT with INT in 16 bits and CODESYS in 32, so an INT intermediate beyond INT is read two ways: it is
+    checked against INT and reported as an overflow."""
+    return "DINT" if "DINT" in (left, right) else "INT"
+
+
 class InterpretError(UserError):
     pass
 
@@ -315,7 +328,7 @@ class Machine:
             return (lambda v: value), "REAL"
         if isinstance(e, s.IntLit):
             value = e.value
-            return (lambda v: value), "DINT"
+            return (lambda v: value), literal_kind(value)
         if isinstance(e, s.BoolLit):
             value = e.value
             return (lambda v: value), "BOOL"
@@ -334,7 +347,7 @@ class Machine:
         if decl.type.bounds:
             self._fail(e.pos, f"array {decl.name} used without an index")
         slot = self.slots[decl.name.upper()]
-        kind = "DINT" if decl.type.base in INT_RANGES else decl.type.base
+        kind = decl.type.base
         if decl.section != "temp":
             return (lambda v: v[slot]), kind
         failure = self._failure
@@ -355,7 +368,7 @@ class Machine:
         lo, hi = decl.type.bounds
         index = self._int_expr(e.index)
         failure = self._failure
-        kind = "DINT" if decl.type.base in INT_RANGES else decl.type.base
+        kind = decl.type.base
 
         def read_item(v):
             i = index(v)
@@ -383,7 +396,7 @@ class Machine:
         if kind == "BOOL":
             self._fail(e.pos, "negation of a BOOL")
         if kind in INT_RANGES:
-            check = self._int_range_check("DINT", e.pos)
+            check = self._int_range_check(kind, e.pos)
             return (lambda v: check(-fn(v))), kind
         return (lambda v: -fn(v)), kind
 
@@ -459,7 +472,8 @@ class Machine:
         if lk == "BOOL":
             self._fail(e.pos, f"'{op}' on BOOL operands")
         if lk in INT_RANGES:
-            return self._int_binop(e, lf, rf), "DINT"
+            kind = int_result_kind(lk, rk)
+            return self._int_binop(e, lf, rf, kind), kind
         rnd = self._round(e.pos, f"'{op}'")
         if op == "+":
             return (lambda v: rnd(lf(v) + rf(v))), "REAL"
@@ -478,7 +492,7 @@ class Machine:
             return power, "REAL"
         self._fail(e.pos, f"'{op}' on REAL operands is not supported")
 
-    def _int_binop(self, e: s.BinOp, lf, rf):
+    def _int_binop(self, e: s.BinOp, lf, rf, kind: str):
         failure = self._failure
 
         def divide(a, b, remainder):
@@ -491,7 +505,7 @@ class Machine:
         if e.op not in ops:
             self._fail(e.pos, f"'{e.op}' on INT operands is not supported")
         f = ops[e.op]
-        check = self._int_range_check("DINT", e.pos)  # every intermediate is a DINT, as in the fast engine
+        check = self._int_range_check(kind, e.pos)  # the intermediate's own type, as in the fast engine
         return lambda v: check(f(lf(v), rf(v)))
 
 

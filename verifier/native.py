@@ -23,17 +23,19 @@ from pathlib import Path
 import numpy as np
 
 from thermoplc.verifier import syntax as s
-from thermoplc.verifier.interpreter import CONVERSIONS, INT_RANGES, MAX_LOOP_ITERATIONS
+from thermoplc.verifier.interpreter import (CONVERSIONS, INT_RANGES, MAX_LOOP_ITERATIONS, int_result_kind,
+                                             literal_kind)
 
 CFLAGS = ["-O2", "-std=gnu99", "-fPIC", "-shared", "-ffp-contract=off", "-fno-fast-math", "-fexcess-precision=standard"]
 X86_FLAGS = ["-msse2", "-mfpmath=sse"]
 STATUS_FLAGS = 2  # status[0]: FPU flags raised, status[1]: first cycle the chunk could not run
 
 
-def _dint(value: str) -> str:
-    """An integer intermediate checked against DINT, as the interpreter does: operands are DINT, so
-    the int64 operation itself cannot overflow, and an out-of-range result leaves the fast run."""
-    lo, hi = INT_RANGES["DINT"]
+def _int(value: str, kind: str) -> str:
+    """An integer intermediate checked against its type (INT or DINT), as the interpreter does: operands
+    are at most DINT, so the int64 operation itself cannot overflow, and an out-of-range result leaves
+    the fast run."""
+    lo, hi = INT_RANGES[kind]
     return f"({{ int64_t r_ = {value}; if (r_ < {lo}LL || r_ > {hi}LL) goto fail; r_; }})"
 
 
@@ -74,7 +76,7 @@ class _Translator:
         if isinstance(e, s.RealLit):
             return _real_literal(e.value), "REAL"
         if isinstance(e, s.IntLit):
-            return f"((int64_t){e.value}LL)", "DINT"
+            return f"((int64_t){e.value}LL)", literal_kind(e.value)
         if isinstance(e, s.BoolLit):
             return ("1" if e.value else "0"), "BOOL"
         if isinstance(e, s.Name):
@@ -85,14 +87,14 @@ class _Translator:
             inner, kind = self.expr(e.operand)
             if e.op == "NOT":
                 return f"(!{inner})", "BOOL"
-            return (_dint(f"(-{inner})") if kind == "DINT" else f"(-{inner})"), kind
+            return (_int(f"(-{inner})", kind) if kind in INT_RANGES else f"(-{inner})"), kind
         if isinstance(e, s.Call):
             return self.call(e)
         return self.binop(e)
 
     def read(self, name: str, index) -> tuple[str, str]:
         d = self.decl(name)
-        kind = "DINT" if d.type.base in INT_RANGES else d.type.base
+        kind = d.type.base
         c = _cname(d.name)
         temp = d.section == "temp" and self.checked
         if index is None:
@@ -118,7 +120,7 @@ class _Translator:
         raise NativeUnavailable(f"{e.func} is not a portable operation; the fast engine runs portable operations only")
 
     def binop(self, e: s.BinOp) -> tuple[str, str]:
-        (a, ka), (b, _) = self.expr(e.left), self.expr(e.right)
+        (a, ka), (b, kb) = self.expr(e.left), self.expr(e.right)
         op = e.op
         if op in ("AND", "OR", "XOR"):
             return {"AND": f"(({a}) & ({b}))", "OR": f"(({a}) | ({b}))", "XOR": f"(({a}) != ({b}))"}[op], "BOOL"
@@ -132,9 +134,11 @@ class _Translator:
             if op not in ("+", "-", "*", "/"):
                 raise NativeUnavailable(f"'{op}' on REAL is not a portable operation")
             return f"({a} {op} {b})", "REAL"
+        kind = int_result_kind(ka, kb)
         if op in ("/", "MOD"):
-            return _dint(f"({{ int64_t d_ = {b}; if (d_ == 0) goto fail; ({a}) {'/' if op == '/' else '%'} d_; }})"), "DINT"
-        return _dint(f"({a} {op} {b})"), "DINT"
+            return _int(f"({{ int64_t d_ = {b}; if (d_ == 0) goto fail; ({a}) {'/' if op == '/' else '%'} d_; }})",
+                        kind), kind
+        return _int(f"({a} {op} {b})", kind), kind
 
     # -- statements --------------------------------------------------------------------------------
     def stmts(self, body, pad: str) -> list[str]:
