@@ -60,6 +60,7 @@ def document(d: Diagnosis, series: Series, n_train: int, source: dict, model_pat
         "reason": d.reason,
         "effects": d.named,
         "fitted_not_named": [] if d.names_effects else [e["name"] for e in d.added],
+        "supported_not_named": d.unsupported,
         "disagreements": [_window(series, w, d, True) for w in d.windows_before],
         "remaining_disagreements": [_window(series, w, d, False) for w in d.windows_after],
         "rmse_before_um": d.before.rmse_held_out[target],
@@ -118,6 +119,11 @@ def text(doc: dict) -> str:
             lines.append(f"     held out: moves the target {ev['held_out_size_um']:.3g} um (RMS), removes "
                          f"{ev['held_out_error_removed']:.0%} of its squared error; {e['matters']} "
                          f"({doc['rmse_after_um']:.3g} um left)")
+    for e in doc.get("supported_not_named", []):
+        ev = e["evidence"]
+        lines.append(f"  not named: {e['name']}" + (f" on {e['sensor']}" if e.get("sensor") else "")
+                     + f" (delta BIC {ev['delta_bic']:.1f}; held out it moves the target {ev['held_out_size_um']:.3g} um, "
+                       f"{e['matters']}; {e['why_not_named']})")
     lines.append(f"  disagreement windows: {len(doc['disagreements'])} before, {len(doc['remaining_disagreements'])} after")
     lines.append(f"  {'channel':<16}{'unit':<6}{'noise':>9}{'held-out RMSE before':>22}{'after':>10}{'max before':>12}"
                  f"{'after':>10}")

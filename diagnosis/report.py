@@ -143,6 +143,14 @@ def report(doc: dict, d: Diagnosis, series: Series, n_train: int) -> dict:
     not_named = (f"<p>Fitted but not named (disagreements are left after several effects; they may stand in for "
                  f"what is missing): {html.escape(', '.join(doc['fitted_not_named']))}</p>"
                  if doc["fitted_not_named"] else "")
+    unsupported = doc.get("supported_not_named", [])
+    if unsupported:
+        not_named += ("<p>Supported by the training part, not by the held-out part (not named):</p>"
+                      + html_table(["effect", "sensor", "delta BIC", "held-out size um", "against the misfit left",
+                                    "why not named"],
+                                   [[e["name"], e.get("sensor") or "", _number(e["evidence"]["delta_bic"], 1),
+                                     _number(e["evidence"]["held_out_size_um"], 3), e["matters"], e["why_not_named"]]
+                                    for e in unsupported]))
     commands = next_steps(doc)
     next_section = ("<h2>What to run next</h2><p>Generate the block of the diagnosed model and prove it on the "
                     "recording:</p><pre>" + html.escape("\n".join(commands)) + "</pre>") if commands else ""

@@ -82,6 +82,9 @@ class Diagnosis:
     unseen: dict = field(default_factory=dict)  # remaining window index -> why training cannot judge it
     ambiguous: tuple[str, ...] = ()  # supported effects the data cannot separate, none named
     ambiguity: str = ""  # why they cannot be separated
+    # effects the training part supports (BIC, physics) that the held-out part does not, with their size: listed
+    # against the misfit left, never named
+    unsupported: list[dict] = field(default_factory=list)
 
     @property
     def verdict(self) -> str:
@@ -377,6 +380,20 @@ def _named(name: str, series: Series, n_train: int, current: Simulation, current
         "windows": _window_change(windows0, residual, res)}}
 
 
+def _unsupported(credible: tuple, trials: list[Trial], series: Series, n_train: int, current: Simulation,
+                 current_score: Score, residual: dict, windows0) -> dict:
+    """A candidate the last round's training part supported and the held-out part did not, as a findings entry
+    with the same evidence a named effect carries."""
+    trial, s, res, _, index, name = credible
+    entry = _named(name, series, n_train, current, current_score, residual, trial, s, res,
+                   trials[index].held_out_gain, windows0)
+    gain = trials[index].held_out_gain
+    effect = (f"it removes {gain:.0%} of a channel's held-out excess above noise" if gain >= 0 else
+              f"it adds {-gain:.0%} to a channel's held-out excess above noise")
+    return {**entry, "sensor": trials[index].sensor,
+            "why_not_named": f"the held-out part does not support it: {effect}, {HELD_OUT_SHARE:.0%} removed needed"}
+
+
 def matters(effect: dict, misfit_um: float | None) -> str:
     """Whether a named effect is larger on the held-out part than the misfit the final model leaves there:
     one below it is real evidence but moves the compensation less than what no effect explains."""
@@ -430,7 +447,7 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
         windows0 = all_windows(base, residual0, sigma, series.dt)
     current, current_score, residual, simulated = base, before, residual0, simulated0
     windows = windows0
-    added, rounds = [], []
+    added, rounds, unsupported = [], [], []
     skipped = {}
     ambiguous: tuple[str, ...] = ()
     ambiguity = ""
@@ -455,6 +472,8 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             break
         if not passed:
             rounds.append(trials)
+            unsupported = [_unsupported(c, trials, series, n_train, current, current_score, residual, windows0)
+                           for c in credible]
             break
         best = _choose(passed)
         rivals = _rivals(credible, best, current_score.bic)
@@ -477,9 +496,12 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
     for effect in added:  # later refits move them: the parameters are those of the final model
         effect["parameters"] = describe(current, effect["name"], series)
         effect["matters"] = matters(effect, current_score.rmse_held_out[channels[-1]])
+    for effect in unsupported:
+        effect["matters"] = matters(effect, current_score.rmse_held_out[channels[-1]])
     if not windows0 or insufficient:
         skipped = candidates(series, base, train)[1]
     unseen = {k: text for k, w in enumerate(windows)
               if (text := sufficiency.unseen_conditions(series, n_train, w) or _extrapolated(w, current_score, n_train))}
     return Diagnosis(channels, sigma, base, current, before, current_score, windows0, windows, residual0, residual,
-                     simulated0, simulated, added, rounds, skipped, insufficient, unseen, ambiguous, ambiguity)
+                     simulated0, simulated, added, rounds, skipped, insufficient, unseen, ambiguous, ambiguity,
+                     unsupported)

@@ -297,3 +297,26 @@ def test_twin_machine_portal_from_the_cli(tmp_path, monkeypatch, capsys):
     assert main(["twin", "--machine", "portal", "--hours", "6", "--sensor-fault", "offset:T_motor", "-o", "q.csv"]) == 2
     assert "COLUMN one of T_spindle, T_gearbox, T_column" in capsys.readouterr().err
     assert not (tmp_path / "q.csv").exists()
+
+
+def test_an_effect_the_held_out_part_does_not_support_is_listed_with_its_size_not_dropped(tmp_path):
+    """Issue 39 item 3: a displacement wave only in the training part: the training part supports a lag of the
+    air (BIC), the held-out part does not; it is listed beside the verdict with its evidence, never named."""
+    columns = simulate(48, 5)
+    hours = (columns["time_s"] - columns["time_s"][0]) / 3600
+    n_train = int(0.6 * len(hours))
+    columns["E_z_um"] = columns["E_z_um"] + np.where(hours < hours[n_train], 3.0 * np.sin(hours / 3.0), 0.0)
+    series = _series(columns)
+    d = diagnose(series, n_train, "E_z_um")
+    assert d.named == [] and [e["name"] for e in d.unsupported] == ["ambient_coupling"]
+    entry = d.unsupported[0]
+    assert entry["evidence"]["delta_bic"] < -1000 and entry["evidence"]["held_out_size_um"] > 0
+    assert entry["matters"] in ("above the misfit", "below the misfit")
+    assert entry["why_not_named"].startswith("the held-out part does not support it: it adds")
+    from thermoplc.diagnosis.findings import document, text
+    doc = document(d, series, n_train, {"file": "x.csv", "sha256": "0"}, None)
+    assert doc["supported_not_named"] == d.unsupported
+    assert "  not named: ambient_coupling (delta BIC" in text(doc)
+    from thermoplc.diagnosis.report import report
+    page = report(doc, d, series, n_train)["index.html"]
+    assert "Supported by the training part, not by the held-out part" in page and "ambient_coupling" in page
