@@ -14,7 +14,7 @@ OPENERS = {"(*": "*)", "/*": "*/"}
 
 def code_of(text: str, nested: bool, breaks: tuple[str, ...]) -> str:
     """The text with its comments removed, as a compiler with these rules reads it."""
-    out, k, depth, closers = [], 0, 0, []
+    out, k, closers = [], 0, []
     while k < len(text):
         two = text[k:k + 2]
         if closers:
