@@ -89,6 +89,21 @@ def main(argv: list[str] | None = None) -> int:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 
+def run() -> None:
+    """The `thermoplc` program: `main`, then the exit status. An interrupt ends with 130 by `os._exit`: CPython
+    remembers a Ctrl-C that passed through code run by exec() (a dataclass being built while a module loads)
+    even when `main` handled it, and would kill the process with SIGINT on the way out."""
+    code = main()
+    if code == 130:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except OSError:
+                pass
+        os._exit(130)
+    sys.exit(code)
+
+
 def _named_inputs(args) -> str:
     """The files a command read, for a message that cannot say which one was at fault."""
     for keys in (("block",), ("old", "new"), ("model",), ("manifest",)):  # the ST source first: it is what nests
