@@ -147,8 +147,9 @@ def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
     return signals
 
 
-def check_inputs(tables: list[Table], request: FitRequest, time_column: str, n_train: list[int]) -> list[Signal]:
-    """The block's inputs of a request, or the UserError every kind gives for them: columns that are
+def check_inputs(tables: list[Table], request: FitRequest, time_column: str, n_train: list[int]
+                 ) -> tuple[list[Signal], Signal]:
+    """The block's inputs and target of a request, or the UserError every kind gives for them: columns that are
     missing, misplaced, clashing as block names, no temperatures, or leaking the target on the training
     rows. `auto` asks it once for every candidate sensor before it fits anything."""
     _refuse_misplaced_temps(request, time_column)
@@ -181,7 +182,7 @@ def check_inputs(tables: list[Table], request: FitRequest, time_column: str, n_t
             refuse_leaks({s.column: table.columns[s.column][:n]}, request.target, table.columns[request.target][:n],
                          table.path, option)
             _CHECKED.add((table.sha256, s.column, request.target, n, option))
-    return signals
+    return signals, target
 
 
 def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
@@ -190,8 +191,7 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
     takes its rises, lags, sums and filter states from each run's first row, as a freshly started block."""
     kind = kind_of(request.kind)
     n_train = [training_rows(t, time_column, request.train_until, request.train_rows) for t in tables]
-    signals = check_inputs(tables, request, time_column, n_train)
-    target = Signal(block_identifier(request.target, "target"), request.target, "target", "um")
+    signals, target = check_inputs(tables, request, time_column, n_train)
     periods = [sample_period(t, time_column) for t in tables]
     dt = periods[0]
     for table, period in zip(tables, periods):

@@ -121,14 +121,15 @@ def _parse_cells(path: str, header: list[str], text_lines: list[str], numbers: l
     if comma_decimal:
         _refuse_points(path, header, written, numbers, delimiter)
         text_lines = [text.replace(",", ".") for text in text_lines]
-    try:
-        if not all(text.isascii() for text in text_lines):
-            raise ValueError("the C parser strips Unicode spaces the careful one refuses: the careful one decides")
-        with np.errstate(all="ignore"):
-            block = np.loadtxt(text_lines, delimiter=delimiter, dtype=np.float64, ndmin=2, quotechar='"', comments=None)
-        empty = np.zeros(block.shape, bool)
-    except ValueError:
-        block = None
+    block = None
+    if all(text.isascii() for text in text_lines):  # the C parser strips Unicode spaces the careful one refuses
+        try:
+            with np.errstate(all="ignore"):
+                block = np.loadtxt(text_lines, delimiter=delimiter, dtype=np.float64, ndmin=2, quotechar='"',
+                                   comments=None)
+            empty = np.zeros(block.shape, bool)
+        except ValueError:
+            block = None
     if block is None or block.shape[1] != len(header):
         block, empty = _parse_cells_one_by_one(path, header, written, numbers, delimiter, sparse, comma_decimal)
     bad = np.argwhere(~np.isfinite(block) & ~empty)
@@ -414,12 +415,17 @@ def _finite_numbers(columns: dict) -> None:
             raise CannotStream("a cell is not a finite number")
 
 
+def spellings(columns, name: str) -> list[str]:
+    """Every column named `name` in any case (a block input's name: ST names ignore case)."""
+    return [column for column in columns if column.upper() == name.upper()]
+
+
 def columns_named(columns, name: str) -> list[str]:
     """The column `name`, else every column named so in another case (a block input's column: ST names
     ignore case): one is the column, more are ambiguous, none means no column."""
     if name in columns:
         return [name]
-    return [column for column in columns if column.upper() == name.upper()]
+    return spellings(columns, name)
 
 
 def _keep(columns: dict, names: list[str], start: int, optional: tuple[str, ...] = ()) -> Chunk:
@@ -430,7 +436,7 @@ def _keep(columns: dict, names: list[str], start: int, optional: tuple[str, ...]
         raise CannotStream(f"no column {missing[0]!r}")
     kept = {n: columns[n] for n in names}
     for name in optional:
-        found = [column for column in columns if column.upper() == name.upper()]  # both spellings of an input: two
+        found = spellings(columns, name)  # two spellings of an input's name are two columns
         if len(found) > 1:
             raise CannotStream(f"two columns could be {name}")
         if found and name not in kept:

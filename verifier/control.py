@@ -6,7 +6,7 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.contract.outputs import CONTROL_INPUT_START, ENABLE_INPUT, RESET_INPUT
-from thermoplc.models.table import Table
+from thermoplc.models.table import Table, spellings
 
 
 def control_inputs(table: Table, overrides: dict | None = None) -> dict:
@@ -31,8 +31,8 @@ def control_inputs(table: Table, overrides: dict | None = None) -> dict:
 
 def _column_of(table: Table, name: str) -> str:
     """The column of block input `name` in any case (`enable`); refuses two."""
-    found = [column for column in table.columns if column.upper() == name.upper()]  # an exact one does not win:
-    if len(found) > 1:  # the block's input names ignore case, so 'Enable' and 'enable' both name it
+    found = spellings(table.columns, name)  # an exact one does not win: 'Enable' and 'enable' both name it
+    if len(found) > 1:
         raise UserError(f"{table.path}: columns {', '.join(found)} could each drive the block input {name}; "
                         f"choose one with --inputs {name}=COLUMN")
     return found[0] if found else name
@@ -55,8 +55,7 @@ def unread_control_columns(table: Table, inputs) -> str:
     """A note when the data has an Enable or Reset column but the block no such input (a hand-written block
     compared with a trace): the column is not read, and the user should know the replay ran every call."""
     declared = {d.name.upper() for d in inputs}
-    named = {name: [column for column in table.columns if column.upper() == name.upper()]
-             for name in CONTROL_INPUT_START if name.upper() not in declared}
+    named = {name: spellings(table.columns, name) for name in CONTROL_INPUT_START if name.upper() not in declared}
     unread = [column for columns in named.values() for column in columns]
     if not unread:
         return ""

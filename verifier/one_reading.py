@@ -13,6 +13,7 @@ from __future__ import annotations
 import re
 
 from thermoplc.base.errors import UserError
+from thermoplc.verifier.syntax import position
 
 LINE_BREAKS = {"\r": "carriage return without a line feed", "\x0b": "vertical tab", "\x0c": "form feed",
                "\x85": "next-line character", "\u2028": "Unicode line separator",
@@ -25,15 +26,10 @@ _CONDITIONAL = re.compile(r"\{\s*(IF|ELSIF|ELSE|END_IF|DEFINE|UNDEFINE)\b", re.I
 _CLOSER = {"(*": "*)", "/*": "*/"}
 
 
-def _place(text: str, index: int) -> tuple[int, int]:
-    line = text.count("\n", 0, index) + 1
-    return line, index - (text.rfind("\n", 0, index) + 1) + 1
-
-
 def _pragma_end(text: str, start: int, source: str) -> int:
     """Where the pragma opened at `start` ends; a conditional-compilation pragma is refused."""
     if _CONDITIONAL.match(text, start):
-        line, column = _place(text, start)
+        line, column = position(text, start)
         raise UserError(f"{source}:{line}:{column}: a conditional-compilation pragma ({text[start:start + 20]!r}...): "
                         f"a compiler keeps one branch, the verifier would read them all; expected no {{IF}} pragmas")
     close = text.find("}", start)
@@ -44,7 +40,7 @@ def refuse_two_readings(text: str, source: str) -> None:
     """A UserError at the first place where tools read `text` differently, or None."""
     found = _BREAK.search(text)
     if found:
-        line, column = _place(text, found.start())
+        line, column = position(text, found.start())
         char = found.group()
         raise UserError(f"{source}:{line}:{column}: a {LINE_BREAKS[char]} (U+{ord(char):04X}): tools disagree "
                         f"whether it ends a line, and so a // comment; expected lines ending in LF or CRLF")
@@ -63,7 +59,7 @@ def refuse_two_readings(text: str, source: str) -> None:
             elif token == "{":  # a pragma or attribute: opaque to the grammar, so markers inside mean nothing
                 end = _pragma_end(text, start, source)
         elif token in _CLOSER:
-            line, column = _place(text, start)
+            line, column = position(text, start)
             raise UserError(f"{source}:{line}:{column}: {token} inside a {opened} comment: compilers disagree "
                             f"whether comments nest (CODESYS and TwinCAT nest them), so the code after the "
                             f"first {_CLOSER[opened]} is read two ways; close the comment first")

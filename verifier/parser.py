@@ -351,11 +351,6 @@ def _blank_free_text(text: str) -> str:
     return pattern.sub(lambda m: re.sub(r"[^\n]", " ", m.group()), text)
 
 
-def _position(text: str, offset: int) -> s.Pos:
-    line = text.count("\n", 0, offset) + 1
-    return line, offset - (text.rfind("\n", 0, offset) + 1) + 1
-
-
 def _explain(text: str, source: str, exc: UnexpectedInput, ending: str = "file (missing END_FUNCTION_BLOCK?)",
              words: dict[str, str] = UNSUPPORTED_WORDS) -> str:
     error_offset = getattr(exc, "pos_in_stream", None)
@@ -367,10 +362,10 @@ def _explain(text: str, source: str, exc: UnexpectedInput, ending: str = "file (
             break
         construct = words.get(match.group().upper())
         if construct:
-            line, col = _position(text, match.start())
+            line, col = s.position(text, match.start())
             return f"{source}:{line}:{col}: {construct} is not supported"
     if isinstance(exc, UnexpectedEOF):
-        line, col = _position(text, len(text))
+        line, col = s.position(text, len(text))
         return f"{source}:{line}:{col}: unexpected end of {ending}"
     if isinstance(exc, UnexpectedCharacters):
         return f"{source}:{exc.line}:{exc.column}: unexpected character {text[exc.pos_in_stream]!r}"
@@ -435,25 +430,32 @@ def parse_literal(text: str, source: str, where: str):
     return _transform(tree, _ToAst(source, where), source)
 
 
-def read_source(path: str) -> str:
-    """A block file's text (UTF-8, or as its byte order mark says), within the size a block may have."""
+def _source_bytes(path: str) -> bytes:
+    """A block file's bytes, within the size a block may have."""
     try:
         if Path(path).stat().st_size > 4 * MAX_SOURCE_CHARACTERS:
             raise StSyntaxError(f"{path}: {Path(path).stat().st_size:,} bytes; a function block source is at most "
                                 f"{MAX_SOURCE_CHARACTERS:,} here (characters)")
-        raw = Path(path).read_bytes()
+        return Path(path).read_bytes()
     except OSError as exc:
         raise UserError(f"{path}: cannot read: {exc}") from None
+
+
+def _decoded(raw: bytes, path: str) -> str:
     return decode(raw, path, "a block is read as Structured Text or PLCopen XML")
+
+
+def read_source(path: str) -> str:
+    """A block file's text (UTF-8, or as its byte order mark says), within the size a block may have."""
+    return _decoded(_source_bytes(path), path)
 
 
 def parse_file(path: str | Path) -> s.Program:
     path = str(path)
-    text = read_source(path)
+    raw = _source_bytes(path)
+    text = _decoded(raw, path)
     from thermoplc.verifier.plcopen import is_xml, read_plcopen  # it reads its bodies with this module
     if is_xml(text) or path.lower().endswith(".xml"):  # the PLCopen XML of generate --format plcopen
-        with open(path, "rb") as f:
-            encoding = encoding_of(f.read(4))
-        return read_plcopen(text, path, encoding)
+        return read_plcopen(text, path, encoding_of(raw))
     return parse_text(text, path)
 

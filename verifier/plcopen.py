@@ -123,7 +123,7 @@ class _Document:
             line, column = here()
             begins = text.find("<!DOCTYPE")
             if 0 <= begins and text.count("\n", 0, begins) < line:  # where it begins, not where expat is inside it
-                line, column = text.count("\n", 0, begins) + 1, begins - text.rfind("\n", 0, begins)
+                line, column = s.position(text, begins)
             raise UserError(f"{source}:{line}:{column}: a DOCTYPE is refused (entity declarations could expand "
                             f"without bound, and PLCopen XML needs none); {EXPECTED}")
 
@@ -175,8 +175,7 @@ def _refuse_other_encoding(text: str, source: str, encoding: str) -> None:
     if name == family or (family in ("utf-16", "utf-32") and name in (family, f"{family}le", f"{family}be",
                                                                       f"{family}-le", f"{family}-be")):
         return
-    offset = len(text) - len(text.lstrip("\ufeff")) + declared.start(2)
-    line, column = text.count("\n", 0, offset) + 1, offset - (text.rfind("\n", 0, offset) + 1) + 1
+    line, column = s.position(text, len(text) - len(text.lstrip("\ufeff")) + declared.start(2))
     mark = "has no byte order mark and is read as UTF-8" if encoding == "utf-8" else \
         f"is read as {family.upper()}, as its byte order mark says"
     raise UserError(f"{source}:{line}:{column}: the XML declaration says encoding={declared.group(2)!r}, but the file "

@@ -7,6 +7,11 @@ from typing import Union
 Pos = tuple[int, int]
 
 
+def position(text: str, offset: int) -> Pos:
+    """The (line, column) of character `offset` of `text`, both counted from 1."""
+    return text.count("\n", 0, offset) + 1, offset - (text.rfind("\n", 0, offset) + 1) + 1
+
+
 def _pos():
     return field(default=(0, 0), compare=False, repr=False)
 
