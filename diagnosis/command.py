@@ -12,7 +12,7 @@ from thermoplc.diagnosis.findings import document
 from thermoplc.diagnosis.search import diagnose
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import REPORT_MANIFEST, check_report_folder, report_manifest, write_outputs
-from thermoplc.models import lumped_model
+from thermoplc.models import identified_effects, lumped_model
 from thermoplc.models.effects import definition_of
 from thermoplc.models.fit import block_identifier, evaluate, sample_period
 from thermoplc.models.modelfile import Model, Signal, load_model
@@ -57,11 +57,8 @@ def _training_rows(table: Table, request: DiagnoseRequest) -> int:
 
 def _check_baseline(model: Model, request: DiagnoseRequest, path: str) -> None:
     if model.kind != "lumped":
-        raise UserError(f"{path}: --baseline needs a lumped model written by diagnose, found kind {model.kind!r}")
-    if any(name.startswith("KF_") for name in model.coefficients):
-        raise UserError(f"{path}: --baseline is an identified model (`fit --model lumped`: its temperatures follow the "
-                        f"readings through the filter gains KF_i), but diagnose compares an open-loop simulation with "
-                        f"the readings; leave out --baseline and diagnose fits its own")
+        raise UserError(f"{path}: --baseline needs a lumped model (written by `fit --model lumped` or by diagnose), "
+                        f"found kind {model.kind!r}")
     expected = {"temperature": list(request.temps), "speed": [request.speed], "ambient": [request.ambient]}
     for role, columns in expected.items():
         found = [s.column for s in model.signals(role)]
@@ -70,6 +67,10 @@ def _check_baseline(model: Model, request: DiagnoseRequest, path: str) -> None:
                             f"{', '.join(columns)}; give the columns the baseline was fitted on")
     if model.target.column != request.target:
         raise UserError(f"{path}: the baseline predicts {model.target.column!r}, not --target {request.target!r}")
+    readings = [name for name in lumped_model.effect_names(model) if not identified_effects.extends(name)]
+    if readings and lumped_model.simulation_of(model).displacement.ridge_weight is not None:
+        raise UserError(f"{path}: the baseline is an identified model (its fit log has a ridge_weight) with "
+                        f"{', '.join(readings)}, which is no extension of one ({identified_effects.NOT_AN_EXTENSION})")
 
 
 def series_of(table: Table, request: DiagnoseRequest, dt: float) -> Series:
@@ -104,8 +105,12 @@ def augmented_model(final: Simulation, added: list[dict], request: DiagnoseReque
         time_column=request.time_column, sample_period_s=dt, coefficients=coefficients, settings=settings,
         training={"file": Path(table.path).name, "sha256": table.sha256, "rows": n_train, "total_rows": table.rows,
                   "until_s": float(table.columns[request.time_column][n_train - 1])},
-        fit={"method": "thermoplc diagnose: lumped-mass simulation with the effects the data supports",
-             "effects": added})
+        fit={"method": "thermoplc diagnose: " + (
+            "identified lumped-mass model (steady-state Kalman filter on the readings, map by forward validation) "
+            "with the effects the data supports as nested extensions" if final.displacement.ridge_weight is not None
+            else "open-loop lumped-mass simulation with the effects the data supports"),
+             **({"ridge_weight": final.displacement.ridge_weight} if final.displacement.ridge_weight is not None
+                else {}), "effects": added})
     return Model(**{**model.__dict__, "metrics": evaluate(model, [table], [n_train])})
 
 

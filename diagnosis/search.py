@@ -23,6 +23,7 @@ import numpy as np
 
 from thermoplc.diagnosis import sufficiency
 from thermoplc.diagnosis.windows import Window, find_windows, noise_sigma, settling_s
+from thermoplc.models import identified_effects, identify
 from thermoplc.models import simulation as sim_
 from thermoplc.models.effects import NAMES, definition_of
 from thermoplc.models.simulation import Series, Simulation
@@ -59,6 +60,7 @@ class Trial:
     held_out_gain: float  # largest share of a channel's excess above noise removed on the held-out part
     accepted: bool
     rejected_because: str | None = None
+    held_out_evidence: float = 0.0  # log-likelihood ratio on the held-out rows (effective rows), channels summed
 
 
 @dataclass
@@ -90,7 +92,7 @@ class Diagnosis:
     def verdict(self) -> str:
         if self.insufficient:
             return "insufficient_data"
-        if not self.windows_before:
+        if not self.windows_before and not self.added:
             return "no_missing_effect"
         return "unexplained" if self.windows_after else "explained"
 
@@ -207,6 +209,39 @@ def held_out_gain(before: Score, after: Score, n_train: int) -> float:
     return max(gains, default=0.0)
 
 
+def identified(sim: Simulation) -> bool:
+    """True for a model identified as `fit --model lumped` identifies it (filter gains, a map whose ridge
+    weight forward validation chose); False for an open-loop simulation fitted by least squares."""
+    return sim.displacement.ridge_weight is not None
+
+
+def refit(train: Series, effects, warm: Simulation, polish: bool = False) -> Simulation:
+    """`warm` refitted with these effects on the training part: as a nested extension of an identified
+    model (models/identified_effects.py), or as the open-loop simulation (models/simulation.py)."""
+    if identified(warm):
+        return identified_effects.extend([train], effects, warm)
+    return sim_.fit(train, effects, warm=warm, polish=polish)
+
+
+def held_out_evidence(before: dict, after: dict, n_train: int) -> float:
+    """Twice the log-likelihood gain on the held-out rows, each channel's counted over the effective rows of
+    the residual the candidate leaves there: the parameters come from the training part, so this is evidence
+    the fit never saw. On an identified model a missing heat shows as larger one-step innovations of a
+    sensor (the filter takes it for process noise), not as a window of slow misfit: this is its judge."""
+    total = 0.0
+    for c, r in after.items():
+        new, old = r[n_train:], before[c][n_train:]
+        if len(new):
+            total += effective_rows(new) * np.log(max(float(old @ old), 1e-300) / max(float(new @ new), 1e-300))
+    return float(total)
+
+
+def held_out_threshold(added_parameters: int, held_rows: int) -> float:
+    """The held-out evidence an identified model's extension needs: what the BIC would charge for its
+    parameters on the held-out rows, plus the margin."""
+    return added_parameters * float(np.log(max(held_rows, 2))) + BIC_MARGIN
+
+
 def candidates(series: Series, present: Simulation, train: Series) -> tuple[list[tuple[str, int | None]], dict]:
     """Every named effect not in the model yet that the training part can show; per-sensor effects
     once per sensor. The others with the reason they were not tested."""
@@ -214,7 +249,8 @@ def candidates(series: Series, present: Simulation, train: Series) -> tuple[list
     for name in NAMES:
         if present.has(name):
             continue
-        why = sufficiency.untestable(train, name)
+        why = sufficiency.untestable(train, name) or (
+            None if not identified(present) or identified_effects.extends(name) else identified_effects.NOT_AN_EXTENSION)
         if why:
             skipped[name] = why
             continue
@@ -268,8 +304,8 @@ def follows_running(trial: Simulation, trial_score: Score, series: Series, chann
     feed = series.feed[:n_train][running[:n_train]]
     level = float(np.mean(feed)) if len(feed) else 0.0
     plain = replace(series, feed=np.where(running, level, 0.0))
-    refit = sim_.fit(plain.head(n_train), trial.effects, warm=trial)
-    as_running = score(refit, _simulate(refit, plain, channels)[1], sigma, n_train)
+    again = refit(plain.head(n_train), trial.effects, trial)
+    as_running = score(again, _simulate(again, plain, channels)[1], sigma, n_train)
     if as_running.bic < trial_score.bic + BIC_MARGIN:
         return ("a lag of the spindle's running fits as well (the feed rate replaced by its mean while running): "
                 "it does not follow the feed")
@@ -351,9 +387,10 @@ def polish(sim: Simulation, sim_score: Score, train: Series, series: Series, cha
     constants, gear threshold, exponent, relay thresholds and standstill factors are searched with
     the others held, so one fit stops short of its optimum; without this the next candidate's
     refit would be credited with what refitting alone gains, and an effect of no size (a gear
-    ratio of 1.00) named."""
-    for _ in range(POLISH_ROUNDS):
-        again = sim_.fit(train, sim.effects, warm=sim, polish=True)
+    ratio of 1.00) named. An identified model is not polished: its extension searches every parameter
+    the effect adds and holds the rest, so a refit gains nothing."""
+    for _ in range(0 if identified(sim) else POLISH_ROUNDS):
+        again = refit(train, sim.effects, sim, polish=True)
         again_score = score(again, _simulate(again, series, channels)[1], sigma, n_train)
         if again_score.bic > sim_score.bic - MIN_POLISH_GAIN:
             break
@@ -377,6 +414,7 @@ def _named(name: str, series: Series, n_train: int, current: Simulation, current
                                                n_train),
         "held_out_rmse_before": current_score.rmse_held_out, "held_out_rmse_after": s.rmse_held_out,
         "held_out_excess_removed": excess_removed,
+        "held_out_evidence": held_out_evidence(residual, res, n_train),
         "windows": _window_change(windows0, residual, res)}}
 
 
@@ -388,10 +426,15 @@ def _unsupported(credible: tuple, trials: list[Trial], series: Series, n_train: 
     entry = _named(name, series, n_train, current, current_score, residual, trial, s, res,
                    trials[index].held_out_gain, windows0)
     gain = trials[index].held_out_gain
-    effect = (f"it removes {gain:.0%} of a channel's held-out excess above noise" if gain >= 0 else
-              f"it adds {-gain:.0%} to a channel's held-out excess above noise")
-    return {**entry, "sensor": trials[index].sensor,
-            "why_not_named": f"the held-out part does not support it: {effect}, {HELD_OUT_SHARE:.0%} removed needed"}
+    if identified(current):
+        needed = held_out_threshold(trial.parameter_count() - current.parameter_count(), series.rows - n_train)
+        why = (f"the held-out part does not support it: log-likelihood evidence {trials[index].held_out_evidence:+.1f} "
+               f"on the held-out rows, {needed:.1f} needed")
+    else:
+        effect = (f"it removes {gain:.0%} of a channel's held-out excess above noise" if gain >= 0 else
+                  f"it adds {-gain:.0%} to a channel's held-out excess above noise")
+        why = f"the held-out part does not support it: {effect}, {HELD_OUT_SHARE:.0%} removed needed"
+    return {**entry, "sensor": trials[index].sensor, "why_not_named": why}
 
 
 def matters(effect: dict, misfit_um: float | None) -> str:
@@ -409,7 +452,7 @@ def _try(series: Series, train: Series, channels, sigma: dict, n_train: int, cur
     residual, simulated) when the information criteria credit it and no physics rule objects, else None;
     whether it also passed the held-out test; and, if it passed, the effect added before that it cannot
     be told from (names, why) or None."""
-    trial = sim_.fit(train, (*current.effects, (name, sensor)), warm=current)
+    trial = refit(train, (*current.effects, (name, sensor)), current)
     sim_out, res = _simulate(trial, series, channels)
     s = score(trial, res, sigma, n_train)
     gain = held_out_gain(current_score, s, n_train)
@@ -421,9 +464,15 @@ def _try(series: Series, train: Series, channels, sigma: dict, n_train: int, cur
     if why is None and delta < -BIC_MARGIN and not effective < -BIC_MARGIN:
         why = (f"the residual it leaves is still a slow misfit, not noise: counted over its effective rows "
                f"(lag-1 autocorrelation) the BIC changes by {effective:+.1f}, not below -{BIC_MARGIN:g}")
-    judged = by_bic and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
+    evidence = held_out_evidence(residual, res, n_train)
+    if identified(current):
+        needed = held_out_threshold(trial.parameter_count() - current.parameter_count(), series.rows - n_train)
+        judged = by_bic and evidence >= needed and s.held_out < current_score.held_out
+    else:
+        judged = by_bic and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
     alike = definition_of(name).alike_after(current, trial, train) if judged else None
-    row = Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False, why)
+    row = Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False, why,
+                evidence)
     return row, (trial, s, res, sim_out) if by_bic and why is None else None, judged, alike
 
 
@@ -435,8 +484,10 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
     channels = _channels(series, target_name)
     train = series.head(n_train)
     insufficient = sufficiency.recording_problem(train)
-    say("fitting the baseline simulation")
-    base = baseline or sim_.fit(train, structure_lag=structure_lag)
+    say("identifying the baseline (filter gains, standstill loads, the map by forward validation)")
+    base = baseline or identify.fit([train], structure_lag=structure_lag)[0]
+    if identified(base) and not insufficient:  # judged by the training likelihood every candidate is refitted by
+        base = identified_effects.refit_map([train], base)
     simulated0, residual0 = _simulate(base, series, channels)
     sigma = {c: noise_sigma(r) for c, r in residual0.items()}
     before = score(base, residual0, sigma, n_train)
@@ -451,7 +502,7 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
     skipped = {}
     ambiguous: tuple[str, ...] = ()
     ambiguity = ""
-    while windows and not insufficient:
+    while (windows or identified(current)) and not insufficient:
         trials, passed, credible = [], [], []
         undecided = None
         options, skipped = candidates(series, current, train)

@@ -43,11 +43,12 @@ def _gain(logit: float) -> float:
     return gain if gain >= MIN_GAIN else 0.0
 
 
-def _prediction_design(series: Series, i: int, heat: list[np.ndarray], a: float, gain: float):
+def _prediction_design(series: Series, i: int, heat: list[np.ndarray], a, gain: float):
     """The part of sensor i's one-step prediction the gains do not scale, one column per gain and
     a last one for the initial state's departure from the first reading (a nuisance parameter: a
     machine is rarely in equilibrium when the recording starts, and left out its decay would
-    bias the pole and the gain; the block starts from the reading and its filter takes it up)."""
+    bias the pole and the gain; the block starts from the reading and its filter takes it up).
+    `a` is the pole, one number or one per row (a standstill factor)."""
     y = series.temps[:, i]
     zero = np.zeros_like(y)
     predicted_known, _ = sim_.filtered(y, a, series.te, gain, y[0])
@@ -56,45 +57,80 @@ def _prediction_design(series: Series, i: int, heat: list[np.ndarray], a: float,
     return predicted_known, [*columns, sim_.filtered(zero, a, zero, gain, 1.0)[0]]
 
 
-def _cost(runs: list[Series], i: int, heats: list[list[np.ndarray]], tau_s: float, gain: float):
-    """Squared one-step prediction error of sensor i over the runs, and its coefficients: the heat gains
-    shared by every run, then one initial-state departure per run (each run starts from its own state)."""
-    a = sim_.pole(tau_s, runs[0].dt)
-    designs = [_prediction_design(series, i, heat, a, gain) for series, heat in zip(runs, heats)]
+def stacked(runs: list[Series], i: int, heats: list[list[np.ndarray]], shared: Shared, tau_s: float, gain: float,
+            factor: float = 1.0) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Sensor i's readings less the known part of their one-step prediction over the runs, and the columns
+    the unknowns multiply: the heat gains shared by every run, then one initial-state departure per run
+    (each run starts from its own state)."""
+    p = SensorParams(tau_s, 0.0, factor)
+    designs = [_prediction_design(series, i, heat, sim_._poles(series, shared, p), gain)
+               for series, heat in zip(runs, heats)]
     if len(runs) == 1:
         known, columns = designs[0]
-        coef, sse = sim_._solve(runs[0].temps[:, i] - known, columns)
-        return sse, coef
+        return runs[0].temps[:, i] - known, columns
     y = np.concatenate([series.temps[:, i] - known for series, (known, _) in zip(runs, designs)])
     gains = [np.concatenate([columns[g] for _, columns in designs]) for g in range(len(designs[0][1]) - 1)]
     starts = [np.concatenate([columns[-1] if r == q else np.zeros(series.rows)
                               for q, (series, (_, columns)) in enumerate(zip(runs, designs))])
               for r in range(len(runs))]
-    coef, sse = sim_._solve(y, [*gains, *starts])
+    return y, [*gains, *starts]
+
+
+def _cost(runs: list[Series], i: int, heats: list[list[np.ndarray]], shared: Shared, tau_s: float, gain: float,
+          factor: float = 1.0):
+    """Squared one-step prediction error of sensor i over the runs, and its coefficients (`stacked`'s order)."""
+    coef, sse = sim_._solve(*stacked(runs, i, heats, shared, tau_s, gain, factor))
     return sse, coef
 
 
-def fit_sensor(runs: list[Series], i: int, shared: Shared) -> SensorParams:
-    """Pole, filter gain and heat gains of sensor i by least one-step prediction error over the runs."""
-    heats = [[x for _, x in sim_._heat_inputs(series, shared, ())] for series in runs]
+def held_cost(runs: list[Series], shared: Shared, effects, sensors) -> float:
+    """Squared one-step prediction error of every sensor with its pole, standstill factor and filter gain
+    held (the gains by least squares): the cost a shared parameter is searched by."""
+    heats = [[x for _, x in inputs] for inputs in heat_inputs(runs, shared, effects)]
+    return sum(_cost(runs, i, heats, shared, p.tau_s, p.filter_gain, p.stop_factor)[0] for i, p in enumerate(sensors))
+
+
+def heat_inputs(runs: list[Series], shared: Shared, effects=(), cooling: list | None = None
+                ) -> list[list[tuple[str, np.ndarray]]]:
+    """Each run's heat input columns with these effects (the coolant state per run when given)."""
+    return [sim_._heat_inputs(series, shared, effects, None if cooling is None else cooling[r])
+            for r, series in enumerate(runs)]
+
+
+def fit_sensor(runs: list[Series], i: int, shared: Shared, effects=(), start: SensorParams | None = None,
+               cooling: list | None = None) -> SensorParams:
+    """Pole (and its standstill factor with stop_convection), filter gain and heat gains of sensor i by
+    least one-step prediction error over the runs; the search starts from a grid, and from `start`."""
+    named = heat_inputs(runs, shared, effects, cooling)
+    heats = [[x for _, x in inputs] for inputs in named]
+    with_stop = any(e == "stop_convection" for e, _ in effects)
     low, high = np.log(2 * runs[0].dt), np.log(72 * sim_.HOUR)
-    unpack = lambda x: (float(np.exp(np.clip(x[0], low, high))), _gain(x[1]))
-    cost = lambda x: _cost(runs, i, heats, *unpack(x))[0]
+    unpack = lambda x: (float(np.exp(np.clip(x[0], low, high))), _gain(x[1]),
+                        float(np.exp(np.clip(x[2], -2.5, 2.5))) if with_stop else 1.0)
+    cost = lambda x: _cost(runs, i, heats, shared, *unpack(x))[0]
     taus = np.linspace(np.log(120.0), np.log(24 * sim_.HOUR), TAU_GRID)
-    start = min(itertools.product(taus, GAIN_GRID), key=cost)
-    x = sim_.minimize(cost, list(start), method="Nelder-Mead",
-                      options={"xatol": 1e-5, "fatol": 1e-12, "maxiter": 600}).x
-    tau_s, gain = unpack(x)
-    _, coef = _cost(runs, i, heats, tau_s, gain)
-    return SensorParams(tau_s=tau_s, gain=float(coef[0]), load_K=float(coef[1]), filter_gain=gain)
+    factors = (-1.0, 0.0, 0.7, 1.4) if with_stop else (0.0,)
+    grid = [list(x) for x in itertools.product(taus, GAIN_GRID, factors)]
+    if start is not None:
+        gain = np.clip(start.filter_gain, 1e-9, 1 - 1e-9)
+        grid.append([np.log(start.tau_s), float(np.log(gain / (1 - gain))), float(np.log(start.stop_factor))])
+    best = min(grid, key=cost)
+    x = sim_.minimize(cost, best if with_stop else best[:2], method="Nelder-Mead",
+                      options={"xatol": 1e-5, "fatol": 1e-12, "maxiter": 600 * (1 + with_stop)}).x
+    tau_s, gain, factor = unpack(x)
+    _, coef = _cost(runs, i, heats, shared, tau_s, gain, factor)
+    return SensorParams(tau_s=tau_s, stop_factor=factor, filter_gain=gain,
+                        **{name: float(c) for (name, _), c in zip(named[0], coef)})
 
 
-def fit_displacement(runs: list[Series], temps: list[np.ndarray], t0: list[np.ndarray]
+def fit_displacement(runs: list[Series], temps: list[np.ndarray], t0: list[np.ndarray], structure_lag: bool = True
                      ) -> tuple[DisplacementParams, dict]:
     """Structure time constant and ridge weight by forward validation (fitted on the first two thirds
-    of each run, scored on the rest of each), then the map on the measured rows of every run."""
+    of each run, scored on the rest of each), then the map on the measured rows of every run. Without
+    `structure_lag` the map reads the temperatures alone (paper 000 eq. 10)."""
     cuts = [ridge.validation_cut(series.rows) for series in runs]
-    taus = np.exp(np.linspace(np.log(600.0), np.log(48 * sim_.HOUR), sim_.GRID_POINTS))
+    taus = (np.exp(np.linspace(np.log(600.0), np.log(48 * sim_.HOUR), sim_.GRID_POINTS)) if structure_lag
+            else [None])
     measured = [np.isfinite(series.target) for series in runs]
 
     def design_of(tau: float, r: int) -> np.ndarray:
@@ -107,8 +143,8 @@ def fit_displacement(runs: list[Series], temps: list[np.ndarray], t0: list[np.nd
         return np.vstack([d for d, _ in selected]), np.concatenate([y for _, y in selected])
 
     if all(cut is None for cut in cuts) and len(runs) == 1:  # too short to validate: least squares
-        params, _ = sim_.fit_displacement(runs[0], temps[0], t0[0], ())
-        return params, {"validation": "none (too few rows)"}
+        params, _ = sim_.fit_displacement(runs[0], temps[0], t0[0], (), structure_lag)
+        return replace(params, ridge_weight=0.0), {"validation": "none (too few rows)"}
     index = [np.arange(series.rows) for series in runs]
     early = lambda r, cut: index[r] < (cut if cut is not None else runs[r].rows)
     late = lambda r, cut: index[r] >= (cut if cut is not None else runs[r].rows)
@@ -118,17 +154,19 @@ def fit_displacement(runs: list[Series], temps: list[np.ndarray], t0: list[np.nd
         for weight in ridge.WEIGHTS:
             offset, slopes = ridge.ridge(fit_design, fit_y, weight)
             scored.append((ridge.rms(check_y - offset - check_design @ slopes) if len(check_y) else 0.0,
-                           float(tau), float(weight)))
-    rmse, tau, weight = min(scored)
+                           tau, float(weight)))
+    rmse, tau, weight = min(scored, key=lambda row: (row[0], row[1] or 0.0, row[2]))
     offset, slopes = ridge.ridge(*rows(tau, lambda r, cut: index[r] >= 0), weight)
     k = temps[0].shape[1]
-    params = DisplacementParams(tau_struct_s=tau, beta0=offset, beta=tuple(float(b) for b in slopes[:k]),
-                                gamma=tuple(float(b) for b in slopes[k:]))
+    params = DisplacementParams(tau_struct_s=None if tau is None else float(tau), beta0=offset,
+                                beta=tuple(float(b) for b in slopes[:k]), gamma=tuple(float(b) for b in slopes[k:]),
+                                ridge_weight=weight)
     return params, {"validation_rmse": rmse, "ridge_weight": weight,
                     "validation_rows": int(sum(np.count_nonzero(late(r, c) & measured[r]) for r, c in enumerate(cuts)))}
 
 
-def fit(runs: list[Series], progress: Callable[[str], None] | None = None) -> tuple[Simulation, dict]:
+def fit(runs: list[Series], progress: Callable[[str], None] | None = None, structure_lag: bool = True
+        ) -> tuple[Simulation, dict]:
     """The identified baseline (no effects) on the runs' training parts; and what was measured. Each run
     starts from its own state; the parameters are shared. `progress` hears each sensor and the map."""
     shared = Shared(stopped_rpm=sim_.stopped_threshold(np.concatenate([series.n for series in runs])))
@@ -146,7 +184,8 @@ def fit(runs: list[Series], progress: Callable[[str], None] | None = None) -> tu
         progress("lumped: the displacement map (structure lag and ridge weight by forward validation)")
     filtered = [sim_.temperatures(series, shared, sensors, ()) for series in runs]  # one step ahead, and filtered
     displacement, chosen = fit_displacement(runs, [temps for _, temps in filtered],
-                                            [sim_.first_temperatures(series, sensors) for series in runs])
+                                            [sim_.first_temperatures(series, sensors) for series in runs],
+                                            structure_lag)
     sim = Simulation((), shared, sensors, displacement)
     open_loop = tuple(replace(p, filter_gain=0.0) for p in sensors)
     simulated = [sim_.temperatures(series, shared, open_loop, ())[0] for series in runs]

@@ -139,8 +139,16 @@ def simulation_of(model: Model) -> Simulation:
     displacement = sim_.DisplacementParams(
         tau_struct_s=tau(c("AS")) if structure else None, beta0=c("beta0"),
         beta=tuple(c(f"beta_{i}") for i in range(1, k + 1)),
-        gamma=tuple(c(f"gamma_{i}") for i in range(1, k + 1)) if structure else (), **fitted)
+        gamma=tuple(c(f"gamma_{i}") for i in range(1, k + 1)) if structure else (), **fitted,
+        ridge_weight=_ridge_weight(model))
     return Simulation(effects, shared, sensors, displacement)
+
+
+def _ridge_weight(model: Model) -> float | None:
+    """The map's ridge weight of an identified model (its fit log says, `fit --model lumped` and diagnose write
+    it); None for an open-loop simulation an earlier diagnose fitted by least squares."""
+    weight = (model.fit or {}).get("ridge_weight")
+    return float(weight) if isinstance(weight, (int, float)) and not isinstance(weight, bool) and weight >= 0 else None
 
 
 def _arrays(model: Model, inputs: dict, precision: str) -> tuple:

@@ -122,6 +122,9 @@ class DisplacementParams:
     alpha: float = 0.0
     tau_feed_s: float | None = None
     phi: float = 0.0
+    # the ridge weight of a map identified by forward validation (models/identify.py), held when effects
+    # extend it; None: plain least squares (the open-loop simulation diagnose fitted before)
+    ridge_weight: float | None = None
 
 
 @dataclass(frozen=True)
@@ -134,6 +137,11 @@ class Simulation:
     def has(self, name: str) -> bool:
         return any(e == name for e, _ in self.effects)
 
+    @property
+    def filtered(self) -> bool:
+        """True for an identified model: its temperatures follow the readings through the filter gains."""
+        return any(p.filter_gain for p in self.sensors)
+
     def sensor_of(self, name: str) -> int | None:
         return next((s for e, s in self.effects if e == name), None)
 
@@ -143,7 +151,7 @@ class Simulation:
         a second weight per sensor; and what each effect adds (its record says how many)."""
         k = len(self.sensors)
         structure = self.displacement.tau_struct_s is not None
-        count = 3 * k + 1 + k + (1 + k) * structure
+        count = 3 * k + 1 + k + (1 + k) * structure + k * self.filtered
         return count + sum(definition_of(name).added_parameters(k) for name in {e for e, _ in self.effects})
 
 
@@ -232,6 +240,9 @@ def closed_loop_cooling(series: Series, shared: Shared, sensors, effects) -> np.
     p = sensors[index]
     a = np.broadcast_to(_poles(series, shared, p), (series.rows,))
     drive = series.te + sum(getattr(p, name) * x for name, x in _heat_inputs(series, replace(shared, relay=None), effects))
+    if p.filter_gain:
+        return _filtered_relay(series.temps[:, index], np.ascontiguousarray(a, dtype=float), drive, p.cooling,
+                               p.filter_gain, float(first_temperatures(series, sensors)[index]), on, off)
     state = np.zeros(series.rows)
     window = max(2, int(RELAY_LOOKAHEAD_S / series.dt))
     y, cooling, j = first_temperatures(series, sensors)[index], False, 0
@@ -244,6 +255,23 @@ def closed_loop_cooling(series: Series, shared: Shared, sensors, effects) -> np.
         y = trajectory[end - j - 1]
         cooling = cooling != bool(len(crossing))
         j = end
+    return state
+
+
+@kernels.jit
+def _filtered_relay(reading, a, drive, cooling, gain, start, on, off):
+    """The relay state per row under the filter, as the block runs it: the filtered temperature of the
+    switching sensor (corrected by its reading each row) switches the coolant from the next row."""
+    state = np.zeros(len(reading))
+    x, cool = start, False
+    for j in range(len(reading)):
+        state[j] = 1.0 if cool else 0.0
+        x = a[j] * x + (1.0 - a[j]) * (drive[j] + (cooling if cool else 0.0))
+        x = x + gain * (reading[j] - x)
+        if x > on:
+            cool = True
+        elif x < off:
+            cool = False
     return state
 
 
@@ -629,17 +657,23 @@ def fit_displacement(series: Series, temps: np.ndarray, t0: np.ndarray, effects,
     taus = taus_of(x)
     columns = [np.ones(series.rows)] + _displacement_columns(series, temps, taus, effects)
     coef, sse = _solve(series.target, columns)
+    return displacement_params(coef, k, taus, terms), sse
+
+
+def displacement_params(coef, k: int, taus: dict, terms, ridge_weight: float | None = None) -> DisplacementParams:
+    """The map's parameters from its coefficients in column order (offset, a weight per sensor, per sensor
+    on the structure lag when `taus["struct"]` is set, then each term's) and the time constants."""
     coef = [float(c) for c in coef]
-    lagged = k if structure_lag else 0
+    lagged = k if taus["struct"] is not None else 0
     params = DisplacementParams(tau_struct_s=taus["struct"], beta0=coef[0], beta=tuple(coef[1:1 + k]),
-                                gamma=tuple(coef[1 + k:1 + k + lagged]))
+                                gamma=tuple(coef[1 + k:1 + k + lagged]), ridge_weight=ridge_weight)
     rest = coef[1 + k + lagged:]
     for term in terms:
         count = k if term.per_sensor else 1
         weights = tuple(rest[:count]) if term.per_sensor else rest[0]
         params = replace(params, **{term.tau_field: taus[term.key], term.weight_field: weights})
         rest = rest[count:]
-    return params, sse
+    return params
 
 
 def first_temperatures(series: Series, sensors) -> np.ndarray:
