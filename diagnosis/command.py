@@ -9,16 +9,18 @@ from typing import Callable
 import numpy as np
 
 from thermoplc.diagnosis.findings import document
-from thermoplc.diagnosis.search import diagnose
+from thermoplc.diagnosis.parts import Parts
+from thermoplc.diagnosis.search import diagnose_runs
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import REPORT_MANIFEST, check_report_folder, report_manifest, write_outputs
-from thermoplc.models import identified_effects, lumped_model
+from thermoplc.models import lumped_model
+from thermoplc.models.campaign import Campaign, read_campaign, run_list
 from thermoplc.models.effects import definition_of
-from thermoplc.models.fit import block_identifier, evaluate, sample_period
+from thermoplc.models.fit import SAMPLING_TOLERANCE, block_identifier, evaluate, sample_period
 from thermoplc.models.modelfile import Model, Signal, load_model
 from thermoplc.models.simulation import Series, Simulation
 from thermoplc.models.leaks import refuse_leaks, refuse_non_temperatures
-from thermoplc.models.table import Table, read_table
+from thermoplc.models.table import Table
 from thermoplc.pipeline import becomes_block
 
 DEFAULT_TRAIN_SHARE = 0.6
@@ -27,7 +29,7 @@ MIN_ROWS = 10
 
 @dataclass(frozen=True)
 class DiagnoseRequest:
-    data: str
+    data: tuple[str, ...] | None  # recordings or folders (--data, repeated); None with a runs table
     temps: tuple[str, ...]
     speed: str
     ambient: str
@@ -40,6 +42,8 @@ class DiagnoseRequest:
     block_name: str = "ThermalComp"
     decimal: str = "auto"
     structure_lag: bool = True
+    runs_table: str | None = None  # --runs TABLE
+    train_runs: int | None = None  # a campaign: its first N runs train, the others are held out
 
 
 def _training_rows(table: Table, request: DiagnoseRequest) -> int:
@@ -67,10 +71,6 @@ def _check_baseline(model: Model, request: DiagnoseRequest, path: str) -> None:
                             f"{', '.join(columns)}; give the columns the baseline was fitted on")
     if model.target.column != request.target:
         raise UserError(f"{path}: the baseline predicts {model.target.column!r}, not --target {request.target!r}")
-    readings = [name for name in lumped_model.effect_names(model) if not identified_effects.extends(name)]
-    if readings and lumped_model.simulation_of(model).displacement.ridge_weight is not None:
-        raise UserError(f"{path}: the baseline is an identified model (its fit log has a ridge_weight) with "
-                        f"{', '.join(readings)}, which is no extension of one ({identified_effects.NOT_AN_EXTENSION})")
 
 
 def series_of(table: Table, request: DiagnoseRequest, dt: float) -> Series:
@@ -90,8 +90,45 @@ def series_of(table: Table, request: DiagnoseRequest, dt: float) -> Series:
                   table.columns[request.target], table.columns[request.feed] if request.feed else None)
 
 
-def augmented_model(final: Simulation, added: list[dict], request: DiagnoseRequest, table: Table, dt: float,
-                    n_train: int) -> Model:
+def _train_runs(campaign: Campaign, request: DiagnoseRequest) -> int:
+    """How many of a campaign's first runs train: --train-runs, else 60 % of them; at least one each way."""
+    count = len(campaign.runs)
+    if request.train_until is not None or request.train_rows is not None:
+        raise UserError(f"--train-until/--train-rows split one recording; this campaign has {count} runs: give "
+                        f"--train-runs N (its first N runs train, the others are held out)")
+    chosen = request.train_runs if request.train_runs is not None else max(1, int(DEFAULT_TRAIN_SHARE * count))
+    if not 1 <= chosen < count:
+        raise UserError(f"--train-runs {chosen}: the campaign has {count} runs; both the training runs and the "
+                        f"held-out runs need at least one (the held-out runs judge every effect)")
+    return chosen
+
+
+def parts_of(campaign: Campaign, request: DiagnoseRequest) -> tuple[Parts, float]:
+    """The runs by role and which rows of each train, and their common sample period: one recording split in
+    time (--train-until/--train-rows, default its first 60 %), or a campaign whose first runs train."""
+    tables = campaign.tables
+    periods = [sample_period(t, request.time_column) for t in tables]
+    dt = periods[0]
+    for table, period in zip(tables, periods):
+        if abs(period - dt) > SAMPLING_TOLERANCE * dt:
+            raise UserError(f"{table.path}: sampled every {period:g} s, but {tables[0].path} every {dt:g} s; "
+                            f"the block has one sample period")
+    if request.train_runs is not None and len(tables) == 1:
+        raise UserError(f"--train-runs {request.train_runs}: only one run was given; split it in time with "
+                        f"--train-until or --train-rows")
+    if len(tables) == 1:
+        train_rows = (_training_rows(tables[0], request),)
+    else:
+        count = _train_runs(campaign, request)
+        train_rows = tuple(t.rows if k < count else 0 for k, t in enumerate(tables))
+        for table in tables:
+            if table.rows < MIN_ROWS:
+                raise UserError(f"{table.path}: {table.rows} rows; a run needs at least {MIN_ROWS}")
+    return Parts(tuple(series_of(t, request, dt) for t in tables), train_rows, tuple(campaign.labels)), dt
+
+
+def augmented_model(final: Simulation, added: list[dict], request: DiagnoseRequest, tables: list[Table], dt: float,
+                    train_rows: tuple[int, ...]) -> Model:
     """The model file of a fitted simulation; `added` is the evidence for each effect, kept in the fit log."""
     coefficients, settings = lumped_model.coefficients(final, dt)
     signals = [Signal(block_identifier(c, "temperature"), c, "temperature", "degC") for c in request.temps]
@@ -103,34 +140,45 @@ def augmented_model(final: Simulation, added: list[dict], request: DiagnoseReque
         kind="lumped", block_name=request.block_name, inputs=tuple(signals),
         target=Signal(block_identifier(request.target, "target"), request.target, "target", "um"),
         time_column=request.time_column, sample_period_s=dt, coefficients=coefficients, settings=settings,
-        training={"file": Path(table.path).name, "sha256": table.sha256, "rows": n_train, "total_rows": table.rows,
-                  "until_s": float(table.columns[request.time_column][n_train - 1])},
+        training=_training_record(tables, train_rows, request.time_column),
         fit={"method": "thermoplc diagnose: " + (
             "identified lumped-mass model (steady-state Kalman filter on the readings, map by forward validation) "
             "with the effects the data supports as nested extensions" if final.displacement.ridge_weight is not None
             else "open-loop lumped-mass simulation with the effects the data supports"),
              **({"ridge_weight": final.displacement.ridge_weight} if final.displacement.ridge_weight is not None
                 else {}), "effects": added})
-    return Model(**{**model.__dict__, "metrics": evaluate(model, [table], [n_train])})
+    return Model(**{**model.__dict__, "metrics": evaluate(model, tables, list(train_rows))})
+
+
+def _training_record(tables: list[Table], train_rows: tuple[int, ...], time_column: str) -> dict:
+    """Which rows of which files trained: one recording's split, or every run with its role."""
+    records = [{"file": Path(t.path).name, "sha256": t.sha256, "rows": n, "total_rows": t.rows,
+                **({"until_s": float(t.columns[time_column][n - 1])} if n else {"held_out": True})}
+               for t, n in zip(tables, train_rows)]
+    return records[0] if len(records) == 1 else {"batches": records}
 
 
 def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report_dir: str | None,
         progress: Callable[[str], None] | None = None) -> dict:
     """`thermoplc diagnose`: fit and search, then write the augmented model, the findings JSON and the report
     folder when asked, all or nothing; returns the findings document."""
-    table = read_table(request.data, request.time_column, decimal=request.decimal)
-    dt = sample_period(table, request.time_column)
-    n_train = _training_rows(table, request)
-    series = series_of(table, request, dt)
+    runs = run_list(list(request.data) if request.data is not None else None, request.runs_table)
+    campaign = read_campaign(runs, request.time_column, request.decimal)
+    parts, dt = parts_of(campaign, request)
     baseline = None
     if request.baseline:
         model = load_model(request.baseline)
         _check_baseline(model, request, request.baseline)
         baseline = lumped_model.simulation_of(model)
-    d = diagnose(series, n_train, request.target, baseline, progress, request.structure_lag)
-    model = augmented_model(d.final, d.added, request, table, dt, n_train)
-    source = {"file": Path(table.path).name, "sha256": table.sha256}
-    doc = document(d, series, n_train, source, model_path)
+        if baseline.displacement.ridge_weight is None and parts.campaign:
+            raise UserError(f"{request.baseline}: an open-loop simulation an earlier diagnose fitted runs on one "
+                            f"recording; for a campaign give an identified model (`fit --model lumped`) or none")
+    d = diagnose_runs(parts, request.target, baseline, progress, request.structure_lag)
+    tables = campaign.tables
+    model = augmented_model(d.final, d.added, request, tables, dt, parts.train_rows)
+    source = ({"file": Path(tables[0].path).name, "sha256": tables[0].sha256} if len(tables) == 1 else
+              {"files": [{"file": label, "sha256": t.sha256} for label, t in zip(campaign.labels, tables)]})
+    doc = document(d, source, model_path)
     becomes_block(model, model_path)
     outputs = [(model_path, model.to_json())]
     if json_path:
@@ -138,8 +186,8 @@ def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report
     stale = []
     if report_dir:
         from thermoplc.diagnosis.report import is_report_file, report
-        files = report(doc, d, series, n_train)
-        stale = [Path(report_dir) / n for n in check_report_folder(report_dir, list(files), [request.data],
+        files = report(doc, d)
+        stale = [Path(report_dir) / n for n in check_report_folder(report_dir, list(files), list(runs.paths),
                                                                    is_report_file)]
         outputs += [(Path(report_dir) / name, content) for name, content in files.items()]
         outputs.append((Path(report_dir) / REPORT_MANIFEST, report_manifest(list(files))))

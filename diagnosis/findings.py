@@ -32,17 +32,38 @@ def conditions(series: Series, w: Window, residual: np.ndarray) -> dict:
     return found
 
 
-def _window(series: Series, w: Window, d: Diagnosis, after: bool) -> dict:
-    entry = {"start_s": float(series.t[w.start]), "end_s": float(series.t[w.stop - 1]), "channel": w.channel,
+def _window(w: Window, d: Diagnosis, after: bool) -> dict:
+    parts = d.parts
+    series = parts.runs[w.run]
+    entry = {**({"run": parts.labels[w.run]} if parts.campaign else {}),
+             "start_s": float(series.t[w.start]), "end_s": float(series.t[w.stop - 1]), "channel": w.channel,
              "rms": w.rms}
     if after:
-        r = d.residual_after[w.channel][w.start:w.stop]
+        r = parts.unpool(d.residual_after[w.channel])[w.run][w.start:w.stop]
         entry["rms_after"] = float(np.sqrt(np.mean(r ** 2)))
-    entry["conditions"] = conditions(series, w, (d.residual_before if after else d.residual_after)[w.channel])
+    residual = (d.residual_before if after else d.residual_after)[w.channel]
+    entry["conditions"] = conditions(series, w, parts.unpool(residual)[w.run])
     return entry
 
 
-def document(d: Diagnosis, series: Series, n_train: int, source: dict, model_path: str | None) -> dict:
+def per_run(d: Diagnosis) -> list[dict]:
+    """Each run: whether it trains or is held out, its target's RMSE before and after on its training and held-out
+    rows, and its disagreement windows before and after: where the gap was and how it shrank."""
+    parts, target = d.parts, d.channels[-1]
+    before, after = parts.unpool(d.residual_before[target]), parts.unpool(d.residual_after[target])
+    rms = lambda x: float(np.sqrt(np.mean(x ** 2))) if len(x) else None
+    rows = []
+    for k, (run, n) in enumerate(zip(parts.runs, parts.train_rows)):
+        role = "training" if n == run.rows else "held out" if n == 0 else "split"
+        rows.append({"run": parts.labels[k] if parts.labels else str(k + 1), "role": role, "rows": run.rows,
+                     "train_rmse_before_um": rms(before[k][:n]), "train_rmse_after_um": rms(after[k][:n]),
+                     "held_out_rmse_before_um": rms(before[k][n:]), "held_out_rmse_after_um": rms(after[k][n:]),
+                     "windows_before": sum(w.run == k for w in d.windows_before),
+                     "windows_after": sum(w.run == k for w in d.windows_after)})
+    return rows
+
+
+def document(d: Diagnosis, source: dict, model_path: str | None) -> dict:
     """The findings document (findings.json) as a dict: verdict and summary, the effects named, the disagreement
     windows before and after, and each channel's training and held-out errors (um for the target, else K)."""
     target = d.channels[-1]
@@ -54,15 +75,16 @@ def document(d: Diagnosis, series: Series, n_train: int, source: dict, model_pat
     return {
         "format": FORMAT,
         "version": VERSION,
-        "data": {**source, "rows": series.rows, "train_rows": n_train, "sample_period_s": series.dt},
+        "data": {**source, "rows": d.parts.rows, "train_rows": d.parts.n_train, "sample_period_s": d.parts.runs[0].dt},
+        "runs": per_run(d),
         "verdict": d.verdict,
         "summary": summary(d),
         "reason": d.reason,
         "effects": d.named,
         "fitted_not_named": [] if d.names_effects else [e["name"] for e in d.added],
         "supported_not_named": d.unsupported,
-        "disagreements": [_window(series, w, d, True) for w in d.windows_before],
-        "remaining_disagreements": [_window(series, w, d, False) for w in d.windows_after],
+        "disagreements": [_window(w, d, True) for w in d.windows_before],
+        "remaining_disagreements": [_window(w, d, False) for w in d.windows_after],
         "rmse_before_um": d.before.rmse_held_out[target],
         "rmse_after_um": d.after.rmse_held_out[target],
         "max_abs_before_um": d.before.max_abs_held_out[target],
@@ -113,8 +135,8 @@ def text(doc: dict) -> str:
     for k, e in enumerate(doc["effects"], start=1):
         ev = e["evidence"]
         lines.append(f"  {k}. {e['name']}: {display(e['parameters'])}")
-        lines.append(f"     delta BIC {ev['delta_bic']:.1f}; held-out excess above noise removed "
-                     f"{ev['held_out_excess_removed']:.0%}")
+        lines.append(f"     delta BIC {ev['delta_bic']:.1f}; held-out log-likelihood evidence {ev['held_out_evidence']:+.1f}; "
+                     f"held-out excess above noise removed {ev['held_out_excess_removed']:.0%}")
         if ev.get("held_out_size_um") is not None:
             lines.append(f"     held out: moves the target {ev['held_out_size_um']:.3g} um (RMS), removes "
                          f"{ev['held_out_error_removed']:.0%} of its squared error; {e['matters']} "

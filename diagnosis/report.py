@@ -9,7 +9,6 @@ import numpy as np
 
 from thermoplc.diagnosis.search import Diagnosis
 from thermoplc.diagnosis.findings import display, next_steps
-from thermoplc.models.simulation import Series
 
 
 def _unit(channel: str, target: str) -> str:
@@ -17,26 +16,35 @@ def _unit(channel: str, target: str) -> str:
     return "um" if channel == target else "degC"
 
 
-def _plot(series: Series, d: Diagnosis, channel: str, measured: np.ndarray, n_train: int, unit: str) -> bytes:
+def _plot(d: Diagnosis, run: int, channel: str, measured: np.ndarray, unit: str) -> bytes:
+    """One channel of one run: measured and simulated before/after, and the residuals with the windows."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    parts = d.parts
+    series, n_train = parts.runs[run], parts.train_rows[run]
+    of_run = lambda pooled: parts.unpool(pooled)[run]
     hours = (series.t - series.t[0]) / 3600
     difference = "um" if unit == "um" else "K"
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
-    top.plot(hours, d.simulated_before[channel], lw=1.0, color="tab:red", ls="--", label="simulation before", zorder=2)
-    top.plot(hours, d.simulated_after[channel], lw=1.0, color="tab:blue", ls="--", label="simulation after", zorder=3)
+    top.plot(hours, of_run(d.simulated_before[channel]), lw=1.0, color="tab:red", ls="--", label="simulation before",
+             zorder=2)
+    top.plot(hours, of_run(d.simulated_after[channel]), lw=1.0, color="tab:blue", ls="--", label="simulation after",
+             zorder=3)
     top.plot(hours, measured, lw=0.8, color="black", alpha=0.8, label="measured", zorder=4)  # on top: it is the truth
     top.set_ylabel(f"{channel}, {unit}")
     top.legend(loc="upper left", fontsize=8)
-    bottom.plot(hours, d.residual_before[channel], lw=0.5, color="tab:red", label="residual before")
-    bottom.plot(hours, d.residual_after[channel], lw=0.5, color="tab:blue", label="residual after")
+    bottom.plot(hours, of_run(d.residual_before[channel]), lw=0.5, color="tab:red", label="residual before")
+    bottom.plot(hours, of_run(d.residual_after[channel]), lw=0.5, color="tab:blue", label="residual after")
     for w in d.windows_before:
-        if w.channel == channel:
+        if w.channel == channel and w.run == run:
             bottom.axvspan(hours[w.start], hours[w.stop - 1], color="orange", alpha=0.25, lw=0)
+    if parts.campaign:
+        top.set_title(f"{parts.labels[run]}: " + ("training run" if n_train == series.rows else "held-out run"))
     for ax in (top, bottom):
-        ax.axvline(hours[n_train - 1], color="k", lw=0.8, ls=":")
+        if 0 < n_train < series.rows:
+            ax.axvline(hours[n_train - 1], color="k", lw=0.8, ls=":")
         ax.grid(alpha=0.3)
     bottom.set_xlabel("time, h (dotted: end of the training part; shaded: disagreement windows)")
     bottom.set_ylabel(f"measured - simulated, {difference}")
@@ -90,34 +98,54 @@ def _hours(seconds) -> str:
     return "" if seconds is None else f"{seconds / 3600:.2f}"
 
 
-def report_files(channels: int) -> list[str]:
-    """The files a report of this many channels consists of (its manifest lists them)."""
-    return [*(f"channel_{k}.png" for k in range(1, channels + 1)), "index.html"]
+def report_files(channels: int, runs: int = 1) -> list[str]:
+    """The files a report of this many channels and runs consists of (its manifest lists them): a plot per
+    channel of one recording, a plot per run of a campaign."""
+    plots = (f"channel_{k}.png" for k in range(1, channels + 1)) if runs == 1 else (f"run_{k}.png"
+                                                                                   for k in range(1, runs + 1))
+    return [*plots, "index.html"]
 
 
 def is_report_file(name: str) -> bool:
     """Named as a report of any number of channels names its files: only such a file of an older
     report is removed when a new one leaves it out."""
-    return name == "index.html" or re.fullmatch(r"channel_[1-9][0-9]*\.png", name) is not None
+    return name == "index.html" or re.fullmatch(r"(channel|run)_[1-9][0-9]*\.png", name) is not None
 
 
-def report(doc: dict, d: Diagnosis, series: Series, n_train: int) -> dict:
-    """File name -> content: index.html and one PNG per channel."""
-    measured = {c: series.temps[:, i] for i, c in enumerate(series.names)}
-    target = d.channels[-1]
-    measured[target] = series.target
+def _figures(d: Diagnosis) -> tuple[dict, list[str]]:
+    """One PNG per channel for a recording; for a campaign one per run, of the target (where the gap was in
+    each run and how it shrank)."""
+    parts, target = d.parts, d.channels[-1]
     files, figures = {}, []
-    for k, channel in enumerate(d.channels, start=1):
-        name = f"channel_{k}.png"
-        files[name] = _plot(series, d, channel, measured[channel], n_train, _unit(channel, target))
-        figures.append(f'<h3>{html.escape(channel)}</h3><img src="{name}" alt="{html.escape(channel)}">')
-    effects = html_table(["#", "effect", "parameters", "delta BIC", "held-out excess above noise removed",
+    if not parts.campaign:
+        series = parts.runs[0]
+        measured = {**{c: series.temps[:, i] for i, c in enumerate(series.names)}, target: series.target}
+        for k, channel in enumerate(d.channels, start=1):
+            name = f"channel_{k}.png"
+            files[name] = _plot(d, 0, channel, measured[channel], _unit(channel, target))
+            figures.append(f'<h3>{html.escape(channel)}</h3><img src="{name}" alt="{html.escape(channel)}">')
+        return files, figures
+    for k, (series, label) in enumerate(zip(parts.runs, parts.labels), start=1):
+        name = f"run_{k}.png"
+        files[name] = _plot(d, k - 1, target, series.target, "um")
+        figures.append(f'<h3>{html.escape(label)}</h3><img src="{name}" alt="{html.escape(label)}">')
+    return files, figures
+
+
+def report(doc: dict, d: Diagnosis) -> dict:
+    """File name -> content: index.html and the PNGs (`_figures`)."""
+    target = d.channels[-1]
+    parts = d.parts
+    files, figures = _figures(d)
+    effects = html_table(["#", "effect", "parameters", "delta BIC", "held-out evidence",
+                          "held-out excess above noise removed",
                           "held-out size um", "held-out squared error removed", "against the misfit left"],
                      [[k, e["name"], e["parameters"], _number(e["evidence"]["delta_bic"], 1),
+                       _number(e["evidence"]["held_out_evidence"], 1),
                        _percent(e["evidence"]["held_out_excess_removed"]),
                        _number(e["evidence"].get("held_out_size_um"), 3),
                        _percent(e["evidence"].get("held_out_error_removed")), e.get("matters", "")]
-                      for k, e in enumerate(doc["effects"], start=1)] or [["", "none", "", "", "", "", "", ""]])
+                      for k, e in enumerate(doc["effects"], start=1)] or [["", "none", "", "", "", "", "", "", ""]])
 
     def gap(c: str) -> str:
         return "um" if c == target else "K"
@@ -125,20 +153,36 @@ def report(doc: dict, d: Diagnosis, series: Series, n_train: int) -> dict:
                       [[c, gap(c), _number(v["noise_sigma"]), _number(v["held_out_rmse_before"]),
                         _number(v["held_out_rmse_after"]), _number(v["held_out_max_abs_before"]),
                         _number(v["held_out_max_abs_after"])] for c, v in doc["channels"].items()])
-    windows = html_table(["channel", "start, h from the first row", "end, h", "unit", "RMS before", "RMS after", "conditions"],
-                     [[w["channel"], _hours(w["start_s"] - series.t[0]), _hours(w["end_s"] - series.t[0]),
+    windows = html_table(["run", "channel", "start, h from the run's first row", "end, h", "unit", "RMS before",
+                          "RMS after", "conditions"],
+                     [[w.get("run", ""), w["channel"], _hours(w["conditions"]["hours_since_start"][0] * 3600),
+                       _hours(w["conditions"]["hours_since_start"][1] * 3600),
                        gap(w["channel"]), _number(w["rms"]), _number(w.get("rms_after")),
                        _conditions(w["conditions"], gap(w["channel"]))]
                       for w in doc["disagreements"]])
-    trials = "".join(f"<h3>round {k}</h3>" + html_table(["candidate", "sensor", "delta BIC", "held-out excess removed",
-                                                     "kept", "implausible because"],
+    trials = "".join(f"<h3>round {k}</h3>" + html_table(["candidate", "sensor", "delta BIC", "held-out evidence",
+                                                     "held-out excess removed", "kept", "implausible because"],
                                                     [[t["name"], t["sensor"], _number(t["delta_bic"], 1),
+                                                      _number(t["held_out_evidence"], 1),
                                                       _percent(t["held_out_gain"]), bool(t["accepted"]),
                                                       t["rejected_because"]]
                                                      for t in trials])
                      for k, trials in enumerate(doc["tested"], start=1))
-    hours_total = (series.t[-1] - series.t[0]) / 3600
-    hours_train = (series.t[n_train - 1] - series.t[0]) / 3600
+    runs = html_table(["run", "role", "rows", "training RMSE before um", "after", "held-out RMSE before um", "after",
+                       "windows before", "after"],
+                      [[r["run"], r["role"], r["rows"], _number(r["train_rmse_before_um"]),
+                        _number(r["train_rmse_after_um"]), _number(r["held_out_rmse_before_um"]),
+                        _number(r["held_out_rmse_after_um"]), r["windows_before"], r["windows_after"]]
+                       for r in doc["runs"]])
+    if parts.campaign:
+        training = sum(k > 0 for k in parts.train_rows)
+        data = (f"{len(parts.runs)} runs, {doc['data']['rows']} rows; {training} training runs "
+                f"({parts.n_train} rows), {len(parts.runs) - training} held out")
+    else:
+        series = parts.runs[0]
+        data = (f"{html.escape(str(doc['data'].get('file')))} ({doc['data']['rows']} rows, "
+                f"{(series.t[-1] - series.t[0]) / 3600:.1f} h; training part {parts.n_train} rows, the first "
+                f"{(series.t[parts.n_train - 1] - series.t[0]) / 3600:.1f} h)")
     not_named = (f"<p>Fitted but not named (disagreements are left after several effects; they may stand in for "
                  f"what is missing): {html.escape(', '.join(doc['fitted_not_named']))}</p>"
                  if doc["fitted_not_named"] else "")
@@ -158,11 +202,11 @@ def report(doc: dict, d: Diagnosis, series: Series, n_train: int) -> dict:
 <style>body{{font-family:sans-serif;max-width:1100px;margin:auto}}table{{border-collapse:collapse;margin:8px 0}}
 td,th{{border:1px solid #bbb;padding:3px 6px;font-size:13px;text-align:left}}img{{max-width:100%}}</style></head>
 <body><h1>Where simulation and measurement disagree</h1>
-<p>Data: {html.escape(str(doc['data'].get('file')))} ({doc['data']['rows']} rows, {hours_total:.1f} h; training part
-{n_train} rows, the first {hours_train:.1f} h). Temperatures in degC and their residuals in K, the displacement in um.</p>
+<p>Data: {data}. Temperatures in degC and their residuals in K, the displacement in um.</p>
 <h2>Verdict: {html.escape(doc['verdict'])}</h2><p>{html.escape(doc['summary'])}</p>
 <h2>Effects named, in order</h2>{effects}{not_named}
 <h2>Gap before and after (held-out part)</h2>{channels}
+<h2>Per run: where the gap was and how it shrank (target)</h2>{runs}
 <h2>Disagreement windows of the baseline</h2>{windows}
 {next_section}<h2>Plots</h2>{''.join(figures)}
 <h2>Candidates tested</h2>{trials}

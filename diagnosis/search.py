@@ -22,6 +22,7 @@ from typing import Callable
 import numpy as np
 
 from thermoplc.diagnosis import sufficiency
+from thermoplc.diagnosis.parts import Parts, single
 from thermoplc.diagnosis.windows import Window, find_windows, noise_sigma, settling_s
 from thermoplc.models import identified_effects, identify
 from thermoplc.models import simulation as sim_
@@ -87,6 +88,7 @@ class Diagnosis:
     # effects the training part supports (BIC, physics) that the held-out part does not, with their size: listed
     # against the misfit left, never named
     unsupported: list[dict] = field(default_factory=list)
+    parts: Parts | None = None  # the runs and their training rows; residuals are pooled in its order
 
     @property
     def verdict(self) -> str:
@@ -140,12 +142,15 @@ def _channels(series: Series, target_name: str) -> tuple[str, ...]:
     return (*series.names, target_name)
 
 
-def _simulate(sim: Simulation, series: Series, channels) -> tuple[dict, dict]:
-    out = sim_.run(sim, series)
-    simulated = {c: out[c] for c in series.names}
-    simulated[channels[-1]] = out["target"]
-    measured = {c: series.temps[:, i] for i, c in enumerate(series.names)}
-    measured[channels[-1]] = series.target
+def _simulate(sim: Simulation, parts: Parts, channels) -> tuple[dict, dict]:
+    """Simulated channels and residuals (measured minus simulated), each pooled over the runs (parts.pool): every
+    run from its own first row."""
+    outs = [sim_.run(sim, run) for run in parts.runs]
+    names = parts.runs[0].names
+    simulated = {c: parts.pool([out[c] for out in outs]) for c in names}
+    simulated[channels[-1]] = parts.pool([out["target"] for out in outs])
+    measured = {c: parts.pool([run.temps[:, i] for run in parts.runs]) for i, c in enumerate(names)}
+    measured[channels[-1]] = parts.pool([run.target for run in parts.runs])
     return simulated, {c: measured[c] - simulated[c] for c in channels}
 
 
@@ -215,12 +220,14 @@ def identified(sim: Simulation) -> bool:
     return sim.displacement.ridge_weight is not None
 
 
-def refit(train: Series, effects, warm: Simulation, polish: bool = False) -> Simulation:
-    """`warm` refitted with these effects on the training part: as a nested extension of an identified
-    model (models/identified_effects.py), or as the open-loop simulation (models/simulation.py)."""
+def refit(train: list[Series], effects, warm: Simulation, polish: bool = False) -> Simulation:
+    """`warm` refitted with these effects on the training parts: as a nested extension of an identified
+    model (models/identified_effects.py), or as the open-loop simulation (models/simulation.py, one run)."""
     if identified(warm):
-        return identified_effects.extend([train], effects, warm)
-    return sim_.fit(train, effects, warm=warm, polish=polish)
+        return identified_effects.extend(train, effects, warm)
+    if len(train) != 1:
+        raise ValueError("the open-loop simulation is fitted on one run")
+    return sim_.fit(train[0], effects, warm=warm, polish=polish)
 
 
 def held_out_evidence(before: dict, after: dict, n_train: int) -> float:
@@ -242,15 +249,20 @@ def held_out_threshold(added_parameters: int, held_rows: int) -> float:
     return added_parameters * float(np.log(max(held_rows, 2))) + BIC_MARGIN
 
 
-def candidates(series: Series, present: Simulation, train: Series) -> tuple[list[tuple[str, int | None]], dict]:
+ONE_RUN_ONLY = ("an error of one sensor's reading is fitted on one run: each run of a campaign may start with its "
+                "own offset, and a drift restarts nowhere")
+
+
+def candidates(parts: Parts, present: Simulation, train: Series) -> tuple[list[tuple[str, int | None]], dict]:
     """Every named effect not in the model yet that the training part can show; per-sensor effects
     once per sensor. The others with the reason they were not tested."""
     found, skipped = [], {}
+    series = parts.runs[0]
     for name in NAMES:
         if present.has(name):
             continue
         why = sufficiency.untestable(train, name) or (
-            None if not identified(present) or identified_effects.extends(name) else identified_effects.NOT_AN_EXTENSION)
+            ONE_RUN_ONLY if parts.campaign and definition_of(name).part == "reading" else None)
         if why:
             skipped[name] = why
             continue
@@ -273,12 +285,13 @@ def implausible(sim: Simulation, name: str, train: Series) -> str | None:
     return definition_of(name).implausible(sim, train)
 
 
-def too_small(sim: Simulation, name: str, series: Series, sigma: dict, target: str) -> str | None:
+def too_small(sim: Simulation, name: str, parts: Parts, sigma: dict, target: str) -> str | None:
     """A sensor offset or drift, or a displacement term, that moves less than a few noise sigmas over
-    the recording only soaks up the refit."""
+    the recording (the run it moves most in) only soaks up the refit."""
     definition = definition_of(name)
+    series = parts.runs[0]
     if definition.part == "displacement":
-        size = float(np.ptp(sim_.displacement_term(sim, series, name)))
+        size = max(float(np.ptp(sim_.displacement_term(sim, run, name))) for run in parts.runs)
         noise = sigma[target]
         if size < MIN_DISPLACEMENT_TERM_SIGMAS * noise:
             return (f"it moves the displacement {size:.3g} over the recording, under {MIN_DISPLACEMENT_TERM_SIGMAS:g} times "
@@ -287,25 +300,24 @@ def too_small(sim: Simulation, name: str, series: Series, sigma: dict, target: s
     if definition.part != "reading":
         return None
     i = sim.sensor_of(name)
-    size = definition.reading_size_K(sim.sensors[i], series)
+    size = max(definition.reading_size_K(sim.sensors[i], run) for run in parts.runs)
     noise = sigma[series.names[i]]
     if size < MIN_SENSOR_ERROR_SIGMAS * noise:
         return f"{size:.3g} K over the recording, under {MIN_SENSOR_ERROR_SIGMAS:g} times the sensor noise ({noise:.3g} K)"
     return None
 
 
-def follows_running(trial: Simulation, trial_score: Score, series: Series, channels, sigma: dict, n_train: int
-                    ) -> str | None:
+def follows_running(trial: Simulation, trial_score: Score, parts: Parts, channels, sigma: dict) -> str | None:
     """Why a fitted feed-axis heat is a lag of the spindle's running rather than of the feed, or
     None: refitted with the feed replaced by its mean while the spindle runs, the model must lose
     more than `BIC_MARGIN`. Otherwise the feed only marks when the machine runs, and the lag stands
     in for a slow structure or the air (which a training part under a day cannot test)."""
-    running = ~sim_.stopped(series, trial.shared)
-    feed = series.feed[:n_train][running[:n_train]]
+    running = [~sim_.stopped(run, trial.shared) for run in parts.runs]
+    feed = np.concatenate([run.feed[:k][on[:k]] for run, k, on in zip(parts.runs, parts.train_rows, running)])
     level = float(np.mean(feed)) if len(feed) else 0.0
-    plain = replace(series, feed=np.where(running, level, 0.0))
-    again = refit(plain.head(n_train), trial.effects, trial)
-    as_running = score(again, _simulate(again, plain, channels)[1], sigma, n_train)
+    plain = replace(parts, runs=tuple(replace(run, feed=np.where(on, level, 0.0)) for run, on in zip(parts.runs, running)))
+    again = refit(plain.train, trial.effects, trial)
+    as_running = score(again, _simulate(again, plain, channels)[1], sigma, parts.n_train)
     if as_running.bic < trial_score.bic + BIC_MARGIN:
         return ("a lag of the spindle's running fits as well (the feed rate replaced by its mean while running): "
                 "it does not follow the feed")
@@ -326,34 +338,42 @@ def worsens_own_sensor(trial: Simulation, name: str, series: Series, before: Sco
     return None
 
 
-def not_the_named_physics(trial: Simulation, name: str, series: Series, train: Series, channels, sigma: dict,
+def not_the_named_physics(trial: Simulation, name: str, parts: Parts, train: Series, channels, sigma: dict,
                           before: Score, after: Score, by_bic: bool) -> str | None:
     """Why the fitted effect is not the physics its name says, or None: implausible parameters, no
     size, an offset or drift that makes its own sensor worse, or (checked only when the BIC
     supports it, as it costs a refit) a feed lag that merely marks when the spindle runs."""
-    why = (implausible(trial, name, train) or too_small(trial, name, series, sigma, channels[-1])
-           or worsens_own_sensor(trial, name, series, before, after))
+    why = (implausible(trial, name, train) or too_small(trial, name, parts, sigma, channels[-1])
+           or worsens_own_sensor(trial, name, parts.runs[0], before, after))
     if why is None and by_bic and definition_of(name).driven_by == "feed":
-        why = follows_running(trial, after, series, channels, sigma, train.rows)
+        why = follows_running(trial, after, parts, channels, sigma)
     return why
 
 
-def _window_change(windows: list[Window], before: dict, after: dict) -> list[dict]:
-    return [{"channel": w.channel, "start_row": w.start, "rms_before": float(np.sqrt(np.mean(before[w.channel][w.start:w.stop] ** 2))),
-             "rms_after": float(np.sqrt(np.mean(after[w.channel][w.start:w.stop] ** 2)))} for w in windows]
+def window_rms(parts: Parts, w: Window, residual: dict) -> float:
+    """RMS of a pooled residual inside window `w` (rows of its run)."""
+    return float(np.sqrt(np.mean(parts.unpool(residual[w.channel])[w.run][w.start:w.stop] ** 2)))
 
 
-def all_windows(sim: Simulation, residual: dict, sigma: dict, dt: float) -> list[Window]:
-    """Each sensor settles by its own time constant; the target, fed by every sensor, by the slowest."""
+def _window_change(parts: Parts, windows: list[Window], before: dict, after: dict) -> list[dict]:
+    return [{"channel": w.channel, **({"run": parts.labels[w.run]} if parts.campaign else {}), "start_row": w.start,
+             "rms_before": window_rms(parts, w, before), "rms_after": window_rms(parts, w, after)} for w in windows]
+
+
+def all_windows(sim: Simulation, residual: dict, sigma: dict, parts: Parts) -> list[Window]:
+    """Windows of every run, found in its own time order. Each sensor settles by its own time constant; the
+    target, fed by every sensor, by the slowest."""
     settling = [settling_s(p.tau_s) for p in sim.sensors]
-    return [w for (c, r), settle in zip(residual.items(), [*settling, max(settling)])  # sensors, then target
-            for w in find_windows(c, r, sigma[c], dt, settle)]
+    per_run = {c: parts.unpool(r) for c, r in residual.items()}
+    return [replace(w, run=k) for (c, runs), settle in zip(per_run.items(), [*settling, max(settling)])
+            for k, (r, run) in enumerate(zip(runs, parts.runs))  # sensors, then target
+            for w in find_windows(c, r, sigma[c], run.dt, settle)]
 
 
-def _extrapolated(window: Window, final: Score, n_train: int) -> str | None:
+def _extrapolated(window: Window, final: Score, parts: Parts) -> str | None:
     """A held-out window on a channel the training part fits within the noise: no refit on the
     training part can be judged by it, so it says the model extrapolates, not which effect is missing."""
-    if window.start >= n_train and final.train_by_channel[window.channel] - 1.0 < MIN_TRAIN_EXCESS:
+    if window.start >= parts.train_rows[window.run] and final.train_by_channel[window.channel] - 1.0 < MIN_TRAIN_EXCESS:
         return (f"held out, on {window.channel}, which the training part fits within the noise (the model "
                 "extrapolates there; the training part cannot tell which effect is missing)")
     return None
@@ -381,8 +401,7 @@ def _label(p: tuple, series: Series) -> str:
     return name + (f" on {series.names[sensor]}" if sensor is not None else "")
 
 
-def polish(sim: Simulation, sim_score: Score, train: Series, series: Series, channels, sigma: dict, n_train: int
-           ) -> tuple[Simulation, Score]:
+def polish(sim: Simulation, sim_score: Score, parts: Parts, channels, sigma: dict) -> tuple[Simulation, Score]:
     """Refit with the same effects, from where the last fit stopped, while the BIC falls. Time
     constants, gear threshold, exponent, relay thresholds and standstill factors are searched with
     the others held, so one fit stops short of its optimum; without this the next candidate's
@@ -390,23 +409,23 @@ def polish(sim: Simulation, sim_score: Score, train: Series, series: Series, cha
     ratio of 1.00) named. An identified model is not polished: its extension searches every parameter
     the effect adds and holds the rest, so a refit gains nothing."""
     for _ in range(0 if identified(sim) else POLISH_ROUNDS):
-        again = refit(train, sim.effects, sim, polish=True)
-        again_score = score(again, _simulate(again, series, channels)[1], sigma, n_train)
+        again = refit(parts.train, sim.effects, sim, polish=True)
+        again_score = score(again, _simulate(again, parts, channels)[1], sigma, parts.n_train)
         if again_score.bic > sim_score.bic - MIN_POLISH_GAIN:
             break
         sim, sim_score = again, again_score
     return sim, sim_score
 
 
-def _named(name: str, series: Series, n_train: int, current: Simulation, current_score, residual: dict,
+def _named(name: str, parts: Parts, current: Simulation, current_score, residual: dict,
            trial: Simulation, s, res: dict, excess_removed: float, windows0) -> dict:
     """An accepted effect's entry of the findings: its parameters and the evidence that named it, with
     what it changes in the held-out prediction of the target (um) and the share of the held-out squared
     error of the target it removes."""
-    target = next(reversed(residual))
+    target, n_train = next(reversed(residual)), parts.n_train
     change = residual[target][n_train:] - res[target][n_train:]
     before, after = current_score.rmse_held_out[target], s.rmse_held_out[target]
-    return {"name": name, "parameters": describe(trial, name, series), "evidence": {
+    return {"name": name, "parameters": describe(trial, name, parts.joined()), "evidence": {
         "held_out_size_um": float(np.sqrt(np.mean(change ** 2))) if len(change) else None,
         "held_out_error_removed": 1.0 - (after / before) ** 2 if before else None,
         "bic_before": current_score.bic, "bic_after": s.bic, "delta_bic": s.bic - current_score.bic,
@@ -415,19 +434,19 @@ def _named(name: str, series: Series, n_train: int, current: Simulation, current
         "held_out_rmse_before": current_score.rmse_held_out, "held_out_rmse_after": s.rmse_held_out,
         "held_out_excess_removed": excess_removed,
         "held_out_evidence": held_out_evidence(residual, res, n_train),
-        "windows": _window_change(windows0, residual, res)}}
+        "windows": _window_change(parts, windows0, residual, res)}}
 
 
-def _unsupported(credible: tuple, trials: list[Trial], series: Series, n_train: int, current: Simulation,
+def _unsupported(credible: tuple, trials: list[Trial], parts: Parts, current: Simulation,
                  current_score: Score, residual: dict, windows0) -> dict:
     """A candidate the last round's training part supported and the held-out part did not, as a findings entry
     with the same evidence a named effect carries."""
     trial, s, res, _, index, name = credible
-    entry = _named(name, series, n_train, current, current_score, residual, trial, s, res,
+    entry = _named(name, parts, current, current_score, residual, trial, s, res,
                    trials[index].held_out_gain, windows0)
     gain = trials[index].held_out_gain
     if identified(current):
-        needed = held_out_threshold(trial.parameter_count() - current.parameter_count(), series.rows - n_train)
+        needed = held_out_threshold(trial.parameter_count() - current.parameter_count(), parts.rows - parts.n_train)
         why = (f"the held-out part does not support it: log-likelihood evidence {trials[index].held_out_evidence:+.1f} "
                f"on the held-out rows, {needed:.1f} needed")
     else:
@@ -446,56 +465,65 @@ def matters(effect: dict, misfit_um: float | None) -> str:
     return "above the misfit" if size >= misfit_um else "below the misfit"
 
 
-def _try(series: Series, train: Series, channels, sigma: dict, n_train: int, current: Simulation, current_score,
+def _try(parts: Parts, train: Series, channels, sigma: dict, current: Simulation, current_score,
          residual: dict, name: str, sensor: int | None):
     """One candidate fitted on top of `current` and judged: its row of the round's table; (fit, score,
     residual, simulated) when the information criteria credit it and no physics rule objects, else None;
     whether it also passed the held-out test; and, if it passed, the effect added before that it cannot
     be told from (names, why) or None."""
-    trial = refit(train, (*current.effects, (name, sensor)), current)
-    sim_out, res = _simulate(trial, series, channels)
+    n_train = parts.n_train
+    trial = refit(parts.train, (*current.effects, (name, sensor)), current)
+    sim_out, res = _simulate(trial, parts, channels)
     s = score(trial, res, sigma, n_train)
     gain = held_out_gain(current_score, s, n_train)
     delta = s.bic - current_score.bic
     effective = effective_delta_bic(residual, res, trial.parameter_count() - current.parameter_count(), n_train)
     by_bic = delta < -BIC_MARGIN and effective < -BIC_MARGIN
-    why = (not_the_named_physics(trial, name, series, train, channels, sigma, current_score, s, by_bic)
+    why = (not_the_named_physics(trial, name, parts, train, channels, sigma, current_score, s, by_bic)
            or definition_of(name).after_fit(trial, train))
     if why is None and delta < -BIC_MARGIN and not effective < -BIC_MARGIN:
         why = (f"the residual it leaves is still a slow misfit, not noise: counted over its effective rows "
                f"(lag-1 autocorrelation) the BIC changes by {effective:+.1f}, not below -{BIC_MARGIN:g}")
     evidence = held_out_evidence(residual, res, n_train)
     if identified(current):
-        needed = held_out_threshold(trial.parameter_count() - current.parameter_count(), series.rows - n_train)
-        judged = by_bic and evidence >= needed and s.held_out < current_score.held_out
+        needed = held_out_threshold(trial.parameter_count() - current.parameter_count(), parts.rows - n_train)
+        judged = by_bic and evidence >= needed  # the likelihood over every channel, not the rows' plain sum
     else:
         judged = by_bic and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
     alike = definition_of(name).alike_after(current, trial, train) if judged else None
-    row = Trial(name, None if sensor is None else series.names[sensor], float(delta), float(gain), False, why,
+    row = Trial(name, None if sensor is None else train.names[sensor], float(delta), float(gain), False, why,
                 evidence)
     return row, (trial, s, res, sim_out) if by_bic and why is None else None, judged, alike
 
 
 def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulation | None = None,
              progress: Callable[[str], None] | None = None, structure_lag: bool = True) -> Diagnosis:
-    """Search for missing effects; `structure_lag` keeps the displacement's structure lag in the
-    fitted baseline (paper 000's regression on the temperatures alone without it)."""
+    """Search for missing effects in one recording whose first `n_train` rows train (`diagnose_runs`)."""
+    return diagnose_runs(single(series, n_train), target_name, baseline, progress, structure_lag)
+
+
+def diagnose_runs(parts: Parts, target_name: str, baseline: Simulation | None = None,
+                  progress: Callable[[str], None] | None = None, structure_lag: bool = True) -> Diagnosis:
+    """Search for missing effects over the runs, evidence pooled; `structure_lag` keeps the displacement's
+    structure lag in the identified baseline (paper 000's regression on the temperatures alone without it)."""
     say = progress or (lambda message: None)
+    series = parts.joined()  # names, noise, speed groups, ranges: nothing that depends on the dynamics
+    n_train = parts.n_train
     channels = _channels(series, target_name)
     train = series.head(n_train)
-    insufficient = sufficiency.recording_problem(train)
+    insufficient = sufficiency.recording_problem(parts.train)
     say("identifying the baseline (filter gains, standstill loads, the map by forward validation)")
-    base = baseline or identify.fit([train], structure_lag=structure_lag)[0]
+    base = baseline or identify.fit(parts.train, structure_lag=structure_lag)[0]
     if identified(base) and not insufficient:  # judged by the training likelihood every candidate is refitted by
-        base = identified_effects.refit_map([train], base)
-    simulated0, residual0 = _simulate(base, series, channels)
+        base = identified_effects.refit_map(parts.train, base)
+    simulated0, residual0 = _simulate(base, parts, channels)
     sigma = {c: noise_sigma(r) for c, r in residual0.items()}
     before = score(base, residual0, sigma, n_train)
-    windows0 = all_windows(base, residual0, sigma, series.dt)
+    windows0 = all_windows(base, residual0, sigma, parts)
     if windows0 and baseline is None and not insufficient:  # a candidate must not be credited with the refit
-        base, before = polish(base, before, train, series, channels, sigma, n_train)
-        simulated0, residual0 = _simulate(base, series, channels)
-        windows0 = all_windows(base, residual0, sigma, series.dt)
+        base, before = polish(base, before, parts, channels, sigma)
+        simulated0, residual0 = _simulate(base, parts, channels)
+        windows0 = all_windows(base, residual0, sigma, parts)
     current, current_score, residual, simulated = base, before, residual0, simulated0
     windows = windows0
     added, rounds, unsupported = [], [], []
@@ -505,11 +533,11 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
     while (windows or identified(current)) and not insufficient:
         trials, passed, credible = [], [], []
         undecided = None
-        options, skipped = candidates(series, current, train)
+        options, skipped = candidates(parts, current, train)
         for k, (name, sensor) in enumerate(options, start=1):
             say(f"round {len(rounds) + 1}: testing {name}" + (f" on {series.names[sensor]}" if sensor is not None else "")
                 + f" ({k}/{len(options)})")
-            row, fitted, judged, alike = _try(series, train, channels, sigma, n_train, current, current_score,
+            row, fitted, judged, alike = _try(parts, train, channels, sigma, current, current_score,
                                               residual, name, sensor)
             undecided = alike or undecided
             trials.append(row)
@@ -523,7 +551,7 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
             break
         if not passed:
             rounds.append(trials)
-            unsupported = [_unsupported(c, trials, series, n_train, current, current_score, residual, windows0)
+            unsupported = [_unsupported(c, trials, parts, current, current_score, residual, windows0)
                            for c in credible]
             break
         best = _choose(passed)
@@ -539,20 +567,21 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
         trial, s, res, sim_out, index, name = best
         trials[index] = Trial(**{**trials[index].__dict__, "accepted": True})
         rounds.append(trials)
-        added.append(_named(name, series, n_train, current, current_score, residual, trial, s, res,
+        added.append(_named(name, parts, current, current_score, residual, trial, s, res,
                             trials[index].held_out_gain, windows0))
-        current, current_score = polish(trial, s, train, series, channels, sigma, n_train)
-        simulated, residual = (sim_out, res) if current is trial else _simulate(current, series, channels)
-        windows = all_windows(current, residual, sigma, series.dt)
+        current, current_score = polish(trial, s, parts, channels, sigma)
+        simulated, residual = (sim_out, res) if current is trial else _simulate(current, parts, channels)
+        windows = all_windows(current, residual, sigma, parts)
     for effect in added:  # later refits move them: the parameters are those of the final model
         effect["parameters"] = describe(current, effect["name"], series)
         effect["matters"] = matters(effect, current_score.rmse_held_out[channels[-1]])
     for effect in unsupported:
         effect["matters"] = matters(effect, current_score.rmse_held_out[channels[-1]])
     if not windows0 or insufficient:
-        skipped = candidates(series, base, train)[1]
+        skipped = candidates(parts, base, train)[1]
     unseen = {k: text for k, w in enumerate(windows)
-              if (text := sufficiency.unseen_conditions(series, n_train, w) or _extrapolated(w, current_score, n_train))}
+              if (text := sufficiency.unseen_conditions(train, parts.runs[w.run], parts.train_rows[w.run], w)
+                  or _extrapolated(w, current_score, parts))}
     return Diagnosis(channels, sigma, base, current, before, current_score, windows0, windows, residual0, residual,
                      simulated0, simulated, added, rounds, skipped, insufficient, unseen, ambiguous, ambiguity,
-                     unsupported)
+                     unsupported, parts)

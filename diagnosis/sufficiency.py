@@ -19,13 +19,14 @@ MIN_TRAIN_S = 6 * HOUR  # the slowest sensor time constants are about an hour; l
 MIN_RUNNING_S = 1 * HOUR
 
 
-def recording_problem(train: Series) -> str | None:
-    """Why the training part cannot support any diagnosis, or None."""
-    span = train.rows * train.dt
+def recording_problem(train: list[Series]) -> str | None:
+    """Why the training part (of every training run together) cannot support any diagnosis, or None."""
+    span = sum(run.rows * run.dt for run in train)
     if span < MIN_TRAIN_S:
         return (f"the training part covers {span / HOUR:.1f} h; at least {MIN_TRAIN_S / HOUR:g} h are needed to "
                 f"separate the sensors' time constants (about an hour each)")
-    running = np.count_nonzero(train.n > sim_.stopped_threshold(train.n)) * train.dt
+    speeds = np.concatenate([run.n for run in train])
+    running = np.count_nonzero(speeds > sim_.stopped_threshold(speeds)) * train[0].dt
     if running < MIN_RUNNING_S:
         return (f"the spindle runs {running / HOUR:.2f} h in the training part; at least {MIN_RUNNING_S / HOUR:g} h "
                 f"of running are needed to learn how speed heats the machine")
@@ -42,23 +43,24 @@ def look_alike(train: Series, name: str) -> tuple[str, str] | None:
     return definition_of(name).look_alike(train)
 
 
-def unseen_conditions(series: Series, n_train: int, window: Window) -> str | None:
-    """Where a held-out window extrapolates beyond the training part (speeds or ambient), or None."""
-    if window.stop <= n_train:
+def unseen_conditions(train: Series, run: Series, held_start: int, window: Window) -> str | None:
+    """Where a window of `run` extrapolates beyond the training rows `train` (of every training run) in speeds
+    or ambient, or None; `held_start` is the run's first held-out row (a window before it is training)."""
+    if window.stop <= held_start:
         return None
-    shared = sim_.Shared(stopped_rpm=sim_.stopped_threshold(series.n[:n_train]))
-    trained = sim_.speed_levels(series.n[:n_train], shared)
-    start = max(window.start, n_train)
-    seen = sim_.speed_levels(series.n[start:window.stop], shared)
-    tolerance = sim_.SPEED_GAP_SHARE * max(float(np.max(np.abs(series.n))), 1.0)
+    shared = sim_.Shared(stopped_rpm=sim_.stopped_threshold(train.n))
+    trained = sim_.speed_levels(train.n, shared)
+    start = max(window.start, held_start)
+    seen = sim_.speed_levels(run.n[start:window.stop], shared)
+    tolerance = sim_.SPEED_GAP_SHARE * max(float(np.max(np.abs(train.n))), float(np.max(np.abs(run.n))), 1.0)
     outside = [float(v) for v in seen if not len(trained) or v > trained.max() + tolerance
                or v < trained.min() - tolerance]
     notes = []
     if outside:
         notes.append("speeds outside the training part's " + (f"{trained.min():.0f}..{trained.max():.0f} rpm: "
                      if len(trained) else "(it never ran): ") + ", ".join(f"{v:.0f}" for v in outside) + " rpm")
-    te_train = series.te[:n_train]
-    te_window = series.te[start:window.stop]
+    te_train = train.te
+    te_window = run.te[start:window.stop]
     if len(te_window) and (te_window.min() < te_train.min() - 0.5 or te_window.max() > te_train.max() + 0.5):
         notes.append(f"ambient {te_window.min():.1f}..{te_window.max():.1f} degC outside the training part's "
                      f"{te_train.min():.1f}..{te_train.max():.1f} degC")

@@ -22,9 +22,10 @@ MAX_SETTLING_S = 3 * 3600.0
 @dataclass(frozen=True)
 class Window:
     channel: str
-    start: int  # first row
+    start: int  # first row (of its run)
     stop: int  # one past the last row
     rms: float
+    run: int = 0  # which run of a campaign
 
 
 def noise_sigma(residual: np.ndarray) -> float:

@@ -6,9 +6,9 @@ is searched by the one-step prediction error with every sensor's pole, standstil
 filter gain held, then each sensor is identified again with it (models/identify.fit_sensor). A
 displacement effect adds its term to the map; the structure lag and the ridge weight the baseline
 chose by forward validation are held, so the comparison credits the term, not a map tuned anew.
-An effect on one sensor's reading (an offset, a drift) is no extension of a filtered model: the
-filter follows the readings, so a constant offset moves the filtered temperatures and their start
-alike and the map cannot see it, and a drift would need the block to correct its readings by time.
+An effect on one sensor's reading (an offset, a drift) makes that sensor's reading a poor guide
+to its temperature: the extension runs that sensor open loop (filter gain 0, fitted as the
+simulation fits it, the reading effect among its columns), the others keep their filters.
 """
 from __future__ import annotations
 
@@ -21,16 +21,6 @@ from thermoplc.models import identify, ridge
 from thermoplc.models import simulation as sim_
 from thermoplc.models.effects import definition_of, with_part
 from thermoplc.models.simulation import DisplacementParams, Series, Shared, Simulation
-
-NOT_AN_EXTENSION = ("the identified model's filter follows the readings: a constant reading error moves the "
-                    "filtered temperatures and their start alike, and a drift would need the block to correct its "
-                    "readings by time")
-
-
-def extends(name: str) -> bool:
-    """Whether effect `name` is an extension of an identified model (reading effects are not)."""
-    return definition_of(name).part != "reading"
-
 
 def _relay_sensor(effects) -> int:
     return next(s for e, s in effects if e == "coolant_switching")
@@ -87,26 +77,43 @@ def _search_shared(runs: list[Series], shared: Shared, effects, sensors) -> Shar
     return shared
 
 
+def _fit_sensor(runs: list[Series], i: int, shared: Shared, effects, start, cooling=None):
+    """Sensor i identified with the effects; open loop (the simulation's fit) when one of them is an error of
+    its reading."""
+    if any(s == i for name, s in effects if definition_of(name).part == "reading"):
+        if len(runs) != 1:
+            raise ValueError("a reading effect is fitted on one run")
+        return sim_.fit_sensor(runs[0], i, shared, effects, start, None if cooling is None else cooling[0])[0]
+    return identify.fit_sensor(runs, i, shared, effects, start, cooling)
+
+
 def _fit_sensors(runs: list[Series], shared: Shared, effects, starts) -> tuple:
-    """Every sensor identified with the effects; with a coolant relay twice, the second time with the relay
+    """Every sensor fitted with the effects; with a coolant relay twice, the second time with the relay
     switched by the filtered temperature (as the block switches it) instead of the smoothed reading."""
-    sensors = tuple(identify.fit_sensor(runs, i, shared, effects, p) for i, p in enumerate(starts))
+    sensors = tuple(_fit_sensor(runs, i, shared, effects, p) for i, p in enumerate(starts))
     if shared.relay is None:
         return sensors
     cooling = [sim_.closed_loop_cooling(series, shared, sensors, effects) for series in runs]
-    return tuple(identify.fit_sensor(runs, i, shared, effects, p, cooling) for i, p in enumerate(sensors))
+    return tuple(_fit_sensor(runs, i, shared, effects, p, cooling) for i, p in enumerate(sensors))
+
+
+# the structure lag is refitted within one step of identify's grid around the time constant forward validation
+# chose: that grid is coarse (a factor 1.44), and a candidate must not be credited with what the finer fit gains,
+# but a lag far from the chosen one fits the training part and extrapolates badly (FL_THERMAL ch5: 18 h)
+STRUCT_STEP = float(np.log(48 * sim_.HOUR / 600.0) / (sim_.GRID_POINTS - 1))
 
 
 def extend_map(runs: list[Series], temps: list[np.ndarray], t0: list[np.ndarray], effects,
                base: DisplacementParams) -> DisplacementParams:
     """The map with the effects' displacement terms, refitted by least training error with the ridge weight
-    of `base` held: the structure lag's time constant and each new term's by a grid (the known ones from
-    `base` among it) and a polish, the weights by ridge. With no new term this is the baseline's own map
-    refitted by the training likelihood every candidate is refitted by, so no candidate is credited with
-    what refitting the structure alone gains."""
+    of `base` held: the structure lag's time constant (within `STRUCT_STEP` of `base`'s) and each new term's
+    by a grid (the known ones from `base` among it) and a polish, the weights by ridge. With no new term this
+    is the baseline's own map refitted by the training likelihood every candidate is refitted by, so no
+    candidate is credited with what refitting the structure alone gains."""
     terms = sim_.displacement_terms(effects)
     keys = (["struct"] if base.tau_struct_s is not None else []) + [term.key for term in terms]
-    bounds = {"struct": (np.log(600.0), np.log(48 * sim_.HOUR)),
+    bounds = {**({"struct": (np.log(base.tau_struct_s) - STRUCT_STEP, np.log(base.tau_struct_s) + STRUCT_STEP)}
+                 if base.tau_struct_s is not None else {}),
               **{term.key: (np.log(term.search_s[0]), np.log(term.search_s[1])) for term in terms}}
     known = {"struct": base.tau_struct_s, **{term.key: getattr(base, term.tau_field) for term in terms}}
     measured = [np.isfinite(series.target) for series in runs]
@@ -159,13 +166,11 @@ def extend(runs: list[Series], effects, warm: Simulation) -> Simulation:
     """The identified model `warm` with these effects (its own and the new ones), refitted on the runs'
     training parts where they act."""
     effects = tuple(effects)
-    refused = [name for name, _ in effects if not extends(name)]
-    if refused:
-        raise ValueError(f"{', '.join(refused)}: not an extension of an identified model ({NOT_AN_EXTENSION})")
     added = {name for name, _ in effects} - {name for name, _ in warm.effects}
     shared, sensors = warm.shared, warm.sensors
-    if not added <= with_part("displacement"):
+    if not added <= with_part("displacement") | with_part("reading"):
         shared = _search_shared(runs, warm.shared, effects, warm.sensors)
+    if not added <= with_part("displacement"):
         sensors = _fit_sensors(runs, shared, effects, warm.sensors)
     temps = [sim_.temperatures(series, shared, sensors, effects)[1] for series in runs]
     t0 = [sim_.first_temperatures(series, sensors) for series in runs]

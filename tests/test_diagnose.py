@@ -314,9 +314,9 @@ def test_an_effect_the_held_out_part_does_not_support_is_listed_with_its_size_no
     assert entry["matters"] in ("above the misfit", "below the misfit")
     assert entry["why_not_named"].startswith("the held-out part does not support it: it adds")
     from thermoplc.diagnosis.findings import document, text
-    doc = document(d, series, n_train, {"file": "x.csv", "sha256": "0"}, None)
+    doc = document(d, {"file": "x.csv", "sha256": "0"}, None)
     assert doc["supported_not_named"] == d.unsupported
     assert "  not named: ambient_coupling (delta BIC" in text(doc)
     from thermoplc.diagnosis.report import report
-    page = report(doc, d, series, n_train)["index.html"]
+    page = report(doc, d)["index.html"]
     assert "Supported by the training part, not by the held-out part" in page and "ambient_coupling" in page

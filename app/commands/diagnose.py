@@ -6,21 +6,29 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import REPORT_MANIFEST, check_output, check_report_folder
-from thermoplc.commands.options import DECIMAL, FORCE_HELP, columns, training_part
+from thermoplc.commands.options import DECIMAL, FORCE_HELP, ROWS, columns, training_part
 from thermoplc.commands.terminal import end_progress, progress
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("diagnose", help="find the physical effect the lumped-mass simulation misses")
-    p.add_argument("--data", required=True, help="measured CSV")
+    p.add_argument("--data", action="append",
+                   help="a run's recording (CSV, .npz or Parquet) or a folder of them; repeat for a campaign of runs, "
+                        "each started as a fresh block, the evidence pooled over them")
+    p.add_argument("--runs", metavar="TABLE",
+                   help="runs table instead of --data: a CSV with a 'file' column (relative to the table), one row "
+                        "per run")
+    p.add_argument("--train-runs", type=ROWS, metavar="N",
+                   help="a campaign: its first N runs train, the others are held out (default: 60%% of the runs)")
     p.add_argument("--temps", type=columns, required=True, help="temperature columns, comma-separated")
     p.add_argument("--speed", required=True, help="spindle speed column, rpm")
     p.add_argument("--ambient", required=True, help="ambient temperature column, degC")
     p.add_argument("--target", required=True, help="measured displacement column, um")
     p.add_argument("--feed", help="feed-axis rate column, mm/min (enables the feed_axis_heat candidate)")
-    p.add_argument("--baseline", help="a lumped model file written by diagnose to start from instead of fitting the baseline")
+    p.add_argument("--baseline", help="a lumped model file (`fit --model lumped` or diagnose wrote it) to start from "
+                                      "instead of identifying the baseline")
     p.add_argument("--no-structure-lag", action="store_true",
-                   help="baseline displacement from the simulated temperatures alone (paper 000 eq. 10), without "
+                   help="baseline displacement from the filtered temperatures alone (paper 000 eq. 10), without "
                         "the structure that lags them")
     training_part(p, required=False, default="the first 60%% of the rows")
     p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
@@ -37,12 +45,14 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from thermoplc.diagnosis.command import DiagnoseRequest, run as diagnose
     from thermoplc.diagnosis.findings import text
-    request = DiagnoseRequest(args.data, args.temps, args.speed, args.ambient, args.target, args.feed, args.baseline,
-                              args.train_until, args.train_rows, args.time, args.name, args.decimal,
-                              not args.no_structure_lag)
+    from thermoplc.models.campaign import run_list
+    request = DiagnoseRequest(tuple(args.data) if args.data else None, args.temps, args.speed, args.ambient,
+                              args.target, args.feed, args.baseline, args.train_until, args.train_rows, args.time,
+                              args.name, args.decimal, not args.no_structure_lag, args.runs, args.train_runs)
     if args.baseline and args.no_structure_lag:
         raise UserError("--no-structure-lag shapes a fitted baseline; with --baseline the model file decides")
-    inputs = [p for p in (args.data, args.baseline) if p]
+    runs = run_list(args.data, args.runs)
+    inputs = [*runs.paths, *([runs.table] if runs.table else []), *([args.baseline] if args.baseline else [])]
     files = [p for p in (args.output, args.json) if p]
     if len({Path(p).resolve() for p in files}) < len(files):
         raise UserError(f"{args.output}: named for two outputs; give each output its own file")
@@ -50,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
         check_output(path, args.force, inputs=inputs)
     if args.report:
         from thermoplc.diagnosis.report import report_files
-        owned = [*report_files(len(args.temps) + 1), REPORT_MANIFEST]
+        owned = [*report_files(len(args.temps) + 1, len(runs.paths)), REPORT_MANIFEST]
         for path in files:
             if Path(path).resolve().parent == Path(args.report).resolve() and Path(path).name in owned:
                 raise UserError(f"{path}: is a file of the --report folder; give -o and --json names of their own")
