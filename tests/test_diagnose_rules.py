@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 from thermoplc.diagnosis import findings, search, sufficiency, windows
 from thermoplc.diagnosis.windows import Window
+from thermoplc.diagnosis.parts import single
 from thermoplc.machines import machine
 from thermoplc.machines.random_effects import draw
 from thermoplc.models import simulation
@@ -103,9 +104,9 @@ def test_a_displacement_term_under_the_noise_is_too_small():
     series = _series(30)
     sigma = {"T_a": 0.05, "T_b": 0.05, "E": 0.5}
     tiny = _sim([("ambient_coupling", None)], tau_ambient_s=3 * HOUR, alpha=0.3)  # 2 K of air: 0.6 um
-    assert "under 3 times its noise" in search.too_small(tiny, "ambient_coupling", series, sigma, "E")
+    assert "under 3 times its noise" in search.too_small(tiny, "ambient_coupling", single(series, series.rows), sigma, "E")
     real = _sim([("ambient_coupling", None)], tau_ambient_s=3 * HOUR, alpha=5.0)
-    assert search.too_small(real, "ambient_coupling", series, sigma, "E") is None
+    assert search.too_small(real, "ambient_coupling", single(series, series.rows), sigma, "E") is None
 
 
 def test_an_offset_of_a_few_noise_sigmas_is_an_offset():
@@ -115,14 +116,14 @@ def test_an_offset_of_a_few_noise_sigmas_is_an_offset():
     series = _series(30)
     sigma = {"T_a": 0.158, "T_b": 0.158, "E": 1.4}
     offset = lambda k: _sim([("sensor_offset", 0)], (SensorParams(3600.0, 2e-3, offset_K=k), SensorParams(3600.0, 1e-3)))
-    assert search.too_small(offset(-0.456), "sensor_offset", series, sigma, "E") is None
-    assert "under 1.5 times the sensor noise" in search.too_small(offset(0.09), "sensor_offset", series, sigma, "E")
+    assert search.too_small(offset(-0.456), "sensor_offset", single(series, series.rows), sigma, "E") is None
+    assert "under 1.5 times the sensor noise" in search.too_small(offset(0.09), "sensor_offset", single(series, series.rows), sigma, "E")
 
 
 def test_a_feed_that_never_changes_is_not_a_candidate():
     series = _series(30)
     still = dataclasses.replace(series, feed=np.zeros(series.rows))
-    options, skipped = search.candidates(still, _sim(), still)
+    options, skipped = search.candidates(single(still, still.rows), _sim(), still)
     assert "feed_axis_heat" not in [name for name, _ in options]
     assert skipped["feed_axis_heat"] == "the feed rate never changes in the training part"
 
@@ -189,14 +190,15 @@ def test_polishing_never_raises_the_criterion():
     train = series.head(rows)
     channels = (*series.names, "E_z_um")
     fitted = simulation.fit(train, [("nonlinear_speed_heat", None)], warm=simulation.fit(train))
-    residual = search._simulate(fitted, series, channels)[1]
+    parts = single(series, rows)
+    residual = search._simulate(fitted, parts, channels)[1]
     sigma = {c: 1.0 for c in channels}
     first = search.score(fitted, residual, sigma, rows)
-    again, again_score = search.polish(fitted, first, train, series, channels, sigma, rows)
+    again, again_score = search.polish(fitted, first, parts, channels, sigma)
     assert again_score.bic <= first.bic
     plain = simulation.fit(train)
-    plain_score = search.score(plain, search._simulate(plain, series, channels)[1], sigma, rows)
-    assert search.polish(plain, plain_score, train, series, channels, sigma, rows)[0] is plain
+    plain_score = search.score(plain, search._simulate(plain, parts, channels)[1], sigma, rows)
+    assert search.polish(plain, plain_score, parts, channels, sigma)[0] is plain
 
 
 def _score(train: dict, held: dict) -> search.Score:

@@ -76,14 +76,28 @@ def test_fit_lumped_beats_no_compensation_held_out_on_fl_thermal_and_its_block_v
 
 
 @pytest.mark.skipif(not FL_THERMAL.exists(), reason="FL_THERMAL is not beside the repository")
-def test_diagnose_refuses_an_identified_baseline(tmp_path):
-    """diagnose compares an open-loop simulation with the readings; a filtered model is not one."""
+def test_diagnose_starts_from_the_identified_model_and_beats_no_compensation(tmp_path):
+    """Issue 39 item 1: diagnose's baseline is the model `fit --model lumped` identifies (given with --baseline
+    or identified by diagnose itself, the same); on FL_THERMAL's 24 h training part its held-out error of ch5
+    is below no compensation (the open-loop simulation diagnose judged before: worse than none on ch3), and the
+    diagnosed model's block verifies bit-exact."""
     columns = ("--temps", "t5_C,t4_C", "--ambient", "t6_C", "--speed", "spindle_rpm", "--target", "ch5_um")
     thermoplc("fit", "--data", FL_THERMAL, "--model", "lumped", *columns, "--train-until", 86400, "-o", "base.json",
               cwd=tmp_path)
-    refused = thermoplc("diagnose", "--data", FL_THERMAL, *columns, "--baseline", "base.json", cwd=tmp_path, check=2)
-    assert "base.json: --baseline is an identified model" in refused.stderr
-    assert "Traceback" not in refused.stderr
+    from thermoplc.models.table import read_table
+    table = read_table(FL_THERMAL)
+    train = table.columns["time_s"] <= 86400
+    target = table.columns["ch5_um"]
+    training_mean = float(np.sqrt(np.mean((target[~train] - target[train].mean()) ** 2)))  # 10.38 um
+    for given in (("--baseline", "base.json"), ()):
+        thermoplc("diagnose", "--data", FL_THERMAL, *columns, *given, "--train-until", 86400, "--json", "f.json",
+                  "-o", "d.json", "--force", cwd=tmp_path)
+        findings = json.loads((tmp_path / "f.json").read_text())
+        zero = json.loads((tmp_path / "base.json").read_text())["metrics"]["held_out"]["zero_rmse_um"]
+        assert findings["rmse_before_um"] < min(zero, training_mean), (findings["rmse_before_um"], zero, training_mean)
+        assert "KF_1" in json.loads((tmp_path / "d.json").read_text())["coefficients"]
+    thermoplc("generate", "d.json", "-o", "d.scl", cwd=tmp_path)
+    assert "bit-exact" in thermoplc("verify", "d.scl", "--model", "d.json", "--data", FL_THERMAL, cwd=tmp_path).stdout
 
 
 def test_verify_refuses_a_block_with_a_filter_the_model_lacks(tmp_path):
