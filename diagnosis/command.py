@@ -177,7 +177,9 @@ def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report
     tables = campaign.tables
     model = augmented_model(d.final, d.added, request, tables, dt, parts.train_rows)
     source = ({"file": Path(tables[0].path).name, "sha256": tables[0].sha256} if len(tables) == 1 else
-              {"files": [{"file": label, "sha256": t.sha256} for label, t in zip(campaign.labels, tables)]})
+              {"files": [{"file": label, "sha256": t.sha256} for label, t in zip(campaign.labels, tables)],
+               "given": [("--runs", request.runs_table)] if request.runs_table else
+               [("--data", path) for path in request.data]})
     doc = document(d, source, model_path)
     becomes_block(model, model_path)
     outputs = [(model_path, model.to_json())]

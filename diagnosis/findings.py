@@ -167,7 +167,9 @@ def next_steps(doc: dict) -> list[str]:
     if not model:
         return []
     block = _argument(str(Path(model).with_suffix(".scl")))
-    verify = f"thermoplc verify {block} --model {_argument(model)}" + (f" --data {_argument(data)}" if data else "")
+    runs = doc["data"].get("given", [])  # a campaign as the command was given it: --data ... or --runs TABLE
+    verify = (f"thermoplc verify {block} --model {_argument(model)}" + (f" --data {_argument(data)}" if data else "")
+              + "".join(f" {option} {_argument(value)}" for option, value in runs))
     return [f"thermoplc generate {_argument(model)} -o {block}", verify]
 
 

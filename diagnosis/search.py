@@ -401,13 +401,23 @@ def _choose(passed: list[tuple]) -> tuple:
     return min(passed, key=lambda p: p[1].bic)
 
 
-def _rivals(credible: list[tuple], best: tuple, bic_before: float) -> list[tuple]:
-    """Other plausible effects that the BIC prefers or barely separates from its choice (slow
-    structure and lagged ambient look alike when the temperatures follow the air): naming either
-    would be a coin toss, whichever the held-out part prefers, so a rival need not pass the
-    held-out judge. The same effect on another sensor is no rival."""
-    best_gain = abs(best[1].bic - bic_before)
-    return [p for p in credible if p[5] != best[5] and p[1].bic - best[1].bic < AMBIGUOUS_BIC_SHARE * best_gain]
+def _main_channel(before: Score, after: Score) -> str:
+    """The channel whose training fit a candidate improves most (log-likelihood per channel)."""
+    return max(before.rmse_train, key=lambda c: np.log(max(before.rmse_train[c], 1e-300) /
+                                                       max(after.rmse_train[c], 1e-300)))
+
+
+def _rivals(credible: list[tuple], best: tuple, before: Score) -> list[tuple]:
+    """Other plausible effects that the BIC prefers or barely separates from its choice, gaining most on the
+    same channel (slow structure and lagged ambient look alike when the temperatures follow the air): naming
+    either would be a coin toss, whichever the held-out part prefers, so a rival need not pass the held-out
+    judge. The same effect on another sensor is no rival, nor one that explains another channel (a heat
+    the sensors' innovations show beside a lag the displacement shows: both may be missing, and the next
+    round tests the other)."""
+    best_gain = abs(best[1].bic - before.bic)
+    channel = _main_channel(before, best[1])
+    return [p for p in credible if p[5] != best[5] and p[1].bic - best[1].bic < AMBIGUOUS_BIC_SHARE * best_gain
+            and _main_channel(before, p[1]) == channel]
 
 
 def _label(p: tuple, series: Series) -> str:
@@ -572,7 +582,7 @@ def diagnose_runs(parts: Parts, target_name: str, baseline: Simulation | None = 
                            for c in credible]
             break
         best = _choose(passed)
-        rivals = _rivals(credible, best, current_score.bic)
+        rivals = _rivals(credible, best, current_score)
         alike = sufficiency.look_alike(train, best[5])
         if rivals or alike:
             ambiguous = tuple(_label(p, series) for p in (best, *rivals)) if rivals else (_label(best, series), alike[0])

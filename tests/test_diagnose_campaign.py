@@ -1,0 +1,80 @@
+"""diagnose of a campaign: training runs and held-out runs, evidence pooled over them (issue 39 item 2).
+
+A twin campaign of short runs, the same machine in every run: each run alone is too short to say
+anything (its training part is under the 6 h a diagnosis needs), the campaign pooled names the gear
+switch hidden in every run with its true parameters, and the same campaign without it names nothing.
+"""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from thermoplc.cli import main
+from thermoplc.diagnosis.parts import Parts, single
+from thermoplc.diagnosis.search import diagnose_runs
+from thermoplc.machines.campaign import plan, simulate_run
+from thermoplc.models.effects import Effect
+from thermoplc.models.simulation import Series
+
+RUNS, HOURS, SEED = 5, 8.0, 3
+GEAR = "gear_ratio_switch:threshold_rpm=750"
+
+
+def _series(columns: dict) -> Series:
+    temps = ("T_motor", "T_bearing")
+    return Series(10.0, columns["time_s"], columns["n_rpm"], columns["T_env"],
+                  np.column_stack([columns[c] for c in temps]), temps, columns["E_z_um"], columns["v_feed_mm_min"])
+
+
+def _campaign(effects: tuple) -> list[Series]:
+    return [_series(simulate_run("cascade", p, HOURS, 10.0, 0.0)) for p in plan(RUNS, SEED, effects)]
+
+
+def test_a_campaign_names_what_no_single_run_can():
+    runs = _campaign((Effect.parse(GEAR),))
+    for run in runs:
+        alone = diagnose_runs(single(run, int(0.6 * run.rows)), "E_z_um")
+        assert alone.verdict == "insufficient_data" and alone.named == []
+    pooled = diagnose_runs(Parts(tuple(runs), tuple(r.rows if k < 3 else 0 for k, r in enumerate(runs)),
+                                 tuple(f"run {k}" for k in range(1, RUNS + 1))), "E_z_um")
+    assert [e["name"] for e in pooled.named] == ["gear_ratio_switch"], pooled.reason
+    found = pooled.named[0]["parameters"]
+    assert found["threshold_rpm"] == 750.0
+    assert found["heat_ratio_above"]["T_motor"] == pytest.approx(1.6, rel=0.02)
+    assert pooled.named[0]["evidence"]["held_out_evidence"] > 100
+
+
+def test_a_clean_campaign_names_nothing_from_the_cli(tmp_path, monkeypatch, capsys):
+    """As a user types it: a folder of runs with its runs table, diagnose, then the block proved on every run."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["twin", "--runs", str(RUNS), "--hours", str(HOURS), "--seed", str(SEED), "--probe-minutes", "0",
+                 "-o", "camp"]) == 0
+    assert main(["diagnose", "--data", "camp", "--speed", "n_rpm", "--ambient", "T_env", "--temps",
+                 "T_motor,T_bearing", "--target", "E_z_um", "--json", "f.json", "--report", "rep", "-o", "d.json"]) == 0
+    findings = json.loads((tmp_path / "f.json").read_text())
+    assert findings["effects"] == [] and findings["fitted_not_named"] == []
+    assert [r["role"] for r in findings["runs"]] == ["training"] * 3 + ["held out"] * 2
+    assert [r["run"] for r in findings["runs"]] == [f"run_{k:03d}.csv" for k in range(1, RUNS + 1)]
+    assert all("run" in w for w in findings["disagreements"])
+    assert sorted(p.name for p in (tmp_path / "rep").glob("*.png")) == [f"run_{k}.png" for k in range(1, RUNS + 1)]
+    out = capsys.readouterr().out
+    assert "thermoplc verify d.scl --model d.json --data camp" in out
+    assert main(["generate", "d.json", "-o", "d.scl"]) == 0
+    assert main(["verify", "d.scl", "--model", "d.json", "--data", "camp"]) == 0
+    assert "bit-exact: every run reproduces the reference" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--train-runs", "5"], "--train-runs 5: the campaign has 5 runs; both the training runs and the held-out runs"),
+    (["--train-until", "3600"], "--train-until/--train-rows split one recording; this campaign has 5 runs"),
+])
+def test_a_campaign_split_that_leaves_no_held_out_run_is_refused(tmp_path, monkeypatch, capsys, args, message):
+    monkeypatch.chdir(tmp_path)
+    assert main(["twin", "--runs", str(RUNS), "--hours", "1", "--seed", str(SEED), "--probe-minutes", "0",
+                 "-o", "camp"]) == 0
+    assert main(["diagnose", "--data", "camp", "--speed", "n_rpm", "--ambient", "T_env", "--temps",
+                 "T_motor,T_bearing", "--target", "E_z_um", *args]) == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "diagnosed_model.json").exists()
