@@ -239,7 +239,7 @@ def refit(train: list[Series], effects, warm: Simulation, polish: bool = False) 
     """`warm` refitted with these effects on the training parts: as a nested extension of an identified
     model (models/identified_effects.py), or as the open-loop simulation (models/simulation.py, one run)."""
     if identified(warm):
-        return identified_effects.refit_map(train, warm) if polish else identified_effects.extend(train, effects, warm)
+        return identified_effects.extend(train, effects, warm, polish)
     if len(train) != 1:
         raise ValueError("the open-loop simulation is fitted on one run")
     return sim_.fit(train[0], effects, warm=warm, polish=polish)
@@ -431,8 +431,7 @@ def polish(sim: Simulation, sim_score: Score, parts: Parts, channels, sigma: dic
     constants, gear threshold, exponent, relay thresholds and standstill factors are searched with
     the others held, so one fit stops short of its optimum; without this the next candidate's
     refit would be credited with what refitting alone gains, and an effect of no size (a gear
-    ratio of 1.00) named. An identified model's map is refitted from where it stopped (its sensors do not
-    depend on the map, and an extension searches them afresh)."""
+    ratio of 1.00) named."""
     for _ in range(POLISH_ROUNDS):
         again = refit(parts.train, sim.effects, sim, polish=True)
         again_score = score(again, _simulate(again, parts, channels)[1], sigma, parts.n_train)

@@ -39,9 +39,15 @@ def _relay(runs: list[Series], shared: Shared, effects, sensors) -> Shared:
     basis, y_perp = sim_._Projection.of(y, columns)
     poles = [sim_._poles(series, shared, p) for series in runs]
 
+    def share(a, state: np.ndarray) -> np.ndarray:
+        """The cooling column of one run: the share of a unit cooling the one-step prediction carries."""
+        if np.ndim(a):
+            return sim_.filtered(np.zeros(len(state)), a, state, p.filter_gain, 0.0)[0]
+        pole = a * (1.0 - p.filter_gain)  # sim_.filtered with a zero reading, as one lag (the same bits)
+        return sim_.lag_columns(((1.0 - a) * state / (1.0 - pole))[:, None], pole, np.zeros(1))[:, 0]
+
     def cost(on: float, off: float) -> float:
-        column = np.concatenate([sim_.filtered(np.zeros(series.rows), a, sim_.relay(t, on, off), p.filter_gain, 0.0)[0]
-                                 for series, a, t in zip(runs, poles, readings)])
+        column = np.concatenate([share(a, sim_.relay(t, on, off)) for a, t in zip(poles, readings)])
         return sim_._added_column_sse(basis, y_perp, column)
 
     every = np.concatenate(readings)
@@ -162,15 +168,20 @@ def refit_map(runs: list[Series], sim: Simulation) -> Simulation:
     return replace(sim, displacement=extend_map(runs, temps, t0, sim.effects, sim.displacement))
 
 
-def extend(runs: list[Series], effects, warm: Simulation) -> Simulation:
+def extend(runs: list[Series], effects, warm: Simulation, polish: bool = False) -> Simulation:
     """The identified model `warm` with these effects (its own and the new ones), refitted on the runs'
-    training parts where they act."""
+    training parts where they act; `polish` refits where every effect acts, from where `warm` stopped. A
+    shared parameter is searched with the sensors held, then the sensors with it, `SEARCH_ROUNDS` times: the
+    sensors held are those of a model without it (a filter gain of 0.5 that took up the missing heat), so one
+    search stops short and a second effect would be credited with the rest."""
     effects = tuple(effects)
-    added = {name for name, _ in effects} - {name for name, _ in warm.effects}
+    moved = {name for name, _ in effects} - (set() if polish else {name for name, _ in warm.effects})
     shared, sensors = warm.shared, warm.sensors
-    if not added <= with_part("displacement") | with_part("reading"):
-        shared = _search_shared(runs, warm.shared, effects, warm.sensors)
-    if not added <= with_part("displacement"):
+    if not moved <= with_part("displacement") | with_part("reading"):
+        for _ in range(sim_.SEARCH_ROUNDS):
+            shared = _search_shared(runs, warm.shared, effects, sensors)
+            sensors = _fit_sensors(runs, shared, effects, sensors)
+    elif not moved <= with_part("displacement"):
         sensors = _fit_sensors(runs, shared, effects, warm.sensors)
     temps = [sim_.temperatures(series, shared, sensors, effects)[1] for series in runs]
     t0 = [sim_.first_temperatures(series, sensors) for series in runs]

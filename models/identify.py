@@ -51,6 +51,13 @@ def _prediction_design(series: Series, i: int, heat: list[np.ndarray], a, gain: 
     `a` is the pole, one number or one per row (a standstill factor)."""
     y = series.temps[:, i]
     zero = np.zeros_like(y)
+    if np.ndim(a) == 0:  # one pole: every column is one lag of it, run side by side (sim_.filtered's form)
+        pole = a * (1.0 - gain)
+        start = np.r_[a * gain * 1.0, np.zeros(len(y) - 1)] / (1.0 - pole)  # a departure of 1 before the first row
+        inputs = np.column_stack([(a * gain * np.r_[y[0], y[:-1]] + (1.0 - a) * series.te) / (1.0 - pole),
+                                  *((1.0 - a) * x / (1.0 - pole) for x in heat), start])
+        lagged = sim_.lag_columns(inputs, pole, np.r_[y[0], np.zeros(len(heat)), 1.0])
+        return lagged[:, 0], list(lagged[:, 1:].T)
     predicted_known, _ = sim_.filtered(y, a, series.te, gain, y[0])
     # a zero reading drops the correction from the columns: what stays is each gain's own share
     columns = [sim_.filtered(zero, a, x, gain, 0.0)[0] for x in heat]
