@@ -102,6 +102,7 @@ def one(case: tuple) -> dict:
     if beside:  # diagnose on the same run, beside the oracle
         said = diagnose_run((channel, name, seed, size))
         result["diagnose"] = said["verdict"] + (f" naming {', '.join(said['found'])}" if said["found"] else "")
+        result["diagnose_found"] = said["found"]
     return result
 
 
@@ -131,14 +132,40 @@ def nameable(r: dict) -> str:
                      if r["injected"][k] > bar and r["clean"][k] <= bar)
 
 
+def found(r: dict) -> list[str]:
+    """What diagnose named on the run (issue 39's yardstick beside the oracle)."""
+    if "diagnose_found" in r:
+        return r["diagnose_found"]
+    text = r.get("diagnose", "")
+    return text.split(" naming ", 1)[1].split(", ") if " naming " in text else []
+
+
 def summary(results: list[dict]) -> list[str]:
+    """Per channel: how many library runs the oracle could name; diagnose's right name alone over those, and
+    over the runs whose peak is at least twice the identified baseline's held-out RMSE; a wrong name over
+    every run (targets of issue 39: >= 90 %, >= 60 % or the oracle's count, <= 5 %); the clean verdict."""
     lines = []
+    share = lambda part, whole: f"{len(part)}/{len(whole)}" + (f" ({100 * len(part) / len(whole):.0f} %)" if whole else "")
     for channel in CHANNELS:
         rows = [r for r in results if r["channel"] == channel and r["effect"] in LIBRARY]
-        if rows:
-            lines.append(f"{channel}: an oracle that knows the injected shape could name {sum(map(bool, map(nameable, rows)))}"
-                         f" of {len(rows)} library runs (evidence above log n + {BIC_MARGIN:g} = "
-                         f"{penalty(rows[0]['rows']):.1f} on the injected run, not on the clean one)")
+        if not rows:
+            continue
+        lines.append(f"{channel}: an oracle that knows the injected shape could name {sum(map(bool, map(nameable, rows)))}"
+                     f" of {len(rows)} library runs (evidence above log n + {BIC_MARGIN:g} = "
+                     f"{penalty(rows[0]['rows']):.1f} on the injected run, not on the clean one)")
+        said = [r for r in results if r["channel"] == channel and "diagnose" in r]
+        if not said:
+            continue
+        right = lambda r: found(r) == [r["effect"]]
+        oracle = [r for r in said if r["effect"] in LIBRARY and nameable(r)]
+        large = [r for r in said if r["effect"] in LIBRARY and r["peak_um"] >= 2 * r["baseline_held_out_um"]]
+        wrong = [r for r in said if any(f != r["effect"] for f in found(r))]
+        clean = [r["diagnose"] for r in said if r["effect"] == "none"]
+        lines.append(f"  diagnose: right name alone {share([r for r in oracle if right(r)], oracle)} of the runs the "
+                     f"oracle can name [target >= 90 %]; {share([r for r in large if right(r)], large)} of the runs "
+                     f"whose peak is at least twice the identified baseline's held-out RMSE [target >= 60 % or the "
+                     f"oracle's count, {sum(map(bool, map(nameable, large)))}]; a wrong name "
+                     f"{share(wrong, said)} of all runs [target <= 5 %]; clean recording: {', '.join(clean) or 'not run'}")
     return lines
 
 

@@ -358,7 +358,19 @@ def _output_cases() -> list[Case]:
         Case("output", "report folder of thermoplc holding a file it does not list", "diagnose",
              (*DIAGNOSE, "good.csv", "--report", "rep"), own_report_with_a_foreign_file, "error",
              "channel_1.png exists and is not listed"),
+        Case("campaign", "--train-runs leaving no held-out run", "diagnose",
+             (*DIAGNOSE, "good.csv", "--data", "b.csv", "--train-runs", "2"), _second_run, "error",
+             "--train-runs 2: the campaign has 2 runs; both the training runs and the held-out runs need at least one"),
+        Case("campaign", "--train-until on a campaign", "diagnose",
+             (*DIAGNOSE, "good.csv", "--data", "b.csv", "--train-until", "3600"), _second_run, "error",
+             "--train-until/--train-rows split one recording; this campaign has 2 runs"),
+        Case("campaign", "--train-runs with one recording", "diagnose", (*DIAGNOSE, "good.csv", "--train-runs", "1"),
+             lambda f: None, "error", "--train-runs 1: only one run was given"),
     ]
+
+
+def _second_run(folder: Path) -> None:
+    (folder / "b.csv").write_bytes((folder / "good.csv").read_bytes())
 
 
 def _swap_nodes(doc: dict) -> None:

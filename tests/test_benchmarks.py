@@ -123,3 +123,41 @@ def test_real_injections_scale_to_multiples_of_the_channels_spread_and_the_oracl
     row = evidence_real.one(("ch3_um", "ambient_coupling", 1, (0.6, 1.0), False))
     assert row["baseline_held_out_um"] < row["none_held_out_um"] and row["peak_um"] >= 0.6 * spread
     assert "| not run |" in evidence_real.table([row])[-1]
+
+
+def test_campaign_benchmark_counts_right_wrong_and_clean_campaigns():
+    """Issue 39 item 5: twin campaigns, the effect in every run: right alone, beside others, not named, wrong."""
+    from benchmarks import diagnose_campaign
+    base = {"machine": "cascade", "seed": 1, "runs": 6, "hours": 12.0, "some": False, "parameters": {},
+            "reason": None, "before": 2.0, "after": 1.0, "seconds": 10.0, "added": []}
+    runs = [{**base, "effect": "gear_ratio_switch", "verdict": "explained", "found": ["gear_ratio_switch"]},
+            {**base, "effect": "gear_ratio_switch", "verdict": "unexplained", "found": []},
+            {**base, "effect": "gear_ratio_switch", "verdict": "explained",
+             "found": ["gear_ratio_switch", "slow_structure"]},
+            {**base, "effect": "gear_ratio_switch", "verdict": "explained", "found": ["coolant_switching"]},
+            {**base, "effect": "none", "verdict": "no_missing_effect", "found": []}]
+    assert [diagnose_campaign.outcome(r) for r in runs] == ["right", "not named", "right+others", "wrong", "right"]
+    assert [line for line in diagnose_campaign.table(runs) if "`gear_ratio_switch`" in line] == [
+        "| cascade | `gear_ratio_switch` | 4 | 1 | 1 | 1 | 2 | explained 3, unexplained 1 | 2.00 | 1.00 | 10.0 |"]
+    (line,) = diagnose_campaign.summary(runs)
+    assert line.startswith("cascade: right name alone 1/4 (25 %)") and "a wrong name 2/5 (40 %)" in line
+    assert "clean campaigns naming nothing 1/1 (100 %)" in line
+
+
+def test_the_oracle_summary_puts_diagnose_beside_it_on_the_runs_it_can_name():
+    from benchmarks import evidence_real
+    strong = {"levels": 100.0, "innovations": 0.0, "temperatures": 0.0}
+    weak = {"levels": 1.0, "innovations": 0.0, "temperatures": 0.0}
+    base = {"channel": "ch3_um", "seed": 1, "rows": 5760, "peak_um": 20.0, "baseline_held_out_um": 7.0}
+    runs = [{**base, "effect": "slow_structure", "injected": strong, "clean": weak, "diagnose_found": ["slow_structure"],
+             "diagnose": "explained naming slow_structure"},
+            {**base, "effect": "gear_ratio_switch", "injected": strong, "clean": weak, "diagnose": "unexplained naming "
+             "coolant_switching"},
+            {**base, "effect": "ambient_coupling", "injected": weak, "clean": weak, "peak_um": 10.0,
+             "diagnose": "unexplained"},
+            {**base, "effect": "none", "injected": weak, "clean": weak, "diagnose": "unexplained"}]
+    first, second = evidence_real.summary(runs)
+    assert first.startswith("ch3_um: an oracle that knows the injected shape could name 2 of 3 library runs")
+    assert "right name alone 1/2 (50 %) of the runs the oracle can name" in second
+    assert "1/2 (50 %) of the runs whose peak is at least twice" in second and "oracle's count, 2]" in second
+    assert "a wrong name 1/4 (25 %) of all runs" in second and "clean recording: unexplained" in second

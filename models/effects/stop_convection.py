@@ -33,6 +33,10 @@ def untestable(train) -> str | None:
 def implausible(sim, train) -> str | None:
     if any(not 0.09 < p.stop_factor < 11.0 for p in sim.sensors):
         return "standstill time-constant factor at the end of the searched range"
+    faster = [f"{p.stop_factor:.3g}" for p in sim.sensors if np.log(p.stop_factor) < -MIN_LOG_STOP_FACTOR]
+    if faster:  # the named physics: the forced convection of the turning spindle stops, natural convection is weaker
+        return (f"standstill time-constant factor {', '.join(faster)}: a sensor cools faster with the spindle still, "
+                f"not the weaker natural convection of a machine at rest")
     if all(abs(np.log(p.stop_factor)) < MIN_LOG_STOP_FACTOR for p in sim.sensors):
         return "standstill time constants equal to the running ones: no change"
     return None
