@@ -9,13 +9,15 @@ rows count every run. Windows are found per run, in its own time order.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import lru_cache
 
 import numpy as np
 
+from thermoplc.models import simulation as sim_
 from thermoplc.models.simulation import Series
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Parts:
     runs: tuple[Series, ...]
     train_rows: tuple[int, ...]  # per run: its first rows that train (all, none, or a split recording's part)
@@ -66,9 +68,28 @@ class Parts:
         """The training rows of every run, pooled (`joined`'s first `n_train` rows)."""
         return self.joined().head(self.n_train)
 
+    def seen_held_out(self) -> np.ndarray:
+        """Per pooled held-out row, whether the training rows ran at its speed: standing, or running within the
+        training's running speeds (a gap of `SPEED_GAP_SHARE` of the top speed beyond either end). A held-out row
+        at a speed the training never ran judges how a fit extrapolates, not whether an effect is there
+        (FL_THERMAL's held-out part runs at 500, 4500 and 5000 rpm, its training part at 1250-3750)."""
+        return _seen(self)
+
     def held_start(self, run: int) -> int:
         """The first held-out row of run `run` (its row count when it trains whole)."""
         return self.train_rows[run]
+
+
+@lru_cache(maxsize=8)
+def _seen(parts: Parts) -> np.ndarray:
+    speeds = parts.pool([run.n for run in parts.runs])
+    train, held = speeds[:parts.n_train], speeds[parts.n_train:]
+    stopped = sim_.stopped_threshold(train)
+    running = train[train > stopped]
+    if not len(running):
+        return held <= stopped
+    tolerance = sim_.SPEED_GAP_SHARE * max(float(np.max(np.abs(speeds))), 1.0)
+    return (held <= stopped) | ((held >= running.min() - tolerance) & (held <= running.max() + tolerance))
 
 
 def single(series: Series, n_train: int) -> Parts:

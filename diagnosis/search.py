@@ -245,14 +245,16 @@ def refit(train: list[Series], effects, warm: Simulation, polish: bool = False) 
     return sim_.fit(train[0], effects, warm=warm, polish=polish)
 
 
-def held_out_evidence(before: dict, after: dict, n_train: int) -> float:
-    """Twice the log-likelihood gain on the held-out rows, each channel's counted over the effective rows of
-    the residual the candidate leaves there: the parameters come from the training part, so this is evidence
-    the fit never saw. On an identified model a missing heat shows as larger one-step innovations of a
-    sensor (the filter takes it for process noise), not as a window of slow misfit: this is its judge."""
+def held_out_evidence(before: dict, after: dict, parts: Parts) -> float:
+    """Twice the log-likelihood gain on the held-out rows the training part has seen the like of (`seen_rows`),
+    each channel's counted over the effective rows of the residual the candidate leaves there: the parameters
+    come from the training part, so this is evidence the fit never saw. On an identified model a missing heat
+    shows as larger one-step innovations of a sensor (the filter takes it for process noise), not as a window
+    of slow misfit: this is its judge."""
+    seen = parts.seen_held_out()
     total = 0.0
     for c, r in after.items():
-        new, old = r[n_train:], before[c][n_train:]
+        new, old = r[parts.n_train:][seen], before[c][parts.n_train:][seen]
         if len(new):
             total += effective_rows(new) * np.log(max(float(old @ old), 1e-300) / max(float(new @ new), 1e-300))
     return float(total)
@@ -457,7 +459,7 @@ def _named(name: str, parts: Parts, current: Simulation, current_score, residual
                                                n_train),
         "held_out_rmse_before": current_score.rmse_held_out, "held_out_rmse_after": s.rmse_held_out,
         "held_out_excess_removed": excess_removed,
-        "held_out_evidence": held_out_evidence(residual, res, n_train),
+        "held_out_evidence": held_out_evidence(residual, res, parts),
         "windows": _window_change(parts, windows0, shown, res_shown)}}
 
 
@@ -470,7 +472,8 @@ def _unsupported(credible: tuple, trials: list[Trial], parts: Parts, current: Si
                    trials[index].held_out_gain, windows0)
     gain = trials[index].held_out_gain
     if identified(current):
-        needed = held_out_threshold(trial.parameter_count() - current.parameter_count(), parts.rows - parts.n_train)
+        needed = held_out_threshold(trial.parameter_count() - current.parameter_count(),
+                                    int(np.count_nonzero(parts.seen_held_out())))
         why = (f"the held-out part does not support it: log-likelihood evidence {trials[index].held_out_evidence:+.1f} "
                f"on the held-out rows, {needed:.1f} needed")
     else:
@@ -508,9 +511,10 @@ def _try(parts: Parts, train: Series, channels, sigma: dict, current: Simulation
     if why is None and delta < -BIC_MARGIN and not effective < -BIC_MARGIN:
         why = (f"the residual it leaves is still a slow misfit, not noise: counted over its effective rows "
                f"(lag-1 autocorrelation) the BIC changes by {effective:+.1f}, not below -{BIC_MARGIN:g}")
-    evidence = held_out_evidence(residual, res, n_train)
+    evidence = held_out_evidence(residual, res, parts)
     if identified(current):
-        needed = held_out_threshold(trial.parameter_count() - current.parameter_count(), parts.rows - n_train)
+        needed = held_out_threshold(trial.parameter_count() - current.parameter_count(),
+                                    int(np.count_nonzero(parts.seen_held_out())))
         judged = by_bic and evidence >= needed  # the likelihood over every channel, not the rows' plain sum
     else:
         judged = by_bic and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
