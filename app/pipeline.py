@@ -36,11 +36,19 @@ def becomes_block(model: Model, path: str) -> None:
     writing, so that a column named like one of the block's own variables (`Ready`, `K0_1`) is
     refused there and not only by `generate`. The block is lowered and checked by the rules every
     rendering checks (printer.validate); no text is rendered, no range proof or gate is run."""
+    problem = block_problem(model)
+    if problem:
+        raise UserError(f"{path}: not written: the model could not become a block: {problem}; rename the column "
+                        f"or the block")
+
+
+def block_problem(model: Model) -> str | None:
+    """Why no block can be made of `model` (lowered and checked as becomes_block checks it), or None."""
     try:
         validate(lower(model))
     except GenerationError as exc:
-        raise UserError(f"{path}: not written: the model could not become a block: {exc}; rename the column "
-                        f"or the block") from None
+        return str(exc)
+    return None
 
 
 def accepted(model: Model, source: str, accept_unvalidated: bool = False) -> str | None:

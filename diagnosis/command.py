@@ -21,10 +21,11 @@ from thermoplc.models.modelfile import Model, Signal, load_model
 from thermoplc.models.simulation import Series, Simulation
 from thermoplc.models.leaks import refuse_leaks, refuse_non_temperatures
 from thermoplc.models.table import Table
-from thermoplc.pipeline import becomes_block
+from thermoplc.pipeline import becomes_block, block_problem
 
 DEFAULT_TRAIN_SHARE = 0.6
 MIN_ROWS = 10
+MAX_REPEATED_SHARE = 0.5  # a target that repeats its value more often is held between probings (FL_THERMAL: 0.07 %)
 
 
 @dataclass(frozen=True)
@@ -71,6 +72,10 @@ def _check_baseline(model: Model, request: DiagnoseRequest, path: str) -> None:
                             f"{', '.join(columns)}; give the columns the baseline was fitted on")
     if model.target.column != request.target:
         raise UserError(f"{path}: the baseline predicts {model.target.column!r}, not --target {request.target!r}")
+    lumped_model.check_fit_log(model, path)
+    problem = block_problem(model)  # an effect listed without its coefficients is no model a block is made of
+    if problem:
+        raise UserError(f"{path}: --baseline is no model a block can be made of: {problem}")
 
 
 def series_of(table: Table, request: DiagnoseRequest, dt: float) -> Series:
@@ -85,6 +90,11 @@ def series_of(table: Table, request: DiagnoseRequest, dt: float) -> Series:
                             ("--feed", [request.feed] if request.feed else [])):
         refuse_leaks({c: table.columns[c] for c in columns}, request.target, table.columns[request.target],
                      table.path, option)
+    target = table.columns[request.target]
+    if len(target) > 2 and np.mean(np.diff(target) == 0) > MAX_REPEATED_SHARE:
+        raise UserError(f"{table.path}: column {request.target!r}: {np.mean(np.diff(target) == 0):.0%} of its values "
+                        f"repeat the one before (a drift probed and held between probings?); diagnose estimates the "
+                        f"noise from each call's change and needs the target measured every call")
     return Series(dt, table.columns[request.time_column], table.columns[request.speed], table.columns[request.ambient],
                   np.column_stack([table.columns[c] for c in request.temps]), tuple(request.temps),
                   table.columns[request.target], table.columns[request.feed] if request.feed else None)
@@ -116,6 +126,12 @@ def parts_of(campaign: Campaign, request: DiagnoseRequest) -> tuple[Parts, float
     if request.train_runs is not None and len(tables) == 1:
         raise UserError(f"--train-runs {request.train_runs}: only one run was given; split it in time with "
                         f"--train-until or --train-rows")
+    seen: dict[str, str] = {}
+    for table in tables:
+        if table.sha256 in seen:
+            raise UserError(f"{table.path}: the same recording as {seen[table.sha256]}; a run held out against its "
+                            f"own copy is not held out")
+        seen[table.sha256] = table.path
     if len(tables) == 1:
         train_rows = (_training_rows(tables[0], request),)
     else:
@@ -146,7 +162,9 @@ def augmented_model(final: Simulation, added: list[dict], request: DiagnoseReque
             "with the effects the data supports as nested extensions" if final.displacement.ridge_weight is not None
             else "open-loop lumped-mass simulation with the effects the data supports"),
              **({"ridge_weight": final.displacement.ridge_weight} if final.displacement.ridge_weight is not None
-                else {}), "effects": added})
+                else {}),
+             **({"structure_lag_chosen_s": final.displacement.tau_struct_chosen_s}
+                if final.displacement.tau_struct_chosen_s is not None else {}), "effects": added})
     return Model(**{**model.__dict__, "metrics": evaluate(model, tables, list(train_rows))})
 
 
@@ -173,6 +191,10 @@ def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report
         if baseline.displacement.ridge_weight is None and parts.campaign:
             raise UserError(f"{request.baseline}: an open-loop simulation an earlier diagnose fitted runs on one "
                             f"recording; for a campaign give an identified model (`fit --model lumped`) or none")
+        readings = [name for name, _ in baseline.effects if definition_of(name).part == "reading"]
+        if readings and parts.campaign:
+            raise UserError(f"{request.baseline}: field 'settings.effects': {', '.join(readings)} is an error of one "
+                            f"sensor's reading, fitted on one run; a campaign's runs may each start with their own")
     d = diagnose_runs(parts, request.target, baseline, progress, request.structure_lag)
     tables = campaign.tables
     model = augmented_model(d.final, d.added, request, tables, dt, parts.train_rows)

@@ -88,7 +88,7 @@ def _seen(parts: Parts) -> np.ndarray:
     running = train[train > stopped]
     if not len(running):
         return held <= stopped
-    tolerance = sim_.SPEED_GAP_SHARE * max(float(np.max(np.abs(speeds))), 1.0)
+    tolerance = sim_.SPEED_GAP_SHARE * max(float(np.max(np.abs(train))), 1.0)  # a held-out spike widens nothing
     return (held <= stopped) | ((held >= running.min() - tolerance) & (held <= running.max() + tolerance))
 
 

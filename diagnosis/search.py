@@ -266,6 +266,26 @@ def held_out_threshold(added_parameters: int, held_rows: int) -> float:
     return added_parameters * float(np.log(max(held_rows, 2))) + BIC_MARGIN
 
 
+def each_run(parts: Parts, train: Series, rule: Callable[[Series], object]):
+    """A physics rule's objection: on the training part of a recording, or on each training run of a campaign,
+    the first run's objection (a rule that simulates or counts must not read the runs glued together: a jump
+    from one run's hall air to the next is no coolant switch, and two half standstills no standstill)."""
+    if not parts.campaign:
+        return rule(train)
+    return next((why for run in parts.train if (why := rule(run))), None)
+
+
+def _untestable(parts: Parts, train: Series, name: str) -> str | None:
+    """Why the training part cannot show effect `name`: the training rows pooled must show it, and in a campaign
+    one training run alone too (a daily cycle, two standstills, speeds on both sides of a threshold lie within
+    one run; eight-hour runs glued together are no day)."""
+    why = sufficiency.untestable(train, name)
+    if why or not parts.campaign:
+        return why
+    reasons = [sufficiency.untestable(run, name) for run in parts.train]
+    return None if not all(reasons) else f"no training run alone shows it ({reasons[0]})"
+
+
 ONE_RUN_ONLY = ("an error of one sensor's reading is fitted on one run: each run of a campaign may start with its "
                 "own offset, and a drift restarts nowhere")
 
@@ -278,7 +298,7 @@ def candidates(parts: Parts, present: Simulation, train: Series) -> tuple[list[t
     for name in NAMES:
         if present.has(name):
             continue
-        why = sufficiency.untestable(train, name) or (
+        why = _untestable(parts, train, name) or (
             ONE_RUN_ONLY if parts.campaign and definition_of(name).part == "reading" else None)
         if why:
             skipped[name] = why
@@ -360,7 +380,7 @@ def not_the_named_physics(trial: Simulation, name: str, parts: Parts, train: Ser
     """Why the fitted effect is not the physics its name says, or None: implausible parameters, no
     size, an offset or drift that makes its own sensor worse, or (checked only when the BIC
     supports it, as it costs a refit) a feed lag that merely marks when the spindle runs."""
-    why = (implausible(trial, name, train) or too_small(trial, name, parts, sigma, channels[-1])
+    why = (each_run(parts, train, lambda run: implausible(trial, name, run)) or too_small(trial, name, parts, sigma, channels[-1])
            or worsens_own_sensor(trial, name, parts.runs[0], before, after))
     if why is None and by_bic and definition_of(name).driven_by == "feed":
         why = follows_running(trial, after, parts, channels, sigma)
@@ -507,7 +527,7 @@ def _try(parts: Parts, train: Series, channels, sigma: dict, current: Simulation
     effective = effective_delta_bic(residual, res, trial.parameter_count() - current.parameter_count(), n_train)
     by_bic = delta < -BIC_MARGIN and effective < -BIC_MARGIN
     why = (not_the_named_physics(trial, name, parts, train, channels, sigma, current_score, s, by_bic)
-           or definition_of(name).after_fit(trial, train))
+           or each_run(parts, train, lambda run: definition_of(name).after_fit(trial, run)))
     if why is None and delta < -BIC_MARGIN and not effective < -BIC_MARGIN:
         why = (f"the residual it leaves is still a slow misfit, not noise: counted over its effective rows "
                f"(lag-1 autocorrelation) the BIC changes by {effective:+.1f}, not below -{BIC_MARGIN:g}")
@@ -518,7 +538,7 @@ def _try(parts: Parts, train: Series, channels, sigma: dict, current: Simulation
         judged = by_bic and evidence >= needed  # the likelihood over every channel, not the rows' plain sum
     else:
         judged = by_bic and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
-    alike = definition_of(name).alike_after(current, trial, train) if judged else None
+    alike = each_run(parts, train, lambda run: definition_of(name).alike_after(current, trial, run)) if judged else None
     row = Trial(name, None if sensor is None else train.names[sensor], float(delta), float(gain), False, why,
                 evidence)
     return row, (trial, s, res, sim_out) if by_bic and why is None else None, judged, alike
@@ -542,6 +562,9 @@ def diagnose_runs(parts: Parts, target_name: str, baseline: Simulation | None = 
     insufficient = sufficiency.recording_problem(parts.train)
     say("identifying the baseline (filter gains, standstill loads, the map by forward validation)")
     base = baseline or identify.fit(parts.train, structure_lag=structure_lag)[0]
+    if identified(base) and not insufficient and parts.rows > n_train and not parts.seen_held_out().any():
+        insufficient = ("no held-out row runs at a speed the training part ran (standing, or within its running "
+                        "speeds): the held-out part can judge no effect, only how the model extrapolates")
     if identified(base) and not insufficient:  # judged by the training likelihood every candidate is refitted by
         base = identified_effects.refit_map(parts.train, replace(base, displacement=replace(
             base.displacement, ridge_weight=LEAST_SQUARES)))

@@ -118,7 +118,8 @@ def extend_map(runs: list[Series], temps: list[np.ndarray], t0: list[np.ndarray]
     candidate is credited with what refitting the structure alone gains."""
     terms = sim_.displacement_terms(effects)
     keys = (["struct"] if base.tau_struct_s is not None else []) + [term.key for term in terms]
-    bounds = {**({"struct": (np.log(base.tau_struct_s) - STRUCT_STEP, np.log(base.tau_struct_s) + STRUCT_STEP)}
+    chosen = base.tau_struct_chosen_s or base.tau_struct_s  # forward validation's choice, kept through every refit
+    bounds = {**({"struct": (np.log(chosen) - STRUCT_STEP, np.log(chosen) + STRUCT_STEP)}
                  if base.tau_struct_s is not None else {}),
               **{term.key: (np.log(term.search_s[0]), np.log(term.search_s[1])) for term in terms}}
     known = {"struct": base.tau_struct_s, **{term.key: getattr(base, term.tau_field) for term in terms}}
@@ -158,7 +159,8 @@ def extend_map(runs: list[Series], temps: list[np.ndarray], t0: list[np.ndarray]
         x = []
     taus = taus_of(x)
     offset, slopes = ridge.ridge(design(taus), y, weight)
-    return sim_.displacement_params([offset, *slopes], len(t0[0]), taus, terms, base.ridge_weight)
+    return sim_.displacement_params([offset, *slopes], len(t0[0]), taus, terms, base.ridge_weight,
+                                    chosen if base.tau_struct_s is not None else None)
 
 
 def refit_map(runs: list[Series], sim: Simulation) -> Simulation:

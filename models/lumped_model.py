@@ -140,15 +140,39 @@ def simulation_of(model: Model) -> Simulation:
         tau_struct_s=tau(c("AS")) if structure else None, beta0=c("beta0"),
         beta=tuple(c(f"beta_{i}") for i in range(1, k + 1)),
         gamma=tuple(c(f"gamma_{i}") for i in range(1, k + 1)) if structure else (), **fitted,
-        ridge_weight=_ridge_weight(model))
+        ridge_weight=_ridge_weight(model), tau_struct_chosen_s=_chosen_lag(model))
     return Simulation(effects, shared, sensors, displacement)
+
+
+def _number(model: Model, key: str) -> float | None:
+    value = (model.fit or {}).get(key)
+    return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else None
 
 
 def _ridge_weight(model: Model) -> float | None:
     """The map's ridge weight of an identified model (its fit log says, `fit --model lumped` and diagnose write
-    it); None for an open-loop simulation an earlier diagnose fitted by least squares."""
-    weight = (model.fit or {}).get("ridge_weight")
-    return float(weight) if isinstance(weight, (int, float)) and not isinstance(weight, bool) and weight >= 0 else None
+    it; a model with filter gains and none is identified too); None for an open-loop simulation an earlier
+    diagnose fitted by least squares. check_fit_log refuses a weight that is no number >= 0."""
+    weight = _number(model, "ridge_weight")
+    if weight is None and any(name.startswith("KF_") for name in model.coefficients):
+        return 0.0
+    return weight
+
+
+def _chosen_lag(model: Model) -> float | None:
+    """The structure lag forward validation chose, where a diagnose's fit log keeps it."""
+    return _number(model, "structure_lag_chosen_s")
+
+
+def check_fit_log(model: Model, path: str) -> None:
+    """The fit log's numbers a baseline is read by: the ridge weight and the chosen structure lag, numbers > 0
+    (the weight >= 0) where given."""
+    for key, low in (("ridge_weight", 0.0), ("structure_lag_chosen_s", 1e-300)):
+        if key in (model.fit or {}):
+            value = _number(model, key)
+            if value is None or not np.isfinite(value) or value < low:
+                raise UserError(f"{path}: field 'fit.{key}': expected a number {'>= 0' if low == 0 else '> 0'}, "
+                                f"found {model.fit[key]!r}")
 
 
 def _arrays(model: Model, inputs: dict, precision: str) -> tuple:
@@ -259,6 +283,11 @@ def _fit(parts, request, names, dt, progress):
 def check_settings(model: Model, path: str) -> None:
     """The relay's sensor and each effect's sensor are temperature inputs of the model."""
     s, temps = model.settings, len(model.signals("temperature"))
+    sensors = s.get("sensors")
+    if sensors is not None and (not isinstance(sensors, list) or len(sensors) != temps
+                                or not all(isinstance(x, dict) for x in sensors)):
+        raise UserError(f"{path}: field 'settings.sensors': expected a list of {temps} objects, one per temperature "
+                        f"input")
     if s.get("relay_sensor", 1) > temps:
         raise UserError(f"{path}: field 'settings.relay_sensor': {s['relay_sensor']} but the model has {temps} "
                         f"temperature inputs")

@@ -125,6 +125,9 @@ class DisplacementParams:
     # the ridge weight of a map identified by forward validation (models/identify.py), held when effects
     # extend it; None: plain least squares (the open-loop simulation diagnose fitted before)
     ridge_weight: float | None = None
+    # the structure lag forward validation chose: a refit for the diagnosis stays within a grid step of it
+    # (models/identified_effects.py), however many times the map is refitted
+    tau_struct_chosen_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -660,13 +663,15 @@ def fit_displacement(series: Series, temps: np.ndarray, t0: np.ndarray, effects,
     return displacement_params(coef, k, taus, terms), sse
 
 
-def displacement_params(coef, k: int, taus: dict, terms, ridge_weight: float | None = None) -> DisplacementParams:
+def displacement_params(coef, k: int, taus: dict, terms, ridge_weight: float | None = None,
+                        chosen_s: float | None = None) -> DisplacementParams:
     """The map's parameters from its coefficients in column order (offset, a weight per sensor, per sensor
     on the structure lag when `taus["struct"]` is set, then each term's) and the time constants."""
     coef = [float(c) for c in coef]
     lagged = k if taus["struct"] is not None else 0
     params = DisplacementParams(tau_struct_s=taus["struct"], beta0=coef[0], beta=tuple(coef[1:1 + k]),
-                                gamma=tuple(coef[1 + k:1 + k + lagged]), ridge_weight=ridge_weight)
+                                gamma=tuple(coef[1 + k:1 + k + lagged]), ridge_weight=ridge_weight,
+                                tau_struct_chosen_s=chosen_s)
     rest = coef[1 + k + lagged:]
     for term in terms:
         count = k if term.per_sensor else 1

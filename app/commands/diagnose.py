@@ -6,7 +6,7 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import REPORT_MANIFEST, check_output, check_report_folder
-from thermoplc.commands.options import DECIMAL, FORCE_HELP, ROWS, columns, training_part
+from thermoplc.commands.options import DECIMAL, FORCE_HELP, RUNS, columns, training_part
 from thermoplc.commands.terminal import end_progress, progress
 
 
@@ -18,7 +18,7 @@ def add_parser(sub) -> None:
     p.add_argument("--runs", metavar="TABLE",
                    help="runs table instead of --data: a CSV with a 'file' column (relative to the table), one row "
                         "per run")
-    p.add_argument("--train-runs", type=ROWS, metavar="N",
+    p.add_argument("--train-runs", type=RUNS, metavar="N",
                    help="a campaign: its first N runs train, the others are held out (default: 60%% of the runs)")
     p.add_argument("--temps", type=columns, required=True, help="temperature columns, comma-separated")
     p.add_argument("--speed", required=True, help="spindle speed column, rpm")

@@ -46,6 +46,7 @@ def number(kind: type, low: float, high: float, what: str = "") -> Callable[[str
 SEED = number(int, 0, 2 ** 32 - 1, "a seed")
 SECONDS = number(float, 0.0, 1e9, "seconds")
 ROWS = number(int, 1, 10 ** 9, "a row count")
+RUNS = number(int, 1, 10 ** 6, "a run count")
 
 
 def value_range(text: str) -> tuple[float, float]:
