@@ -6,18 +6,13 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import REPORT_MANIFEST, check_output, check_report_folder
-from thermoplc.commands.options import DECIMAL, FORCE_HELP, RUNS, columns, training_part
+from thermoplc.commands.options import DECIMAL, FORCE_HELP, RUNS, campaign_arguments, columns, training_part
 from thermoplc.commands.terminal import end_progress, progress
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("diagnose", help="find the physical effect the lumped-mass simulation misses")
-    p.add_argument("--data", action="append",
-                   help="a run's recording (CSV, .npz or Parquet) or a folder of them; repeat for a campaign of runs, "
-                        "each started as a fresh block, the evidence pooled over them")
-    p.add_argument("--runs", metavar="TABLE",
-                   help="runs table instead of --data: a CSV with a 'file' column (relative to the table), one row "
-                        "per run")
+    campaign_arguments(p, "each started as a fresh block, the evidence pooled over them", "")
     p.add_argument("--train-runs", type=RUNS, metavar="N",
                    help="a campaign: its first N runs train, the others are held out (default: 60%% of the runs)")
     p.add_argument("--temps", type=columns, required=True, help="temperature columns, comma-separated")

@@ -9,7 +9,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_output, same_file, write_atomic
 from thermoplc.commands import json_output
 from thermoplc.commands.fit_options import Given, refuse_options_not_read
-from thermoplc.commands.options import DECIMAL, FORCE_HELP, SEED, columns, number, training_part
+from thermoplc.commands.options import DECIMAL, FORCE_HELP, SEED, campaign_arguments, columns, number, training_part
 from thermoplc.commands.terminal import end_progress, progress
 
 
@@ -33,13 +33,8 @@ def add_parser(sub) -> None:
     p = sub.add_parser("fit", help="fit a thermal-error model to a CSV file")
     p.register("action", None, Given)  # every plain option notes that it was given (fit_options.py)
     p.set_defaults(given=())
-    p.add_argument("--data", action="append",
-                   help="a run's recording (CSV, .npz or Parquet) or a folder of them; repeat for a campaign of runs, "
-                        "each started as a fresh block (piecewise: one run per batch, its initial ambient read from "
-                        "each)")
-    p.add_argument("--runs", metavar="TABLE",
-                   help="runs table instead of --data: a CSV with a 'file' column (relative to the table) and free "
-                        "attribute columns (hall air setpoint, programme, date, ...), one row per run")
+    campaign_arguments(p, "each started as a fresh block (piecewise: one run per batch, its initial ambient read "
+                          "from each)", " and free attribute columns (hall air setpoint, programme, date, ...)")
     p.add_argument("--model", choices=_KindChoices(), metavar="KIND", required=True,
                    help="kalman (paper 000), lumped, mlr, dlag and piecewise (paper 001), bpnn (paper 002), gm0n and "
                         "gm1n (paper 003), bayes (paper 004); auto: every kind the given roles allow on sensor "

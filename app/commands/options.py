@@ -119,3 +119,14 @@ def training_part(parser: argparse.ArgumentParser, required: bool, default: str 
     part.add_argument("--train-until", type=SECONDS, metavar="SECONDS", help=f"training part: rows with time <= SECONDS{tail}")
     part.add_argument("--train-rows", type=ROWS, metavar="N", help=f"training part: the first N rows{tail}")
     return part
+
+
+def campaign_arguments(parser: argparse.ArgumentParser, each: str, table: str) -> None:
+    """--data (repeated: a campaign) and --runs TABLE, in the same words for every command that takes runs;
+    `each` says what a run is to this command, `table` what the runs table's columns are for."""
+    parser.add_argument("--data", action="append",
+                        help="a run's recording (CSV, .npz or Parquet) or a folder of them; repeat for a campaign of "
+                             f"runs, {each}")
+    parser.add_argument("--runs", metavar="TABLE",
+                        help="runs table instead of --data: a CSV with a 'file' column (relative to the table)"
+                             f"{table}, one row per run")
