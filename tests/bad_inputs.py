@@ -366,11 +366,18 @@ def _output_cases() -> list[Case]:
              "--train-until/--train-rows split one recording; this campaign has 2 runs"),
         Case("campaign", "--train-runs with one recording", "diagnose", (*DIAGNOSE, "good.csv", "--train-runs", "1"),
              lambda f: None, "error", "--train-runs 1: only one run was given"),
+        Case("campaign", "a run that is a copy of another", "diagnose", (*DIAGNOSE, "good.csv", "--data", "b.csv"),
+             lambda f: (f / "b.csv").write_bytes((f / "good.csv").read_bytes()), "error",
+             "b.csv: the same recording as good.csv; a run held out against its own copy is not held out"),
     ]
 
 
 def _second_run(folder: Path) -> None:
-    (folder / "b.csv").write_bytes((folder / "good.csv").read_bytes())
+    """Another run: the good recording with its last digit changed (a copy would be refused as one)."""
+    text = (folder / "good.csv").read_text(encoding="utf-8").rstrip("\n")
+    last = next(k for k in range(len(text) - 1, -1, -1) if text[k].isdigit())
+    (folder / "b.csv").write_text(text[:last] + str((int(text[last]) + 1) % 10) + text[last + 1:] + "\n",
+                                  encoding="utf-8")
 
 
 def _swap_nodes(doc: dict) -> None:
