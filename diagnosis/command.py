@@ -15,6 +15,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import REPORT_MANIFEST, check_report_folder, report_manifest, write_outputs
 from thermoplc.models import lumped_model
 from thermoplc.models.campaign import Campaign, read_campaign, run_list
+from thermoplc.models.crossval import refuse_copies
 from thermoplc.models.effects import definition_of
 from thermoplc.models.fit import SAMPLING_TOLERANCE, block_identifier, evaluate, sample_period
 from thermoplc.models.modelfile import Model, Signal, load_model
@@ -90,9 +91,9 @@ def series_of(table: Table, request: DiagnoseRequest, dt: float) -> Series:
                             ("--feed", [request.feed] if request.feed else [])):
         refuse_leaks({c: table.columns[c] for c in columns}, request.target, table.columns[request.target],
                      table.path, option)
-    target = table.columns[request.target]
-    if len(target) > 2 and np.mean(np.diff(target) == 0) > MAX_REPEATED_SHARE:
-        raise UserError(f"{table.path}: column {request.target!r}: {np.mean(np.diff(target) == 0):.0%} of its values "
+    repeated = float(np.mean(np.diff(table.columns[request.target]) == 0)) if table.rows > 2 else 0.0
+    if repeated > MAX_REPEATED_SHARE:
+        raise UserError(f"{table.path}: column {request.target!r}: {repeated:.0%} of its values "
                         f"repeat the one before (a drift probed and held between probings?); diagnose estimates the "
                         f"noise from each call's change and needs the target measured every call")
     return Series(dt, table.columns[request.time_column], table.columns[request.speed], table.columns[request.ambient],
@@ -126,12 +127,7 @@ def parts_of(campaign: Campaign, request: DiagnoseRequest) -> tuple[Parts, float
     if request.train_runs is not None and len(tables) == 1:
         raise UserError(f"--train-runs {request.train_runs}: only one run was given; split it in time with "
                         f"--train-until or --train-rows")
-    seen: dict[str, str] = {}
-    for table in tables:
-        if table.sha256 in seen:
-            raise UserError(f"{table.path}: the same recording as {seen[table.sha256]}; a run held out against its "
-                            f"own copy is not held out")
-        seen[table.sha256] = table.path
+    refuse_copies(tables, "a run held out against its own copy is not held out")
     if len(tables) == 1:
         train_rows = (_training_rows(tables[0], request),)
     else:

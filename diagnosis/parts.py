@@ -64,21 +64,12 @@ class Parts:
                        target=pooled(lambda r: r.target),
                        feed=None if first.feed is None else pooled(lambda r: r.feed))
 
-    def joined_train(self) -> Series:
-        """The training rows of every run, pooled (`joined`'s first `n_train` rows)."""
-        return self.joined().head(self.n_train)
-
     def seen_held_out(self) -> np.ndarray:
         """Per pooled held-out row, whether the training rows ran at its speed: standing, or running within the
         training's running speeds (a gap of `SPEED_GAP_SHARE` of the top speed beyond either end). A held-out row
         at a speed the training never ran judges how a fit extrapolates, not whether an effect is there
         (FL_THERMAL's held-out part runs at 500, 4500 and 5000 rpm, its training part at 1250-3750)."""
         return _seen(self)
-
-    def held_start(self, run: int) -> int:
-        """The first held-out row of run `run` (its row count when it trains whole)."""
-        return self.train_rows[run]
-
 
 @lru_cache(maxsize=8)
 def _seen(parts: Parts) -> np.ndarray:

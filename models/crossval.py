@@ -101,12 +101,12 @@ def contiguous(indices: list[int], count: int) -> list[list[int]]:
     return [indices[a:b] for a, b in zip(bounds, bounds[1:]) if b > a]
 
 
-def _refuse_copies(tables: list[Table]) -> None:
+def refuse_copies(tables: list[Table], why: str) -> None:
+    """A recording given twice (the same bytes under any name) is refused; `why` says what a copy would spoil."""
     seen = {}
     for table in tables:
         if table.sha256 in seen:
-            raise UserError(f"{table.path}: the same recording as {seen[table.sha256]}; a fold predicted by a fit "
-                            "on its own copy is not held out")
+            raise UserError(f"{table.path}: the same recording as {seen[table.sha256]}; {why}")
         seen[table.sha256] = table.path
 
 
@@ -116,7 +116,7 @@ def cross_validate_runs(tables: list[Table], request: FitRequest, time_column: s
     """Each fold's runs predicted from their first row by a fit on the other runs; the folds' and each
     held-out run's errors beside no compensation. `predictions`, when given, receives each run's held-out
     prediction (float64) by its path, for the report."""
-    _refuse_copies(tables)
+    refuse_copies(tables, "a fold predicted by a fit on its own copy is not held out")
     results, per_run = [], []
     labels = run_labels([t.path for t in tables])
     for label, members in run_folds(tables, folds, groups):

@@ -4,8 +4,8 @@ An effect extends the identified model where it acts. A heat, speed or pole effe
 sensor's one-step prediction: its shared parameter (gear threshold, exponent, relay thresholds)
 is searched by the one-step prediction error with every sensor's pole, standstill factor and
 filter gain held, then each sensor is identified again with it (models/identify.fit_sensor). A
-displacement effect adds its term to the map; the structure lag and the ridge weight the baseline
-chose by forward validation are held, so the comparison credits the term, not a map tuned anew.
+displacement effect adds its term to the map, refitted by least squares with the structure lag
+kept within a grid step of forward validation's choice (`extend_map`).
 An effect on one sensor's reading (an offset, a drift) makes that sensor's reading a poor guide
 to its temperature: the extension runs that sensor open loop (filter gain 0, fitted as the
 simulation fits it, the reading effect among its columns), the others keep their filters.
@@ -21,6 +21,7 @@ from thermoplc.models import identify, ridge
 from thermoplc.models import simulation as sim_
 from thermoplc.models.effects import definition_of, with_part
 from thermoplc.models.simulation import DisplacementParams, Series, Shared, Simulation
+
 
 def _relay_sensor(effects) -> int:
     return next(s for e, s in effects if e == "coolant_switching")
