@@ -68,7 +68,7 @@ def predict(model: Model, inputs: dict, precision: str, valid: dict | None = Non
     faults = np.zeros((k, rows), bool)
     in_range = [np.ones(rows, bool) if valid is None or s.name not in valid else np.asarray(valid[s.name], bool)
                 for s in temps]
-    if kernels.enabled():  # the same loop, compiled (models/kernels.py)
+    if kernels.enabled(rows):  # the same loop, compiled (models/kernels.py)
         error, faults = kernels.kalman(te, n, measured, in_range, *kernel_coefficients(model, precision), f)
         out = {model.target.name: error}
         out.update({fault_key(s.name): faults[i] for i, s in enumerate(temps)})

@@ -196,7 +196,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     offset = [coef.get(f"O_{i}") for i in range(1, k + 1)]
     relay_sensor = model.settings.get("relay_sensor", 1) - 1
-    if kernels.enabled() and rows:  # the same loop, compiled (models/kernels.py)
+    if rows and kernels.enabled(rows):  # the same loop, compiled (models/kernels.py)
         return {model.target.name: kernel_arguments(model, inputs, precision)[0]}
     sim = l_ = m_ = t0 = None
     la = te0 = lf = None

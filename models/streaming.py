@@ -24,7 +24,8 @@ NOT_YET = np.iinfo(np.int64).max  # the ready row before any call had every inpu
 
 
 def streamable(model: Model) -> bool:
-    return kind_of(model.kind).streamable(model) and kernels.enabled()
+    """The chunked route computes its reference with the compiled loops alone (models/kernels.py)."""
+    return kind_of(model.kind).streamable(model) and kernels.could_compile()
 
 
 class _FirstCallCore:

@@ -21,6 +21,12 @@ from thermoplc.verifier.replay import verify_against_model
 pytestmark = pytest.mark.skipif(kernels.numba is None, reason="numba not installed")
 
 
+@pytest.fixture(autouse=True)
+def stream_short_files(monkeypatch):
+    """These recordings are short, which verify reads whole (stream.WHOLE_BELOW_BYTES): here they are streamed."""
+    monkeypatch.setattr(stream, "WHOLE_BELOW_BYTES", 0)
+
+
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
     folder = tmp_path_factory.mktemp("stream")

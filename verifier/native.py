@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from thermoplc.verifier import native_cache
 from thermoplc.verifier import syntax as s
 from thermoplc.verifier.interpreter import (CONVERSIONS, INT_RANGES, MAX_LOOP_ITERATIONS, int_result_kind,
                                              literal_kind)
@@ -290,22 +291,37 @@ def _compiler() -> list[str] | None:
     return None
 
 
-_LOADED: dict[str, ctypes.CDLL] = {}  # source hash -> library, for this process only
+_LOADED: dict[str, ctypes.CDLL] = {}  # source hash -> library, for this process
+
+
+def _compiler_identity(compiler: list[str]) -> list[str]:
+    """The compiler as the cache key sees it: its real path, size and modification time (an upgrade is
+    another compiler), beside the command as given."""
+    info = os.stat(compiler[0])
+    return [*compiler, os.path.realpath(compiler[0]), str(info.st_size), str(info.st_mtime_ns)]
 
 
 def load_library(source: str) -> ctypes.CDLL:
-    """`source` compiled and loaded. No library ever comes from a shared or persistent cache (a
-    planted `.so` would run its constructor in our process): each is built in a folder that
-    mkdtemp creates for this user alone (0700, a fresh name), loaded, and the folder removed, also
-    when the compiler fails. Compiling costs about 0.15 s per block; a process compiles each
-    block once."""
+    """`source` compiled and loaded: from the private cache of compiled blocks when this text was compiled
+    before by this compiler with these flags (verifier/native_cache.py, which never loads a library anyone
+    else could have written), else built in a folder that mkdtemp creates for this user alone (0700, a
+    fresh name), loaded, kept in the cache, and the folder removed, also when the compiler fails. Compiling
+    costs about 0.15 s per block."""
     compiler = _compiler()
     if compiler is None:
         raise NativeUnavailable("no C compiler found (set CC, or install gcc)")
     flags = CFLAGS + (X86_FLAGS if _is_x86() else [])
-    key = hashlib.sha256("\0".join([source, *flags, *compiler]).encode()).hexdigest()
+    key = hashlib.sha256("\0".join([source, *flags, *_compiler_identity(compiler)]).encode()).hexdigest()
     if key in _LOADED:
         return _LOADED[key]
+    library = native_cache.load(key)
+    if library is None:
+        library = _build(source, compiler, flags, key)
+    _LOADED[key] = library
+    return library
+
+
+def _build(source: str, compiler: list[str], flags: list[str], key: str) -> ctypes.CDLL:
     folder = Path(tempfile.mkdtemp(prefix="thermoplc-native-"))
     try:
         c_file, built = folder / "block.c", folder / "block.so"
@@ -319,10 +335,10 @@ def load_library(source: str) -> ctypes.CDLL:
             said = (result.stderr.strip() or result.stdout.strip())[:400] or "no message"
             raise NativeUnavailable(f"the C compiler {' '.join(compiler)} failed (exit {result.returncode}): {said}")
         library = ctypes.CDLL(str(built))
+        native_cache.store(key, built)
+        return library
     finally:
         shutil.rmtree(folder, ignore_errors=True)
-    _LOADED[key] = library
-    return library
 
 
 def _is_x86() -> bool:

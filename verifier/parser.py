@@ -5,12 +5,13 @@ from __future__ import annotations
 import math
 import re
 from functools import lru_cache
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
-from lark import Lark, Token, Transformer, v_args
-from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken, VisitError
+from thermoplc.verifier.st_standalone import (
+    Lark, Lark_StandAlone, Token, Transformer, UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken,
+    VisitError, v_args,
+)
 
 from thermoplc.base.binary32 import decimal_to_f32
 from thermoplc.base.errors import UserError
@@ -92,11 +93,10 @@ def array_type(low: int, high: int, base: str, where: str) -> s.TypeRef:
 
 @lru_cache(maxsize=1)
 def _lark() -> Lark:
-    grammar = resources.files("thermoplc.verifier").joinpath("st.lark").read_text("utf-8")
-    # start: a whole block source; st_body: the statements of a body kept apart from its declarations and
-    # constant: one start value written apart (both as PLCopen XML holds them, verifier/plcopen.py)
-    return Lark(grammar, parser="lalr", strict=True, propagate_positions=True, maybe_placeholders=True,
-                start=["start", "st_body", "constant"])
+    """The parser of st.lark, its tables built once by scripts/regen_parser.py (not in every process). Starts:
+    `start` a whole block source; `st_body` the statements of a body kept apart from its declarations and
+    `constant` one start value written apart (both as PLCopen XML holds them, verifier/plcopen.py)."""
+    return Lark_StandAlone()
 
 
 def _at(meta_or_token) -> s.Pos:
@@ -352,8 +352,10 @@ def _blank_free_text(text: str) -> str:
 
 
 def _explain(text: str, source: str, exc: UnexpectedInput, ending: str = "file (missing END_FUNCTION_BLOCK?)",
-             words: dict[str, str] = UNSUPPORTED_WORDS) -> str:
-    error_offset = getattr(exc, "pos_in_stream", None)
+             words: dict[str, str] = UNSUPPORTED_WORDS, at_end: bool = False) -> str:
+    """The one-line message of a refused text; `at_end`: the error is where the text ends."""
+    at_end = at_end or isinstance(exc, UnexpectedEOF)
+    error_offset = None if at_end else getattr(exc, "pos_in_stream", None)
     if error_offset is None:
         error_offset = len(text)
     blanked = _blank_free_text(text)
@@ -364,7 +366,7 @@ def _explain(text: str, source: str, exc: UnexpectedInput, ending: str = "file (
         if construct:
             line, col = s.position(text, match.start())
             return f"{source}:{line}:{col}: {construct} is not supported"
-    if isinstance(exc, UnexpectedEOF):
+    if at_end:
         line, col = s.position(text, len(text))
         return f"{source}:{line}:{col}: unexpected end of {ending}"
     if isinstance(exc, UnexpectedCharacters):
@@ -411,10 +413,9 @@ def parse_body(text: str, source: str, line: int = 1, column: int = 1) -> tuple[
     try:
         tree = _lark().parse(padded, start="st_body")
     except UnexpectedInput as exc:
-        if isinstance(exc, UnexpectedToken) and exc.token.type == "$END":
-            exc = UnexpectedEOF([])  # its place is the end of the text, as _explain says it
+        at_end = isinstance(exc, UnexpectedToken) and exc.token.type == "$END"  # its place is the end of the text
         raise StSyntaxError(_explain(padded, source, exc, "the body (an IF, FOR or REGION not closed?)",
-                                     {**UNSUPPORTED_WORDS, **BODY_FRAME_WORDS})) from None
+                                     {**UNSUPPORTED_WORDS, **BODY_FRAME_WORDS}, at_end)) from None
     return _transform(tree, _ToAst(source), source)
 
 

@@ -33,6 +33,9 @@ from thermoplc.verifier.replay import (Report, check_interface, compare_constant
 from thermoplc.verifier.typed import differing_rows, first_non_finite
 
 MAX_DISTINCT_STEPS = 1 << 20  # distinct time steps kept for the median; beyond: the whole-recording path
+# a file this small is read whole: its reference by the numpy loops takes less than loading numba (models/kernels.py)
+# and its memory is no concern (compressed npz or Parquet expand tenfold at most: about 40 MiB)
+WHOLE_BELOW_BYTES = 4 << 20
 LAST_TIMINGS: dict = {}  # stage -> seconds of the last verify_file_against_model (benchmarks/large.py prints it)
 
 
@@ -124,6 +127,8 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
     t = time.perf_counter()
     if engine == "interp" or not streamable(model):
         raise _GiveUp(f"no streaming for {model.kind} models or engine {engine}")
+    if Path(data).stat().st_size < WHOLE_BELOW_BYTES:
+        raise _GiveUp("a short recording (read whole)")
     program, replayer = load_block(block, engine)
     if replayer.native is None:
         raise _GiveUp("no fast engine")

@@ -1,0 +1,107 @@
+"""A private cache of the fast engine's compiled blocks, so a process does not pay the C compiler again.
+
+A library loaded from disk runs its code in the verifier, so a planted one must never be loaded.
+The cache lives in the user's own folder (`$THERMOPLC_CACHE_DIR`, else `$XDG_CACHE_HOME/thermoplc/native`,
+else `~/.cache/thermoplc/native`) and is used only when nobody else could have written there:
+- the folder is a real folder (no symlink), owned by this user, with no access for group or others
+  (created so, 0700); every folder above it is owned by this user or root and writable by nobody
+  else unless sticky (a sticky /tmp lets nobody rename another's entries), as ssh's StrictModes asks;
+- a library is a regular file owned by this user and writable by nobody else, checked through a descriptor
+  opened without following a symlink, then loaded by its own name (the dynamic loader knows a library by
+  its name: loading two blocks through /proc/self/fd/N would give the first block twice); between the two
+  only this user could swap it, in a folder nobody else can enter;
+- its name is the sha256 of the C text, the compiler flags and the compiler (path, size, modification
+  time), so another block, flag or compiler never meets it; it is written under a fresh name and renamed
+  into place, so a reader never sees half a file.
+Anything else (another system than Linux, a folder shared or not ours, `THERMOPLC_NATIVE_CACHE=off`) and
+the engine compiles in a fresh private folder as before. The cache only saves time: a library found
+here was built from the same text by the same compiler.
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+import shutil
+import stat
+import sys
+import tempfile
+from pathlib import Path
+
+OFF = ("0", "off", "no", "false")
+
+
+def folder() -> Path | None:
+    """The cache folder, created private when missing; None when it must not be used."""
+    if not sys.platform.startswith("linux") or os.environ.get("THERMOPLC_NATIVE_CACHE", "").lower() in OFF:
+        return None
+    given = os.environ.get("THERMOPLC_CACHE_DIR")
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "thermoplc" / "native"
+    path = Path(given).absolute() if given else base.absolute()
+    try:
+        _make_private(path)
+    except OSError:
+        return None
+    return path if _private(path) and _safe_ancestors(path) else None
+
+
+def _make_private(path: Path) -> None:
+    missing = []
+    while not path.exists() and path != path.parent:
+        missing.append(path)
+        path = path.parent
+    for part in reversed(missing):
+        part.mkdir(mode=0o700)
+
+
+def _private(path: Path) -> bool:
+    info = os.lstat(path)
+    return stat.S_ISDIR(info.st_mode) and info.st_uid == os.geteuid() and info.st_mode & 0o077 == 0
+
+
+def _safe_ancestors(path: Path) -> bool:
+    for parent in path.parents:
+        info = os.stat(parent)  # a symlinked ancestor is judged by what it points to, the folder it opens
+        if info.st_uid not in (0, os.geteuid()):
+            return False
+        if info.st_mode & 0o022 and not info.st_mode & stat.S_ISVTX:
+            return False
+    return True
+
+
+def load(key: str) -> ctypes.CDLL | None:
+    """The cached library of this key, checked, or None."""
+    where = folder()
+    if where is None:
+        return None
+    path = where / f"{key}.so"
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC)
+    except OSError:
+        return None
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode) or info.st_uid != os.geteuid() or info.st_mode & 0o022:
+            return None
+        return ctypes.CDLL(str(path))
+    except OSError:
+        return None
+    finally:
+        os.close(fd)
+
+
+def store(key: str, built: Path) -> None:
+    """Keep a copy of `built` under `key`; a cache that cannot be written is left alone."""
+    where = folder()
+    if where is None:
+        return
+    try:
+        fd, name = tempfile.mkstemp(dir=where, prefix=".building-", suffix=".so")
+    except OSError:
+        return
+    try:
+        with os.fdopen(fd, "wb") as out, open(built, "rb") as source:
+            shutil.copyfileobj(source, out)
+        os.chmod(name, 0o700)
+        os.replace(name, where / f"{key}.so")
+    except OSError:
+        Path(name).unlink(missing_ok=True)
