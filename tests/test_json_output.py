@@ -99,3 +99,17 @@ def test_fit_names_json_onto_its_model_file_as_the_other_output(folder):
                        "E_z_um", "--train-until", "14400", "-o", "same.json", "--json", "same.json", cwd=folder, check=2)
     assert "--json same.json: is also the -o output; choose another name for the JSON document" in result.stderr
     assert not (folder / "same.json").exists()
+
+
+def test_verify_manifest_json_lists_every_pair_in_manifest_order(folder):
+    (folder / "fleet.csv").write_text("block,data,model\nblock.scl,data.csv,model.json\nedited.scl,data.csv,model.json\n"
+                                      "block.scl,missing.csv,model.json\n")
+    result = thermoplc("verify", "--manifest", "fleet.csv", "--jobs", "2", "--json", "-", cwd=folder, check=2)
+    doc = json.loads(result.stdout)
+    jsonschema.validate(doc, schema("verify_fleet"))
+    assert [p["line"] for p in doc["pairs"]] == [2, 3, 4]
+    assert [p["status"] for p in doc["pairs"]] == ["bit-exact", "NOT bit-exact", "error"]
+    assert doc["counts"] == {"bit-exact": 1, "NOT bit-exact": 1, "error": 1} and not doc["ok"]
+    assert "throughput" in result.stderr  # the table, timings included, on standard error
+    again = thermoplc("verify", "--manifest", "fleet.csv", "--json", "-", cwd=folder, check=2)
+    assert again.stdout == result.stdout  # one process or two: the same bytes

@@ -114,8 +114,13 @@ def verify_pair(pair: Pair, engine: str) -> Outcome:
     return Outcome(pair, status, detail, report.text(), report.cycles, time.perf_counter() - started)
 
 
-def verify_fleet(pairs: list[Pair], jobs: int, engine: str) -> tuple[list[Outcome], float]:
-    """Outcomes in manifest order, and the wall time of the whole fleet."""
+def verify_fleet(pairs: list[Pair], jobs: int, engine: str, scheduler: str | None = None
+                 ) -> tuple[list[Outcome], float]:
+    """Outcomes in manifest order, and the wall time of the whole fleet: in this process, in `jobs` processes,
+    or as tasks of the Dask cluster at `scheduler` (verifier/fleet_dask.py)."""
+    if scheduler:
+        from thermoplc.verifier.fleet_dask import verify_on_cluster
+        return verify_on_cluster(pairs, engine, scheduler)
     started = time.perf_counter()
     if jobs <= 1:
         outcomes = [verify_pair(p, engine) for p in pairs]
@@ -150,3 +155,15 @@ def format_fleet(outcomes: list[Outcome], manifest: str, seconds: float | None =
         lines.append(f"throughput: {cycles:,} calls verified in {seconds:.1f} s, {rate:,.0f} calls/s "
                      f"({seconds / max(len(outcomes), 1):.2f} s per pair)")
     return "\n".join(lines)
+
+
+def fleet_document(outcomes: list[Outcome], manifest: str) -> dict:
+    """The `--json` document of a fleet (schema verify_fleet_v1.json): no timings, so the same manifest gives
+    the same bytes wherever its pairs ran."""
+    counts = {s: sum(o.status == s for o in outcomes) for s in ("bit-exact", "NOT bit-exact", "error")}
+    return {"format": "thermoplc-verify-fleet", "version": 1, "ok": counts["bit-exact"] == len(outcomes),
+            "manifest": manifest,
+            "pairs": [{"line": o.pair.line, "block": o.pair.block, "data": o.pair.data, "model": o.pair.model,
+                       "expect": o.pair.expect, "status": o.status, "detail": o.detail, "cycles": o.cycles}
+                      for o in outcomes],
+            "counts": counts}

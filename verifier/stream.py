@@ -127,7 +127,11 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
     t = time.perf_counter()
     if engine == "interp" or not streamable(model):
         raise _GiveUp(f"no streaming for {model.kind} models or engine {engine}")
-    if Path(data).stat().st_size < WHOLE_BELOW_BYTES:
+    try:
+        short = Path(data).stat().st_size < WHOLE_BELOW_BYTES
+    except OSError:  # missing or unreadable: the whole-recording path says so in its words
+        raise _GiveUp("cannot stat the recording") from None
+    if short:
         raise _GiveUp("a short recording (read whole)")
     program, replayer = load_block(block, engine)
     if replayer.native is None:

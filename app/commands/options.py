@@ -99,6 +99,17 @@ def date(text: str) -> str:
     return text
 
 
+SCHEDULER = re.compile(r"(tcp|tls)://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):([0-9]{1,5})")
+
+
+def scheduler_address(text: str) -> str:
+    """A Dask scheduler's address as `dask scheduler` prints it: tcp://HOST:PORT (or tls://)."""
+    found = SCHEDULER.fullmatch(text.strip())
+    if not found or not 0 < int(found.group(3)) < 65536:
+        raise argparse.ArgumentTypeError(f"expected a Dask scheduler's address tcp://HOST:PORT, found {text!r}")
+    return text.strip()
+
+
 def mapping(text: str) -> dict:
     """NAME=COLUMN[,NAME=COLUMN...], each name once (ST names ignore case)."""
     pairs: dict = {}

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.commands import json_output
-from thermoplc.commands.options import DECIMAL, columns, mapping, number
+from thermoplc.commands.options import DECIMAL, columns, mapping, number, scheduler_address
 from thermoplc.commands.terminal import progress
 
 
@@ -26,6 +26,10 @@ def add_parser(sub) -> None:
     p.add_argument("--inputs", type=mapping, help="block input to column mapping NAME=COLUMN,...")
     p.add_argument("--manifest", help="CSV of pairs to verify (columns block,data and model or expect, optional inputs)")
     p.add_argument("--jobs", type=number(int, 1, 256, "processes"), default=1, help="with --manifest: pairs verified in parallel (default: %(default)s)")
+    p.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
+                   help="with --manifest or a campaign: verify the pairs as tasks of the Dask distributed cluster whose "
+                        "scheduler is at ADDRESS (tcp://HOST:PORT; the fleet extra); every worker reads the files by "
+                        "the paths given")
     p.add_argument("--engine", choices=("auto", "interp", "fast"), default="auto",
                    help="interp: the reference interpreter; fast: the block compiled to C (same bits); "
                         "auto: fast when a C compiler is there (default: %(default)s)")
@@ -39,6 +43,8 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     try:
+        if args.scheduler and args.jobs != 1:
+            raise UserError("--scheduler and --jobs: the cluster's workers verify the pairs; give one of the two")
         if args.manifest:
             return _fleet(args)
         if not args.block or not (args.data or args.runs):
@@ -48,8 +54,9 @@ def run(args: argparse.Namespace) -> int:
         runs = _runs(args)
         if len(runs) > 1 or args.runs:
             return _campaign(args, runs)
-        if args.jobs != 1:
-            raise UserError("--jobs runs the pairs of a --manifest or the runs of a campaign in parallel")
+        if args.jobs != 1 or args.scheduler:
+            raise UserError(f"{'--jobs' if args.jobs != 1 else '--scheduler'} runs the pairs of a --manifest or the "
+                            f"runs of a campaign in parallel")
         args.data = runs[0]
         json_output.check(args, [args.block, args.data, args.model])
         return _against_model(args) if args.model else _against_trace(args)
@@ -76,7 +83,7 @@ def _campaign(args: argparse.Namespace, runs: list[str]) -> int:
     from thermoplc.verifier.fleet import Pair, verify_fleet
     expect = dict(item.partition("=")[::2] if "=" in item else (item, item) for item in args.expect or ()) or None
     pairs = [Pair(k, args.block, path, args.model, expect, args.inputs) for k, path in enumerate(runs, start=1)]
-    outcomes, seconds = verify_fleet(pairs, min(args.jobs, len(pairs)), args.engine)
+    outcomes, seconds = verify_fleet(pairs, min(args.jobs, len(pairs)), args.engine, args.scheduler)
     labels = run_labels(runs)
     width = max(len(label) for label in labels) + 2
     print(f"campaign: {args.block} against {args.model or 'the recorded outputs'} on {len(runs)} runs, each from a "
@@ -108,13 +115,13 @@ def _block_lines(outcomes) -> list[str]:
 
 def _fleet(args: argparse.Namespace) -> int:
     """Many pairs from a manifest: 2 when any pair could not be read, else 1 when any is not bit-exact."""
-    if args.json:
-        raise UserError("--json reports one pair; with --manifest each pair's result is in the table")
     if args.block or args.data or args.runs or args.model or args.expect or args.faults:
         raise UserError("--manifest lists the blocks, data and models itself; give no BLOCK, --data, --model, --expect or --faults")
-    from thermoplc.verifier.fleet import format_fleet, read_manifest, verify_fleet
-    outcomes, seconds = verify_fleet(read_manifest(args.manifest), args.jobs, args.engine)
-    print(format_fleet(outcomes, args.manifest, seconds))
+    from thermoplc.verifier.fleet import fleet_document, format_fleet, read_manifest, verify_fleet
+    pairs = read_manifest(args.manifest)
+    json_output.check(args, [args.manifest, *(f for p in pairs for f in (p.block, p.data, p.model))])
+    outcomes, seconds = verify_fleet(pairs, args.jobs, args.engine, args.scheduler)
+    json_output.emit(args, format_fleet(outcomes, args.manifest, seconds), fleet_document(outcomes, args.manifest))
     if any(o.status == "error" for o in outcomes):
         return 2
     return 0 if all(o.status == "bit-exact" for o in outcomes) else 1

@@ -1,0 +1,62 @@
+"""verify --manifest on a Dask distributed cluster (`--scheduler tcp://HOST:PORT`): the pairs of a fleet as tasks.
+
+Dask is the engine (the `fleet` extra); nothing here schedules. Each task is one whole (block, data, model)
+pair, `fleet.verify_pair`, the function the processes of `--jobs` run, so a pair's outcome does not depend
+on where it ran. What travels is the pair: file paths, which every worker must read as the client does (a
+shared folder; the data are never pickled through the scheduler). Outcomes come back as they finish and are
+put in manifest order. A worker that dies mid-pair costs a retry: the scheduler gives its tasks to another
+worker (up to `distributed.scheduler.allowed-failures` deaths per task, then that pair is an error), and each
+pair has one slot in the result, so none is lost or counted twice.
+"""
+from __future__ import annotations
+
+import time
+import uuid
+
+from thermoplc.base.errors import UserError
+from thermoplc.verifier.fleet import Outcome, Pair, verify_pair
+
+CONNECT_TIMEOUT_S = 20
+
+
+def _distributed():
+    try:
+        import distributed
+    except ImportError:
+        raise UserError("--scheduler needs Dask distributed: pip install 'thermoplc[fleet]'") from None
+    return distributed
+
+
+def verify_on_cluster(pairs: list[Pair], engine: str, scheduler: str,
+                      progress=None) -> tuple[list[Outcome], float]:
+    """Outcomes in manifest order from the cluster at `scheduler`, and the wall time of the whole fleet."""
+    distributed = _distributed()
+    started = time.perf_counter()
+    try:
+        client = distributed.Client(scheduler, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise UserError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({exc}); start one with "
+                        f"`dask scheduler` and workers with `dask worker {scheduler}` (docs/performance.md)") from None
+    try:
+        client.wait_for_workers(1, timeout=CONNECT_TIMEOUT_S)
+    except TimeoutError:
+        client.close()
+        raise UserError(f"--scheduler {scheduler}: the scheduler has no worker after {CONNECT_TIMEOUT_S} s; start "
+                        f"some with `dask worker {scheduler}`") from None
+    run = uuid.uuid4().hex  # task keys of this fleet alone, beside any other client's on the same cluster
+    try:
+        futures = client.map(verify_pair, pairs, engine=engine, pure=False,
+                             key=[f"thermoplc-verify-{pair.line}-{run}" for pair in pairs])
+        slot = {future.key: k for k, future in enumerate(futures)}
+        outcomes: list[Outcome | None] = [None] * len(pairs)
+        for future in distributed.as_completed(futures, loop=client.loop):
+            k = slot[future.key]
+            try:
+                outcomes[k] = future.result()
+            except distributed.KilledWorker as exc:
+                outcomes[k] = Outcome(pairs[k], "error", f"the workers running it died: {exc}", str(exc))
+            if progress:
+                progress(sum(o is not None for o in outcomes), len(pairs))
+        return [o for o in outcomes if o is not None], time.perf_counter() - started
+    finally:
+        client.close()
