@@ -16,6 +16,7 @@ import numpy as np
 
 from thermoplc.base.binary32 import FLT_MAX, f32_from_bits
 from thermoplc.base.errors import UserError
+from thermoplc.models.read_ahead import read_ahead
 
 
 CHUNK_ROWS = 65536  # rows parsed at once: bounds the memory of the text being parsed
@@ -364,6 +365,9 @@ def _cell(v) -> str:
 
 STREAM_ROWS = 1 << 20  # rows per chunk
 STREAM_BYTES = 16 << 20  # CSV text read at once (larger blocks parse slower: caches)
+# ... parsed by pyarrow in pieces of this size on every core (its thread pool): lines never span two pieces
+# (no newline inside a value), and the pieces are joined in order, so the columns are those of one thread
+CSV_PARSE_BYTES = 4 << 20
 
 
 class CannotStream(Exception):
@@ -398,7 +402,7 @@ def stream_columns(path: str | Path, names: list[str], decimal: str = "auto", ro
         elif kind == "parquet":
             yield from _stream_parquet(str(path), names, rows_per_chunk, optional)
         else:
-            yield from _stream_csv(str(path), names, decimal, optional)
+            yield from read_ahead(lambda: _stream_csv(str(path), names, decimal, optional))
     except CannotStream:
         raise
     except (UserError, OSError, ValueError, EOFError, zipfile.BadZipFile, ImportError) as exc:
@@ -448,6 +452,8 @@ def _stream_csv(path: str, names: list[str], decimal: str, optional: tuple[str, 
     import pyarrow as pa
     import pyarrow.csv as pacsv
 
+    pa.set_cpu_count(_usable_cores())  # Arrow sizes its pool by OMP_NUM_THREADS, which thermoplc sets to 1 for BLAS
+
     with open(path, "rb") as f:
         head = f.readline()
         if not head.endswith(b"\n"):
@@ -460,7 +466,7 @@ def _stream_csv(path: str, names: list[str], decimal: str, optional: tuple[str, 
         if not all(header) or len(set(header)) != len(header) or not all(name.isprintable() for name in header):
             raise CannotStream("header needs the careful reader")
         options = dict(
-            read_options=pacsv.ReadOptions(column_names=header, use_threads=False, block_size=STREAM_BYTES + (1 << 20)),
+            read_options=pacsv.ReadOptions(column_names=header, use_threads=True, block_size=CSV_PARSE_BYTES),
             parse_options=pacsv.ParseOptions(delimiter=delimiter, quote_char='"', newlines_in_values=False,
                                              ignore_empty_lines=False),
             convert_options=pacsv.ConvertOptions(column_types={h: pa.float64() for h in header},
@@ -470,29 +476,30 @@ def _stream_csv(path: str, names: list[str], decimal: str, optional: tuple[str, 
         while True:
             block = f.read(STREAM_BYTES)
             last = not block
-            data = carry + block
+            data = carry + block if carry else block
             if not last:
                 cut = data.rfind(b"\n") + 1
                 if cut == 0:
                     carry = data
                     continue
-                data, carry = data[:cut], data[cut:]
-                body = data.rstrip(b" \t\r\n")  # trailing blank lines wait for the next block or the end
-                if not body:
-                    carry = data + carry
+                end = _content_end(data, cut)  # trailing blank lines wait for the next block or the end
+                if end == 0:
+                    carry = data
                     continue
-                tail = data[len(body):]
-                cut = tail.find(b"\n") + 1
-                data, carry = body + tail[:cut], tail[cut:] + carry
+                end = data.index(b"\n", end) + 1
+                carry = data[end:]  # the lines parsed now are data[:end], read in place (no copy)
             else:
-                data = data.rstrip(b" \t\r\n")  # blank lines at the end: read_table skips them too
-                if not data:
+                end = _content_end(data, len(data))  # blank lines at the end: read_table skips them too
+                if end == 0:
                     break
-                data += b"\n"
-            if b"\r" in data and data.count(b"\r") != data.count(b"\r\n"):
+                data = data[:end] + b"\n"
+                end = len(data)
+            if b"\r" in data and data.count(b"\r", 0, end) != data.count(b"\r\n", 0, end):
                 raise CannotStream("a line ends in a bare carriage return")
-            lines = data.count(b"\n")
-            table = pacsv.read_csv(io.BytesIO(data), **options)
+            table = pacsv.read_csv(pa.BufferReader(pa.py_buffer(data)[:end]), **options)
+            # without a quote or a carriage return every line is one row (a blank one a row of empty cells,
+            # refused below): the lines are counted only where a quoted field could hold a line end
+            lines = data.count(b"\n", 0, end) if b'"' in data or b"\r" in data else table.num_rows
             if table.num_rows != lines or table.num_columns != len(header):
                 raise CannotStream("rows and lines differ")
             if any(c.null_count for c in table.columns):
@@ -507,6 +514,21 @@ def _stream_csv(path: str, names: list[str], decimal: str, optional: tuple[str, 
                 break
         if total == 0:
             raise CannotStream("no data rows")
+
+
+def _usable_cores() -> int:
+    """The cores this process may run on (its affinity), for pyarrow's parsing threads."""
+    try:
+        return max(len(os.sched_getaffinity(0)), 1)
+    except AttributeError:  # not Linux
+        return max(os.cpu_count() or 1, 1)
+
+
+def _content_end(data: bytes, end: int) -> int:
+    """Where the text before `end` stops, blanks and line ends after it left out (0: only blanks)."""
+    while end > 0 and data[end - 1] in b" \t\r\n":
+        end -= 1
+    return end
 
 
 def _npy_header(member) -> tuple[tuple, np.dtype]:

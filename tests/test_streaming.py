@@ -112,6 +112,7 @@ ODD_FILES = [
     b"a;b\n1,5;2\n", b"a,b\n 1 , 2 \n", b"a,b\n+1,-2\n", b"a,b\n1.,.5\n", b"a,b\n1_0,2\n", b"a,b\n0x10,2\n",
     b"\xef\xbb\xbfa,b\n1,2\n", b"a,b\n1,2,3\n", b"a,b\n1\n", b"a,b\n", b"a,a\n1,2\n", b"a,b\n1,\xff\n",
     b"a,b\n1e5,-0\n", b"a,b\nNaN,1\n", b"a,b\n1,2 \n", b"a,b\n\t1,2\n", b"# c\na,b\n1,2\n", b"a,b\n1,\"2\n3\",4\n",
+    b"a\n\"1\n2\"\n3\n", b"a\n1\r\n2\n",
 ]
 
 
