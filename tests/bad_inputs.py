@@ -545,6 +545,10 @@ def _option_cases() -> list[Case]:
          "each 0 or at least 1e-6 in size"),
         ("generate", "--temp-range abc", (*generate, "--temp-range", "abc"), "expected LOW,HIGH (two numbers), found 'abc'"),
         ("verify", "--jobs 1000", ("verify", "--manifest", "m.csv", "--jobs", "1000"), "argument --jobs: expected processes"),
+        ("verify", "--scheduler that is no address", ("verify", "--manifest", "m.csv", "--scheduler", "localhost"),
+         "argument --scheduler: expected a Dask scheduler's address tcp://HOST:PORT, found 'localhost'"),
+        ("verify", "--scheduler beside --jobs", ("verify", "--manifest", "m.csv", "--scheduler", "tcp://127.0.0.1:8786",
+                                                  "--jobs", "2"), "--scheduler and --jobs"),
         ("select-sensors", "--max-groups 0", (*select, "--max-groups", "0"), "argument --max-groups: expected groups from 1"),
         ("select-sensors", "--threshold 2", (*select, "--threshold", "2"), "argument --threshold: expected a degree from 0 to 1"),
     ]
