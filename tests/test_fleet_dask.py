@@ -75,3 +75,28 @@ def test_a_worker_killed_mid_pair_loses_nothing(cluster, manifest, tmp_path):
         watcher.close()
     assert killed, "no worker was busy to kill"
     assert on_cluster == serial
+
+
+def test_a_scheduler_lost_mid_run_is_one_line_and_writes_nothing(manifest, tmp_path, capsys):
+    local = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
+                                     silence_logs=50)
+    watcher = distributed.Client(local.scheduler_address, set_as_default=False)
+
+    def close_when_busy():
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            if any(watcher.processing().values()):
+                break
+            time.sleep(0.02)
+        watcher.close()
+        local.close()
+
+    closer = threading.Thread(target=close_when_busy)
+    closer.start()
+    out = tmp_path / "lost.json"
+    code = main(["verify", "--manifest", str(manifest), "--engine", "interp", "--scheduler", local.scheduler_address,
+                 "--json", str(out)])
+    closer.join()
+    error = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and not out.exists()
+    assert len(error) == 1 and "the cluster lost the pair of manifest line" in error[0] and "nothing written" in error[0]

@@ -10,6 +10,7 @@ pair has one slot in the result, so none is lost or counted twice.
 """
 from __future__ import annotations
 
+import logging
 import time
 import uuid
 
@@ -58,6 +59,9 @@ def verify_on_cluster(pairs: list[Pair], engine: str, scheduler: str,
                       progress=None) -> tuple[list[Outcome], float]:
     """Outcomes in manifest order from the cluster at `scheduler`, and the wall time of the whole fleet."""
     distributed = _distributed()
+    for name in ["distributed", *logging.root.manager.loggerDict]:  # its tracebacks on stderr: we say it in one line
+        if name.startswith("distributed"):
+            logging.getLogger(name).setLevel(logging.CRITICAL)
     started = time.perf_counter()
     try:
         client = distributed.Client(scheduler, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
@@ -82,6 +86,11 @@ def verify_on_cluster(pairs: list[Pair], engine: str, scheduler: str,
                 outcomes[k] = future.result()
             except distributed.KilledWorker as exc:
                 outcomes[k] = Outcome(pairs[k], "error", f"the workers running it died: {exc}", str(exc))
+            except Exception as exc:  # the scheduler gone, the task cancelled: the fleet has no answer for it
+                done = sum(o is not None for o in outcomes)
+                raise UserError(f"--scheduler {scheduler}: the cluster lost the pair of manifest line {pairs[k].line} "
+                                f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else 'no message'}); "
+                                f"{done} of {len(pairs)} pairs were verified; nothing written") from None
             if progress:
                 progress(sum(o is not None for o in outcomes), len(pairs))
         return [o for o in outcomes if o is not None], time.perf_counter() - started
