@@ -100,3 +100,15 @@ def test_a_scheduler_lost_mid_run_is_one_line_and_writes_nothing(manifest, tmp_p
     error = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and not out.exists()
     assert len(error) == 1 and "the cluster lost the pair of manifest line" in error[0] and "nothing written" in error[0]
+
+
+def test_an_address_nothing_answers_at_is_one_line_at_once(manifest, capsys):
+    import socket
+    with socket.socket() as probe:  # a port nothing listens on
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    started = time.monotonic()
+    code = main(["verify", "--manifest", str(manifest), "--scheduler", f"tcp://127.0.0.1:{port}"])
+    error = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and time.monotonic() - started < 10
+    assert len(error) == 1 and "cannot reach a Dask scheduler there" in error[0]

@@ -141,3 +141,38 @@ def test_two_cached_blocks_in_one_process_are_two_libraries(cache, monkeypatch):
         again = [_outputs(p) for p in programs]
         for before, after in zip(first, again):
             assert before.keys() == after.keys() and all(np.array_equal(before[k], after[k]) for k in before)
+
+
+def test_a_symlink_on_the_way_does_not_hide_a_shared_folder(tmp_path, monkeypatch):
+    shared = tmp_path / "shared"
+    (shared / "mine").mkdir(parents=True)
+    os.chmod(shared, 0o777)  # writable by anyone, not sticky
+    os.chmod(shared / "mine", 0o700)
+    (tmp_path / "home").mkdir()
+    (tmp_path / "home" / ".cache").symlink_to(shared / "mine")  # ~/.cache on a scratch disk
+    monkeypatch.delenv("THERMOPLC_CACHE_DIR", raising=False)
+    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
+    monkeypatch.delenv("THERMOPLC_NATIVE_CACHE", raising=False)
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    assert native_cache.folder() is None
+    assert not (shared / "mine" / "thermoplc").exists()  # nothing created where it is refused
+
+
+def test_no_home_means_no_cache_not_a_crash(monkeypatch):
+    monkeypatch.delenv("THERMOPLC_CACHE_DIR", raising=False)
+    monkeypatch.delenv("XDG_CACHE_HOME", raising=False)
+    monkeypatch.delenv("THERMOPLC_NATIVE_CACHE", raising=False)
+    monkeypatch.setattr(native_cache.Path, "home", classmethod(lambda cls: (_ for _ in ()).throw(
+        RuntimeError("Could not determine home directory."))))
+    assert native_cache.folder() is None
+
+
+def test_a_relative_xdg_cache_home_is_ignored(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("THERMOPLC_CACHE_DIR", raising=False)
+    monkeypatch.delenv("THERMOPLC_NATIVE_CACHE", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", "relcache")
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    (tmp_path / "home").mkdir()
+    assert native_cache.folder() == (tmp_path / "home" / ".cache" / "thermoplc" / "native").resolve()
+    assert not (tmp_path / "relcache").exists()

@@ -3,9 +3,10 @@
 A library loaded from disk runs its code in the verifier, so a planted one must never be loaded.
 The cache lives in the user's own folder (`$THERMOPLC_CACHE_DIR`, else `$XDG_CACHE_HOME/thermoplc/native`,
 else `~/.cache/thermoplc/native`) and is used only when nobody else could have written there:
-- the folder is a real folder (no symlink), owned by this user, with no access for group or others
-  (created so, 0700); every folder above it is owned by this user or root and writable by nobody
-  else unless sticky (a sticky /tmp lets nobody rename another's entries), as ssh's StrictModes asks;
+- the folder is a real folder, owned by this user, with no access for group or others (created so,
+  0700); every folder above it, taken where it really is (symlinks on the way resolved first, before
+  anything is created), is owned by this user or root and writable by nobody else unless sticky (a
+  sticky /tmp lets nobody rename another's entries), as ssh's StrictModes asks;
 - a library is a regular file owned by this user and writable by nobody else, checked through a descriptor
   opened without following a symlink, then loaded by its own name (the dynamic loader knows a library by
   its name: loading two blocks through /proc/self/fd/N would give the first block twice); between the two
@@ -31,22 +32,44 @@ OFF = ("0", "off", "no", "false")
 
 
 def folder() -> Path | None:
-    """The cache folder, created private when missing; None when it must not be used."""
+    """The cache folder (its real path, no symlink left in it), created private when missing; None when it
+    must not be used."""
     if not sys.platform.startswith("linux") or os.environ.get("THERMOPLC_NATIVE_CACHE", "").lower() in OFF:
         return None
-    given = os.environ.get("THERMOPLC_CACHE_DIR")
-    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "thermoplc" / "native"
-    path = Path(given).absolute() if given else base.absolute()
-    try:
-        _make_private(path)
-    except OSError:
+    wanted = _wanted()
+    if wanted is None:
         return None
-    return path if _private(path) and _safe_ancestors(path) else None
+    try:
+        existing = wanted
+        while not os.path.lexists(existing) and existing != existing.parent:
+            existing = existing.parent
+        real = Path(os.path.realpath(existing))  # every folder above is judged where it really is
+        if not _safe_ancestors(real / "x"):  # before anything is created in it
+            return None
+        path = real / wanted.relative_to(existing)
+        _make_private(path)
+        return path if _private(path) and _safe_ancestors(path) else None
+    except (OSError, ValueError):
+        return None
+
+
+def _wanted() -> Path | None:
+    """Where the cache should be: $THERMOPLC_CACHE_DIR, else the XDG cache folder (an absolute
+    $XDG_CACHE_HOME, as the XDG rules say, else ~/.cache); None without a home to put it in."""
+    given = os.environ.get("THERMOPLC_CACHE_DIR")
+    if given:
+        return Path(given).absolute()
+    xdg = os.environ.get("XDG_CACHE_HOME", "")
+    try:
+        base = Path(xdg) if os.path.isabs(xdg) else Path.home() / ".cache"
+    except RuntimeError:  # no HOME and no passwd entry (a container's unknown uid): no cache
+        return None
+    return base / "thermoplc" / "native"
 
 
 def _make_private(path: Path) -> None:
     missing = []
-    while not path.exists() and path != path.parent:
+    while not os.path.lexists(path) and path != path.parent:
         missing.append(path)
         path = path.parent
     for part in reversed(missing):
@@ -59,9 +82,11 @@ def _private(path: Path) -> bool:
 
 
 def _safe_ancestors(path: Path) -> bool:
+    """Every folder above `path` is this user's or root's and writable by nobody else unless sticky; and is no
+    symlink (the path is a real path: one that became a link since is refused)."""
     for parent in path.parents:
-        info = os.stat(parent)  # a symlinked ancestor is judged by what it points to, the folder it opens
-        if info.st_uid not in (0, os.geteuid()):
+        info = os.lstat(parent)
+        if stat.S_ISLNK(info.st_mode) or info.st_uid not in (0, os.geteuid()):
             return False
         if info.st_mode & 0o022 and not info.st_mode & stat.S_ISVTX:
             return False
@@ -101,6 +126,8 @@ def store(key: str, built: Path) -> None:
     try:
         with os.fdopen(fd, "wb") as out, open(built, "rb") as source:
             shutil.copyfileobj(source, out)
+            out.flush()
+            os.fsync(out.fileno())  # a crash leaves the old name or the whole new file, never half of it
         os.chmod(name, 0o700)
         os.replace(name, where / f"{key}.so")
     except OSError:

@@ -99,13 +99,16 @@ def date(text: str) -> str:
     return text
 
 
-SCHEDULER = re.compile(r"(tcp|tls)://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):([0-9]{1,5})")
+# tcp://HOST:PORT, HOST a name of dot-separated labels, an IPv4 address or a bracketed IPv6 one (tls:// would need
+# a Dask TLS configuration this command does not take)
+SCHEDULER = re.compile(r"tcp://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9](?:[A-Za-z0-9-]{0,61}[A-Za-z0-9])?"
+                       r"(?:\.[A-Za-z0-9](?:[A-Za-z0-9-]{0,61}[A-Za-z0-9])?)*):([0-9]{1,5})")
 
 
 def scheduler_address(text: str) -> str:
-    """A Dask scheduler's address as `dask scheduler` prints it: tcp://HOST:PORT (or tls://)."""
+    """A Dask scheduler's address as `dask scheduler` prints it: tcp://HOST:PORT."""
     found = SCHEDULER.fullmatch(text.strip())
-    if not found or not 0 < int(found.group(3)) < 65536:
+    if not found or not 0 < int(found.group(2)) < 65536:
         raise argparse.ArgumentTypeError(f"expected a Dask scheduler's address tcp://HOST:PORT, found {text!r}")
     return text.strip()
 
