@@ -56,18 +56,21 @@ def _distributed():
     return distributed
 
 
+def _unreachable(scheduler: str, why: object) -> UserError:
+    return UserError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({why}); start one with "
+                     f"`dask scheduler` and workers with `dask worker {scheduler}` (docs/performance.md)")
+
+
 def _reachable(scheduler: str) -> None:
     """Refuse at once an address nothing answers at: a Client that fails half-built waits 40 s more on its way out."""
     host, _, port = scheduler.removeprefix("tcp://").rpartition(":")
     try:
         socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_TIMEOUT_S).close()
     except OSError as exc:
-        raise UserError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({exc}); start one with "
-                        f"`dask scheduler` and workers with `dask worker {scheduler}` (docs/performance.md)") from None
+        raise _unreachable(scheduler, exc) from None
 
 
-def verify_on_cluster(pairs: list[Pair], engine: str, scheduler: str,
-                      progress=None) -> tuple[list[Outcome], float]:
+def verify_on_cluster(pairs: list[Pair], engine: str, scheduler: str) -> tuple[list[Outcome], float]:
     """Outcomes in manifest order from the cluster at `scheduler`, and the wall time of the whole fleet."""
     distributed = _distributed()
     for name in ["distributed", *logging.root.manager.loggerDict]:  # its tracebacks on stderr: we say it in one line
@@ -78,8 +81,7 @@ def verify_on_cluster(pairs: list[Pair], engine: str, scheduler: str,
     try:
         client = distributed.Client(scheduler, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
     except Exception as exc:
-        raise UserError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there ({exc}); start one with "
-                        f"`dask scheduler` and workers with `dask worker {scheduler}` (docs/performance.md)") from None
+        raise _unreachable(scheduler, exc) from None
     try:
         client.wait_for_workers(1, timeout=CONNECT_TIMEOUT_S)
     except TimeoutError:
@@ -103,8 +105,6 @@ def verify_on_cluster(pairs: list[Pair], engine: str, scheduler: str,
                 raise UserError(f"--scheduler {scheduler}: the cluster lost the pair of manifest line {pairs[k].line} "
                                 f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else 'no message'}); "
                                 f"{done} of {len(pairs)} pairs were verified; nothing written") from None
-            if progress:
-                progress(sum(o is not None for o in outcomes), len(pairs))
         return [o for o in outcomes if o is not None], time.perf_counter() - started
     finally:
         client.close()
