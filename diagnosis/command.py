@@ -17,7 +17,7 @@ from thermoplc.models import lumped_model
 from thermoplc.models.campaign import Campaign, read_campaign, run_list
 from thermoplc.models.crossval import refuse_copies
 from thermoplc.models.effects import definition_of
-from thermoplc.models.fit import SAMPLING_TOLERANCE, block_identifier, evaluate, sample_period
+from thermoplc.models.fit import block_identifier, common_sample_period, evaluate
 from thermoplc.models.modelfile import Model, Signal, load_model
 from thermoplc.models.simulation import Series, Simulation
 from thermoplc.models.leaks import refuse_leaks, refuse_non_temperatures
@@ -118,12 +118,7 @@ def parts_of(campaign: Campaign, request: DiagnoseRequest) -> tuple[Parts, float
     """The runs by role and which rows of each train, and their common sample period: one recording split in
     time (--train-until/--train-rows, default its first 60 %), or a campaign whose first runs train."""
     tables = campaign.tables
-    periods = [sample_period(t, request.time_column) for t in tables]
-    dt = periods[0]
-    for table, period in zip(tables, periods):
-        if abs(period - dt) > SAMPLING_TOLERANCE * dt:
-            raise UserError(f"{table.path}: sampled every {period:g} s, but {tables[0].path} every {dt:g} s; "
-                            f"the block has one sample period")
+    dt = common_sample_period(tables, request.time_column)
     if request.train_runs is not None and len(tables) == 1:
         raise UserError(f"--train-runs {request.train_runs}: only one run was given; split it in time with "
                         f"--train-until or --train-rows")

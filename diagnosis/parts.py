@@ -71,6 +71,7 @@ class Parts:
         (FL_THERMAL's held-out part runs at 500, 4500 and 5000 rpm, its training part at 1250-3750)."""
         return _seen(self)
 
+
 @lru_cache(maxsize=8)
 def _seen(parts: Parts) -> np.ndarray:
     speeds = parts.pool([run.n for run in parts.runs])

@@ -185,6 +185,16 @@ def check_inputs(tables: list[Table], request: FitRequest, time_column: str, n_t
     return signals, target
 
 
+def common_sample_period(tables: list[Table], time_column: str) -> float:
+    """The runs' one sample period (the first run's); a run sampled at another is refused."""
+    periods = [sample_period(t, time_column) for t in tables]
+    for table, period in zip(tables, periods):
+        if abs(period - periods[0]) > SAMPLING_TOLERANCE * periods[0]:
+            raise UserError(f"{table.path}: sampled every {period:g} s, but {tables[0].path} every {periods[0]:g} s; "
+                            f"the block has one sample period")
+    return periods[0]
+
+
 def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
         progress: Callable[[str], None] | None = None) -> Model:
     """Fit `request.kind` on the training part of each run (one table per run, one part each): every kind
@@ -192,11 +202,7 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
     kind = kind_of(request.kind)
     n_train = [training_rows(t, time_column, request.train_until, request.train_rows) for t in tables]
     signals, target = check_inputs(tables, request, time_column, n_train)
-    periods = [sample_period(t, time_column) for t in tables]
-    dt = periods[0]
-    for table, period in zip(tables, periods):
-        if abs(period - dt) > SAMPLING_TOLERANCE * dt:
-            raise UserError(f"{table.path}: sampled every {period:g} s, but {tables[0].path} every {dt:g} s")
+    dt = common_sample_period(tables, time_column)
     parts = [Part(np.column_stack([t.columns[c] for c in request.temps])[:n], t.columns[request.target][:n],
                   np.column_stack([t.columns[c] for c in request.extra_targets])[:n] if request.extra_targets
                   else np.empty((n, 0)),

@@ -494,12 +494,13 @@ def _stream_csv(path: str, names: list[str], decimal: str, optional: tuple[str, 
                     break
                 data = data[:end] + b"\n"
                 end = len(data)
-            if b"\r" in data and data.count(b"\r", 0, end) != data.count(b"\r\n", 0, end):
+            returns = b"\r" in data
+            if returns and data.count(b"\r", 0, end) != data.count(b"\r\n", 0, end):
                 raise CannotStream("a line ends in a bare carriage return")
             table = pacsv.read_csv(pa.BufferReader(pa.py_buffer(data)[:end]), **options)
             # without a quote or a carriage return every line is one row (a blank one a row of empty cells,
             # refused below): the lines are counted only where a quoted field could hold a line end
-            lines = data.count(b"\n", 0, end) if b'"' in data or b"\r" in data else table.num_rows
+            lines = data.count(b"\n", 0, end) if returns or b'"' in data else table.num_rows
             if table.num_rows != lines or table.num_columns != len(header):
                 raise CannotStream("rows and lines differ")
             if any(c.null_count for c in table.columns):

@@ -8,16 +8,16 @@ from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
-from thermoplc.verifier.st_standalone import (
-    Lark, Lark_StandAlone, Token, Transformer, UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken,
-    VisitError, v_args,
-)
 
 from thermoplc.base.binary32 import decimal_to_f32
 from thermoplc.base.errors import UserError
 from thermoplc.base.text import decode, encoding_of
 from thermoplc.verifier import syntax as s
 from thermoplc.verifier.one_reading import refuse_two_readings
+from thermoplc.verifier.st_standalone import (
+    Lark, Lark_StandAlone, Token, Transformer, UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken,
+    VisitError, v_args,
+)
 
 MAX_SOURCE_CHARACTERS = 4_000_000  # 20x the largest generated block; bounds parse time and memory
 MAX_ARRAY_ELEMENTS = 1_000_000
