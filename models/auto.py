@@ -23,6 +23,7 @@ from typing import Callable
 
 import numpy as np
 
+from thermoplc.base.cluster import TaskLost
 from thermoplc.base.errors import UserError
 from thermoplc.models import acceptance, auto_nested, crossval, ridge
 from thermoplc.models.fit import FitRequest, check_inputs, runs_named, training_rows
@@ -56,7 +57,8 @@ class Candidate:
 
 
 def forward_selection(tables: list[Table], request: FitRequest, folds: int | None, time_column: str,
-                      max_sensors: int, groups: dict | None = None) -> list[tuple[str, ...]]:
+                      max_sensors: int, groups: dict | None = None,
+                      remote: crossval.Remote | None = None) -> list[tuple[str, ...]]:
     """Sensors added one at a time, each the one that gives MLR (the cheapest kind, same protocol) the
     lowest held-out RMSE with those before it: the sets of 1..`max_sensors` sensors it passes through."""
     chosen: list[str] = []
@@ -68,7 +70,9 @@ def forward_selection(tables: list[Table], request: FitRequest, folds: int | Non
                 continue
             try:
                 model = crossval.fit_held_out(tables, replace(request, kind="mlr", temps=(*chosen, column)), folds,
-                                              time_column, groups=groups)
+                                              time_column, groups=groups, remote=remote)
+            except TaskLost:
+                raise
             except UserError:
                 continue  # a flat sensor, or one that fails a fold: the next one
             scored.append((model.metrics["held_out"]["rmse_um"], request.temps.index(column), column))
@@ -106,7 +110,7 @@ def tried(request: FitRequest) -> list[Kind]:
 
 def rank(tables: list[Table], request: FitRequest, folds: int | None, time_column: str,
          max_sensors: int = MAX_SENSORS, say: Callable[[str], None] | None = None,
-         groups: dict | None = None) -> list[Candidate]:
+         groups: dict | None = None, remote: crossval.Remote | None = None) -> list[Candidate]:
     """Every applicable kind, best first: the models generate accepts by held-out RMSE, then those it
     would refuse, then the kinds that could not be fitted.
 
@@ -136,23 +140,25 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
         sets = auto_nested.forward_selection(auto_nested.run_rises(tables, request), request.temps, held_out,
                                              max_sensors)
     else:
-        sets = forward_selection(tables, request, folds, time_column, max_sensors)
+        sets = forward_selection(tables, request, folds, time_column, max_sensors, remote=remote)
     seen = {frozenset(s) for s in sets}
     sets += [s for s in sensor_sets(tables[0], request, train_rows, max_sensors) if frozenset(s) not in seen]
-    found = [_candidate(tables, request, folds, time_column, kind.name, sensors, say, groups)
+    found = [_candidate(tables, request, folds, time_column, kind.name, sensors, say, groups, remote)
              for sensors in sets for kind in kinds if kind.auto == "closed-form"]
     best_set = min(found, key=Candidate.order).sensors
-    found += [_candidate(tables, request, folds, time_column, kind.name, best_set, say, groups)
+    found += [_candidate(tables, request, folds, time_column, kind.name, best_set, say, groups, remote)
               for kind in kinds if kind.auto == "iterative"]
     return sorted(found, key=Candidate.order)
 
 
-def _candidate(tables, request, folds, time_column, kind, sensors, say, groups=None) -> Candidate:
+def _candidate(tables, request, folds, time_column, kind, sensors, say, groups=None, remote=None) -> Candidate:
     if say:
         say(f"auto: {kind} on {', '.join(sensors)}")
     wanted = replace(request, kind=kind, temps=sensors)  # the speed read or not, folds cut alike
     try:
-        model = crossval.fit_held_out(tables, wanted, folds, time_column, groups=groups)
+        model = crossval.fit_held_out(tables, wanted, folds, time_column, groups=groups, remote=remote)
+    except TaskLost:
+        raise
     except UserError as exc:
         return Candidate(kind, sensors, None, _without_paths(str(exc), tables))
     return Candidate(kind, sensors, model, not_accepted=acceptance.refusal(model))

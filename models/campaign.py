@@ -201,3 +201,47 @@ def run_labels(paths: list[str]) -> list[str]:
     """Each run's name in tables: its file name, or the path as given where two runs share a file name."""
     names = [Path(p).name for p in paths]
     return [name if names.count(name) == 1 else path for name, path in zip(names, paths)]
+
+
+@dataclass(frozen=True, eq=False)
+class CampaignSource:
+    """Where a campaign's runs are, how they were read and the bytes each had: what a task on another machine
+    gets instead of the data (base/cluster.py), read there by the same rules, refused there if it differs."""
+    runs: RunList
+    folder: str  # the reader's working folder: relative paths are taken from it
+    time_column: str
+    decimal: str
+    probed: tuple[str, ...]
+    held: bool
+    sha256: tuple[str, ...]
+
+    def read(self) -> Campaign:
+        """The campaign again, each table under the path it was given; the last one read is kept (a worker
+        runs many tasks of one campaign)."""
+        key = (self.runs.paths, self.folder, self.time_column, self.decimal, self.probed, self.held, self.sha256)
+        if _LAST_READ and _LAST_READ[0] == key:
+            return _LAST_READ[1]
+        where = replace(self.runs, paths=tuple(str(Path(self.folder) / p) for p in self.runs.paths))
+        found = read_campaign(where, self.time_column, self.decimal, self.probed, self.held)
+        runs = []
+        for run, given, digest in zip(found.runs, self.runs.paths, self.sha256):
+            if run.table.sha256 != digest:
+                raise UserError(f"{run.table.path}: other bytes here (sha256 {run.table.sha256[:12]}...) than where "
+                                f"the command was given them ({digest[:12]}...); every worker must read the same files")
+            runs.append(replace(run, table=replace(run.table, path=given)))
+        campaign = Campaign(tuple(runs), found.attributes)
+        _LAST_READ[:] = [key, campaign]
+        return campaign
+
+
+_LAST_READ: list = []
+
+
+def source_of(campaign: Campaign, runs: RunList, time_column: str, decimal: str = "auto",
+              probed: tuple[str, ...] = (), held: bool = False) -> CampaignSource:
+    """How `campaign` was read from `runs` (read_campaign's arguments), for a task that reads it elsewhere."""
+    if "-" in runs.paths:
+        raise UserError("--data -: a run read from standard input cannot be read again by a cluster's workers; "
+                        "give it as a file")
+    return CampaignSource(runs, str(Path.cwd()), time_column, decimal, tuple(probed), held,
+                          tuple(t.sha256 for t in campaign.tables))

@@ -25,8 +25,9 @@ from typing import Callable
 
 import numpy as np
 
+from thermoplc.base.cluster import Cluster, Lost, TaskLost
 from thermoplc.base.errors import UserError
-from thermoplc.models.campaign import run_labels
+from thermoplc.models.campaign import CampaignSource, run_labels
 from thermoplc.models.fit import FitRequest, evaluate, fit, runs_named
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import model_inputs, predict
@@ -110,46 +111,124 @@ def refuse_copies(tables: list[Table], why: str) -> None:
         seen[table.sha256] = table.path
 
 
+@dataclass(frozen=True)
+class Remote:
+    """Folds run as tasks of a Dask cluster (base/cluster.py), each reading the campaign from `source` there."""
+    cluster: Cluster
+    source: CampaignSource
+
+
+@dataclass(frozen=True)
+class FoldTask:
+    """One fold, all a task needs besides the runs: held-out runs `members` of a campaign, or one recording's
+    rows `start`..`stop` predicted by a fit on the rows before (`members` empty)."""
+    request: FitRequest
+    time_column: str
+    label: str
+    members: tuple[int, ...] = ()
+    start: int = 0
+    stop: int = 0
+    predictions: bool = False
+    source: CampaignSource | None = None  # set for a task run elsewhere
+
+
+@dataclass(frozen=True)
+class FoldResult:
+    fold: Fold
+    per_run: tuple[dict, ...] = ()
+    predictions: tuple[tuple[str, np.ndarray], ...] = ()  # (run's path, held-out prediction, float64)
+
+
+def run_fold(task: FoldTask, tables: list[Table] | None = None) -> FoldResult:
+    """A fold's fit and its held-out errors, on `tables` or on the runs its source reads where it runs."""
+    tables = tables if tables is not None else task.source.read().tables
+    if not task.members:
+        model = _guarded(lambda: fit([tables[0].head(task.stop)], replace(task.request, train_until=None,
+                                                                            train_rows=task.start), task.time_column),
+                         f"fold {task.label}")
+        return FoldResult(fold_of(f"rows {task.start + 1}..{task.stop}", task.start, model.metrics["held_out"]))
+    held = [tables[k] for k in task.members]
+    others = [t for k, t in enumerate(tables) if k not in task.members]
+    model = _guarded(lambda: fit(others, replace(task.request, train_until=math.inf, train_rows=None),
+                                 task.time_column),
+                     f"fold {task.label} (fitted without {runs_named(held)})")
+    trained = model.metrics["train"]["rows"]
+    labels = run_labels([t.path for t in tables])
+    per_run, predicted = [], []
+    for k in task.members:
+        found = evaluate(model, [tables[k]], [0])["held_out"]
+        if task.predictions:
+            predicted.append((tables[k].path, predict(model, model_inputs(model, tables[k]), "f64")[model.target.name]))
+        per_run.append({"run": labels[k], "fold": task.label, **fold_of(task.label, trained, found).as_dict(),
+                        "rows_total": tables[k].rows})
+    return FoldResult(fold_of(task.label, trained, evaluate(model, held, [0] * len(held))["held_out"]),
+                      tuple(per_run), tuple(predicted))
+
+
+def _start_folds(tables: list[Table], tasks: list[FoldTask], remote: Remote | None):
+    """The folds' results in order, computed here when asked for, or already running on the cluster."""
+    if remote is None:
+        return (run_fold(task, tables) for task in tasks)
+    running = remote.cluster.run(run_fold, [replace(task, source=remote.source) for task in tasks], "fold",
+                                 [f"fold {task.label}" for task in tasks])
+
+    def in_order():  # a generator: nothing is waited for before the caller's first step
+        results: list = [None] * len(tasks)
+        for k, result in running:
+            if isinstance(result, Lost):
+                raise TaskLost(f"cross-validation, fold {tasks[k].label}: {result}")
+            results[k] = result
+        yield from results
+    return in_order()
+
+
+def _run_tasks(tables: list[Table], request: FitRequest, time_column: str, folds: int | None,
+               groups: dict[str, list[int]] | None, predictions: bool) -> list[FoldTask]:
+    refuse_copies(tables, "a fold predicted by a fit on its own copy is not held out")
+    return [FoldTask(request, time_column, label, tuple(members), predictions=predictions)
+            for label, members in run_folds(tables, folds, groups)]
+
+
+def _block_tasks(table: Table, request: FitRequest, time_column: str, folds: int | None) -> list[FoldTask]:
+    starts = cuts(table, time_column, folds, request.speed)
+    return [FoldTask(request, time_column, f"{k} (fitted on rows 1..{start})", start=start, stop=stop)
+            for k, (start, stop) in enumerate(zip(starts, [*starts[1:], table.rows]), start=2)]
+
+
+def _fold_tasks(tables: list[Table], request: FitRequest, time_column: str, folds: int | None,
+                groups: dict[str, list[int]] | None, predictions: bool) -> list[FoldTask]:
+    """Whole runs held out (several runs or groups), or blocks of one recording."""
+    if len(tables) > 1 or groups is not None:
+        return _run_tasks(tables, request, time_column, folds, groups, predictions)
+    return _block_tasks(tables[0], request, time_column, folds)
+
+
 def cross_validate_runs(tables: list[Table], request: FitRequest, time_column: str, folds: int | None,
                         groups: dict[str, list[int]] | None = None,
                         predictions: dict | None = None) -> tuple[list[Fold], list[dict]]:
     """Each fold's runs predicted from their first row by a fit on the other runs; the folds' and each
     held-out run's errors beside no compensation. `predictions`, when given, receives each run's held-out
     prediction (float64) by its path, for the report."""
-    refuse_copies(tables, "a fold predicted by a fit on its own copy is not held out")
-    results, per_run = [], []
-    labels = run_labels([t.path for t in tables])
-    for label, members in run_folds(tables, folds, groups):
-        others = [t for k, t in enumerate(tables) if k not in members]
-        held = [tables[k] for k in members]
-        model = _guarded(lambda: fit(others, replace(request, train_until=math.inf, train_rows=None), time_column),
-                         f"fold {label} (fitted without {runs_named(held)})")
-        trained = model.metrics["train"]["rows"]
-        results.append(fold_of(label, trained, evaluate(model, held, [0] * len(held))["held_out"]))
-        for k in members:
-            found = evaluate(model, [tables[k]], [0])["held_out"]
-            if predictions is not None:
-                predictions[tables[k].path] = predict(model, model_inputs(model, tables[k]), "f64")[model.target.name]
-            per_run.append({"run": labels[k], "fold": label, **fold_of(label, trained, found).as_dict(),
-                            "rows_total": tables[k].rows})
-    return results, per_run
+    tasks = _run_tasks(tables, request, time_column, folds, groups, predictions is not None)
+    return _collect(_start_folds(tables, tasks, None), predictions)
+
+
+def _collect(results, predictions: dict | None) -> tuple[list[Fold], list[dict]]:
+    found, per_run = [], []
+    for result in results:
+        found.append(result.fold)
+        per_run += result.per_run
+        if predictions is not None:
+            predictions.update(result.predictions)
+    return found, per_run
 
 
 def cross_validate(tables: list[Table], request: FitRequest, time_column: str, folds: int | None,
                    groups: dict[str, list[int]] | None = None) -> list[Fold]:
     """Every fold's held-out errors, each fold fitted by `fit` itself: the very procedure whose
     model is written. Several runs: whole runs held out (cross_validate_runs); one recording: blocks."""
-    if len(tables) > 1 or groups is not None:
-        return cross_validate_runs(tables, request, time_column, folds, groups)[0]
-    results = []
-    table = tables[0]
-    starts = cuts(table, time_column, folds, request.speed)
-    for k, (start, stop) in enumerate(zip(starts, [*starts[1:], table.rows]), start=2):
-        model = _guarded(lambda: fit([table.head(stop)], replace(request, train_until=None, train_rows=start),
-                                     time_column),
-                         f"fold {k} (fitted on rows 1..{start})")
-        results.append(fold_of(f"rows {start + 1}..{stop}", start, model.metrics["held_out"]))
-    return results
+    tasks = _fold_tasks(tables, request, time_column, folds, groups, False)
+    return _collect(_start_folds(tables, tasks, None), None)[0]
 
 
 def _guarded(run, where: str):
@@ -171,16 +250,15 @@ def pooled(folds: list[Fold]) -> dict:
 def fit_cross_validated(tables: list[Table], request: FitRequest, folds: int | None, time_column: str = "time_s",
                         progress: Callable[[str], None] | None = None,
                         groups: dict[str, list[int]] | None = None,
-                        predictions: dict | None = None) -> Model:
+                        predictions: dict | None = None, remote: Remote | None = None) -> Model:
     """Cross-validation, then the fit on every row of every run, carrying the folds' pooled errors as its
-    held-out evidence, each fold's (and with several runs each run's) beside them."""
-    per_run: list[dict] = []
+    held-out evidence, each fold's (and with several runs each run's) beside them. With `remote` the folds
+    run on the cluster while this process fits on every row; the results are the same bits."""
+    tasks = _fold_tasks(tables, request, time_column, folds, groups, predictions is not None)
+    running = _start_folds(tables, tasks, remote)
     # the fit on every row first: a run's bad data is named as such, not as a fold's that left it out
     model = fit(tables, replace(request, train_until=math.inf, train_rows=None), time_column, progress)
-    if len(tables) > 1 or groups is not None:
-        found, per_run = cross_validate_runs(tables, request, time_column, folds, groups, predictions)
-    else:
-        found = cross_validate(tables, request, time_column, folds)
+    found, per_run = _collect(running, predictions)
     if groups is not None:
         protocol = f"leave-one-group-out cross-validation over {len(groups)} groups of {len(tables)} runs"
     elif len(tables) > 1:
@@ -197,10 +275,10 @@ def fit_cross_validated(tables: list[Table], request: FitRequest, folds: int | N
 def fit_held_out(tables: list[Table], request: FitRequest, folds: int | None, time_column: str = "time_s",
                  progress: Callable[[str], None] | None = None,
                  groups: dict[str, list[int]] | None = None,
-                 predictions: dict | None = None) -> Model:
+                 predictions: dict | None = None, remote: Remote | None = None) -> Model:
     """`fit` with its held-out evidence: cross-validation (blocks of one recording, whole runs of a
     campaign, or the groups of the runs table), or the request's own training split when neither
     `folds` nor `groups` is given."""
     if folds or groups is not None:
-        return fit_cross_validated(tables, request, folds, time_column, progress, groups, predictions)
+        return fit_cross_validated(tables, request, folds, time_column, progress, groups, predictions, remote)
     return fit(tables, request, time_column, progress)

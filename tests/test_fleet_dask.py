@@ -2,6 +2,7 @@
 as --jobs, and a worker killed mid-pair loses no pair and doubles none."""
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import threading
@@ -51,14 +52,15 @@ def test_a_cluster_gives_the_bytes_of_one_process_and_of_jobs(cluster, manifest,
     assert b'"NOT bit-exact"' in serial[1] or b'"error"' in serial[1]
 
 
-def test_a_worker_killed_mid_pair_loses_nothing(cluster, manifest, tmp_path):
-    serial = _run(manifest, tmp_path, "serial", "--engine", "interp")
+@contextlib.contextmanager
+def killing_one_busy_worker(cluster):
+    """SIGKILL the first worker seen busy, once; yields the list of killed pids."""
     watcher = distributed.Client(cluster.scheduler_address, set_as_default=False)
-    killed = []
+    killed, done = [], threading.Event()
 
     def kill_one_busy_worker():
         deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and not killed:
+        while time.monotonic() < deadline and not killed and not done.is_set():
             busy = [address for address, keys in watcher.processing().items() if keys]
             if busy:
                 pid = watcher.run(os.getpid, workers=[busy[0]])[busy[0]]
@@ -69,12 +71,94 @@ def test_a_worker_killed_mid_pair_loses_nothing(cluster, manifest, tmp_path):
     killer = threading.Thread(target=kill_one_busy_worker)
     killer.start()
     try:
-        on_cluster = _run(manifest, tmp_path, "killed", "--engine", "interp", "--scheduler", cluster.scheduler_address)
+        yield killed
     finally:
+        done.set()
         killer.join()
         watcher.close()
+
+
+def test_a_worker_killed_mid_pair_loses_nothing(cluster, manifest, tmp_path):
+    serial = _run(manifest, tmp_path, "serial", "--engine", "interp")
+    with killing_one_busy_worker(cluster) as killed:
+        on_cluster = _run(manifest, tmp_path, "killed", "--engine", "interp", "--scheduler", cluster.scheduler_address)
     assert killed, "no worker was busy to kill"
     assert on_cluster == serial
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """Four runs of 4 h at 60 s of the cascade machine, drift probed every 30 min and held."""
+    folder = tmp_path_factory.mktemp("runs")
+    assert main(["twin", "--runs", "4", "--hours", "4", "--dt", "60", "--seed", "5", "--probe-minutes", "30",
+                 "-o", str(folder / "runs")]) == 0
+    return folder / "runs"
+
+
+FIT = ("--target", "E_z_um", "--temps", "T_motor,T_bearing,T_struct", "--speed", "n_rpm", "--ambient", "T_env",
+       "--held-target")
+GA = ("--generations", "4", "--population", "8")
+
+
+def _fit(tmp_path, name: str, *options) -> tuple[int, bytes, bytes]:
+    out, document = tmp_path / f"{name}.json", tmp_path / f"{name}.fit.json"
+    code = main(["fit", *options, "-o", str(out), "--json", str(document)])
+    return code, out.read_bytes(), document.read_bytes().replace(str(out).encode(), b"OUT")
+
+
+@pytest.mark.parametrize("kind", ["kalman", "dlag"])
+def test_a_campaigns_folds_on_a_cluster_give_the_model_file_of_one_process(cluster, runs, tmp_path, kind):
+    options = ("--data", str(runs), "--model", kind, *FIT, *(GA if kind == "kalman" else ()), "--folds", "4")
+    serial = _fit(tmp_path, "serial", *options)
+    assert serial[0] == 0
+    assert serial == _fit(tmp_path, "dask", *options, "--scheduler", cluster.scheduler_address)
+
+
+def test_a_recordings_blocks_and_auto_on_a_cluster_give_the_same_bits(cluster, tmp_path):
+    data = str(golden_twin_csv(tmp_path))
+    options = ("--data", data, "--target", "E_z_um", "--temps", "T_motor,T_bearing,T_struct", "--speed", "n_rpm",
+               "--folds", "3")
+    for kind in ("mlr", "auto"):
+        serial = _fit(tmp_path, f"serial-{kind}", "--model", kind, *options)
+        assert serial == _fit(tmp_path, f"dask-{kind}", "--model", kind, *options,
+                              "--scheduler", cluster.scheduler_address)
+
+
+def test_a_worker_killed_mid_fold_loses_nothing(cluster, runs, tmp_path):
+    options = ("--data", str(runs), "--model", "kalman", *FIT, "--folds", "4", "--generations", "30", "--population", "8")
+    serial = _fit(tmp_path, "serial", *options)
+    with killing_one_busy_worker(cluster) as killed:
+        on_cluster = _fit(tmp_path, "killed", *options, "--scheduler", cluster.scheduler_address)
+    assert killed, "no worker was busy to kill"
+    assert on_cluster == serial
+
+
+def test_a_run_that_differs_where_a_worker_reads_it_is_refused(runs, tmp_path):
+    from thermoplc.base.errors import UserError
+    from thermoplc.models.campaign import read_campaign, run_list, source_of
+    copy = tmp_path / "runs"
+    copy.mkdir()
+    for run in sorted(runs.glob("run_*.csv"))[:2]:
+        (copy / run.name).write_bytes(run.read_bytes())
+    listed = run_list([str(copy)], None)
+    source = source_of(read_campaign(listed, "time_s"), listed, "time_s")
+    assert [t.path for t in source.read().tables] == list(listed.paths)
+    victim = copy / "run_002.csv"
+    victim.write_bytes(victim.read_bytes().replace(b"\n", b"\r\n"))  # the same rows, other bytes
+    from thermoplc.models import campaign
+    campaign._LAST_READ.clear()
+    with pytest.raises(UserError, match="run_002.csv: other bytes here .* every worker must read the same files"):
+        source.read()
+
+
+def test_a_worker_that_runs_other_code_is_refused_by_name():
+    from thermoplc.base import cluster
+    from thermoplc.base.errors import UserError
+    theirs = tuple((name, "0.0" if name == "numpy" else value) for name, value in cluster.environment())
+    with pytest.raises(UserError, match=r"worker tcp://10.0.0.9:1 does not run what this client runs \(numpy 0.0 "
+                                        r"there, [0-9.]+ here\)"):
+        cluster._same_environment(theirs, "tcp://10.0.0.9:1", "tcp://10.0.0.9:8786")
+    cluster._same_environment(cluster.environment(), "tcp://10.0.0.9:1", "tcp://10.0.0.9:8786")
 
 
 def test_a_scheduler_lost_mid_run_is_one_line_and_writes_nothing(manifest, tmp_path, capsys):

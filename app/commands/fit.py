@@ -9,7 +9,8 @@ from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_output, same_file, write_atomic
 from thermoplc.commands import json_output
 from thermoplc.commands.fit_options import Given, refuse_options_not_read
-from thermoplc.commands.options import DECIMAL, FORCE_HELP, SEED, campaign_arguments, columns, number, training_part
+from thermoplc.commands.options import (DECIMAL, FORCE_HELP, SEED, campaign_arguments, columns, number,
+                                        scheduler_address, training_part)
 from thermoplc.commands.terminal import end_progress, progress
 
 
@@ -65,6 +66,10 @@ def add_parser(sub) -> None:
     p.add_argument("--report", metavar="DIR",
                    help="also write a report folder: per run measured, predicted and no compensation, the residual, "
                         "the fold and group tables, one PNG per run and an index.html")
+    p.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
+                   help="with --folds or --group-by: fit the folds as tasks of the Dask distributed cluster whose "
+                        "scheduler is at ADDRESS (tcp://HOST:PORT; the fleet extra) while this process fits on every "
+                        "row; every worker reads the runs by the paths given. The same model file, bit for bit")
     p.add_argument("--optimizer", choices=("ga", "de"), default="ga",
                    help="ga: paper 000's genetic algorithm; de: scipy differential evolution")
     p.add_argument("--seed", type=SEED, default=0, help="random seed of the optimiser (default: %(default)s)")
@@ -102,6 +107,17 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
+def _remote(args: argparse.Namespace, campaign, runs):
+    """The cluster the folds run on (--scheduler), each fold reading the runs where it runs; None: here."""
+    if not args.scheduler:
+        return None
+    from thermoplc.base.cluster import connect
+    from thermoplc.models.campaign import source_of
+    from thermoplc.models.crossval import Remote
+    source = source_of(campaign, runs, args.time, args.decimal, tuple(args.target), args.held_target)
+    return Remote(connect(args.scheduler), source)
+
+
 def run(args: argparse.Namespace) -> int:
     from thermoplc.commands.fit_auto import fit_auto
     from thermoplc.commands.fit_summary import fit_document, format_fit
@@ -120,6 +136,8 @@ def run(args: argparse.Namespace) -> int:
                          lags=args.lags, lag_step_s=args.lag_step_s, extra_targets=args.target[1:],
                          tool_length=args.tool_length, unseen=args.unseen, time_bins=args.time_bins)
     refuse_options_not_read(args, request)
+    if args.scheduler and not (args.folds or args.group_by):
+        raise UserError("--scheduler runs the folds of --folds or --group-by on a cluster; give one of them")
     runs = run_list(args.data, args.runs)
     inputs = [*runs.paths, *([runs.table] if runs.table else [])]  # every run: none may become an output
     check_output(args.output, args.force, inputs=inputs)
@@ -133,10 +151,15 @@ def run(args: argparse.Namespace) -> int:
     groups = campaign.groups(args.group_by) if args.group_by else None
     tables = campaign.tables
     predictions: dict = {}
-    if args.model == "auto":
-        model = fit_auto(tables, request, args.folds, args.time, progress(), groups)
-    else:
-        model = fit_held_out(tables, request, args.folds, args.time, progress(), groups, predictions)
+    remote = _remote(args, campaign, runs)
+    try:
+        if args.model == "auto":
+            model = fit_auto(tables, request, args.folds, args.time, progress(), groups, remote)
+        else:
+            model = fit_held_out(tables, request, args.folds, args.time, progress(), groups, predictions, remote)
+    finally:
+        if remote is not None:
+            remote.cluster.close()
     end_progress()
     becomes_block(model, args.output)
     report = write_report(args.report, model, campaign, predictions, stale) if args.report else None

@@ -10,12 +10,12 @@ AUTO_TOLERANCE = 0.1  # a cheaper model within this share of the best held-out R
 
 
 def fit_auto(tables: list, request, folds: int | None, time_column: str,
-             progress: Callable[[str], None] | None, groups: dict | None = None):
+             progress: Callable[[str], None] | None, groups: dict | None = None, remote=None):
     """The ranking printed with each candidate's PLC cost; the best model returned."""
     from thermoplc.generator.lower import lower_model
     from thermoplc.generator.stats import block_stats
     from thermoplc.models.auto import rank
-    ranked = rank(tables, request, folds, time_column, say=progress, groups=groups)
+    ranked = rank(tables, request, folds, time_column, say=progress, groups=groups, remote=remote)
     end_progress()
     fitted = [c for c in ranked if c.model is not None]
     if not fitted:
