@@ -14,7 +14,7 @@ from thermoplc.diagnosis.search import diagnose_runs
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import REPORT_MANIFEST, check_report_folder, report_manifest, write_outputs
 from thermoplc.models import lumped_model
-from thermoplc.models.campaign import Campaign, read_campaign, run_list
+from thermoplc.models.campaign import Campaign, read_campaign, run_list, source_of
 from thermoplc.models.crossval import refuse_copies
 from thermoplc.models.effects import definition_of
 from thermoplc.models.fit import block_identifier, common_sample_period, evaluate
@@ -167,13 +167,8 @@ def _training_record(tables: list[Table], train_rows: tuple[int, ...], time_colu
     return records[0] if len(records) == 1 else {"batches": records}
 
 
-def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report_dir: str | None,
-        progress: Callable[[str], None] | None = None) -> dict:
-    """`thermoplc diagnose`: fit and search, then write the augmented model, the findings JSON and the report
-    folder when asked, all or nothing; returns the findings document."""
-    runs = run_list(list(request.data) if request.data is not None else None, request.runs_table)
-    campaign = read_campaign(runs, request.time_column, request.decimal)
-    parts, dt = parts_of(campaign, request)
+def _search(parts: Parts, request: DiagnoseRequest, progress, tries):
+    """The search from the identified baseline, or from --baseline's model, checked against the request."""
     baseline = None
     if request.baseline:
         model = load_model(request.baseline)
@@ -186,7 +181,28 @@ def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report
         if readings and parts.campaign:
             raise UserError(f"{request.baseline}: field 'settings.effects': {', '.join(readings)} is an error of one "
                             f"sensor's reading, fitted on one run; a campaign's runs may each start with their own")
-    d = diagnose_runs(parts, request.target, baseline, progress, request.structure_lag)
+    return diagnose_runs(parts, request.target, baseline, progress, request.structure_lag, tries)
+
+
+def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report_dir: str | None,
+        progress: Callable[[str], None] | None = None, scheduler: str | None = None) -> dict:
+    """`thermoplc diagnose`: fit and search, then write the augmented model, the findings JSON and the report
+    folder when asked, all or nothing; returns the findings document. With `scheduler` (tcp://HOST:PORT) each
+    round's candidates are tried on that Dask cluster's workers (diagnosis/remote.py): the same bytes."""
+    runs = run_list(list(request.data) if request.data is not None else None, request.runs_table)
+    campaign = read_campaign(runs, request.time_column, request.decimal)
+    parts, dt = parts_of(campaign, request)
+    tries = None
+    if scheduler:
+        from thermoplc.base.cluster import connect
+        from thermoplc.diagnosis.remote import OnCluster
+        read_again = source_of(campaign, runs, request.time_column, request.decimal)
+        tries = OnCluster(connect(scheduler), read_again, request)
+    try:
+        d = _search(parts, request, progress, tries)
+    finally:
+        if tries is not None:
+            tries.cluster.close()
     tables = campaign.tables
     model = augmented_model(d.final, d.added, request, tables, dt, parts.train_rows)
     source = ({"file": Path(tables[0].path).name, "sha256": tables[0].sha256} if len(tables) == 1 else

@@ -544,6 +544,47 @@ def _try(parts: Parts, train: Series, channels, sigma: dict, current: Simulation
     return row, (trial, s, res, sim_out) if by_bic and why is None else None, judged, alike
 
 
+@dataclass(frozen=True)
+class Attempt:
+    """A candidate tried elsewhere (diagnosis/remote.py): `_try`'s answer with the fitted model alone in place
+    of its residuals, which `completed` rebuilds from it."""
+    row: Trial
+    trial: Simulation | None  # the fit, when the information criteria credit it and no physics rule objects
+    judged: bool
+    alike: tuple | None
+
+
+def attempt(parts: Parts, target_name: str, current: Simulation, sigma: dict, name: str,
+            sensor: int | None) -> Attempt:
+    """`_try` from the current model alone: its residual and score recomputed as the search computed them."""
+    channels = _channels(parts.runs[0], target_name)
+    residual = _simulate(current, parts, channels)[1]
+    current_score = score(current, residual, sigma, parts.n_train)
+    row, fitted, judged, alike = _try(parts, parts.joined().head(parts.n_train), channels, sigma, current,
+                                      current_score, residual, name, sensor)
+    return Attempt(row, fitted[0] if fitted is not None else None, judged, alike)
+
+
+def completed(found: Attempt, parts: Parts, target_name: str, sigma: dict) -> tuple:
+    """`_try`'s answer from an attempt: the fitted model's residuals simulated again (the same bits)."""
+    fitted = None
+    if found.trial is not None:
+        sim_out, res = _simulate(found.trial, parts, _channels(parts.runs[0], target_name))
+        fitted = (found.trial, score(found.trial, res, sigma, parts.n_train), res, sim_out)
+    return found.row, fitted, found.judged, found.alike
+
+
+def _tried(parts: Parts, train: Series, channels, sigma: dict, current: Simulation, current_score: Score,
+           residual: dict, options: list, say: Callable[[str], None], tries: Callable | None):
+    """Each candidate's `_try` answer, in the order of `options`: here one after the other, or from `tries`."""
+    if tries is not None:
+        yield from tries(parts, channels[-1], current, sigma, options, say)
+        return
+    for k, (name, sensor) in enumerate(options, start=1):
+        say(f"testing {name}" + (f" on {train.names[sensor]}" if sensor is not None else "") + f" ({k}/{len(options)})")
+        yield _try(parts, train, channels, sigma, current, current_score, residual, name, sensor)
+
+
 def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulation | None = None,
              progress: Callable[[str], None] | None = None, structure_lag: bool = True) -> Diagnosis:
     """Search for missing effects in one recording whose first `n_train` rows train (`diagnose_runs`)."""
@@ -551,9 +592,12 @@ def diagnose(series: Series, n_train: int, target_name: str, baseline: Simulatio
 
 
 def diagnose_runs(parts: Parts, target_name: str, baseline: Simulation | None = None,
-                  progress: Callable[[str], None] | None = None, structure_lag: bool = True) -> Diagnosis:
+                  progress: Callable[[str], None] | None = None, structure_lag: bool = True,
+                  tries: Callable | None = None) -> Diagnosis:
     """Search for missing effects over the runs, evidence pooled; `structure_lag` keeps the displacement's
-    structure lag in the identified baseline (paper 000's regression on the temperatures alone without it)."""
+    structure lag in the identified baseline (paper 000's regression on the temperatures alone without it).
+    `tries(parts, target, current, sigma, options, say)` tries a round's candidates elsewhere (a cluster,
+    diagnosis/remote.py) and answers as `_try` does for each, in order; without it they are tried here."""
     say = progress or (lambda message: None)
     series = parts.joined()  # names, noise, speed groups, ranges: nothing that depends on the dynamics
     n_train = parts.n_train
@@ -587,11 +631,8 @@ def diagnose_runs(parts: Parts, target_name: str, baseline: Simulation | None = 
         trials, passed, credible = [], [], []
         undecided = None
         options, skipped = candidates(parts, current, train)
-        for k, (name, sensor) in enumerate(options, start=1):
-            say(f"round {len(rounds) + 1}: testing {name}" + (f" on {series.names[sensor]}" if sensor is not None else "")
-                + f" ({k}/{len(options)})")
-            row, fitted, judged, alike = _try(parts, train, channels, sigma, current, current_score,
-                                              residual, name, sensor)
+        for row, fitted, judged, alike in _tried(parts, train, channels, sigma, current, current_score, residual,
+                                                 options, lambda m, r=len(rounds) + 1: say(f"round {r}: {m}"), tries):
             undecided = alike or undecided
             trials.append(row)
             if fitted is not None:

@@ -6,7 +6,8 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import REPORT_MANIFEST, check_output, check_report_folder
-from thermoplc.commands.options import DECIMAL, FORCE_HELP, RUNS, campaign_arguments, columns, training_part
+from thermoplc.commands.options import (DECIMAL, FORCE_HELP, RUNS, campaign_arguments, columns, scheduler_address,
+                                        training_part)
 from thermoplc.commands.terminal import end_progress, progress
 
 
@@ -30,6 +31,10 @@ def add_parser(sub) -> None:
     p.add_argument("--name", default="ThermalComp", help="function block name of the augmented model")
     p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
+    p.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
+                   help="try each round's candidate effects as tasks of the Dask distributed cluster whose scheduler "
+                        "is at ADDRESS (tcp://HOST:PORT; the fleet extra); every worker reads the runs by the paths "
+                        "given. The same findings, bit for bit")
     p.add_argument("--json", help="write the findings here (findings.json)")
     p.add_argument("--report", metavar="FOLDER", help="write an HTML report with plots into this folder")
     p.add_argument("-o", "--output", default="diagnosed_model.json",
@@ -60,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
             if Path(path).resolve().parent == Path(args.report).resolve() and Path(path).name in owned:
                 raise UserError(f"{path}: is a file of the --report folder; give -o and --json names of their own")
         check_report_folder(args.report, owned[:-1], inputs=inputs)
-    doc = diagnose(request, args.output, args.json, args.report, progress())
+    doc = diagnose(request, args.output, args.json, args.report, progress(), args.scheduler)
     end_progress()
     print(text(doc))
     print(f"wrote {args.output}" + (f", {args.json}" if args.json else "")
