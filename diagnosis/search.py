@@ -631,8 +631,9 @@ def diagnose_runs(parts: Parts, target_name: str, baseline: Simulation | None = 
         trials, passed, credible = [], [], []
         undecided = None
         options, skipped = candidates(parts, current, train)
-        for row, fitted, judged, alike in _tried(parts, train, channels, sigma, current, current_score, residual,
-                                                 options, lambda m, r=len(rounds) + 1: say(f"round {r}: {m}"), tries):
+        tried = _tried(parts, train, channels, sigma, current, current_score, residual, options,
+                       lambda m, r=len(rounds) + 1: say(f"round {r}: {m}"), tries)
+        for (name, _), (row, fitted, judged, alike) in zip(options, tried, strict=True):
             undecided = alike or undecided
             trials.append(row)
             if fitted is not None:

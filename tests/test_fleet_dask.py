@@ -196,3 +196,32 @@ def test_an_address_nothing_answers_at_is_one_line_at_once(manifest, capsys):
     error = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and time.monotonic() - started < 10
     assert len(error) == 1 and "cannot reach a Dask scheduler there" in error[0]
+
+
+def _diagnose(tmp_path, name: str, folder, *options) -> tuple[int, bytes, bytes]:
+    out, findings = tmp_path / f"{name}.json", tmp_path / f"{name}.findings.json"
+    code = main(["diagnose", "--data", str(folder), "--temps", "T_motor,T_bearing", "--speed", "n_rpm", "--ambient",
+                 "T_env", "--target", "E_z_um", "-o", str(out), "--json", str(findings), *options])
+    return code, out.read_bytes(), findings.read_bytes().replace(str(out).encode(), b"OUT")
+
+
+def _twin_runs(folder, hours: int, *effect) -> str:
+    assert main(["twin", "--runs", "4" if not effect else "5", "--hours", str(hours), "--dt", "120", "--seed", "3",
+                 "--probe-minutes", "0", *effect, "-o", str(folder / "runs")]) == 0
+    return folder / "runs"
+
+
+def test_a_campaigns_diagnosis_on_a_cluster_gives_the_findings_of_one_process(cluster, tmp_path):
+    runs = _twin_runs(tmp_path, 7)
+    serial = _diagnose(tmp_path, "serial", runs)
+    assert serial[0] == 0 and b'"rejected_because"' in serial[2]  # candidates were fitted and judged
+    assert serial == _diagnose(tmp_path, "dask", runs, "--scheduler", cluster.scheduler_address)
+
+
+@pytest.mark.slow
+def test_an_effect_named_on_a_cluster_is_named_with_the_same_bits(cluster, tmp_path):
+    """The accepted path: the named effect's fit comes back from a worker, its residuals are rebuilt here."""
+    runs = _twin_runs(tmp_path, 8, "--effect", "gear_ratio_switch:threshold_rpm=750")
+    serial = _diagnose(tmp_path, "serial", runs)
+    assert b'"name": "gear_ratio_switch"' in serial[2]
+    assert serial == _diagnose(tmp_path, "dask", runs, "--scheduler", cluster.scheduler_address)
