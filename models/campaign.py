@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from thermoplc.base.errors import UserError
+from thermoplc.base.locations import is_url, listing, name as name_of, open_binary
 from thermoplc.models.table import Table, read_table
 
 RECORDING_SUFFIXES = (".csv", ".npz", ".parquet")
@@ -85,7 +86,9 @@ def recording_paths(data: list[str]) -> list[str]:
     paths = []
     for given in data:
         folder = Path(given)
-        if given != "-" and folder.is_dir():
+        if is_url(given):
+            paths += _recordings_at(given)
+        elif given != "-" and folder.is_dir():
             found = sorted(str(p) for p in folder.iterdir()
                            if p.is_file() and p.suffix.lower() in RECORDING_SUFFIXES and p.name != RUNS_TABLE
                            and not p.name.startswith("."))
@@ -100,6 +103,21 @@ def recording_paths(data: list[str]) -> list[str]:
     return paths
 
 
+def _recordings_at(url: str) -> list[str]:
+    """An object-store URL as its recordings: the object itself, or the recordings under a prefix, by name."""
+    try:
+        found = listing(url, RECORDING_SUFFIXES)
+    except OSError as exc:
+        raise UserError(f"{url}: cannot read: {exc.strerror}") from None
+    if found is None:
+        return [url]
+    found = [each for each in found if name_of(each) != RUNS_TABLE]
+    if not found:
+        raise UserError(f"{url}: a folder with no recordings in it (expected objects ending in "
+                        f"{', '.join(RECORDING_SUFFIXES)})")
+    return found
+
+
 def _rows(path: str) -> list[tuple[int, list[str]]]:
     """The runs table's rows with their line numbers; blank lines skipped, ',' or ';' between the fields."""
     if path == "-":
@@ -108,8 +126,8 @@ def _rows(path: str) -> list[tuple[int, list[str]]]:
         raise UserError(f"--runs {path}: a folder; give its runs table (--runs {Path(path) / RUNS_TABLE}) or the "
                         f"folder as --data {path}")
     try:
-        with open(path, newline="", encoding="utf-8-sig") as handle:
-            text = handle.read()
+        with open_binary(path) as handle:
+            text = handle.read().decode("utf-8-sig")
         first = text.splitlines()[0] if text.strip() else ""
         delimiter = ";" if ";" in first and "," not in first else ","
         rows = list(csv.reader(io.StringIO(text), delimiter=delimiter))
@@ -131,7 +149,7 @@ def read_runs_table(path: str) -> RunList:
         raise UserError(f"{path}:1: no {FILE_COLUMN!r} column; the header has {', '.join(header)}")
     if len(set(header)) != len(header) or not all(header):
         raise UserError(f"{path}:1: every column needs a name of its own; found {', '.join(map(repr, header))}")
-    base = Path(path).parent
+    base = path.rsplit("/", 1)[0] if is_url(path) else Path(path).parent
     files, attributes, lines, seen = [], [], [], {}
     for line, row in rows[1:]:
         if len(row) != len(header):
@@ -140,7 +158,7 @@ def read_runs_table(path: str) -> RunList:
         name = values.pop(FILE_COLUMN)
         if not name:
             raise UserError(f"{path}:{line}: column {FILE_COLUMN!r} is empty; expected the run's recording")
-        file = str(base / name)
+        file = name if is_url(name) else f"{base}/{name}" if is_url(path) else str(base / name)
         if file in seen:
             raise UserError(f"{path}:{line}: {name} is listed twice (first on line {seen[file]})")
         seen[file] = line
@@ -152,12 +170,23 @@ def read_runs_table(path: str) -> RunList:
     return RunList(tuple(files), tuple(attributes), tuple(h for h in header if h != FILE_COLUMN), path, tuple(lines))
 
 
+def _runs_table_in(folder: str) -> str | None:
+    """The runs table of a folder (or of an object store's prefix), None when it has none."""
+    if is_url(folder):
+        try:
+            found = listing(folder, (RUNS_TABLE,))
+        except OSError:
+            return None  # the reading of the runs says why
+        return found[0] if found and name_of(found[0]) == RUNS_TABLE else None
+    return str(Path(folder) / RUNS_TABLE) if (Path(folder) / RUNS_TABLE).is_file() else None
+
+
 def run_list(data: list[str] | None, runs_table: str | None) -> RunList:
     """The runs `--data` (files, folders; a lone folder with a runs.csv is read through it) or `--runs` names."""
     if (data is None) == (runs_table is None):
         raise UserError("give the runs as --data FILE|FOLDER (repeated) or as --runs TABLE, one of the two")
-    if data is not None and len(data) == 1 and data[0] != "-" and (Path(data[0]) / RUNS_TABLE).is_file():
-        runs_table = str(Path(data[0]) / RUNS_TABLE)  # a campaign's folder: its runs table says what the runs are
+    if data is not None and len(data) == 1 and data[0] != "-":  # a campaign's folder: its runs table says what
+        runs_table = _runs_table_in(data[0])  # the runs are
     if runs_table is not None:
         return read_runs_table(runs_table)
     paths = recording_paths(data)
@@ -221,7 +250,7 @@ class CampaignSource:
         key = (self.runs.paths, self.folder, self.time_column, self.decimal, self.probed, self.held, self.sha256)
         if _LAST_READ and _LAST_READ[0] == key:
             return _LAST_READ[1]
-        where = replace(self.runs, paths=tuple(str(Path(self.folder) / p) for p in self.runs.paths))
+        where = replace(self.runs, paths=tuple(p if is_url(p) else str(Path(self.folder) / p) for p in self.runs.paths))
         found = read_campaign(where, self.time_column, self.decimal, self.probed, self.held)
         runs = []
         for run, given, digest in zip(found.runs, self.runs.paths, self.sha256):

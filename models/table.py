@@ -16,6 +16,7 @@ import numpy as np
 
 from thermoplc.base.binary32 import FLT_MAX, f32_from_bits
 from thermoplc.base.errors import UserError
+from thermoplc.base.locations import open_binary
 from thermoplc.models.read_ahead import read_ahead
 
 
@@ -81,7 +82,7 @@ class _Hashing(io.RawIOBase):
 
 def _sha256(path: str) -> str:
     digest = hashlib.sha256()
-    with open(path, "rb") as f:
+    with open_binary(path) as f:
         for block in iter(lambda: f.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
@@ -186,14 +187,14 @@ def _parse_cells_one_by_one(path: str, header: list[str], text_lines: list[str],
 def _read_npz(path: str, time_column: str | None, sparse: frozenset = frozenset()) -> Table:
     """Columns stored with numpy.savez: the fast way in for very long recordings."""
     try:
-        with open(path, "rb") as f:
+        with open_binary(path) as f:
             magic = f.read(4)
     except OSError as exc:
         raise UserError(f"{path}: cannot read: {exc.strerror}") from None
     if magic != b"PK\x03\x04":
         raise UserError(f"{path}: not a .npz archive (it does not start as a zip file); a CSV file must not end in .npz")
     try:
-        with zipfile.ZipFile(path) as archive:
+        with open_binary(path) as f, zipfile.ZipFile(f) as archive:
             unpacked = sum(info.file_size for info in archive.infolist())
     except (OSError, zipfile.BadZipFile) as exc:
         raise UserError(f"{path}: cannot read as .npz: {exc}") from None
@@ -202,7 +203,7 @@ def _read_npz(path: str, time_column: str | None, sparse: frozenset = frozenset(
         raise UserError(f"{path}: the archive unpacks to {unpacked / 2 ** 30:.1f} GiB; this machine has "
                         f"{memory / 2 ** 30:.1f} GiB of memory (a zip bomb, or split the recording)")
     try:
-        with np.load(path, allow_pickle=False) as archive:
+        with open_binary(path) as f, np.load(f, allow_pickle=False) as archive:
             columns = {name: np.asarray(archive[name]) for name in archive.files}
     except (OSError, ValueError) as exc:
         raise UserError(f"{path}: cannot read as .npz: {exc}") from None
@@ -288,7 +289,7 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
         return _read_parquet(path, time_column, frozenset(sparse))
     digest = hashlib.sha256()
     try:
-        raw = sys.stdin.buffer if path == "-" else open(path, "rb")  # `--data -`: the CSV on standard input
+        raw = sys.stdin.buffer if path == "-" else open_binary(path)  # `--data -`: the CSV on standard input
     except OSError as exc:
         raise UserError(f"{path}: cannot read: {exc.strerror}") from None
     path = "<stdin>" if path == "-" else path
@@ -454,7 +455,7 @@ def _stream_csv(path: str, names: list[str], decimal: str, optional: tuple[str, 
 
     pa.set_cpu_count(_usable_cores())  # Arrow sizes its pool by OMP_NUM_THREADS, which thermoplc sets to 1 for BLAS
 
-    with open(path, "rb") as f:
+    with open_binary(path) as f:
         head = f.readline()
         if not head.endswith(b"\n"):
             raise CannotStream("header only")
@@ -546,10 +547,10 @@ def _npy_header(member) -> tuple[tuple, np.dtype]:
 
 
 def _stream_npz(path: str, names: list[str], rows_per_chunk: int, optional: tuple[str, ...] = ()):
-    with open(path, "rb") as f:
+    with open_binary(path) as f:
         if f.read(4) != b"PK\x03\x04":
             raise CannotStream("not a zip file")
-    with zipfile.ZipFile(path) as archive:
+    with open_binary(path) as f, zipfile.ZipFile(f) as archive:
         memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
         if 2 * sum(info.file_size for info in archive.infolist()) > memory:
             raise CannotStream("larger than memory")
@@ -583,7 +584,7 @@ def _stream_npz(path: str, names: list[str], rows_per_chunk: int, optional: tupl
 def _stream_parquet(path: str, names: list[str], rows_per_chunk: int, optional: tuple[str, ...] = ()):
     import pyarrow.parquet as pq
 
-    with pq.ParquetFile(path, pre_buffer=False, buffer_size=1 << 20) as pf:
+    with open_binary(path) as f, pq.ParquetFile(f, pre_buffer=False, buffer_size=1 << 20) as pf:
         if pf.metadata.num_rows == 0:
             raise CannotStream("no data rows")
         start = 0
@@ -603,7 +604,8 @@ def _read_parquet(path: str, time_column: str | None, sparse: frozenset = frozen
     except ImportError:
         raise UserError(f"{path}: reading Parquet needs pyarrow (pip install pyarrow)") from None
     try:
-        table = pq.read_table(path)
+        with open_binary(path) as f:
+            table = pq.read_table(f)
     except OSError as exc:
         raise UserError(f"{path}: cannot read as Parquet: {exc}") from None
     except Exception as exc:

@@ -549,6 +549,13 @@ def _option_cases() -> list[Case]:
          "argument --scheduler: expected a Dask scheduler's address tcp://HOST:PORT, found 'localhost'"),
         ("verify", "--scheduler beside --jobs", ("verify", "--manifest", "m.csv", "--scheduler", "tcp://127.0.0.1:8786",
                                                   "--jobs", "2"), "--scheduler and --jobs"),
+        ("fit", "--scheduler without folds", fit("--model", "mlr", "--train-rows", "200", "--scheduler",
+                                                 "tcp://127.0.0.1:1"), "--scheduler runs the folds of --folds or"),
+        ("fit", "--scheduler where nothing answers", fit("--model", "mlr", "--folds", "3", "--scheduler",
+                                                         "tcp://127.0.0.1:1"),
+         "--scheduler tcp://127.0.0.1:1: cannot reach a Dask scheduler there"),
+        ("diagnose", "--scheduler that is no address", (*DIAGNOSE, "good.csv", "--scheduler", "tcp://:8786"),
+         "argument --scheduler: expected a Dask scheduler's address tcp://HOST:PORT, found 'tcp://:8786'"),
         ("select-sensors", "--max-groups 0", (*select, "--max-groups", "0"), "argument --max-groups: expected groups from 1"),
         ("select-sensors", "--threshold 2", (*select, "--threshold", "2"), "argument --threshold: expected a degree from 0 to 1"),
     ]

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from thermoplc.base.errors import UserError
+from thermoplc.base.locations import is_url
 
 
 @dataclass(frozen=True)
@@ -72,7 +73,7 @@ def read_manifest(path: str) -> list[Pair]:
         model, expect = cell.get("model", ""), cell.get("expect", "")
         if bool(model) == bool(expect):
             raise UserError(f"{path}:{line}: give either a model or an expect column value, not {'both' if model else 'neither'}")
-        where = lambda p: str(base / p) if p and not Path(p).is_absolute() else p
+        where = lambda p: str(base / p) if p and not Path(p).is_absolute() and not is_url(p) else p
         pairs.append(Pair(line, where(cell["block"]), where(cell["data"]), where(model) or None,
                           _mapping(expect, path, line, "expect"), _mapping(cell.get("inputs", ""), path, line, "inputs")))
     if not pairs:

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from thermoplc.base.errors import UserError
+from thermoplc.base.locations import size
 from thermoplc.contract.outputs import CONTROL_INPUT_START, block_names, named
 from thermoplc.models.fit import SAMPLING_TOLERANCE
 from thermoplc.models.modelfile import Model
@@ -128,7 +129,7 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
     if engine == "interp" or not streamable(model):
         raise _GiveUp(f"no streaming for {model.kind} models or engine {engine}")
     try:
-        short = Path(data).stat().st_size < WHOLE_BELOW_BYTES
+        short = size(data) < WHOLE_BELOW_BYTES
     except OSError:  # missing or unreadable: the whole-recording path says so in its words
         raise _GiveUp("cannot stat the recording") from None
     if short:
