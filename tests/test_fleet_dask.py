@@ -100,18 +100,20 @@ FIT = ("--target", "E_z_um", "--temps", "T_motor,T_bearing,T_struct", "--speed",
 GA = ("--generations", "4", "--population", "8")
 
 
-def _fit(tmp_path, name: str, *options) -> tuple[int, bytes, bytes]:
-    out, document = tmp_path / f"{name}.json", tmp_path / f"{name}.fit.json"
-    code = main(["fit", *options, "-o", str(out), "--json", str(document)])
-    return code, out.read_bytes(), document.read_bytes().replace(str(out).encode(), b"OUT")
+def _fit(tmp_path, name: str, *options, report: bool = False) -> tuple:
+    out, document, folder = tmp_path / f"{name}.json", tmp_path / f"{name}.fit.json", tmp_path / f"{name}-report"
+    code = main(["fit", *options, "-o", str(out), "--json", str(document), *(("--report", str(folder)) if report else ())])
+    drawn = {p.name: p.read_bytes().replace(str(out).encode(), b"OUT").replace(out.name.encode(), b"OUT")
+             for p in sorted(folder.iterdir())} if report else {}
+    return code, out.read_bytes(), document.read_bytes().replace(str(out).encode(), b"OUT"), drawn
 
 
 @pytest.mark.parametrize("kind", ["kalman", "dlag"])
 def test_a_campaigns_folds_on_a_cluster_give_the_model_file_of_one_process(cluster, runs, tmp_path, kind):
     options = ("--data", str(runs), "--model", kind, *FIT, *(GA if kind == "kalman" else ()), "--folds", "4")
-    serial = _fit(tmp_path, "serial", *options)
-    assert serial[0] == 0
-    assert serial == _fit(tmp_path, "dask", *options, "--scheduler", cluster.scheduler_address)
+    serial = _fit(tmp_path, "serial", *options, report=True)
+    assert serial[0] == 0 and any(name.endswith(".png") for name in serial[3])
+    assert serial == _fit(tmp_path, "dask", *options, "--scheduler", cluster.scheduler_address, report=True)
 
 
 def test_a_recordings_blocks_and_auto_on_a_cluster_give_the_same_bits(cluster, tmp_path):
