@@ -18,15 +18,17 @@ import logging
 import platform
 import socket
 import sys
+import time
 import uuid
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 from typing import Callable, Iterator
 
-from thermoplc.base.errors import UserError
+from thermoplc.base.errors import ClusterError, UserError
 
 CONNECT_TIMEOUT_S = 20
+POLL_S = 2  # while no task finishes, how often the cluster is asked whether it still has workers
 PACKAGES = ("thermoplc", "thermoplc.commands", "thermoplc.base", "thermoplc.contract", "thermoplc.generator",
             "thermoplc.generator.lumped_effects", "thermoplc.templates", "thermoplc.verifier", "thermoplc.models",
             "thermoplc.models.effects", "thermoplc.diagnosis", "thermoplc.machines")
@@ -42,10 +44,6 @@ CHUNK_HEAP_BYTES = 32 << 20  # glibc's largest mmap threshold: a chunk's columns
 
 class Lost(Exception):
     """A task the cluster could not finish: its workers died `allowed-failures` times."""
-
-
-class TaskLost(UserError):
-    """A command cannot go on without a task the cluster lost: no fallback may take its place."""
 
 
 @lru_cache(maxsize=1)
@@ -151,35 +149,72 @@ class Cluster:
     def _results(self, futures: list, what: str, names: list[str] | None) -> Iterator[tuple[int, object]]:
         distributed = self.distributed
         slot = {future.key: k for k, future in enumerate(futures)}
-        done = 0
+        pending, done, idle_since = set(futures), 0, None
         try:
-            for future in distributed.as_completed(futures, loop=self.client.loop):
-                k = slot[future.key]
+            while pending:
                 try:
-                    found, where, result = future.result()
-                except distributed.KilledWorker as exc:
-                    done += 1
-                    yield k, Lost(f"the workers running it died: {exc}")
+                    with self.client.as_current():  # wait asks for the current client
+                        finished, pending = distributed.wait(pending, timeout=POLL_S, return_when="FIRST_COMPLETED")
+                except TimeoutError:
+                    finished = set()
+                except Exception as exc:  # the futures cancelled under us: the scheduler is gone
+                    lost = sorted(slot[f.key] for f in pending)
+                    name = names[lost[0]] if names else f"{what} {lost[0] + 1}"
+                    raise ClusterError(f"--scheduler {self.address}: the cluster lost {name} ({_first_line(exc)}); "
+                                       f"{done} of {len(futures)} were done; nothing written") from None
+                if not finished:
+                    idle_since = self._still_served(idle_since, done, len(futures))
                     continue
-                except (UserError, KeyboardInterrupt):
-                    raise
-                except Exception as exc:  # the scheduler gone, the task cancelled: no answer for it
-                    if future.status == "error":
-                        raise  # the task's own exception, as in one process
-                    text = str(exc).splitlines()[0] if str(exc) else "no message"
-                    name = names[k] if names else f"{what} {k + 1}"
-                    raise UserError(f"--scheduler {self.address}: the cluster lost {name} ({type(exc).__name__}: "
-                                    f"{text}); {done} of {len(futures)} were done; nothing written") from None
-                _same_environment(found, where, self.address)
-                done += 1
-                yield k, result
+                idle_since = None
+                for future in sorted(finished, key=lambda f: slot[f.key]):
+                    k = slot[future.key]
+                    yield k, self._result(future, names[k] if names else f"{what} {k + 1}", done, len(futures))
+                    done += 1
         finally:
             for future in futures:
-                if not future.done():
+                try:
                     future.cancel()
+                except Exception:  # the client already closed (the scheduler gone): nothing left to cancel
+                    pass
+
+    def _result(self, future, name: str, done: int, total: int):
+        """A finished task's result, `Lost` when its workers kept dying; the task's own error as in one process."""
+        distributed = self.distributed
+        try:
+            found, where, result = future.result()
+        except distributed.KilledWorker as exc:
+            return Lost(f"the workers running it died: {exc}")
+        except Exception as exc:
+            if future.status == "error":
+                raise  # the task's own exception, as in one process
+            raise ClusterError(f"--scheduler {self.address}: the cluster lost {name} ({_first_line(exc)}); {done} of "
+                               f"{total} were done; nothing written") from None
+        _same_environment(found, where, self.address)
+        return result
+
+    def _still_served(self, idle_since: float | None, done: int, total: int) -> float | None:
+        """While nothing finishes: the time since the cluster was last seen without a worker (None while it has
+        some); a cluster without a worker for `CONNECT_TIMEOUT_S`, or a scheduler gone, ends the command."""
+        try:
+            workers = self.client.scheduler_info()["workers"]
+        except Exception as exc:
+            raise ClusterError(f"--scheduler {self.address}: the scheduler stopped answering ({type(exc).__name__}); "
+                               f"{done} of {total} were done; nothing written") from None
+        if workers:
+            return None
+        now = time.monotonic()
+        if idle_since is not None and now - idle_since > CONNECT_TIMEOUT_S:
+            raise ClusterError(f"--scheduler {self.address}: no worker left for {CONNECT_TIMEOUT_S} s; {done} of "
+                               f"{total} were done; nothing written (start workers with `dask worker "
+                               f"{self.address}`)")
+        return idle_since if idle_since is not None else now
 
     def close(self) -> None:
         self.client.close()
+
+
+def _first_line(exc: Exception) -> str:
+    return f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else 'no message'}"
 
 
 def _same_environment(found: tuple, where: str, address: str) -> None:
@@ -187,7 +222,7 @@ def _same_environment(found: tuple, where: str, address: str) -> None:
     if found != ours:
         differ = "; ".join(f"{name} {theirs} there, {mine} here" for (name, theirs), (_, mine) in zip(found, ours)
                            if theirs != mine)
-        raise UserError(f"--scheduler {address}: worker {where} does not run what this client runs ({differ}): its "
+        raise ClusterError(f"--scheduler {address}: worker {where} does not run what this client runs ({differ}): its "
                         f"results could differ in their last bits; install the same thermoplc and libraries there")
 
 

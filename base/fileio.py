@@ -17,6 +17,7 @@ import tempfile
 from pathlib import Path
 
 from thermoplc.base.errors import UserError
+from thermoplc.base.locations import refuse_as_output
 
 REPORT_MANIFEST = ".thermoplc-report"
 
@@ -36,6 +37,7 @@ def check_output(path: str | Path, force: bool, inputs=()) -> None:
                         "give a file name")
     if not str(path):
         raise UserError("-o '': an empty name; expected a file name for the output")
+    refuse_as_output(str(path), "an output")
     if str(path).endswith(("/", os.sep)):
         raise UserError(f"{path}: ends in a separator, so it names a folder; expected a file name for the output")
     path = Path(path)
@@ -60,6 +62,7 @@ def check_report_folder(folder: str | Path, names: list[str], inputs=(), recogni
     someone else's. Returns the files of the old report that the new one does not write (to remove):
     listed in the manifest and named as a report names its files (`recognised`, by default only the
     names written now), so a hand-edited manifest cannot make thermoplc delete a file of the user's."""
+    refuse_as_output(str(folder), "a report")
     folder = Path(folder)
     for source in inputs:
         if source and same_file(folder, Path(source)):

@@ -20,9 +20,18 @@ def is_url(location: str) -> bool:
     return bool(URL.match(str(location)))
 
 
+def _parts(location: str) -> tuple[str, str, str]:
+    """(scheme://authority, the path below it as written, '?query' or '') of a URL."""
+    head, mark, query = location.partition("?")
+    scheme, _, rest = head.partition("://")
+    authority, slash, path = rest.partition("/")
+    return f"{scheme}://{authority}", path, mark + query
+
+
 def name(location: str) -> str:
-    """The last part of a URL or a path: a run's name in tables."""
-    return str(location).rstrip("/").rsplit("/", 1)[-1]
+    """The last part of a URL (without its query) or a path: a run's name in tables, its suffix its format."""
+    location = _parts(location)[0] + "/" + _parts(location)[1] if is_url(location) else str(location)
+    return location.rstrip("/").rsplit("/", 1)[-1]
 
 
 def _unreadable(exc: Exception) -> OSError:
@@ -31,13 +40,57 @@ def _unreadable(exc: Exception) -> OSError:
     return OSError(getattr(exc, "errno", None) or errno.EIO, re.sub(r"^\[Errno \d+\] ", "", text))
 
 
+GCS_RETRY_S = 20  # pyarrow's Google Cloud Storage client retries for 15 min by default, deaf to Ctrl-C meanwhile
+
+
 def _store(location: str):
-    """(pyarrow filesystem, path inside it) of a URL; OSError when no filesystem reads it."""
+    """(pyarrow filesystem, path inside it) of a URL, the path as written (spaces and any letters, no
+    percent-encoding); OSError when no filesystem reads it."""
+    root, path, query = _parts(location)
     try:
         import pyarrow.fs as pafs
-        return pafs.FileSystem.from_uri(location)
+        if root.startswith("gs://") or root.startswith("gcs://"):
+            import datetime
+            store = pafs.GcsFileSystem(retry_time_limit=datetime.timedelta(seconds=GCS_RETRY_S))
+            return store, f"{root.split('://', 1)[1]}/{path}".rstrip("/")
+        store, base = pafs.FileSystem.from_uri(root + "/" + query)
     except Exception as exc:  # ArrowInvalid for an unknown scheme, OSError for a store it cannot reach
         raise _unreadable(exc) from None
+    return store, f"{base.rstrip('/')}/{path}".rstrip("/") if path else base
+
+
+class _StoreFile(io.RawIOBase):
+    """A store's file as a Python raw file whose failures are OSErrors, as a local file's are (zipfile seeks
+    before the start of a tiny object; pyarrow says ArrowInvalid, a file says OSError, which the readers catch)."""
+
+    def __init__(self, native):
+        self._native = native
+
+    def _call(self, method, *args):
+        try:
+            return getattr(self._native, method)(*args)
+        except Exception as exc:
+            raise _unreadable(exc) from None
+
+    def readable(self) -> bool:
+        return True
+
+    def seekable(self) -> bool:
+        return True
+
+    def readinto(self, buffer) -> int:
+        return self._call("readinto", buffer)
+
+    def seek(self, offset: int, whence: int = 0) -> int:
+        return self._call("seek", offset, whence)
+
+    def tell(self) -> int:
+        return self._call("tell")
+
+    def close(self) -> None:
+        if not self.closed:
+            self._native.close()
+        super().close()
 
 
 def open_binary(location: str) -> BinaryIO:
@@ -46,7 +99,7 @@ def open_binary(location: str) -> BinaryIO:
         return open(location, "rb")
     store, path = _store(location)
     try:
-        return io.BufferedReader(store.open_input_file(path), buffer_size=1 << 20)
+        return io.BufferedReader(_StoreFile(store.open_input_file(path)), buffer_size=1 << 20)
     except Exception as exc:
         raise _unreadable(exc) from None
 
@@ -77,7 +130,16 @@ def listing(location: str, suffixes: tuple[str, ...]) -> list[str] | None:
         found = store.get_file_info(pafs.FileSelector(path, recursive=False))
     except Exception as exc:
         raise _unreadable(exc) from None
-    base = location.rstrip("/")
-    return sorted(f"{base}/{info.base_name}" for info in found
+    root, below, query = _parts(location)
+    base = f"{root}/{below}".rstrip("/")
+    return sorted(f"{base}/{info.base_name}{query}" for info in found
                   if info.type == pafs.FileType.File and info.base_name.lower().endswith(suffixes)
                   and not info.base_name.startswith("."))
+
+
+def refuse_as_output(location: str, what: str) -> None:
+    """Outputs are files: a URL given for one would become a local folder named like the store."""
+    if is_url(location):
+        from thermoplc.base.errors import UserError
+        raise UserError(f"{location}: {what} is written to a file; object-store URLs are read, never written; give "
+                        f"a file name")

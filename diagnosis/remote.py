@@ -7,7 +7,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from thermoplc.base.cluster import Cluster, Lost, TaskLost
+from thermoplc.base.cluster import Cluster, Lost
+from thermoplc.base.errors import ClusterError
 from thermoplc.diagnosis.parts import Parts
 from thermoplc.diagnosis.search import Attempt, attempt, completed
 from thermoplc.models.campaign import CampaignSource
@@ -53,9 +54,11 @@ class OnCluster:
         tasks = [CandidateTask(self.source, self.request, current, sigma, target, name, sensor)
                  for name, sensor in options]
         found: list = [None] * len(tasks)
-        for done, (k, result) in enumerate(self.cluster.run(try_on_worker, tasks, "candidate"), start=1):
+        names = [f"candidate {name}" + (f" on {parts.runs[0].names[sensor]}" if sensor is not None else "")
+                 for name, sensor in options]
+        for done, (k, result) in enumerate(self.cluster.run(try_on_worker, tasks, "candidate", names), start=1):
             if isinstance(result, Lost):
-                raise TaskLost(f"diagnose: candidate {tasks[k].name}: {result}")
+                raise ClusterError(f"diagnose: {names[k]}: {result}")
             found[k] = result
             say(f"tested {done}/{len(tasks)} candidates on the cluster")
         return [completed(a, parts, target, sigma) for a in found]

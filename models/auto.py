@@ -23,8 +23,7 @@ from typing import Callable
 
 import numpy as np
 
-from thermoplc.base.cluster import TaskLost
-from thermoplc.base.errors import UserError
+from thermoplc.base.errors import ClusterError, UserError
 from thermoplc.models import acceptance, auto_nested, crossval, ridge
 from thermoplc.models.fit import FitRequest, check_inputs, runs_named, training_rows
 from thermoplc.models.kind import Kind
@@ -71,7 +70,7 @@ def forward_selection(tables: list[Table], request: FitRequest, folds: int | Non
             try:
                 model = crossval.fit_held_out(tables, replace(request, kind="mlr", temps=(*chosen, column)), folds,
                                               time_column, groups=groups, remote=remote)
-            except TaskLost:
+            except ClusterError:
                 raise
             except UserError:
                 continue  # a flat sensor, or one that fails a fold: the next one
@@ -157,7 +156,7 @@ def _candidate(tables, request, folds, time_column, kind, sensors, say, groups=N
     wanted = replace(request, kind=kind, temps=sensors)  # the speed read or not, folds cut alike
     try:
         model = crossval.fit_held_out(tables, wanted, folds, time_column, groups=groups, remote=remote)
-    except TaskLost:
+    except ClusterError:
         raise
     except UserError as exc:
         return Candidate(kind, sensors, None, _without_paths(str(exc), tables))

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from thermoplc.base.errors import UserError
+from thermoplc.base.errors import ClusterError, UserError
 from thermoplc.base.locations import is_url, listing, name as name_of, open_binary
 from thermoplc.models.table import Table, read_table
 
@@ -158,7 +158,10 @@ def read_runs_table(path: str) -> RunList:
         name = values.pop(FILE_COLUMN)
         if not name:
             raise UserError(f"{path}:{line}: column {FILE_COLUMN!r} is empty; expected the run's recording")
-        file = name if is_url(name) else f"{base}/{name}" if is_url(path) else str(base / name)
+        if is_url(name) or Path(name).is_absolute():  # read where it is
+            file = name
+        else:
+            file = f"{base}/{name}" if is_url(path) else str(base / name)
         if file in seen:
             raise UserError(f"{path}:{line}: {name} is listed twice (first on line {seen[file]})")
         seen[file] = line
@@ -177,7 +180,7 @@ def _runs_table_in(folder: str) -> str | None:
             found = listing(folder, (RUNS_TABLE,))
         except OSError:
             return None  # the reading of the runs says why
-        return found[0] if found and name_of(found[0]) == RUNS_TABLE else None
+        return next((each for each in found or [] if name_of(each) == RUNS_TABLE), None)
     return str(Path(folder) / RUNS_TABLE) if (Path(folder) / RUNS_TABLE).is_file() else None
 
 
@@ -217,7 +220,8 @@ def read_campaign(runs: RunList, time_column: str, decimal: str = "auto", probed
             table = read_table(path, time_column, progress, decimal, sparse=probed)
         except UserError as exc:
             relative = (f" (a runs table names its files relative to its own folder, "
-                        f"{Path(runs.table).parent}/)" if runs.table and not Path(path).exists() else "")
+                        f"{Path(runs.table).parent}/)" if runs.table and not is_url(runs.table)
+                        and not is_url(path) and not Path(path).exists() else "")
             raise UserError(f"{runs.where(k)}{exc}{relative}") from None
         for column in probed if held else ():
             if column in table.columns:
@@ -255,7 +259,7 @@ class CampaignSource:
         runs = []
         for run, given, digest in zip(found.runs, self.runs.paths, self.sha256):
             if run.table.sha256 != digest:
-                raise UserError(f"{run.table.path}: other bytes here (sha256 {run.table.sha256[:12]}...) than where "
+                raise ClusterError(f"{run.table.path}: other bytes here (sha256 {run.table.sha256[:12]}...) than where "
                                 f"the command was given them ({digest[:12]}...); every worker must read the same files")
             runs.append(replace(run, table=replace(run.table, path=given)))
         campaign = Campaign(tuple(runs), found.attributes)

@@ -25,8 +25,8 @@ from typing import Callable
 
 import numpy as np
 
-from thermoplc.base.cluster import Cluster, Lost, TaskLost
-from thermoplc.base.errors import UserError
+from thermoplc.base.cluster import Cluster, Lost
+from thermoplc.base.errors import ClusterError, UserError
 from thermoplc.models.campaign import CampaignSource, run_labels
 from thermoplc.models.fit import FitRequest, evaluate, fit, runs_named
 from thermoplc.models.modelfile import Model
@@ -176,7 +176,7 @@ def _start_folds(tables: list[Table], tasks: list[FoldTask], remote: Remote | No
         results: list = [None] * len(tasks)
         for k, result in running:
             if isinstance(result, Lost):
-                raise TaskLost(f"cross-validation, fold {tasks[k].label}: {result}")
+                raise ClusterError(f"cross-validation, fold {tasks[k].label}: {result}")
             results[k] = result
         yield from results
     return in_order()
@@ -254,10 +254,15 @@ def fit_cross_validated(tables: list[Table], request: FitRequest, folds: int | N
     """Cross-validation, then the fit on every row of every run, carrying the folds' pooled errors as its
     held-out evidence, each fold's (and with several runs each run's) beside them. With `remote` the folds
     run on the cluster while this process fits on every row; the results are the same bits."""
-    tasks = _fold_tasks(tables, request, time_column, folds, groups, predictions is not None)
+    try:  # the folds go out first, so the cluster works while the fit on every row runs here
+        tasks, refused = _fold_tasks(tables, request, time_column, folds, groups, predictions is not None), None
+    except UserError as exc:
+        tasks, refused = [], exc
     running = _start_folds(tables, tasks, remote)
     # the fit on every row first: a run's bad data is named as such, not as a fold's that left it out
     model = fit(tables, replace(request, train_until=math.inf, train_rows=None), time_column, progress)
+    if refused is not None:
+        raise refused
     found, per_run = _collect(running, predictions)
     if groups is not None:
         protocol = f"leave-one-group-out cross-validation over {len(groups)} groups of {len(tables)} runs"

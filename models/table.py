@@ -16,7 +16,7 @@ import numpy as np
 
 from thermoplc.base.binary32 import FLT_MAX, f32_from_bits
 from thermoplc.base.errors import UserError
-from thermoplc.base.locations import open_binary
+from thermoplc.base.locations import name as location_name, open_binary
 from thermoplc.models.read_ahead import read_ahead
 
 
@@ -283,9 +283,10 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
     as NaN. ',' separated with decimal points, or ';' separated with decimal commas (detected, or
     decimal=','). The text is streamed in chunks, so memory stays near the size of the numbers."""
     path = str(path)
-    if path.lower().endswith(".npz"):
+    kind = stream_kind(path)
+    if kind == "npz":
         return _read_npz(path, time_column, frozenset(sparse))
-    if path.lower().endswith(".parquet"):
+    if kind == "parquet":
         return _read_parquet(path, time_column, frozenset(sparse))
     digest = hashlib.sha256()
     try:
@@ -386,7 +387,7 @@ class Chunk:
 
 
 def stream_kind(path: str | Path) -> str:
-    lower = str(path).lower()
+    lower = location_name(str(path)).lower()  # a URL's query is no part of its name
     return "npz" if lower.endswith(".npz") else "parquet" if lower.endswith(".parquet") else "csv"
 
 

@@ -227,3 +227,47 @@ def test_an_effect_named_on_a_cluster_is_named_with_the_same_bits(cluster, tmp_p
     serial = _diagnose(tmp_path, "serial", runs)
     assert b'"name": "gear_ratio_switch"' in serial[2]
     assert serial == _diagnose(tmp_path, "dask", runs, "--scheduler", cluster.scheduler_address)
+
+
+def test_auto_stops_on_a_cluster_refusal_instead_of_skipping_the_candidate(monkeypatch, tmp_path):
+    """A fold the cluster lost (or a worker that runs other code, or reads other bytes) is no candidate that
+    could not be fitted: the ranking would quietly differ from one process's."""
+    from thermoplc.base.errors import ClusterError
+    from thermoplc.models import auto, crossval
+    from thermoplc.models.fit import FitRequest
+    from thermoplc.models.table import read_table
+
+    def lost(*args, **kwargs):
+        raise ClusterError("--scheduler tcp://10.0.0.9:8786: the cluster lost fold 2")
+    monkeypatch.setattr(crossval, "fit_held_out", lost)
+    table = read_table(golden_twin_csv(tmp_path))
+    with pytest.raises(ClusterError, match="the cluster lost fold 2"):
+        auto.rank([table], FitRequest("auto", "E_z_um", ("T_motor", "T_bearing")), 3, "time_s")
+
+
+@pytest.mark.slow
+def test_a_cluster_whose_workers_all_leave_ends_the_command_in_one_line(runs, tmp_path, capsys):
+    local = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
+                                     silence_logs=50)
+    watcher = distributed.Client(local.scheduler_address, set_as_default=False)
+
+    def retire_when_busy():
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not any(watcher.processing().values()):
+            time.sleep(0.05)
+        local.scale(0)  # the workers leave for good; the scheduler stays
+
+    leaver = threading.Thread(target=retire_when_busy)
+    leaver.start()
+    try:
+        out = tmp_path / "never.json"
+        started = time.monotonic()
+        code = main(["fit", "--data", str(runs), "--model", "kalman", *FIT, "--folds", "4", "--generations", "200",
+                     "--population", "8", "-o", str(out), "--scheduler", local.scheduler_address])
+        error = capsys.readouterr().err.strip().splitlines()
+    finally:
+        leaver.join()
+        watcher.close()
+        local.close()
+    assert code == 2 and not out.exists() and time.monotonic() - started < 120
+    assert "no worker left for 20 s" in error[-1] and "nothing written" in error[-1]

@@ -3,6 +3,7 @@ as the same files are read from disk, by one process and by a cluster's workers,
 they are not there."""
 from __future__ import annotations
 
+import json
 import logging
 import shutil
 
@@ -49,6 +50,11 @@ def store(tmp_path_factory):
         client.upload_file(str(folder / f"golden_twin.{suffix}"), BUCKET, f"twin.{suffix}")
     for run in sorted((folder / "runs").iterdir()):
         client.upload_file(str(run), BUCKET, f"campaign/{run.name}")
+        if run.name != "runs.csv":
+            client.upload_file(str(run), BUCKET, f"my runs/rün {run.name}")  # names as written, no %-encoding
+        client.upload_file(str(run), BUCKET, f"decoy/{run.name}")
+    client.put_object(Bucket=BUCKET, Key="decoy/old_runs.csv", Body=b"not,a,runs,table\n")
+    client.put_object(Bucket=BUCKET, Key="tiny/bad.npz", Body=b"PK\x03\x04garbage")
     yield folder
     patch.undo()
     server.stop()
@@ -123,3 +129,50 @@ def test_a_local_folder_still_lists_as_before(store):
     shutil.copytree(store / "runs", copy, dirs_exist_ok=True)
     assert [p.rsplit("/", 1)[-1] for p in run_list([str(copy)], None).paths] == [
         p.name for p in sorted((store / "runs").glob("run_*.csv"))]
+
+
+def test_names_with_spaces_and_letters_are_read_as_written(store, tmp_path):
+    local, remote = tmp_path / "local.json", tmp_path / "remote.json"
+    assert main(["fit", "--data", str(store / "runs"), "--model", "mlr", *FIT, "-o", str(local)]) == 0
+    assert main(["fit", "--data", f"s3://{BUCKET}/my runs", "--model", "mlr", *FIT, "-o", str(remote)]) == 0
+    model = json.loads(remote.read_text())
+    assert [b["file"] for b in model["training"]["batches"]] == [f"rün run_00{k}.csv" for k in range(1, 5)]
+    assert json.loads(local.read_text())["coefficients"] == model["coefficients"]
+
+
+def test_a_query_is_no_part_of_the_name_or_the_format(store, capsys):
+    block, model = str(golden_block("kalman", "tia")), str(GOLDEN / "kalman.json")
+    code, text = _text(capsys, "verify", block, "--model", model, "--data",
+                       f"s3://{BUCKET}/twin.parquet?region=us-east-1")
+    assert code == 0 and "on twin.parquet" in text.splitlines()[0]
+
+
+def test_a_folders_runs_table_is_the_one_named_runs_csv(store, tmp_path):
+    out = tmp_path / "grouped.json"
+    assert main(["fit", "--data", f"s3://{BUCKET}/decoy/", "--model", "mlr", "--target", "E_z_um", "--temps",
+                 "T_motor,T_bearing", "--group-by", "hall", "-o", str(out)]) == 0
+
+
+def test_a_broken_object_is_one_line_and_one_error_row(store, tmp_path, capsys):
+    code, text = _text(capsys, "fit", "--data", f"s3://{BUCKET}/tiny/bad.npz", "--model", "mlr", *FIT,
+                       "-o", str(tmp_path / "never.json"))
+    assert code == 2 and text.strip().splitlines() == [
+        f"thermoplc: error: s3://{BUCKET}/tiny/bad.npz: cannot read as .npz: File is not a zip file"]
+    manifest = tmp_path / "fleet.csv"
+    block, model = golden_block("mlr", "tia"), GOLDEN / "mlr.json"
+    manifest.write_text(f"block,data,model\n{block},s3://{BUCKET}/twin.csv,{model}\n"
+                        f"{block},s3://{BUCKET}/tiny/bad.npz,{model}\n")
+    code, text = _text(capsys, "verify", "--manifest", str(manifest))
+    assert code == 2 and "1 bit-exact, 0 NOT bit-exact, 1 error" in text and "Traceback" not in text
+
+
+@pytest.mark.parametrize("option", ["-o", "--json", "--report"])
+def test_an_output_named_by_a_url_is_refused(store, tmp_path, capsys, monkeypatch, option):
+    monkeypatch.chdir(tmp_path)
+    argv = ["fit", "--data", f"s3://{BUCKET}/twin.csv", "--model", "mlr", *FIT, "-o", str(tmp_path / "m.json")]
+    argv += [option, f"s3://{BUCKET}/out"] if option != "-o" else []
+    if option == "-o":
+        argv[-1] = f"s3://{BUCKET}/m.json"
+    code, text = _text(capsys, *argv)
+    assert code == 2 and "object-store URLs are read, never written" in text
+    assert not (tmp_path / "s3:").exists()
