@@ -18,6 +18,7 @@ import logging
 import platform
 import socket
 import sys
+import threading
 import time
 import uuid
 from dataclasses import dataclass
@@ -28,7 +29,7 @@ from typing import Callable, Iterator
 from thermoplc.base.errors import ClusterError, UserError
 
 CONNECT_TIMEOUT_S = 20
-POLL_S = 2  # while no task finishes, how often the cluster is asked whether it still has workers
+POLL_S = 2  # how often the cluster is asked whether it still has workers
 PACKAGES = ("thermoplc", "thermoplc.commands", "thermoplc.base", "thermoplc.contract", "thermoplc.generator",
             "thermoplc.generator.lumped_effects", "thermoplc.templates", "thermoplc.verifier", "thermoplc.models",
             "thermoplc.models.effects", "thermoplc.diagnosis", "thermoplc.machines")
@@ -147,35 +148,49 @@ class Cluster:
         return self._results(futures, what, names)
 
     def _results(self, futures: list, what: str, names: list[str] | None) -> Iterator[tuple[int, object]]:
-        distributed = self.distributed
         slot = {future.key: k for k, future in enumerate(futures)}
-        pending, done, idle_since = set(futures), 0, None
+        starved = threading.Event()
+        watcher = threading.Thread(target=self._watch, args=(futures, starved), daemon=True)
+        watcher.start()
+        done = 0
         try:
-            while pending:
-                try:
-                    with self.client.as_current():  # wait asks for the current client
-                        finished, pending = distributed.wait(pending, timeout=POLL_S, return_when="FIRST_COMPLETED")
-                except TimeoutError:
-                    finished = set()
-                except Exception as exc:  # the futures cancelled under us: the scheduler is gone
-                    lost = sorted(slot[f.key] for f in pending)
-                    name = names[lost[0]] if names else f"{what} {lost[0] + 1}"
-                    raise ClusterError(f"--scheduler {self.address}: the cluster lost {name} ({_first_line(exc)}); "
-                                       f"{done} of {len(futures)} were done; nothing written") from None
-                if not finished:
-                    idle_since = self._still_served(idle_since, done, len(futures))
-                    continue
-                idle_since = None
-                for future in sorted(finished, key=lambda f: slot[f.key]):
-                    k = slot[future.key]
-                    yield k, self._result(future, names[k] if names else f"{what} {k + 1}", done, len(futures))
-                    done += 1
+            for future in self.distributed.as_completed(futures, loop=self.client.loop):
+                k = slot[future.key]
+                name = names[k] if names else f"{what} {k + 1}"
+                if starved.is_set():
+                    raise ClusterError(f"--scheduler {self.address}: no worker left for {CONNECT_TIMEOUT_S} s; {done} of "
+                                       f"{len(futures)} were done; nothing written (start workers with `dask worker "
+                                       f"{self.address}`)")
+                yield k, self._result(future, name, done, len(futures))
+                done += 1
         finally:
+            starved.set()  # ends the watcher too
             for future in futures:
                 try:
                     future.cancel()
                 except Exception:  # the client already closed (the scheduler gone): nothing left to cancel
                     pass
+
+    def _watch(self, futures: list, starved: threading.Event) -> None:
+        """Every `POLL_S`: a cluster without a worker for `CONNECT_TIMEOUT_S` cancels the tasks (the loop over
+        them then says why in one line); a scheduler gone cancels them itself."""
+        idle_since = None
+        while not starved.wait(POLL_S):
+            try:
+                workers = self.client.scheduler_info()["workers"]
+            except Exception:
+                return
+            if workers:
+                idle_since = None
+                continue
+            idle_since = idle_since or time.monotonic()
+            if time.monotonic() - idle_since > CONNECT_TIMEOUT_S:
+                starved.set()
+                try:
+                    self.client.cancel(futures)
+                except Exception:
+                    pass
+                return
 
     def _result(self, future, name: str, done: int, total: int):
         """A finished task's result, `Lost` when its workers kept dying; the task's own error as in one process."""
@@ -191,23 +206,6 @@ class Cluster:
                                f"{total} were done; nothing written") from None
         _same_environment(found, where, self.address)
         return result
-
-    def _still_served(self, idle_since: float | None, done: int, total: int) -> float | None:
-        """While nothing finishes: the time since the cluster was last seen without a worker (None while it has
-        some); a cluster without a worker for `CONNECT_TIMEOUT_S`, or a scheduler gone, ends the command."""
-        try:
-            workers = self.client.scheduler_info()["workers"]
-        except Exception as exc:
-            raise ClusterError(f"--scheduler {self.address}: the scheduler stopped answering ({type(exc).__name__}); "
-                               f"{done} of {total} were done; nothing written") from None
-        if workers:
-            return None
-        now = time.monotonic()
-        if idle_since is not None and now - idle_since > CONNECT_TIMEOUT_S:
-            raise ClusterError(f"--scheduler {self.address}: no worker left for {CONNECT_TIMEOUT_S} s; {done} of "
-                               f"{total} were done; nothing written (start workers with `dask worker "
-                               f"{self.address}`)")
-        return idle_since if idle_since is not None else now
 
     def close(self) -> None:
         self.client.close()
