@@ -24,14 +24,16 @@ def _parts(location: str) -> tuple[str, str, str]:
     """(scheme://authority, the path below it as written, '?query' or '') of a URL."""
     head, mark, query = location.partition("?")
     scheme, _, rest = head.partition("://")
-    authority, slash, path = rest.partition("/")
+    authority, _, path = rest.partition("/")
     return f"{scheme}://{authority}", path, mark + query
 
 
 def name(location: str) -> str:
     """The last part of a URL (without its query) or a path: a run's name in tables, its suffix its format."""
-    location = _parts(location)[0] + "/" + _parts(location)[1] if is_url(location) else str(location)
-    return location.rstrip("/").rsplit("/", 1)[-1]
+    if is_url(location):
+        root, path, _ = _parts(location)
+        location = f"{root}/{path}"
+    return str(location).rstrip("/").rsplit("/", 1)[-1]
 
 
 def _unreadable(exc: Exception) -> OSError:

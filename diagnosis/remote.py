@@ -32,7 +32,7 @@ _LAST_PARTS: list = []
 def _parts(task: CandidateTask) -> Parts:
     """The diagnosis's runs rebuilt from the files, the last kept (a worker tries many candidates of one run)."""
     from thermoplc.diagnosis.command import parts_of
-    key = (task.source.runs.paths, task.source.folder, task.source.sha256, task.request)
+    key = (task.source.key, task.request)
     if not _LAST_PARTS or _LAST_PARTS[0] != key:
         _LAST_PARTS[:] = [key, parts_of(task.source.read(), task.request)[0]]
     return _LAST_PARTS[1]

@@ -248,10 +248,15 @@ class CampaignSource:
     held: bool
     sha256: tuple[str, ...]
 
+    @property
+    def key(self) -> tuple:
+        """What the tables read from this source depend on (a task reads no run's attributes: the client groups)."""
+        return self.runs.paths, self.folder, self.time_column, self.decimal, self.probed, self.held, self.sha256
+
     def read(self) -> Campaign:
         """The campaign again, each table under the path it was given; the last one read is kept (a worker
         runs many tasks of one campaign)."""
-        key = (self.runs.paths, self.folder, self.time_column, self.decimal, self.probed, self.held, self.sha256)
+        key = self.key
         if _LAST_READ and _LAST_READ[0] == key:
             return _LAST_READ[1]
         where = replace(self.runs, paths=tuple(p if is_url(p) else str(Path(self.folder) / p) for p in self.runs.paths))
@@ -259,8 +264,9 @@ class CampaignSource:
         runs = []
         for run, given, digest in zip(found.runs, self.runs.paths, self.sha256):
             if run.table.sha256 != digest:
-                raise ClusterError(f"{run.table.path}: other bytes here (sha256 {run.table.sha256[:12]}...) than where "
-                                f"the command was given them ({digest[:12]}...); every worker must read the same files")
+                raise ClusterError(f"{run.table.path}: other bytes here (sha256 {run.table.sha256[:12]}...) than "
+                                   f"where the command was given them ({digest[:12]}...); every worker must read the "
+                                   f"same files")
             runs.append(replace(run, table=replace(run.table, path=given)))
         campaign = Campaign(tuple(runs), found.attributes)
         _LAST_READ[:] = [key, campaign]

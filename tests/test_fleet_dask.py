@@ -52,6 +52,17 @@ def test_a_cluster_gives_the_bytes_of_one_process_and_of_jobs(cluster, manifest,
     assert b'"NOT bit-exact"' in serial[1] or b'"error"' in serial[1]
 
 
+def busy_workers(watcher, stop: threading.Event | None = None, seconds: float = 60) -> list[str]:
+    """The addresses of the workers running a task, as soon as there are any (empty after `seconds` or `stop`)."""
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline and not (stop and stop.is_set()):
+        busy = [address for address, keys in watcher.processing().items() if keys]
+        if busy:
+            return busy
+        time.sleep(0.02)
+    return []
+
+
 @contextlib.contextmanager
 def killing_one_busy_worker(cluster):
     """SIGKILL the first worker seen busy, once; yields the list of killed pids."""
@@ -59,14 +70,11 @@ def killing_one_busy_worker(cluster):
     killed, done = [], threading.Event()
 
     def kill_one_busy_worker():
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and not killed and not done.is_set():
-            busy = [address for address, keys in watcher.processing().items() if keys]
-            if busy:
-                pid = watcher.run(os.getpid, workers=[busy[0]])[busy[0]]
-                os.kill(pid, signal.SIGKILL)
-                killed.append(pid)
-            time.sleep(0.02)
+        busy = busy_workers(watcher, stop=done)
+        if busy:
+            pid = watcher.run(os.getpid, workers=[busy[0]])[busy[0]]
+            os.kill(pid, signal.SIGKILL)
+            killed.append(pid)
 
     killer = threading.Thread(target=kill_one_busy_worker)
     killer.start()
@@ -169,11 +177,7 @@ def test_a_scheduler_lost_mid_run_is_one_line_and_writes_nothing(manifest, tmp_p
     watcher = distributed.Client(local.scheduler_address, set_as_default=False)
 
     def close_when_busy():
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline:
-            if any(watcher.processing().values()):
-                break
-            time.sleep(0.02)
+        busy_workers(watcher)
         watcher.close()
         local.close()
 
@@ -252,9 +256,7 @@ def test_a_cluster_whose_workers_all_leave_ends_the_command_in_one_line(runs, tm
     watcher = distributed.Client(local.scheduler_address, set_as_default=False)
 
     def retire_when_busy():
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and not any(watcher.processing().values()):
-            time.sleep(0.05)
+        busy_workers(watcher)
         local.scale(0)  # the workers leave for good; the scheduler stays
 
     leaver = threading.Thread(target=retire_when_busy)
