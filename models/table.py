@@ -370,6 +370,10 @@ STREAM_BYTES = 16 << 20  # CSV text read at once (larger blocks parse slower: ca
 # ... parsed by pyarrow in pieces of this size on every core (its thread pool): lines never span two pieces
 # (no newline inside a value), and the pieces are joined in order, so the columns are those of one thread
 CSV_PARSE_BYTES = 4 << 20
+_PADDING = bytes(8)  # room after each block's text: models/plain_csv reads 8 bytes at a time
+# blocks of at least this much text are first offered to models/plain_csv (numba; a process that reads this much
+# loads numba for the references anyway), smaller ones go to pyarrow at once
+PLAIN_PARSE_BYTES = 4 << 20
 
 
 class CannotStream(Exception):
@@ -474,49 +478,90 @@ def _stream_csv(path: str, names: list[str], decimal: str, optional: tuple[str, 
             convert_options=pacsv.ConvertOptions(column_types={h: pa.float64() for h in header},
                                                  decimal_point="," if comma_decimal else ".",
                                                  quoted_strings_can_be_null=False))
-        start, carry, total = 0, b"", 0
+        plain = _may_compile()
+        wanted = [h for h in header if h in names or any(h.upper() == name.upper() for name in optional)]
+        # one buffer for every block, read into in place: a fresh 16 MiB object per block costs more in page faults
+        # than the parsing of it; the unfinished last line of a block moves to the buffer's start
+        buffer, kept, start, total = bytearray(STREAM_BYTES + len(_PADDING) + 1), 0, 0, 0
         while True:
-            block = f.read(STREAM_BYTES)
-            last = not block
-            data = carry + block if carry else block
+            if len(buffer) < kept + STREAM_BYTES + len(_PADDING) + 1:  # a line longer than a block
+                buffer = buffer[:kept] + bytearray(STREAM_BYTES + len(_PADDING) + 1)
+            got = _read_into(f, memoryview(buffer)[kept:kept + STREAM_BYTES])
+            last = got == 0
+            size = kept + got
+            data = buffer
             if not last:
-                cut = data.rfind(b"\n") + 1
-                if cut == 0:
-                    carry = data
-                    continue
+                cut = data.rfind(b"\n", 0, size) + 1
                 end = _content_end(data, cut)  # trailing blank lines wait for the next block or the end
                 if end == 0:
-                    carry = data
+                    kept = size
                     continue
-                end = data.index(b"\n", end) + 1
-                carry = data[end:]  # the lines parsed now are data[:end], read in place (no copy)
+                end = data.index(b"\n", end, size) + 1
             else:
-                end = _content_end(data, len(data))  # blank lines at the end: read_table skips them too
+                end = _content_end(data, size)  # blank lines at the end: read_table skips them too
                 if end == 0:
                     break
-                data = data[:end] + b"\n"
-                end = len(data)
-            returns = b"\r" in data
-            if returns and data.count(b"\r", 0, end) != data.count(b"\r\n", 0, end):
-                raise CannotStream("a line ends in a bare carriage return")
-            table = pacsv.read_csv(pa.BufferReader(pa.py_buffer(data)[:end]), **options)
-            # without a quote or a carriage return every line is one row (a blank one a row of empty cells,
-            # refused below): the lines are counted only where a quoted field could hold a line end
-            lines = data.count(b"\n", 0, end) if returns or b'"' in data else table.num_rows
-            if table.num_rows != lines or table.num_columns != len(header):
-                raise CannotStream("rows and lines differ")
-            if any(c.null_count for c in table.columns):
-                raise CannotStream("an empty cell or a blank line")
-            columns = {h: table.column(h).to_numpy() for h in header}
-            del table
-            _finite_numbers(columns)
-            for at in range(0, lines, STREAM_ROWS):  # bounded chunks, whatever the block held
-                yield _keep({h: c[at:at + STREAM_ROWS] for h, c in columns.items()}, names, start + total + at, optional)
+                data[end] = 10  # the last line's line feed
+                end += 1
+            parts = None
+            if plain and end >= PLAIN_PARSE_BYTES:
+                from thermoplc.models.plain_csv import parse_block
+                parts = parse_block(data, end, [h in wanted for h in header], delimiter, "," if comma_decimal else ".",
+                                    _usable_cores())  # the other columns are checked, not kept
+            if parts is None:
+                columns = _parse_block(pacsv, pa, data, end, header, options)
+                parts = [(len(columns[header[0]]), columns)]
+            else:
+                parts = [(part.shape[1], {h: part[j] for j, h in enumerate(wanted)}) for part in parts]
+            lines = 0
+            for rows, columns in parts:
+                for at in range(0, rows, STREAM_ROWS):  # bounded chunks, whatever the block held
+                    piece = {h: c[at:at + STREAM_ROWS] for h, c in columns.items()}
+                    yield _keep(piece, names, start + total + lines + at, optional)
+                lines += rows
             total += lines
             if last:
                 break
+            buffer[:size - end] = buffer[end:size]
+            kept = size - end
         if total == 0:
             raise CannotStream("no data rows")
+
+
+def _parse_block(pacsv, pa, data: bytes, end: int, header: list[str], options: dict) -> dict:
+    """The columns of the lines data[:end] by pyarrow's reader; CannotStream for anything the careful reader must
+    word."""
+    returns = data.find(b"\r", 0, end) >= 0
+    if returns and data.count(b"\r", 0, end) != data.count(b"\r\n", 0, end):
+        raise CannotStream("a line ends in a bare carriage return")
+    table = pacsv.read_csv(pa.BufferReader(pa.py_buffer(data)[:end]), **options)
+    # without a quote or a carriage return every line is one row (a blank one a row of empty cells,
+    # refused below): the lines are counted only where a quoted field could hold a line end
+    lines = data.count(b"\n", 0, end) if returns or data.find(b'"', 0, end) >= 0 else table.num_rows
+    if table.num_rows != lines or table.num_columns != len(header):
+        raise CannotStream("rows and lines differ")
+    if any(c.null_count for c in table.columns):
+        raise CannotStream("an empty cell or a blank line")
+    columns = {h: table.column(h).to_numpy() for h in header}
+    del table
+    _finite_numbers(columns)
+    return columns
+
+
+def _read_into(f, view: memoryview) -> int:
+    """Bytes read into `view`: as many as fit, fewer only at the end of the file."""
+    got = 0
+    while got < len(view):
+        n = f.readinto(view[got:])
+        if not n:
+            break
+        got += n
+    return got
+
+
+def _may_compile() -> bool:
+    from thermoplc.models import kernels
+    return kernels.could_compile()
 
 
 def _usable_cores() -> int:
