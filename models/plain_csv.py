@@ -159,9 +159,9 @@ def _parse(data, start, stop, delimiter, point, powers, integer_powers, slots, o
 def parse_lines(data: np.ndarray, start: int, stop: int, keep: list[bool], delimiter: str,
                 point: str) -> list[np.ndarray] | None:
     """The numbers of the kept columns of the lines data[start:stop] (each ending in a line feed) as arrays
-    [kept column, row], or None when any line is not len(keep) plain numbers. `data` is a uint8 array with PADDING bytes after `stop`. Each array
-    holds the rows of about CELL_BYTES per cell (more arrays when the cells are shorter): small enough for malloc
-    to reuse the memory of the last block's arrays instead of mapping (and faulting in) fresh pages."""
+    [kept column, row], or None when any line is not len(keep) plain numbers. `data` is a uint8 array with PADDING
+    bytes after `stop`. Each array holds the rows of about CELL_BYTES per cell (more arrays when the cells are
+    shorter): small enough for malloc to reuse the last block's memory instead of faulting in fresh pages."""
     slots = np.cumsum(keep, dtype=np.int64) - 1
     slots[~np.asarray(keep, bool)] = -1
     parts = []
@@ -181,6 +181,8 @@ def parse_block(data: bytes, end: int, keep: list[bool], delimiter: str, point: 
     after `end`."""
     if len(data) < end + PADDING or end == 0 or data[end - 1] != _NEWLINE:
         raise ValueError("a block must end in a line feed and have PADDING bytes after it")
+    if delimiter == point or delimiter in "-\n0123456789" or point in "-\n0123456789":
+        return None  # a cell's own characters cannot also separate cells
     text = np.frombuffer(data, np.uint8)
     cuts = [0]
     for part in range(1, max(threads, 1)):

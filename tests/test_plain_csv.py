@@ -167,3 +167,9 @@ def test_verify_on_the_plain_route_is_bit_exact_and_a_tampered_block_is_not(tmp_
     tampered.write_text(re.sub(r"(c_beta_1\s*:\s*Real\s*:=\s*)([^;]+);", r"\g<1>1.5;", block.read_text(), count=1))
     assert main(["verify", str(tampered), "--model", str(model), "--data", str(data)]) != 0
     assert "NOT bit-exact" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("delimiter,point", [(",", ","), ("1", "."), (",", "-"), ("\n", ".")])
+def test_separators_that_a_number_could_contain_decline(delimiter, point):
+    data, end = _block([f"1{delimiter}2"])
+    assert plain_csv.parse_block(data, end, [True, True], delimiter, point, 1) is None
