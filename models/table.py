@@ -531,6 +531,8 @@ def _stream_csv(path: str, names: list[str], decimal: str, optional: tuple[str, 
 def _parse_block(pacsv, pa, data: bytes, end: int, header: list[str], options: dict) -> dict:
     """The columns of the lines data[:end] by pyarrow's reader; CannotStream for anything the careful reader must
     word."""
+    if data.find(b"\xef\xbb\xbf", 0, end) >= 0:  # pyarrow skips a byte-order mark opening any buffer it reads
+        raise CannotStream("a byte-order mark after the header")
     returns = data.find(b"\r", 0, end) >= 0
     if returns and data.count(b"\r", 0, end) != data.count(b"\r\n", 0, end):
         raise CannotStream("a line ends in a bare carriage return")

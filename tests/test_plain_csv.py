@@ -173,3 +173,15 @@ def test_verify_on_the_plain_route_is_bit_exact_and_a_tampered_block_is_not(tmp_
 def test_separators_that_a_number_could_contain_decline(delimiter, point):
     data, end = _block([f"1{delimiter}2"])
     assert plain_csv.parse_block(data, end, [True, True], delimiter, point, 1) is None
+
+
+@pytest.mark.parametrize("plain", [True, False])
+@pytest.mark.parametrize("block_bytes", [5, 9, 1 << 20])
+def test_a_byte_order_mark_opening_a_data_line_is_never_skipped(plain, block_bytes, tmp_path, monkeypatch):
+    """pyarrow skips a byte-order mark at the start of a buffer, and each block starts one: read_table refuses."""
+    monkeypatch.setattr(table_module, "STREAM_BYTES", block_bytes)
+    monkeypatch.setattr(table_module, "PLAIN_PARSE_BYTES", 0 if plain else 1 << 60)
+    for content in (b"t,a\n\xef\xbb\xbf1,2\n3,4\n", b"t,a\n1,2\n\xef\xbb\xbf3,4\n"):
+        path = tmp_path / "bom.csv"
+        path.write_bytes(content)
+        assert _same_as_read_table(path, ["t", "a"]) == "declined"
