@@ -32,7 +32,7 @@ CONNECT_TIMEOUT_S = 20
 POLL_S = 2  # how often the cluster is asked whether it still has workers
 PACKAGES = ("thermoplc", "thermoplc.commands", "thermoplc.base", "thermoplc.contract", "thermoplc.generator",
             "thermoplc.generator.lumped_effects", "thermoplc.templates", "thermoplc.verifier", "thermoplc.models",
-            "thermoplc.models.effects", "thermoplc.diagnosis", "thermoplc.machines")
+            "thermoplc.models.effects", "thermoplc.models.plain_csv", "thermoplc.diagnosis", "thermoplc.machines")
 SOURCE_SUFFIXES = (".py", ".lark", ".json", ".j2")
 NUMERIC_LIBRARIES = ("numpy", "scipy", "numba", "pyarrow")
 

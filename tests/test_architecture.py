@@ -52,3 +52,10 @@ def test_every_package_folder_is_installed():
              if "__pycache__" not in init.parts}
     assert found == folders, sorted(str(f.relative_to(ROOT)) for f in found ^ folders)
     assert set(config["packages"]) == set(config["package-dir"])
+
+
+def test_a_cluster_worker_digests_every_installed_package():
+    """base/cluster.environment() refuses a worker whose thermoplc sources differ: it must read every package."""
+    from thermoplc.base.cluster import PACKAGES
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text("utf-8"))["tool"]["setuptools"]
+    assert set(PACKAGES) == set(config["packages"])

@@ -1,21 +1,6 @@
-"""An exact parser for CSV blocks of plain decimal numbers, faster than pyarrow's on this job (issue 40).
-
-A year of 1 Hz recording is 3.2 GB of text; pyarrow's reader converts it at ~190 MB/s per core here,
-so the text alone took longer than the 8 s the whole verify may take. Recordings written by loggers
-and with a fixed number of decimals are plain: every cell `-?digits(.digits)?`, one delimiter between
-cells, `\\n` at each line end (full-precision floats, pandas's default, are mostly not: 17 digits). This parser takes exactly that and nothing else, at ~650 MB/s per core
-(eight bytes of digits at a time, see `_digits_value`); any other byte, cell or line shape makes it
-decline the block (`None`), and the caller parses the block as before. So it never words an error and
-never decides what a file means: it only makes the common case fast.
-
-Every number is correctly rounded, as pyarrow's and Python's `float()` are: the digits form an integer
-m <= 2**53 (exact in a double) and the point a power of ten 10**s with s <= 22 (exact too), so m / 10**s
-is one IEEE division of two exact values, rounded once (Clinger's fast path). A cell outside those
-bounds (more than 15-16 significant digits, more than 22 decimals) declines the block.
-"""
+"""The compiled loops of the plain-number CSV parser (numba; imported only when a block is parsed, so
+the model registry, which imports every module of models/, loads no numba). See the package's docstring."""
 from __future__ import annotations
-
-import threading
 
 import numpy as np
 from llvmlite import ir
@@ -24,11 +9,8 @@ from numba import uint64 as u64
 from numba.core.extending import intrinsic
 from numba.cpython.unsafe.numbers import trailing_zeros
 
-PADDING = 8  # bytes after the text a block's buffer must have: the parser reads 8 at a time
-CELL_BYTES = 4  # bytes of text per cell assumed when sizing an output array
-
-_POWERS = np.array([10.0 ** k for k in range(23)])  # exact doubles
-_INTEGER_POWERS = np.array([10 ** k for k in range(20)], np.uint64)
+POWERS = np.array([10.0 ** k for k in range(23)])  # exact doubles
+INTEGER_POWERS = np.array([10 ** k for k in range(20)], np.uint64)
 _EXACT = 1 << 53  # integers up to here are exact doubles
 _ZEROS = np.uint64(0x3030303030303030)  # '0' in each byte
 _HIGH = np.uint64(0xF0F0F0F0F0F0F0F0)
@@ -110,7 +92,7 @@ def _long_cell(data, at, point, powers, out, slot, row):
 
 
 @_kernel
-def _parse(data, start, stop, delimiter, point, powers, integer_powers, slots, out):
+def parse_rows(data, start, stop, delimiter, point, powers, integer_powers, slots, out):
     """Rows of the lines from data[start] into out[slot, row], until `stop` or `out` is full: (their count, where the
     next line starts), or (-1, the cell's position) when a line is not plain. Column c goes to out[slots[c]]; a column
     whose slot is -1 is only checked (its numbers are not needed, but a cell that is not a number must still be seen)."""
@@ -154,54 +136,3 @@ def _parse(data, start, stop, delimiter, point, powers, integer_powers, slots, o
             at += 1
         row += 1
     return row, at
-
-
-def parse_lines(data: np.ndarray, start: int, stop: int, keep: list[bool], delimiter: str,
-                point: str) -> list[np.ndarray] | None:
-    """The numbers of the kept columns of the lines data[start:stop] (each ending in a line feed) as arrays
-    [kept column, row], or None when any line is not len(keep) plain numbers. `data` is a uint8 array with PADDING
-    bytes after `stop`. Each array holds the rows of about CELL_BYTES per cell (more arrays when the cells are
-    shorter): small enough for malloc to reuse the last block's memory instead of faulting in fresh pages."""
-    slots = np.cumsum(keep, dtype=np.int64) - 1
-    slots[~np.asarray(keep, bool)] = -1
-    parts = []
-    while start < stop:
-        out = np.empty((max(int(slots.max()) + 1, 1), (stop - start) // (CELL_BYTES * len(keep)) + 1))
-        rows, start = _parse(data, start, stop, ord(delimiter), ord(point), _POWERS, _INTEGER_POWERS, slots, out)
-        if rows < 0:
-            return None
-        parts.append(out[:, :rows])
-    return parts
-
-
-def parse_block(data: bytes, end: int, keep: list[bool], delimiter: str, point: str,
-                threads: int) -> list[np.ndarray] | None:
-    """The numbers of the kept columns of the lines data[:end] as arrays [kept column, row], in order, the text cut
-    at line ends into a part per thread; None when any line is not len(keep) plain numbers. `data` has PADDING bytes
-    after `end`."""
-    if len(data) < end + PADDING or end == 0 or data[end - 1] != _NEWLINE:
-        raise ValueError("a block must end in a line feed and have PADDING bytes after it")
-    if delimiter == point or delimiter in "-\n0123456789" or point in "-\n0123456789":
-        return None  # a cell's own characters cannot also separate cells
-    text = np.frombuffer(data, np.uint8)
-    cuts = [0]
-    for part in range(1, max(threads, 1)):
-        cut = data.find(b"\n", max(end * part // threads, cuts[-1]), end) + 1
-        if 0 < cut < end:
-            cuts.append(cut)
-    cuts.append(end)
-    results: list = [None] * (len(cuts) - 1)
-
-    def parse(part: int) -> None:
-        try:
-            results[part] = parse_lines(text, cuts[part], cuts[part + 1], keep, delimiter, point)
-        except MemoryError:  # the part declines; pyarrow, reading the block next, says so where it should
-            results[part] = None
-
-    helpers = [threading.Thread(target=parse, args=(part,)) for part in range(1, len(results))]
-    for helper in helpers:
-        helper.start()
-    parse(0)
-    for helper in helpers:
-        helper.join()
-    return None if any(result is None for result in results) else [array for arrays in results for array in arrays]
