@@ -84,7 +84,8 @@ def main(argv: list[str] | None = None) -> int:
         return _run(argv)
     finally:
         try:
-            sys.stdout.flush()
+            if sys.stdout is not None:  # None: started with stdout closed (`>&-`), nothing was printed
+                sys.stdout.flush()
         except OSError:  # stdout is a full disk or a closed pipe: nothing more can be said there
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
@@ -97,7 +98,8 @@ def run() -> None:
     if code == 130:
         for stream in (sys.stdout, sys.stderr):
             try:
-                stream.flush()
+                if stream is not None:
+                    stream.flush()
             except OSError:
                 pass
         os._exit(130)

@@ -89,6 +89,16 @@ def reference(which: str):
 JIT_OPTIONS = dict(cache=True, fastmath=False, error_model="numpy", nogil=True, boundscheck=False)
 
 
+def njit(fn):
+    """`fn` as numba.njit compiles it with the house options: fast-math off, the machine code cached on disk where a
+    folder is writable (else compiled in every process). Imports numba."""
+    numba = _load_numba()
+    try:
+        return numba.njit(**JIT_OPTIONS)(fn)
+    except RuntimeError:  # no writable cache folder anywhere
+        return numba.njit(**{**JIT_OPTIONS, "cache": False})(fn)
+
+
 class _Compiled:
     """`fn` compiled by numba.njit with the house options (fast-math off, cached on disk) on its first call, so
     importing these loops loads no numba."""
@@ -100,11 +110,7 @@ class _Compiled:
     @property
     def dispatcher(self):
         if self._dispatcher is None:
-            numba = _load_numba()
-            try:
-                self._dispatcher = numba.njit(**JIT_OPTIONS)(self.py_func)
-            except RuntimeError:  # no writable cache folder anywhere: compile in every process instead
-                self._dispatcher = numba.njit(**{**JIT_OPTIONS, "cache": False})(self.py_func)
+            self._dispatcher = njit(self.py_func)
         return self._dispatcher
 
     def __call__(self, *args):

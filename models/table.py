@@ -17,6 +17,7 @@ import numpy as np
 from thermoplc.base.binary32 import FLT_MAX, f32_from_bits
 from thermoplc.base.errors import UserError
 from thermoplc.base.locations import name as location_name, open_binary
+from thermoplc.models import plain_csv
 from thermoplc.models.read_ahead import read_ahead
 
 
@@ -370,7 +371,6 @@ STREAM_BYTES = 16 << 20  # CSV text read at once (larger blocks parse slower: ca
 # ... parsed by pyarrow in pieces of this size on every core (its thread pool): lines never span two pieces
 # (no newline inside a value), and the pieces are joined in order, so the columns are those of one thread
 CSV_PARSE_BYTES = 4 << 20
-_PADDING = bytes(8)  # room after each block's text: models/plain_csv reads 8 bytes at a time
 # blocks of at least this much text are first offered to models/plain_csv (numba; a process that reads this much
 # loads numba for the references anyway), smaller ones go to pyarrow at once
 PLAIN_PARSE_BYTES = 4 << 20
@@ -473,55 +473,54 @@ def _stream_csv(path: str, names: list[str], decimal: str, optional: tuple[str, 
         header = [h.strip() for h in _fields(path, 1, text, delimiter)]
         if not all(header) or len(set(header)) != len(header) or not all(name.isprintable() for name in header):
             raise CannotStream("header needs the careful reader")
+        point = "," if comma_decimal else "."
         options = dict(
             read_options=pacsv.ReadOptions(column_names=header, use_threads=True, block_size=CSV_PARSE_BYTES),
             parse_options=pacsv.ParseOptions(delimiter=delimiter, quote_char='"', newlines_in_values=False,
                                              ignore_empty_lines=False),
             convert_options=pacsv.ConvertOptions(column_types={h: pa.float64() for h in header},
-                                                 decimal_point="," if comma_decimal else ".",
-                                                 quoted_strings_can_be_null=False))
+                                                 decimal_point=point, quoted_strings_can_be_null=False))
         plain = _may_compile()
-        wanted = [h for h in header if h in names or any(h.upper() == name.upper() for name in optional)]
+        keep = [h in names or any(h.upper() == name.upper() for name in optional) for h in header]
         # one buffer for every block, read into in place: a fresh 16 MiB object per block costs more in page faults
         # than the parsing of it; the unfinished last line of a block moves to the buffer's start
-        buffer, kept, start, total = bytearray(STREAM_BYTES + len(_PADDING) + 1), 0, 0, 0
+        room = STREAM_BYTES + plain_csv.PADDING + 1  # a block, the parser's padding, the last line's line feed
+        buffer, kept, total = bytearray(room), 0, 0
         while True:
-            if len(buffer) < kept + STREAM_BYTES + len(_PADDING) + 1:  # a line longer than a block
-                buffer = buffer[:kept] + bytearray(STREAM_BYTES + len(_PADDING) + 1)
+            if len(buffer) < kept + room:  # a line longer than a block
+                buffer = buffer[:kept] + bytearray(room)
             got = _read_into(f, memoryview(buffer)[kept:kept + STREAM_BYTES])
             last = got == 0
             size = kept + got
-            data = buffer
             if not last:
-                cut = data.rfind(b"\n", 0, size) + 1
-                end = _content_end(data, cut)  # trailing blank lines wait for the next block or the end
+                cut = buffer.rfind(b"\n", 0, size) + 1
+                end = _content_end(buffer, cut)  # trailing blank lines wait for the next block or the end
                 if end == 0:
                     kept = size
                     continue
-                end = data.index(b"\n", end, size) + 1
+                end = buffer.index(b"\n", end, size) + 1
             else:
-                end = _content_end(data, size)  # blank lines at the end: read_table skips them too
+                end = _content_end(buffer, size)  # blank lines at the end: read_table skips them too
                 if end == 0:
                     break
-                data[end] = 10  # the last line's line feed
+                buffer[end] = plain_csv.NEWLINE  # the last line's
                 end += 1
             parts = None
-            if plain and end >= PLAIN_PARSE_BYTES:
-                from thermoplc.models.plain_csv import parse_block
+            if plain and end >= PLAIN_PARSE_BYTES and plain_csv.available():
                 # one part more than the cores: the parsing threads, with more work than the thread verifying the last
                 # block, then get about two thirds of the cores instead of half (a year of CSV: 7.3-7.7 s -> 6.7-7.0 s)
-                parts = parse_block(data, end, [h in wanted for h in header], delimiter, "," if comma_decimal else ".",
-                                    _usable_cores() + 1)  # the other columns are checked, not kept
+                parts = plain_csv.parse_block(buffer, end, keep, delimiter, point, _usable_cores() + 1)
             if parts is None:
-                columns = _parse_block(pacsv, pa, data, end, header, options)
+                columns = _parse_block(pacsv, pa, buffer, end, header, options)
                 parts = [(len(columns[header[0]]), columns)]
-            else:
-                parts = [(part.shape[1], {h: part[j] for j, h in enumerate(wanted)}) for part in parts]
+            else:  # the other columns were checked, not kept
+                kept_names = [h for h, k in zip(header, keep) if k]
+                parts = [(part.shape[1], dict(zip(kept_names, part))) for part in parts]
             lines, chunks = 0, []
             for rows, columns in parts:
                 for at in range(0, rows, STREAM_ROWS):  # bounded chunks, whatever the block held
                     piece = {h: c[at:at + STREAM_ROWS] for h, c in columns.items()}
-                    chunks.append(_keep(piece, names, start + total + lines + at, optional))
+                    chunks.append(_keep(piece, names, total + lines + at, optional))
                 lines += rows
             yield chunks  # a block's chunks at once: read_ahead's one item ahead is then a whole block
             total += lines

@@ -93,6 +93,9 @@ def test_a_closed_pipe_and_a_full_disk_end_without_a_traceback(tmp_path):
                                 stderr=subprocess.PIPE, text=True)
     assert result.returncode == 2 and "standard output: No space left on device" in result.stderr
     assert "Traceback" not in result.stderr
+    closed = subprocess.run(f"{shlex.join(CLI)} twin --hours 1 -o closed.csv >&-", shell=True, cwd=tmp_path,
+                            capture_output=True, text=True)  # started with no standard output at all
+    assert closed.returncode == 0 and "Traceback" not in closed.stderr and (tmp_path / "closed.csv").exists()
 
 
 def test_the_report_folder_rule(tmp_path):

@@ -1,4 +1,4 @@
-"""Issue 40: the plain-number CSV parser (models/plain_csv.py) reads every number with the bits pyarrow and
+"""Issue 40: the plain-number CSV parser (models/plain_csv/) reads every number with the bits pyarrow and
 Python's float() give it, declines anything that is not a plain number, and the streamed reader gives the same
 columns through it as through pyarrow and read_table."""
 import numpy as np
@@ -185,3 +185,19 @@ def test_a_byte_order_mark_opening_a_data_line_is_never_skipped(plain, block_byt
         path = tmp_path / "bom.csv"
         path.write_bytes(content)
         assert _same_as_read_table(path, ["t", "a"]) == "declined"
+
+
+def test_a_numba_that_cannot_be_imported_leaves_the_blocks_to_pyarrow(tmp_path, monkeypatch, plain_route, capfd):
+    """numba found but broken (say, a numpy too new for it): no thread tracebacks, the stream still reads."""
+    import sys
+    monkeypatch.setitem(sys.modules, "thermoplc.models.plain_csv.kernels", None)  # importing it raises ImportError
+    plain_csv.available.cache_clear()
+    try:
+        path = tmp_path / "r.csv"
+        path.write_text("t,x\n" + "".join(f"{t},{t / 4}\n" for t in range(2000)))
+        monkeypatch.setattr(table_module, "STREAM_BYTES", 1000)
+        assert _same_as_read_table(path, ["t", "x"]) == "streamed"
+        assert plain_route == []
+        assert "Traceback" not in capfd.readouterr().err
+    finally:
+        plain_csv.available.cache_clear()

@@ -3,9 +3,10 @@
 A year of 1 Hz recording is 3.2 GB of text; pyarrow's reader converts it at ~190 MB/s per core here,
 so the text alone took longer than the 8 s the whole verify may take. Recordings written by loggers
 and with a fixed number of decimals are plain: every cell `-?digits(.digits)?`, one delimiter between
-cells, `\\n` at each line end (full-precision floats, pandas's default, are mostly not: 17 digits). This parser takes exactly that and nothing else, at ~650 MB/s per core
-(eight bytes of digits at a time, see `_digits_value`); any other byte, cell or line shape makes it
-decline the block (`None`), and the caller parses the block as before. So it never words an error and
+cells, `\\n` at each line end (full-precision floats, pandas's default, are mostly not: 17 digits).
+This parser takes exactly that and nothing else, at 570-650 MB/s per core (eight bytes of digits at a
+time, see kernels.py); any other byte, cell or line shape makes it decline the block (`None`), and the
+caller parses the block as before. So it never words an error and
 never decides what a file means: it only makes the common case fast.
 
 Every number is correctly rounded, as pyarrow's and Python's `float()` are: the digits form an integer
@@ -16,13 +17,25 @@ bounds (more than 15-16 significant digits, more than 22 decimals) declines the 
 
 from __future__ import annotations
 
+import functools
 import threading
 
 import numpy as np
 
 PADDING = 8  # bytes after the text a block's buffer must have: the parser reads 8 at a time
 CELL_BYTES = 4  # bytes of text per cell assumed when sizing an output array
-_NEWLINE = 10
+NEWLINE = 10
+
+
+@functools.cache
+def available() -> bool:
+    """The compiled loops load (numba imports and compiles them, or finds them cached): the parser may be used.
+    An installed numba that cannot be imported (a numpy too new for it) leaves the blocks to pyarrow."""
+    try:
+        import thermoplc.models.plain_csv.kernels  # noqa: F401
+    except Exception:
+        return False
+    return True
 
 
 def parse_lines(data: np.ndarray, start: int, stop: int, keep: list[bool], delimiter: str,
@@ -49,8 +62,8 @@ def parse_block(data: bytes, end: int, keep: list[bool], delimiter: str, point: 
                 threads: int) -> list[np.ndarray] | None:
     """The numbers of the kept columns of the lines data[:end] as arrays [kept column, row], in order, the text cut
     at line ends into a part per thread; None when any line is not len(keep) plain numbers. `data` has PADDING bytes
-    after `end`."""
-    if len(data) < end + PADDING or end == 0 or data[end - 1] != _NEWLINE:
+    after `end`. Call only when `available()`."""
+    if len(data) < end + PADDING or end == 0 or data[end - 1] != NEWLINE:
         raise ValueError("a block must end in a line feed and have PADDING bytes after it")
     if delimiter == point or delimiter in "-\n0123456789" or point in "-\n0123456789":
         return None  # a cell's own characters cannot also separate cells
@@ -66,7 +79,7 @@ def parse_block(data: bytes, end: int, keep: list[bool], delimiter: str, point: 
     def parse(part: int) -> None:
         try:
             results[part] = parse_lines(text, cuts[part], cuts[part + 1], keep, delimiter, point)
-        except MemoryError:  # the part declines; pyarrow, reading the block next, says so where it should
+        except Exception:  # the part declines: pyarrow reads the block next and says what it finds
             results[part] = None
 
     helpers = [threading.Thread(target=parse, args=(part,)) for part in range(1, len(results))]

@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, types
+from numba import types
 from numba import uint64 as u64
 from numba.core.extending import intrinsic
 from numba.cpython.unsafe.numbers import trailing_zeros
+
+from thermoplc.models.kernels import njit
+from thermoplc.models.plain_csv import NEWLINE as _NEWLINE
 
 POWERS = np.array([10.0 ** k for k in range(23)])  # exact doubles
 INTEGER_POWERS = np.array([10 ** k for k in range(20)], np.uint64)
@@ -18,10 +21,7 @@ _SIXES = np.uint64(0x0606060606060606)
 _PAIRS = np.uint64(0x000000FF000000FF)
 _HUNDREDS = np.uint64(100 + (1000000 << 32))
 _ONES = np.uint64(1 + (10000 << 32))
-_MINUS, _NEWLINE, _BYTE = 45, 10, np.uint64(0xFF)
-
-_JIT = dict(cache=True, fastmath=False, nogil=True, boundscheck=False)
-
+_MINUS, _BYTE = 45, np.uint64(0xFF)
 
 @intrinsic
 def _load8(typingctx, data, at):
@@ -35,14 +35,7 @@ def _load8(typingctx, data, at):
     return types.uint64(data, at), codegen
 
 
-def _kernel(fn):
-    try:
-        return njit(**_JIT)(fn)
-    except RuntimeError:  # no writable cache folder anywhere: compile in every process instead
-        return njit(**{**_JIT, "cache": False})(fn)
-
-
-@_kernel
+@njit
 def _leading_digits(word):
     """How many of the word's bytes, from the first, are ASCII digits (8: all)."""
     other = ((word & _HIGH) ^ _ZEROS) | (((word + _SIXES) & _HIGH) ^ _ZEROS)
@@ -51,7 +44,7 @@ def _leading_digits(word):
     return np.int64(trailing_zeros(other)) >> 3
 
 
-@_kernel
+@njit
 def _digits_value(word, count):
     """The number the first `count` (1-8) digit bytes of the word write: shifted so the digits fill the top bytes
     (zeros below them), then pairs, fours and eights of digits are joined by three multiplications."""
@@ -60,7 +53,7 @@ def _digits_value(word, count):
     return (((word & _PAIRS) * _HUNDREDS) + (((word >> u64(16)) & _PAIRS) * _ONES)) >> u64(32)
 
 
-@_kernel
+@njit
 def _long_cell(data, at, point, powers, out, slot, row):
     """A cell of more than 7 digits before or 6 after the point, one byte at a time, into out[slot, row] (slot -1:
     only checked): the position after it, or -1 when it is not a plain number with an exact fast path."""
@@ -91,7 +84,7 @@ def _long_cell(data, at, point, powers, out, slot, row):
     return at
 
 
-@_kernel
+@njit
 def parse_rows(data, start, stop, delimiter, point, powers, integer_powers, slots, out):
     """Rows of the lines from data[start] into out[slot, row], until `stop` or `out` is full: (their count, where the
     next line starts), or (-1, the cell's position) when a line is not plain. Column c goes to out[slots[c]]; a column
