@@ -13,6 +13,8 @@ import io
 import re
 from typing import BinaryIO
 
+from thermoplc.base.errors import UserError
+
 URL = re.compile(r"[A-Za-z][A-Za-z0-9+.-]*://")
 
 
@@ -142,6 +144,5 @@ def listing(location: str, suffixes: tuple[str, ...]) -> list[str] | None:
 def refuse_as_output(location: str, what: str) -> None:
     """Outputs are files: a URL given for one would become a local folder named like the store."""
     if is_url(location):
-        from thermoplc.base.errors import UserError
         raise UserError(f"{location}: {what} is written to a file; object-store URLs are read, never written; give "
                         f"a file name")

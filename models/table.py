@@ -17,7 +17,7 @@ import numpy as np
 from thermoplc.base.binary32 import FLT_MAX, f32_from_bits
 from thermoplc.base.errors import UserError
 from thermoplc.base.locations import name as location_name, open_binary
-from thermoplc.models import plain_csv
+from thermoplc.models import kernels, plain_csv
 from thermoplc.models.read_ahead import read_ahead
 
 
@@ -480,7 +480,7 @@ def _stream_csv(path: str, names: list[str], decimal: str, optional: tuple[str, 
                                              ignore_empty_lines=False),
             convert_options=pacsv.ConvertOptions(column_types={h: pa.float64() for h in header},
                                                  decimal_point=point, quoted_strings_can_be_null=False))
-        plain = _may_compile()
+        plain = kernels.could_compile()
         keep = [h in names or any(h.upper() == name.upper() for name in optional) for h in header]
         # one buffer for every block, read into in place: a fresh 16 MiB object per block costs more in page faults
         # than the parsing of it; the unfinished last line of a block moves to the buffer's start
@@ -563,11 +563,6 @@ def _read_into(f, view: memoryview) -> int:
             break
         got += n
     return got
-
-
-def _may_compile() -> bool:
-    from thermoplc.models import kernels
-    return kernels.could_compile()
 
 
 def _usable_cores() -> int:

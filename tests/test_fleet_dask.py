@@ -18,10 +18,15 @@ distributed = pytest.importorskip("distributed")
 KINDS = ("kalman", "mlr", "lumped", "gm1n")
 
 
+def _local_cluster(workers: int):
+    """A cluster of process workers on this machine, one thread each, quiet (no dashboard, no log lines)."""
+    return distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                                    silence_logs=50)
+
+
 @pytest.fixture(scope="module")
 def cluster():
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                                  silence_logs=50) as local:
+    with _local_cluster(2) as local:
         yield local
 
 
@@ -172,8 +177,7 @@ def test_a_worker_that_runs_other_code_is_refused_by_name():
 
 
 def test_a_scheduler_lost_mid_run_is_one_line_and_writes_nothing(manifest, tmp_path, capsys):
-    local = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
-                                     silence_logs=50)
+    local = _local_cluster(1)
     watcher = distributed.Client(local.scheduler_address, set_as_default=False)
 
     def close_when_busy():
@@ -251,8 +255,7 @@ def test_auto_stops_on_a_cluster_refusal_instead_of_skipping_the_candidate(monke
 
 @pytest.mark.slow
 def test_a_cluster_whose_workers_all_leave_ends_the_command_in_one_line(runs, tmp_path, capsys):
-    local = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
-                                     silence_logs=50)
+    local = _local_cluster(1)
     watcher = distributed.Client(local.scheduler_address, set_as_default=False)
 
     def retire_when_busy():
