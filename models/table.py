@@ -81,7 +81,8 @@ class _Hashing(io.RawIOBase):
         super().close()
 
 
-def _sha256(path: str) -> str:
+def sha256_of(path: str) -> str:
+    """The sha256 of a recording's bytes (a file or an object-store URL); OSError when it cannot be read."""
     digest = hashlib.sha256()
     with open_binary(path) as f:
         for block in iter(lambda: f.read(1 << 20), b""):
@@ -223,7 +224,7 @@ def _read_npz(path: str, time_column: str | None, sparse: frozenset = frozenset(
             raise UserError(f"{path}: column {name!r} row {bad[0] + 1}: expected a finite number, found {a[bad[0]]}")
     if not len(next(iter(columns.values()))):
         raise UserError(f"{path}: no data rows")
-    table = Table(path, columns, _sha256(path), np.arange(1, len(next(iter(columns.values()))) + 1))
+    table = Table(path, columns, sha256_of(path), np.arange(1, len(next(iter(columns.values()))) + 1))
     _check_time(table, time_column, list(columns))
     return table
 
@@ -674,6 +675,6 @@ def _read_parquet(path: str, time_column: str | None, sparse: frozenset = frozen
         bad = np.nonzero(~np.isfinite(columns[name]) & ~(np.isnan(columns[name]) & (name in sparse)))[0]
         if len(bad):
             raise UserError(f"{path}: column {name!r} row {bad[0] + 1}: expected a finite number, found {a[bad[0]]!r}")
-    result = Table(path, columns, _sha256(path), np.arange(1, table.num_rows + 1))
+    result = Table(path, columns, sha256_of(path), np.arange(1, table.num_rows + 1))
     _check_time(result, time_column, list(columns))
     return result

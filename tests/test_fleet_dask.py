@@ -276,3 +276,57 @@ def test_a_cluster_whose_workers_all_leave_ends_the_command_in_one_line(runs, tm
         local.close()
     assert code == 2 and not out.exists() and time.monotonic() - started < 120
     assert "no worker left for 20 s" in error[-1] and "nothing written" in error[-1]
+
+
+def _one_ulp_up(block: str) -> str:
+    """The block with its first REAL constant one ULP larger."""
+    import re
+    import numpy as np
+    match = re.search(r"(c_beta0 : Real := )([-0-9.E]+);", block)
+    bigger = np.nextafter(np.float32(match.group(2)), np.float32(np.inf))
+    return block.replace(match.group(0), f"{match.group(1)}{np.format_float_positional(bigger, unique=True)};", 1)
+
+
+def test_a_campaign_verified_by_a_worker_in_another_folder_judges_the_users_files(tmp_path, monkeypatch):
+    """Issue 48: the worker's folder holds the good block, the user's folder one a ULP off; the cluster's verdict
+    must be the user's block's, as without --scheduler."""
+    import shutil
+    import subprocess
+    import sys
+    worker_folder, user_folder = tmp_path / "worker", tmp_path / "user"
+    for folder in (worker_folder, user_folder):
+        folder.mkdir()
+        shutil.copy(golden_block("mlr", "tia"), folder / "mlr.scl")
+        shutil.copy(GOLDEN / "mlr.json", folder / "mlr.json")
+        golden_twin_csv(folder).rename(folder / "twin.csv")
+    edited = _one_ulp_up((user_folder / "mlr.scl").read_text())
+    assert edited != (user_folder / "mlr.scl").read_text()
+    (user_folder / "mlr.scl").write_text(edited)
+    argv = ["verify", "mlr.scl", "--model", "mlr.json", "--data", "twin.csv", "--data", "twin.csv", "--engine", "interp"]
+    with distributed.LocalCluster(n_workers=0, processes=True, dashboard_address=None, silence_logs=50) as local:
+        worker = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", local.scheduler_address,
+                                   "--nthreads", "1", "--no-dashboard"], cwd=worker_folder,
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            monkeypatch.chdir(user_folder)
+            alone = main(argv)
+            on_cluster = main([*argv, "--scheduler", local.scheduler_address])
+        finally:
+            worker.terminate()
+            worker.wait(30)
+    assert alone == on_cluster == 1
+
+
+def test_a_pair_whose_file_has_other_bytes_where_it_runs_fails(tmp_path):
+    from dataclasses import replace
+    from thermoplc.verifier.fleet_dask import pinned
+    from thermoplc.verifier.fleet import Pair, verify_pair
+    block = tmp_path / "mlr.scl"
+    block.write_bytes(golden_block("mlr", "tia").read_bytes())
+    pair = pinned(Pair(1, str(block), str(golden_twin_csv(tmp_path)), str(GOLDEN / "mlr.json"), None, None))
+    assert {path for path, _ in pair.sha256} == {pair.block, pair.data, pair.model}
+    assert verify_pair(pair, "interp").status == "bit-exact"
+    block.write_text(_one_ulp_up(block.read_text()))
+    outcome = verify_pair(pair, "interp")
+    assert outcome.status == "error" and "mlr.scl: other bytes where this pair ran" in outcome.detail
+    assert verify_pair(replace(pair, sha256=()), "interp").status == "NOT bit-exact"

@@ -26,6 +26,7 @@ class Pair:
     model: str | None
     expect: dict | None
     inputs: dict | None
+    sha256: tuple[tuple[str, str], ...] = ()  # (file, digest) of each file a task run elsewhere must find
 
 
 @dataclass(frozen=True)
@@ -95,6 +96,7 @@ def verify_pair(pair: Pair, engine: str) -> Outcome:
     from thermoplc.verifier.replay import verify_against_model, verify_against_trace
     from thermoplc.verifier.stream import verify_streaming
     try:
+        _same_bytes(pair)
         if pair.model:
             model = load_model(pair.model)
             report = verify_streaming(pair.block, model, pair.model, pair.data, pair.inputs, engine)
@@ -113,6 +115,20 @@ def verify_pair(pair: Pair, engine: str) -> Outcome:
     if report.failure is not None:
         detail += f", run-time error: {report.failure}"
     return Outcome(pair, status, detail, report.text(), report.cycles, time.perf_counter() - started)
+
+
+def _same_bytes(pair: Pair) -> None:
+    """Refuse a pair whose files here hold other bytes than where the command was given them: a worker that
+    resolves a path in its own folder, or another machine's copy, must fail the pair, never pass it."""
+    from thermoplc.models.table import sha256_of
+    for path, digest in pair.sha256:
+        try:
+            found = sha256_of(path)
+        except OSError as exc:
+            raise UserError(f"{path}: cannot read it where this pair ran: {exc.strerror or exc}") from None
+        if found != digest:
+            raise UserError(f"{path}: other bytes where this pair ran (sha256 {found[:12]}...) than where the command "
+                            f"was given them ({digest[:12]}...); every worker must read the same files")
 
 
 def verify_fleet(pairs: list[Pair], jobs: int, engine: str, scheduler: str | None = None
