@@ -3,21 +3,24 @@
 - `-o FILE` never replaces an existing file unless `--force`;
 - never writes onto an input of the same command, even with `--force`;
 - never replaces anything but a regular file (a device, pipe, socket, folder or symbolic link stays);
+- no two outputs onto one file, none inside a report folder, no input inside one (`check_outputs`);
 - a report folder must be new, empty, or a report thermoplc wrote: its `.thermoplc-report` lists
-  the files it owns, and only those are replaced;
+  the files it wrote with their sha256, and only those, still as written, are replaced or removed;
 - every output is written to a temporary file beside it and renamed into place, all outputs of a
   command together at the end (all or nothing); a new file gets the umask's mode, a replaced file
   keeps its own; SIGINT and SIGTERM remove the temporary files.
 """
 from __future__ import annotations
 
+import hashlib
 import os
+import re
 import stat
 import tempfile
 from pathlib import Path
 
 from thermoplc.base.errors import UserError
-from thermoplc.base.locations import refuse_as_output
+from thermoplc.base.locations import is_url, refuse_as_output
 
 REPORT_MANIFEST = ".thermoplc-report"
 
@@ -57,11 +60,60 @@ def check_output(path: str | Path, force: bool, inputs=()) -> None:
         raise UserError(f"{path}: exists; refusing to replace it (use --force to overwrite, or choose another name)")
 
 
+def _inside(path: str | Path, folder: str | Path) -> bool:
+    """Whether `path` is `folder` or lies anywhere below it, symbolic links resolved."""
+    path, folder = Path(path).resolve(), Path(folder).resolve()
+    return path == folder or folder in path.parents
+
+
+def check_outputs(outputs: dict[str, str | None], force: bool, inputs=(), report: str | None = None,
+                  report_names: list[str] = (), recognised=None) -> list[str]:
+    """Every output of a command by the one rule: each file by `check_output`, no two outputs onto one file,
+    none inside the report folder (its files are the report's), no input inside it. `outputs` maps each
+    option to its file (None: not given). Returns the report's stale files (`check_report_folder`)."""
+    named = [(option, path) for option, path in outputs.items() if path is not None]
+    for k, (option, path) in enumerate(named):
+        check_output(path, force, inputs=inputs)
+        for first, earlier in named[:k]:
+            if same_file(Path(path), Path(earlier)):
+                raise UserError(f"{path}: named for both {first} and {option}; give each output a file of its own")
+    if report is None:
+        return []
+    if not str(report):
+        raise UserError("--report '': an empty name; expected a folder for the report")
+    for option, path in named:
+        if _inside(path, report):
+            raise UserError(f"{path}: is inside the --report folder {report}, whose files are the report's; give "
+                            f"{option} a file outside it")
+    for source in inputs:
+        if source and not is_url(str(source)) and _inside(source, report) and not same_file(Path(report), Path(source)):
+            raise UserError(f"--report {report}: holds {source}, an input of this command; give the report a folder "
+                            f"of its own")
+    return check_report_folder(report, list(report_names), inputs, recognised)
+
+
+def _digest(path: Path) -> str:
+    with open(path, "rb") as handle:
+        return hashlib.file_digest(handle, "sha256").hexdigest()
+
+
+def _owned(manifest: Path) -> dict[str, str]:
+    """The files a report's manifest says thermoplc wrote, each with the sha256 it had when written; lines
+    without a digest (a hand edit, an older thermoplc) own nothing."""
+    owned = {}
+    for line in manifest.read_text(encoding="utf-8", errors="replace").splitlines():
+        name, _, digest = line.strip().rpartition(" ")
+        if name and "/" not in name and name not in (".", "..") and re.fullmatch(r"[0-9a-f]{64}", digest):
+            owned[name.strip()] = digest
+    return owned
+
+
 def check_report_folder(folder: str | Path, names: list[str], inputs=(), recognised=None) -> list[str]:
     """The report folder must be new, empty or thermoplc's own report, and no file it would write may be
-    someone else's. Returns the files of the old report that the new one does not write (to remove):
-    listed in the manifest and named as a report names its files (`recognised`, by default only the
-    names written now), so a hand-edited manifest cannot make thermoplc delete a file of the user's."""
+    someone else's: a file is the report's only while the manifest lists it with the sha256 it has now, so a
+    file edited, replaced or written there by anyone else is never replaced nor removed. Returns the files of
+    the old report that the new one does not write (to remove): the report's own, named as a report names its
+    files (`recognised`, by default only the names written now)."""
     refuse_as_output(str(folder), "a report")
     folder = Path(folder)
     for source in inputs:
@@ -78,23 +130,25 @@ def check_report_folder(folder: str | Path, names: list[str], inputs=(), recogni
     if REPORT_MANIFEST not in present or not stat.S_ISREG(os.lstat(manifest).st_mode):
         raise UserError(f"--report {folder}: is not empty and is not a report thermoplc wrote (no {REPORT_MANIFEST}); "
                         f"give a new or empty folder")
-    owned = {line.strip() for line in manifest.read_text(encoding="utf-8", errors="replace").splitlines()
-             if line.strip() and "/" not in line and line.strip() not in (".", "..")}
-    foreign = sorted(n for n in names if n in present and n not in owned)
-    if foreign:
-        raise UserError(f"--report {folder}: {', '.join(foreign)} exists and is not listed in {REPORT_MANIFEST}; "
-                        f"thermoplc replaces only its own files: give a new or empty folder")
+    listed = _owned(manifest)
+    ours = {n for n, digest in listed.items() if n in present and stat.S_ISREG(os.lstat(folder / n).st_mode)
+            and _digest(folder / n) == digest}
     for name in names:
-        if name in present and not stat.S_ISREG(os.lstat(folder / name).st_mode):
-            raise UserError(f"--report {folder}: {name} is not a regular file; thermoplc never replaces one")
-    ours = recognised or (lambda name: name in names)
-    return sorted(n for n in owned & present if n not in names and n != REPORT_MANIFEST and ours(n)
-                  and stat.S_ISREG(os.lstat(folder / n).st_mode))
+        if name in present and name not in ours:
+            why = ("is not listed in" if name not in listed else "was changed since thermoplc wrote it, says")
+            raise UserError(f"--report {folder}: {name} exists and {why} {REPORT_MANIFEST}; thermoplc replaces only "
+                            f"its own files: give a new or empty folder")
+    is_ours = recognised or (lambda name: name in names)
+    return sorted(n for n in ours if n not in names and n != REPORT_MANIFEST and is_ours(n))
 
 
-def report_manifest(names: list[str]) -> str:
-    """The text of a report folder's `.thermoplc-report`: a comment line, then the names of the files it owns."""
-    return "\n".join(["# files of a thermoplc report; only these are replaced when it is written again", *names]) + "\n"
+def report_manifest(files: list[tuple[str, str | bytes]]) -> str:
+    """The text of a report folder's `.thermoplc-report`: a comment line, then each file it owns with the
+    sha256 of what was written, so a file changed or put there by anyone else is never taken for the report's."""
+    lines = [f"{name} {hashlib.sha256(data.encode('utf-8') if isinstance(data, str) else data).hexdigest()}"
+             for name, data in files]
+    return "\n".join(["# files of a thermoplc report and their sha256; only these are replaced when it is written "
+                      "again", *lines]) + "\n"
 
 
 def _new_file_mode() -> int:

@@ -221,6 +221,6 @@ def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report
         stale = [Path(report_dir) / n for n in check_report_folder(report_dir, list(files), list(runs.paths),
                                                                    is_report_file)]
         outputs += [(Path(report_dir) / name, content) for name, content in files.items()]
-        outputs.append((Path(report_dir) / REPORT_MANIFEST, report_manifest(list(files))))
+        outputs.append((Path(report_dir) / REPORT_MANIFEST, report_manifest(list(files.items()))))
     write_outputs(outputs, remove=stale)
     return doc

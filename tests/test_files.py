@@ -12,7 +12,7 @@ import pytest
 from tests.cli_runner import CLI, thermoplc
 from tests.golden_models import GOLDEN
 from thermoplc.base.errors import UserError
-from thermoplc.base.fileio import check_output, check_report_folder, write_outputs
+from thermoplc.base.fileio import check_output, check_outputs, check_report_folder, report_manifest, write_outputs
 
 
 def test_new_files_follow_the_umask_and_replaced_files_keep_their_mode(tmp_path):
@@ -105,16 +105,55 @@ def test_the_report_folder_rule(tmp_path):
     assert check_report_folder(tmp_path / "empty", names) == []
     own = tmp_path / "own"
     own.mkdir()
-    (own / ".thermoplc-report").write_text("channel_1.png\nchannel_2.png\nindex.html\n")
-    for name in ("channel_1.png", "channel_2.png", "index.html", "notes.txt"):
-        (own / name).write_text("x")
+    written = [(name, f"{name} as written") for name in ("channel_1.png", "channel_2.png", "index.html")]
+    (own / ".thermoplc-report").write_text(report_manifest(written))
+    for name, text in [*written, ("notes.txt", "mine")]:
+        (own / name).write_text(text)
     from thermoplc.diagnosis.report import is_report_file
     assert check_report_folder(own, names, recognised=is_report_file) == ["channel_2.png"]  # stale, its own: removed
     assert check_report_folder(own, names) == []  # nothing recognised as a report's own: nothing removed
     with pytest.raises(UserError, match="notes.txt exists and is not listed"):
         check_report_folder(own, [*names, "notes.txt"])
-    (own / ".thermoplc-report").write_text("channel_1.png\nchannel_2.png\nindex.html\nnotes.txt\n")  # tampered
+    manifest = (own / ".thermoplc-report").read_text()
+    (own / ".thermoplc-report").write_text(manifest + "notes.txt\n")  # tampered: a name without its digest
     assert check_report_folder(own, names, recognised=is_report_file) == ["channel_2.png"]  # notes.txt stays
+    (own / "channel_2.png").write_text("the user's own picture, put where a report's was")
+    assert check_report_folder(own, names, recognised=is_report_file) == []  # changed since written: stays
+    (own / "index.html").write_text("edited by hand")
+    with pytest.raises(UserError, match="index.html exists and was changed since thermoplc wrote it"):
+        check_report_folder(own, names, recognised=is_report_file)
+
+
+def test_no_output_inside_the_report_folder_nor_onto_another(tmp_path):
+    inputs = [str(tmp_path / "data.csv")]
+    with pytest.raises(UserError, match="rep/index.html: is inside the --report folder"):
+        check_outputs({"-o": str(tmp_path / "rep/index.html")}, False, inputs, str(tmp_path / "rep"), ["index.html"])
+    with pytest.raises(UserError, match="rep/deeper/m.json: is inside the --report folder"):
+        check_outputs({"-o": str(tmp_path / "m.json"), "--json": str(tmp_path / "rep/deeper/m.json")}, False, inputs,
+                      str(tmp_path / "rep"))
+    with pytest.raises(UserError, match="named for both -o and --json"):
+        check_outputs({"-o": str(tmp_path / "m.json"), "--json": str(tmp_path / "./m.json")}, False, inputs)
+    with pytest.raises(UserError, match="holds .*data.csv, an input of this command"):
+        check_outputs({"-o": str(tmp_path / "m.json")}, False, [str(tmp_path / "runs/data.csv")], str(tmp_path / "runs"))
+    with pytest.raises(UserError, match="--report '': an empty name"):
+        check_outputs({"-o": str(tmp_path / "m.json")}, False, inputs, "")
+    assert check_outputs({"-o": str(tmp_path / "m.json")}, False, inputs, str(tmp_path / "rep"), ["index.html"]) == []
+
+
+def test_a_fit_report_never_deletes_a_file_it_did_not_write(tmp_path):
+    """Issue 48: a model written as rep/run_004.png beside a 4-run report was deleted by a later 3-run report."""
+    run = lambda *a: thermoplc(*a, cwd=tmp_path, check=None)
+    assert run("twin", "--runs", "4", "--hours", "2", "--dt", "60", "--seed", "5", "-o", "runs").returncode == 0
+    fit = ("fit", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "--folds", "3")
+    refused = run(*fit, "--data", "runs", "--report", "rep", "-o", "rep/run_004.png")
+    assert refused.returncode == 2 and "rep/run_004.png: is inside the --report folder rep" in refused.stderr
+    assert not (tmp_path / "rep").exists()
+    assert run(*fit, "--data", "runs", "--report", "rep", "-o", "m.json").returncode == 0
+    (tmp_path / "rep" / "run_004.png").write_text("the user's model, written there by hand")
+    runs = sorted(str(p) for p in (tmp_path / "runs").glob("*.csv"))[:3]
+    again = run(*fit, *(a for r in runs for a in ("--data", r)), "--report", "rep", "-o", "m2.json")
+    assert again.returncode == 0, again.stderr
+    assert (tmp_path / "rep" / "run_004.png").read_text() == "the user's model, written there by hand"
 
 
 def test_outputs_onto_inputs_are_refused_even_through_another_path(tmp_path):

@@ -5,7 +5,7 @@ import argparse
 from pathlib import Path
 
 from thermoplc.base.errors import UserError
-from thermoplc.base.fileio import REPORT_MANIFEST, check_output, check_report_folder
+from thermoplc.base.fileio import check_outputs
 from thermoplc.commands.options import (DECIMAL, FORCE_HELP, RUNS, campaign_arguments, columns, scheduler_address,
                                         training_part)
 from thermoplc.commands.terminal import end_progress, progress
@@ -53,18 +53,9 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--no-structure-lag shapes a fitted baseline; with --baseline the model file decides")
     runs = run_list(args.data, args.runs)
     inputs = [*runs.paths, *([runs.table] if runs.table else []), *([args.baseline] if args.baseline else [])]
-    files = [p for p in (args.output, args.json) if p]
-    if len({Path(p).resolve() for p in files}) < len(files):
-        raise UserError(f"{args.output}: named for two outputs; give each output its own file")
-    for path in files:
-        check_output(path, args.force, inputs=inputs)
-    if args.report:
-        from thermoplc.diagnosis.report import report_files
-        owned = [*report_files(len(args.temps) + 1, len(runs.paths)), REPORT_MANIFEST]
-        for path in files:
-            if Path(path).resolve().parent == Path(args.report).resolve() and Path(path).name in owned:
-                raise UserError(f"{path}: is a file of the --report folder; give -o and --json names of their own")
-        check_report_folder(args.report, owned[:-1], inputs=inputs)
+    from thermoplc.diagnosis.report import is_report_file, report_files
+    check_outputs({"-o": args.output, "--json": args.json}, args.force, inputs, args.report,
+                  report_files(len(args.temps) + 1, len(runs.paths)), is_report_file)
     doc = diagnose(request, args.output, args.json, args.report, progress(), args.scheduler)
     end_progress()
     print(text(doc))

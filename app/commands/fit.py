@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 from thermoplc.base.errors import UserError
-from thermoplc.base.fileio import check_output, same_file, write_atomic
+from thermoplc.base.fileio import check_outputs, write_atomic
 from thermoplc.commands import json_output
 from thermoplc.commands.fit_options import Given, refuse_options_not_read
 from thermoplc.commands.options import (DECIMAL, FORCE_HELP, SEED, campaign_arguments, columns, number,
@@ -127,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
     from thermoplc.models.kalman import FitOptions
     from thermoplc.models.campaign import read_campaign, run_list
     from thermoplc.pipeline import becomes_block
-    from thermoplc.commands.fit_report import check_report, write_report
+    from thermoplc.commands.fit_report import is_report_file, report_names, write_report
     options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
                          args.recover_limit, args.ga_operators)
     request = FitRequest(kind=args.model, target=args.target[0], temps=args.temps, speed=args.speed,
@@ -139,15 +139,10 @@ def run(args: argparse.Namespace) -> int:
     if args.scheduler and not (args.folds or args.group_by):
         raise UserError("--scheduler runs the folds of --folds or --group-by on a cluster; give one of them")
     runs = run_list(args.data, args.runs)
-    inputs = [*runs.paths, *([runs.table] if runs.table else [])]  # every run: none may become an output
-    check_output(args.output, args.force, inputs=inputs)
-    json_output.check(args, inputs, output=args.output)
-    if args.report:
-        for other, what in ((args.output, "the model file (-o)"), (args.json, "the --json file")):
-            if other and other != "-" and same_file(Path(args.report), Path(other)):
-                raise UserError(f"--report {args.report}: is also {what}; give the report a folder of its own")
+    inputs = [*runs.paths, *([runs.table] if runs.table else []), args.temps.file]  # none may become an output
+    stale = check_outputs({"-o": args.output, "--json": json_output.file(args)}, args.force, inputs, args.report,
+                          report_names(len(runs.paths)), is_report_file)
     campaign = read_campaign(runs, args.time, args.decimal, probed=args.target, held=args.held_target)
-    stale = check_report(args.report, campaign, [*inputs, args.output]) if args.report else []
     groups = campaign.groups(args.group_by) if args.group_by else None
     tables = campaign.tables
     predictions: dict = {}
@@ -162,7 +157,7 @@ def run(args: argparse.Namespace) -> int:
             remote.cluster.close()
     end_progress()
     becomes_block(model, args.output)
-    report = write_report(args.report, model, campaign, predictions, stale) if args.report else None
+    report = write_report(args.report, model, campaign, predictions, stale) if args.report is not None else None
     write_atomic(args.output, model.to_json())
     text = f"{format_fit(model, campaign)}\nwrote {args.output}" + (f"\nwrote {report}" if report else "")
     json_output.emit(args, text, fit_document(model, args.output))

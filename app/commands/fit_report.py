@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from thermoplc.base.fileio import REPORT_MANIFEST, check_report_folder, report_manifest, write_outputs
+from thermoplc.base.fileio import REPORT_MANIFEST, report_manifest, write_outputs
 
 INDEX = "index.html"
 
@@ -18,17 +18,14 @@ def _png_name(k: int) -> str:
     return f"run_{k + 1:03d}.png"
 
 
-def _names(campaign) -> list[str]:
-    return [INDEX, *(_png_name(k) for k in range(len(campaign.runs)))]
+def report_names(runs: int) -> list[str]:
+    """The files a report of `runs` runs writes, its manifest aside."""
+    return [INDEX, *(_png_name(k) for k in range(runs))]
 
 
-def _is_ours(name: str) -> bool:
+def is_report_file(name: str) -> bool:
+    """Whether `name` is named as this report names its files (a stale one of an older report may go)."""
     return name == INDEX or (name.startswith("run_") and name.endswith(".png") and name[4:-4].isdigit())
-
-
-def check_report(folder: str, campaign, inputs) -> list[str]:
-    """Refuse a folder that is not new, empty or a report of ours before any fitting; the stale files."""
-    return check_report_folder(folder, _names(campaign), inputs, recognised=_is_ours)
 
 
 def _plot(run, model, held_out: np.ndarray | None, written: np.ndarray) -> bytes:
@@ -106,8 +103,7 @@ def write_report(folder: str, model, campaign, held_out: dict, stale: list[str])
         written = predict(model, model_inputs(model, run.table), "f64")[model.target.name]
         files.append((Path(folder) / _png_name(k), _plot(run, model, held_out.get(run.table.path), written)))
         pngs.append(_png_name(k))
-    names = _names(campaign)
     files.append((Path(folder) / INDEX, _page(model, campaign, pngs)))
-    files.append((Path(folder) / REPORT_MANIFEST, report_manifest(names)))
+    files.append((Path(folder) / REPORT_MANIFEST, report_manifest([(Path(path).name, data) for path, data in files])))
     write_outputs(files, [Path(folder) / name for name in stale])
     return str(Path(folder) / INDEX)

@@ -9,12 +9,11 @@ import argparse
 import json
 import math
 import sys
-from pathlib import Path
 
 import numpy as np
 
 from thermoplc.base.errors import UserError
-from thermoplc.base.fileio import check_output, same_file, write_atomic
+from thermoplc.base.fileio import check_outputs, write_atomic
 from thermoplc.commands.options import FORCE_HELP
 
 JSON_HELP = ("also write the result as a JSON document to FILE ('-': standard output, the text then goes to "
@@ -35,12 +34,14 @@ def add_arguments(p, force: bool = True) -> None:
 
 
 def check(args, inputs, output: str | None = None) -> None:
-    """Refuse a --json file that exists (without --force), names an input or the command's other output
-    (`-o`), before any work."""
-    if args.json and args.json != "-":
-        if output and output != "-" and same_file(Path(args.json), Path(output)):
-            raise UserError(f"--json {args.json}: is also the -o output; choose another name for the JSON document")
-        check_output(args.json, args.force, inputs=[i for i in inputs if i])
+    """Refuse a --json file the output rule does not allow (base/fileio.check_outputs: an existing file
+    without --force, an input, the command's -o) before any work."""
+    check_outputs({"-o": output, "--json": file(args)}, args.force, inputs=[i for i in inputs if i])
+
+
+def file(args) -> str | None:
+    """The --json file, None when not given or on standard output."""
+    return None if args.json in (None, "-") else args.json
 
 
 def emit(args, text: str, document: dict | None) -> None:

@@ -15,9 +15,16 @@ DECIMAL = {"choices": ("auto", ".", ","), "default": "auto",
                    "(default: %(default)s)"}
 
 
-def columns(text: str) -> tuple[str, ...]:
+class Names(tuple):
+    """Column names, and the @FILE they were read from (None when given on the command line): an input of
+    the command, which no output may replace."""
+    file: str | None = None
+
+
+def columns(text: str) -> Names:
     """Comma-separated column names, or @FILE written by select-sensors -o (its '#' lines are comments)."""
-    if text.startswith("@"):
+    file = text[1:] if text.startswith("@") else None
+    if file is not None:
         try:
             text = Path(text[1:]).read_text("utf-8").strip()
         except OSError as exc:
@@ -26,7 +33,9 @@ def columns(text: str) -> tuple[str, ...]:
     names = tuple(c.strip() for c in text.split(",") if c.strip())
     if not names:
         raise argparse.ArgumentTypeError("expected comma-separated column names")
-    return names
+    found = Names(names)
+    found.file = file
+    return found
 
 
 def number(kind: type, low: float, high: float, what: str = "") -> Callable[[str], float]:
