@@ -30,6 +30,7 @@ from thermoplc.verifier.interpreter import (CONVERSIONS, INT_RANGES, MAX_LOOP_IT
 CFLAGS = ["-O2", "-std=gnu99", "-fPIC", "-shared", "-ffp-contract=off", "-fno-fast-math", "-fexcess-precision=standard"]
 X86_FLAGS = ["-msse2", "-mfpmath=sse"]
 STATUS_FLAGS = 2  # status[0]: FPU flags raised, status[1]: first cycle the chunk could not run
+SYMBOLS = ("run", "state_size", "state_init")  # what NativeBlock calls: a cached library without one is rebuilt
 
 
 def _int(value: str, kind: str) -> str:
@@ -304,9 +305,9 @@ def _compiler_identity(compiler: list[str]) -> list[str]:
 def load_library(source: str) -> ctypes.CDLL:
     """`source` compiled and loaded: from the private cache of compiled blocks when this text was compiled
     before by this compiler with these flags (verifier/native_cache.py, which never loads a library anyone
-    else could have written), else built in a folder that mkdtemp creates for this user alone (0700, a
-    fresh name), loaded, kept in the cache, and the folder removed, also when the compiler fails. Compiling
-    costs about 0.15 s per block."""
+    else could have written, nor one whose bytes differ from those it stored or that lacks `SYMBOLS`), else
+    built in a folder that mkdtemp creates for this user alone (0700, a fresh name), loaded, kept in the
+    cache, and the folder removed, also when the compiler fails. Compiling costs about 0.15 s per block."""
     compiler = _compiler()
     if compiler is None:
         raise NativeUnavailable("no C compiler found (set CC, or install gcc)")
@@ -314,7 +315,7 @@ def load_library(source: str) -> ctypes.CDLL:
     key = hashlib.sha256("\0".join([source, *flags, *_compiler_identity(compiler)]).encode()).hexdigest()
     if key in _LOADED:
         return _LOADED[key]
-    library = native_cache.load(key)
+    library = native_cache.load(key, SYMBOLS)
     if library is None:
         library = _build(source, compiler, flags, key)
     _LOADED[key] = library
