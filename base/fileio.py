@@ -81,6 +81,9 @@ def check_outputs(outputs: dict[str, str | None], force: bool, inputs=(), report
         return []
     if not str(report):
         raise UserError("--report '': an empty name; expected a folder for the report")
+    if is_url(str(report)):
+        raise UserError(f"--report {report}: a report is written to a local folder; object-store URLs are read, never "
+                        f"written; give a folder")
     for option, path in named:
         if _inside(path, report):
             raise UserError(f"{path}: is inside the --report folder {report}, whose files are the report's; give "

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import io
+import os
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -90,8 +91,8 @@ def recording_paths(data: list[str]) -> list[str]:
             paths += _recordings_at(given)
         elif given != "-" and folder.is_dir():
             found = sorted(str(p) for p in folder.iterdir()
-                           if p.is_file() and p.suffix.lower() in RECORDING_SUFFIXES and p.name != RUNS_TABLE
-                           and not p.name.startswith("."))
+                           if p.suffix.lower() in RECORDING_SUFFIXES and p.name != RUNS_TABLE
+                           and not p.name.startswith(".") and _recording_file(p))
             if not found:
                 raise UserError(f"{given}: a folder with no recordings in it (expected files ending in "
                                 f"{', '.join(RECORDING_SUFFIXES)})")
@@ -101,6 +102,15 @@ def recording_paths(data: list[str]) -> list[str]:
     if paths.count("-") > 1:
         raise UserError("--data -: standard input can be read once; give the other runs as files")
     return paths
+
+
+def _recording_file(path: Path) -> bool:
+    """Whether a folder's entry named like a recording is one: a file, or a link to one; a link to nothing is
+    refused (a run silently missing would change the campaign), a folder named so is not a recording."""
+    if path.is_symlink() and not path.exists():
+        raise UserError(f"{path}: a symbolic link to {os.readlink(path)}, which does not exist; this run cannot be "
+                        f"read (remove the link or restore its file)")
+    return path.is_file()
 
 
 def _recordings_at(url: str) -> list[str]:
@@ -158,6 +168,8 @@ def read_runs_table(path: str) -> RunList:
         name = values.pop(FILE_COLUMN)
         if not name:
             raise UserError(f"{path}:{line}: column {FILE_COLUMN!r} is empty; expected the run's recording")
+        if "\0" in name:
+            raise UserError(f"{path}:{line}: column {FILE_COLUMN!r}: a NUL character in {name!r}; no file is named so")
         if is_url(name) or Path(name).is_absolute():  # read where it is
             file = name
         else:

@@ -872,7 +872,7 @@ def _campaign_cases() -> list[Case]:
              _files({"runs/a.csv": lambda t: t, "runs/b.csv": run_b}), "error", "is also an input of this command"),
         Case("campaign", "--report onto the model file", "fit",
              (*campaign, "--data", "good.csv", "--data", "b.csv", "--folds", "2", "--report", "out.json"),
-             _files({"b.csv": run_b}), "error", "--report out.json: is also the model file (-o)"),
+             _files({"b.csv": run_b}), "error", "out.json: is inside the --report folder out.json"),
         Case("campaign", "--runs names a folder", "fit", (*campaign, "--runs", "runs", "--folds", "2"),
              _files({"runs/a.csv": lambda t: t}), "error", "--runs runs: a folder; give its runs table"),
         Case("campaign", "a runs table given as --data", "fit", (*campaign, "--data", "runs.csv", "--train-rows", "200"),
@@ -990,10 +990,66 @@ def _read_two_ways_cases() -> list[Case]:
     ]
 
 
+def _hostile_review_cases() -> list[Case]:
+    """Issue 48: outputs inside outputs, empty names, NUL bytes, a broken link, --decimal in a campaign."""
+    campaign = ("fit", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "-o", "out.json")
+    run_b = lambda text: _cell(text, 5, "E_z_um", "0.125")
+    two_runs = ("--data", "good.csv", "--data", "b.csv", "--folds", "2")
+
+    def broken_link(folder: Path) -> None:
+        (folder / "runs").mkdir()
+        (folder / "runs" / "a.csv").write_text(good_csv(folder))
+        (folder / "runs" / "b.csv").symlink_to("gone.csv")
+
+    nul_table = _files({"runs.csv": lambda _: "file\ngood.csv\nb\0.csv\n"})
+    nul_manifest = _files({"m.csv": lambda _: "block,data,model\nblock.scl,good\0.csv,mlr.json\n"})
+    return [
+        Case("output", "fit -o naming a file of its --report folder", "fit",
+             (*campaign[:-2], "-o", "rep/run_002.png", *two_runs, "--report", "rep"), _files({"b.csv": run_b}), "error",
+             "rep/run_002.png: is inside the --report folder rep, whose files are the report's; give -o a file "
+             "outside it"),
+        Case("output", "fit --json naming the report's index.html", "fit",
+             (*campaign, *two_runs, "--report", "rep", "--json", "rep/index.html"), _files({"b.csv": run_b}), "error",
+             "rep/index.html: is inside the --report folder rep"),
+        Case("output", "fit --json onto its -o", "fit", (*campaign, *two_runs, "--json", "out.json"),
+             _files({"b.csv": run_b}), "error", "out.json: named for both -o and --json"),
+        Case("output", "--report around an input", "fit", (*campaign, "--data", "runs", "--folds", "2", "--report", "runs"),
+             _files({"runs/a.csv": lambda t: t, "runs/b.csv": run_b}), "error",
+             "--report runs: holds runs/a.csv, an input of this command"),
+        Case("output", "--report an object-store URL", "fit", (*campaign, *two_runs, "--report", "s3://bucket/rep"),
+             _files({"b.csv": run_b}), "error", "--report s3://bucket/rep: a report is written to a local folder"),
+        Case("options", "--report ''", "fit", (*campaign, *two_runs, "--report", ""), _files({"b.csv": run_b}),
+             "error", "argument --report: expected a folder for the report, found an empty name"),
+        Case("options", "--data ''", "verify", ("verify", "block.scl", "--model", "mlr.json", "--data", ""),
+             lambda f: None, "error", "argument --data: expected a recording (CSV, .npz or Parquet) or a folder of "
+                                      "them, found an empty name"),
+        Case("options", "--runs ''", "fit", (*campaign, "--runs", "", "--folds", "2"), lambda f: None, "error",
+             "argument --runs: expected a runs table (CSV), found an empty name"),
+        Case("options", "--group-by ''", "fit", (*campaign, "--data", "good.csv", "--group-by", ""), lambda f: None,
+             "error", "argument --group-by: expected a column of the runs table, found an empty name"),
+        Case("campaign", "a NUL byte in a runs table's file", "fit", (*campaign, "--runs", "runs.csv", "--folds", "2"),
+             nul_table, "error", "runs.csv:3: column 'file': a NUL character in 'b\\x00.csv'"),
+        Case("campaign", "a NUL byte in a runs table's file", "verify",
+             ("verify", "block.scl", "--model", "mlr.json", "--runs", "runs.csv", "--jobs", "2"), nul_table, "error",
+             "runs.csv:3: column 'file': a NUL character in 'b\\x00.csv'"),
+        Case("manifest", "a NUL byte in a manifest's file", "verify", ("verify", "--manifest", "m.csv", "--jobs", "2"),
+             nul_manifest, "error", "m.csv:2: column 'data': a NUL character in 'good\\x00.csv'"),
+        Case("campaign", "a data folder holding a link to nothing", "fit", (*campaign, "--data", "runs", "--folds", "2"),
+             broken_link, "error", "runs/b.csv: a symbolic link to gone.csv, which does not exist"),
+        Case("campaign", "';' runs with decimal points, --decimal .", "verify",
+             ("verify", "block.scl", "--model", "mlr.json", "--data", "a.csv", "--data", "b.csv", "--decimal", "."),
+             _files({"a.csv": lambda t: t.replace(",", ";"), "b.csv": lambda t: run_b(t).replace(",", ";")}),
+             "accepted", "campaign: block.scl against mlr.json on 2 runs"),
+        Case("campaign", "twin --runs whose rows in all pass the cap", "twin",
+             ("twin", "--runs", "10000", "--hours", "1000", "-o", "c"), lambda f: None, "error",
+             "--runs 10000 of --hours 1000 at --dt 10 gives more than 50,000,000 rows in all"),
+    ]
+
+
 CASES = [*_csv_cases(), *_model_cases(), *_st_cases(), *_injection_cases(), *_output_cases(), *_option_cases(),
          *_bounded_cases(), *_schema_cases(), *_nesting_cases(), *_data_file_cases(), *_verify_cases(),
          *_review_cases(), *_plcopen_cases(), *_campaign_cases(),
-         *_read_two_ways_cases()]
+         *_read_two_ways_cases(), *_hostile_review_cases()]
 
 
 def setup_folder(folder: Path) -> None:

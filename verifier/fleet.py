@@ -27,6 +27,7 @@ class Pair:
     expect: dict | None
     inputs: dict | None
     sha256: tuple[tuple[str, str], ...] = ()  # (file, digest) of each file a task run elsewhere must find
+    decimal: str = "auto"  # the data's decimal separator (--decimal)
 
 
 @dataclass(frozen=True)
@@ -51,7 +52,7 @@ def _mapping(text: str, manifest: str, line: int, field: str) -> dict | None:
     return mapping
 
 
-def read_manifest(path: str) -> list[Pair]:
+def read_manifest(path: str, decimal: str = "auto") -> list[Pair]:
     try:
         with open(path, encoding="utf-8-sig", newline="") as f:
             rows = list(csv.reader(f))
@@ -71,12 +72,16 @@ def read_manifest(path: str) -> list[Pair]:
         if len(row) != len(header):
             raise UserError(f"{path}:{line}: {len(row)} fields, expected {len(header)} as in the header")
         cell = dict(zip(header, (c.strip() for c in row)))
+        for field in ("block", "data", "model"):
+            if "\0" in cell.get(field, ""):
+                raise UserError(f"{path}:{line}: column {field!r}: a NUL character in {cell[field]!r}; no file is named so")
         model, expect = cell.get("model", ""), cell.get("expect", "")
         if bool(model) == bool(expect):
             raise UserError(f"{path}:{line}: give either a model or an expect column value, not {'both' if model else 'neither'}")
         where = lambda p: str(base / p) if p and not Path(p).is_absolute() and not is_url(p) else p
         pairs.append(Pair(line, where(cell["block"]), where(cell["data"]), where(model) or None,
-                          _mapping(expect, path, line, "expect"), _mapping(cell.get("inputs", ""), path, line, "inputs")))
+                          _mapping(expect, path, line, "expect"), _mapping(cell.get("inputs", ""), path, line, "inputs"),
+                          decimal=decimal))
     if not pairs:
         raise UserError(f"{path}: the manifest lists no pairs")
     return pairs
@@ -99,12 +104,12 @@ def verify_pair(pair: Pair, engine: str) -> Outcome:
         _same_bytes(pair)
         if pair.model:
             model = load_model(pair.model)
-            report = verify_streaming(pair.block, model, pair.model, pair.data, pair.inputs, engine)
+            report = verify_streaming(pair.block, model, pair.model, pair.data, pair.inputs, engine, pair.decimal)
             if report is None:
-                table = read_table(pair.data, model.time_column, sparse=model_targets(model))
+                table = read_table(pair.data, model.time_column, decimal=pair.decimal, sparse=model_targets(model))
                 report = verify_against_model(pair.block, model, pair.model, table, pair.inputs, engine)
         else:
-            table = read_table(pair.data)
+            table = read_table(pair.data, decimal=pair.decimal)
             report = verify_against_trace(pair.block, table, pair.expect, pair.inputs, engine=engine)
     except UserError as exc:
         return Outcome(pair, "error", str(exc), str(exc), 0, time.perf_counter() - started)

@@ -6,8 +6,8 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_outputs
-from thermoplc.commands.options import (DECIMAL, FORCE_HELP, RUNS, campaign_arguments, columns, scheduler_address,
-                                        training_part)
+from thermoplc.commands.options import (DECIMAL, FORCE_HELP, RUNS, campaign_arguments, columns, named,
+                                        scheduler_address, training_part)
 from thermoplc.commands.terminal import end_progress, progress
 
 
@@ -21,8 +21,9 @@ def add_parser(sub) -> None:
     p.add_argument("--ambient", required=True, help="ambient temperature column, degC")
     p.add_argument("--target", required=True, help="measured displacement column, um")
     p.add_argument("--feed", help="feed-axis rate column, mm/min (enables the feed_axis_heat candidate)")
-    p.add_argument("--baseline", help="a lumped model file (`fit --model lumped` or diagnose wrote it) to start from "
-                                      "instead of identifying the baseline")
+    p.add_argument("--baseline", type=named("a model file"),
+                   help="a lumped model file (`fit --model lumped` or diagnose wrote it) to start from "
+                        "instead of identifying the baseline")
     p.add_argument("--no-structure-lag", action="store_true",
                    help="baseline displacement from the filtered temperatures alone (paper 000 eq. 10), without "
                         "the structure that lags them")
@@ -36,7 +37,8 @@ def add_parser(sub) -> None:
                         "is at ADDRESS (tcp://HOST:PORT; the fleet extra); every worker reads the runs by the paths "
                         "given. The same findings, bit for bit")
     p.add_argument("--json", help="write the findings here (findings.json)")
-    p.add_argument("--report", metavar="FOLDER", help="write an HTML report with plots into this folder")
+    p.add_argument("--report", metavar="FOLDER", type=named("a folder for the report"),
+                   help="write an HTML report with plots into this folder")
     p.add_argument("-o", "--output", default="diagnosed_model.json",
                    help="augmented model file (default: %(default)s)")
     p.set_defaults(func=run)

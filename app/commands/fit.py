@@ -9,7 +9,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_outputs, write_atomic
 from thermoplc.commands import json_output
 from thermoplc.commands.fit_options import Given, refuse_options_not_read
-from thermoplc.commands.options import (DECIMAL, FORCE_HELP, SEED, campaign_arguments, columns, number,
+from thermoplc.commands.options import (DECIMAL, FORCE_HELP, SEED, campaign_arguments, columns, named, number,
                                         scheduler_address, training_part)
 from thermoplc.commands.terminal import end_progress, progress
 
@@ -56,14 +56,14 @@ def add_parser(sub) -> None:
              "blocks (cut at standstills when --speed is given), each predicted by a fit on the blocks before it. "
              "Several runs: K folds of whole runs, each run predicted from its first row by a fit on the other runs "
              "(K = the number of runs: leave one run out)")
-    part.add_argument("--group-by", metavar="COLUMN",
+    part.add_argument("--group-by", metavar="COLUMN", type=named("a column of the runs table"),
                       help="fit on every row, with held-out evidence from leave-one-group-out cross-validation over "
                            "the groups of this column of the --runs table (fit on the cool days, predict the warm "
                            "ones)")
     p.add_argument("--held-target", action="store_true",
                    help="the target holds its last probing between probings: only the first row and the rows where "
                         "it changes are measurements (an empty target cell is always a row without a measurement)")
-    p.add_argument("--report", metavar="DIR",
+    p.add_argument("--report", metavar="DIR", type=named("a folder for the report"),
                    help="also write a report folder: per run measured, predicted and no compensation, the residual, "
                         "the fold and group tables, one PNG per run and an index.html")
     p.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,

@@ -38,6 +38,19 @@ def columns(text: str) -> Names:
     return found
 
 
+def named(what: str) -> Callable[[str], str]:
+    """An argparse type: any text but an empty one (an empty path would read as the current folder)."""
+    def parse(text: str) -> str:
+        if not text:
+            raise argparse.ArgumentTypeError(f"expected {what}, found an empty name")
+        return text
+    return parse
+
+
+RECORDING = named("a recording (CSV, .npz or Parquet) or a folder of them")
+RUNS_TABLE = named("a runs table (CSV)")
+
+
 def number(kind: type, low: float, high: float, what: str = "") -> Callable[[str], float]:
     """An argparse type: a finite int or float within [low, high] (the option is named by argparse)."""
     def parse(text: str):
@@ -147,9 +160,9 @@ def training_part(parser: argparse.ArgumentParser, required: bool, default: str 
 def campaign_arguments(parser: argparse.ArgumentParser, each: str, table: str) -> None:
     """--data (repeated: a campaign) and --runs TABLE, in the same words for every command that takes runs;
     `each` says what a run is to this command, `table` what the runs table's columns are for."""
-    parser.add_argument("--data", action="append",
+    parser.add_argument("--data", action="append", type=RECORDING,
                         help="a run's recording (CSV, .npz or Parquet) or a folder of them; repeat for a campaign of "
                              f"runs, {each}")
-    parser.add_argument("--runs", metavar="TABLE",
+    parser.add_argument("--runs", metavar="TABLE", type=RUNS_TABLE,
                         help="runs table instead of --data: a CSV with a 'file' column (relative to the table)"
                              f"{table}, one row per run")

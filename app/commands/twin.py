@@ -7,7 +7,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_output, write_atomic
 from thermoplc.commands.options import FORCE_HELP, SEED, number
 
-MAX_TWIN_ROWS = 50_000_000  # about 1.6 years at 1 s; beyond it the arrays alone need tens of GB
+MAX_TWIN_ROWS = 50_000_000  # about 1.6 years at 1 s, over all runs; beyond it the files alone take several GB
 
 
 def add_parser(sub) -> None:
@@ -62,9 +62,11 @@ def run(args: argparse.Namespace) -> int:
     from thermoplc.models.table import write_table
     from thermoplc.models.effects import Effect
     chosen = machine(args.machine)
-    if args.hours * 3600 / args.dt > MAX_TWIN_ROWS:  # each option is checked by its type; their ratio here
-        raise UserError(f"--hours {args.hours:g} at --dt {args.dt:g} gives more than {MAX_TWIN_ROWS:,} rows; "
-                        f"use a longer --dt or fewer hours")
+    runs = args.runs or 1
+    if runs * args.hours * 3600 / args.dt > MAX_TWIN_ROWS:  # each option is checked by its type; their product here
+        given = f"--runs {runs} of " if args.runs else ""
+        raise UserError(f"{given}--hours {args.hours:g} at --dt {args.dt:g} gives more than {MAX_TWIN_ROWS:,} rows in "
+                        f"all; use a longer --dt, fewer hours{' or fewer runs' if args.runs else ''}")
     faults = tuple(SensorFault.parse(f, chosen.SENSORS) for f in args.sensor_fault)
     effects = tuple(Effect.parse(e, chosen.COLUMN_DEFAULTS) for e in args.effect)
     names = [e.name for e in effects]

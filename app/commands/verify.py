@@ -7,24 +7,26 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.commands import json_output
-from thermoplc.commands.options import DECIMAL, columns, mapping, number, scheduler_address
+from thermoplc.commands.options import (DECIMAL, RECORDING, RUNS_TABLE, columns, mapping, named, number,
+                                        scheduler_address)
 from thermoplc.commands.terminal import progress
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("verify", help="replay data through a block and compare every output bit for bit")
     p.add_argument("block", nargs="?", help="the block: its ST source, or the PLCopen XML of generate --format plcopen")
-    p.add_argument("--data", action="append",
+    p.add_argument("--data", action="append", type=RECORDING,
                    help="the recording (CSV, .npz or Parquet of columns), one row per call; columns Enable and Reset "
                         "(0/1), when present, drive those block inputs. Repeat it, or give a folder, for a campaign: "
                         "each run replayed from a freshly started block, one line per run, one verdict")
-    p.add_argument("--runs", metavar="TABLE",
+    p.add_argument("--runs", metavar="TABLE", type=RUNS_TABLE,
                    help="a campaign's runs table (fit --runs) instead of --data: each run verified from a fresh block")
     p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--model", help="compare with this model's float32 reference")
     p.add_argument("--expect", type=columns, help="compare with recorded outputs: COLUMN or OUTPUT=COLUMN, comma-separated")
     p.add_argument("--inputs", type=mapping, help="block input to column mapping NAME=COLUMN,...")
-    p.add_argument("--manifest", help="CSV of pairs to verify (columns block,data and model or expect, optional inputs)")
+    p.add_argument("--manifest", type=named("a manifest (CSV)"),
+                   help="CSV of pairs to verify (columns block,data and model or expect, optional inputs)")
     p.add_argument("--jobs", type=number(int, 1, 256, "processes"), default=1, help="with --manifest: pairs verified in parallel (default: %(default)s)")
     p.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
                    help="with --manifest or a campaign: verify the pairs as tasks of the Dask distributed cluster whose "
@@ -82,7 +84,8 @@ def _campaign(args: argparse.Namespace, runs: list[str]) -> int:
     from thermoplc.models.campaign import run_labels
     from thermoplc.verifier.fleet import Pair, verify_fleet
     expect = dict(item.partition("=")[::2] if "=" in item else (item, item) for item in args.expect or ()) or None
-    pairs = [Pair(k, args.block, path, args.model, expect, args.inputs) for k, path in enumerate(runs, start=1)]
+    pairs = [Pair(k, args.block, path, args.model, expect, args.inputs, decimal=args.decimal)
+             for k, path in enumerate(runs, start=1)]
     outcomes, seconds = verify_fleet(pairs, min(args.jobs, len(pairs)), args.engine, args.scheduler)
     labels = run_labels(runs)
     width = max(len(label) for label in labels) + 2
@@ -118,7 +121,7 @@ def _fleet(args: argparse.Namespace) -> int:
     if args.block or args.data or args.runs or args.model or args.expect or args.faults:
         raise UserError("--manifest lists the blocks, data and models itself; give no BLOCK, --data, --model, --expect or --faults")
     from thermoplc.verifier.fleet import fleet_document, format_fleet, read_manifest, verify_fleet
-    pairs = read_manifest(args.manifest)
+    pairs = read_manifest(args.manifest, args.decimal)
     json_output.check(args, [args.manifest, *(f for p in pairs for f in (p.block, p.data, p.model))])
     outcomes, seconds = verify_fleet(pairs, args.jobs, args.engine, args.scheduler)
     json_output.emit(args, format_fleet(outcomes, args.manifest, seconds), fleet_document(outcomes, args.manifest))
