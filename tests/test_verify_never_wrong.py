@@ -208,20 +208,24 @@ __attribute__((constructor)) static void planted(void) {
 def test_a_planted_library_is_never_loaded(folder, tmp_path):
     cache = tmp_path / "cache" / "thermoplc" / "native"
     cache.mkdir(parents=True)
+    cache.chmod(0o700)  # private, as the cache asks: else it is not used at all
     source = tmp_path / "planted.c"
     source.write_text("#include <stdlib.h>\n" + PLANTED)
     build = subprocess.run(["gcc", "-shared", "-fPIC", "-o", str(tmp_path / "planted.so"), str(source)],
                            capture_output=True)
     if build.returncode != 0:
         pytest.skip("no C compiler")
-    for key in ("0" * 20, "f" * 20):
-        (cache / f"block_{key}.so").write_bytes((tmp_path / "planted.so").read_bytes())
     marker = tmp_path / "marker"
     env = {"XDG_CACHE_HOME": str(tmp_path / "cache"), "PLANTED_MARKER": str(marker), "TMPDIR": str(tmp_path)}
     (folder / "counter.st").write_text(HAND_WRITTEN)
     _trace(folder, "right.csv", {"x": np.array([1.0, 2.0, 3.0]), "i_plc": np.array([2.0, 4.0, 6.0])})
-    result = thermoplc("verify", "counter.st", "--data", "right.csv", "--expect", "i=i_plc", "--engine", "fast",
-                       cwd=folder, env=env)
+    verify = ("verify", "counter.st", "--data", "right.csv", "--expect", "i=i_plc", "--engine", "fast")
+    assert thermoplc(*verify, cwd=folder, env=env).returncode == 0
+    entries = list(cache.glob("*.so"))
+    assert entries, "the first verify caches the block"
+    for entry in entries:  # the cached block's own name, so the planted library is what a load would open
+        entry.write_bytes((tmp_path / "planted.so").read_bytes())
+    result = thermoplc(*verify, cwd=folder, env=env)
     assert result.returncode == 0, result.stdout + result.stderr
     assert not marker.exists()
     assert not list(tmp_path.glob("thermoplc-native-*")), "the build folder is removed after loading"
