@@ -13,6 +13,7 @@ import re
 from thermoplc.base.binary32 import round_f32
 from thermoplc.base.errors import UserError
 from thermoplc.models.modelfile import Model
+from thermoplc.models.probing import COUNT_MAX
 from thermoplc.models.safety import Limits, axis_outputs, guards
 
 CONSTANT_PREFIX = "c_"
@@ -96,6 +97,23 @@ def structure(model: Model) -> dict:
             out["c_Dt"] = round_f32(model.sample_period_s)
     elif model.kind == "piecewise":
         out["c_One"] = 1.0
+    if model.probe is not None:
+        out.update(probe_constants(model))
+    return out
+
+
+PROBE_NAMES = {"gain": "c_ProbeGain", "gate_um": "c_ProbeGate", "limit_um": "c_ProbeLimit",
+               "offset_max_um": "c_ProbeOffsetMax", "rate_gain": "c_ProbeRateGain", "rate_max_um": "c_ProbeRateMax",
+               "decay": "c_ProbeDecay"}  # a constant of the probe fusion -> the block constant that holds it
+PROBE_NEGATED = {"offset_max_um": "c_ProbeOffsetMin", "rate_max_um": "c_ProbeRateMin"}  # the lower clamps
+
+
+def probe_constants(model: Model) -> dict:
+    """The probe fusion's constants as the block declares them (name -> binary32 value or INT)."""
+    values = model.probe.values()
+    out = {PROBE_NAMES[key]: value for key, value in values.items()}
+    out.update({PROBE_NEGATED[key]: -value for key, value in values.items() if key in PROBE_NEGATED})
+    out.update({"c_ProbeCountMax": COUNT_MAX, "c_ProbeOne": 1})
     return out
 
 

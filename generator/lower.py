@@ -9,10 +9,12 @@ from dataclasses import replace
 
 from thermoplc.generator.commissioning import with_commissioning
 from thermoplc.generator.ir import Block, GenerationError, Identity
+from thermoplc.generator.probing import Fusion
 from thermoplc.generator.ranges import RangeProof, prove_ranges
 from thermoplc.generator.safety import with_safety
 from thermoplc.models.modelfile import Model
-from thermoplc.contract.outputs import ENABLE_INPUT, READY_OUTPUT, fault_outputs
+from thermoplc.contract.constants import probe_constants
+from thermoplc.contract.outputs import ENABLE_INPUT, PROBE_VALUE_INPUT, READY_OUTPUT, fault_outputs
 from thermoplc.models.safety import Limits, axis_outputs, guards
 
 
@@ -44,8 +46,15 @@ def lower(model: Model, limits: Limits = Limits(), identity: Identity | None = N
     core = lower_model(model)
     _refuse_unread_inputs(model, core)
     axes = axis_outputs(model, [v.name for v in core.outputs if v.type == "REAL"])
-    block = with_commissioning(with_safety(core, guards(model), axes, limits, fault_outputs(model)))
+    block = with_commissioning(with_safety(core, guards(model), axes, limits, fault_outputs(model), _fusion(model)))
     return replace(block, identity=identity or Identity(), retain=retain)
+
+
+def _fusion(model: Model) -> Fusion | None:
+    """What the probe fusion adds to the block of a model fitted with probings; None for a static model."""
+    if model.probe is None:
+        return None
+    return Fusion(model.target.name, probe_constants(model), model.probe.has_rate, model.probe.decay is not None)
 
 
 def _refuse_unread_inputs(model: Model, core: Block) -> None:
@@ -65,4 +74,7 @@ def prove(model: Model, block: Block, limits: Limits) -> RangeProof:
     every other region), so it keeps any state the proof finds."""
     constants = limits.values()
     ranges = {g.name: (constants[g.low], constants[g.high]) for g in guards(model)}
+    if model.probe is not None:  # a probing beyond the limit is refused before any arithmetic reads it
+        limit = model.probe.values()["limit_um"]
+        ranges[PROBE_VALUE_INPUT] = (-limit, limit)
     return prove_ranges(block, {**ranges, ENABLE_INPUT: True}, partition=("Init", READY_OUTPUT))

@@ -13,6 +13,7 @@ from thermoplc.base.version import __version__
 from thermoplc.base.identifiers import identifier_problem
 from thermoplc.models.effects import NAMES as EFFECT_NAMES
 from thermoplc.models.kinds import kind_of, registry
+from thermoplc.models.probing import Fusion
 from thermoplc.base.binary32 import FLT_MAX, f32_hex, parse_f32_hex, round_f32, ulp_distance
 from thermoplc.base.errors import UserError
 
@@ -54,6 +55,7 @@ class Model:
     training: dict = field(default_factory=dict)
     metrics: dict = field(default_factory=dict)
     fit: dict = field(default_factory=dict)
+    probe: Fusion | None = None  # the probe fusion's constants (models/probing.py); None: a static block
 
     def signals(self, role: str) -> tuple[Signal, ...]:
         """Inputs with this role; one input may hold several roles ('temperature,ambient')."""
@@ -71,7 +73,8 @@ class Model:
     def fingerprint(self) -> str:
         """Hash of everything that decides the block's behaviour (not the metrics or fit log)."""
         doc = _document(self)
-        essential = {k: doc[k] for k in ("kind", "inputs", "target", "sample_period_s", "coefficients", "settings")}
+        essential = {k: doc[k] for k in ("kind", "inputs", "target", "sample_period_s", "coefficients", "settings",
+                                         "probe") if k in doc}
         return hashlib.sha256(json.dumps(essential, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -88,6 +91,7 @@ def _document(m: Model) -> dict:
         "target": vars(m.target),
         "coefficients": {k: {"f64": c.f64, "f32": f32_hex(c.f32)} for k, c in m.coefficients.items()},
         "settings": m.settings,
+        **({"probe": m.probe.to_doc()} if m.probe is not None else {}),
         "training": m.training,
         "metrics": m.metrics,
         "fit": m.fit,
@@ -310,4 +314,5 @@ def _parse(doc, path: str) -> Model:
         training=_field(doc, "training", dict, path),
         metrics=_field(doc, "metrics", dict, path),
         fit=_field(doc, "fit", dict, path),
+        probe=Fusion.from_doc(doc["probe"], path) if "probe" in doc else None,
     )

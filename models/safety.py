@@ -20,6 +20,7 @@ from thermoplc.models import kernels
 from thermoplc.models.kind import fault_key
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
+from thermoplc.models.probing import fused_core
 
 LIMIT_MAX = 1.0e12  # far beyond any machine, far below FLT_MAX
 # the largest REAL as the S7 manuals write it (+-3.402823E+38): FLT_MAX's own shortest text, 3.4028235E38, lies
@@ -193,6 +194,9 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     running = {name: values[ready_row:] for name, values in core_inputs.items()}
     fused_valid = {g.name: valid[g.name][ready_row:] for g in plan if g.kind == "fused"}
     core = core_predict(model, running, precision, fused_valid) if ready_row < rows else None
+    probing = {}
+    if model.probe is not None:
+        core, probing = fused_core(model, core, inputs, ready_row, precision)
     names = limited_outputs(core) if core is not None else real_outputs_of(model, core_predict, precision)
     out = {}
     limited = np.zeros(rows, bool)
@@ -232,6 +236,7 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
         k0[ready_row:] = out[name][ready_row:] * f(constants["k0_mm"])
         out[k0_key(k)] = k0
     out.update(fault_flags(plan, valid, faults, core, ready_row))
+    out.update(probing)
     out[READY] = np.arange(rows) >= ready_row
     out[LIMITED] = limited
     out[CLAMPED] = clamped

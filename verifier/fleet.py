@@ -28,6 +28,7 @@ class Pair:
     inputs: dict | None
     sha256: tuple[tuple[str, str], ...] = ()  # (file, digest) of each file a task run elsewhere must find
     decimal: str = "auto"  # the data's decimal separator (--decimal)
+    probe_every: int | None = None  # a fused block on a full-rate target: a probing every N calls (--probe-every)
 
 
 @dataclass(frozen=True)
@@ -52,7 +53,7 @@ def _mapping(text: str, manifest: str, line: int, field: str) -> dict | None:
     return mapping
 
 
-def read_manifest(path: str, decimal: str = "auto") -> list[Pair]:
+def read_manifest(path: str, decimal: str = "auto", probe_every: int | None = None) -> list[Pair]:
     try:
         with open(path, encoding="utf-8-sig", newline="") as f:
             rows = list(csv.reader(f))
@@ -81,7 +82,7 @@ def read_manifest(path: str, decimal: str = "auto") -> list[Pair]:
         where = lambda p: str(base / p) if p and not Path(p).is_absolute() and not is_url(p) else p
         pairs.append(Pair(line, where(cell["block"]), where(cell["data"]), where(model) or None,
                           _mapping(expect, path, line, "expect"), _mapping(cell.get("inputs", ""), path, line, "inputs"),
-                          decimal=decimal))
+                          decimal=decimal, probe_every=probe_every))
     if not pairs:
         raise UserError(f"{path}: the manifest lists no pairs")
     return pairs
@@ -107,7 +108,8 @@ def verify_pair(pair: Pair, engine: str) -> Outcome:
             report = verify_streaming(pair.block, model, pair.model, pair.data, pair.inputs, engine, pair.decimal)
             if report is None:
                 table = read_table(pair.data, model.time_column, decimal=pair.decimal, sparse=model_targets(model))
-                report = verify_against_model(pair.block, model, pair.model, table, pair.inputs, engine)
+                report = verify_against_model(pair.block, model, pair.model, table, pair.inputs, engine,
+                                              pair.probe_every)
         else:
             table = read_table(pair.data, decimal=pair.decimal)
             report = verify_against_trace(pair.block, table, pair.expect, pair.inputs, engine=engine)

@@ -10,7 +10,8 @@ import numpy as np
 from thermoplc.base.binary32 import f32_bits, f32_hex, is_subnormal, ulp_distance
 from thermoplc.contract.constants import (LIMIT_NAMES, TABLE_PREFIX, constant_name, expected, limits_of_block,
                                           required)
-from thermoplc.contract.outputs import CONTROL_INPUT_START, FAULT_PREFIX, block_names, control_of, named
+from thermoplc.contract.outputs import (CONTROL_INPUT_START, FAULT_PREFIX, PROBE_INPUT_START, PROBE_INPUTS, block_names,
+                                       control_of, named)
 from thermoplc.base.errors import UserError
 from thermoplc.models.fit import SAMPLING_TOLERANCE, sample_period
 from thermoplc.models.modelfile import Model
@@ -21,6 +22,7 @@ from thermoplc.verifier.control import control_inputs, control_summary, unread_c
 from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.interpreter import BlockFailure, Finding
 from thermoplc.verifier.parser import parse_file
+from thermoplc.verifier.probings import probing_inputs, reference_keys, summary as probing_summary
 from thermoplc.verifier.syntax import Program, names_read
 from thermoplc.verifier.typed import cells_as, differing_rows, first_non_finite
 
@@ -355,9 +357,10 @@ def compare_constants(program: Program, model: Model, limits: Limits) -> tuple[i
 
 def mistyped(machine, reference: dict):
     """The first input or output the block declares with another type than the model's block has
-    (BOOL outputs and Enable/Reset, REAL the rest, no arrays), with that type; or None."""
-    wanted = {**{name: "BOOL" if np.asarray(values).dtype == bool else "REAL" for name, values in reference.items()},
-              **dict.fromkeys(CONTROL_INPUT_START, "BOOL")}
+    (BOOL outputs, Enable/Reset and ProbeNew, INT counters, REAL the rest, no arrays), with that type; or None."""
+    kinds = {"b": "BOOL", "i": "INT"}
+    wanted = {**{name: kinds.get(np.asarray(values).dtype.kind, "REAL") for name, values in reference.items()},
+              **dict.fromkeys(CONTROL_INPUT_START, "BOOL"), **dict.fromkeys(PROBE_INPUT_START, "BOOL")}
     for d in (*machine.outputs, *machine.inputs):
         expected = wanted.get(d.name, "REAL")
         if d.type.base != expected or d.type.bounds:
@@ -366,17 +369,21 @@ def mistyped(machine, reference: dict):
 
 
 def verify_against_model(block: str, model: Model, model_path: str, table: Table,
-                         overrides: dict | None = None, engine: str = "auto") -> Report:
+                         overrides: dict | None = None, engine: str = "auto", probe_every: int | None = None) -> Report:
     program, machine = load_block(block, engine)
     limits = block_limits(program, block)
     check_model_inputs(machine, block, model, model_path)
     _check_period(model, table)
-    overrides = known_overrides(overrides, [*(s.name for s in model.inputs), *CONTROL_INPUT_START], model_path)
+    probe_names = PROBE_INPUTS.values() if model.probe is not None else ()
+    overrides = known_overrides(overrides, [*(s.name for s in model.inputs), *CONTROL_INPUT_START, *probe_names],
+                                model_path)
     inputs = model_inputs(model, table, overrides)
     control = control_inputs(table, overrides)
-    check_interface(machine, block, {**inputs, **control}, f"the inputs of {Path(model_path).name}")
+    probing = probing_inputs(model, table, overrides, probe_every)
+    check_interface(machine, block, {**inputs, **control, **probing}, f"the inputs of {Path(model_path).name}")
     reference_control = control_of(control)
-    block32 = named(block_outputs(model, inputs, "f32", limits, reference_control),
+    reference_inputs = {**inputs, **reference_keys(probing)}
+    block32 = named(block_outputs(model, reference_inputs, "f32", limits, reference_control),
                     block_names(model, [d.name for d in machine.outputs]))
     declared = [d.name for d in machine.outputs]
     unknown = [name for name in declared if name not in block32]
@@ -389,15 +396,15 @@ def verify_against_model(block: str, model: Model, model_path: str, table: Table
         d, expected = wrong
         raise UserError(f"{block}:{d.pos[0]}:{d.pos[1]}: {d.name} is declared {d.type.base}; the model's block "
                         f"has it as {expected}")
-    ideal = block_outputs(model, inputs, "f64", limits, reference_control)
+    ideal = block_outputs(model, reference_inputs, "f64", limits, reference_control)
     quantisation = {model.target.name: float(np.max(np.abs(block32[model.target.name].astype(np.float64)
                                                           - ideal[model.target.name])))}
     against = f"the float32 reference of {Path(model_path).name} ({model.kind})"
-    report = replay_and_compare(machine, block, against, table, model.time_column, {**inputs, **control}, block32,
-                                 quantisation)
+    report = replay_and_compare(machine, block, against, table, model.time_column, {**inputs, **control, **probing},
+                                block32, quantisation)
     checked, errors = compare_constants(program, model, limits)
-    return replace(report, constants_checked=checked, constant_errors=errors, limits=limits,
-                   control=control_summary(control, table.rows))
+    said = [line for line in (control_summary(control, table.rows), probing_summary(probing)) if line]
+    return replace(report, constants_checked=checked, constant_errors=errors, limits=limits, control="; ".join(said))
 
 
 def _numbered_fault(output: str, column: str, declared: list[str]) -> str:

@@ -54,6 +54,9 @@ def verify_streaming(block: str, model: Model, model_path: str, data: str, overr
     if str(data) == "-":  # standard input on every path, never a file named '-' (read whole: one pass only)
         LAST_TIMINGS["route"] = "whole recording (standard input)"
         return None
+    if model.probe is not None:  # the probings are derived from the whole target (verifier/probings.py)
+        LAST_TIMINGS["route"] = "whole recording (probe fusion)"
+        return None
     try:
         report = _verify_streaming(block, model, model_path, str(data), overrides, engine, decimal, progress)
     except (_GiveUp, CannotStream, UserError, RecursionError, MemoryError) as exc:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from thermoplc.models.modelfile import Model
-from thermoplc.contract.outputs import ENABLE_INPUT, RESET_INPUT
+from thermoplc.contract.outputs import ENABLE_INPUT, PROBE_NEW_INPUT, PROBE_VALUE_INPUT, RESET_INPUT
 from thermoplc.models.safety import Limits, guards
 from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.replay import unsafe_findings
@@ -50,7 +50,22 @@ def stress_inputs(model: Model, limits: Limits, rows: int = STRESS_ROWS, seed: i
         columns[g.name] = values.astype(np.float32)
     columns[RESET_INPUT] = rng.random(rows) < 0.01  # about every 100 calls a restart
     columns[ENABLE_INPUT] = rng.random(rows) >= 0.05  # and a skipped call now and then
+    if model.probe is not None:
+        columns.update(_hostile_probings(model, rows, np.random.default_rng(seed + 1)))
     return columns
+
+
+def _hostile_probings(model: Model, rows: int, rng) -> dict:
+    """A probing every few calls, at the limit's ends, 0, beyond the limit, NaN, Inf or a random value, some stuck
+    for many probings: what a hostile or broken probing cycle sends."""
+    limit = float(model.probe.values()["limit_um"])
+    choices = np.array([limit, -limit, 0.0, 1000.0 + 2 * limit, np.nan, np.inf, -np.inf], np.float64)
+    picks = rng.integers(0, len(choices) + 1, rows)
+    values = np.where(picks < len(choices), choices[np.minimum(picks, len(choices) - 1)], rng.uniform(-limit, limit, rows))
+    stuck = rng.random(rows) < 0.3  # the cycle repeats its last result
+    for j in np.flatnonzero(stuck[1:]) + 1:
+        values[j] = values[j - 1]
+    return {PROBE_VALUE_INPUT: values.astype(np.float32), PROBE_NEW_INPUT: rng.random(rows) < 0.3}
 
 
 def stress(program: Program, model: Model, limits: Limits, source: str) -> StressResult:

@@ -38,6 +38,9 @@ def add_parser(sub) -> None:
     p.add_argument("--faults", action="store_true",
                    help="replay with injected sensor faults (NaN, open/short PT100, jumps, paper 000 sine and "
                         "offset) and check exactness, finiteness, clamp and rate limit")
+    p.add_argument("--probe-every", type=number(int, 1, 10 ** 9, "calls"), metavar="N",
+                   help="a fused block (fit --probe) on a target measured at every call: replay a probing every N "
+                        "calls (a probed target's own measured rows, or columns ProbeValue and ProbeNew, need none)")
     p.add_argument("--time", default="time_s", help="time column for --expect traces (default: %(default)s)")
     json_output.add_arguments(p)
     p.set_defaults(func=run)
@@ -84,8 +87,8 @@ def _campaign(args: argparse.Namespace, runs: list[str]) -> int:
     from thermoplc.models.campaign import run_labels
     from thermoplc.verifier.fleet import Pair, verify_fleet
     expect = dict(item.partition("=")[::2] if "=" in item else (item, item) for item in args.expect or ()) or None
-    pairs = [Pair(k, args.block, path, args.model, expect, args.inputs, decimal=args.decimal)
-             for k, path in enumerate(runs, start=1)]
+    pairs = [Pair(k, args.block, path, args.model, expect, args.inputs, decimal=args.decimal,
+                  probe_every=args.probe_every) for k, path in enumerate(runs, start=1)]
     outcomes, seconds = verify_fleet(pairs, min(args.jobs, len(pairs)), args.engine, args.scheduler)
     labels = run_labels(runs)
     width = max(len(label) for label in labels) + 2
@@ -121,7 +124,7 @@ def _fleet(args: argparse.Namespace) -> int:
     if args.block or args.data or args.runs or args.model or args.expect or args.faults:
         raise UserError("--manifest lists the blocks, data and models itself; give no BLOCK, --data, --model, --expect or --faults")
     from thermoplc.verifier.fleet import fleet_document, format_fleet, read_manifest, verify_fleet
-    pairs = read_manifest(args.manifest, args.decimal)
+    pairs = read_manifest(args.manifest, args.decimal, args.probe_every)
     json_output.check(args, [args.manifest, *(f for p in pairs for f in (p.block, p.data, p.model))])
     outcomes, seconds = verify_fleet(pairs, args.jobs, args.engine, args.scheduler)
     json_output.emit(args, format_fleet(outcomes, args.manifest, seconds), fleet_document(outcomes, args.manifest))
@@ -148,7 +151,8 @@ def _against_model(args: argparse.Namespace) -> int:
         table = read_table(args.data, model.time_column, progress(), args.decimal, sparse=model_targets(model))
         if args.faults:
             return _faults(args, model, table)
-        report = verify_against_model(args.block, model, args.model, table, args.inputs, args.engine)
+        report = verify_against_model(args.block, model, args.model, table, args.inputs, args.engine,
+                                      args.probe_every)
     return _result(args, report.text(), report.ok, lambda: verify_document(report))
 
 

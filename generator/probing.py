@@ -1,0 +1,90 @@
+"""The probe fusion's statements: the model's target value moved by an offset (and rate) state that each
+accepted probing updates. Knows the IR, not the models: the caller gives the constants' names and which
+state the fusion keeps; models/probing.py computes the same operations in the same order.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from thermoplc.generator.ir import Assign, BinOp, BoolConst, Call, If, Ref, Region, Unary, Var
+from thermoplc.contract.outputs import (PROBE_INPUT_START, PROBE_NEW_INPUT, PROBE_REFUSALS_OUTPUT,
+                                        PROBE_REFUSED_OUTPUT, PROBE_USED_OUTPUT, PROBE_VALUE_INPUT)
+
+OFFSET, RATE, SEEN, INNOVATION = "ProbeOffset", "ProbeRate", "ProbeSeen", "ProbeInnov"
+COMMENTS = {
+    "c_ProbeGain": "share of a probing's innovation taken into the offset (steady-state Kalman gain)",
+    "c_ProbeRateGain": "share of a probing's innovation taken into the drift rate, um per call per um",
+    "c_ProbeDecay": "the offset's factor per call between probings (1: held)",
+    "c_ProbeGate": "a probing further than this from the prediction is refused, um",
+    "c_ProbeLimit": "a probing beyond +-this (or NaN/Inf) is refused, um",
+    "c_ProbeOffsetMax": "offset clamp, um", "c_ProbeOffsetMin": "offset clamp, negative side, um",
+    "c_ProbeRateMax": "drift rate clamp, um per call", "c_ProbeRateMin": "drift rate clamp, negative side",
+    "c_ProbeCountMax": "the refusal counter stops here", "c_ProbeOne": "one refusal",
+}
+
+
+@dataclass(frozen=True)
+class Fusion:
+    """The fused output, the constants (name -> binary32 value or INT) and which state the block keeps: a drift
+    rate beside the offset, a decay of the offset between probings."""
+    target: str
+    constants: dict
+    rate: bool
+    decay: bool
+
+
+def _clamp(name: str, low: str, high: str) -> If:
+    return If(((BinOp(">", Ref(name), Ref(high)), (Assign(name, Ref(high)),)),
+               (BinOp("<", Ref(name), Ref(low)), (Assign(name, Ref(low)),))))
+
+
+def fusion_region(fusion: Fusion, model_value: str) -> Region:
+    """Statements that fuse the probing into `model_value` (the temporary holding the model's target)."""
+    stmts: list = []
+    if fusion.rate:
+        stmts.append(Assign(OFFSET, BinOp("+", Ref(OFFSET), Ref(RATE))))
+    if fusion.decay:
+        stmts.append(Assign(OFFSET, BinOp("*", Ref(OFFSET), Ref("c_ProbeDecay"))))
+    update = [Assign(OFFSET, BinOp("+", Ref(OFFSET), BinOp("*", Ref("c_ProbeGain"), Ref(INNOVATION))))]
+    if fusion.rate:
+        update.append(Assign(RATE, BinOp("+", Ref(RATE), BinOp("*", Ref("c_ProbeRateGain"), Ref(INNOVATION)))))
+    update.append(Assign(PROBE_USED_OUTPUT, BoolConst(True)))
+    innovation = Assign(INNOVATION, BinOp("-", Ref(PROBE_VALUE_INPUT), BinOp("+", Ref(model_value), Ref(OFFSET))))
+    judged = If(((BinOp("<=", Call("ABS", (Ref(PROBE_VALUE_INPUT),)), Ref("c_ProbeLimit")), (
+        innovation,
+        If(((BinOp("<=", Call("ABS", (Ref(INNOVATION),)), Ref("c_ProbeGate")), tuple(update)),)),
+    )),))
+    refused = If(((Unary("NOT", Ref(PROBE_USED_OUTPUT)), (
+        Assign(PROBE_REFUSED_OUTPUT, BoolConst(True)),
+        If(((BinOp("<", Ref(PROBE_REFUSALS_OUTPUT), Ref("c_ProbeCountMax")),
+             (Assign(PROBE_REFUSALS_OUTPUT, BinOp("+", Ref(PROBE_REFUSALS_OUTPUT), Ref("c_ProbeOne"))),)),)),
+    )),))
+    new = BinOp("AND", Ref(PROBE_NEW_INPUT), Unary("NOT", Ref(SEEN)))
+    stmts += [
+        Assign(PROBE_USED_OUTPUT, BoolConst(False)),
+        Assign(PROBE_REFUSED_OUTPUT, BoolConst(False)),
+        If(((new, (judged, refused)),)),
+        Assign(SEEN, Ref(PROBE_NEW_INPUT)),
+        _clamp(OFFSET, "c_ProbeOffsetMin", "c_ProbeOffsetMax"),
+    ]
+    if fusion.rate:
+        stmts.append(_clamp(RATE, "c_ProbeRateMin", "c_ProbeRateMax"))
+    stmts.append(Assign(model_value, BinOp("+", Ref(model_value), Ref(OFFSET))))
+    return Region("Probe fusion: an accepted probing moves the offset by the gain times its innovation", tuple(stmts))
+
+
+def declarations(fusion: Fusion) -> dict:
+    """The inputs, outputs, statics and temporaries the fusion adds."""
+    return {
+        "inputs": (Var(PROBE_VALUE_INPUT, "REAL", "the latest probing of the target, um (from the NC's probing cycle)"),
+                   Var(PROBE_NEW_INPUT, "BOOL", "rising edge: ProbeValue is a new probing at this call",
+                       initial=PROBE_INPUT_START[PROBE_NEW_INPUT])),
+        "outputs": (Var(PROBE_USED_OUTPUT, "BOOL", "a probing was taken into the offset in this call"),
+                    Var(PROBE_REFUSED_OUTPUT, "BOOL", "a probing was refused in this call (NaN, beyond the limit or "
+                                                      "the gate): the state is unchanged"),
+                    Var(PROBE_REFUSALS_OUTPUT, "INT", "probings refused since the start or the last Reset")),
+        "statics": (Var(OFFSET, "REAL", "offset the probings have taught, um"),
+                    *((Var(RATE, "REAL", "drift rate the probings have taught, um per call"),) if fusion.rate else ()),
+                    Var(SEEN, "BOOL", "ProbeNew in the last call (its rising edge is a new probing)")),
+        "temps": (Var(INNOVATION, "REAL", "probing minus prediction, um"),),
+    }

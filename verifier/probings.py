@@ -1,0 +1,57 @@
+"""A fused block's probing inputs in a replay: from explicit columns named like the block inputs (ProbeValue,
+ProbeNew, or mapped with --inputs), else from the target's own measured rows (a probed or held target), else
+simulated every N calls (`--probe-every N`) on a target measured at every call (models/probing.probings)."""
+from __future__ import annotations
+
+import numpy as np
+
+from thermoplc.base.errors import UserError
+from thermoplc.contract.outputs import PROBE_INPUTS, PROBE_NEW_INPUT, PROBE_VALUE_INPUT
+from thermoplc.models.campaign import held_to_probed
+from thermoplc.models.modelfile import Model
+from thermoplc.models.probing import needs_schedule, probings
+from thermoplc.models.table import Table
+from thermoplc.verifier.typed import cells_as
+
+
+def probing_inputs(model: Model, table: Table, overrides: dict | None = None, every: int | None = None) -> dict:
+    """ProbeValue and ProbeNew per call by block input name; empty for a static model."""
+    if model.probe is None:
+        if every is not None:
+            raise UserError(f"--probe-every {every}: the model has no probe fusion (fit it with --probe)")
+        return {}
+    overrides = overrides or {}
+    columns = {name: overrides.get(name, name) for name in PROBE_INPUTS.values()}
+    given = [name for name, column in columns.items() if column in table.columns]
+    if given:
+        if len(given) != 2 or every is not None:
+            raise UserError(f"{table.path}: the probing is read from columns {', '.join(columns.values())} together "
+                            f"(found {', '.join(columns[n] for n in given)}); give both, without --probe-every")
+        return {name: cells_as(table, column, "REAL" if name == PROBE_VALUE_INPUT else "BOOL",
+                               f"input {name}") for name, column in columns.items()}
+    if model.target.column not in table.columns:
+        raise UserError(f"{table.path}: no column {model.target.column!r} (the target) nor {PROBE_VALUE_INPUT} and "
+                        f"{PROBE_NEW_INPUT} to replay the probings from")
+    if model.metrics.get("probing", {}).get("held"):
+        table = held_to_probed(table, model.target.column)
+    target = table.column(model.target.column)
+    if every is None and needs_schedule(target):
+        raise UserError(f"{table.path}: column {model.target.column!r} is measured at every call, so which calls are "
+                        f"probings is not in the data; give --probe-every N (a probing every N calls) or columns "
+                        f"{PROBE_VALUE_INPUT} and {PROBE_NEW_INPUT}")
+    value, new = probings(target, every)
+    return {PROBE_VALUE_INPUT: value, PROBE_NEW_INPUT: new}
+
+
+def reference_keys(block_inputs: dict) -> dict:
+    """The probing inputs under the reference's keys."""
+    return {key: block_inputs[name] for key, name in PROBE_INPUTS.items() if name in block_inputs}
+
+
+def summary(block_inputs: dict) -> str:
+    """How many probings the replay gave the block."""
+    if not block_inputs:
+        return ""
+    new = np.asarray(block_inputs[PROBE_NEW_INPUT], bool)
+    edges = int(np.count_nonzero(new & ~np.r_[False, new[:-1]]))
+    return f"probings replayed: {edges} (rising edges of {PROBE_NEW_INPUT})"
