@@ -118,11 +118,12 @@ def _check(fusion: Fusion, path: str) -> None:
 
 def fuse(fusion: Fusion, static: np.ndarray, value: np.ndarray, new: np.ndarray, precision: str) -> dict:
     """The fused target per call from the static prediction and the probing inputs, with the status flags
-    and the refusal count (block outputs), as the block computes them from its first running call."""
+    and the refusal count (block outputs), as the block computes them from its first running call; `before`:
+    the prediction a probing at that call is judged against (the worst moment for a part, just before it)."""
     f = np.float32 if precision == "f32" else np.float64
     rows = len(static)
     c = {name: f(fusion.value(name, precision)) for name in fusion.values()}
-    out = np.empty(rows, f)
+    out, before = np.empty(rows, f), np.empty(rows, f)
     used, refused = np.zeros(rows, bool), np.zeros(rows, bool)
     count = np.zeros(rows, np.int16)
     state = np.zeros(2, f)  # offset, rate
@@ -130,13 +131,13 @@ def fuse(fusion: Fusion, static: np.ndarray, value: np.ndarray, new: np.ndarray,
     loop(np.ascontiguousarray(static, f), np.ascontiguousarray(value, f), np.ascontiguousarray(new, np.bool_),
          state, c["gain"], c.get("rate_gain", f(0)), c.get("decay", f(1)), c["gate_um"], c["limit_um"],
          c["offset_max_um"], c.get("rate_max_um", f(0)), fusion.has_rate, fusion.decay is not None,
-         out, used, refused, count)
-    return {"fused": out, USED: used, REFUSED: refused, REFUSALS: count}
+         out, before, used, refused, count)
+    return {"fused": out, "before": before, USED: used, REFUSED: refused, REFUSALS: count}
 
 
 @kernels.jit
 def _fuse(static, value, new, state, gain, rate_gain, decay, gate, limit, offset_max, rate_max, has_rate, has_decay,
-          out, used, refused, count):
+          out, before, used, refused, count):
     offset, rate = state[0], state[1]
     seen = False
     refusals = 0
@@ -145,6 +146,7 @@ def _fuse(static, value, new, state, gain, rate_gain, decay, gate, limit, offset
             offset = offset + rate
         if has_decay:
             offset = offset * decay
+        before[j] = static[j] + offset
         edge = new[j] and not seen
         seen = new[j]
         if edge:

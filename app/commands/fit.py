@@ -63,6 +63,13 @@ def add_parser(sub) -> None:
     p.add_argument("--held-target", action="store_true",
                    help="the target holds its last probing between probings: only the first row and the rows where "
                         "it changes are measurements (an empty target cell is always a row without a measurement)")
+    p.add_argument("--probe", action="store_true",
+                   help="a fused block: the block also takes the machine's probings (ProbeValue, ProbeNew) and moves "
+                        "its prediction by an offset each probing teaches; gain, drift rate, decay and gate chosen on "
+                        "held-out runs (--folds or --group-by on a campaign, or the held-out part of one recording)")
+    p.add_argument("--probe-every", type=number(int, 1, 10 ** 9, "calls"), metavar="N",
+                   help="with --probe on a target measured at every call: simulate a probing every N calls (a probed "
+                        "target's own measured rows are its probings)")
     p.add_argument("--report", metavar="DIR", type=named("a folder for the report"),
                    help="also write a report folder: per run measured, predicted and no compensation, the residual, "
                         "the fold and group tables, one PNG per run and an index.html")
@@ -138,6 +145,10 @@ def run(args: argparse.Namespace) -> int:
     refuse_options_not_read(args, request)
     if args.scheduler and not (args.folds or args.group_by):
         raise UserError("--scheduler runs the folds of --folds or --group-by on a cluster; give one of them")
+    if args.probe_every is not None and not args.probe:
+        raise UserError("--probe-every sets the probing schedule of a fused block; give --probe")
+    if args.probe and args.model == "auto":
+        raise UserError("--probe with --model auto: fuse the kind auto chose (fit it again with --model KIND --probe)")
     runs = run_list(args.data, args.runs)
     inputs = [*runs.paths, *([runs.table] if runs.table else []), args.temps.file]  # none may become an output
     stale = check_outputs({"-o": args.output, "--json": json_output.file(args)}, args.force, inputs, args.report,
@@ -145,7 +156,7 @@ def run(args: argparse.Namespace) -> int:
     campaign = read_campaign(runs, args.time, args.decimal, probed=args.target, held=args.held_target)
     groups = campaign.groups(args.group_by) if args.group_by else None
     tables = campaign.tables
-    predictions: dict = {}
+    predictions: dict = {}  # each run's held-out prediction: the report draws it, the probe fusion is chosen on it
     remote = _remote(args, campaign, runs)
     try:
         if args.model == "auto":
@@ -156,6 +167,9 @@ def run(args: argparse.Namespace) -> int:
         if remote is not None:
             remote.cluster.close()
     end_progress()
+    if args.probe:
+        from thermoplc.models.probe_fit import fit_probe
+        model = fit_probe(model, tables, predictions, args.probe_every, args.held_target)
     becomes_block(model, args.output)
     report = write_report(args.report, model, campaign, predictions, stale) if args.report is not None else None
     write_atomic(args.output, model.to_json())

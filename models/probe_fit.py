@@ -1,0 +1,255 @@
+"""Fitting the probe fusion on held-out runs (`fit --probe`).
+
+The static model's held-out predictions (each run predicted by a fit that never saw it, or the held-out
+part of one recording) are replayed through the fusion with the probings a user would take: the probed
+target's own measurements, or one every N calls on a target measured at every call. The gain of the offset,
+whether a drift rate is added (the steady-state alpha-beta pair) and whether the offset decays between
+probings are chosen on those runs; the gate is a multiple of the chosen fusion's innovation spread, chosen
+the same way. The evidence is nested: each run's figures come from the choice made on the other runs.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from itertools import product
+
+import numpy as np
+
+from thermoplc.base.errors import UserError
+from thermoplc.models.probing import Fusion, fuse, probings
+
+GAINS = (0.1, 0.2, 0.3, 0.5, 0.7, 0.85, 1.0)
+HALF_LIVES_H = (None, 2.0, 8.0)  # None: the offset is held between probings
+GATE_MULTIPLES = (10.0, 6.0, 4.0)  # of the innovations' RMS; the first wins a tie (fewer false refusals)
+SCHEDULES_MIN = (15, 30, 60, 120)
+OPEN = 1.0e6  # gate, limit and clamp while the gains are chosen: nothing refused
+
+
+@dataclass(frozen=True)
+class ProbeRun:
+    """One held-out run: the static model's prediction, the measured target (NaN where not measured), and the
+    rows whose errors count (the held-out part of a single recording)."""
+    label: str
+    static: np.ndarray
+    target: np.ndarray
+    scored: np.ndarray
+
+
+@dataclass(frozen=True)
+class Choice:
+    gain: float
+    rate: bool
+    half_life_h: float | None
+    gate_multiple: float
+
+
+def _alpha_beta(alpha: float) -> float:
+    """The rate gain of the steady-state Kalman filter of an offset with a random drift rate (Kalata)."""
+    return 2 * (2 - alpha) - 4 * math.sqrt(1 - alpha)
+
+
+def _fusion(choice: Choice, every: float, dt: float, sigma: float | None = None, limit: float = OPEN) -> Fusion:
+    rate_gain = _alpha_beta(choice.gain) / every if choice.rate else None
+    decay = 0.5 ** (dt / (choice.half_life_h * 3600)) if choice.half_life_h else None
+    gate = OPEN if sigma is None else max(choice.gate_multiple * sigma, 0.5)
+    return Fusion.of(choice.gain, min(gate, OPEN), limit, limit, rate_gain,
+                     limit / max(every, 1.0) / 4 if choice.rate else None, decay)
+
+
+def _replay(fusion: Fusion, run: ProbeRun, every: int | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(fused prediction, prediction just before each call's probing, the calls with a probing)."""
+    value, new = probings(run.target, every)
+    fused = fuse(fusion, run.static, value, new, "f64")
+    return fused["fused"], fused["before"], new & ~np.r_[False, new[:-1]]
+
+
+@dataclass(frozen=True)
+class Errors:
+    """Sums of squares and counts over the scored rows: every measured row, and the probings (just before)."""
+    sse: float
+    rows: int
+    sse_before: float
+    probings: int
+
+    def __add__(self, other: "Errors") -> "Errors":
+        return Errors(self.sse + other.sse, self.rows + other.rows, self.sse_before + other.sse_before,
+                      self.probings + other.probings)
+
+    def rmse(self) -> float:
+        return math.sqrt(self.sse / self.rows) if self.rows else math.nan
+
+    def rmse_before(self) -> float:
+        return math.sqrt(self.sse_before / self.probings) if self.probings else math.nan
+
+
+def _errors(predicted: np.ndarray, before: np.ndarray, edges: np.ndarray, run: ProbeRun) -> Errors:
+    measured = run.scored & np.isfinite(run.target)
+    at = measured & edges
+    e, b = (predicted - run.target)[measured], (before - run.target)[at]
+    return Errors(float(e @ e), int(measured.sum()), float(b @ b), int(at.sum()))
+
+
+def _objective(errors: Errors, full_rate: bool) -> float:
+    """What the choice minimises: every row's error where the target is measured at every call, else the
+    error just before each probing (the only rows a probed target measures besides the probings)."""
+    return errors.sse if full_rate else errors.sse_before
+
+
+def _schedule(runs: list[ProbeRun], minutes: float | None, dt: float) -> tuple[int | None, float]:
+    """(every N calls or None for the target's own probings, calls between probings)."""
+    if minutes is not None:
+        every = max(int(round(minutes * 60 / dt)), 1)
+        return every, float(every)
+    gaps = [np.diff(np.flatnonzero(np.isfinite(r.target))) for r in runs]
+    gaps = np.concatenate([g for g in gaps if len(g)]) if any(len(g) for g in gaps) else np.array([1])
+    return None, float(np.median(gaps))
+
+
+def _table(runs: list[ProbeRun], choices: list[Choice], every: int | None, interval: float,
+           dt: float) -> dict[Choice, list[Errors]]:
+    """Each candidate's errors on each run, gate open (the gate multiple is judged apart)."""
+    out = {}
+    for choice in choices:
+        fusion = _fusion(choice, interval, dt)
+        out[choice] = [_errors(*_replay(fusion, run, every), run) for run in runs]
+    return out
+
+
+def _best(table: dict[Choice, list[Errors]], runs: list[int], full_rate: bool) -> Choice:
+    return min(table, key=lambda c: _objective(sum((table[c][k] for k in runs), Errors(0, 0, 0, 0)), full_rate))
+
+
+def _sigma(choice: Choice, runs: list[ProbeRun], every, interval, dt) -> float:
+    """RMS of the chosen fusion's innovations over the runs (gate open)."""
+    total = sum((_errors(*_replay(_fusion(choice, interval, dt), run, every), run) for run in runs), Errors(0, 0, 0, 0))
+    return total.rmse_before() if total.probings else 1.0
+
+
+def choose(runs: list[ProbeRun], minutes: float | None, dt: float, limit: float,
+           held_out: ProbeRun | None = None) -> tuple[Fusion, dict]:
+    """The fusion for `minutes` between probings (None: the target's own probings), chosen on every run, and
+    the nested evidence: each run replayed with the fusion chosen on the other runs (with `held_out`, the one
+    recording's part the choice never saw, replayed with the fusion chosen on `runs`, its training part)."""
+    every, interval = _schedule(runs, minutes, dt)
+    full_rate = every is not None
+    candidates = [Choice(g, r, h, GATE_MULTIPLES[0]) for g, r, h in product(GAINS, (False, True), HALF_LIVES_H)]
+    table = _table(runs, candidates, every, interval, dt)
+    everyone = list(range(len(runs)))
+
+    def finished(chosen: Choice, on: list[int]) -> Fusion:
+        sigma = _sigma(chosen, [runs[k] for k in on], every, interval, dt)
+        gated = {m: _fusion(Choice(chosen.gain, chosen.rate, chosen.half_life_h, m), interval, dt, sigma, limit)
+                 for m in GATE_MULTIPLES}
+        score = {m: _objective(sum((_errors(*_replay(f, runs[k], every), runs[k]) for k in on), Errors(0, 0, 0, 0)),
+                               full_rate) for m, f in gated.items()}
+        return gated[min(GATE_MULTIPLES, key=lambda m: (score[m], GATE_MULTIPLES.index(m)))]
+
+    final = finished(_best(table, everyone, full_rate), everyone)
+    if held_out is not None:  # one recording: chosen on its training part, judged on the part it never saw
+        return final, _evidence([evaluate(final, held_out, every)], every, interval, full_rate, False)
+    per_run = []
+    for k, run in enumerate(runs):
+        others = [j for j in everyone if j != k] or everyone
+        per_run.append(evaluate(finished(_best(table, others, full_rate), others), run, every))
+    return final, _evidence(per_run, every, interval, full_rate, len(runs) > 1)
+
+
+def _evidence(per_run: list[dict], every, interval: float, full_rate: bool, nested: bool) -> dict:
+    return {"every_calls": every, "calls_between_probings": interval, "full_rate": full_rate, "runs": per_run,
+            "nested": nested}
+
+
+def evaluate(fusion: Fusion, run: ProbeRun, every: int | None) -> dict:
+    """One run's errors with `fusion`, with the plain offset reset (gain 1), the static model and none."""
+    fused = _errors(*_replay(fusion, run, every), run)
+    reset_fusion = Fusion.of(1.0, OPEN, OPEN, OPEN)
+    reset = _errors(*_replay(reset_fusion, run, every), run)
+    _, _, edges = _replay(reset_fusion, run, every)
+    zero = np.zeros_like(run.static)
+    return {"run": run.label, "fused": fused, "reset": reset, "static": _errors(run.static, run.static, edges, run),
+            "none": _errors(zero, zero, edges, run)}
+
+
+def summarise(evidence: dict) -> dict:
+    """Per run and pooled RMSE (all measured rows and just before each probing), for the model file."""
+    methods = ("none", "static", "reset", "fused")
+    every_row = evidence["full_rate"]  # a probed target is measured only at its probings
+
+    def figures(errors: dict) -> dict:
+        return {**{f"{m}_rmse_um": _finite(errors[m].rmse()) if every_row else None for m in methods},
+                **{f"{m}_before_um": _finite(errors[m].rmse_before()) for m in methods},
+                "probings": errors["fused"].probings}
+
+    pooled = {m: sum((e[m] for e in evidence["runs"]), Errors(0, 0, 0, 0)) for m in methods}
+    return {"every_calls": evidence["every_calls"], "calls_between_probings": evidence["calls_between_probings"],
+            "full_rate": evidence["full_rate"], "nested": evidence["nested"], "pooled": figures(pooled),
+            "runs": [{"run": entry["run"], **figures(entry)} for entry in evidence["runs"]]}
+
+
+def _finite(x: float) -> float | None:
+    return None if not math.isfinite(x) else round(x, 6)
+
+
+def limit_of(runs: list[ProbeRun]) -> float:
+    """The largest plausible probing: twice the largest measured target, at least 10 um, within the check."""
+    largest = max((float(np.nanmax(np.abs(r.target))) for r in runs if np.isfinite(r.target).any()), default=0.0)
+    if not math.isfinite(largest):
+        raise UserError("the target has no finite measurement to fit the probe fusion on")
+    return min(max(2 * largest, 10.0), 1e5)
+
+
+def probe_runs(model, tables: list, predictions: dict) -> tuple[list[ProbeRun], ProbeRun | None]:
+    """The runs the fusion is chosen on: each run's held-out static prediction (a fit on the other runs), or
+    for one recording its training part, with its held-out part apart."""
+    from thermoplc.models.campaign import run_labels
+    from thermoplc.models.reference import model_inputs, predict
+    column = model.target.column
+    if predictions:
+        labels = run_labels([t.path for t in tables])
+        return [ProbeRun(label, np.asarray(predictions[t.path], float), t.column(column), np.ones(t.rows, bool))
+                for label, t in zip(labels, tables)], None
+    if len(tables) != 1:
+        raise UserError("--probe on a campaign chooses the fusion on runs held out: give --folds K or --group-by")
+    table = tables[0]
+    static = np.asarray(predict(model, model_inputs(model, table), "f64")[model.target.name], float)
+    trained = int(model.metrics["train"]["rows"])
+    if trained >= table.rows:
+        raise UserError("--probe chooses the fusion on rows the static fit never saw: give --train-until or "
+                        "--train-rows with held-out rows after them, or --folds on a campaign")
+    rows = np.arange(table.rows)
+    label = run_labels([table.path])[0]
+    return ([ProbeRun(f"{label} (training part)", static, table.column(column), rows < trained)],
+            ProbeRun(f"{label} (held out)", static, table.column(column), rows >= trained))
+
+
+def fit_probe(model, tables: list, predictions: dict, every: int | None, held: bool):
+    """`model` with the probe fusion chosen on held-out runs and its evidence in metrics.probing: the model's
+    own schedule (the probed target's probings, or one every `every` calls), and on a target measured at every
+    call the same for probings every 15, 30, 60 and 120 min."""
+    from dataclasses import replace
+    from thermoplc.models.probing import needs_schedule
+    runs, held_out = probe_runs(model, tables, predictions)
+    full_rate = all(needs_schedule(r.target) for r in runs)
+    if full_rate and every is None:
+        raise UserError(f"--probe: the target {model.target.column!r} is measured at every call, so the data holds no "
+                        f"probing schedule; give --probe-every N (a probing every N calls) to simulate one")
+    if not full_rate and every is not None:
+        raise UserError(f"--probe-every {every}: the target {model.target.column!r} is probed (empty between its "
+                        f"measurements), and its measured rows are the probings; leave --probe-every out")
+    dt = model.sample_period_s
+    limit = limit_of([*runs, *([held_out] if held_out else [])])
+    fusion, evidence = choose(runs, every * dt / 60 if every else None, dt, limit, held_out)
+    probing = {**summarise(evidence), "held": held, "chosen": _described(fusion, dt)}
+    if full_rate:
+        probing["schedules"] = [{"minutes": minutes, **summarise(choose(runs, minutes, dt, limit, held_out)[1])["pooled"]}
+                                for minutes in SCHEDULES_MIN]
+    return replace(model, probe=fusion, metrics={**model.metrics, "probing": probing})
+
+
+def _described(fusion: Fusion, dt: float) -> dict:
+    """The chosen fusion in engineering words, for the summary and the report."""
+    decay = fusion.value("decay", "f64") if fusion.decay else None
+    return {"gain": fusion.value("gain", "f64"), "rate": fusion.has_rate,
+            "rate_gain_per_call": fusion.value("rate_gain", "f64") if fusion.has_rate else None,
+            "half_life_h": round(dt * math.log(0.5) / math.log(decay) / 3600, 6) if decay else None,
+            "gate_um": fusion.value("gate_um", "f64"), "limit_um": fusion.value("limit_um", "f64")}
