@@ -16,6 +16,7 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.locations import is_url
+from thermoplc.contract.outputs import PROBE_VALUE_INPUT
 
 
 @dataclass(frozen=True)
@@ -89,9 +90,10 @@ def read_manifest(path: str, decimal: str = "auto", probe_every: int | None = No
 
 
 def model_targets(model) -> tuple[str, ...]:
-    """The recording's columns the model was fitted to (a probed target may be empty between probings);
-    a replay never reads them."""
-    return (model.target.column, *(t["column"] for t in model.settings.get("targets", [])))
+    """The recording's columns that may be empty between measurements: those the model was fitted to (a probed
+    target; a replay never reads them) and a fused block's ProbeValue (a probing cycle that gave nothing)."""
+    probe = (PROBE_VALUE_INPUT,) if model.probe is not None else ()
+    return (model.target.column, *(t["column"] for t in model.settings.get("targets", [])), *probe)
 
 
 def verify_pair(pair: Pair, engine: str) -> Outcome:

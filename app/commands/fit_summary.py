@@ -38,6 +38,8 @@ def format_fit(model, campaign=None) -> str:
         lines += _format_folds(m)
     if m.get("runs") and len(m["runs"]) != len(m["cross_validation"]):
         lines += _format_runs(m, campaign)
+    if "probing" in m:
+        lines += format_probing(m["probing"])
     lines.append(f"  float32 block vs float64 model: max {m['float32_vs_float64_max_um']:.3g} um")
     lines += [f"  {note}" for s in (*model.inputs, model.target) if (note := renaming_note(s.column, s.name))]
     if "one_step_rmse_K" in model.fit:  # an identified model: how far its temperatures are from the readings
@@ -49,6 +51,39 @@ def format_fit(model, campaign=None) -> str:
                   f"open loop: {each('open_loop_rmse_K')}",
                   f"  filter gain (share of the reading taken each call): {gains}"]
     return "\n".join(lines)
+
+
+METHODS = (("none", "none"), ("static", "static"), ("reset", "reset"), ("fused", "fused"))
+
+
+def format_probing(p: dict) -> list[str]:
+    """The probe fusion chosen and its held-out evidence: each run and all runs, RMSE over every measured call
+    (a target measured at every call) and just before each probing, beside no compensation, the static block
+    and the plain offset reset (the last probing's residual, gain 1)."""
+    c = p["chosen"]
+    state = ", ".join([f"gain {c['gain']:g}", *(["drift rate"] if c["rate"] else []),
+                       f"offset half-life {c['half_life_h']:g} h" if c["half_life_h"] else "offset held",
+                       f"gate {c['gate_um']:.3g} um"])
+    schedule = (f"a probing every {p['every_calls']} calls" if p["every_calls"] else
+                f"the target's own probings (every {p['calls_between_probings']:g} calls, median)")
+    how = ("each run replayed with the fusion chosen on the other runs" if p["nested"] else
+           "chosen on the training part, replayed on the held-out part")
+    groups = (("rmse", "RMSE all calls"), ("before", "before a probing")) if p["full_rate"] else (
+        ("before", "RMSE before a probing, um"),)
+    head = "".join(f"  {title:^30}" for _, title in groups)
+    lines = [f"  probe fusion ({state}), {schedule}: {how}",
+             f"  {'run':<26}{'probings':>9}{head}".rstrip(),
+             (f"  {'':<35}" + "".join("  " + "".join(f"{name:>7}" for name, _ in METHODS) + "  " for _ in groups)).rstrip()]
+    show = lambda v: f"{v:>7.3f}" if v is not None else f"{'-':>7}"
+    for row in [*p["runs"], {**p["pooled"], "run": "all runs"}]:
+        lines.append((f"  {row['run'][:25]:<26}{row['probings']:>9}" + "".join(
+            "  " + "".join(show(row[f"{key}_{which}_um"]) for key, _ in METHODS) + "  " for which, _ in groups)).rstrip())
+    for schedule in p.get("schedules", ()):
+        lines.append(f"  probings every {schedule['minutes']:>3} min, all runs: RMSE all calls fused "
+                     f"{show(schedule['fused_rmse_um']).strip()} um (static {show(schedule['static_rmse_um']).strip()}, "
+                     f"reset {show(schedule['reset_rmse_um']).strip()}); before a probing fused "
+                     f"{show(schedule['fused_before_um']).strip()} um")
+    return lines
 
 
 def _format_folds(m: dict) -> list[str]:

@@ -1,0 +1,173 @@
+"""Probe fusion (issue 49): every kind's fused block bit-exact with its reference on every dialect, the refusal
+rules, Reset/Enable with probings, a one-ULP gain caught, and a campaign's fusion fitted on held-out runs."""
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from tests.cli_runner import thermoplc
+from tests.golden_models import GOLDEN, KINDS, batch_csvs, golden_twin_csv
+from thermoplc.models.modelfile import load_model
+from thermoplc.models.probing import REFUSALS, REFUSED, USED, Fusion, fuse, probings
+from thermoplc.models.table import write_table
+from thermoplc.machines.cascade import simulate
+
+DIALECTS = (("tia", ".scl", ()), ("step7", ".scl", ()), ("iec", ".st", ()), ("iec", ".xml", ("--format", "plcopen")))
+QUICK = {("mlr", "tia"), ("kalman", "step7"), ("lumped", "iec"), ("bpnn", "tia"), ("gm1n", "iec"), ("bayes", "tia")}
+
+
+def _fused(kind: str, rate: bool = False, decay: bool = False) -> Fusion:
+    return Fusion.of(0.5, 40.0, 300.0, 300.0, 0.01 if rate else None, 0.05 if rate else None,
+                     0.9999 if decay else None)
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    here = tmp_path_factory.mktemp("probing")
+    golden_twin_csv(here)
+    batch_csvs(here)
+    for kind in KINDS:
+        model = load_model(GOLDEN / f"{kind}.json")
+        (here / f"{kind}.json").write_text(replace(model, probe=_fused(kind, kind in ("kalman", "gm1n"),
+                                                                       kind == "dlag")).to_json())
+    return here
+
+
+def _data(kind: str) -> list[str]:
+    if kind == "piecewise":
+        return [a for k, ambient in enumerate((15, 20, 25, 30)) for a in ("--data", f"batch_{ambient:g}C.csv")]
+    return ["--data", "golden_twin.csv"]
+
+
+@pytest.mark.parametrize("kind, dialect, suffix, fmt", [
+    pytest.param(kind, dialect, suffix, fmt, marks=() if (kind, dialect) in QUICK else pytest.mark.slow)
+    for kind in KINDS for dialect, suffix, fmt in DIALECTS])
+def test_every_kinds_fused_block_is_bit_exact_and_a_one_ulp_gain_is_caught(folder, kind, dialect, suffix, fmt):
+    block = f"{kind}.{dialect}{suffix}"
+    thermoplc("generate", f"{kind}.json", "--dialect", dialect, *fmt, "--accept-unvalidated", "-o", block, "--force",
+              cwd=folder)
+    result = thermoplc("verify", block, "--model", f"{kind}.json", *_data(kind), "--probe-every", "90", cwd=folder)
+    assert result.returncode == 0 and "bit-exact" in result.stdout
+    text = (folder / block).read_text()
+    mutant = re.sub(r"(c_ProbeGain (?:: (?:Real|REAL) )?:= |c_ProbeGain\">\s*<type><REAL/></type>\s*<initialValue><simpleValue "
+                    r"value=\")0\.5\b", r"\g<1>0.50000006", text, count=1)
+    assert mutant != text
+    (folder / f"ulp.{block}").write_text(mutant)
+    caught = thermoplc("verify", f"ulp.{block}", "--model", f"{kind}.json", *_data(kind), "--probe-every", "90",
+                       cwd=folder, check=None)
+    assert caught.returncode == 1 and "NOT bit-exact" in caught.stdout
+
+
+def test_a_probing_is_refused_when_nan_infinite_beyond_the_limit_or_the_gate():
+    fusion = Fusion.of(1.0, 5.0, 100.0, 100.0)
+    static = np.zeros(12, np.float32)
+    value = np.array([0, 3, 0, np.nan, 0, np.inf, 0, 150, 0, 9, 0, 4], np.float32)
+    new = np.arange(12) % 2 == 1
+    out = fuse(fusion, static, value, new, "f32")
+    assert out[USED].tolist() == [False, True, False, False, False, False, False, False, False, False, False, True]
+    assert out[REFUSED].nonzero()[0].tolist() == [3, 5, 7, 9]
+    assert out[REFUSALS][-1] == 4
+    assert out["fused"][1] == 3 and out["fused"][10] == 3 and out["fused"][11] == 4  # refused: offset unchanged
+
+
+def test_only_the_rising_edge_is_a_probing_and_the_offset_stays_clamped():
+    fusion = Fusion.of(1.0, 1e5, 1e5, 20.0)
+    static = np.zeros(6, np.float32)
+    value = np.array([0, 50, 50, 50, 0, -50], np.float32)
+    new = np.array([False, True, True, True, False, True])  # held TRUE: one probing
+    out = fuse(fusion, static, value, new, "f32")
+    assert out[USED].nonzero()[0].tolist() == [1, 5]
+    assert out["fused"].tolist() == [0, 20, 20, 20, 20, -20]
+
+
+def test_probings_from_a_probed_target_and_from_a_schedule():
+    target = np.array([np.nan, 1.0, np.nan, np.nan, 2.0, 2.0])
+    value, new = probings(target)
+    assert new.tolist() == [False, True, False, False, True, True] and value.tolist() == [0, 1, 1, 1, 2, 2]
+    value, new = probings(np.arange(7.0), every=3)
+    assert new.nonzero()[0].tolist() == [3, 6] and value.tolist() == [0, 0, 0, 3, 3, 3, 6]
+
+
+@pytest.fixture(scope="module")
+def hostile(folder):
+    """The twin with a PLC's probing cycle gone bad: a 1000 um probing, NaN, a probing stuck for hours, and a
+    program's Enable and Reset."""
+    columns = simulate(12, seed=5)
+    rows = len(columns["time_s"])
+    new = (np.arange(rows) % 90) == 45
+    value = np.asarray(columns["E_z_um"], float).copy()
+    value[2000:2500] = value[2000]  # stuck
+    value[945] = 1000.0
+    value[1395] = np.nan
+    enable, reset = np.ones(rows), np.zeros(rows)
+    enable[3000:3400] = 0
+    reset[[1800, 3300, 3600]] = 1
+    text = write_table({**columns, "ProbeValue": value, "ProbeNew": new.astype(float), "Enable": enable, "Reset": reset})
+    (folder / "hostile.csv").write_text(text.replace(",nan,", ",,"))  # a probing cycle that gave nothing: empty
+    return folder / "hostile.csv"
+
+
+@pytest.mark.parametrize("kind", ["mlr", "kalman"])
+def test_hostile_probings_with_reset_and_enable_replay_bit_exact_and_move_the_output_within_its_limits(folder, hostile,
+                                                                                                   kind):
+    thermoplc("generate", f"{kind}.json", "--accept-unvalidated", "--retain", "-o", f"h.{kind}.scl", "--force",
+              "--max-step-um", "0.5", cwd=folder)
+    result = thermoplc("verify", f"h.{kind}.scl", "--model", f"{kind}.json", "--data", hostile.name, cwd=folder)
+    assert "bit-exact" in result.stdout and "probings replayed" in result.stdout
+    from thermoplc.models.reference import block_outputs, model_inputs
+    from thermoplc.models.safety import Limits
+    from thermoplc.models.table import read_table
+    model = load_model(folder / f"{kind}.json")
+    table = read_table(hostile, sparse=("E_z_um", "ProbeValue"))
+    inputs = {**model_inputs(model, table), "probe:value": table.real_column("ProbeValue", "probe"),
+              "probe:new": table.column("ProbeNew") == 1}
+    control = {"control:enable": table.column("Enable") == 1, "control:reset": table.column("Reset") == 1}
+    out = block_outputs(model, inputs, "f32", Limits(max_step=0.5), control)
+    assert np.max(np.abs(np.diff(out[model.target.name].astype(float)))) <= 0.5 + 1e-6
+    assert out[REFUSED][945] and out[REFUSED][1395]
+    assert out[REFUSALS].max() >= 2 and out[REFUSALS][1800] == 0  # a Reset clears the count with the state
+
+
+def test_a_campaigns_fusion_is_fitted_on_held_out_runs_and_beats_its_static_block(tmp_path):
+    thermoplc("twin", "--runs", "4", "--hours", "6", "--dt", "60", "--seed", "5", "--probe-minutes", "30", "-o", "runs",
+              cwd=tmp_path)
+    fitted = thermoplc("fit", "--data", "runs", "--model", "mlr", "--target", "E_z_true_um", "--temps",
+                       "T_motor,T_bearing,T_struct", "--folds", "4", "--probe", "--probe-every", "30", "-o", "m.json",
+                       "--json", "fit.json", cwd=tmp_path)
+    assert "probe fusion (" in fitted.stdout and "each run replayed with the fusion chosen on the other runs" in fitted.stdout
+    probing = json.loads((tmp_path / "fit.json").read_text())["metrics"]["probing"]
+    pooled = probing["pooled"]
+    assert pooled["fused_rmse_um"] < 0.8 * pooled["static_rmse_um"] < pooled["none_rmse_um"]
+    assert [s["minutes"] for s in probing["schedules"]] == [15, 30, 60, 120]
+    assert len(probing["runs"]) == 4
+    thermoplc("generate", "m.json", "--accept-unvalidated", "-o", "m.scl", cwd=tmp_path)
+    verified = thermoplc("verify", "m.scl", "--model", "m.json", "--data", "runs", "--probe-every", "30", cwd=tmp_path)
+    assert verified.stdout.splitlines()[-1].startswith("bit-exact: every run reproduces the reference (4 runs")
+    held = thermoplc("fit", "--data", "runs", "--model", "mlr", "--target", "E_z_um", "--held-target", "--temps",
+                     "T_motor,T_bearing,T_struct", "--folds", "4", "--probe", "-o", "held.json", cwd=tmp_path)
+    assert "the target's own probings" in held.stdout
+    thermoplc("generate", "held.json", "--accept-unvalidated", "-o", "held.scl", cwd=tmp_path)
+    verified = thermoplc("verify", "held.scl", "--model", "held.json", "--data", "runs", cwd=tmp_path)
+    assert verified.returncode == 0
+
+
+def test_probe_options_refused_where_they_mean_nothing(tmp_path):
+    thermoplc("twin", "--hours", "6", "--dt", "60", "-o", "t.csv", cwd=tmp_path)
+    fit = ("fit", "--data", "t.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "-o", "m.json")
+    cases = [((*fit, "--train-rows", "200", "--probe"), "is measured at every call, so the data holds no probing"),
+             ((*fit, "--train-rows", "200", "--probe-every", "30"), "--probe-every sets the probing schedule"),
+             ((*fit, "--train-rows", "360", "--probe", "--probe-every", "30"), None)]
+    for argv, message in cases:
+        result = thermoplc(*argv, cwd=tmp_path, check=None)
+        if message is None:
+            assert result.returncode == 0, result.stderr
+            assert "chosen on the training part, replayed on the held-out part" in result.stdout
+        else:
+            assert result.returncode == 2 and message in result.stderr
+    thermoplc("generate", "m.json", "--accept-unvalidated", "-o", "m.scl", cwd=tmp_path)
+    refused = thermoplc("verify", "m.scl", "--model", "m.json", "--data", "t.csv", cwd=tmp_path, check=None)
+    assert refused.returncode == 2 and "give --probe-every N" in refused.stderr
