@@ -171,3 +171,14 @@ def test_probe_options_refused_where_they_mean_nothing(tmp_path):
     thermoplc("generate", "m.json", "--accept-unvalidated", "-o", "m.scl", cwd=tmp_path)
     refused = thermoplc("verify", "m.scl", "--model", "m.json", "--data", "t.csv", cwd=tmp_path, check=None)
     assert refused.returncode == 2 and "give --probe-every N" in refused.stderr
+
+
+def test_verify_faults_injects_hostile_probings_into_a_fused_block(folder):
+    thermoplc("generate", "mlr.json", "--accept-unvalidated", "-o", "f.mlr.scl", "--force", cwd=folder)
+    result = thermoplc("verify", "f.mlr.scl", "--model", "mlr.json", "--data", "golden_twin.csv", "--probe-every", "90",
+                       "--faults", cwd=folder)
+    rows = {line.split()[1]: line.split() for line in result.stdout.splitlines() if line.startswith("ProbeValue")}
+    assert sorted(rows) == ["probe-flood:", "probe-inf:", "probe-nan:", "probe-spike:", "probe-stuck:"]
+    for name in ("probe-nan:", "probe-inf:", "probe-spike:"):
+        assert rows[name][-6:-2] == ["yes", "yes", "yes", "yes"] and rows[name][-3] == "yes"  # exact..rate; refused
+    assert "all cases bit-exact, finite, inside the clamp and the rate limit" in result.stdout

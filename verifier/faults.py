@@ -14,12 +14,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from thermoplc.models.modelfile import Model
-from thermoplc.contract.outputs import (ENABLE_INPUT, ENO, K0_PREFIX, READY_OUTPUT, RESET_INPUT, block_names, control_of,
-                                       named)
+from thermoplc.contract.outputs import (ENABLE_INPUT, ENO, K0_PREFIX, PROBE_NEW_INPUT, PROBE_REFUSED_OUTPUT,
+                                       PROBE_VALUE_INPUT, READY_OUTPUT, RESET_INPUT, block_names, control_of, named)
 from thermoplc.models.kind import fault_key
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits, guards
 from thermoplc.models.table import Table
+from thermoplc.verifier.probings import probing_inputs, reference_keys
 from thermoplc.verifier.replay import (check_interface, load_block, replay_and_compare, block_limits, check_model_inputs,
                                        compare_constants, constants_lines, subnormal_declarations)
 
@@ -47,6 +48,35 @@ FAULT_KINDS = (
     FaultKind("sine", "paper 000 eq. 18: +2 sin(t/350) degC", True, lambda x, t: x + 2.0 * np.sin(t / 350.0)),
     FaultKind("offset", "paper 000 eq. 19: -2 degC", True, lambda x, t: x - np.float32(2.0)),
 )
+
+
+# what a probing cycle gone wrong sends a fused block: (kind, how the value and the edges change from a probing on)
+PROBE_KINDS = (
+    FaultKind("probe-nan", "one probing reads NaN", False, None),
+    FaultKind("probe-inf", "one probing reads +Inf", False, None),
+    FaultKind("probe-spike", "one probing 1000 um off", False, None),
+    FaultKind("probe-stuck", "stuck to the end, edges go on", True, None),
+    FaultKind("probe-flood", "ProbeNew toggles for 30 calls", False, None),
+)
+
+
+def _probe_fault(kind: FaultKind, value: np.ndarray, new: np.ndarray, first: int) -> tuple[dict, int]:
+    """The probing inputs with `kind` applied at the first probing from row `first` on; the last row touched."""
+    value, new = np.array(value, np.float32), np.array(new, bool)
+    edges = np.flatnonzero(new & ~np.r_[False, new[:-1]])
+    at = int(edges[edges >= first][0]) if (edges >= first).any() else first
+    last = at
+    if kind.name in ("probe-nan", "probe-inf", "probe-spike"):
+        bad = {"probe-nan": np.nan, "probe-inf": np.inf}.get(kind.name, value[at] + np.float32(1000.0))
+        value[at:] = np.where(np.arange(at, len(value)) < (edges[edges > at][0] if (edges > at).any() else len(value)),
+                              np.float32(bad), value[at:])
+    elif kind.name == "probe-stuck":
+        value[at:] = value[at]
+        last = len(value) - 1
+    else:
+        last = min(len(new) - 1, at + TRANSIENT_CALLS - 1)
+        new[at:last + 1] = (np.arange(at, last + 1) - at) % 2 == 0
+    return {PROBE_VALUE_INPUT: value, PROBE_NEW_INPUT: new}, last
 
 
 def _pulses(rows: int, first: int, *offsets: int) -> np.ndarray:
@@ -147,24 +177,32 @@ class FaultReport:
 
 
 def verify_faults(block: str, model: Model, table: Table, overrides: dict | None = None,
-                  engine: str = "auto") -> FaultReport:
+                  engine: str = "auto", probe_every: int | None = None) -> FaultReport:
     """The block replayed once per fault case against the model's reference, its declared values
     checked against the model's as plain verify checks them."""
     program, machine = load_block(block, engine)
     limits: Limits = block_limits(program, block)
-    cases = _cases(machine, block, model, table, overrides, limits)
+    cases = _cases(machine, block, model, table, overrides, limits, probe_every)
     checked, errors = compare_constants(program, model, limits)
     return FaultReport(block, table.rows, tuple(cases), checked, errors,
                        tuple(subnormal_declarations(program.decls, block)))
 
 
-def _cases(machine, block: str, model: Model, table: Table, overrides: dict | None, limits: Limits) -> list[FaultCase]:
-    """Each fault on each temperature input in turn, then each Enable/Reset action, replayed and compared."""
+def _reference(model: Model, inputs: dict, limits: Limits, control: dict | None = None) -> dict:
+    """The reference's outputs for block inputs keyed by the block's names (the probing under the reference's)."""
+    return block_outputs(model, {**inputs, **reference_keys(inputs)}, "f32", limits, control)
+
+
+def _cases(machine, block: str, model: Model, table: Table, overrides: dict | None, limits: Limits,
+           probe_every: int | None) -> list[FaultCase]:
+    """Each fault on each temperature input in turn, then each Enable/Reset action, then (a fused block) each
+    probing fault, replayed and compared."""
     check_model_inputs(machine, block, model, "model file")  # the command line puts the file's name in
-    clean = model_inputs(model, table, overrides)
+    probing = probing_inputs(model, table, overrides, probe_every)
+    clean = {**model_inputs(model, table, overrides), **probing}
     check_interface(machine, block, clean, "the model inputs")
     times = table.columns[model.time_column] if model.time_column in table.columns else np.arange(table.rows) * 1.0
-    baseline = block_outputs(model, clean, "f32", limits)[model.target.name]
+    baseline = _reference(model, clean, limits)[model.target.name]
     first = table.rows // 3
     names = block_names(model, [d.name for d in machine.outputs])
     cases = []
@@ -174,7 +212,7 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
         for kind in FAULT_KINDS:
             inputs = dict(clean)
             inputs[g.name], last = inject(clean[g.name], np.asarray(times), kind, first)
-            expected = named(block_outputs(model, inputs, "f32", limits), names)
+            expected = named(_reference(model, inputs, limits), names)
             report = replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
             cases.append(_case(kind, g.name, first, last, expected, report, machine, limits, model, baseline,
                                np.asarray(expected[names[fault_key(g.name)]], bool)))
@@ -183,12 +221,19 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
         control = action(table.rows, first)
         if not set(control) <= declared:
             continue  # a block generated before Enable and Reset existed
-        expected = named(block_outputs(model, clean, "f32", limits, control_of(control)), names)
+        expected = named(_reference(model, clean, limits, control_of(control)), names)
         report = replay_and_compare(machine, block, "reference", table, model.time_column, {**clean, **control},
                                      expected, {})
         cases.append(_case(kind, "/".join(control), first, min(first + length, table.rows - 1), expected, report,
                            machine, limits, model, baseline, ~np.asarray(expected[READY_OUTPUT], bool)
                            | ~np.asarray(expected[ENO], bool)))
+    for kind in PROBE_KINDS if probing else ():
+        faulty, last = _probe_fault(kind, probing[PROBE_VALUE_INPUT], probing[PROBE_NEW_INPUT], first)
+        inputs = {**clean, **faulty}
+        expected = named(_reference(model, inputs, limits), names)
+        report = replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
+        cases.append(_case(kind, PROBE_VALUE_INPUT, first, last, expected, report, machine, limits, model, baseline,
+                           np.asarray(expected[PROBE_REFUSED_OUTPUT], bool)))
     return cases
 
 
@@ -221,7 +266,8 @@ def format_cases(cases: list[FaultCase], block: str, rows: int) -> str:
     bad = [c for c in cases if not c.ok]
     lines.append("all cases bit-exact, finite, inside the clamp and the rate limit" if not bad else
                  f"{len(bad)} case(s) FAILED: " + ", ".join(f"{c.sensor}/{c.kind.name}" for c in bad))
+    probed = any(c.kind in PROBE_KINDS for c in cases)
     lines.append("flagged/clear at end describe the block's behaviour, they are not pass criteria; max change "
                  "is the largest |error with fault - error without| in the target's unit; for Enable/Reset, "
-                 "flagged means Ready or ENO went FALSE")
+                 "flagged means Ready or ENO went FALSE" + ("; for a probing, that ProbeRefused came up" if probed else ""))
     return "\n".join(lines)

@@ -159,7 +159,7 @@ def _against_model(args: argparse.Namespace) -> int:
 def _faults(args: argparse.Namespace, model, table) -> int:
     from thermoplc.verifier.documents import faults_document
     from thermoplc.verifier.faults import verify_faults
-    report = verify_faults(args.block, model, table, args.inputs, args.engine)
+    report = verify_faults(args.block, model, table, args.inputs, args.engine, args.probe_every)
     return _result(args, report.text(), report.ok, lambda: faults_document(report))
 
 
