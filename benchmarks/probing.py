@@ -26,7 +26,7 @@ from thermoplc.models.fit import FitRequest
 from thermoplc.models.probe_fit import SCHEDULES_MIN, choose, limit_of, probe_runs, summarise
 
 FL_TEMPS = ("t4_C", "t5_C", "t8_C", "t11_C")
-TWIN_TEMPS = ("T_motor", "T_bearing", "T_struct")
+TWIN_TEMPS = {"cascade": ("T_motor", "T_bearing", "T_struct"), "portal": ("T_spindle", "T_gearbox", "T_column")}
 KINDS = ("mlr", "dlag", "gm0n", "gm1n", "bayes")
 
 
@@ -37,7 +37,7 @@ def datasets(quick: bool, run_hours: float) -> list[tuple[str, list, str, tuple[
     if not quick:
         for machine in ("cascade", "portal"):
             campaign = twin_runs(machine, 7, 6, 6.0, 0)
-            found.append((f"twin {machine}, 6 runs of 6 h", campaign.tables, TRUTH, TWIN_TEMPS))
+            found.append((f"twin {machine}, 6 runs of 6 h", campaign.tables, TRUTH, TWIN_TEMPS[machine]))
     return found
 
 

@@ -20,7 +20,10 @@ from thermoplc.models.probing import Fusion, fuse, probings
 
 GAINS = (0.1, 0.2, 0.3, 0.5, 0.7, 0.85, 1.0)
 HALF_LIVES_H = (None, 2.0, 8.0)  # None: the offset is held between probings
-GATE_MULTIPLES = (10.0, 6.0, 4.0)  # of the innovations' RMS; the first wins a tie (fewer false refusals)
+GATE_MULTIPLES = (10.0, 6.0, 4.0)  # of the innovations' RMS; the first unless another is clearly better
+MARGIN = 0.03  # a choice beyond the plain one (offset reset, widest gate) must lower the objective by 3 %: a few
+# dozen probings cannot tell smaller differences from chance (measured: the nested choice lost to the reset)
+PLAIN = (1.0, False, None)  # gain, rate, half-life of the plain offset reset
 SCHEDULES_MIN = (15, 30, 60, 120)
 OPEN = 1.0e6  # gate, limit and clamp while the gains are chosen: nothing refused
 
@@ -116,7 +119,12 @@ def _table(runs: list[ProbeRun], choices: list[Choice], every: int | None, inter
 
 
 def _best(table: dict[Choice, list[Errors]], runs: list[int], full_rate: bool) -> Choice:
-    return min(table, key=lambda c: _objective(sum((table[c][k] for k in runs), Errors(0, 0, 0, 0)), full_rate))
+    """The candidate with the lowest objective on `runs`, unless it beats the plain offset reset by less than
+    the margin."""
+    score = {c: _objective(sum((table[c][k] for k in runs), Errors(0, 0, 0, 0)), full_rate) for c in table}
+    best = min(score, key=score.get)
+    plain = next(c for c in table if (c.gain, c.rate, c.half_life_h) == PLAIN)
+    return best if score[best] < (1 - MARGIN) * score[plain] else plain
 
 
 def _sigma(choice: Choice, runs: list[ProbeRun], every, interval, dt) -> float:
@@ -142,7 +150,8 @@ def choose(runs: list[ProbeRun], minutes: float | None, dt: float, limit: float,
                  for m in GATE_MULTIPLES}
         score = {m: _objective(sum((_errors(*_replay(f, runs[k], every), runs[k]) for k in on), Errors(0, 0, 0, 0)),
                                full_rate) for m, f in gated.items()}
-        return gated[min(GATE_MULTIPLES, key=lambda m: (score[m], GATE_MULTIPLES.index(m)))]
+        best = min(GATE_MULTIPLES, key=score.get)
+        return gated[best if score[best] < (1 - MARGIN) * score[GATE_MULTIPLES[0]] else GATE_MULTIPLES[0]]
 
     final = finished(_best(table, everyone, full_rate), everyone)
     if held_out is not None:  # one recording: chosen on its training part, judged on the part it never saw
