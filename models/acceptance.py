@@ -125,6 +125,38 @@ def problem(model: Model) -> str | None:
     worse = _worse_fold(model)
     if worse:
         return f"{found.summary()}, but in {worse}: worse than no compensation in part of the recording"
+    return _fused_problem(model)
+
+
+def fused_summary(model: Model) -> str | None:
+    """A fused block's held-out evidence with its probings (metrics.probing, pooled over the held-out runs at the
+    schedule it was fitted for): every call where the target is measured at every call, else just before each
+    probing; None for a static block."""
+    if model.probe is None:
+        return None
+    pooled = _section(_section(model.metrics or {}, "probing"), "pooled")
+    which = "rmse" if pooled.get("fused_rmse_um") is not None else "before"
+    where = "over every call" if which == "rmse" else "just before each probing"
+    values = {m: _number(pooled.get(f"{m}_{which}_um"), f"probing.pooled.{m}_{which}_um") for m in ("fused", "static",
+                                                                                                   "none")}
+    u = model.target.unit
+    return (f"with its probings ({pooled.get('probings')} held out), RMSE {values['fused']:.4g} {u} {where}; static "
+            f"{values['static']:.4g} {u}, no compensation {values['none']:.4g} {u}")
+
+
+def _fused_problem(model: Model) -> str | None:
+    """Why a fused block has not earned its fusion: with its probings no better than its static block (then
+    the fusion only adds a state), or not clearly better than no compensation."""
+    if model.probe is None:
+        return None
+    pooled = _section(_section(model.metrics or {}, "probing"), "pooled")
+    which = "rmse" if pooled.get("fused_rmse_um") is not None else "before"
+    fused, static, none = (_number(pooled.get(f"{m}_{which}_um"), f"probing.pooled.{m}_{which}_um")
+                           for m in ("fused", "static", "none"))
+    if not fused <= CLEAR_SHARE * none:
+        return f"fused {fused_summary(model)}: not clearly better than no compensation"
+    if not fused <= static:
+        return f"fused {fused_summary(model)}: worse than the static block; generate it without --probe"
     return None
 
 
@@ -159,6 +191,7 @@ def header_lines(model: Model) -> tuple[str, ...]:
     """What the block header says of the evidence (a block without it was generated with
     --accept-unvalidated, so it says that)."""
     found, why = evidence(model), problem(model)
-    text = (f"Accepted on {found.summary()}." if why is None
+    fused = fused_summary(model)
+    text = (f"Accepted on {found.summary()}" + (f"; fused {fused}." if fused else ".") if why is None
             else f"NOT VALIDATED - generated with --accept-unvalidated: {why}.")
     return tuple(textwrap.wrap(text, HEADER_WIDTH))

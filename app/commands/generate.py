@@ -128,7 +128,7 @@ def _summary(say: Callable[[str], None], args: argparse.Namespace, model, limits
     replay with --stats; the regions with --explain."""
     from thermoplc.generator.identity import NAME_MAX, header_name, show
     from thermoplc.generator.lower import lower_model
-    from thermoplc.models.acceptance import evidence
+    from thermoplc.models.acceptance import evidence, fused_summary
     block, proof, stressed = generated.block, generated.proof, generated.stressed
     say(f"wrote {'standard output' if args.output == '-' else args.output}: {model.kind} block {model.block_name!r}, "
         f"dialect {args.dialect}{', PLCopen XML' if args.format == 'plcopen' else ''}, model fingerprint "
@@ -143,6 +143,8 @@ def _summary(say: Callable[[str], None], args: argparse.Namespace, model, limits
         f"{limits.temp_min_C:g}..{limits.temp_max_C:g} degC, jump {limits.max_jump_K:g} K per call")
     say("  " + (f"NOT VALIDATED (--accept-unvalidated): {generated.unvalidated}" if generated.unvalidated
                 else f"accepted on {evidence(model).summary()}"))
+    if model.probe is not None and not generated.unvalidated:
+        say(f"  fused {fused_summary(model)}")
     if args.stats:
         from thermoplc.generator.stats import block_stats, format_stats
         say(format_stats(block_stats(block), block_stats(lower_model(model))))
