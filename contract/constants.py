@@ -13,7 +13,7 @@ import re
 from thermoplc.base.binary32 import round_f32
 from thermoplc.base.errors import UserError
 from thermoplc.models.modelfile import Model
-from thermoplc.models.probing import COUNT_MAX
+from thermoplc.models.probing import COUNT_MAX, REJOIN
 from thermoplc.models.safety import Limits, axis_outputs, guards
 
 CONSTANT_PREFIX = "c_"
@@ -113,7 +113,7 @@ def probe_constants(model: Model) -> dict:
     values = model.probe.values()
     out = {PROBE_NAMES[key]: value for key, value in values.items()}
     out.update({PROBE_NEGATED[key]: -value for key, value in values.items() if key in PROBE_NEGATED})
-    out.update({"c_ProbeCountMax": COUNT_MAX, "c_ProbeOne": 1})
+    out.update({"c_ProbeCountMax": COUNT_MAX, "c_ProbeOne": 1, "c_ProbeRejoin": REJOIN})
     return out
 
 

@@ -6,11 +6,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from thermoplc.generator.ir import Assign, BinOp, BoolConst, Call, If, Ref, Region, Unary, Var
+from thermoplc.generator.ir import Assign, BinOp, BoolConst, Call, If, IntConst, Ref, Region, Unary, Var
 from thermoplc.contract.outputs import (PROBE_INPUT_START, PROBE_NEW_INPUT, PROBE_REFUSALS_OUTPUT,
                                         PROBE_REFUSED_OUTPUT, PROBE_USED_OUTPUT, PROBE_VALUE_INPUT)
 
-OFFSET, RATE, SEEN, INNOVATION = "ProbeOffset", "ProbeRate", "ProbeSeen", "ProbeInnov"
+OFFSET, RATE, SEEN, INNOVATION, MISSED = "ProbeOffset", "ProbeRate", "ProbeSeen", "ProbeInnov", "ProbeMissed"
 COMMENTS = {
     "c_ProbeGain": "share of a probing's innovation taken into the offset (steady-state Kalman gain)",
     "c_ProbeRateGain": "share of a probing's innovation taken into the drift rate, um per call per um",
@@ -20,6 +20,7 @@ COMMENTS = {
     "c_ProbeOffsetMax": "offset clamp, um", "c_ProbeOffsetMin": "offset clamp, negative side, um",
     "c_ProbeRateMax": "drift rate clamp, um per call", "c_ProbeRateMin": "drift rate clamp, negative side",
     "c_ProbeCountMax": "the refusal counter stops here", "c_ProbeOne": "one refusal",
+    "c_ProbeRejoin": "after this many probings in a row beyond the gate the next is taken (the drift moved)",
 }
 
 
@@ -48,11 +49,13 @@ def fusion_region(fusion: Fusion, model_value: str) -> Region:
     update = [Assign(OFFSET, BinOp("+", Ref(OFFSET), BinOp("*", Ref("c_ProbeGain"), Ref(INNOVATION))))]
     if fusion.rate:
         update.append(Assign(RATE, BinOp("+", Ref(RATE), BinOp("*", Ref("c_ProbeRateGain"), Ref(INNOVATION)))))
-    update.append(Assign(PROBE_USED_OUTPUT, BoolConst(True)))
+    update += [Assign(PROBE_USED_OUTPUT, BoolConst(True)), Assign(MISSED, IntConst(0))]
+    missed = (Assign(MISSED, BinOp("+", Ref(MISSED), Ref("c_ProbeOne"))),)
     innovation = Assign(INNOVATION, BinOp("-", Ref(PROBE_VALUE_INPUT), BinOp("+", Ref(model_value), Ref(OFFSET))))
     judged = If(((BinOp("<=", Call("ABS", (Ref(PROBE_VALUE_INPUT),)), Ref("c_ProbeLimit")), (
         innovation,
-        If(((BinOp("<=", Call("ABS", (Ref(INNOVATION),)), Ref("c_ProbeGate")), tuple(update)),)),
+        If(((BinOp("OR", BinOp("<=", Call("ABS", (Ref(INNOVATION),)), Ref("c_ProbeGate")),
+                      BinOp(">=", Ref(MISSED), Ref("c_ProbeRejoin"))), tuple(update)),), orelse=missed),
     )),))
     refused = If(((Unary("NOT", Ref(PROBE_USED_OUTPUT)), (
         Assign(PROBE_REFUSED_OUTPUT, BoolConst(True)),
@@ -85,6 +88,7 @@ def declarations(fusion: Fusion) -> dict:
                     Var(PROBE_REFUSALS_OUTPUT, "INT", "probings refused since the start or the last Reset")),
         "statics": (Var(OFFSET, "REAL", "offset the probings have taught, um"),
                     *((Var(RATE, "REAL", "drift rate the probings have taught, um per call"),) if fusion.rate else ()),
-                    Var(SEEN, "BOOL", "ProbeNew in the last call (its rising edge is a new probing)")),
+                    Var(SEEN, "BOOL", "ProbeNew in the last call (its rising edge is a new probing)"),
+                    Var(MISSED, "INT", "probings in a row refused by the gate")),
         "temps": (Var(INNOVATION, "REAL", "probing minus prediction, um"),),
     }

@@ -128,34 +128,43 @@ def problem(model: Model) -> str | None:
     return _fused_problem(model)
 
 
+def _fused_figures(model: Model) -> tuple[dict, str] | None:
+    """(fused, static and none RMSE, where they were measured) from metrics.probing, or None without them."""
+    pooled = _section(_section(model.metrics or {}, "probing"), "pooled")
+    if model.probe is None or pooled.get("fused_before_um") is None:
+        return None
+    which = "rmse" if pooled.get("fused_rmse_um") is not None else "before"
+    values = {m: _number(pooled.get(f"{m}_{which}_um"), f"probing.pooled.{m}_{which}_um")
+              for m in ("fused", "static", "none")}
+    return values, "over every call" if which == "rmse" else "just before each probing"
+
+
 def fused_summary(model: Model) -> str | None:
     """A fused block's held-out evidence with its probings (metrics.probing, pooled over the held-out runs at the
     schedule it was fitted for): every call where the target is measured at every call, else just before each
-    probing; None for a static block."""
-    if model.probe is None:
+    probing; None for a static block or a file without that evidence."""
+    found = _fused_figures(model)
+    if found is None:
         return None
-    pooled = _section(_section(model.metrics or {}, "probing"), "pooled")
-    which = "rmse" if pooled.get("fused_rmse_um") is not None else "before"
-    where = "over every call" if which == "rmse" else "just before each probing"
-    values = {m: _number(pooled.get(f"{m}_{which}_um"), f"probing.pooled.{m}_{which}_um") for m in ("fused", "static",
-                                                                                                   "none")}
+    values, where = found
     u = model.target.unit
-    return (f"with its probings ({pooled.get('probings')} held out), RMSE {values['fused']:.4g} {u} {where}; static "
+    probings = _section(_section(model.metrics, "probing"), "pooled").get("probings")
+    return (f"with its probings ({probings} held out), RMSE {values['fused']:.4g} {u} {where}; static "
             f"{values['static']:.4g} {u}, no compensation {values['none']:.4g} {u}")
 
 
 def _fused_problem(model: Model) -> str | None:
-    """Why a fused block has not earned its fusion: with its probings no better than its static block (then
-    the fusion only adds a state), or not clearly better than no compensation."""
+    """Why a fused block has not earned its fusion: no held-out evidence of it, with its probings no better
+    than its static block (then the fusion only adds a state), or not clearly better than no compensation."""
     if model.probe is None:
         return None
-    pooled = _section(_section(model.metrics or {}, "probing"), "pooled")
-    which = "rmse" if pooled.get("fused_rmse_um") is not None else "before"
-    fused, static, none = (_number(pooled.get(f"{m}_{which}_um"), f"probing.pooled.{m}_{which}_um")
-                           for m in ("fused", "static", "none"))
-    if not fused <= CLEAR_SHARE * none:
+    found = _fused_figures(model)
+    if found is None:
+        return "the model file carries no held-out evidence of its probe fusion (fit it with --probe)"
+    values = found[0]
+    if not values["fused"] <= CLEAR_SHARE * values["none"]:
         return f"fused {fused_summary(model)}: not clearly better than no compensation"
-    if not fused <= static:
+    if not values["fused"] <= values["static"]:
         return f"fused {fused_summary(model)}: worse than the static block; generate it without --probe"
     return None
 

@@ -9,8 +9,9 @@ prediction plus the offset. Per call, in this order (generator/probing.py emits 
     rate:   Offset := Offset + Rate                       (only with a rate state)
     decay:  Offset := Offset * Decay                      (only when the offset decays between probings)
     edge:   New := ProbeNew AND NOT Seen; Seen := ProbeNew
-    if New: a probing whose |value| <= Limit gives Innov := value - (static + Offset); with |Innov| <= Gate
-            Offset := Offset + Gain * Innov (Rate := Rate + RateGain * Innov), Used; else Refused, counted
+    if New: a probing whose |value| <= Limit gives Innov := value - (static + Offset); with |Innov| <= Gate, or
+            after REJOIN probings in a row beyond the gate, Offset := Offset + Gain * Innov (Rate := Rate +
+            RateGain * Innov), Used; else Refused, counted
     clamp:  Offset within +-OffsetMax, Rate within +-RateMax
     output: static + Offset (then the output limiter of every block)
 
@@ -31,6 +32,8 @@ from thermoplc.models import kernels
 PROBE_VALUE, PROBE_NEW = "probe:value", "probe:new"  # the reference's keys of the block's probing inputs
 USED, REFUSED, REFUSALS = "status:probe_used", "status:probe_refused", "count:probe_refusals"
 COUNT_MAX = 32767  # the refusal counter is an INT: it stops there
+REJOIN = 2  # after this many probings in a row refused by the gate alone, the next is taken: the drift really moved
+# (a run whose static error starts beyond the gate, a shift after a crash) and the offset must follow it
 REQUIRED = ("gain", "gate_um", "limit_um", "offset_max_um")
 OPTIONAL = ("rate_gain", "rate_max_um", "decay")
 
@@ -141,6 +144,7 @@ def _fuse(static, value, new, state, gain, rate_gain, decay, gate, limit, offset
     offset, rate = state[0], state[1]
     seen = False
     refusals = 0
+    missed = 0
     for j in range(static.shape[0]):
         if has_rate:
             offset = offset + rate
@@ -153,16 +157,19 @@ def _fuse(static, value, new, state, gain, rate_gain, decay, gate, limit, offset
             accepted = False
             if abs(value[j]) <= limit:
                 innovation = value[j] - (static[j] + offset)
-                if abs(innovation) <= gate:
+                if abs(innovation) <= gate or missed >= REJOIN:
                     offset = offset + gain * innovation
                     if has_rate:
                         rate = rate + rate_gain * innovation
                     accepted = True
+                    missed = 0
+                else:
+                    missed += 1
             if accepted:
                 used[j] = True
             else:
                 refused[j] = True
-                if refusals < 32767:  # COUNT_MAX
+                if refusals < COUNT_MAX:
                     refusals += 1
         if offset > offset_max:
             offset = offset_max
