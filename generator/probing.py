@@ -10,7 +10,8 @@ from thermoplc.generator.ir import Assign, BinOp, BoolConst, Call, If, IntConst,
 from thermoplc.contract.outputs import (PROBE_INPUT_START, PROBE_NEW_INPUT, PROBE_REFUSALS_OUTPUT,
                                         PROBE_REFUSED_OUTPUT, PROBE_USED_OUTPUT, PROBE_VALUE_INPUT)
 
-OFFSET, RATE, SEEN, INNOVATION, MISSED = "ProbeOffset", "ProbeRate", "ProbeSeen", "ProbeInnov", "ProbeMissed"
+OFFSET, RATE, SEEN, INNOVATION, MISSED, ANCHORED = ("ProbeOffset", "ProbeRate", "ProbeSeen", "ProbeInnov",
+                                                    "ProbeMissed", "ProbeAnchored")
 COMMENTS = {
     "c_ProbeGain": "share of a probing's innovation taken into the offset (steady-state Kalman gain)",
     "c_ProbeRateGain": "share of a probing's innovation taken into the drift rate, um per call per um",
@@ -49,12 +50,14 @@ def fusion_region(fusion: Fusion, model_value: str) -> Region:
     update = [Assign(OFFSET, BinOp("+", Ref(OFFSET), BinOp("*", Ref("c_ProbeGain"), Ref(INNOVATION))))]
     if fusion.rate:
         update.append(Assign(RATE, BinOp("+", Ref(RATE), BinOp("*", Ref("c_ProbeRateGain"), Ref(INNOVATION)))))
-    update += [Assign(PROBE_USED_OUTPUT, BoolConst(True)), Assign(MISSED, IntConst(0))]
+    update += [Assign(PROBE_USED_OUTPUT, BoolConst(True)), Assign(MISSED, IntConst(0)),
+               Assign(ANCHORED, BoolConst(True))]
     missed = (Assign(MISSED, BinOp("+", Ref(MISSED), Ref("c_ProbeOne"))),)
     innovation = Assign(INNOVATION, BinOp("-", Ref(PROBE_VALUE_INPUT), BinOp("+", Ref(model_value), Ref(OFFSET))))
     judged = If(((BinOp("<=", Call("ABS", (Ref(PROBE_VALUE_INPUT),)), Ref("c_ProbeLimit")), (
         innovation,
-        If(((BinOp("OR", BinOp("<=", Call("ABS", (Ref(INNOVATION),)), Ref("c_ProbeGate")),
+        If(((BinOp("OR", BinOp("OR", BinOp("<=", Call("ABS", (Ref(INNOVATION),)), Ref("c_ProbeGate")),
+                                  Unary("NOT", Ref(ANCHORED))),
                       BinOp(">=", Ref(MISSED), Ref("c_ProbeRejoin"))), tuple(update)),), orelse=missed),
     )),))
     refused = If(((Unary("NOT", Ref(PROBE_USED_OUTPUT)), (
@@ -89,6 +92,7 @@ def declarations(fusion: Fusion) -> dict:
         "statics": (Var(OFFSET, "REAL", "offset the probings have taught, um"),
                     *((Var(RATE, "REAL", "drift rate the probings have taught, um per call"),) if fusion.rate else ()),
                     Var(SEEN, "BOOL", "ProbeNew in the last call (its rising edge is a new probing)"),
-                    Var(MISSED, "INT", "probings in a row refused by the gate")),
+                    Var(MISSED, "INT", "probings in a row refused by the gate"),
+                    Var(ANCHORED, "BOOL", "a probing was taken since the start: the gate judges the next ones")),
         "temps": (Var(INNOVATION, "REAL", "probing minus prediction, um"),),
     }

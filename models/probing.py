@@ -10,8 +10,9 @@ prediction plus the offset. Per call, in this order (generator/probing.py emits 
     decay:  Offset := Offset * Decay                      (only when the offset decays between probings)
     edge:   New := ProbeNew AND NOT Seen; Seen := ProbeNew
     if New: a probing whose |value| <= Limit gives Innov := value - (static + Offset); with |Innov| <= Gate, or
-            after REJOIN probings in a row beyond the gate, Offset := Offset + Gain * Innov (Rate := Rate +
-            RateGain * Innov), Used; else Refused, counted
+            as the first probing taken since the start (nothing learnt yet for the gate to judge by), or after
+            REJOIN probings in a row beyond the gate, Offset := Offset + Gain * Innov (Rate := Rate + RateGain *
+            Innov), Used; else Refused, counted
     clamp:  Offset within +-OffsetMax, Rate within +-RateMax
     output: static + Offset (then the output limiter of every block)
 
@@ -145,6 +146,7 @@ def _fuse(static, value, new, state, gain, rate_gain, decay, gate, limit, offset
     seen = False
     refusals = 0
     missed = 0
+    anchored = False
     for j in range(static.shape[0]):
         if has_rate:
             offset = offset + rate
@@ -157,12 +159,13 @@ def _fuse(static, value, new, state, gain, rate_gain, decay, gate, limit, offset
             accepted = False
             if abs(value[j]) <= limit:
                 innovation = value[j] - (static[j] + offset)
-                if abs(innovation) <= gate or missed >= REJOIN:
+                if abs(innovation) <= gate or not anchored or missed >= REJOIN:
                     offset = offset + gain * innovation
                     if has_rate:
                         rate = rate + rate_gain * innovation
                     accepted = True
                     missed = 0
+                    anchored = True
                 else:
                     missed += 1
             if accepted:
