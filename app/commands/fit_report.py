@@ -42,6 +42,11 @@ def _plot(run, model, held_out: np.ndarray | None, written: np.ndarray) -> bytes
     if held_out is not None:
         top.plot(hours, held_out, lw=1.0, color="tab:red", label="predicted, held out (fit without this run)")
     top.plot(hours, written, lw=1.0, color="tab:blue", ls="--", label="predicted by the model written")
+    fused = _fused(model, measured, held_out if held_out is not None else written)
+    if fused is not None:
+        prediction, probed = fused
+        top.plot(hours, prediction, lw=1.0, color="tab:green", label="fused with its probings (held out)")
+        top.plot(hours[probed], measured[probed], "v", color="tab:green", ms=5, ls="none", label="probings")
     style = {"marker": "o", "ms": 3, "ls": "none"} if taken.sum() < 0.5 * len(taken) else {"lw": 0.8}
     top.plot(hours[taken], measured[taken], color="black", label="measured", **style)
     top.set_ylabel(f"{model.target.column}, um")
@@ -55,6 +60,16 @@ def _plot(run, model, held_out: np.ndarray | None, written: np.ndarray) -> bytes
         ax.grid(alpha=0.3)
     from thermoplc.diagnosis.report import png_bytes
     return png_bytes(fig, 80)
+
+
+def _fused(model, measured: np.ndarray, static: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """A fused model's prediction over a run with the run's probings (its measured rows, or one every N calls
+    as it was fitted), and where they were; None for a static model."""
+    if model.probe is None:
+        return None
+    from thermoplc.models.probing import fuse, probings
+    value, new = probings(measured, model.metrics.get("probing", {}).get("every_calls"))
+    return fuse(model.probe, np.asarray(static, float), value, new, "f64")["fused"], new & ~np.r_[False, new[:-1]]
 
 
 def _table(header: list[str], rows: list[list]) -> str:
