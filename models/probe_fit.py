@@ -20,7 +20,10 @@ from thermoplc.models.probing import Fusion, fuse, probings
 
 GAINS = (0.1, 0.2, 0.3, 0.5, 0.7, 0.85, 1.0)
 HALF_LIVES_H = (None, 2.0, 8.0)  # None: the offset is held between probings
-GATE_MULTIPLES = (10.0, 6.0, 4.0)  # of the innovations' RMS; the first unless another is clearly better
+# of the innovations' RMS: the widest unless a narrower one is clearly better on the runs (it refuses wild
+# probings there); a narrow gate chosen by default refused a run's own fast drift (the cascade twin's gm1n: 8.6 um
+# fused against 4.5 reset on its worst run)
+GATE_MULTIPLES = (50.0, 20.0, 10.0, 6.0, 4.0)
 MARGIN = 0.03  # a choice beyond the plain one (offset reset, widest gate) must lower the objective by 3 %: a few
 # dozen probings cannot tell smaller differences from chance (measured: the nested choice lost to the reset)
 PLAIN = (1.0, False, None)  # gain, rate, half-life of the plain offset reset
@@ -51,10 +54,14 @@ def _alpha_beta(alpha: float) -> float:
     return 2 * (2 - alpha) - 4 * math.sqrt(1 - alpha)
 
 
-def _fusion(choice: Choice, every: float, dt: float, sigma: float | None = None, limit: float = OPEN) -> Fusion:
+def _fusion(choice: Choice, every: float, dt: float, spread: tuple[float, float] | None = None,
+            limit: float = OPEN) -> Fusion:
+    """The fusion of `choice`; `spread` (RMS, largest) of the innovations sets the gate: the chosen multiple of the
+    RMS, never below twice the largest innovation the runs showed (a run's own drift must not look like a wild
+    probing), at least 0.5 um, at most the limit."""
     rate_gain = _alpha_beta(choice.gain) / every if choice.rate else None
     decay = 0.5 ** (dt / (choice.half_life_h * 3600)) if choice.half_life_h else None
-    gate = OPEN if sigma is None else max(choice.gate_multiple * sigma, 0.5)
+    gate = OPEN if spread is None else min(max(choice.gate_multiple * spread[0], 2 * spread[1], 0.5), limit)
     return Fusion.of(choice.gain, min(gate, OPEN), limit, limit, rate_gain,
                      limit / max(every, 1.0) / 4 if choice.rate else None, decay)
 
@@ -127,10 +134,15 @@ def _best(table: dict[Choice, list[Errors]], runs: list[int], full_rate: bool) -
     return best if score[best] < (1 - MARGIN) * score[plain] else plain
 
 
-def _sigma(choice: Choice, runs: list[ProbeRun], every, interval, dt) -> float:
-    """RMS of the chosen fusion's innovations over the runs (gate open)."""
-    total = sum((_errors(*_replay(_fusion(choice, interval, dt), run, every), run) for run in runs), Errors(0, 0, 0, 0))
-    return total.rmse_before() if total.probings else 1.0
+def _spread(choice: Choice, runs: list[ProbeRun], every, interval, dt) -> tuple[float, float]:
+    """RMS and largest magnitude of the chosen fusion's innovations over the runs (gate open)."""
+    innovations = []
+    for run in runs:
+        _, before, edges = _replay(_fusion(choice, interval, dt), run, every)
+        at = edges & run.scored & np.isfinite(run.target)
+        innovations.append((run.target - before)[at])
+    found = np.concatenate(innovations) if innovations else np.zeros(0)
+    return (float(np.sqrt(np.mean(found ** 2))), float(np.max(np.abs(found)))) if len(found) else (1.0, 1.0)
 
 
 def choose(runs: list[ProbeRun], minutes: float | None, dt: float, limit: float,
@@ -145,8 +157,8 @@ def choose(runs: list[ProbeRun], minutes: float | None, dt: float, limit: float,
     everyone = list(range(len(runs)))
 
     def finished(chosen: Choice, on: list[int]) -> Fusion:
-        sigma = _sigma(chosen, [runs[k] for k in on], every, interval, dt)
-        gated = {m: _fusion(Choice(chosen.gain, chosen.rate, chosen.half_life_h, m), interval, dt, sigma, limit)
+        spread = _spread(chosen, [runs[k] for k in on], every, interval, dt)
+        gated = {m: _fusion(Choice(chosen.gain, chosen.rate, chosen.half_life_h, m), interval, dt, spread, limit)
                  for m in GATE_MULTIPLES}
         score = {m: _objective(sum((_errors(*_replay(f, runs[k], every), runs[k]) for k in on), Errors(0, 0, 0, 0)),
                                full_rate) for m, f in gated.items()}

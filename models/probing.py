@@ -33,7 +33,7 @@ from thermoplc.models import kernels
 PROBE_VALUE, PROBE_NEW = "probe:value", "probe:new"  # the reference's keys of the block's probing inputs
 USED, REFUSED, REFUSALS = "status:probe_used", "status:probe_refused", "count:probe_refusals"
 COUNT_MAX = 32767  # the refusal counter is an INT: it stops there
-REJOIN = 2  # after this many probings in a row refused by the gate alone, the next is taken: the drift really moved
+REJOIN = 1  # after this many probings in a row refused by the gate alone, the next is taken: the drift really moved
 # (a run whose static error starts beyond the gate, a shift after a crash) and the offset must follow it
 REQUIRED = ("gain", "gate_um", "limit_um", "offset_max_um")
 OPTIONAL = ("rate_gain", "rate_max_um", "decay")

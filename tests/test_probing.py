@@ -74,14 +74,14 @@ def test_a_probing_is_refused_when_nan_infinite_beyond_the_limit_or_the_gate():
     assert out["fused"][1] == 3 and out["fused"][10] == 3 and out["fused"][11] == 4  # refused: offset unchanged
 
 
-def test_the_first_probing_anchors_and_after_two_beyond_the_gate_the_third_is_taken():
+def test_the_first_probing_anchors_and_a_second_one_beyond_the_gate_in_a_row_is_taken():
     fusion = Fusion.of(1.0, 5.0, 100.0, 100.0)
-    value = np.array([0, 40, 0, 70, 0, 70, 0, 70, 0, 71, 0, 90, 0, np.nan, 0, 100], np.float32)
+    value = np.array([0, 40, 0, 70, 0, 70, 0, 70, 0, 71, 0, 90, 0, np.nan, 0, 99], np.float32)
     new = np.arange(16) % 2 == 1
     out = fuse(fusion, np.zeros(16, np.float32), value, new, "f32")
-    assert out[USED].nonzero()[0].tolist() == [1, 7, 9]  # the first: nothing learnt yet for the gate to judge by
-    assert out[REFUSED].nonzero()[0].tolist() == [3, 5, 11, 13, 15]
-    assert out["fused"][1] == 40 and out["fused"][7] == 70 and out["fused"][15] == 71  # NaN: no step to a rejoin
+    assert out[USED].nonzero()[0].tolist() == [1, 5, 7, 9, 15]  # the first: nothing learnt yet for the gate to judge
+    assert out[REFUSED].nonzero()[0].tolist() == [3, 11, 13]  # one wild probing alone is refused
+    assert out["fused"][3] == 40 and out["fused"][5] == 70 and out["fused"][13] == 71 and out["fused"][15] == 99
 
 
 def test_only_the_rising_edge_is_a_probing_and_the_offset_stays_clamped():
