@@ -9,6 +9,7 @@ import signal
 import sys
 
 from thermoplc.base.version import __version__
+from thermoplc.base import deadline
 from thermoplc.base.errors import UserError
 
 
@@ -72,14 +73,22 @@ class Terminated(BaseException):
 
 
 def _terminate(signum, frame):
+    deadline.interrupted()
     raise Terminated()
+
+
+def _interrupt(signum, frame):
+    """Ctrl-C: KeyboardInterrupt here, and every wait for a store or a scheduler ends, on any thread
+    (base/deadline.py)."""
+    deadline.interrupted()
+    raise KeyboardInterrupt
 
 
 def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, _terminate)
     # `kill -INT` stops a run started in the background of a script too (such a shell starts it with SIGINT
     # ignored): an interrupt is always the clean stop, never a fit that goes on for hours
-    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGINT, _interrupt)
     try:
         return _run(argv)
     finally:
@@ -93,16 +102,20 @@ def main(argv: list[str] | None = None) -> int:
 def run() -> None:
     """The `thermoplc` program: `main`, then the exit status. An interrupt ends with 130 by `os._exit`: CPython
     remembers a Ctrl-C that passed through code run by exec() (a dataclass being built while a module loads)
-    even when `main` handled it, and would kill the process with SIGINT on the way out."""
+    even when `main` handled it, and would kill the process with SIGINT on the way out. A termination (143) too:
+    Python's exit would wait for a store's request abandoned in native code (pyarrow's S3 finalizer)."""
     code = main()
-    if code == 130:
+    # the answer is out: a Ctrl-C while Python winds down (pyarrow's S3 finalizer waits for a request abandoned at
+    # its limit, in native code) ends the process at once, not in a traceback from an atexit callback
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    if code in (130, 143):
         for stream in (sys.stdout, sys.stderr):
             try:
                 if stream is not None:
                     stream.flush()
             except OSError:
                 pass
-        os._exit(130)
+        os._exit(code)
     sys.exit(code)
 
 

@@ -9,6 +9,10 @@ task is lost and the caller says what that means), and each task has one slot, s
 A result must not depend on where it ran, so every worker's answer carries its environment (thermoplc's
 sources, the numeric libraries, the BLAS kernels, which fix a fit's last bits) and one that differs from the
 client's is refused by name instead of mixed in.
+
+Connecting is bounded in wall time: what listens at the address must answer Dask's handshake as a scheduler
+within `CONNECT_TIMEOUT_S` before a Client is made, all of it asked on a thread of its own (base/deadline.py), so
+that Ctrl-C is honoured at once and no half-built Client is left to a finaliser.
 """
 from __future__ import annotations
 
@@ -26,6 +30,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Callable, Iterator
 
+from thermoplc.base.deadline import within
 from thermoplc.base.errors import ClusterError, UserError
 
 CONNECT_TIMEOUT_S = 20
@@ -123,12 +128,43 @@ def _unreachable(scheduler: str, why: object) -> UserError:
 
 
 def _reachable(scheduler: str) -> None:
-    """Refuse at once an address nothing answers at: a Client that fails half-built waits 40 s more on its way out."""
+    """Refuse at once an address nothing answers at (an unknown host, a refused connection)."""
     host, _, port = scheduler.removeprefix("tcp://").rpartition(":")
     try:
         socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_TIMEOUT_S).close()
     except OSError as exc:
         raise _unreachable(scheduler, exc) from None
+
+
+def _identity(scheduler: str) -> object:
+    """What the server at `scheduler` says it is, asked as a Client asks: Dask's handshake, then `identity`.
+    Bounded here too (just after the caller's limit), so that the thread it runs on ends."""
+    import asyncio
+    from distributed.comm import connect as open_comm
+
+    async def ask() -> object:
+        comm = await open_comm(scheduler, timeout=CONNECT_TIMEOUT_S)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    return asyncio.run(asyncio.wait_for(ask(), CONNECT_TIMEOUT_S + 1))
+
+
+def _client(distributed, scheduler: str):
+    """A Client of the Dask scheduler at `scheduler`, made only once the server there has answered as one: a
+    Client of a server that never answers waited past 300 s (Dask's handshake has no limit), and one of a server
+    that answers garbage failed half-built, its finaliser waiting 40 s more to print a traceback at exit."""
+    _reachable(scheduler)
+    try:
+        reply = _identity(scheduler)
+    except Exception:  # garbage read as Dask's frames: "Unable to allocate 6.09 EiB", a bad message, a reset
+        reply = None
+    if not (isinstance(reply, dict) and reply.get("type") == "Scheduler"):
+        raise _unreachable(scheduler, "what answers there is not a Dask scheduler")
+    return distributed.Client(scheduler, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
 
 
 @dataclass
@@ -218,10 +254,22 @@ def _first_line(exc: Exception) -> str:
 def _same_environment(found: tuple, where: str, address: str) -> None:
     ours = environment()
     if found != ours:
-        differ = "; ".join(f"{name} {theirs} there, {mine} here" for (name, theirs), (_, mine) in zip(found, ours)
-                           if theirs != mine)
-        raise ClusterError(f"--scheduler {address}: worker {where} does not run what this client runs ({differ}): its "
-                        f"results could differ in their last bits; install the same thermoplc and libraries there")
+        differ = {name: (theirs, mine) for (name, theirs), (_, mine) in zip(found, ours) if theirs != mine}
+        listed = "; ".join(f"{name} {theirs} there, {mine} here" for name, (theirs, mine) in differ.items())
+        raise ClusterError(f"--scheduler {address}: worker {where} does not run what this client runs ({listed}): its "
+                           f"results could differ in their last bits; {_remedy(differ, address)}")
+
+
+def _remedy(differ: dict, address: str) -> str:
+    """How to make a worker run what this client runs: the same installation, and OpenBLAS told which kernels
+    (it picks them by CPU, and a `dask worker` has loaded numpy before thermoplc could pin them)."""
+    install = "install the same thermoplc and libraries there"
+    kernels = differ.get("BLAS kernels", (None, "unknown"))[1]
+    if kernels == "unknown":
+        return install
+    pin = (f"set OPENBLAS_CORETYPE={kernels} (this client's kernels) on both sides for the same kernels: "
+           f"`OPENBLAS_CORETYPE={kernels} dask worker {address}`")
+    return pin if set(differ) == {"BLAS kernels"} else f"{install}; {pin}"
 
 
 def connect(scheduler: str) -> Cluster:
@@ -230,9 +278,12 @@ def connect(scheduler: str) -> Cluster:
     for name in ["distributed", *logging.root.manager.loggerDict]:  # its tracebacks on stderr: we say it in one line
         if name.startswith("distributed"):
             logging.getLogger(name).setLevel(logging.CRITICAL)
-    _reachable(scheduler)
-    try:
-        client = distributed.Client(scheduler, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
+    try:  # on a thread of its own: Ctrl-C at any moment, and CONNECT_TIMEOUT_S for all of it
+        client = within(CONNECT_TIMEOUT_S, lambda: _client(distributed, scheduler), "the scheduler")
+    except UserError:
+        raise
+    except TimeoutError:
+        raise _unreachable(scheduler, f"no answer within {CONNECT_TIMEOUT_S} s") from None
     except Exception as exc:
         raise _unreachable(scheduler, exc) from None
     try:
