@@ -85,6 +85,8 @@ def check_outputs(outputs: dict[str, str | None], force: bool, inputs=(), report
         raise UserError(f"--report {report}: a report is written to a local folder; object-store URLs are read, never "
                         f"written; give a folder")
     for option, path in named:
+        if same_file(Path(path), Path(report)):
+            raise UserError(f"--report {report}: is also the {option} output; give the report a folder of its own")
         if _inside(path, report):
             raise UserError(f"{path}: is inside the --report folder {report}, whose files are the report's; give "
                             f"{option} a file outside it")

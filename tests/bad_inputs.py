@@ -872,7 +872,7 @@ def _campaign_cases() -> list[Case]:
              _files({"runs/a.csv": lambda t: t, "runs/b.csv": run_b}), "error", "is also an input of this command"),
         Case("campaign", "--report onto the model file", "fit",
              (*campaign, "--data", "good.csv", "--data", "b.csv", "--folds", "2", "--report", "out.json"),
-             _files({"b.csv": run_b}), "error", "out.json: is inside the --report folder out.json"),
+             _files({"b.csv": run_b}), "error", "--report out.json: is also the -o output"),
         Case("campaign", "--runs names a folder", "fit", (*campaign, "--runs", "runs", "--folds", "2"),
              _files({"runs/a.csv": lambda t: t}), "error", "--runs runs: a folder; give its runs table"),
         Case("campaign", "a runs table given as --data", "fit", (*campaign, "--data", "runs.csv", "--train-rows", "200"),
@@ -990,8 +990,43 @@ def _read_two_ways_cases() -> list[Case]:
     ]
 
 
+_SERVED: dict[int, object] = {}
+
+
+def _serving(port: int, answer: bytes | None):
+    """A prepare that starts, once per process, a server on 127.0.0.1:`port` that accepts every connection and
+    never answers (`answer` None) or answers `answer` over and over: a store or scheduler gone wrong."""
+    import socket
+    import threading
+
+    def talk(connection) -> None:
+        try:
+            while answer is not None:
+                connection.sendall(answer)
+        except OSError:
+            pass
+
+    def serve(listener) -> None:
+        while True:
+            connection, _ = listener.accept()
+            _SERVED.setdefault("connections", []).append(connection)
+            threading.Thread(target=talk, args=(connection,), daemon=True).start()
+
+    def prepare(folder: Path) -> None:
+        (folder / "m.csv").write_text("block,data,model\nblock.scl,good.csv,mlr.json\n")
+        if port not in _SERVED:
+            listener = socket.socket()
+            listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            listener.bind(("127.0.0.1", port))
+            listener.listen(64)
+            _SERVED[port] = listener
+            threading.Thread(target=serve, args=(listener,), daemon=True).start()
+    return prepare
+
+
 def _hostile_review_cases() -> list[Case]:
-    """Issue 48: outputs inside outputs, empty names, NUL bytes, a broken link, --decimal in a campaign."""
+    """Issue 48: outputs inside outputs, empty names, NUL bytes, a broken link, --decimal in a campaign, a store
+    and a scheduler that never answer or answer garbage (fixed ports: the table shows the command)."""
     campaign = ("fit", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "-o", "out.json")
     run_b = lambda text: _cell(text, 5, "E_z_um", "0.125")
     two_runs = ("--data", "good.csv", "--data", "b.csv", "--folds", "2")
@@ -1043,6 +1078,17 @@ def _hostile_review_cases() -> list[Case]:
         Case("campaign", "twin --runs whose rows in all pass the cap", "twin",
              ("twin", "--runs", "10000", "--hours", "1000", "-o", "c"), lambda f: None, "error",
              "--runs 10000 of --hours 1000 at --dt 10 gives more than 50,000,000 rows in all"),
+        Case("object store", "an S3 endpoint that accepts and never answers", "verify",
+             ("verify", "block.scl", "--model", "mlr.json", "--data",
+              "s3://plant/run.csv?endpoint_override=127.0.0.1:47391&scheme=http"), _serving(47391, None), "error",
+             "cannot read: no answer from the store within 20 s"),
+        Case("cluster", "--scheduler at a server that never answers", "verify",
+             ("verify", "--manifest", "m.csv", "--scheduler", "tcp://127.0.0.1:47392"), _serving(47392, None), "error",
+             "--scheduler tcp://127.0.0.1:47392: cannot reach a Dask scheduler there (no answer within 20 s)"),
+        Case("cluster", "--scheduler at a server that answers garbage", "verify",
+             ("verify", "--manifest", "m.csv", "--scheduler", "tcp://127.0.0.1:47393"),
+             _serving(47393, b"\xff\xfe garbage " * 64), "error",
+             "cannot reach a Dask scheduler there (what answers there is not a Dask scheduler)"),
     ]
 
 
