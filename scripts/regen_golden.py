@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 import tempfile
 from pathlib import Path
 
@@ -16,13 +17,14 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from tests.golden_models import (  # noqa: E402
-    DIALECTS, GOLDEN, KINDS, batch_csvs, golden_block, golden_twin_csv, rendered,
+    DIALECTS, FUSED, GOLDEN, KINDS, batch_csvs, golden_block, golden_twin_csv, rendered,
 )
 from thermoplc.diagnosis.command import DiagnoseRequest, augmented_model, series_of  # noqa: E402
 from thermoplc.models import simulation  # noqa: E402
 from thermoplc.models.fit import FitRequest, fit, sample_period  # noqa: E402
 from thermoplc.models.kalman import FitOptions  # noqa: E402
-from thermoplc.models.modelfile import Model  # noqa: E402
+from thermoplc.models.modelfile import Model, load_model  # noqa: E402
+from thermoplc.models.probing import Fusion  # noqa: E402
 from thermoplc.models.table import read_table  # noqa: E402
 
 # golden name -> the model kind `fit` writes for it: the identified baseline `fit --model lumped` writes
@@ -57,11 +59,15 @@ def refit(folder: Path, kinds: tuple[str, ...]) -> None:
                              tool_length="tool_length_mm" if bpnn else None)
         tables = batches if kind == "piecewise" else [table]
         (GOLDEN / f"{kind}.json").write_text(fit(tables, request).to_json())
+    for fused, kind in FUSED.items():  # the static golden with a fusion that keeps a rate and decays its offset
+        model = load_model(GOLDEN / f"{kind}.json")
+        probe = Fusion.of(0.7, 12.0, 100.0, 100.0, rate_gain=0.002, rate_max_um=0.05, decay=0.9999)
+        (GOLDEN / f"{fused}.json").write_text(replace(model, probe=probe).to_json())
 
 
 def render_all() -> list[Path]:
     written = []
-    for kind in KINDS:
+    for kind in (*KINDS, *FUSED):
         for dialect in (*DIALECTS, "plcopen"):
             path = golden_block(kind, dialect)
             path.write_text(rendered(kind, dialect))

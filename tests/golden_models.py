@@ -20,6 +20,10 @@ BATCH_AMBIENTS_C = (14.0, 19.0, 26.0, 31.0)  # piecewise library batches, one pe
 # every kind of the registry, and the lumped model as `fit` identifies it (the `lumped` golden is diagnose's)
 KINDS = (*kind_names(), "lumped_identified")
 DIALECTS = tuple(PRINTER_DIALECTS)
+# fused blocks (fit --probe): a golden model with a probe fusion that keeps every state (rate, decay), its blocks
+# reviewed like the others; verified with a probing every FUSED_EVERY calls of the golden twin
+FUSED = {"kalman_fused": "kalman"}
+FUSED_EVERY = 90
 
 
 def golden_twin_csv(folder: Path) -> Path:

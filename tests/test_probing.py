@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from tests.cli_runner import thermoplc
-from tests.golden_models import GOLDEN, KINDS, batch_csvs, golden_twin_csv
+from tests.golden_models import (BATCH_AMBIENTS_C, DIALECTS as PRINTED, FUSED, FUSED_EVERY, GOLDEN, KINDS, batch_csvs,
+                                 golden_block, golden_twin_csv, rendered)
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.probing import REFUSALS, REFUSED, USED, Fusion, fuse, probings
 from thermoplc.models.table import write_table
@@ -39,7 +40,7 @@ def folder(tmp_path_factory):
 
 def _data(kind: str) -> list[str]:
     if kind == "piecewise":
-        return [a for k, ambient in enumerate((15, 20, 25, 30)) for a in ("--data", f"batch_{ambient:g}C.csv")]
+        return [a for ambient in BATCH_AMBIENTS_C for a in ("--data", f"batch_{ambient:g}C.csv")]
     return ["--data", "golden_twin.csv"]
 
 
@@ -60,6 +61,15 @@ def test_every_kinds_fused_block_is_bit_exact_and_a_one_ulp_gain_is_caught(folde
     caught = thermoplc("verify", f"ulp.{block}", "--model", f"{kind}.json", *_data(kind), "--probe-every", "90",
                        cwd=folder, check=None)
     assert caught.returncode == 1 and "NOT bit-exact" in caught.stdout
+
+
+@pytest.mark.parametrize("fused", FUSED)
+@pytest.mark.parametrize("dialect", (*PRINTED, "plcopen"))
+def test_the_fused_golden_blocks_are_what_the_generator_writes_and_verify_bit_exact(folder, fused, dialect):
+    assert rendered(fused, dialect) == golden_block(fused, dialect).read_text()  # scripts/regen_golden.py
+    result = thermoplc("verify", golden_block(fused, dialect), "--model", GOLDEN / f"{fused}.json", "--data",
+                       "golden_twin.csv", "--probe-every", FUSED_EVERY, cwd=folder)
+    assert result.stdout.startswith("bit-exact") and "probings replayed: " in result.stdout
 
 
 def test_a_probing_is_refused_when_nan_infinite_beyond_the_limit_or_the_gate():
