@@ -293,7 +293,7 @@ def test_diagnose_is_deterministic(tmp_path, monkeypatch):
     (["diagnose", "--data", "d.csv", "--speed", "n_rpm", "--ambient", "T_env", "--temps", "T_motor",
       "--target", "E_z_um", "-o", "d.csv"], "is also an input of this command"),
     (["diagnose", "--data", "d.csv", "--speed", "n_rpm", "--ambient", "T_env", "--temps", "T_motor",
-      "--target", "E_z_um", "-o", "m.json", "--json", "m.json"], "named for two outputs"),
+      "--target", "E_z_um", "-o", "m.json", "--json", "m.json"], "m.json: named for both -o and --json"),
     (["diagnose", "--data", "d.csv", "--speed", "n_rpm", "--ambient", "T_env", "--temps", "T_motor",
       "--target", "E_z_um", "--baseline", "mlr.json"], "needs a lumped model"),
     (["diagnose", "--data", "d.csv", "--speed", "n_rpm", "--ambient", "T_env", "--temps", "T_nope",

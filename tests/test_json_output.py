@@ -97,7 +97,7 @@ def test_an_empty_json_name_is_refused_not_ignored(folder):
 def test_fit_names_json_onto_its_model_file_as_the_other_output(folder):
     result = thermoplc("fit", "--data", "data.csv", "--model", "mlr", "--temps", "T_motor,T_bearing", "--target",
                        "E_z_um", "--train-until", "14400", "-o", "same.json", "--json", "same.json", cwd=folder, check=2)
-    assert "--json same.json: is also the -o output; choose another name for the JSON document" in result.stderr
+    assert "same.json: named for both -o and --json; give each output a file of its own" in result.stderr
     assert not (folder / "same.json").exists()
 
 
