@@ -167,12 +167,18 @@ def write_outputs(items: list[tuple[str | Path, str | bytes]], remove: list[str 
     remove `remove`: the targets keep their old content or get the complete new one, never half,
     and a failure before the renames leaves no output changed."""
     staged: list[tuple[str, Path]] = []
+    made: list[Path] = []  # folders made for the outputs: removed again when nothing is written
     try:
         for path, data in items:
             path = Path(path)
             try:
+                made += reversed([p for p in (path.parent, *path.parent.parents) if not os.path.lexists(p)])
                 path.parent.mkdir(parents=True, exist_ok=True)
                 fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+            except (FileExistsError, NotADirectoryError):
+                blocking = next((p for p in (path.parent, *path.parent.parents) if p.exists() and not p.is_dir()),
+                                path.parent)
+                raise UserError(f"{path}: cannot write: {blocking} is a file, not a folder; nothing written") from None
             except OSError as exc:
                 raise UserError(f"{path}: cannot write: {exc.strerror}; nothing written") from None
             staged.append((tmp, path))
@@ -190,12 +196,17 @@ def write_outputs(items: list[tuple[str | Path, str | bytes]], remove: list[str 
                 os.replace(tmp, path)
             except OSError as exc:
                 raise UserError(f"{path}: cannot write: {exc.strerror}") from None
-        staged = []
+        staged, made = [], []
         for path in remove:
             Path(path).unlink(missing_ok=True)
     finally:
         for tmp, _ in staged:
             Path(tmp).unlink(missing_ok=True)
+        for folder in reversed(made):
+            try:
+                folder.rmdir()
+            except OSError:  # not made here after all, or not empty: it stays
+                pass
 
 
 def write_atomic(path: str | Path, data: str | bytes) -> None:

@@ -258,6 +258,10 @@ def fit_probe(model, tables: list, predictions: dict, every: int | None, held: b
         raise UserError(f"--probe-every {every}: the target {model.target.column!r} is probed (empty between its "
                         f"measurements), and its measured rows are the probings; leave --probe-every out")
     dt = model.sample_period_s
+    if not any(probings(r.target, every)[1].any() for r in runs):
+        schedule = f"a probing every {every} calls" if every else "its own probings"
+        raise UserError(f"--probe: no probing falls in the runs the fusion is chosen on ({schedule}; the longest run "
+                        f"has {max(len(r.target) for r in runs)} calls); give a shorter --probe-every")
     limit = limit_of([*runs, *([held_out] if held_out else [])])
     fusion, evidence = choose(runs, every * dt / 60 if every else None, dt, limit, held_out)
     probing = {**summarise(evidence), "held": held, "chosen": _described(fusion, dt)}

@@ -204,11 +204,15 @@ def fused_core(model, core: dict | None, inputs: dict, start: int, precision: st
     return {**core, model.target.name: fused["fused"]}, status
 
 
+HELD_CALLS = 3  # a replayed probing holds ProbeNew TRUE this many calls, as a PLC's pulse does: only its edge counts
+
+
 def probings(target: np.ndarray, every: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The probing inputs a recording gives the block, (value as float32, new as bool) per call: a probed
     target's measured rows (NaN between) are its probings; `every` N simulates one at calls N, 2N, ... on a
     target measured at every call. The value holds the latest probing (0 before the first), as the NC's
-    result variable does; only the rising edge of `new` counts, so back-to-back measured rows are one."""
+    result variable does; `new` is held TRUE for HELD_CALLS calls from each probing (FALSE again the call
+    before the next), so a block that takes a level for an edge differs; back-to-back measured rows are one."""
     target = np.asarray(target, np.float64)
     measured = np.isfinite(target)
     if every is not None:
@@ -217,7 +221,11 @@ def probings(target: np.ndarray, every: int | None = None) -> tuple[np.ndarray, 
     latest = np.where(measured, np.arange(len(target)), -1)
     np.maximum.accumulate(latest, out=latest)
     value = np.where(latest >= 0, target[np.maximum(latest, 0)], 0.0).astype(np.float32)
-    return value, measured
+    new = measured.copy()
+    for shift in range(1, HELD_CALLS):
+        new[shift:] |= measured[:-shift]
+    new[:-1] &= measured[:-1] | ~measured[1:]  # FALSE the call before a probing, so that it rises
+    return value, new
 
 
 def needs_schedule(target: np.ndarray) -> bool:

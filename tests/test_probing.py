@@ -105,11 +105,12 @@ def test_only_the_rising_edge_is_a_probing_and_the_offset_stays_clamped():
 
 
 def test_probings_from_a_probed_target_and_from_a_schedule():
-    target = np.array([np.nan, 1.0, np.nan, np.nan, 2.0, 2.0])
+    target = np.array([np.nan, 1.0, np.nan, np.nan, 2.0, 2.0, np.nan, np.nan, np.nan])
     value, new = probings(target)
-    assert new.tolist() == [False, True, False, False, True, True] and value.tolist() == [0, 1, 1, 1, 2, 2]
+    assert new.tolist() == [False, True, True, False, True, True, True, True, False]  # held, FALSE before the next
+    assert value.tolist() == [0, 1, 1, 1, 2, 2, 2, 2, 2]
     value, new = probings(np.arange(7.0), every=3)
-    assert new.nonzero()[0].tolist() == [3, 6] and value.tolist() == [0, 0, 0, 3, 3, 3, 6]
+    assert new.nonzero()[0].tolist() == [3, 4, 6] and value.tolist() == [0, 0, 0, 3, 3, 3, 6]
 
 
 @pytest.fixture(scope="module")
@@ -193,12 +194,30 @@ def test_probe_options_refused_where_they_mean_nothing(tmp_path):
     assert refused.returncode == 2 and "give --probe-every N" in refused.stderr
 
 
+def test_a_block_that_takes_a_level_for_an_edge_or_starts_probenew_true_is_not_bit_exact(folder):
+    thermoplc("generate", "mlr.json", "--accept-unvalidated", "-o", "e.mlr.scl", "--force", cwd=folder)
+    text = (folder / "e.mlr.scl").read_text()
+    mutants = {"level.scl": text.replace("IF #ProbeNew AND (NOT #ProbeSeen) THEN", "IF #ProbeNew THEN"),
+               "start.scl": text.replace("ProbeNew : Bool := FALSE;", "ProbeNew : Bool := TRUE;"),
+               "value.scl": text.replace("      ProbeValue : Real;", "      ProbeValue : Real := 5.0;")}
+    for name, mutant in mutants.items():
+        assert mutant != text
+        (folder / name).write_text(mutant)
+        result = thermoplc("verify", name, "--model", "mlr.json", "--data", "golden_twin.csv", "--probe-every", "90",
+                           cwd=folder, check=1)
+        assert "NOT bit-exact" in result.stdout
+    for every, message in (("100000", "no probing would be replayed"), ):
+        result = thermoplc("verify", "e.mlr.scl", "--model", "mlr.json", "--data", "golden_twin.csv", "--probe-every",
+                           every, cwd=folder, check=2)
+        assert message in result.stderr
+
+
 def test_verify_faults_injects_hostile_probings_into_a_fused_block(folder):
     thermoplc("generate", "mlr.json", "--accept-unvalidated", "-o", "f.mlr.scl", "--force", cwd=folder)
     result = thermoplc("verify", "f.mlr.scl", "--model", "mlr.json", "--data", "golden_twin.csv", "--probe-every", "90",
                        "--faults", cwd=folder)
     rows = {line.split()[1]: line.split() for line in result.stdout.splitlines() if line.startswith("ProbeValue")}
-    assert sorted(rows) == ["probe-flood:", "probe-inf:", "probe-nan:", "probe-spike:", "probe-stuck:"]
+    assert sorted(rows) == ["probe-flood:", "probe-held:", "probe-inf:", "probe-nan:", "probe-spike:", "probe-stuck:"]
     for name in ("probe-nan:", "probe-inf:", "probe-spike:"):
         assert rows[name][-6:-2] == ["yes", "yes", "yes", "yes"] and rows[name][-3] == "yes"  # exact..rate; refused
     assert "all cases bit-exact, finite, inside the clamp and the rate limit" in result.stdout

@@ -20,7 +20,7 @@ from thermoplc.models.kind import fault_key
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits, guards
 from thermoplc.models.table import Table
-from thermoplc.verifier.probings import probing_inputs, reference_keys
+from thermoplc.verifier.probings import probing_inputs, reference_keys, start_value_errors
 from thermoplc.verifier.replay import (check_interface, load_block, replay_and_compare, block_limits, check_model_inputs,
                                        compare_constants, constants_lines, subnormal_declarations)
 
@@ -57,6 +57,7 @@ PROBE_KINDS = (
     FaultKind("probe-spike", "one probing 1000 um off", False, None),
     FaultKind("probe-stuck", "stuck to the end, edges go on", True, None),
     FaultKind("probe-flood", "ProbeNew toggles for 30 calls", False, None),
+    FaultKind("probe-held", "ProbeNew held TRUE for 30 calls", False, None),
 )
 
 
@@ -75,7 +76,8 @@ def _probe_fault(kind: FaultKind, value: np.ndarray, new: np.ndarray, first: int
         last = len(value) - 1
     else:
         last = min(len(new) - 1, at + TRANSIENT_CALLS - 1)
-        new[at:last + 1] = (np.arange(at, last + 1) - at) % 2 == 0
+        held = kind.name == "probe-held"
+        new[at:last + 1] = True if held else (np.arange(at, last + 1) - at) % 2 == 0
     return {PROBE_VALUE_INPUT: value, PROBE_NEW_INPUT: new}, last
 
 
@@ -184,6 +186,7 @@ def verify_faults(block: str, model: Model, table: Table, overrides: dict | None
     limits: Limits = block_limits(program, block)
     cases = _cases(machine, block, model, table, overrides, limits, probe_every)
     checked, errors = compare_constants(program, model, limits)
+    errors = (*errors, *(start_value_errors(machine.inputs) if model.probe is not None else ()))
     return FaultReport(block, table.rows, tuple(cases), checked, errors,
                        tuple(subnormal_declarations(program.decls, block)))
 

@@ -39,8 +39,27 @@ def probing_inputs(model: Model, table: Table, overrides: dict | None = None, ev
         raise UserError(f"{table.path}: column {model.target.column!r} is measured at every call, so which calls are "
                         f"probings is not in the data; give --probe-every N (a probing every N calls) or columns "
                         f"{PROBE_VALUE_INPUT} and {PROBE_NEW_INPUT}")
+    if every is not None and not needs_schedule(target):
+        raise UserError(f"--probe-every {every}: column {model.target.column!r} of {table.path} is probed (empty "
+                        f"between its measurements), and its measured rows are the probings; leave --probe-every out")
     value, new = probings(target, every)
+    if every is not None and not new.any():
+        raise UserError(f"--probe-every {every}: {table.path} has {table.rows} calls, so no probing would be replayed "
+                        f"and the fusion not exercised; give a shorter schedule")
     return {PROBE_VALUE_INPUT: value, PROBE_NEW_INPUT: new}
+
+
+def start_value_errors(inputs) -> list[str]:
+    """The probing inputs' declared start values against the contract (ProbeNew FALSE: unwired, no probing
+    ever; ProbeValue none: it must be wired). A replay drives both, so only this check sees them."""
+    errors = []
+    for d in inputs:
+        if d.name.upper() == PROBE_NEW_INPUT.upper() and d.initial not in (None, False):
+            errors.append(f"{d.name}: start value {d.initial!r}, the contract's is FALSE (an unwired ProbeNew must "
+                          f"never make a probing)")
+        if d.name.upper() == PROBE_VALUE_INPUT.upper() and d.initial is not None:
+            errors.append(f"{d.name}: start value {d.initial!r}, the contract gives it none (it must be wired)")
+    return errors
 
 
 def reference_keys(block_inputs: dict) -> dict:
@@ -49,9 +68,11 @@ def reference_keys(block_inputs: dict) -> dict:
 
 
 def summary(block_inputs: dict) -> str:
-    """How many probings the replay gave the block."""
+    """How many probings the replay gave the block; none is said as what it means."""
     if not block_inputs:
         return ""
     new = np.asarray(block_inputs[PROBE_NEW_INPUT], bool)
     edges = int(np.count_nonzero(new & ~np.r_[False, new[:-1]]))
+    if not edges:
+        return f"probings replayed: 0 - the data holds no probing, so the fusion was not exercised (its constants were)"
     return f"probings replayed: {edges} (rising edges of {PROBE_NEW_INPUT})"

@@ -22,7 +22,7 @@ from thermoplc.verifier.control import control_inputs, control_summary, unread_c
 from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.interpreter import BlockFailure, Finding
 from thermoplc.verifier.parser import parse_file
-from thermoplc.verifier.probings import probing_inputs, reference_keys, summary as probing_summary
+from thermoplc.verifier.probings import probing_inputs, reference_keys, start_value_errors, summary as probing_summary
 from thermoplc.verifier.syntax import Program, names_read
 from thermoplc.verifier.typed import cells_as, differing_rows, first_non_finite
 
@@ -403,6 +403,7 @@ def verify_against_model(block: str, model: Model, model_path: str, table: Table
     report = replay_and_compare(machine, block, against, table, model.time_column, {**inputs, **control, **probing},
                                 block32, quantisation)
     checked, errors = compare_constants(program, model, limits)
+    errors = (*errors, *(start_value_errors(machine.inputs) if model.probe is not None else ()))
     said = [line for line in (control_summary(control, table.rows), probing_summary(probing)) if line]
     return replace(report, constants_checked=checked, constant_errors=errors, limits=limits, control="; ".join(said))
 

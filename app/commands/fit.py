@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 from thermoplc.base.errors import UserError
-from thermoplc.base.fileio import check_outputs, write_atomic
+from thermoplc.base.fileio import check_outputs, write_outputs
 from thermoplc.commands import json_output
 from thermoplc.commands.fit_options import Given, refuse_options_not_read
 from thermoplc.commands.options import (DECIMAL, FORCE_HELP, SEED, campaign_arguments, columns, named, number,
@@ -134,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
     from thermoplc.models.kalman import FitOptions
     from thermoplc.models.campaign import read_campaign, run_list
     from thermoplc.pipeline import becomes_block
-    from thermoplc.commands.fit_report import is_report_file, report_names, write_report
+    from thermoplc.commands.fit_report import INDEX, is_report_file, report_files, report_names
     options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
                          args.recover_limit, args.ga_operators)
     request = FitRequest(kind=args.model, target=args.target[0], temps=args.temps, speed=args.speed,
@@ -171,10 +171,14 @@ def run(args: argparse.Namespace) -> int:
         from thermoplc.models.probe_fit import fit_probe
         model = fit_probe(model, tables, predictions, args.probe_every, args.held_target)
     becomes_block(model, args.output)
-    report = write_report(args.report, model, campaign, predictions, stale) if args.report is not None else None
-    write_atomic(args.output, model.to_json())
+    document = fit_document(model, args.output)
+    outputs = [*(report_files(args.report, model, campaign, predictions) if args.report is not None else []),
+               (args.output, model.to_json()),
+               *([(json_output.file(args), json_output.encoded(document))] if json_output.file(args) else [])]
+    write_outputs(outputs, remove=[Path(args.report) / name for name in stale])  # all of them, or none
+    report = Path(args.report) / INDEX if args.report is not None else None
     text = f"{format_fit(model, campaign)}\nwrote {args.output}" + (f"\nwrote {report}" if report else "")
-    json_output.emit(args, text, fit_document(model, args.output))
+    json_output.emit(args, text, document, written=True)
     refused = refusal(model)
     if refused:
         print(f"thermoplc: WARNING: generate will refuse this model: {refused}", file=sys.stderr)

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from thermoplc.base.fileio import REPORT_MANIFEST, report_manifest, write_outputs
+from thermoplc.base.fileio import REPORT_MANIFEST, report_manifest
 
 INDEX = "index.html"
 
@@ -110,8 +110,8 @@ def _page(model, campaign, pngs: list[str]) -> str:
             f"</head><body>{''.join(parts)}</body></html>\n")
 
 
-def write_report(folder: str, model, campaign, held_out: dict, stale: list[str]) -> str:
-    """Write the report (all files or none) and return its index page's path."""
+def report_files(folder: str, model, campaign, held_out: dict) -> list[tuple[Path, str | bytes]]:
+    """The report's files, its manifest last, for the command to write with its other outputs (all or none)."""
     from thermoplc.models.reference import model_inputs, predict
     files, pngs = [], []
     for k, run in enumerate(campaign.runs):
@@ -120,5 +120,4 @@ def write_report(folder: str, model, campaign, held_out: dict, stale: list[str])
         pngs.append(_png_name(k))
     files.append((Path(folder) / INDEX, _page(model, campaign, pngs)))
     files.append((Path(folder) / REPORT_MANIFEST, report_manifest([(Path(path).name, data) for path, data in files])))
-    write_outputs(files, [Path(folder) / name for name in stale])
-    return str(Path(folder) / INDEX)
+    return files

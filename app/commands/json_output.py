@@ -44,17 +44,22 @@ def file(args) -> str | None:
     return None if args.json in (None, "-") else args.json
 
 
-def emit(args, text: str, document: dict | None) -> None:
-    """The text on standard output, or on standard error when the document takes standard output."""
+def encoded(document: dict) -> str:
+    """The document as the --json file holds it."""
+    return json.dumps(_finite(document), indent=2, allow_nan=False) + "\n"
+
+
+def emit(args, text: str, document: dict | None, written: bool = False) -> None:
+    """The text on standard output, or on standard error when the document takes standard output; the document
+    written to its file unless the caller `written` it with its other outputs."""
     to_stdout = args.json == "-"
     print(text, file=sys.stderr if to_stdout else sys.stdout)
     if not args.json or document is None:
         return
-    encoded = json.dumps(_finite(document), indent=2, allow_nan=False) + "\n"
     if to_stdout:
-        sys.stdout.write(encoded)
-    else:
-        write_atomic(args.json, encoded)
+        sys.stdout.write(encoded(document))
+    elif not written:
+        write_atomic(args.json, encoded(document))
 
 
 def _finite(value):
