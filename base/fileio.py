@@ -81,6 +81,8 @@ def check_outputs(outputs: dict[str, str | None], force: bool, inputs=(), report
         return []
     if not str(report):
         raise UserError("--report '': an empty name; expected a folder for the report")
+    if str(report) == "-":
+        raise UserError("--report -: a report is a folder of files, not a stream; give a folder name")
     if is_url(str(report)):
         raise UserError(f"--report {report}: a report is written to a local folder; object-store URLs are read, never "
                         f"written; give a folder")
@@ -113,6 +115,12 @@ def _owned(manifest: Path) -> dict[str, str]:
     return owned
 
 
+def _named(manifest: Path) -> set[str]:
+    """Every name a manifest's lines start with, digest or not."""
+    return {line.split()[0] for line in manifest.read_text(encoding="utf-8", errors="replace").splitlines()
+            if line.strip() and not line.startswith("#")}
+
+
 def check_report_folder(folder: str | Path, names: list[str], inputs=(), recognised=None) -> list[str]:
     """The report folder must be new, empty or thermoplc's own report, and no file it would write may be
     someone else's: a file is the report's only while the manifest lists it with the sha256 it has now, so a
@@ -140,7 +148,9 @@ def check_report_folder(folder: str | Path, names: list[str], inputs=(), recogni
             and _digest(folder / n) == digest}
     for name in names:
         if name in present and name not in ours:
-            why = ("is not listed in" if name not in listed else "was changed since thermoplc wrote it, says")
+            why = ("is not listed in" if name not in listed and name not in _named(manifest) else
+                   "is listed without its sha256 (a report of an older thermoplc, or a hand edit) in"
+                   if name not in listed else "was changed since thermoplc wrote it, says")
             raise UserError(f"--report {folder}: {name} exists and {why} {REPORT_MANIFEST}; thermoplc replaces only "
                             f"its own files: give a new or empty folder")
     is_ours = recognised or (lambda name: name in names)

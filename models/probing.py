@@ -100,6 +100,8 @@ def _pair(entry, path: str, where: str) -> tuple[float, float]:
     if not isinstance(entry, dict) or not isinstance(entry.get("f64"), (int, float)) or isinstance(entry.get("f64"), bool) \
             or not isinstance(entry.get("f32"), str):
         raise UserError(f"{path}: field {where!r}: expected {{\"f64\": number, \"f32\": \"0x........\"}}")
+    if not np.isfinite(entry["f64"]):
+        raise UserError(f"{path}: field '{where}.f64': {entry['f64']!r}; expected a finite number")
     try:
         f32 = parse_f32_hex(entry["f32"])
     except ValueError as exc:
@@ -112,11 +114,11 @@ def _pair(entry, path: str, where: str) -> tuple[float, float]:
 
 def _check(fusion: Fusion, path: str) -> None:
     """Ranges that keep the state finite and the block's range proof simple."""
-    rules = {"gain": (0.0, 1.0), "rate_gain": (0.0, 1.0), "decay": (0.0, 1.0), "gate_um": (1e-3, 1e6),
+    rules = {"gain": (1e-6, 1.0), "rate_gain": (0.0, 1.0), "decay": (1e-6, 1.0), "gate_um": (1e-3, 1e6),
              "limit_um": (1e-3, 1e6), "offset_max_um": (1e-3, 1e6), "rate_max_um": (1e-9, 1e3)}
     for name, (low, high) in rules.items():
         pair = getattr(fusion, name)
-        if pair is not None and not (np.isfinite(pair[1]) and low <= pair[1] <= high and (pair[1] > 0 or name == "rate_gain")):
+        if pair is not None and not (np.isfinite(pair[1]) and low <= pair[1] <= high):
             raise UserError(f"{path}: field 'probe.{name}': {pair[0]!r}; expected a value from {low:g} to {high:g}")
 
 

@@ -354,7 +354,7 @@ def _output_cases() -> list[Case]:
              foreign_report, "error", "--report rep: is not empty and is not a report thermoplc wrote"),
         Case("output", "-o naming the report's own index.html", "diagnose",
              (*DIAGNOSE[:-3], "-o", "rep/index.html", "--data", "good.csv", "--report", "rep"), lambda f: None, "error",
-             "rep/index.html: is a file of the --report folder"),
+             "rep/index.html: is inside the --report folder rep"),
         Case("output", "report folder of thermoplc holding a file it does not list", "diagnose",
              (*DIAGNOSE, "good.csv", "--report", "rep"), own_report_with_a_foreign_file, "error",
              "channel_1.png exists and is not listed"),

@@ -21,7 +21,7 @@ from thermoplc.verifier.replay import block_columns
 from thermoplc.verifier.typed import differing_rows
 
 SIEMENS_ATTRIBUTES = frozenset({"TITLE", "AUTHOR", "FAMILY", "NAME", "VERSION"})
-SECTIONS = (("input", "inputs"), ("output", "outputs"), ("static", "state"), ("temp", "temporaries"))
+SECTIONS = (("input", "input"), ("output", "output"), ("static", "state"), ("temp", "temporary"))  # section, one of it
 WHOLE_BODY = "(body)"
 
 
@@ -86,13 +86,11 @@ def _interface(old: s.Program, new: s.Program) -> list[str]:
     for section, label in SECTIONS:
         before = {d.name.upper(): d for d in old.section(section)}
         after = {d.name.upper(): d for d in new.section(section)}
-        lines += [f"- {label[:-1] if label.endswith('s') else label} {d.name} : {_type_text(d.type)}"
-                  for key, d in before.items() if key not in after]
-        lines += [f"+ {label[:-1] if label.endswith('s') else label} {d.name} : {_type_text(d.type)}"
-                  for key, d in after.items() if key not in before]
+        lines += [f"- {label} {d.name} : {_type_text(d.type)}" for key, d in before.items() if key not in after]
+        lines += [f"+ {label} {d.name} : {_type_text(d.type)}" for key, d in after.items() if key not in before]
         for key in before.keys() & after.keys():
             if before[key].type != after[key].type:
-                lines.append(f"~ {label[:-1]} {after[key].name}: {_type_text(before[key].type)} -> "
+                lines.append(f"~ {label} {after[key].name}: {_type_text(before[key].type)} -> "
                              f"{_type_text(after[key].type)}")
     return sorted(lines, key=lambda line: line[2:])
 
