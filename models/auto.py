@@ -40,6 +40,13 @@ RANKING_FOLDS = 5
 
 
 @dataclass(frozen=True)
+class Probing:
+    """`fit --probe` with auto: each candidate fused as it would be alone (models/probe_fit.py), ranked fused."""
+    every: int | None  # a probing every N calls on a target measured at every call; None: the target's own
+    held: bool  # the target holds its last probing
+
+
+@dataclass(frozen=True)
 class Candidate:
     kind: str
     sensors: tuple[str, ...]
@@ -49,10 +56,22 @@ class Candidate:
 
     @property
     def rmse(self) -> float:
-        return self.model.metrics["held_out"]["rmse_um"] if self.model else float("inf")
+        """The held-out RMSE it is ranked by: a fused candidate's with its probings (every call where the target
+        is measured at every call, else just before each probing)."""
+        if not self.model:
+            return float("inf")
+        fused = fused_rmse(self.model)
+        return fused if fused is not None else self.model.metrics["held_out"]["rmse_um"]
 
     def order(self) -> tuple:
         return self.model is None, self.not_accepted is not None, self.rmse
+
+
+def fused_rmse(model: Model) -> float | None:
+    """A fused model's pooled held-out RMSE with its probings, None for a static one."""
+    pooled = model.metrics.get("probing", {}).get("pooled", {}) if model.probe is not None else {}
+    value = pooled.get("fused_rmse_um")
+    return value if value is not None else pooled.get("fused_before_um")
 
 
 def forward_selection(tables: list[Table], request: FitRequest, folds: int | None, time_column: str,
@@ -109,7 +128,8 @@ def tried(request: FitRequest) -> list[Kind]:
 
 def rank(tables: list[Table], request: FitRequest, folds: int | None, time_column: str,
          max_sensors: int = MAX_SENSORS, say: Callable[[str], None] | None = None,
-         groups: dict | None = None, remote: crossval.Remote | None = None) -> list[Candidate]:
+         groups: dict | None = None, remote: crossval.Remote | None = None,
+         probing: Probing | None = None) -> list[Candidate]:
     """Every applicable kind, best first: the models generate accepts by held-out RMSE, then those it
     would refuse, then the kinds that could not be fitted.
 
@@ -142,20 +162,26 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
         sets = forward_selection(tables, request, folds, time_column, max_sensors, remote=remote)
     seen = {frozenset(s) for s in sets}
     sets += [s for s in sensor_sets(tables[0], request, train_rows, max_sensors) if frozenset(s) not in seen]
-    found = [_candidate(tables, request, folds, time_column, kind.name, sensors, say, groups, remote)
+    found = [_candidate(tables, request, folds, time_column, kind.name, sensors, say, groups, remote, probing)
              for sensors in sets for kind in kinds if kind.auto == "closed-form"]
     best_set = min(found, key=Candidate.order).sensors
-    found += [_candidate(tables, request, folds, time_column, kind.name, best_set, say, groups, remote)
+    found += [_candidate(tables, request, folds, time_column, kind.name, best_set, say, groups, remote, probing)
               for kind in kinds if kind.auto == "iterative"]
     return sorted(found, key=Candidate.order)
 
 
-def _candidate(tables, request, folds, time_column, kind, sensors, say, groups=None, remote=None) -> Candidate:
+def _candidate(tables, request, folds, time_column, kind, sensors, say, groups=None, remote=None,
+               probing: Probing | None = None) -> Candidate:
     if say:
         say(f"auto: {kind} on {', '.join(sensors)}")
     wanted = replace(request, kind=kind, temps=sensors)  # the speed read or not, folds cut alike
+    predictions: dict = {}
     try:
-        model = crossval.fit_held_out(tables, wanted, folds, time_column, groups=groups, remote=remote)
+        model = crossval.fit_held_out(tables, wanted, folds, time_column, groups=groups, remote=remote,
+                                      predictions=predictions if probing else None)
+        if probing:
+            from thermoplc.models.probe_fit import fit_probe
+            model = fit_probe(model, tables, predictions, probing.every, probing.held)
     except ClusterError:
         raise
     except UserError as exc:

@@ -1092,10 +1092,29 @@ def _hostile_review_cases() -> list[Case]:
     ]
 
 
+def _probing_cases() -> list[Case]:
+    """Issue 49: the probe fusion's options where they cannot mean anything."""
+    fit = ("fit", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "-o", "out.json", "--data",
+           "good.csv")
+    verify = ("verify", "block.scl", "--model", "mlr.json", "--data", "good.csv")
+    return [
+        Case("probing", "--probe on one recording with --folds", "fit", (*fit, "--folds", "3", "--probe"),
+             lambda f: None, "error", "--probe on one recording chooses the fusion on its held-out part"),
+        Case("probing", "--probe on a full-rate target without a schedule", "fit", (*fit, "--train-rows", "400",
+             "--probe"), lambda f: None, "error", "is measured at every call, so the data holds no probing schedule"),
+        Case("probing", "--probe-every without --probe", "fit", (*fit, "--train-rows", "400", "--probe-every", "30"),
+             lambda f: None, "error", "--probe-every sets the probing schedule of a fused block; give --probe"),
+        Case("probing", "--probe-every longer than the recording", "fit", (*fit, "--train-rows", "400", "--probe",
+             "--probe-every", "100000"), lambda f: None, "error", "--probe: no probing falls in the runs"),
+        Case("probing", "verify --probe-every on a static block", "verify", (*verify, "--probe-every", "30"),
+             lambda f: None, "error", "--probe-every 30: the model has no probe fusion (fit it with --probe)"),
+    ]
+
+
 CASES = [*_csv_cases(), *_model_cases(), *_st_cases(), *_injection_cases(), *_output_cases(), *_option_cases(),
          *_bounded_cases(), *_schema_cases(), *_nesting_cases(), *_data_file_cases(), *_verify_cases(),
          *_review_cases(), *_plcopen_cases(), *_campaign_cases(),
-         *_read_two_ways_cases(), *_hostile_review_cases()]
+         *_read_two_ways_cases(), *_hostile_review_cases(), *_probing_cases()]
 
 
 def setup_folder(folder: Path) -> None:

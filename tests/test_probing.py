@@ -221,3 +221,16 @@ def test_verify_faults_injects_hostile_probings_into_a_fused_block(folder):
     for name in ("probe-nan:", "probe-inf:", "probe-spike:"):
         assert rows[name][-6:-2] == ["yes", "yes", "yes", "yes"] and rows[name][-3] == "yes"  # exact..rate; refused
     assert "all cases bit-exact, finite, inside the clamp and the rate limit" in result.stdout
+
+
+def test_auto_with_probe_ranks_every_candidate_fused_and_writes_a_fused_model(tmp_path):
+    thermoplc("twin", "--runs", "4", "--hours", "6", "--dt", "60", "--seed", "5", "-o", "runs", cwd=tmp_path)
+    result = thermoplc("fit", "--data", "runs", "--model", "auto", "--target", "E_z_true_um", "--temps",
+                       "T_motor,T_bearing", "--folds", "4", "--probe", "--probe-every", "30", "-o", "auto.json",
+                       "--json", "auto.fit.json", cwd=tmp_path)
+    assert "ranked by held-out RMSE with their probings (fused)" in result.stdout and "fused um" in result.stdout
+    ranking = json.loads((tmp_path / "auto.fit.json").read_text())["metrics"]["auto_ranking"]
+    fused = [c["fused_rmse_um"] for c in ranking if "fused_rmse_um" in c and not c["generate_refuses"]]
+    assert fused == sorted(fused) and len(fused) >= 3  # the blocks generate accepts first, by their fused error
+    assert any(c["fused_rmse_um"] < c["rmse_um"] for c in ranking if "fused_rmse_um" in c)
+    assert load_model(tmp_path / "auto.json").probe is not None

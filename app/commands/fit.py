@@ -127,6 +127,7 @@ def _remote(args: argparse.Namespace, campaign, runs):
 
 def run(args: argparse.Namespace) -> int:
     from thermoplc.commands.fit_auto import fit_auto
+    from thermoplc.models.auto import Probing
     from thermoplc.commands.fit_summary import fit_document, format_fit
     from thermoplc.models.acceptance import refusal
     from thermoplc.models.crossval import fit_held_out
@@ -147,9 +148,12 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--scheduler runs the folds of --folds or --group-by on a cluster; give one of them")
     if args.probe_every is not None and not args.probe:
         raise UserError("--probe-every sets the probing schedule of a fused block; give --probe")
-    if args.probe and args.model == "auto":
-        raise UserError("--probe with --model auto: fuse the kind auto chose (fit it again with --model KIND --probe)")
     runs = run_list(args.data, args.runs)
+    if args.probe and len(runs.paths) == 1 and (args.folds or args.group_by):
+        raise UserError("--probe on one recording chooses the fusion on its held-out part: give --train-until or "
+                        "--train-rows instead of --folds (or a campaign of runs with --folds)")
+    if args.probe and len(runs.paths) > 1 and not (args.folds or args.group_by):
+        raise UserError("--probe on a campaign chooses the fusion on runs held out: give --folds K or --group-by")
     inputs = [*runs.paths, *([runs.table] if runs.table else []), args.temps.file]  # none may become an output
     stale = check_outputs({"-o": args.output, "--json": json_output.file(args)}, args.force, inputs, args.report,
                           report_names(len(runs.paths)), is_report_file)
@@ -160,14 +164,15 @@ def run(args: argparse.Namespace) -> int:
     remote = _remote(args, campaign, runs)
     try:
         if args.model == "auto":
-            model = fit_auto(tables, request, args.folds, args.time, progress(), groups, remote)
+            probing = Probing(args.probe_every, args.held_target) if args.probe else None
+            model = fit_auto(tables, request, args.folds, args.time, progress(), groups, remote, probing)
         else:
             model = fit_held_out(tables, request, args.folds, args.time, progress(), groups, predictions, remote)
     finally:
         if remote is not None:
             remote.cluster.close()
     end_progress()
-    if args.probe:
+    if args.probe and args.model != "auto":  # auto fused every candidate it ranked
         from thermoplc.models.probe_fit import fit_probe
         model = fit_probe(model, tables, predictions, args.probe_every, args.held_target)
     becomes_block(model, args.output)

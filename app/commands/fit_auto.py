@@ -10,12 +10,13 @@ AUTO_TOLERANCE = 0.1  # a cheaper model within this share of the best held-out R
 
 
 def fit_auto(tables: list, request, folds: int | None, time_column: str,
-             progress: Callable[[str], None] | None, groups: dict | None = None, remote=None):
-    """The ranking printed with each candidate's PLC cost; the best model returned."""
+             progress: Callable[[str], None] | None, groups: dict | None = None, remote=None, probing=None):
+    """The ranking printed with each candidate's PLC cost; the best model returned. With `probing`
+    (models/auto.Probing) each candidate is fused and ranked by its held-out error with its probings."""
     from thermoplc.generator.lower import lower_model
     from thermoplc.generator.stats import block_stats
     from thermoplc.models.auto import rank
-    ranked = rank(tables, request, folds, time_column, say=progress, groups=groups, remote=remote)
+    ranked = rank(tables, request, folds, time_column, say=progress, groups=groups, remote=remote, probing=probing)
     end_progress()
     fitted = [c for c in ranked if c.model is not None]
     if not fitted:
@@ -23,21 +24,23 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
     cost = {id(c): block_stats(lower_model(c.model))["arithmetic_per_call"] for c in fitted}
     none = fitted[0].model.metrics["held_out"].get("zero_rmse_um")
     campaign = len(tables) > 1 or groups is not None
-    print(f"auto: {len(ranked)} candidates ranked by held-out RMSE"
+    print(f"auto: {len(ranked)} candidates ranked by held-out RMSE" + (" with their probings (fused)" if probing else "")
           + (f" (no compensation {none:.3f} um)" if none is not None else "")
           + (f", {fitted[0].model.metrics['held_out']['protocol']}" if campaign else ""))
     from thermoplc.models.auto import RANKING_FOLDS
     if campaign and groups is None and (folds or len(tables)) > RANKING_FOLDS:
         print(f"  (--folds {folds or len(tables)}: a campaign's candidates are ranked on {RANKING_FOLDS} folds of whole "
               f"runs; the model written is judged again with its sensor choice nested)")
-    print(f"  {'rank':<6}{'kind':<8}{'sensors':<32}{'RMSE um':>9}{'max um':>9}{'ops/call':>10}")
+    print(f"  {'rank':<6}{'kind':<8}{'sensors':<32}{'RMSE um':>9}{'max um':>9}{'ops/call':>10}"
+          + (f"{'fused um':>10}" if probing else ""))
     for k, c in enumerate(ranked, start=1):
         if c.model is None:
             print(f"  {'-':<6}{c.kind:<8}{','.join(c.sensors):<32}  refused: {c.refused}")
             continue
         held = c.model.metrics["held_out"]
         print(f"  {k:<6}{c.kind:<8}{','.join(c.sensors):<32}{held['rmse_um']:>9.3f}{held['max_abs_um']:>9.3f}"
-              f"{cost[id(c)]:>10}" + (f"  generate refuses: {c.not_accepted}" if c.not_accepted else ""))
+              f"{cost[id(c)]:>10}" + (f"{c.rmse:>10.3f}" if probing else "")
+              + (f"  generate refuses: {c.not_accepted}" if c.not_accepted else ""))
     best = fitted[0]
     cheaper = min((c for c in fitted if c.rmse <= (1 + AUTO_TOLERANCE) * best.rmse and
                    (c.not_accepted is None) == (best.not_accepted is None)), key=lambda c: cost[id(c)])
@@ -48,9 +51,9 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
     print(f"  writing the best: {best.kind} on {','.join(best.sensors)}")
     from thermoplc.models.modelfile import Model
     ranking = [{"kind": c.kind, "sensors": list(c.sensors), "refused": c.refused} if c.model is None else
-               {"kind": c.kind, "sensors": list(c.sensors), "rmse_um": c.rmse,
+               {"kind": c.kind, "sensors": list(c.sensors), "rmse_um": c.model.metrics["held_out"]["rmse_um"],
                 "max_abs_um": c.model.metrics["held_out"]["max_abs_um"], "operations_per_call": cost[id(c)],
-                "generate_refuses": c.not_accepted} for c in ranked]
+                "generate_refuses": c.not_accepted, **({"fused_rmse_um": c.rmse} if probing else {})} for c in ranked]
     model = best.model
     if campaign:
         model = _nested(tables, request, best, groups, progress)
