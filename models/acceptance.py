@@ -128,7 +128,7 @@ def problem(model: Model) -> str | None:
     return _fused_problem(model)
 
 
-def _fused_figures(model: Model) -> tuple[dict, str] | None:
+def fused_figures(model: Model) -> tuple[dict, str] | None:
     """(fused, static and none RMSE, where they were measured) from metrics.probing, or None without them."""
     pooled = _section(_section(model.metrics or {}, "probing"), "pooled")
     if model.probe is None or pooled.get("fused_before_um") is None:
@@ -143,7 +143,7 @@ def fused_summary(model: Model) -> str | None:
     """A fused block's held-out evidence with its probings (metrics.probing, pooled over the held-out runs at the
     schedule it was fitted for): every call where the target is measured at every call, else just before each
     probing; None for a static block or a file without that evidence."""
-    found = _fused_figures(model)
+    found = fused_figures(model)
     if found is None:
         return None
     values, where = found
@@ -158,7 +158,7 @@ def _fused_problem(model: Model) -> str | None:
     than its static block (then the fusion only adds a state), or not clearly better than no compensation."""
     if model.probe is None:
         return None
-    found = _fused_figures(model)
+    found = fused_figures(model)
     if found is None:
         return "the model file carries no held-out evidence of its probe fusion (fit it with --probe)"
     values = found[0]

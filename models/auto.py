@@ -69,9 +69,8 @@ class Candidate:
 
 def fused_rmse(model: Model) -> float | None:
     """A fused model's pooled held-out RMSE with its probings, None for a static one."""
-    pooled = model.metrics.get("probing", {}).get("pooled", {}) if model.probe is not None else {}
-    value = pooled.get("fused_rmse_um")
-    return value if value is not None else pooled.get("fused_before_um")
+    found = acceptance.fused_figures(model)
+    return found[0]["fused"] if found is not None else None
 
 
 def forward_selection(tables: list[Table], request: FitRequest, folds: int | None, time_column: str,

@@ -16,7 +16,7 @@ from itertools import product
 import numpy as np
 
 from thermoplc.base.errors import UserError
-from thermoplc.models.probing import Fusion, fuse, probings
+from thermoplc.models.probing import Fusion, fuse, probings, rising
 
 GAINS = (0.1, 0.2, 0.3, 0.5, 0.7, 0.85, 1.0)
 HALF_LIVES_H = (None, 2.0, 8.0)  # None: the offset is held between probings
@@ -62,7 +62,7 @@ def _fusion(choice: Choice, every: float, dt: float, spread: tuple[float, float]
     rate_gain = _alpha_beta(choice.gain) / every if choice.rate else None
     decay = 0.5 ** (dt / (choice.half_life_h * 3600)) if choice.half_life_h else None
     gate = OPEN if spread is None else min(max(choice.gate_multiple * spread[0], 2 * spread[1], 0.5), limit)
-    return Fusion.of(choice.gain, min(gate, OPEN), limit, limit, rate_gain,
+    return Fusion.of(choice.gain, gate, limit, limit, rate_gain,
                      limit / max(every, 1.0) / 4 if choice.rate else None, decay)
 
 
@@ -70,7 +70,7 @@ def _replay(fusion: Fusion, run: ProbeRun, every: int | None) -> tuple[np.ndarra
     """(fused prediction, prediction just before each call's probing, the calls with a probing)."""
     value, new = probings(run.target, every)
     fused = fuse(fusion, run.static, value, new, "f64")
-    return fused["fused"], fused["before"], new & ~np.r_[False, new[:-1]]
+    return fused["fused"], fused["before"], rising(new)
 
 
 @dataclass(frozen=True)
@@ -183,9 +183,8 @@ def _evidence(per_run: list[dict], every, interval: float, full_rate: bool, nest
 def evaluate(fusion: Fusion, run: ProbeRun, every: int | None) -> dict:
     """One run's errors with `fusion`, with the plain offset reset (gain 1), the static model and none."""
     fused = _errors(*_replay(fusion, run, every), run)
-    reset_fusion = Fusion.of(1.0, OPEN, OPEN, OPEN)
-    reset = _errors(*_replay(reset_fusion, run, every), run)
-    _, _, edges = _replay(reset_fusion, run, every)
+    reset_prediction, reset_before, edges = _replay(Fusion.of(1.0, OPEN, OPEN, OPEN), run, every)
+    reset = _errors(reset_prediction, reset_before, edges, run)
     zero = np.zeros_like(run.static)
     return {"run": run.label, "fused": fused, "reset": reset, "static": _errors(run.static, run.static, edges, run),
             "none": _errors(zero, zero, edges, run)}

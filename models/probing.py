@@ -230,6 +230,12 @@ def probings(target: np.ndarray, every: int | None = None) -> tuple[np.ndarray, 
     return value, new
 
 
+def rising(new: np.ndarray) -> np.ndarray:
+    """The calls at which ProbeNew rises: the probings the block takes."""
+    new = np.asarray(new, bool)
+    return new & ~np.r_[False, new[:-1]]
+
+
 def needs_schedule(target: np.ndarray) -> bool:
     """Whether the target is measured at every call, so its probings must be simulated (`every`)."""
     return bool(len(target)) and bool(np.isfinite(target).all())

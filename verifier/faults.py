@@ -17,6 +17,7 @@ from thermoplc.models.modelfile import Model
 from thermoplc.contract.outputs import (ENABLE_INPUT, ENO, K0_PREFIX, PROBE_NEW_INPUT, PROBE_REFUSED_OUTPUT,
                                        PROBE_VALUE_INPUT, READY_OUTPUT, RESET_INPUT, block_names, control_of, named)
 from thermoplc.models.kind import fault_key
+from thermoplc.models.probing import rising
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits, guards
 from thermoplc.models.table import Table
@@ -64,7 +65,7 @@ PROBE_KINDS = (
 def _probe_fault(kind: FaultKind, value: np.ndarray, new: np.ndarray, first: int) -> tuple[dict, int]:
     """The probing inputs with `kind` applied at the first probing from row `first` on; the last row touched."""
     value, new = np.array(value, np.float32), np.array(new, bool)
-    edges = np.flatnonzero(new & ~np.r_[False, new[:-1]])
+    edges = np.flatnonzero(rising(new))
     at = int(edges[edges >= first][0]) if (edges >= first).any() else first
     last = at
     if kind.name in ("probe-nan", "probe-inf", "probe-spike"):

@@ -9,7 +9,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.contract.outputs import PROBE_INPUTS, PROBE_NEW_INPUT, PROBE_VALUE_INPUT
 from thermoplc.models.campaign import held_to_probed
 from thermoplc.models.modelfile import Model
-from thermoplc.models.probing import needs_schedule, probings
+from thermoplc.models.probing import needs_schedule, probings, rising
 from thermoplc.models.table import Table
 from thermoplc.verifier.typed import cells_as
 
@@ -71,8 +71,7 @@ def summary(block_inputs: dict) -> str:
     """How many probings the replay gave the block; none is said as what it means."""
     if not block_inputs:
         return ""
-    new = np.asarray(block_inputs[PROBE_NEW_INPUT], bool)
-    edges = int(np.count_nonzero(new & ~np.r_[False, new[:-1]]))
+    edges = int(np.count_nonzero(rising(block_inputs[PROBE_NEW_INPUT])))
     if not edges:
         return f"probings replayed: 0 - the data holds no probing, so the fusion was not exercised (its constants were)"
     return f"probings replayed: {edges} (rising edges of {PROBE_NEW_INPUT})"

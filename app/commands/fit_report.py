@@ -67,9 +67,9 @@ def _fused(model, measured: np.ndarray, static: np.ndarray) -> tuple[np.ndarray,
     as it was fitted), and where they were; None for a static model."""
     if model.probe is None:
         return None
-    from thermoplc.models.probing import fuse, probings
+    from thermoplc.models.probing import fuse, probings, rising
     value, new = probings(measured, model.metrics.get("probing", {}).get("every_calls"))
-    return fuse(model.probe, np.asarray(static, float), value, new, "f64")["fused"], new & ~np.r_[False, new[:-1]]
+    return fuse(model.probe, np.asarray(static, float), value, new, "f64")["fused"], rising(new)
 
 
 def _table(header: list[str], rows: list[list]) -> str:

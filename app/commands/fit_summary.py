@@ -53,7 +53,7 @@ def format_fit(model, campaign=None) -> str:
     return "\n".join(lines)
 
 
-METHODS = (("none", "none"), ("static", "static"), ("reset", "reset"), ("fused", "fused"))
+METHODS = ("none", "static", "reset", "fused")
 
 
 def format_probing(p: dict) -> list[str]:
@@ -73,11 +73,11 @@ def format_probing(p: dict) -> list[str]:
     head = "".join(f"  {title:^30}" for _, title in groups)
     lines = [f"  probe fusion ({state}), {schedule}: {how}",
              f"  {'run':<26}{'probings':>9}{head}".rstrip(),
-             (f"  {'':<35}" + "".join("  " + "".join(f"{name:>7}" for name, _ in METHODS) + "  " for _ in groups)).rstrip()]
+             (f"  {'':<35}" + "".join("  " + "".join(f"{name:>7}" for name in METHODS) + "  " for _ in groups)).rstrip()]
     show = lambda v: f"{v:>7.3f}" if v is not None else f"{'-':>7}"
     for row in [*p["runs"], {**p["pooled"], "run": "all runs"}]:
         lines.append((f"  {row['run'][:25]:<26}{row['probings']:>9}" + "".join(
-            "  " + "".join(show(row[f"{key}_{which}_um"]) for key, _ in METHODS) + "  " for which, _ in groups)).rstrip())
+            "  " + "".join(show(row[f"{key}_{which}_um"]) for key in METHODS) + "  " for which, _ in groups)).rstrip())
     for schedule in p.get("schedules", ()):
         lines.append(f"  probings every {schedule['minutes']:>3} min, all runs: RMSE all calls fused "
                      f"{show(schedule['fused_rmse_um']).strip()} um (static {show(schedule['static_rmse_um']).strip()}, "
