@@ -149,8 +149,8 @@ def fused_summary(model: Model) -> str | None:
     values, where = found
     u = model.target.unit
     probings = _section(_section(model.metrics, "probing"), "pooled").get("probings")
-    return (f"with its probings ({probings} held out), RMSE {values['fused']:.4g} {u} {where}; static "
-            f"{values['static']:.4g} {u}, no compensation {values['none']:.4g} {u}")
+    return (f"with its probings ({probings} held out), RMSE {values['fused']:.4g} {u} {where}; static block fitted "
+            f"without --probe {values['static']:.4g} {u}, no compensation {values['none']:.4g} {u}")
 
 
 def _fused_problem(model: Model) -> str | None:

@@ -9,7 +9,7 @@ import numpy as np
 
 from thermoplc.base.binary32 import INT_RANGES
 from thermoplc.base.errors import UserError
-from thermoplc.models.kind import Kind, Part, measured_rows
+from thermoplc.models.kind import Increments, Kind, Part, measured_rows
 from thermoplc.models.mlr import least_squares
 from thermoplc.models.modelfile import Coefficient, Model
 
@@ -35,9 +35,7 @@ def fit_dlag(parts: list[Part], names: list[str], lags: int, lag_step_s: float, 
                         f"use fewer or shorter lags")
     sensors = parts[0].temps.shape[1]
     labels = [f"{names[i]}(t-{lag * step * dt:g}s)" for i in range(sensors) for lag in range(lags + 1)]
-    columns = lambda part: np.column_stack([lagged(part.temps[:, i], lag * step) - part.temps[0, i]
-                                            for i in range(sensors) for lag in range(lags + 1)])
-    beta, log = least_squares(*measured_rows(parts, columns), labels)
+    beta, log = least_squares(*measured_rows(parts, lambda part: _columns(part, lags, step)), labels)
     coefficients = {"beta0": Coefficient.of(beta[0])}
     k = 1
     for i in range(sensors):
@@ -47,6 +45,13 @@ def fit_dlag(parts: list[Part], names: list[str], lags: int, lag_step_s: float, 
     settings = {"lags": lags, "lag_step_samples": step, "lag_step_s": step * dt}
     return coefficients, settings, {"method": "least squares on current and lagged temperature rises, ridge weight by "
                                               "forward validation", **log}
+
+
+def _columns(part: Part, lags: int, step: int) -> np.ndarray:
+    """Each sensor's rise now and at each lag, sensor by sensor: the order of the slopes beta_i_lag."""
+    sensors = part.temps.shape[1]
+    return np.column_stack([lagged(part.temps[:, i], lag * step) - part.temps[0, i]
+                            for i in range(sensors) for lag in range(lags + 1)])
 
 
 def predict(model: Model, inputs: dict, precision: str) -> dict:
@@ -110,5 +115,8 @@ SETTINGS_SCHEMA = {
                    "lag_step_samples": {"type": "integer", "minimum": 1, "maximum": 10000000},
                    "lag_step_s": {"type": "number", "exclusiveMinimum": 0}}}
 
+INCREMENTS = Increments(lambda part, settings: _columns(part, settings["lags"], settings["lag_step_samples"]),
+                        lambda settings, sensors: [f"beta_{i}_{lag}" for i in range(1, sensors + 1)
+                                                   for lag in range(settings["lags"] + 1)])
 KIND = Kind("dlag", 4, _fit, predict, reads_options=("lags", "lag_step_s"), auto="closed-form",
-            settings_schema=SETTINGS_SCHEMA, stream_core=StreamCore)
+            settings_schema=SETTINGS_SCHEMA, stream_core=StreamCore, increments=INCREMENTS)

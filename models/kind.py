@@ -54,6 +54,14 @@ def measured_rows(parts: list[Part], columns: Callable[[Part], np.ndarray]) -> t
     return np.vstack(designs), np.concatenate([p.target[p.measured] for p in parts])
 
 
+@dataclass(frozen=True)
+class Increments:
+    """Declared by a kind whose prediction is beta0 plus slopes times columns of its inputs: the probe fusion
+    refits those slopes on the change since the last probing (models/probe_refit.py)."""
+    columns: Callable[[Part, dict], np.ndarray]  # (part, the model's settings) -> (rows, slopes), as the fit takes them
+    slopes: Callable[[dict, int], list[str]]  # (settings, sensors) -> the slopes' coefficient names, column order
+
+
 # fit(parts, request, temperature names, sample period s, progress) -> (coefficients, settings, fit log)
 Fitter = Callable[[list[Part], Any, list[str], float, Any], tuple[dict, dict, dict]]
 # predict(model, inputs by name, "f32" | "f64"[, fused_valid]) -> outputs by name
@@ -98,6 +106,7 @@ class Kind:
     # kind's memory between chunks; None: the kind depends on the current and the first call only
     stream_core: type | None = None
     streamable: Callable[["Model"], bool] = _always
+    increments: Increments | None = None  # a linear kind: its slopes may be refitted for a fused block
 
     def reads(self, field: str) -> bool:
         """Whether its fit reads this FitRequest or FitOptions field, an option it owns or reads (the

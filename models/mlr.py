@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.models import ridge
-from thermoplc.models.kind import Kind, Part, measured_rows
+from thermoplc.models.kind import Increments, Kind, Part, measured_rows
 from thermoplc.models.modelfile import Coefficient, Model
 
 
@@ -63,4 +63,6 @@ class StreamCore:
         return {self.target: out}
 
 
-KIND = Kind("mlr", 1, _fit, predict, auto="closed-form", stream_core=StreamCore)
+INCREMENTS = Increments(lambda part, settings: part.rises,
+                        lambda settings, sensors: [f"beta_{i}" for i in range(1, sensors + 1)])
+KIND = Kind("mlr", 1, _fit, predict, auto="closed-form", stream_core=StreamCore, increments=INCREMENTS)

@@ -29,6 +29,7 @@ MARGIN = 0.03  # a choice beyond the plain one (offset reset, widest gate) must 
 PLAIN = (1.0, False, None)  # gain, rate, half-life of the plain offset reset
 SCHEDULES_MIN = (15, 30, 60, 120)
 OPEN = 1.0e6  # gate, limit and clamp while the gains are chosen: nothing refused
+REFITTED = "refitted for the change since the last probing"  # metrics.probing.static when the slopes were refitted
 
 
 @dataclass(frozen=True)
@@ -222,6 +223,7 @@ def probe_runs(model, tables: list, predictions: dict) -> tuple[list[ProbeRun], 
     """The runs the fusion is chosen on: each run's held-out static prediction (a fit on the other runs), or
     for one recording its training part, with its held-out part apart."""
     from thermoplc.models.campaign import run_labels
+    from thermoplc.models.probe_refit import trained_calls
     from thermoplc.models.reference import model_inputs, predict
     column = model.target.column
     if predictions:
@@ -232,7 +234,7 @@ def probe_runs(model, tables: list, predictions: dict) -> tuple[list[ProbeRun], 
         raise UserError("--probe on a campaign chooses the fusion on runs held out: give --folds K or --group-by")
     table = tables[0]
     static = np.asarray(predict(model, model_inputs(model, table), "f64")[model.target.name], float)
-    trained = int(model.metrics["train"]["rows"])
+    trained = trained_calls(model)
     if trained >= table.rows:
         raise UserError("--probe chooses the fusion on rows the static fit never saw: give --train-until or "
                         "--train-rows with held-out rows after them, or --folds on a campaign")
@@ -245,7 +247,9 @@ def probe_runs(model, tables: list, predictions: dict) -> tuple[list[ProbeRun], 
 def fit_probe(model, tables: list, predictions: dict, every: int | None, held: bool):
     """`model` with the probe fusion chosen on held-out runs and its evidence in metrics.probing: the model's
     own schedule (the probed target's probings, or one every `every` calls), and on a target measured at every
-    call the same for probings every 15, 30, 60 and 120 min."""
+    call the same for probings every 15, 30, 60 and 120 min. A linear kind's slopes are refitted for the change
+    since the last probing (models/probe_refit.py) where that lowers the fused error on the held-out runs and the
+    refitted static part alone still passes the acceptance gate (a block whose probings stop is a static block)."""
     from dataclasses import replace
     from thermoplc.models.probing import needs_schedule
     runs, held_out = probe_runs(model, tables, predictions)
@@ -262,12 +266,62 @@ def fit_probe(model, tables: list, predictions: dict, every: int | None, held: b
         raise UserError(f"--probe: no probing falls in the runs the fusion is chosen on ({schedule}; the longest run "
                         f"has {max(len(r.target) for r in runs)} calls); give a shorter --probe-every")
     limit = limit_of([*runs, *([held_out] if held_out else [])])
-    fusion, evidence = choose(runs, every * dt / 60 if every else None, dt, limit, held_out)
-    probing = {**summarise(evidence), "held": held, "chosen": _described(fusion, dt)}
+    plain = (runs, held_out)
+    chosen, evidence = _fused(model, tables, plain, every, dt, limit, full_rate)
+    probing = {**summarise(evidence), "held": held, "chosen": _described(chosen.fusion, dt),
+               "static": REFITTED if chosen.model is not model else "as fitted"}
     if full_rate:
-        probing["schedules"] = [{"minutes": minutes, **summarise(choose(runs, minutes, dt, limit, held_out)[1])["pooled"]}
-                                for minutes in SCHEDULES_MIN]
-    return replace(model, probe=fusion, metrics={**model.metrics, "probing": probing})
+        schedules = [(m, max(int(round(m * 60 / dt)), 1)) for m in SCHEDULES_MIN]
+        probing["schedules"] = [{"minutes": m, **summarise(_fused(model, tables, plain, calls, dt, limit, True)[1])["pooled"]}
+                                for m, calls in schedules]
+    return replace(chosen.model, probe=chosen.fusion, metrics={**chosen.model.metrics, "probing": probing})
+
+
+def _fused(model, tables: list, plain: tuple, every: int | None, dt: float, limit: float,
+           full_rate: bool) -> tuple["Variant", dict]:
+    """The fusion for a probing every `every` calls (None: the target's own) on the static part as fitted and, for a
+    linear kind, refitted for that schedule where its static part alone passes the acceptance gate (probings may
+    stop); the better of the two by the margin, with the nested evidence."""
+    from thermoplc.models.acceptance import problem
+    from thermoplc.models.probe_refit import refitted
+    minutes = every * dt / 60 if every else None
+    variants = [Variant(model, *plain, *choose(plain[0], minutes, dt, limit, plain[1]))]
+    refit = refitted(model, tables, every)
+    if refit is not None and problem(refit.model) is None:
+        runs, held_out = probe_runs(refit.model, tables, refit.predictions)
+        variants.append(Variant(refit.model, runs, held_out, *choose(runs, minutes, dt, limit, held_out)))
+    return _static_part(variants, every, full_rate)
+
+
+@dataclass(frozen=True)
+class Variant:
+    """A static part (as fitted, or refitted) with its held-out runs, its chosen fusion and the nested evidence."""
+    model: object
+    runs: list[ProbeRun]
+    held_out: ProbeRun | None
+    fusion: Fusion
+    evidence: dict
+
+
+def _static_part(variants: list[Variant], every: int | None, full_rate: bool) -> tuple[Variant, dict]:
+    """The variant whose fused objective is lower by the margin than the static part as fitted, and the nested
+    evidence: each campaign run's fused figures from the variant chosen on the other runs, one recording's
+    held-out part from the variant chosen on its training part. The static and reset figures stay those of the
+    static part as fitted: the block without --probe, and the plain offset reset over it."""
+    def pick(score) -> Variant:
+        best = min(variants, key=score)
+        return best if score(best) < (1 - MARGIN) * score(variants[0]) else variants[0]
+
+    def beside_plain(k: int, variant: Variant) -> dict:
+        return {**variant.evidence["runs"][k], **{m: variants[0].evidence["runs"][k][m] for m in ("static", "reset")}}
+
+    if variants[0].held_out is not None:  # one recording: judged on its training part, in sample for both
+        chosen = pick(lambda v: _objective(evaluate(v.fusion, v.runs[0], every)["fused"], full_rate))
+        return chosen, {**chosen.evidence, "runs": [beside_plain(0, chosen)]}
+    fused = lambda v, on: _objective(sum((v.evidence["runs"][k]["fused"] for k in on), Errors(0, 0, 0, 0)), full_rate)
+    everyone = range(len(variants[0].runs))
+    per_run = [beside_plain(k, pick(lambda v: fused(v, [j for j in everyone if j != k] or everyone))) for k in everyone]
+    return pick(lambda v: fused(v, everyone)), {**variants[0].evidence, "runs": per_run}
 
 
 def _described(fusion: Fusion, dt: float) -> dict:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from thermoplc.base.identifiers import renaming_note
 from thermoplc.models.acceptance import refusal
+from thermoplc.models.probe_fit import REFITTED
 
 
 def _runs_named(batches: list[dict]) -> str:
@@ -72,6 +73,8 @@ def format_probing(p: dict) -> list[str]:
         ("before", "RMSE before a probing, um"),)
     head = "".join(f"  {title:^30}" for _, title in groups)
     lines = [f"  probe fusion ({state}), {schedule}: {how}",
+             *([f"  static part refitted for the change since the last probing (it lowered the fused error where the fusion was chosen); "
+                f"'static' and 'reset' are the block as fitted without --probe"] if p.get("static") == REFITTED else []),
              f"  {'run':<26}{'probings':>9}{head}".rstrip(),
              (f"  {'':<35}" + "".join("  " + "".join(f"{name:>7}" for name in METHODS) + "  " for _ in groups)).rstrip()]
     show = lambda v: f"{v:>7.3f}" if v is not None else f"{'-':>7}"
