@@ -236,3 +236,23 @@ def test_auto_with_probe_ranks_every_candidate_fused_and_writes_a_fused_model(tm
     assert fused == sorted(fused) and len(fused) >= 3  # the blocks generate accepts first, by their fused error
     assert any(c["fused_rmse_um"] < c["rmse_um"] for c in ranking if "fused_rmse_um" in c)
     assert load_model(tmp_path / "auto.json").probe is not None
+
+
+def test_diff_replays_two_fused_blocks_with_the_probings_of_a_target_column(tmp_path):
+    thermoplc("twin", "--runs", "2", "--hours", "4", "--dt", "60", "--seed", "3", "--probe-minutes", "30", "-o", "runs",
+              cwd=tmp_path)
+    thermoplc("fit", "--data", "runs", "--model", "mlr", "--target", "E_z_um", "--held-target", "--temps",
+              "T_motor,T_bearing", "--folds", "2", "--probe", "-o", "m.json", cwd=tmp_path)
+    thermoplc("generate", "m.json", "--accept-unvalidated", "-o", "a.scl", cwd=tmp_path)
+    text = (tmp_path / "a.scl").read_text()
+    gain = re.search(r"c_ProbeGain : Real := ([0-9.eE+-]+);", text)
+    (tmp_path / "b.scl").write_text(text.replace(gain.group(0), "c_ProbeGain : Real := 0.25;"))
+    replay = ("--data", "runs/run_001.csv", "--probe-target", "E_z_um", "--held-target")
+    same = thermoplc("diff", "a.scl", "a.scl", *replay, cwd=tmp_path)
+    assert same.returncode == 0 and "identical, every output bit equal" in same.stdout
+    changed = thermoplc("diff", "a.scl", "b.scl", *replay, cwd=tmp_path, check=None)
+    assert changed.returncode == 1 and "behaviour on the data (241 calls): DIFFERENT" in changed.stdout
+    unprobed = thermoplc("diff", "a.scl", "b.scl", "--data", "runs/run_001.csv", cwd=tmp_path, check=None)
+    assert unprobed.returncode == 2 and "no column 'ProbeValue'" in unprobed.stderr
+    alone = thermoplc("diff", "a.scl", "b.scl", "--probe-every", "30", cwd=tmp_path, check=None)
+    assert alone.returncode == 2 and "give --probe-target" in alone.stderr

@@ -29,24 +29,42 @@ def probing_inputs(model: Model, table: Table, overrides: dict | None = None, ev
                             f"(found {', '.join(columns[n] for n in given)}); give both, without --probe-every")
         return {name: cells_as(table, column, "REAL" if name == PROBE_VALUE_INPUT else "BOOL",
                                f"input {name}") for name, column in columns.items()}
-    if model.target.column not in table.columns:
-        raise UserError(f"{table.path}: no column {model.target.column!r} (the target) nor {PROBE_VALUE_INPUT} and "
+    return from_target(table, model.target.column, every, bool(model.metrics.get("probing", {}).get("held")))
+
+
+def from_target(table: Table, column: str, every: int | None, held: bool) -> dict:
+    """ProbeValue and ProbeNew per call from the target `column`: its measured rows (probed, or `held` between
+    probings), or a probing every `every` calls of a target measured at every call."""
+    if column not in table.columns:
+        raise UserError(f"{table.path}: no column {column!r} (the target) nor {PROBE_VALUE_INPUT} and "
                         f"{PROBE_NEW_INPUT} to replay the probings from")
-    if model.metrics.get("probing", {}).get("held"):
-        table = held_to_probed(table, model.target.column)
-    target = table.column(model.target.column)
+    if held:
+        table = held_to_probed(table, column)
+    target = table.column(column)
     if every is None and needs_schedule(target):
-        raise UserError(f"{table.path}: column {model.target.column!r} is measured at every call, so which calls are "
+        raise UserError(f"{table.path}: column {column!r} is measured at every call, so which calls are "
                         f"probings is not in the data; give --probe-every N (a probing every N calls) or columns "
                         f"{PROBE_VALUE_INPUT} and {PROBE_NEW_INPUT}")
     if every is not None and not needs_schedule(target):
-        raise UserError(f"--probe-every {every}: column {model.target.column!r} of {table.path} is probed (empty "
+        raise UserError(f"--probe-every {every}: column {column!r} of {table.path} is probed (empty "
                         f"between its measurements), and its measured rows are the probings; leave --probe-every out")
     value, new = probings(target, every)
     if every is not None and not new.any():
         raise UserError(f"--probe-every {every}: {table.path} has {table.rows} calls, so no probing would be replayed "
                         f"and the fusion not exercised; give a shorter schedule")
     return {PROBE_VALUE_INPUT: value, PROBE_NEW_INPUT: new}
+
+
+def with_probings(table: Table, column: str, every: int | None, held: bool) -> Table:
+    """`table` with columns ProbeValue and ProbeNew from its target `column`, for a replay that maps block inputs
+    to columns by name (diff); refused where the table has such columns already."""
+    taken = [name for name in PROBE_INPUTS.values() if name in table.columns]
+    if taken:
+        raise UserError(f"{table.path}: has column {taken[0]} already; the probings come from it, not from "
+                        f"--probe-target (leave --probe-target and --probe-every out)")
+    found = from_target(table, column, every, held)
+    return Table(table.path, {**table.columns, **{k: np.asarray(v, float) for k, v in found.items()}}, table.sha256,
+                 table.lines)
 
 
 def start_value_errors(inputs) -> list[str]:

@@ -4,7 +4,8 @@ from __future__ import annotations
 import argparse
 
 from thermoplc.commands import json_output
-from thermoplc.commands.options import DECIMAL, mapping
+from thermoplc.base.errors import UserError
+from thermoplc.commands.options import DECIMAL, mapping, named, number
 
 
 def add_parser(sub) -> None:
@@ -14,6 +15,13 @@ def add_parser(sub) -> None:
     p.add_argument("--data", help="replay both blocks on this CSV and report the largest output difference")
     p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--inputs", type=mapping, help="block input to column mapping NAME=COLUMN,...")
+    p.add_argument("--probe-target", metavar="COLUMN", type=named("--probe-target"),
+                   help="fused blocks (fit --probe): replay the probings from this target column (its measured rows, "
+                        "or with --probe-every a probing every N calls of a target measured at every call)")
+    p.add_argument("--probe-every", type=number(int, 1, 10 ** 9, "calls"), metavar="N",
+                   help="with --probe-target: a probing every N calls")
+    p.add_argument("--held-target", action="store_true",
+                   help="with --probe-target: the target holds its last probing between probings")
     p.add_argument("--time", default="time_s", help="time column (default: %(default)s)")
     json_output.add_arguments(p)
     p.set_defaults(func=run)
@@ -24,7 +32,14 @@ def run(args: argparse.Namespace) -> int:
     from thermoplc.verifier.diff import diff_blocks, format_diff
     from thermoplc.verifier.documents import diff_document
     json_output.check(args, [args.old, args.new, args.data])
+    if (args.probe_every or args.held_target) and not args.probe_target:
+        raise UserError("--probe-every and --held-target say how --probe-target holds the probings; give --probe-target")
+    if args.probe_target and not args.data:
+        raise UserError("--probe-target replays probings on --data; give --data")
     table = read_table(args.data, args.time, decimal=args.decimal) if args.data else None
+    if args.probe_target:
+        from thermoplc.verifier.probings import with_probings
+        table = with_probings(table, args.probe_target, args.probe_every, args.held_target)
     result = diff_blocks(args.old, args.new, table, args.inputs, args.time)
     json_output.emit(args, format_diff(result), diff_document(result, table is not None) if args.json else None)
     if table is not None and not result.behaviour_equal:
