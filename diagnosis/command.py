@@ -19,6 +19,7 @@ from thermoplc.models.crossval import refuse_copies
 from thermoplc.models.effects import definition_of
 from thermoplc.models.fit import block_identifier, common_sample_period, evaluate
 from thermoplc.models.modelfile import Model, Signal, load_model
+from thermoplc.models.resample import Resampling
 from thermoplc.models.simulation import Series, Simulation
 from thermoplc.models.leaks import refuse_leaks, refuse_non_temperatures
 from thermoplc.models.table import Table
@@ -46,6 +47,13 @@ class DiagnoseRequest:
     structure_lag: bool = True
     runs_table: str | None = None  # --runs TABLE
     train_runs: int | None = None  # a campaign: its first N runs train, the others are held out
+    resample_s: float | None = None  # raw logger data taken onto this cycle (--resample), the speed held
+
+    @property
+    def resampling(self) -> Resampling | None:
+        """The rule the augmented model file records (models/resample.py): the speed and feed held."""
+        held = (self.speed, *([self.feed] if self.feed else ()))
+        return Resampling(self.resample_s, held) if self.resample_s else None
 
 
 def _training_rows(table: Table, request: DiagnoseRequest) -> int:
@@ -147,7 +155,7 @@ def augmented_model(final: Simulation, added: list[dict], request: DiagnoseReque
         kind="lumped", block_name=request.block_name, inputs=tuple(signals),
         target=Signal(block_identifier(request.target, "target"), request.target, "target", "um"),
         time_column=request.time_column, sample_period_s=dt, coefficients=coefficients, settings=settings,
-        training=_training_record(tables, train_rows, request.time_column),
+        resample=request.resampling, training=_training_record(tables, train_rows, request.time_column),
         fit={"method": "thermoplc diagnose: " + (
             "identified lumped-mass model (steady-state Kalman filter on the readings, map by forward validation) "
             "with the effects the data supports as nested extensions" if final.displacement.ridge_weight is not None
@@ -190,13 +198,13 @@ def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report
     folder when asked, all or nothing; returns the findings document. With `scheduler` (tcp://HOST:PORT) each
     round's candidates are tried on that Dask cluster's workers (diagnosis/remote.py): the same bytes."""
     runs = run_list(list(request.data) if request.data is not None else None, request.runs_table)
-    campaign = read_campaign(runs, request.time_column, request.decimal)
+    campaign = read_campaign(runs, request.time_column, request.decimal, resampling=request.resampling)
     parts, dt = parts_of(campaign, request)
     tries = None
     if scheduler:
         from thermoplc.base.cluster import connect
         from thermoplc.diagnosis.remote import OnCluster
-        read_again = source_of(campaign, runs, request.time_column, request.decimal)
+        read_again = source_of(campaign, runs, request.time_column, request.decimal, resampling=request.resampling)
         tries = OnCluster(connect(scheduler), read_again, request)
     try:
         d = _search(parts, request, progress, tries)

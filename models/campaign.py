@@ -20,6 +20,7 @@ import numpy as np
 
 from thermoplc.base.errors import ClusterError, UserError
 from thermoplc.base.locations import is_url, listing, name as name_of, open_binary
+from thermoplc.models.resample import Resampling, resample
 from thermoplc.models.table import Table, read_table
 
 RECORDING_SUFFIXES = (".csv", ".npz", ".parquet")
@@ -223,13 +224,16 @@ def held_to_probed(table: Table, column: str) -> Table:
 
 
 def read_campaign(runs: RunList, time_column: str, decimal: str = "auto", probed: tuple[str, ...] = (),
-                  held: bool = False, progress=None) -> Campaign:
+                  held: bool = False, progress=None, resampling: Resampling | None = None) -> Campaign:
     """Every run read once; the `probed` columns may be empty between measurements (or, `held`, repeat the
-    last measurement: only changes count). A run that cannot be read is named by its runs table's line."""
+    last measurement: only changes count); with `resampling` each run is taken onto the block's cycle first
+    (models/resample.py). A run that cannot be read is named by its runs table's line."""
     read = []
     for k, (path, values) in enumerate(zip(runs.paths, runs.attributes)):
         try:
             table = read_table(path, time_column, progress, decimal, sparse=probed)
+            if resampling is not None:
+                table = resample(table, time_column, resampling, tuple(probed), held)
         except UserError as exc:
             relative = (f" (a runs table names its files relative to its own folder, "
                         f"{Path(runs.table).parent}/)" if runs.table and not is_url(runs.table)
@@ -259,11 +263,13 @@ class CampaignSource:
     probed: tuple[str, ...]
     held: bool
     sha256: tuple[str, ...]
+    resampling: Resampling | None = None
 
     @property
     def key(self) -> tuple:
         """What the tables read from this source depend on (a task reads no run's attributes: the client groups)."""
-        return self.runs.paths, self.folder, self.time_column, self.decimal, self.probed, self.held, self.sha256
+        return (self.runs.paths, self.folder, self.time_column, self.decimal, self.probed, self.held, self.sha256,
+                self.resampling)
 
     def read(self) -> Campaign:
         """The campaign again, each table under the path it was given; the last one read is kept (a worker
@@ -272,7 +278,7 @@ class CampaignSource:
         if _LAST_READ and _LAST_READ[0] == key:
             return _LAST_READ[1]
         where = replace(self.runs, paths=tuple(p if is_url(p) else str(Path(self.folder) / p) for p in self.runs.paths))
-        found = read_campaign(where, self.time_column, self.decimal, self.probed, self.held)
+        found = read_campaign(where, self.time_column, self.decimal, self.probed, self.held, resampling=self.resampling)
         runs = []
         for run, given, digest in zip(found.runs, self.runs.paths, self.sha256):
             if run.table.sha256 != digest:
@@ -289,10 +295,10 @@ _LAST_READ: list = []
 
 
 def source_of(campaign: Campaign, runs: RunList, time_column: str, decimal: str = "auto",
-              probed: tuple[str, ...] = (), held: bool = False) -> CampaignSource:
+              probed: tuple[str, ...] = (), held: bool = False, resampling: Resampling | None = None) -> CampaignSource:
     """How `campaign` was read from `runs` (read_campaign's arguments), for a task that reads it elsewhere."""
     if "-" in runs.paths:
         raise UserError("--data -: a run read from standard input cannot be read again by a cluster's workers; "
                         "give it as a file")
     return CampaignSource(runs, str(Path.cwd()), time_column, decimal, tuple(probed), held,
-                          tuple(t.sha256 for t in campaign.tables))
+                          tuple(t.sha256 for t in campaign.tables), resampling)

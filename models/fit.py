@@ -63,9 +63,9 @@ def training_rows(table: Table, time_column: str, until: float | None, rows: int
     return rows
 
 
-def sample_period(table: Table, time_column: str) -> float:
+def sample_period(table: Table, time_column: str, cycle: str = "SECONDS") -> float:
     """The table's sample period in s, the median time step; refuses fewer than two rows or any step more
-    than 5 % off it (the block runs on a fixed cycle)."""
+    than 5 % off it (the block runs on a fixed cycle), naming `cycle` for --resample."""
     t = table.columns[time_column]
     if len(t) < 2:
         raise UserError(f"{table.path}: need at least two rows to know the sample period")
@@ -74,7 +74,8 @@ def sample_period(table: Table, time_column: str) -> float:
     bad = np.nonzero(np.abs(steps - dt) > SAMPLING_TOLERANCE * dt)[0]
     if len(bad):
         raise UserError(f"{table.path}:{table.lines[bad[0] + 1]}: column {time_column!r}: step {steps[bad[0]]:g} s, expected "
-                        f"{dt:g} s ±{SAMPLING_TOLERANCE:.0%}; the block runs on a fixed cycle, resample the data")
+                        f"{dt:g} s ±{SAMPLING_TOLERANCE:.0%}; the block runs on a fixed cycle: give --resample {cycle} "
+                        f"(the block's cycle) to take the data onto it")
     return dt
 
 

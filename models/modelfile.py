@@ -14,6 +14,7 @@ from thermoplc.base.identifiers import identifier_problem
 from thermoplc.models.effects import NAMES as EFFECT_NAMES
 from thermoplc.models.kinds import kind_of, registry
 from thermoplc.models.probing import Fusion
+from thermoplc.models.resample import Resampling
 from thermoplc.base.binary32 import FLT_MAX, f32_hex, parse_f32_hex, round_f32, ulp_distance
 from thermoplc.base.errors import UserError
 
@@ -56,6 +57,7 @@ class Model:
     metrics: dict = field(default_factory=dict)
     fit: dict = field(default_factory=dict)
     probe: Fusion | None = None  # the probe fusion's constants (models/probing.py); None: a static block
+    resample: Resampling | None = None  # the rule that took raw logger data onto the cycle (models/resample.py)
 
     def signals(self, role: str) -> tuple[Signal, ...]:
         """Inputs with this role; one input may hold several roles ('temperature,ambient')."""
@@ -92,6 +94,7 @@ def _document(m: Model) -> dict:
         "coefficients": {k: {"f64": c.f64, "f32": f32_hex(c.f32)} for k, c in m.coefficients.items()},
         "settings": m.settings,
         **({"probe": m.probe.to_doc()} if m.probe is not None else {}),
+        **({"resample": m.resample.to_doc()} if m.resample is not None else {}),
         "training": m.training,
         "metrics": m.metrics,
         "fit": m.fit,
@@ -302,17 +305,30 @@ def _parse(doc, path: str) -> Model:
         coefficients[name] = Coefficient(f64, f32)
     settings = _field(doc, "settings", dict, path)
     _check_effects(settings, path)
+    sample_period = _field(doc, "sample_period_s", float, path)
     return Model(
         kind=kind,
         block_name=_identifier(_field(doc, "block_name", str, path), path, "block_name"),
         inputs=inputs,
         target=_signal(_field(doc, "target", dict, path), path, "target"),
         time_column=_field(doc, "time_column", str, path),
-        sample_period_s=_field(doc, "sample_period_s", float, path),
+        sample_period_s=sample_period,
         coefficients=coefficients,
         settings=settings,
         training=_field(doc, "training", dict, path),
         metrics=_field(doc, "metrics", dict, path),
         fit=_field(doc, "fit", dict, path),
         probe=Fusion.from_doc(doc["probe"], path) if "probe" in doc else None,
+        resample=_resampling(doc, path, sample_period),
     )
+
+
+def _resampling(doc: dict, path: str, sample_period: float) -> Resampling | None:
+    """The recorded resampling; its period must be the block's cycle."""
+    if "resample" not in doc:
+        return None
+    found = Resampling.from_doc(doc["resample"])
+    if abs(found.period_s - sample_period) > 1e-9 * sample_period:
+        raise UserError(f"{path}: field 'resample.period_s': {found.period_s:g} s, but the block's cycle "
+                        f"(sample_period_s) is {sample_period:g} s")
+    return found

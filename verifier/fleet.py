@@ -16,7 +16,6 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.locations import is_url
-from thermoplc.contract.outputs import PROBE_VALUE_INPUT
 
 
 @dataclass(frozen=True)
@@ -30,6 +29,7 @@ class Pair:
     sha256: tuple[tuple[str, str], ...] = ()  # (file, digest) of each file a task run elsewhere must find
     decimal: str = "auto"  # the data's decimal separator (--decimal)
     probe_every: int | None = None  # a fused block on a full-rate target: a probing every N calls (--probe-every)
+    resample_s: float | None = None  # raw data taken onto the block's cycle (--resample; a model's own rule applies anyway)
 
 
 @dataclass(frozen=True)
@@ -54,7 +54,8 @@ def _mapping(text: str, manifest: str, line: int, field: str) -> dict | None:
     return mapping
 
 
-def read_manifest(path: str, decimal: str = "auto", probe_every: int | None = None) -> list[Pair]:
+def read_manifest(path: str, decimal: str = "auto", probe_every: int | None = None,
+                  resample_s: float | None = None) -> list[Pair]:
     try:
         with open(path, encoding="utf-8-sig", newline="") as f:
             rows = list(csv.reader(f))
@@ -83,17 +84,10 @@ def read_manifest(path: str, decimal: str = "auto", probe_every: int | None = No
         where = lambda p: str(base / p) if p and not Path(p).is_absolute() and not is_url(p) else p
         pairs.append(Pair(line, where(cell["block"]), where(cell["data"]), where(model) or None,
                           _mapping(expect, path, line, "expect"), _mapping(cell.get("inputs", ""), path, line, "inputs"),
-                          decimal=decimal, probe_every=probe_every))
+                          decimal=decimal, probe_every=probe_every, resample_s=resample_s))
     if not pairs:
         raise UserError(f"{path}: the manifest lists no pairs")
     return pairs
-
-
-def model_targets(model) -> tuple[str, ...]:
-    """The recording's columns that may be empty between measurements: those the model was fitted to (a probed
-    target; a replay never reads them) and a fused block's ProbeValue (a probing cycle that gave nothing)."""
-    probe = (PROBE_VALUE_INPUT,) if model.probe is not None else ()
-    return (model.target.column, *(t["column"] for t in model.settings.get("targets", [])), *probe)
 
 
 def verify_pair(pair: Pair, engine: str) -> Outcome:
@@ -102,14 +96,16 @@ def verify_pair(pair: Pair, engine: str) -> Outcome:
     from thermoplc.models.modelfile import load_model
     from thermoplc.models.table import read_table
     from thermoplc.verifier.replay import verify_against_model, verify_against_trace
+    from thermoplc.verifier.recording import read_recording, resampling_for
     from thermoplc.verifier.stream import verify_streaming
     try:
         _same_bytes(pair)
         if pair.model:
             model = load_model(pair.model)
-            report = verify_streaming(pair.block, model, pair.model, pair.data, pair.inputs, engine, pair.decimal)
+            report = (verify_streaming(pair.block, model, pair.model, pair.data, pair.inputs, engine, pair.decimal)
+                      if resampling_for(model, pair.resample_s) is None else None)
             if report is None:
-                table = read_table(pair.data, model.time_column, decimal=pair.decimal, sparse=model_targets(model))
+                table = read_recording(pair.data, model, decimal=pair.decimal, period_s=pair.resample_s)
                 report = verify_against_model(pair.block, model, pair.model, table, pair.inputs, engine,
                                               pair.probe_every)
         else:

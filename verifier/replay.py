@@ -281,10 +281,11 @@ def _check_period(model: Model, table: Table) -> None:
     """The block's constants are discretised for the model's period: the data must be sampled at it."""
     if model.time_column not in table.columns or table.rows < 2:
         return
-    dt = sample_period(table, model.time_column)
+    dt = sample_period(table, model.time_column, f"{model.sample_period_s:g}")
     if abs(dt - model.sample_period_s) > SAMPLING_TOLERANCE * model.sample_period_s:
         raise UserError(f"{table.path}: column {model.time_column!r}: sampled every {dt:g} s, but the model was "
-                        f"fitted for a call every {model.sample_period_s:g} s; resample the data")
+                        f"fitted for a call every {model.sample_period_s:g} s; give --resample {model.sample_period_s:g} to take "
+                        f"the data onto it")
 
 
 def block_limits(program: Program, source: str) -> Limits:

@@ -27,10 +27,11 @@ from thermoplc.contract.outputs import CONTROL_INPUT_START, block_names, named
 from thermoplc.models.fit import SAMPLING_TOLERANCE
 from thermoplc.models.modelfile import Model
 from thermoplc.models.streaming import StreamingReference, streamable
-from thermoplc.models.table import CannotStream, read_table, stream_columns
+from thermoplc.models.table import CannotStream, stream_columns
 from thermoplc.verifier.replay import (Report, check_interface, compare_constants, load_block, block_limits,
                                        known_overrides, mistyped, subnormal_declarations, unsafe_findings,
                                        verify_against_model)
+from thermoplc.verifier.recording import read_recording
 from thermoplc.verifier.typed import differing_rows, first_non_finite
 
 MAX_DISTINCT_STEPS = 1 << 20  # distinct time steps kept for the median; beyond: the whole-recording path
@@ -57,6 +58,9 @@ def verify_streaming(block: str, model: Model, model_path: str, data: str, overr
     if model.probe is not None:  # the probings are derived from the whole target (verifier/probings.py)
         LAST_TIMINGS["route"] = "whole recording (probe fusion)"
         return None
+    if model.resample is not None:  # raw data taken onto the cycle (verifier/recording.py) are read whole
+        LAST_TIMINGS["route"] = "whole recording (resampled)"
+        return None
     try:
         report = _verify_streaming(block, model, model_path, str(data), overrides, engine, decimal, progress)
     except (_GiveUp, CannotStream, UserError, RecursionError, MemoryError) as exc:
@@ -75,7 +79,7 @@ def verify_file_against_model(block: str, model: Model, model_path: str, data: s
     if report is not None:
         return report
     t = time.perf_counter()
-    table = read_table(data, model.time_column, progress, decimal)
+    table = read_recording(data, model, progress, decimal)
     LAST_TIMINGS["read"] = time.perf_counter() - t
     t = time.perf_counter()
     report = verify_against_model(block, model, model_path, table, overrides, engine)

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_outputs
-from thermoplc.commands.options import (DECIMAL, FORCE_HELP, RUNS, campaign_arguments, columns, named,
+from thermoplc.commands.options import (DECIMAL, FORCE_HELP, RESAMPLE, RUNS, campaign_arguments, columns, named,
                                         scheduler_address, training_part)
 from thermoplc.commands.terminal import end_progress, progress
 
@@ -31,6 +31,7 @@ def add_parser(sub) -> None:
     p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
     p.add_argument("--name", default="ThermalComp", help="function block name of the augmented model")
     p.add_argument("--decimal", **DECIMAL)
+    p.add_argument("--resample", **RESAMPLE)
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
                    help="try each round's candidate effects as tasks of the Dask distributed cluster whose scheduler "
@@ -50,7 +51,8 @@ def run(args: argparse.Namespace) -> int:
     from thermoplc.models.campaign import run_list
     request = DiagnoseRequest(tuple(args.data) if args.data else None, args.temps, args.speed, args.ambient,
                               args.target, args.feed, args.baseline, args.train_until, args.train_rows, args.time,
-                              args.name, args.decimal, not args.no_structure_lag, args.runs, args.train_runs)
+                              args.name, args.decimal, not args.no_structure_lag, args.runs, args.train_runs,
+                              args.resample)
     if args.baseline and args.no_structure_lag:
         raise UserError("--no-structure-lag shapes a fitted baseline; with --baseline the model file decides")
     runs = run_list(args.data, args.runs)

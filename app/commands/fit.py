@@ -3,13 +3,14 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_outputs, write_outputs
 from thermoplc.commands import json_output
 from thermoplc.commands.fit_options import Given, refuse_options_not_read
-from thermoplc.commands.options import (DECIMAL, FORCE_HELP, SEED, campaign_arguments, columns, named, number,
+from thermoplc.commands.options import (DECIMAL, FORCE_HELP, RESAMPLE, SEED, campaign_arguments, columns, named, number,
                                         scheduler_address, training_part)
 from thermoplc.commands.terminal import end_progress, progress
 
@@ -108,10 +109,17 @@ def add_parser(sub) -> None:
     p.add_argument("--name", default="ThermalComp",
                    help="function block name, kept in the model file (generate --name overrides it) (default: %(default)s)")
     p.add_argument("--decimal", **DECIMAL)
+    p.add_argument("--resample", **RESAMPLE)
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("-o", "--output", required=True, help="model file to write (JSON)")
     json_output.add_arguments(p, force=False)
     p.set_defaults(func=run)
+
+
+def resampling_of(args: argparse.Namespace):
+    """--resample as the rule the model file records: the speed column held at its last value."""
+    from thermoplc.models.resample import Resampling
+    return Resampling(args.resample, (args.speed,) if args.speed else ()) if args.resample else None
 
 
 def _remote(args: argparse.Namespace, campaign, runs):
@@ -121,7 +129,8 @@ def _remote(args: argparse.Namespace, campaign, runs):
     from thermoplc.base.cluster import connect
     from thermoplc.models.campaign import source_of
     from thermoplc.models.crossval import Remote
-    source = source_of(campaign, runs, args.time, args.decimal, tuple(args.target), args.held_target)
+    source = source_of(campaign, runs, args.time, args.decimal, tuple(args.target), args.held_target,
+                       resampling_of(args))
     return Remote(connect(args.scheduler), source)
 
 
@@ -157,7 +166,8 @@ def run(args: argparse.Namespace) -> int:
     inputs = [*runs.paths, *([runs.table] if runs.table else []), args.temps.file]  # none may become an output
     stale = check_outputs({"-o": args.output, "--json": json_output.file(args)}, args.force, inputs, args.report,
                           report_names(len(runs.paths)), is_report_file)
-    campaign = read_campaign(runs, args.time, args.decimal, probed=args.target, held=args.held_target)
+    campaign = read_campaign(runs, args.time, args.decimal, probed=args.target, held=args.held_target,
+                             resampling=resampling_of(args))
     groups = campaign.groups(args.group_by) if args.group_by else None
     tables = campaign.tables
     predictions: dict = {}  # each run's held-out prediction: the report draws it, the probe fusion is chosen on it
@@ -175,6 +185,8 @@ def run(args: argparse.Namespace) -> int:
     if args.probe and args.model != "auto":  # auto fused every candidate it ranked
         from thermoplc.models.probe_fit import fit_probe
         model = fit_probe(model, tables, predictions, args.probe_every, args.held_target)
+    if args.resample:
+        model = replace(model, resample=resampling_of(args))
     becomes_block(model, args.output)
     document = fit_document(model, args.output)
     outputs = [*(report_files(args.report, model, campaign, predictions) if args.report is not None else []),

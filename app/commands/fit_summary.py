@@ -31,6 +31,10 @@ def format_fit(model, campaign=None) -> str:
              f"  {'':<22}{'RMSE um':>10}{'max |residual| um':>20}"]
     if probed:
         lines.insert(1, "  probed target: errors on the measured rows only, the temperatures at every call")
+    if model.resample is not None:
+        held = "".join(f", {c!r} its last value" for c in model.resample.hold)
+        probings = ", each probing at the call that follows it" if probed else ""
+        lines.insert(1, f"  resampled onto a cycle of {model.resample.period_s:g} s (temperatures linear{held}{probings})")
     held_label = "prediction (all folds)" if "cross_validation" in m else "prediction (held out)"
     for label, key in (("fit (training)", "train"), (held_label, "held_out")):
         if m[key]["rows"]:

@@ -65,6 +65,20 @@ def number(kind: type, low: float, high: float, what: str = "") -> Callable[[str
     return parse
 
 
+def cycle(text: str) -> float:
+    """--resample PERIOD: the block's cycle in seconds, more than 0 and at most a day, a whole number of
+    milliseconds (a PLC cycle is set in ms)."""
+    value = number(float, 0.001, 86400.0, "the block's cycle in seconds")(text)
+    if abs(value * 1000 - round(value * 1000)) > 1e-6:
+        raise argparse.ArgumentTypeError(f"expected a whole number of milliseconds (a PLC cycle is set in ms), "
+                                          f"found {text}")
+    return round(value * 1000) / 1000
+
+
+RESAMPLE = {"type": cycle, "metavar": "SECONDS",
+            "help": "take raw logger data onto the block's cycle of SECONDS (temperatures linear, the speed its "
+                    "last value, a probing at the call that follows it; docs/resampling.md); the model file "
+                    "records the rule and verify applies it"}
 SEED = number(int, 0, 2 ** 32 - 1, "a seed")
 SECONDS = number(float, 0.0, 1e9, "seconds")
 ROWS = number(int, 1, 10 ** 9, "a row count")

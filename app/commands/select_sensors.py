@@ -7,7 +7,7 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_output, write_atomic
-from thermoplc.commands.options import DECIMAL, FORCE_HELP, columns, number, training_part
+from thermoplc.commands.options import DECIMAL, FORCE_HELP, RESAMPLE, columns, number, training_part
 
 
 def add_parser(sub) -> None:
@@ -27,6 +27,9 @@ def add_parser(sub) -> None:
     p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
     p.add_argument("-o", "--output", help="write the chosen sensors for fit --temps @FILE")
     p.add_argument("--decimal", **DECIMAL)
+    p.add_argument("--resample", **{**RESAMPLE, "help": "take raw logger data onto the block's cycle of SECONDS "
+                                                         "first (temperatures linear; docs/resampling.md), as fit "
+                                                         "--resample will"})
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=run)
 
@@ -38,6 +41,9 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         check_output(args.output, args.force, inputs=[args.data])
     table = read_table(args.data, args.time, decimal=args.decimal)
+    if args.resample:
+        from thermoplc.models.resample import Resampling, resample
+        table = resample(table, args.time, Resampling(args.resample))
     target = table.column(args.target)
     candidates = _candidates(args, table)
     if args.train_until is None and args.train_rows is None:

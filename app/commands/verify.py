@@ -7,7 +7,7 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.commands import json_output
-from thermoplc.commands.options import (DECIMAL, RECORDING, RUNS_TABLE, columns, mapping, named, number,
+from thermoplc.commands.options import (DECIMAL, RECORDING, RESAMPLE, RUNS_TABLE, columns, mapping, named, number,
                                         scheduler_address)
 from thermoplc.commands.terminal import progress
 
@@ -22,6 +22,9 @@ def add_parser(sub) -> None:
     p.add_argument("--runs", metavar="TABLE", type=RUNS_TABLE,
                    help="a campaign's runs table (fit --runs) instead of --data: each run verified from a fresh block")
     p.add_argument("--decimal", **DECIMAL)
+    p.add_argument("--resample", **{**RESAMPLE, "help": "with --model: take raw logger data onto the block's cycle of "
+                                                         "SECONDS by the rule fit --resample records (a model fitted "
+                                                         "with --resample applies it without this option)"})
     p.add_argument("--model", help="compare with this model's float32 reference")
     p.add_argument("--expect", type=columns, help="compare with recorded outputs: COLUMN or OUTPUT=COLUMN, comma-separated")
     p.add_argument("--inputs", type=mapping, help="block input to column mapping NAME=COLUMN,...")
@@ -88,7 +91,7 @@ def _campaign(args: argparse.Namespace, runs: list[str]) -> int:
     from thermoplc.verifier.fleet import Pair, verify_fleet
     expect = dict(item.partition("=")[::2] if "=" in item else (item, item) for item in args.expect or ()) or None
     pairs = [Pair(k, args.block, path, args.model, expect, args.inputs, decimal=args.decimal,
-                  probe_every=args.probe_every) for k, path in enumerate(runs, start=1)]
+                  probe_every=args.probe_every, resample_s=args.resample) for k, path in enumerate(runs, start=1)]
     outcomes, seconds = verify_fleet(pairs, min(args.jobs, len(pairs)), args.engine, args.scheduler)
     labels = run_labels(runs)
     width = max(len(label) for label in labels) + 2
@@ -124,7 +127,7 @@ def _fleet(args: argparse.Namespace) -> int:
     if args.block or args.data or args.runs or args.model or args.expect or args.faults:
         raise UserError("--manifest lists the blocks, data and models itself; give no BLOCK, --data, --model, --expect or --faults")
     from thermoplc.verifier.fleet import fleet_document, format_fleet, read_manifest, verify_fleet
-    pairs = read_manifest(args.manifest, args.decimal, args.probe_every)
+    pairs = read_manifest(args.manifest, args.decimal, args.probe_every, args.resample)
     json_output.check(args, [args.manifest, *(f for p in pairs for f in (p.block, p.data, p.model))])
     outcomes, seconds = verify_fleet(pairs, args.jobs, args.engine, args.scheduler)
     json_output.emit(args, format_fleet(outcomes, args.manifest, seconds), fleet_document(outcomes, args.manifest))
@@ -137,23 +140,26 @@ def _against_model(args: argparse.Namespace) -> int:
     """The block against the model's float32 reference: streamed when the recording allows it
     (verifier/stream.py), else read whole; with --faults, replayed once per injected fault."""
     from thermoplc.models.modelfile import load_model
-    from thermoplc.models.table import read_table
     from thermoplc.verifier.documents import verify_document
+    from thermoplc.models.resample import RULE
+    from thermoplc.verifier.recording import read_recording, resampling_for
     from thermoplc.verifier.replay import verify_against_model
     model = load_model(args.model)
     report = None
-    if not args.faults:
+    if not args.faults and resampling_for(model, args.resample) is None:
         from thermoplc.verifier.stream import verify_streaming
         report = verify_streaming(args.block, model, args.model, args.data, args.inputs, args.engine,
                                   args.decimal, progress())
     if report is None:
-        from thermoplc.verifier.fleet import model_targets
-        table = read_table(args.data, model.time_column, progress(), args.decimal, sparse=model_targets(model))
+        table = read_recording(args.data, model, progress(), args.decimal, args.resample)
         if args.faults:
             return _faults(args, model, table)
         report = verify_against_model(args.block, model, args.model, table, args.inputs, args.engine,
                                       args.probe_every)
-    return _result(args, report.text(), report.ok, lambda: verify_document(report))
+    rule = resampling_for(model, args.resample)
+    said = (f"\n  {args.data} taken onto the block's cycle of {rule.period_s:g} s first ("
+            f"{'the model file' if model.resample else '--resample'}: {RULE})" if rule else "")
+    return _result(args, report.text() + said, report.ok, lambda: verify_document(report))
 
 
 def _faults(args: argparse.Namespace, model, table) -> int:
@@ -170,6 +176,9 @@ def _against_trace(args: argparse.Namespace) -> int:
     from thermoplc.verifier.replay import verify_against_trace
     if args.faults:
         raise UserError("--faults needs --model: the faulty replay is compared with the model's reference")
+    if args.resample:
+        raise UserError("--resample takes raw data onto a model's cycle (--model); a PLC trace (--expect) is recorded "
+                        "on the block's cycle already")
     table = read_table(args.data, args.time, decimal=args.decimal)
     expect = {}
     for item in args.expect:

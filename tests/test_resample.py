@@ -1,0 +1,130 @@
+"""Raw logger data onto the block's cycle (`--resample`, models/resample.py): the rule, and the CLI end to end."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from tests.cli_runner import thermoplc
+from thermoplc import api
+from thermoplc.base.errors import UserError
+from thermoplc.models.resample import MAX_GAP_CALLS, Resampling, resample
+from thermoplc.models.table import Table, read_table, write_table
+
+FL_THERMAL = Path(api.__file__).parent / "data" / "fl_thermal" / "fl_thermal.csv"  # the copy the package ships
+
+
+def _table(t, **columns) -> Table:
+    return Table("raw.csv", {"time_s": np.asarray(t, float), **{k: np.asarray(v, float) for k, v in columns.items()}},
+                 "0" * 64, np.arange(2, len(t) + 2))
+
+
+def test_each_column_by_its_rule():
+    t = [0.0, 9.5, 21.0, 39.0, 41.5, 80.5, 121.0]
+    raw = _table(t, T=[20.0, 20.95, 22.1, 23.9, 24.15, 28.05, 32.1], rpm=[0, 1000, 1000, 2000, 2000, 0, 0],
+                 probed=[np.nan, 5.0, np.nan, np.nan, 7.0, np.nan, np.nan],
+                 held=[1.0, 1.0, 3.0, 3.0, 3.0, 3.0, 4.0])
+    out = resample(raw, "time_s", Resampling(20.0, ("rpm",)), probed=("probed",))
+    assert list(out.columns["time_s"]) == [0.0, 20.0, 40.0, 60.0, 80.0, 100.0, 120.0]
+    np.testing.assert_allclose(out.columns["T"], 20.0 + 0.1 * out.columns["time_s"])  # a ramp stays the ramp
+    assert list(out.columns["rpm"]) == [0, 1000, 2000, 2000, 2000, 0, 0]  # the last value at or before each call
+    assert list(np.isfinite(out.columns["probed"])) == [False, True, False, True, False, False, False]
+    assert out.columns["probed"][1] == 5.0 and out.columns["probed"][3] == 7.0  # at the call that follows
+    assert list(out.lines) == [2, 3, 5, 6, 6, 7, 7]  # each call names the raw line at or before it
+    held = resample(raw, "time_s", Resampling(20.0), probed=("held",), held=True)
+    assert list(held.columns["held"]) == [1.0, 1.0, 3.0, 3.0, 3.0, 3.0, 3.0]
+
+
+def test_two_probings_in_one_cycle_keep_the_later_and_a_gap_is_refused_with_its_time():
+    raw = _table([0.0, 5.0, 6.0, 30.0], probed=[np.nan, 1.0, 2.0, np.nan], T=[1, 2, 3, 4])
+    out = resample(raw, "time_s", Resampling(10.0), probed=("probed",))
+    assert out.columns["probed"][1] == 2.0 and np.isfinite(out.columns["probed"]).sum() == 1
+    gap = _table([0.0, 10.0, 10.0 + 10.0 * MAX_GAP_CALLS + 1, 200.0], T=[1, 2, 3, 4])
+    with pytest.raises(UserError, match=r"raw.csv:4: column 'time_s': no row for 81 s \(from 10 s to 91 s\); "
+                                        r"--resample 10 bridges at most 8 calls"):
+        resample(gap, "time_s", Resampling(10.0))
+    resample(_table([0.0, 10.0, 10.0 + 10.0 * MAX_GAP_CALLS, 100.0], T=[1, 2, 3, 4]), "time_s", Resampling(10.0))
+
+
+@settings(max_examples=60, deadline=None)
+@given(steps=st.lists(st.floats(0.5, 60.0), min_size=2, max_size=60), period=st.sampled_from([1.0, 7.5, 10.0, 40.0]),
+       seed=st.integers(0, 2 ** 32 - 1))
+def test_a_resampled_table_is_on_the_cycle_never_overshoots_and_keeps_every_probing(steps, period, seed):
+    rng = np.random.default_rng(seed)
+    t = np.r_[0.0, np.cumsum(steps)]
+    temps, speed = rng.normal(20, 3, len(t)), rng.choice([0.0, 1500.0, 3000.0], len(t))
+    probed = np.where(rng.random(len(t)) < 0.3, rng.normal(0, 10, len(t)), np.nan)
+    raw = _table(t, T=temps, rpm=speed, probe=probed)
+    try:
+        out = resample(raw, "time_s", Resampling(period, ("rpm",)), probed=("probe",))
+    except UserError as exc:
+        assert "bridges at most" in str(exc) and np.max(np.diff(t)) > MAX_GAP_CALLS * period
+        return
+    calls = out.columns["time_s"]
+    assert calls[0] == t[0] and calls[-1] <= t[-1] + 1e-9 * period
+    np.testing.assert_allclose(np.diff(calls), period, rtol=1e-12)
+    assert np.all(out.columns["T"] >= temps.min() - 1e-9) and np.all(out.columns["T"] <= temps.max() + 1e-9)
+    assert set(out.columns["rpm"]) <= set(speed)
+    kept = out.columns["probe"][np.isfinite(out.columns["probe"])]
+    cycles = np.ceil((t - t[0]) / period - 1e-9).astype(int)
+    last_in_cycle = {c: v for c, v in zip(cycles, probed) if np.isfinite(v) and c < len(calls)}
+    assert sorted(kept) == sorted(last_in_cycle.values())
+    again = resample(raw, "time_s", Resampling(period, ("rpm",)), probed=("probe",))
+    for name in out.columns:  # the same bits every time
+        assert out.columns[name].tobytes() == again.columns[name].tobytes()
+
+
+def _raw_logger(folder, hours: float = 8.0) -> str:
+    """FL_THERMAL as a raw logger would have written it: every 10 s for 16 min, then 40 s, with 1 s of jitter and a
+    130 s gap."""
+    whole = read_table(FL_THERMAL)
+    rng = np.random.default_rng(7)
+    times = [0.0]
+    while times[-1] < hours * 3600:
+        times.append(times[-1] + (10.0 if times[-1] < 960 else 40.0) + rng.uniform(-1, 1))
+    times = np.round(np.array(times), 1)
+    times[60:] += 90.0
+    columns = {"time_s": times, **{c: np.round(np.interp(times, whole.columns["time_s"], v), 4)
+                                   for c, v in whole.columns.items() if c != "time_s"}}
+    (folder / "raw.csv").write_text(write_table(columns))
+    return "raw.csv"
+
+
+def test_a_raw_logger_file_is_fitted_generated_and_verified_with_resample(tmp_path):
+    raw = _raw_logger(tmp_path)
+    fit = ("fit", "--data", raw, "--model", "mlr", "--target", "ch3_um", "--temps", "t4_C,t5_C,t8_C,t11_C",
+           "--speed", "spindle_rpm", "--train-until", "20000", "-o", "m.json")
+    refused = thermoplc(*fit, cwd=tmp_path, check=None)
+    assert refused.returncode == 2 and "give --resample SECONDS" in refused.stderr
+    fitted = thermoplc(*fit, "--resample", "40", cwd=tmp_path)
+    assert "resampled onto a cycle of 40 s (temperatures linear" in fitted.stdout
+    model = json.loads((tmp_path / "m.json").read_text())
+    assert model["sample_period_s"] == 40.0 and model["resample"]["period_s"] == 40.0
+    thermoplc("generate", "m.json", "-o", "m.scl", "--accept-unvalidated", cwd=tmp_path)
+    verified = thermoplc("verify", "m.scl", "--model", "m.json", "--data", raw, cwd=tmp_path)
+    assert verified.stdout.startswith("bit-exact") and "taken onto the block's cycle of 40 s first" in verified.stdout
+    other = thermoplc("verify", "m.scl", "--model", "m.json", "--data", raw, "--resample", "10", cwd=tmp_path, check=None)
+    assert other.returncode == 2 and "the block runs every 40 s" in other.stderr
+    trace = thermoplc("verify", "m.scl", "--expect", "ch3_um", "--data", raw, "--resample", "40", cwd=tmp_path,
+                      check=None)
+    assert trace.returncode == 2 and "a PLC trace (--expect) is recorded on the block's cycle" in trace.stderr
+    odd = thermoplc(*fit, "--resample", "0.0005", "--force", cwd=tmp_path, check=None)
+    assert odd.returncode == 2 and "expected the block's cycle in seconds from 0.001" in odd.stderr
+    half = thermoplc(*fit, "--resample", "40.0005", "--force", cwd=tmp_path, check=None)
+    assert half.returncode == 2 and "whole number of milliseconds" in half.stderr
+
+
+def test_a_model_fitted_on_data_resampled_beforehand_verifies_raw_data_with_resample(tmp_path):
+    raw = _raw_logger(tmp_path, hours=4.0)
+    resampled = resample(read_table(str(tmp_path / raw)), "time_s", Resampling(40.0, ("spindle_rpm",)))
+    (tmp_path / "by_hand.csv").write_text(write_table(resampled.columns))
+    thermoplc("fit", "--data", "by_hand.csv", "--model", "mlr", "--target", "ch3_um", "--temps", "t4_C,t5_C",
+              "--train-until", "9000", "-o", "m.json", cwd=tmp_path)
+    thermoplc("generate", "m.json", "-o", "m.scl", "--accept-unvalidated", cwd=tmp_path)
+    plain = thermoplc("verify", "m.scl", "--model", "m.json", "--data", raw, cwd=tmp_path, check=None)
+    assert plain.returncode == 2 and "give --resample 40 (the block's cycle)" in plain.stderr
+    verified = thermoplc("verify", "m.scl", "--model", "m.json", "--data", raw, "--resample", "40", cwd=tmp_path)
+    assert verified.stdout.startswith("bit-exact") and "(--resample:" in verified.stdout

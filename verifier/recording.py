@@ -1,0 +1,39 @@
+"""A recording as the block sees it in a replay against its model: the model's targets may be empty between
+measurements, and raw logger data are taken onto the block's cycle by the rule the model file records
+(`fit --resample`) or `verify --resample` names (models/resample.py), before anything is compared."""
+from __future__ import annotations
+
+from thermoplc.base.errors import UserError
+from thermoplc.contract.outputs import PROBE_VALUE_INPUT
+from thermoplc.models.modelfile import Model
+from thermoplc.models.resample import Resampling, resample
+from thermoplc.models.table import Table, read_table
+
+
+def model_targets(model: Model) -> tuple[str, ...]:
+    """The recording's columns that may be empty between measurements: those the model was fitted to (a probed
+    target; a replay never reads them) and a fused block's ProbeValue (a probing cycle that gave nothing)."""
+    probe = (PROBE_VALUE_INPUT,) if model.probe is not None else ()
+    return (model.target.column, *(t["column"] for t in model.settings.get("targets", [])), *probe)
+
+
+def resampling_for(model: Model, period_s: float | None) -> Resampling | None:
+    """The rule a replay applies: the model file's, or `--resample` for a model fitted on data resampled before
+    (its speed held at its last value); a period other than the block's cycle is refused."""
+    if period_s is None:
+        return model.resample
+    if abs(period_s - model.sample_period_s) > 1e-9 * model.sample_period_s:
+        raise UserError(f"--resample {period_s:g}: the block runs every {model.sample_period_s:g} s (sample_period_s of "
+                        f"the model file); give --resample {model.sample_period_s:g}")
+    return model.resample or Resampling(period_s, tuple(s.column for s in model.signals("speed")))
+
+
+def read_recording(path: str, model: Model, progress=None, decimal: str = "auto",
+                   period_s: float | None = None) -> Table:
+    """The recording `path` read for a replay of `model`'s block, on the block's cycle."""
+    table = read_table(path, model.time_column, progress, decimal, sparse=model_targets(model))
+    rule = resampling_for(model, period_s)
+    if rule is None:
+        return table
+    held = bool(model.metrics.get("probing", {}).get("held"))
+    return resample(table, model.time_column, rule, model_targets(model), held)
