@@ -128,3 +128,19 @@ def test_a_model_fitted_on_data_resampled_beforehand_verifies_raw_data_with_resa
     assert plain.returncode == 2 and "give --resample 40 (the block's cycle)" in plain.stderr
     verified = thermoplc("verify", "m.scl", "--model", "m.json", "--data", raw, "--resample", "40", cwd=tmp_path)
     assert verified.stdout.startswith("bit-exact") and "(--resample:" in verified.stdout
+
+
+def test_a_logger_campaign_with_held_probings_is_fused_and_verified_on_its_raw_files(tmp_path):
+    written = thermoplc("twin", "--runs", "3", "--hours", "4", "--dt", "40", "--seed", "4", "--probe-minutes", "30",
+                        "--logger", "-o", "raw", cwd=tmp_path)
+    assert "as a data logger writes them (every 10 s for 16 min, then 40 s, 1 s of jitter)" in written.stdout
+    steps = np.diff(read_table(str(tmp_path / "raw" / "run_001.csv")).columns["time_s"])
+    assert steps.min() < 12 and steps.max() > 38 and len(set(np.round(steps, 1))) > 10  # mixed, jittered
+    fitted = thermoplc("fit", "--data", "raw", "--model", "mlr", "--target", "E_z_um", "--held-target", "--temps",
+                       "T_motor,T_bearing", "--speed", "n_rpm", "--folds", "3", "--probe", "--resample", "40",
+                       "-o", "m.json", cwd=tmp_path)
+    assert "'n_rpm' its last value, each probing at the call that follows it" in fitted.stdout
+    assert "the target's own probings (every 45 calls, median)" in fitted.stdout
+    thermoplc("generate", "m.json", "-o", "m.scl", "--accept-unvalidated", cwd=tmp_path)
+    verified = thermoplc("verify", "m.scl", "--model", "m.json", "--data", "raw", cwd=tmp_path)
+    assert verified.stdout.splitlines()[-1].startswith("bit-exact: every run reproduces the reference (3 runs")

@@ -77,7 +77,7 @@ def cycle(text: str) -> float:
 
 RESAMPLE = {"type": cycle, "metavar": "SECONDS",
             "help": "take raw logger data onto the block's cycle of SECONDS (temperatures linear, the speed its "
-                    "last value, a probing at the call that follows it; docs/resampling.md); the model file "
+                    "last value, a probing at the call that follows it; docs/campaigns.md); the model file "
                     "records the rule and verify applies it"}
 SEED = number(int, 0, 2 ** 32 - 1, "a seed")
 SECONDS = number(float, 0.0, 1e9, "seconds")

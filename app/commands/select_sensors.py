@@ -28,7 +28,7 @@ def add_parser(sub) -> None:
     p.add_argument("-o", "--output", help="write the chosen sensors for fit --temps @FILE")
     p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--resample", **{**RESAMPLE, "help": "take raw logger data onto the block's cycle of SECONDS "
-                                                         "first (temperatures linear; docs/resampling.md), as fit "
+                                                         "first (temperatures linear; docs/campaigns.md), as fit "
                                                          "--resample will"})
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=run)

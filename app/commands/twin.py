@@ -41,6 +41,9 @@ def add_parser(sub) -> None:
                         "to the run's first probing (E_z_true_um beside it); 0: every call (default: %(default)s)")
     p.add_argument("--effect-runs", type=_run_numbers, metavar="K,K,...",
                    help="with --runs: hide the --effect only in these runs (numbered from 1; default: every run)")
+    p.add_argument("--logger", action="store_true",
+                   help="write each file as a raw data logger does: every --dt/4 s for the first 16 min, then every "
+                        "--dt s, each time stamp off by up to 1 s (fit it with --resample DT)")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("-o", "--output", required=True, help="CSV file to write (with --runs: a new or empty folder)")
     p.set_defaults(func=run)
@@ -95,12 +98,13 @@ def run(args: argparse.Namespace) -> int:
         return _campaign(args, effects)
     check_output(args.output, args.force)
     options = {} if args.ambient_swing is None else {"ambient_swing": args.ambient_swing}
-    columns = chosen.simulate(args.hours, args.seed, args.dt, 20.0 if args.ambient_start is None else args.ambient_start,
-                              faults=faults, effects=effects,
-                              noise=args.noise, **options)
+    columns = chosen.simulate(args.hours, args.seed, _simulated_period(args),
+                              20.0 if args.ambient_start is None else args.ambient_start,
+                              faults=faults, effects=effects, noise=args.noise, **options)
+    columns = _as_written(args, columns, args.seed)
     write_atomic(args.output, write_table(columns))
     rows = len(columns["time_s"])
-    print(f"wrote {args.output}: {rows} rows, {args.hours:g} h every {args.dt:g} s, seed {args.seed}, "
+    print(f"wrote {args.output}: {rows} rows, {args.hours:g} h {_pace(args)}, seed {args.seed}, "
           f"machine {chosen.NAME}")
     for e in effects:
         print(f"  hidden effect {e.name}: " + ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
@@ -109,6 +113,21 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {fault.describe()}")
     print(f"  columns: {', '.join(columns)}")
     return 0
+
+
+def _simulated_period(args: argparse.Namespace) -> float:
+    from thermoplc.machines.logger import fast_period
+    return fast_period(args.dt) if args.logger else args.dt
+
+
+def _as_written(args: argparse.Namespace, columns: dict, seed: int) -> dict:
+    from thermoplc.machines.logger import logged
+    return logged(columns, args.dt, seed) if args.logger else columns
+
+
+def _pace(args: argparse.Namespace) -> str:
+    return (f"as a data logger writes them (every {args.dt / 4:g} s for 16 min, then {args.dt:g} s, 1 s of jitter)"
+            if args.logger else f"every {args.dt:g} s")
 
 
 def _campaign(args: argparse.Namespace, effects: tuple) -> int:
@@ -124,13 +143,14 @@ def _campaign(args: argparse.Namespace, effects: tuple) -> int:
     files, rows = [], ["file,hall_air_C,hall,air,start,seed,effects"]
     for run in runs:
         name = f"run_{run.index + 1:03d}.csv"
-        columns = simulate_run(args.machine, run, args.hours, args.dt, args.probe_minutes, args.noise)
+        columns = _as_written(args, simulate_run(args.machine, run, args.hours, _simulated_period(args),
+                                                 args.probe_minutes, args.noise), run.seed)
         files.append((folder / name, write_table(columns)))
         rows.append(",".join([name, *run.attributes().values()]))
     files.append((folder / "runs.csv", "\n".join(rows) + "\n"))
     write_outputs(files)
     probing = f", drift probed every {args.probe_minutes:g} min and held" if args.probe_minutes else ""
-    print(f"wrote {folder}: {len(runs)} run{'s' if len(runs) != 1 else ''} of {args.hours:g} h every {args.dt:g} s, "
+    print(f"wrote {folder}: {len(runs)} run{'s' if len(runs) != 1 else ''} of {args.hours:g} h {_pace(args)}, "
           f"seed {args.seed}, machine "
           f"{args.machine}{probing}; runs table {folder / 'runs.csv'}")
     for e in effects:
