@@ -1111,10 +1111,53 @@ def _probing_cases() -> list[Case]:
     ]
 
 
+def _shifted_from(text: str, row: int, seconds: float) -> str:
+    """Every time stamp from `row` on later by `seconds`: a gap in the logger's file."""
+    lines = text.splitlines()
+    for k in range(row, len(lines)):
+        cells = lines[k].split(",")
+        cells[0] = f"{float(cells[0]) + seconds:g}"
+        lines[k] = ",".join(cells)
+    return "\n".join(lines) + "\n"
+
+
+def _resample_cases() -> list[Case]:
+    """Issue 50: raw logger data taken onto the cycle, and the probings of a diff, where they cannot be."""
+    fit = ("fit", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "--train-rows", "200",
+           "-o", "out.json", "--data")
+    verify = ("verify", "block.scl", "--model", "mlr.json", "--data", "good.csv")
+    return [
+        Case("resampling", "--resample under 1 ms", "fit", (*fit, "good.csv", "--resample", "0.0004"), lambda f: None,
+             "error", "argument --resample: expected the block's cycle in seconds from 0.001 to 86400, found 0.0004"),
+        Case("resampling", "--resample not a whole number of ms", "fit", (*fit, "good.csv", "--resample", "10.0005"),
+             lambda f: None, "error", "expected a whole number of milliseconds (a PLC cycle is set in ms), found 10.0005"),
+        Case("resampling", "a gap longer than 8 cycles", "fit", (*fit, "gap.csv", "--resample", "10"),
+             with_text("gap.csv", lambda t: _shifted_from(t, 300, 500.0)), "error",
+             "gap.csv:301: column 'time_s': no row for 510 s (from 2980 s to 3490 s); --resample 10 bridges at most 8 "
+             "calls (80 s): cut the run there into two runs"),
+        Case("resampling", "verify --resample other than the block's cycle", "verify", (*verify, "--resample", "20"),
+             lambda f: None, "error", "--resample 20: the block runs every 10 s (sample_period_s of the model file); "
+                                      "give --resample 10"),
+        Case("resampling", "verify --resample with a PLC trace", "verify",
+             ("verify", "block.scl", "--expect", "E_z_um", "--data", "good.csv", "--resample", "10"), lambda f: None,
+             "error", "--resample takes raw data onto a model's cycle (--model); a PLC trace (--expect) is recorded"),
+        Case("resampling", "model file: resample period other than its cycle", "verify",
+             ("verify", "block.scl", "--model", "bad.json", "--data", "good.csv"),
+             _model_edit(_set(["resample"], {"period_s": 20.0, "hold": []})), "error",
+             "bad.json: field 'resample.period_s': 20 s, but the block's cycle (sample_period_s) is 10 s"),
+        Case("resampling", "diff --probe-every without --probe-target", "diff",
+             ("diff", "block.scl", "block.scl", "--data", "good.csv", "--probe-every", "30"), lambda f: None, "error",
+             "--probe-every and --held-target say how --probe-target holds the probings; give --probe-target"),
+        Case("resampling", "diff --probe-target without --data", "diff",
+             ("diff", "block.scl", "block.scl", "--probe-target", "E_z_um"), lambda f: None, "error",
+             "--probe-target replays probings on --data; give --data"),
+    ]
+
+
 CASES = [*_csv_cases(), *_model_cases(), *_st_cases(), *_injection_cases(), *_output_cases(), *_option_cases(),
          *_bounded_cases(), *_schema_cases(), *_nesting_cases(), *_data_file_cases(), *_verify_cases(),
          *_review_cases(), *_plcopen_cases(), *_campaign_cases(),
-         *_read_two_ways_cases(), *_hostile_review_cases(), *_probing_cases()]
+         *_read_two_ways_cases(), *_hostile_review_cases(), *_probing_cases(), *_resample_cases()]
 
 
 def setup_folder(folder: Path) -> None:
