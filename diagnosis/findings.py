@@ -115,6 +115,11 @@ def summary(d: Diagnosis) -> str:
     return f"{found}{left} disagreement window(s) not explained by any known effect{because}"
 
 
+def percent(share: float) -> str:
+    """A share in whole percent; a share that rounds to nothing is 0 %, never "-0%"."""
+    return f"{round(share, 2) + 0.0:.0%}"
+
+
 def display(value, braces: bool = True) -> str:
     """A parameter or evidence value for people: 4 significant digits, dicts as key: value
     (in braces for the text output, bare in the HTML table's cells)."""
@@ -136,10 +141,10 @@ def text(doc: dict) -> str:
         ev = e["evidence"]
         lines.append(f"  {k}. {e['name']}: {display(e['parameters'])}")
         lines.append(f"     delta BIC {ev['delta_bic']:.1f}; held-out log-likelihood evidence {ev['held_out_evidence']:+.1f}; "
-                     f"held-out excess above noise removed {ev['held_out_excess_removed']:.0%}")
+                     f"held-out excess above noise removed {percent(ev['held_out_excess_removed'])}")
         if ev.get("held_out_size_um") is not None:
             lines.append(f"     held out: moves the target {ev['held_out_size_um']:.3g} um (RMS), removes "
-                         f"{ev['held_out_error_removed']:.0%} of its squared error; {e['matters']} "
+                         f"{percent(ev['held_out_error_removed'])} of its squared error; {e['matters']} "
                          f"({doc['rmse_after_um']:.3g} um left)")
     for e in doc.get("supported_not_named", []):
         ev = e["evidence"]

@@ -8,7 +8,7 @@ import re
 import numpy as np
 
 from thermoplc.diagnosis.search import Diagnosis
-from thermoplc.diagnosis.findings import display, next_steps
+from thermoplc.diagnosis.findings import display, next_steps, percent
 
 
 def _unit(channel: str, target: str) -> str:
@@ -76,7 +76,7 @@ def _cell(v) -> str:
 
 
 def _percent(share) -> str:
-    return "" if share is None else f"{share:.0%}"
+    return "" if share is None else percent(share)
 
 
 def _number(value, digits: int = 3) -> str:

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from thermoplc.base.errors import ClusterError, UserError
+from thermoplc.base.errors import ClusterError, UserError, unreadable
 from thermoplc.base.locations import is_url, listing, name as name_of, open_binary
 from thermoplc.models.resample import Resampling, resample
 from thermoplc.models.table import Table, read_table
@@ -119,7 +119,7 @@ def _recordings_at(url: str) -> list[str]:
     try:
         found = listing(url, RECORDING_SUFFIXES)
     except OSError as exc:
-        raise UserError(f"{url}: cannot read: {exc.strerror}") from None
+        raise unreadable(url, exc) from None
     if found is None:
         return [url]
     found = [each for each in found if name_of(each) != RUNS_TABLE]
@@ -143,7 +143,7 @@ def _rows(path: str) -> list[tuple[int, list[str]]]:
         delimiter = ";" if ";" in first and "," not in first else ","
         rows = list(csv.reader(io.StringIO(text), delimiter=delimiter))
     except OSError as exc:
-        raise UserError(f"{path}: cannot read: {exc.strerror}") from None
+        raise unreadable(path, exc) from None
     except (UnicodeDecodeError, csv.Error) as exc:
         raise UserError(f"{path}: not a CSV text file ({exc})") from None
     return [(line, row) for line, row in enumerate(rows, start=1) if row]

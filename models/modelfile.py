@@ -16,7 +16,7 @@ from thermoplc.models.kinds import kind_of, registry
 from thermoplc.models.probing import Fusion
 from thermoplc.models.resample import Resampling
 from thermoplc.base.binary32 import FLT_MAX, f32_hex, parse_f32_hex, round_f32, ulp_distance
-from thermoplc.base.errors import UserError
+from thermoplc.base.errors import UserError, unreadable
 
 FORMAT = "thermoplc-model"
 SCHEMA_VERSION = 1
@@ -124,7 +124,7 @@ def load_model(path: str | Path) -> Model:
             raise UserError(f"{path}: {Path(path).stat().st_size:,} bytes; a model file is at most {MAX_MODEL_BYTES:,}")
         text = Path(path).read_text("utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise UserError(f"{path}: cannot read model file: {exc}") from None
+        raise unreadable(path, exc, "the model") from None
     try:
         doc = json.loads(text, object_pairs_hook=_refuse_duplicate_keys)
     except json.JSONDecodeError as exc:

@@ -7,7 +7,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import Limits, commissioned_predict
-from thermoplc.models.table import Table
+from thermoplc.models.table import Table, close_match
 
 def predict(model: Model, inputs: dict, precision: str) -> dict:
     """What the model computes, by output name; REAL outputs as float32 ('f32') or float64 ('f64') arrays."""
@@ -38,7 +38,7 @@ def model_inputs(model: Model, table: Table, overrides: dict | None = None) -> d
     for s in model.inputs:
         column = overrides.get(s.name, s.column)
         if column not in table.columns:
-            raise UserError(f"{table.path}: no column {column!r} for model input {s.name!r} ({s.role}); "
-                            f"map it with --inputs {s.name}=COLUMN")
+            raise UserError(f"{table.path}: no column {column!r} for model input {s.name!r} ({s.role})"
+                            f"{close_match(column, table.columns)}; map it with --inputs {s.name}=COLUMN")
         inputs[s.name] = table.real_column(column, f"model input {s.name!r}")
     return inputs

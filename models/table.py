@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from thermoplc.base.binary32 import FLT_MAX, f32_from_bits
-from thermoplc.base.errors import UserError
+from thermoplc.base.errors import UserError, unreadable
 from thermoplc.base.locations import name as location_name, open_binary
 from thermoplc.models import kernels, plain_csv
 from thermoplc.models.read_ahead import read_ahead
@@ -23,6 +23,15 @@ from thermoplc.models.read_ahead import read_ahead
 
 CHUNK_ROWS = 65536  # rows parsed at once: bounds the memory of the text being parsed
 PROGRESS_ROWS = 1_000_000
+
+
+def close_match(name: str, names) -> str:
+    """' (did you mean X?)' for the column most like a misspelled `name` (case first, then spelling), or ''."""
+    import difflib
+    names = list(names)
+    same = [n for n in names if n.casefold() == name.casefold()]
+    found = same or difflib.get_close_matches(name, names, n=1, cutoff=0.6)
+    return f" (did you mean {found[0]!r}?)" if found else ""
 
 
 @dataclass(frozen=True)
@@ -38,7 +47,8 @@ class Table:
 
     def column(self, name: str) -> np.ndarray:
         if name not in self.columns:
-            raise UserError(f"{self.path}: no column {name!r}; the header has {', '.join(self.columns)}")
+            raise UserError(f"{self.path}: no column {name!r}{close_match(name, self.columns)}; the header has "
+                            f"{', '.join(self.columns)}")
         return self.columns[name]
 
     def head(self, rows: int) -> Table:
@@ -192,7 +202,7 @@ def _read_npz(path: str, time_column: str | None, sparse: frozenset = frozenset(
         with open_binary(path) as f:
             magic = f.read(4)
     except OSError as exc:
-        raise UserError(f"{path}: cannot read: {exc.strerror}") from None
+        raise unreadable(path, exc) from None
     if magic != b"PK\x03\x04":
         raise UserError(f"{path}: not a .npz archive (it does not start as a zip file); a CSV file must not end in .npz")
     try:
@@ -294,7 +304,7 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
     try:
         raw = sys.stdin.buffer if path == "-" else open_binary(path)  # `--data -`: the CSV on standard input
     except OSError as exc:
-        raise UserError(f"{path}: cannot read: {exc.strerror}") from None
+        raise unreadable(path, exc) from None
     path = "<stdin>" if path == "-" else path
     handle = io.TextIOWrapper(io.BufferedReader(_Hashing(raw, digest)), encoding="utf-8-sig", newline=None)
     blocks, numbers_all = [], []

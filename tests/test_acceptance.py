@@ -8,8 +8,9 @@ from tests.cli_runner import thermoplc
 from tests.golden_models import GOLDEN
 from thermoplc.models import acceptance
 from thermoplc.models.modelfile import load_model
+from thermoplc import api
 
-FL_THERMAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "fl_thermal" / "fl_thermal.csv"
+FL_THERMAL = Path(api.__file__).parent / "data" / "fl_thermal" / "fl_thermal.csv"  # the copy the package ships
 
 
 def _edited(tmp_path: Path, name: str, **held_out) -> Path:
@@ -64,12 +65,18 @@ def test_a_model_without_held_out_evidence_is_refused_unless_accepted(tmp_path, 
     assert "NOT VALIDATED" in (tmp_path / "b.scl").read_text()
 
 
-def test_fit_without_held_out_rows_warns_that_generate_will_refuse(tmp_path):
+def test_a_training_part_past_the_end_of_the_data_is_refused_naming_where_the_data_end(tmp_path):
+    """Issue 52: it used to write a model with nothing held out, which generate then refused."""
     thermoplc("twin", "--hours", 4, "--seed", 2, "-o", "twin.csv", cwd=tmp_path)
-    fitted = thermoplc("fit", "--data", "twin.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing",
-                       "--train-until", 999999, "-o", "all.json", cwd=tmp_path)
-    assert "WARNING: generate will refuse this model: the model file carries no held-out evidence" in fitted.stderr
-    thermoplc("generate", "all.json", "-o", "all.scl", cwd=tmp_path, check=2)
+    fit = ("fit", "--data", "twin.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing",
+           "-o", "all.json")
+    until = thermoplc(*fit, "--train-until", 999999, cwd=tmp_path, check=2)
+    assert ("twin.csv: --train-until 999999 leaves no row held out (the data run from 0 s to 14400 s); give a time "
+            "before 14400 s, or judge by cross-validation with --folds K") in until.stderr
+    rows = thermoplc(*fit, "--train-rows", 1441, cwd=tmp_path, check=2)
+    assert "twin.csv: --train-rows 1441 leaves no row held out (the file has 1441 rows)" in rows.stderr
+    assert not (tmp_path / "all.json").exists()
+    thermoplc(*fit, "--train-rows", 1440, cwd=tmp_path)
 
 
 def test_a_float32_block_far_from_its_float64_model_is_refused_even_with_the_flag(tmp_path):
@@ -88,7 +95,6 @@ def test_evidence_reads_the_model_file_and_problem_is_none_only_past_the_bar():
     assert acceptance.problem(model) is None and acceptance.quantisation_problem(model) is None
 
 
-@pytest.mark.skipif(not FL_THERMAL.exists(), reason="FL_THERMAL is not beside the repository")
 def test_on_real_data_the_gate_refuses_a_model_barely_better_than_none_and_accepts_dlag(tmp_path):
     """FL_THERMAL ch3, first 24 h: GM(0,N) on t4_C alone predicts the rest at 27.84 um against 30.85 um
     with no compensation (more than 90 % of it); dlag on four sensors at 6.52 um."""

@@ -9,8 +9,9 @@ from tests.cli_runner import thermoplc
 from thermoplc.base.errors import UserError
 from thermoplc.models import crossval
 from thermoplc.models.table import Table
+from thermoplc import api
 
-FL_THERMAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "fl_thermal" / "fl_thermal.csv"
+FL_THERMAL = Path(api.__file__).parent / "data" / "fl_thermal" / "fl_thermal.csv"  # the copy the package ships
 
 
 def _table(rows: int, speed: np.ndarray | None = None) -> Table:
@@ -87,12 +88,11 @@ def test_several_recordings_are_folds_of_their_own(tmp_path):
     assert model["metrics"]["held_out"]["protocol"] == f"leave-one-run-out cross-validation over {len(paths)} runs"
 
 
-@pytest.mark.skipif(not FL_THERMAL.exists(), reason="FL_THERMAL is not beside the repository")
 def test_on_fl_thermal_forward_folds_show_the_spread_a_single_split_hides(tmp_path):
     fitted = thermoplc("fit", "--data", FL_THERMAL, "--model", "dlag", "--target", "ch5_um", "--temps",
                        "t8_C,t4_C,t5_C,t11_C", "--folds", 4, "-o", "d.json", cwd=tmp_path)
     assert "  spread: fold RMSE 4.028 to 16.332 um" in fitted.stdout
-    assert "  all folds                         8336    10.889   28.796        23.769       39.134" in fitted.stdout
+    assert "  all folds (8336 rows)                     10.889   28.796        23.769       39.134" in fitted.stdout
 
 
 def test_several_recordings_need_one_fold_each_and_no_copies(tmp_path):

@@ -10,9 +10,10 @@ import pytest
 from tests.cli_runner import thermoplc
 from thermoplc.models import identify
 from thermoplc.models.simulation import Series, Shared
+from thermoplc import api
 
 DT = 15.0
-FL_THERMAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "fl_thermal" / "fl_thermal.csv"
+FL_THERMAL = Path(api.__file__).parent / "data" / "fl_thermal" / "fl_thermal.csv"  # the copy the package ships
 
 
 def _kalman_gain(a: float, process: float, measurement: float) -> float:
@@ -59,7 +60,6 @@ def test_a_model_that_fits_keeps_the_filter_gain_small_and_one_step_equals_open_
     assert measured["one_step_rmse_K"][0] == pytest.approx(measured["open_loop_rmse_K"][0], rel=0.05)
 
 
-@pytest.mark.skipif(not FL_THERMAL.exists(), reason="FL_THERMAL is not beside the repository")
 @pytest.mark.parametrize("target", ["ch3_um", "ch5_um"])
 def test_fit_lumped_beats_no_compensation_held_out_on_fl_thermal_and_its_block_verifies(target, tmp_path):
     """Fit on the first 24 h, predict 22 h (open loop it was 61.8 um on ch3 against 30.9 with no
@@ -75,7 +75,6 @@ def test_fit_lumped_beats_no_compensation_held_out_on_fl_thermal_and_its_block_v
     assert "bit-exact" in verified.stdout
 
 
-@pytest.mark.skipif(not FL_THERMAL.exists(), reason="FL_THERMAL is not beside the repository")
 def test_diagnose_starts_from_the_identified_model_and_beats_no_compensation(tmp_path):
     """Issue 39 item 1: diagnose's baseline is the model `fit --model lumped` identifies (given with --baseline
     or identified by diagnose itself, the same); on FL_THERMAL's 24 h training part its held-out error of ch5
@@ -114,7 +113,6 @@ def test_verify_refuses_a_block_with_a_filter_the_model_lacks(tmp_path):
     assert "c_KF_1: declared in the block, but the model has no such constant" in result.stdout
 
 
-@pytest.mark.skipif(not FL_THERMAL.exists(), reason="FL_THERMAL is not beside the repository")
 def test_fit_lumped_refuses_a_flat_sensor_and_the_ambient_as_a_sensor_and_takes_twin_sensors(tmp_path):
     import csv
     rows = list(csv.reader(FL_THERMAL.open()))[:3000]

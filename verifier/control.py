@@ -6,7 +6,7 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.contract.outputs import CONTROL_INPUT_START, ENABLE_INPUT, RESET_INPUT
-from thermoplc.models.table import Table, spellings
+from thermoplc.models.table import Table, close_match, spellings
 
 
 def control_inputs(table: Table, overrides: dict | None = None) -> dict:
@@ -24,8 +24,8 @@ def control_inputs(table: Table, overrides: dict | None = None) -> dict:
                 table.refuse_cell(column, bad, f"the {name} input (BOOL)", "0 or 1")
             control[name] = values == 1.0
         elif name in overrides:
-            raise UserError(f"{table.path}: no column {column!r} for block input {name!r}; the header has "
-                            f"{', '.join(table.columns)}")
+            raise UserError(f"{table.path}: no column {column!r} for block input {name!r}"
+                            f"{close_match(column, table.columns)}; the header has {', '.join(table.columns)}")
     return control
 
 

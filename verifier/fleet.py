@@ -14,7 +14,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
-from thermoplc.base.errors import UserError
+from thermoplc.base.errors import UserError, unreadable
 from thermoplc.base.locations import is_url
 
 
@@ -60,7 +60,7 @@ def read_manifest(path: str, decimal: str = "auto", probe_every: int | None = No
         with open(path, encoding="utf-8-sig", newline="") as f:
             rows = list(csv.reader(f))
     except (OSError, UnicodeDecodeError) as exc:
-        raise UserError(f"{path}: cannot read the manifest: {exc}") from None
+        raise unreadable(path, exc, "the manifest") from None
     if not rows:
         raise UserError(f"{path}: the manifest is empty; expected a header with block,data,model")
     header = [h.strip().lower() for h in rows[0]]

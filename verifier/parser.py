@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from thermoplc.base.binary32 import decimal_to_f32
-from thermoplc.base.errors import UserError
+from thermoplc.base.errors import UserError, unreadable
 from thermoplc.base.text import decode, encoding_of
 from thermoplc.verifier import syntax as s
 from thermoplc.verifier.one_reading import refuse_two_readings
@@ -439,7 +439,7 @@ def _source_bytes(path: str) -> bytes:
                                 f"{MAX_SOURCE_CHARACTERS:,} here (characters)")
         return Path(path).read_bytes()
     except OSError as exc:
-        raise UserError(f"{path}: cannot read: {exc}") from None
+        raise unreadable(path, exc, "the block") from None
 
 
 def _decoded(raw: bytes, path: str) -> str:

@@ -17,7 +17,7 @@ from thermoplc.models.fit import SAMPLING_TOLERANCE, sample_period
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits
-from thermoplc.models.table import Table
+from thermoplc.models.table import Table, close_match
 from thermoplc.verifier.control import control_inputs, control_summary, unread_control_columns
 from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.interpreter import BlockFailure, Finding
@@ -62,6 +62,8 @@ class Report:
     unsafe: tuple[str, ...] = ()  # a non-finite REAL output or an INT overflow: fails whatever the reference says
     control: str = ""  # a note on the data: how it drove Enable and Reset, or what a trace must hold
     failure: str | None = None  # the block's run-time error (an index outside its array...): it is not the model
+    # what the block output at each call, as replayed (verify --outputs writes it); empty from the streamed route
+    produced: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def ok(self) -> bool:
@@ -191,8 +193,8 @@ def block_columns(inputs: list, table: Table, overrides: dict | None, block: str
         if column not in table.columns and d.initial is not None and d.name not in overrides:
             continue  # unwired: the input keeps its start value (Enable TRUE, Reset FALSE)
         if column not in table.columns:
-            raise UserError(f"{table.path}: no column {column!r} for input {d.name} of {block}; "
-                            f"map it with --inputs {d.name}=COLUMN")
+            raise UserError(f"{table.path}: no column {column!r} for input {d.name} of {block}"
+                            f"{close_match(column, table.columns)}; map it with --inputs {d.name}=COLUMN")
         columns[d.name] = cells_as(table, column, d.type.base, f"input {d.name} of {block}")
     return columns
 
@@ -274,7 +276,7 @@ def replay_and_compare(replayer: Replayer, block: str, against: str, table: Tabl
     return Report(block, against, Path(table.path).name, rows, tuple(produced), mismatch, findings, seconds,
                   quantisation, engine=replayer.used, engine_note=replayer.note,
                   unsafe=(*subnormal_declarations(machine.decls, block),
-                          *_unsafe(produced, types, findings, table, block, inputs)))
+                          *_unsafe(produced, types, findings, table, block, inputs)), produced=produced)
 
 
 def _check_period(model: Model, table: Table) -> None:

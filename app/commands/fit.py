@@ -116,6 +116,22 @@ def add_parser(sub) -> None:
     p.set_defaults(func=run)
 
 
+def _refuse_nothing_held_out(args: argparse.Namespace, tables) -> None:
+    """A training part that takes every row leaves no evidence: name where the data end instead of writing a
+    model generate will refuse."""
+    from thermoplc.models.fit import training_rows
+    if any(training_rows(t, args.time, args.train_until, args.train_rows) < t.rows for t in tables):
+        return
+    table = tables[-1]
+    if args.train_rows is not None:
+        raise UserError(f"{table.path}: --train-rows {args.train_rows} leaves no row held out (the file has {table.rows} "
+                        f"rows); train on fewer, or judge by cross-validation with --folds K")
+    t = table.columns[args.time]
+    raise UserError(f"{table.path}: --train-until {args.train_until:g} leaves no row held out (the data run from "
+                    f"{t[0]:g} s to {t[-1]:g} s); give a time before {t[-1]:g} s, or judge by cross-validation with "
+                    f"--folds K")
+
+
 def resampling_of(args: argparse.Namespace):
     """--resample as the rule the model file records: the speed column held at its last value."""
     from thermoplc.models.resample import Resampling
@@ -170,6 +186,8 @@ def run(args: argparse.Namespace) -> int:
                              resampling=resampling_of(args))
     groups = campaign.groups(args.group_by) if args.group_by else None
     tables = campaign.tables
+    if not (args.folds or args.group_by):
+        _refuse_nothing_held_out(args, tables)
     predictions: dict = {}  # each run's held-out prediction: the report draws it, the probe fusion is chosen on it
     remote = _remote(args, campaign, runs)
     try:

@@ -101,7 +101,8 @@ def _format_folds(m: dict) -> list[str]:
     lines += [f"  {f['label']:<26}{f['train_rows']:>12}{f['rmse']:>10.3f}{f['max_abs']:>9.3f}{f['zero_rmse']:>14.3f}"
               f"{f['zero_max_abs']:>13.3f}" for f in m["cross_validation"]]
     low, high = held["fold_rmse_um"]
-    lines.append(f"  {'all folds':<26}{held['rows']:>12}{held['rmse_um']:>10.3f}{held['max_abs_um']:>9.3f}"
+    pooled = f"all folds ({held['rows']} rows)"
+    lines.append(f"  {pooled:<26}{'':>12}{held['rmse_um']:>10.3f}{held['max_abs_um']:>9.3f}"
                  f"{held['zero_rmse_um']:>14.3f}{held['zero_max_abs_um']:>13.3f}")
     lines.append(f"  spread: fold RMSE {low:.3f} to {high:.3f} um")
     return lines

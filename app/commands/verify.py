@@ -26,6 +26,9 @@ def add_parser(sub) -> None:
                                                          "SECONDS by the rule fit --resample records (a model fitted "
                                                          "with --resample applies it without this option)"})
     p.add_argument("--model", help="compare with this model's float32 reference")
+    p.add_argument("--outputs", metavar="FILE", type=named("a file for the outputs (.csv or .parquet)"),
+                   help="also write what the block output at each call of the replay (one recording), beside the "
+                        "time column: CSV (REAL to 9 digits, every bit kept) or Parquet")
     p.add_argument("--expect", type=columns, help="compare with recorded outputs: COLUMN or OUTPUT=COLUMN, comma-separated")
     p.add_argument("--inputs", type=mapping, help="block input to column mapping NAME=COLUMN,...")
     p.add_argument("--manifest", type=named("a manifest (CSV)"),
@@ -66,10 +69,37 @@ def run(args: argparse.Namespace) -> int:
             raise UserError(f"{'--jobs' if args.jobs != 1 else '--scheduler'} runs the pairs of a --manifest or the "
                             f"runs of a campaign in parallel")
         args.data = runs[0]
-        json_output.check(args, [args.block, args.data, args.model])
+        _check_outputs_file(args)
         return _against_model(args) if args.model else _against_trace(args)
     except UserError as exc:  # a model file that lacks what its kind needs: name the file
         raise UserError(str(exc).replace("model file:", f"{args.model}:", 1) if args.model else str(exc)) from None
+
+
+def _check_outputs_file(args: argparse.Namespace) -> None:
+    """--json and --outputs by the one output rule, before any work."""
+    from thermoplc.base.fileio import check_outputs
+    from thermoplc.verifier.outputs_file import check_name
+    if args.outputs is not None:
+        if args.faults:
+            raise UserError("--outputs writes one replay's outputs; --faults replays once per fault")
+        check_name(args.outputs)
+    check_outputs({"--json": json_output.file(args), "--outputs": args.outputs}, args.force,
+                  inputs=[i for i in (args.block, args.data, args.model) if i])
+
+
+def _written_outputs(args: argparse.Namespace, report, table, time_column: str) -> str:
+    """Write --outputs (when given) from what the replay produced; the line that says so."""
+    if args.outputs is None:
+        return ""
+    import numpy as np
+    from thermoplc.base.fileio import write_outputs
+    from thermoplc.verifier.outputs_file import columns, encoded
+    if not report.produced:
+        raise UserError(f"{args.block}: the block stopped before its outputs could be written ({report.failure})")
+    times = table.columns.get(time_column, np.arange(table.rows, dtype=float))
+    found = columns(report.produced, times[:len(next(iter(report.produced.values())))], time_column)
+    write_outputs([(args.outputs, encoded(found, args.outputs))])
+    return f"\n  wrote {args.outputs}: the block's {len(found) - 1} outputs at each of {len(times)} calls"
 
 
 def _runs(args: argparse.Namespace) -> list[str]:
@@ -82,9 +112,9 @@ def _runs(args: argparse.Namespace) -> list[str]:
 def _campaign(args: argparse.Namespace, runs: list[str]) -> int:
     """A campaign: every run replayed from a fresh block (a pair each, as a manifest's), one line per run
     and one verdict: 1 when any run is not bit-exact, else 2 when a run could not be read, else 0."""
-    if args.json or args.faults:
-        raise UserError("--json and --faults take one recording; a campaign's runs are listed one line each "
-                        "(verify a run alone for its --json or --faults)")
+    if args.json or args.faults or args.outputs:
+        raise UserError("--json, --faults and --outputs take one recording; a campaign's runs are listed one line "
+                        "each (verify a run alone for its --json, --faults or --outputs)")
     if "-" in runs:
         raise UserError("--data -: standard input holds one recording; give a campaign's runs as files")
     from thermoplc.models.campaign import run_labels
@@ -145,8 +175,8 @@ def _against_model(args: argparse.Namespace) -> int:
     from thermoplc.verifier.recording import read_recording, resampling_for
     from thermoplc.verifier.replay import verify_against_model
     model = load_model(args.model)
-    report = None
-    if not args.faults and resampling_for(model, args.resample) is None:
+    report, table = None, None
+    if not args.faults and args.outputs is None and resampling_for(model, args.resample) is None:
         from thermoplc.verifier.stream import verify_streaming
         report = verify_streaming(args.block, model, args.model, args.data, args.inputs, args.engine,
                                   args.decimal, progress())
@@ -159,6 +189,7 @@ def _against_model(args: argparse.Namespace) -> int:
     rule = resampling_for(model, args.resample)
     said = (f"\n  {args.data} taken onto the block's cycle of {rule.period_s:g} s first ("
             f"{'the model file' if model.resample else '--resample'}: {RULE})" if rule else "")
+    said += _written_outputs(args, report, table, model.time_column)
     return _result(args, report.text() + said, report.ok, lambda: verify_document(report))
 
 
@@ -188,7 +219,8 @@ def _against_trace(args: argparse.Namespace) -> int:
             raise UserError(f"--expect names output {output!r} twice; give each output one column")
         expect[output] = column if sep else item
     report = verify_against_trace(args.block, table, expect, args.inputs, args.time, args.engine)
-    return _result(args, report.text(), report.ok, lambda: verify_document(report))
+    said = _written_outputs(args, report, table, args.time)
+    return _result(args, report.text() + said, report.ok, lambda: verify_document(report))
 
 
 def _result(args: argparse.Namespace, text: str, ok: bool, document) -> int:
