@@ -19,5 +19,5 @@ def unreadable(path: str, exc: Exception, what: str = "") -> UserError:
     if isinstance(exc, UnicodeDecodeError):
         reason = f"not UTF-8 text (byte {exc.start})"
     else:
-        reason = reasons.get(getattr(exc, "errno", None), str(getattr(exc, "strerror", None) or exc).lower())
+        reason = reasons.get(getattr(exc, "errno", None), str(getattr(exc, "strerror", None) or exc))
     return UserError(f"{path}: cannot read{f' {what}' if what else ''}: {reason}")

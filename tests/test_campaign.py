@@ -1,6 +1,7 @@
 """Campaigns (issue 37): runs that each start a fresh block, cross-validation by run and by group,
 probed targets, mixed sample periods refused, a campaign verified run by run, the fit report."""
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -185,7 +186,13 @@ def test_fit_report_shows_every_run_and_the_folds(campaign, tmp_path):
     assert "wrote rep/index.html" in out
     page = (tmp_path / "rep" / "index.html").read_text()
     assert page.count("<img") == 6 and "Folds" in page and "hall_air_C" in page
-    assert all((tmp_path / "rep" / f"run_{k:03d}.png").read_bytes()[:4] == b"\x89PNG" for k in range(1, 7))
+    pngs = sorted(p.name for p in (tmp_path / "rep").glob("*.png"))
+    runs = sorted(p.name for p in campaign.glob("run_*.csv"))
+    assert pngs == [f"run_{k:03d}_{Path(r).stem}.png" for k, r in enumerate(runs, start=1)]
+    assert all((tmp_path / "rep" / name).read_bytes()[:4] == b"\x89PNG" for name in pngs)
+    for k, name in enumerate(pngs, start=1):  # in table order, each with its number and the block's error beside none
+        assert f'<h3>{k}. ' in page and f'src="{name}"' in page
+    assert "<code>thermoplc fit --data" in page and "E_z_um (um)" in page and "no compensation" in page
     (tmp_path / "mine").mkdir()
     (tmp_path / "mine" / "notes.txt").write_text("mine")
     refused = thermoplc("fit", "--data", campaign, "--model", "mlr", *COMMON, "--held-target", "--folds", 6,

@@ -108,13 +108,13 @@ def test_a_manifest_names_recordings_in_the_store(store, tmp_path, capsys):
                         f"{block},s3://{BUCKET}/none.csv,{model}\n")
     code, text = _text(capsys, "verify", "--manifest", str(manifest))
     assert code == 2 and "1 bit-exact, 0 NOT bit-exact, 1 error" in text
-    assert "s3://plant/none.csv: cannot read: Path does not exist" in text
+    assert "s3://plant/none.csv: cannot read: no such file" in text
 
 
 @pytest.mark.parametrize("url, expected", [
-    (f"s3://{BUCKET}/missing.csv", "s3://plant/missing.csv: cannot read: Path does not exist"),
+    (f"s3://{BUCKET}/missing.csv", "s3://plant/missing.csv: cannot read: no such file"),
     ("gopher://host/run.csv", "gopher://host/run.csv: cannot read: Unrecognized filesystem type in URI"),
-    (f"s3://{BUCKET}/empty/", "s3://plant/empty/: cannot read: Path does not exist"),
+    (f"s3://{BUCKET}/empty/", "s3://plant/empty/: cannot read: no such file"),
 ])
 def test_what_the_store_cannot_give_is_one_line(store, capsys, url, expected):
     code, text = _text(capsys, "fit", "--data", url, "--model", "mlr", *FIT, "-o", "never.json")

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -181,7 +182,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--probe on a campaign chooses the fusion on runs held out: give --folds K or --group-by")
     inputs = [*runs.paths, *([runs.table] if runs.table else []), args.temps.file]  # none may become an output
     stale = check_outputs({"-o": args.output, "--json": json_output.file(args)}, args.force, inputs, args.report,
-                          report_names(len(runs.paths)), is_report_file)
+                          report_names(list(runs.paths)), is_report_file)
     campaign = read_campaign(runs, args.time, args.decimal, probed=args.target, held=args.held_target,
                              resampling=resampling_of(args))
     groups = campaign.groups(args.group_by) if args.group_by else None
@@ -207,7 +208,8 @@ def run(args: argparse.Namespace) -> int:
         model = replace(model, resample=resampling_of(args))
     becomes_block(model, args.output)
     document = fit_document(model, args.output)
-    outputs = [*(report_files(args.report, model, campaign, predictions) if args.report is not None else []),
+    command = " ".join(shlex.quote(a) for a in ("thermoplc", *sys.argv[1:]))
+    outputs = [*(report_files(args.report, model, campaign, predictions, command) if args.report is not None else []),
                (args.output, model.to_json()),
                *([(json_output.file(args), json_output.encoded(document))] if json_output.file(args) else [])]
     write_outputs(outputs, remove=[Path(args.report) / name for name in stale])  # all of them, or none
