@@ -1,4 +1,7 @@
-"""The `thermoplc` command: thin wrappers over the library, one subcommand each."""
+"""thermoplc: thermal-error models of machine tools, compiled into PLC blocks and proven bit for bit.
+
+The command line is a thin layer over the library (thermoplc.api), one subcommand each; each subcommand's
+--help has an example and names its docs page."""
 from __future__ import annotations
 
 import argparse

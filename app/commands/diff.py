@@ -5,11 +5,15 @@ import argparse
 
 from thermoplc.commands import json_output
 from thermoplc.base.errors import UserError
-from thermoplc.commands.options import DECIMAL, mapping, named, number
+from thermoplc.commands.options import examples, DECIMAL, mapping, named, number
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("diff", help="what changed between two blocks: constants, interface, statements, behaviour")
+    p = sub.add_parser("diff", help="what changed between two blocks: constants, interface, statements, behaviour",
+                       **examples("  thermoplc diff old/ThermalComp.scl ThermalComp.scl\n"
+                 "  thermoplc diff a.scl b.scl --data recording.csv\n"
+                 "  thermoplc diff a.scl b.scl --data run.csv --probe-target E_z_um --held-target",
+                                  "docs/reliability.md"))
     p.add_argument("old", help="the block as it was (ST source or PLCopen XML)")
     p.add_argument("new", help="the block as it is now (ST source or PLCopen XML)")
     p.add_argument("--data", help="replay both blocks on this CSV and report the largest output difference")

@@ -11,7 +11,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_outputs, write_outputs
 from thermoplc.commands import json_output
 from thermoplc.commands.fit_options import Given, refuse_options_not_read
-from thermoplc.commands.options import (DECIMAL, FORCE_HELP, RESAMPLE, SEED, campaign_arguments, columns, named, number,
+from thermoplc.commands.options import (DECIMAL, FORCE_HELP, RESAMPLE, SEED, examples, campaign_arguments, columns, named, number,
                                         scheduler_address, training_part)
 from thermoplc.commands.terminal import end_progress, progress
 
@@ -33,25 +33,41 @@ class _KindChoices:
 
 def add_parser(sub) -> None:
     from thermoplc.models.bayes import UNSEEN_RULES
-    p = sub.add_parser("fit", help="fit a thermal-error model to a CSV file")
+    p = sub.add_parser("fit", help="fit a thermal-error model to a recording or a campaign of runs",
+                       description="Fit a thermal-error model to a recording or a campaign of runs (CSV, .npz,\n"
+                                   "Parquet) and judge it on rows it never saw; `thermoplc generate` compiles the\n"
+                                   "model file into a PLC block.", **examples(
+                           "  thermoplc fit --data fl_thermal.csv --model dlag --target ch3_um --temps t8_C,t4_C,t5_C,t11_C \\\n"
+                           "      --train-until 86400 -o model.json\n"
+                           "  thermoplc fit --data runs --model mlr --target E_z_um --held-target --temps T_motor,T_bearing \\\n"
+                           "      --folds 8 --probe --report report -o fused.json\n"
+                           "  thermoplc fit --data logger_files --resample 40 --model auto --target disp_x_um --temps @sensors.txt \\\n"
+                           "      --speed rpm --ambient hall_C --folds 10 -o auto.json",
+                           "docs/models.md (the kinds and their papers), docs/campaigns.md (runs, probed targets, --resample)"))
     p.register("action", None, Given)  # every plain option notes that it was given (fit_options.py)
     p.set_defaults(given=())
-    campaign_arguments(p, "each started as a fresh block (piecewise: one run per batch, its initial ambient read "
+    data = p.add_argument_group("data")
+    model = p.add_argument_group("model")
+    evaluation = p.add_argument_group("training part and held-out evidence")
+    probing = p.add_argument_group("probe fusion (docs/probing.md)")
+    kinds = p.add_argument_group("kind-specific (each refused for a kind that does not read it)")
+    output = p.add_argument_group("output")
+    campaign_arguments(data, "each started as a fresh block (piecewise: one run per batch, its initial ambient read "
                           "from each)", " and free attribute columns (hall air setpoint, programme, date, ...)")
-    p.add_argument("--model", choices=_KindChoices(), metavar="KIND", required=True,
+    model.add_argument("--model", choices=_KindChoices(), metavar="KIND", required=True,
                    help="kalman (paper 000), lumped, mlr, dlag and piecewise (paper 001), bpnn (paper 002), gm0n and "
                         "gm1n (paper 003), bayes (paper 004); auto: every kind the given roles allow on sensor "
                         "sets from --temps (forward selection and fcm-grey), ranked by held-out RMSE, the best written")
-    p.add_argument("--target", type=columns, required=True,
+    model.add_argument("--target", type=columns, required=True,
                    help="measured displacement column, um; bpnn takes several: elongation,yaw,pitch. A probed "
                         "target may be empty between probings: the fit and every error use the measured rows, the "
                         "temperatures every row")
-    p.add_argument("--temps", type=columns, required=True,
+    model.add_argument("--temps", type=columns, required=True,
                    help="temperature columns, comma-separated, or @FILE written by select-sensors -o")
-    p.add_argument("--speed", help="spindle speed column, rpm (kalman, lumped; auto tries them only with it)")
-    p.add_argument("--ambient", help="ambient temperature column, degC (kalman, lumped, piecewise)")
-    p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
-    part = training_part(p, required=True)
+    model.add_argument("--speed", help="spindle speed column, rpm (kalman, lumped; auto tries them only with it)")
+    model.add_argument("--ambient", help="ambient temperature column, degC (kalman, lumped, piecewise)")
+    data.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
+    part = training_part(evaluation, required=True)
     part.add_argument(
         "--folds", type=number(int, 2, 1_000_000, "folds"), metavar="K",
         help="fit on every row, with held-out evidence from cross-validation. One recording: K (2 to 20) contiguous "
@@ -62,68 +78,67 @@ def add_parser(sub) -> None:
                       help="fit on every row, with held-out evidence from leave-one-group-out cross-validation over "
                            "the groups of this column of the --runs table (fit on the cool days, predict the warm "
                            "ones)")
-    p.add_argument("--held-target", action="store_true",
+    data.add_argument("--held-target", action="store_true",
                    help="the target holds its last probing between probings: only the first row and the rows where "
                         "it changes are measurements (an empty target cell is always a row without a measurement)")
-    p.add_argument("--probe", action="store_true",
+    probing.add_argument("--probe", action="store_true",
                    help="a fused block: the block also takes the machine's probings (ProbeValue, ProbeNew) and moves "
                         "its prediction by an offset each probing teaches; gain, drift rate, decay and gate chosen on "
                         "held-out runs (--folds or --group-by on a campaign, or the held-out part of one recording)")
-    p.add_argument("--probe-every", type=number(int, 1, 10 ** 9, "calls"), metavar="N",
+    probing.add_argument("--probe-every", type=number(int, 1, 10 ** 9, "calls"), metavar="N",
                    help="with --probe on a target measured at every call: simulate a probing every N calls (a probed "
                         "target's own measured rows are its probings)")
-    p.add_argument("--report", metavar="DIR", type=named("a folder for the report"),
+    output.add_argument("--report", metavar="DIR", type=named("a folder for the report"),
                    help="also write a report folder: per run measured, predicted and no compensation, the residual, "
                         "the fold and group tables, one PNG per run and an index.html")
-    p.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
+    evaluation.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
                    help="with --folds or --group-by: fit the folds as tasks of the Dask distributed cluster whose "
                         "scheduler is at ADDRESS (tcp://HOST:PORT; the fleet extra) while this process fits on every "
                         "row; every worker reads the runs by the paths given. The same model file, bit for bit")
-    p.add_argument("--optimizer", choices=("ga", "de"), default="ga",
+    kinds.add_argument("--optimizer", choices=("ga", "de"), default="ga",
                    help="ga: paper 000's genetic algorithm; de: scipy differential evolution")
-    p.add_argument("--seed", type=SEED, default=0, help="random seed of the optimiser (default: %(default)s)")
-    p.add_argument("--generations", type=number(int, 1, 10000, "generations"), default=60,
+    kinds.add_argument("--seed", type=SEED, default=0, help="random seed of the optimiser (default: %(default)s)")
+    kinds.add_argument("--generations", type=number(int, 1, 10000, "generations"), default=60,
                    help="generations of the GA or DE (default: %(default)s)")
-    p.add_argument("--population", type=number(int, 2, 10000, "individuals"), default=40,
+    kinds.add_argument("--population", type=number(int, 2, 10000, "individuals"), default=40,
                    help="individuals per generation (default: %(default)s)")
-    p.add_argument("--ga-operators", choices=("paper002", "paper000"), default="paper002",
+    kinds.add_argument("--ga-operators", choices=("paper002", "paper000"), default="paper002",
                    help="bpnn: the GA's crossover and mutation, paper 002's single-point crossover and one mutated "
                         "position, or paper 000's arithmetic crossover and Gaussian mutation (default: %(default)s; "
                         "benchmarks/ga_operators.py compares them held out)")
-    p.add_argument("--jump-limit", type=number(float, 1e-6, 1e3, "kelvin"), help="K per call that marks a sensor faulty (default from data)")
-    p.add_argument("--recover-limit", type=number(float, 1e-6, 1e3, "kelvin"), help="K between measurement and model to recover (default from data)")
-    p.add_argument("--bins", type=number(int, 1, 4096, "intervals"), default=8, help="bayes: intervals per temperature (default: %(default)s)")
-    p.add_argument("--precision-um", type=number(float, 1e-3, 1e6, "micrometres"), default=1.0,
+    kinds.add_argument("--jump-limit", type=number(float, 1e-6, 1e3, "kelvin"), help="K per call that marks a sensor faulty (default from data)")
+    kinds.add_argument("--recover-limit", type=number(float, 1e-6, 1e3, "kelvin"), help="K between measurement and model to recover (default from data)")
+    kinds.add_argument("--bins", type=number(int, 1, 4096, "intervals"), default=8, help="bayes: intervals per temperature (default: %(default)s)")
+    kinds.add_argument("--precision-um", type=number(float, 1e-3, 1e6, "micrometres"), default=1.0,
                    help="bayes: interval width of the error, the precision requirement (default: %(default)s)")
-    p.add_argument("--unseen", choices=UNSEEN_RULES, default=UNSEEN_RULES[0],
+    kinds.add_argument("--unseen", choices=UNSEEN_RULES, default=UNSEEN_RULES[0],
                    help="bayes: a temperature configuration never seen in training answers as the nearest seen one, "
                         "or the error interval most frequent overall (default: %(default)s)")
-    p.add_argument("--time-bins", type=number(int, 0, 4096, "intervals"), default=0, metavar="N",
+    kinds.add_argument("--time-bins", type=number(int, 0, 4096, "intervals"), default=0, metavar="N",
                    help="bayes: the time since the first call is a parent too, in N intervals (paper 004's repeated "
                         "runs: give one --data file per run; default: %(default)s, no time parent)")
-    p.add_argument("--lags", type=number(int, 1, 1000, "lags"), default=3, help="dlag: lagged terms per sensor (default: %(default)s)")
-    p.add_argument("--lag-step", type=number(float, 1e-3, 1e7, "seconds"), default=600.0, metavar="SECONDS",
+    kinds.add_argument("--lags", type=number(int, 1, 1000, "lags"), default=3, help="dlag: lagged terms per sensor (default: %(default)s)")
+    kinds.add_argument("--lag-step", type=number(float, 1e-3, 1e7, "seconds"), default=600.0, metavar="SECONDS",
                    dest="lag_step_s",
                    help="dlag: time between lags (default: %(default)s)")
-    p.add_argument("--tool-length", metavar="COLUMN",
+    kinds.add_argument("--tool-length", metavar="COLUMN",
                    help="bpnn: tool length column, mm; adds paper 002's X/Y/Z compensation outputs")
-    p.add_argument("--name", default="ThermalComp",
+    model.add_argument("--name", default="ThermalComp",
                    help="function block name, kept in the model file (generate --name overrides it) (default: %(default)s)")
-    p.add_argument("--decimal", **DECIMAL)
-    p.add_argument("--resample", **RESAMPLE)
-    p.add_argument("--force", action="store_true", help=FORCE_HELP)
-    p.add_argument("-o", "--output", required=True, help="model file to write (JSON)")
-    json_output.add_arguments(p, force=False)
+    data.add_argument("--decimal", **DECIMAL)
+    data.add_argument("--resample", **RESAMPLE)
+    output.add_argument("--force", action="store_true", help=FORCE_HELP)
+    output.add_argument("-o", "--output", required=True, help="model file to write (JSON)")
+    json_output.add_arguments(output, force=False)
     p.set_defaults(func=run)
 
 
-def _refuse_nothing_held_out(args: argparse.Namespace, tables) -> None:
-    """A training part that takes every row leaves no evidence: name where the data end instead of writing a
-    model generate will refuse."""
+def _refuse_nothing_held_out(args: argparse.Namespace, table) -> None:
+    """One recording whose training part takes every row leaves no evidence: name where the data end instead of
+    writing a model generate will refuse (a campaign trained on whole runs is verified on other runs)."""
     from thermoplc.models.fit import training_rows
-    if any(training_rows(t, args.time, args.train_until, args.train_rows) < t.rows for t in tables):
+    if training_rows(table, args.time, args.train_until, args.train_rows) < table.rows:
         return
-    table = tables[-1]
     if args.train_rows is not None:
         raise UserError(f"{table.path}: --train-rows {args.train_rows} leaves no row held out (the file has {table.rows} "
                         f"rows); train on fewer, or judge by cross-validation with --folds K")
@@ -187,8 +202,8 @@ def run(args: argparse.Namespace) -> int:
                              resampling=resampling_of(args))
     groups = campaign.groups(args.group_by) if args.group_by else None
     tables = campaign.tables
-    if not (args.folds or args.group_by):
-        _refuse_nothing_held_out(args, tables)
+    if len(tables) == 1 and not (args.folds or args.group_by):
+        _refuse_nothing_held_out(args, tables[0])
     predictions: dict = {}  # each run's held-out prediction: the report draws it, the probe fusion is chosen on it
     remote = _remote(args, campaign, runs)
     try:

@@ -7,13 +7,18 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.commands import json_output
-from thermoplc.commands.options import (DECIMAL, RECORDING, RESAMPLE, RUNS_TABLE, columns, mapping, named, number,
+from thermoplc.commands.options import (examples, DECIMAL, RECORDING, RESAMPLE, RUNS_TABLE, columns, mapping, named, number,
                                         scheduler_address)
 from thermoplc.commands.terminal import progress
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("verify", help="replay data through a block and compare every output bit for bit")
+    p = sub.add_parser("verify", help="replay data through a block and compare every output bit for bit",
+                       **examples("  thermoplc verify ThermalComp.scl --model model.json --data twin.csv\n"
+                 "  thermoplc verify ThermalComp.scl --model model.json --data twin.csv --faults\n"
+                 "  thermoplc verify ThermalComp.scl --model model.json --data twin.csv --outputs outputs.csv\n"
+                 "  thermoplc verify ThermalComp.scl --data trace.csv --expect E_z_um=plc_E",
+                                  "docs/reliability.md and docs/commissioning.md"))
     p.add_argument("block", nargs="?", help="the block: its ST source, or the PLCopen XML of generate --format plcopen")
     p.add_argument("--data", action="append", type=RECORDING,
                    help="the recording (CSV, .npz or Parquet of columns), one row per call; columns Enable and Reset "
