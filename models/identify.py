@@ -130,29 +130,38 @@ def fit_sensor(runs: list[Series], i: int, shared: Shared, effects=(), start: Se
                         **{name: float(c) for (name, _), c in zip(named[0], coef)})
 
 
-SETTLED_LAGS = 5  # time constants a structure lag must fit inside the fitting part to be told from a trend
-SHORTEST_LAG_S, LONGEST_LAG_S = 600.0, 48 * 3600.0
+SETTLED_LAGS = 3  # time constants a structure lag must fit inside the fitting part to be told from a trend
+SHORTEST_LAG_S = 600.0
+# the baseline's structure is a lag of hours; a slower path is the named effect slow_structure (diagnose), judged
+# on held-out evidence instead of chosen on one validation third
+LONGEST_LAG_S = 4 * 3600.0
+GRID_SPAN_S = 48 * 3600.0  # the grid's density: GRID_POINTS over 10 min .. 48 h, as the effects' searches
 
 
 def structure_lags(runs: list[Series], cuts: list[int | None]) -> np.ndarray:
-    """The structure time constants tried: 10 min up to the longest whose state settles inside the part the map
-    is fitted on (SETTLED_LAGS of them in the longest run's fitting part). A longer lag never settles there: on
-    the data it is a slow trend, fitted on the first hours and extrapolated beyond them (FL_THERMAL ch3 trained
-    until 27.8 h chose a 41 h lag and predicted the rest at 22.8 um, against 6.1 for mlr)."""
+    """The structure time constants tried: 10 min up to the longest that settles SETTLED_LAGS times inside the
+    longest run's fitting part, and at most LONGEST_LAG_S. A longer lag never settles there: on the data it is a
+    slow trend, fitted on the first hours and extrapolated beyond them (FL_THERMAL ch3 trained until 27.8 h chose
+    a 41 h lag from a grid up to 48 h and predicted the rest at 22.8 um, against 6.1 for mlr)."""
     span = max((cut if cut is not None else series.rows) * series.dt for series, cut in zip(runs, cuts))
     longest = min(max(span / SETTLED_LAGS, SHORTEST_LAG_S), LONGEST_LAG_S)
-    points = max(int(round(sim_.GRID_POINTS * np.log(longest / SHORTEST_LAG_S) / np.log(LONGEST_LAG_S / SHORTEST_LAG_S))), 1)
+    points = max(int(round(sim_.GRID_POINTS * np.log(longest / SHORTEST_LAG_S) / np.log(GRID_SPAN_S / SHORTEST_LAG_S))), 1)
     return np.exp(np.linspace(np.log(SHORTEST_LAG_S), np.log(longest), points + 1))
 
 
-def fit_displacement(runs: list[Series], temps: list[np.ndarray], t0: list[np.ndarray], structure_lag: bool = True
-                     ) -> tuple[DisplacementParams, dict]:
-    """Structure time constant (none among the candidates: the map on the temperatures alone) and ridge weight
-    by forward validation (fitted on the first two thirds of each run, scored on the rest of each), then the
-    map on the measured rows of every run. Without `structure_lag` the map reads the temperatures alone (paper
-    000 eq. 10)."""
+def fit_displacement(runs: list[Series], temps: list[np.ndarray], t0: list[np.ndarray], structure_lag: bool = True,
+                     bounded: bool = False) -> tuple[DisplacementParams, dict]:
+    """Structure time constant and ridge weight by forward validation (fitted on the first two thirds of each run,
+    scored on the rest of each), then the map on the measured rows of every run. Without `structure_lag` the map
+    reads the temperatures alone (paper 000 eq. 10). `bounded` (the block kind, `fit --model lumped`): the lags of
+    `structure_lags` and none; else (diagnose's baseline) 10 min to 48 h, the grid its effects were judged on."""
     cuts = [ridge.validation_cut(series.rows) for series in runs]
-    taus = [None, *structure_lags(runs, cuts)] if structure_lag else [None]
+    if not structure_lag:
+        taus = [None]
+    elif bounded:
+        taus = [None, *structure_lags(runs, cuts)]
+    else:
+        taus = np.exp(np.linspace(np.log(SHORTEST_LAG_S), np.log(GRID_SPAN_S), sim_.GRID_POINTS))
     measured = [np.isfinite(series.target) for series in runs]
 
     def design_of(tau: float, r: int) -> np.ndarray:
@@ -188,8 +197,8 @@ def fit_displacement(runs: list[Series], temps: list[np.ndarray], t0: list[np.nd
                     "validation_rows": int(sum(np.count_nonzero(late(r, c) & measured[r]) for r, c in enumerate(cuts)))}
 
 
-def fit(runs: list[Series], progress: Callable[[str], None] | None = None, structure_lag: bool = True
-        ) -> tuple[Simulation, dict]:
+def fit(runs: list[Series], progress: Callable[[str], None] | None = None, structure_lag: bool = True,
+        bounded: bool = False) -> tuple[Simulation, dict]:
     """The identified baseline (no effects) on the runs' training parts; and what was measured. Each run
     starts from its own state; the parameters are shared. `progress` hears each sensor and the map."""
     shared = Shared(stopped_rpm=sim_.stopped_threshold(np.concatenate([series.n for series in runs])))
@@ -208,7 +217,7 @@ def fit(runs: list[Series], progress: Callable[[str], None] | None = None, struc
     filtered = [sim_.temperatures(series, shared, sensors, ()) for series in runs]  # one step ahead, and filtered
     displacement, chosen = fit_displacement(runs, [temps for _, temps in filtered],
                                             [sim_.first_temperatures(series, sensors) for series in runs],
-                                            structure_lag)
+                                            structure_lag, bounded)
     sim = Simulation((), shared, sensors, displacement)
     open_loop = tuple(replace(p, filter_gain=0.0) for p in sensors)
     simulated = [sim_.temperatures(series, shared, open_loop, ())[0] for series in runs]

@@ -189,7 +189,7 @@ def _csv_cases() -> list[Case]:
                        "200", "-o", "out.json", "--data", "bad.csv"),
                       with_text("bad.csv", lambda t: _rename(t, "T_motor", "T_motor(°C)")), "accepted", "wrote out.json"))
     cases.append(Case("CSV", "missing file", "fit", (*FIT, "nothere.csv"), lambda f: None, "error",
-                      "nothere.csv: cannot read: No such file or directory"))
+                      "nothere.csv: cannot read: no such file"))
     return cases
 
 
@@ -863,7 +863,7 @@ def _campaign_cases() -> list[Case]:
              "the target 'E_z_um' is measured on 0 of the 200 training rows"),
         Case("campaign", "verify a campaign with --json", "verify",
              ("verify", "block.scl", "--model", "mlr.json", "--data", "good.csv", "--data", "b.csv", "--json", "-"),
-             _files({"b.csv": run_b}), "error", "--json and --faults take one recording"),
+             _files({"b.csv": run_b}), "error", "--json, --faults and --outputs take one recording"),
         Case("campaign", "twin --runs into a folder with files", "twin",
              ("twin", "--runs", "2", "--hours", "1", "-o", "full"), _files({"full/x.txt": lambda _: "x"}), "error",
              "with --runs, a new or empty folder"),
