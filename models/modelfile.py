@@ -324,11 +324,21 @@ def _parse(doc, path: str) -> Model:
 
 
 def _resampling(doc: dict, path: str, sample_period: float) -> Resampling | None:
-    """The recorded resampling; its period must be the block's cycle."""
+    """The recorded resampling, checked before it is built (the schema runs after): an object with a finite
+    positive period equal to the block's cycle and a list of column names to hold."""
     if "resample" not in doc:
         return None
-    found = Resampling.from_doc(doc["resample"])
-    if abs(found.period_s - sample_period) > 1e-9 * sample_period:
-        raise UserError(f"{path}: field 'resample.period_s': {found.period_s:g} s, but the block's cycle "
+    found = doc["resample"]
+    if not isinstance(found, dict):
+        raise UserError(f"{path}: field 'resample': expected an object with period_s and hold, found {found!r}")
+    period = found.get("period_s")
+    if isinstance(period, bool) or not isinstance(period, (int, float)) or not math.isfinite(period) or period <= 0:
+        raise UserError(f"{path}: field 'resample.period_s': expected a finite number of seconds above 0, "
+                        f"found {period!r}")
+    hold = found.get("hold", [])
+    if not isinstance(hold, list) or not all(isinstance(c, str) and c for c in hold):
+        raise UserError(f"{path}: field 'resample.hold': expected a list of column names, found {hold!r}")
+    if abs(period - sample_period) > 1e-9 * sample_period:
+        raise UserError(f"{path}: field 'resample.period_s': {period:g} s, but the block's cycle "
                         f"(sample_period_s) is {sample_period:g} s")
-    return found
+    return Resampling.from_doc(found)

@@ -257,3 +257,24 @@ def test_diff_replays_two_fused_blocks_with_the_probings_of_a_target_column(tmp_
     assert unprobed.returncode == 2 and "no column 'ProbeValue'" in unprobed.stderr
     alone = thermoplc("diff", "a.scl", "b.scl", "--probe-every", "30", cwd=tmp_path, check=None)
     assert alone.returncode == 2 and "give --probe-target" in alone.stderr
+
+
+def test_diff_refuses_fused_blocks_replayed_without_probings_and_reads_a_probed_target(tmp_path):
+    thermoplc("twin", "--runs", "2", "--hours", "4", "--dt", "60", "--seed", "3", "--probe-minutes", "30", "-o", "runs",
+              cwd=tmp_path)
+    thermoplc("fit", "--data", "runs", "--model", "mlr", "--target", "E_z_um", "--held-target", "--temps",
+              "T_motor,T_bearing", "--folds", "2", "--probe", "-o", "m.json", cwd=tmp_path)
+    thermoplc("generate", "m.json", "--accept-unvalidated", "-o", "a.scl", cwd=tmp_path)
+    silent = thermoplc("diff", "a.scl", "a.scl", "--data", "runs/run_001.csv", "--inputs", "ProbeValue=E_z_um",
+                       cwd=tmp_path, check=2)
+    assert "a fused block: without ProbeNew no probing reaches it" in silent.stderr
+    rows = (tmp_path / "runs" / "run_001.csv").read_text().splitlines()
+    at = rows[0].split(",").index("E_z_um")
+    probed, last = [rows[0]], None
+    for row in rows[1:]:  # the held target as a probed one: empty between its probings
+        cells = row.split(",")
+        cells[at], last = ("" if cells[at] == last else cells[at]), cells[at]
+        probed.append(",".join(cells))
+    (tmp_path / "probed.csv").write_text("\n".join(probed) + "\n")
+    same = thermoplc("diff", "a.scl", "a.scl", "--data", "probed.csv", "--probe-target", "E_z_um", cwd=tmp_path)
+    assert "identical, every output bit equal" in same.stdout

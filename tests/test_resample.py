@@ -28,14 +28,24 @@ def test_each_column_by_its_rule():
                  probed=[np.nan, 5.0, np.nan, np.nan, 7.0, np.nan, np.nan],
                  held=[1.0, 1.0, 3.0, 3.0, 3.0, 3.0, 4.0])
     out = resample(raw, "time_s", Resampling(20.0, ("rpm",)), probed=("probed",))
-    assert list(out.columns["time_s"]) == [0.0, 20.0, 40.0, 60.0, 80.0, 100.0, 120.0]
-    np.testing.assert_allclose(out.columns["T"], 20.0 + 0.1 * out.columns["time_s"])  # a ramp stays the ramp
-    assert list(out.columns["rpm"]) == [0, 1000, 2000, 2000, 2000, 0, 0]  # the last value at or before each call
-    assert list(np.isfinite(out.columns["probed"])) == [False, True, False, True, False, False, False]
+    # the calls run to the first one at or after the last row (121 s): a probing there still has its call
+    assert list(out.columns["time_s"]) == [0.0, 20.0, 40.0, 60.0, 80.0, 100.0, 120.0, 140.0]
+    np.testing.assert_allclose(out.columns["T"][:-1], 20.0 + 0.1 * out.columns["time_s"][:-1])  # a ramp stays one
+    assert out.columns["T"][-1] == 32.1  # after the last row: its value
+    assert list(out.columns["rpm"]) == [0, 1000, 2000, 2000, 2000, 0, 0, 0]  # the last value at or before each call
+    assert list(np.isfinite(out.columns["probed"])) == [False, True, False, True, False, False, False, False]
     assert out.columns["probed"][1] == 5.0 and out.columns["probed"][3] == 7.0  # at the call that follows
-    assert list(out.lines) == [2, 3, 5, 6, 6, 7, 7]  # each call names the raw line at or before it
+    assert list(out.lines) == [2, 3, 5, 6, 6, 7, 7, 8]  # each call names the raw line at or before it
     held = resample(raw, "time_s", Resampling(20.0), probed=("held",), held=True)
-    assert list(held.columns["held"]) == [1.0, 1.0, 3.0, 3.0, 3.0, 3.0, 3.0]
+    assert list(held.columns["held"]) == [1.0, 1.0, 3.0, 3.0, 3.0, 3.0, 3.0, 4.0]
+
+
+def test_a_pulse_between_two_calls_reaches_the_call_that_follows_it_and_the_last_probing_is_kept():
+    raw = _table([0.0, 10.0, 15.0, 20.0, 35.0, 47.0], Reset=[0, 0, 1, 0, 0, 0], T=[1, 2, 3, 4, 5, 6],
+                 probed=[np.nan, np.nan, np.nan, np.nan, np.nan, 9.0])
+    out = resample(raw, "time_s", Resampling(20.0, pulses=("Reset",)), probed=("probed",))
+    assert list(out.columns["Reset"]) == [0.0, 1.0, 0.0, 0.0]  # the pulse at 15 s, at the call at 20 s
+    assert out.columns["probed"][-1] == 9.0 and out.columns["time_s"][-1] == 60.0
 
 
 def test_two_probings_in_one_cycle_keep_the_later_and_a_gap_is_refused_with_its_time():
@@ -64,13 +74,13 @@ def test_a_resampled_table_is_on_the_cycle_never_overshoots_and_keeps_every_prob
         assert "bridges at most" in str(exc) and np.max(np.diff(t)) > MAX_GAP_CALLS * period
         return
     calls = out.columns["time_s"]
-    assert calls[0] == t[0] and calls[-1] <= t[-1] + 1e-9 * period
+    assert calls[0] == t[0] and calls[-1] >= t[-1] - 1e-9 * period > calls[-1] - period
     np.testing.assert_allclose(np.diff(calls), period, rtol=1e-12)
     assert np.all(out.columns["T"] >= temps.min() - 1e-9) and np.all(out.columns["T"] <= temps.max() + 1e-9)
     assert set(out.columns["rpm"]) <= set(speed)
     kept = out.columns["probe"][np.isfinite(out.columns["probe"])]
     cycles = np.ceil((t - t[0]) / period - 1e-9).astype(int)
-    last_in_cycle = {c: v for c, v in zip(cycles, probed) if np.isfinite(v) and c < len(calls)}
+    last_in_cycle = {c: v for c, v in zip(cycles, probed) if np.isfinite(v)}  # none lost
     assert sorted(kept) == sorted(last_in_cycle.values())
     again = resample(raw, "time_s", Resampling(period, ("rpm",)), probed=("probe",))
     for name in out.columns:  # the same bits every time
@@ -144,3 +154,26 @@ def test_a_logger_campaign_with_held_probings_is_fused_and_verified_on_its_raw_f
     thermoplc("generate", "m.json", "-o", "m.scl", "--accept-unvalidated", cwd=tmp_path)
     verified = thermoplc("verify", "m.scl", "--model", "m.json", "--data", "raw", cwd=tmp_path)
     assert verified.stdout.splitlines()[-1].startswith("bit-exact: every run reproduces the reference (3 runs")
+
+
+def test_a_hand_edited_resample_section_is_one_line_and_a_mapped_speed_is_held(tmp_path):
+    thermoplc("twin", "--hours", "3", "--seed", "2", "--dt", "40", "--logger", "-o", "lg.csv", cwd=tmp_path)
+    thermoplc("fit", "--data", "lg.csv", "--model", "lumped", "--target", "E_z_um", "--temps", "T_motor,T_bearing",
+              "--speed", "n_rpm", "--ambient", "T_env", "--train-until", "7200", "--resample", "40", "-o", "m.json",
+              cwd=tmp_path)
+    thermoplc("generate", "m.json", "-o", "m.scl", "--accept-unvalidated", cwd=tmp_path)
+    doc = json.loads((tmp_path / "m.json").read_text())
+    for bad, field in (("abc", "resample.period_s"), (float("nan"), "resample.period_s"), (None, "resample.period_s")):
+        edited = {**doc, "resample": {**doc["resample"], "period_s": bad}}
+        (tmp_path / "e.json").write_text(json.dumps(edited))
+        refused = thermoplc("verify", "m.scl", "--model", "e.json", "--data", "lg.csv", cwd=tmp_path, check=None)
+        assert refused.returncode == 2 and f"e.json: field '{field}'" in refused.stderr, refused.stderr
+    (tmp_path / "e.json").write_text(json.dumps({**doc, "resample": 40}))
+    assert "field 'resample': expected an object" in thermoplc("verify", "m.scl", "--model", "e.json", "--data",
+                                                                 "lg.csv", cwd=tmp_path, check=2).stderr
+    text = (tmp_path / "lg.csv").read_text()
+    (tmp_path / "renamed.csv").write_text(text.replace("n_rpm", "spindle", 1))
+    thermoplc("verify", "m.scl", "--model", "m.json", "--data", "lg.csv", "--outputs", "a.csv", cwd=tmp_path)
+    thermoplc("verify", "m.scl", "--model", "m.json", "--data", "renamed.csv", "--inputs", "n_rpm=spindle",
+              "--outputs", "b.csv", cwd=tmp_path)
+    assert (tmp_path / "a.csv").read_bytes() == (tmp_path / "b.csv").read_bytes()  # the mapped column held too

@@ -60,3 +60,13 @@ def test_outputs_refused_where_there_is_no_one_replay_to_write(tmp_path):
         result = thermoplc(*argv, cwd=tmp_path, check=None)
         assert result.returncode == 2 and message in result.stderr, (argv, result.stderr)
     assert not (tmp_path / "out.csv").exists() and not (tmp_path / "o.csv").exists()
+
+
+def test_a_manifest_takes_no_outputs_and_a_trace_pair_no_resample(tmp_path):
+    _block(tmp_path)
+    (tmp_path / "m.csv").write_text("block,data,model\nb.scl,data.csv,m.json\n")
+    refused = thermoplc("verify", "--manifest", "m.csv", "--outputs", "o.csv", cwd=tmp_path, check=2)
+    assert "give no BLOCK, --data, --model, --expect, --faults or --outputs" in refused.stderr
+    (tmp_path / "t.csv").write_text("block,expect,data\nb.scl,E_z_um=E_z_um,data.csv\n")
+    traced = thermoplc("verify", "--manifest", "t.csv", "--resample", "10", cwd=tmp_path, check=None)
+    assert traced.returncode == 2 and "a pair compared with a PLC trace" in traced.stdout + traced.stderr

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field, fields, is_dataclass, replace
 import numpy as np
 
 from thermoplc.base.binary32 import f32_bits
+from thermoplc.base.errors import UserError
+from thermoplc.contract.outputs import PROBE_NEW_INPUT, PROBE_VALUE_INPUT
 from thermoplc.models.table import Table
 from thermoplc.verifier import syntax as s
 from thermoplc.verifier.engines import Replayer
@@ -236,6 +238,11 @@ def _behaviour(old_path: str, new_path: str, old: s.Program, new: s.Program, tab
     for program, path in ((old, old_path), (new, new_path)):
         replayer = Replayer(program, path)
         columns = block_columns(replayer.inputs, table, overrides, path)
+        takes_probings = any(d.name.upper() == PROBE_NEW_INPUT.upper() for d in replayer.inputs)
+        if takes_probings and not any(name.upper() == PROBE_NEW_INPUT.upper() for name in columns):
+            raise UserError(f"{path}: a fused block: without {PROBE_NEW_INPUT} no probing reaches it and its fusion "
+                            f"is not compared; give --probe-target COLUMN (or columns {PROBE_VALUE_INPUT} and "
+                            f"{PROBE_NEW_INPUT})")
         replayed.append(replayer.replay(columns, table.rows, tuple(d.name for d in replayer.outputs)))
     before, after = replayed
     old_outputs = {d.name.upper(): d for d in old.decls if d.section == "output"}

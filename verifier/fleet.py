@@ -105,10 +105,14 @@ def verify_pair(pair: Pair, engine: str) -> Outcome:
             report = (verify_streaming(pair.block, model, pair.model, pair.data, pair.inputs, engine, pair.decimal)
                       if resampling_for(model, pair.resample_s) is None else None)
             if report is None:
-                table = read_recording(pair.data, model, decimal=pair.decimal, period_s=pair.resample_s)
+                table = read_recording(pair.data, model, decimal=pair.decimal, period_s=pair.resample_s,
+                                       overrides=pair.inputs)
                 report = verify_against_model(pair.block, model, pair.model, table, pair.inputs, engine,
                                               pair.probe_every)
         else:
+            if pair.resample_s is not None:
+                raise UserError("--resample takes raw data onto a model's cycle; a pair compared with a PLC trace "
+                                "(expect) is on the block's cycle already")
             table = read_table(pair.data, decimal=pair.decimal)
             report = verify_against_trace(pair.block, table, pair.expect, pair.inputs, engine=engine)
     except UserError as exc:

@@ -6,6 +6,7 @@ reads back to the same bits, so `verify --expect` on a trace made of this file i
 integers as integers."""
 from __future__ import annotations
 
+import csv
 import io
 
 import numpy as np
@@ -37,7 +38,9 @@ def encoded(found: dict, path: str) -> bytes:
         return sink.getvalue()
     names = list(found)
     cells = [_texts(found[name]) for name in names]
-    lines = [",".join(names)] + [",".join(row) for row in zip(*cells)]
+    header = io.StringIO()
+    csv.writer(header, lineterminator="").writerow(names)  # a name with a comma or a quote stays one field
+    lines = [header.getvalue()] + [",".join(row) for row in zip(*cells)]
     return ("\n".join(lines) + "\n").encode()
 
 

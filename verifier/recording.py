@@ -3,8 +3,10 @@ measurements, and raw logger data are taken onto the block's cycle by the rule t
 (`fit --resample`) or `verify --resample` names (models/resample.py), before anything is compared."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 from thermoplc.base.errors import UserError
-from thermoplc.contract.outputs import PROBE_VALUE_INPUT
+from thermoplc.contract.outputs import ENABLE_INPUT, PROBE_NEW_INPUT, PROBE_VALUE_INPUT, RESET_INPUT
 from thermoplc.models.modelfile import Model
 from thermoplc.models.resample import Resampling, resample
 from thermoplc.models.table import Table, read_table
@@ -29,11 +31,18 @@ def resampling_for(model: Model, period_s: float | None) -> Resampling | None:
 
 
 def read_recording(path: str, model: Model, progress=None, decimal: str = "auto",
-                   period_s: float | None = None) -> Table:
-    """The recording `path` read for a replay of `model`'s block, on the block's cycle."""
+                   period_s: float | None = None, overrides: dict | None = None) -> Table:
+    """The recording `path` read for a replay of `model`'s block, on the block's cycle: the speed (and feed) held
+    under the columns they are read from (`--inputs` included), Enable and ProbeValue held, Reset and ProbeNew
+    kept as pulses at the call that follows them."""
     table = read_table(path, model.time_column, progress, decimal, sparse=model_targets(model))
     rule = resampling_for(model, period_s)
     if rule is None:
         return table
+    overrides = overrides or {}
+    column = lambda name: overrides.get(name, name)
+    held_inputs = [overrides.get(s.name, s.column) for s in (*model.signals("speed"), *model.signals("feed"))]
+    rule = replace(rule, hold=(*rule.hold, *held_inputs, column(ENABLE_INPUT), column(PROBE_VALUE_INPUT)),
+                   pulses=(column(RESET_INPUT), column(PROBE_NEW_INPUT)))
     held = bool(model.metrics.get("probing", {}).get("held"))
     return resample(table, model.time_column, rule, model_targets(model), held)

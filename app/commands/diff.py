@@ -40,7 +40,8 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--probe-every and --held-target say how --probe-target holds the probings; give --probe-target")
     if args.probe_target and not args.data:
         raise UserError("--probe-target replays probings on --data; give --data")
-    table = read_table(args.data, args.time, decimal=args.decimal) if args.data else None
+    table = (read_table(args.data, args.time, decimal=args.decimal, sparse=(args.probe_target,) if args.probe_target
+                        else ()) if args.data else None)
     if args.probe_target:
         from thermoplc.verifier.probings import with_probings
         table = with_probings(table, args.probe_target, args.probe_every, args.held_target)

@@ -159,8 +159,9 @@ def _block_lines(outcomes) -> list[str]:
 
 def _fleet(args: argparse.Namespace) -> int:
     """Many pairs from a manifest: 2 when any pair could not be read, else 1 when any is not bit-exact."""
-    if args.block or args.data or args.runs or args.model or args.expect or args.faults:
-        raise UserError("--manifest lists the blocks, data and models itself; give no BLOCK, --data, --model, --expect or --faults")
+    if args.block or args.data or args.runs or args.model or args.expect or args.faults or args.outputs:
+        raise UserError("--manifest lists the blocks, data and models itself; give no BLOCK, --data, --model, --expect, "
+                        "--faults or --outputs (verify one pair alone for its --outputs)")
     from thermoplc.verifier.fleet import fleet_document, format_fleet, read_manifest, verify_fleet
     pairs = read_manifest(args.manifest, args.decimal, args.probe_every, args.resample)
     json_output.check(args, [args.manifest, *(f for p in pairs for f in (p.block, p.data, p.model))])
@@ -186,7 +187,7 @@ def _against_model(args: argparse.Namespace) -> int:
         report = verify_streaming(args.block, model, args.model, args.data, args.inputs, args.engine,
                                   args.decimal, progress())
     if report is None:
-        table = read_recording(args.data, model, progress(), args.decimal, args.resample)
+        table = read_recording(args.data, model, progress(), args.decimal, args.resample, args.inputs)
         if args.faults:
             return _faults(args, model, table)
         report = verify_against_model(args.block, model, args.model, table, args.inputs, args.engine,
