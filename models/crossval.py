@@ -152,16 +152,22 @@ def run_fold(task: FoldTask, tables: list[Table] | None = None) -> FoldResult:
     model = _guarded(lambda: fit(others, replace(task.request, train_until=math.inf, train_rows=None),
                                  task.time_column),
                      f"fold {task.label} (fitted without {runs_named(held)})")
-    trained = model.metrics["train"]["rows"]
+    return judge_fold(model, tables, task.members, task.label, model.metrics["train"]["rows"], task.predictions)
+
+
+def judge_fold(model, tables: list[Table], members, label: str, trained: int, predictions: bool) -> FoldResult:
+    """The held-out errors of `model`, fitted on `trained` rows of the other runs, on the runs `members` of a
+    campaign: the fold's pooled, each run's, and with `predictions` each run's float64 prediction."""
     labels = run_labels([t.path for t in tables])
     per_run, predicted = [], []
-    for k in task.members:
+    for k in members:
         found = evaluate(model, [tables[k]], [0])["held_out"]
-        if task.predictions:
+        if predictions:
             predicted.append((tables[k].path, predict(model, model_inputs(model, tables[k]), "f64")[model.target.name]))
-        per_run.append({"run": labels[k], "fold": task.label, **fold_of(task.label, trained, found).as_dict(),
+        per_run.append({"run": labels[k], "fold": label, **fold_of(label, trained, found).as_dict(),
                         "rows_total": tables[k].rows})
-    return FoldResult(fold_of(task.label, trained, evaluate(model, held, [0] * len(held))["held_out"]),
+    held = [tables[k] for k in members]
+    return FoldResult(fold_of(label, trained, evaluate(model, held, [0] * len(held))["held_out"]),
                       tuple(per_run), tuple(predicted))
 
 

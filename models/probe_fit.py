@@ -270,10 +270,13 @@ def fit_probe(model, tables: list, predictions: dict, every: int | None, held: b
     chosen, evidence = _fused(model, tables, plain, every, dt, limit, full_rate)
     probing = {**summarise(evidence), "held": held, "chosen": _described(chosen.fusion, dt),
                "static": REFITTED if chosen.model is not model else "as fitted"}
-    if full_rate:
-        schedules = [(m, max(int(round(m * 60 / dt)), 1)) for m in SCHEDULES_MIN]
-        probing["schedules"] = [{"minutes": m, **summarise(_fused(model, tables, plain, calls, dt, limit, True)[1])["pooled"]}
-                                for m, calls in schedules]
+    if full_rate:  # the model's own schedule is among them more often than not: its evidence is not computed again
+        calls = {minutes: max(int(round(minutes * 60 / dt)), 1) for minutes in SCHEDULES_MIN}
+        found = {every: evidence}
+        for n in calls.values():
+            if n not in found:
+                found[n] = _fused(model, tables, plain, n, dt, limit, True)[1]
+        probing["schedules"] = [{"minutes": m, **summarise(found[calls[m]])["pooled"]} for m in SCHEDULES_MIN]
     return replace(chosen.model, probe=chosen.fusion, metrics={**chosen.model.metrics, "probing": probing})
 
 

@@ -87,10 +87,13 @@ def refit(kind, settings: dict, parts: list[Part], every: int | None) -> Refit |
     designs = [np.asarray(kind.increments.columns(p, settings), float) for p in parts]
     pieces = _blocks(designs[0], parts[0].target) if len(parts) == 1 else zip(designs, (p.target for p in parts))
     segments = [s for s in (sums(x, y, every) for x, y in pieces) if s.pairs]
-    if len(segments) < 2 or np.any(np.diag(sum(segments[1:], segments[0]).gram) <= 0.0):
+    if len(segments) < 2:
+        return None
+    everything = sum(segments[1:], segments[0])
+    if np.any(np.diag(everything.gram) <= 0.0):
         return None
     weight = choose_weight(segments)
-    slopes = _ridge(sum(segments[1:], segments[0]), weight)
+    slopes = _ridge(everything, weight)
     residual = np.concatenate([(p.target - x @ slopes)[p.measured] for x, p in zip(designs, parts)])
     names = kind.increments.slopes(settings, parts[0].temps.shape[1])
     return Refit({"beta0": float(np.mean(residual)), **dict(zip(names, map(float, slopes)))}, weight,
@@ -164,29 +167,23 @@ def _cross_validated(final, kind, tables: list, every: int | None) -> Refitted |
     predictions, pooled in the model file's form."""
     from dataclasses import replace
     from thermoplc.models.campaign import run_labels
-    from thermoplc.models.crossval import fold_of, pooled
+    from thermoplc.models.crossval import judge_fold, pooled
     from thermoplc.models.fit import evaluate
-    from thermoplc.models.reference import model_inputs, predict
     labels = run_labels([t.path for t in tables])
     folds: dict[str, list[int]] = {}
     for entry in final.metrics["runs"]:
         folds.setdefault(entry["fold"], []).append(labels.index(entry["run"]))
-    found, per_run, predictions = [], [], {}
+    judged = []
     for label, members in folds.items():
-        others = [k for k in range(len(tables)) if k not in members]
-        model = _with(final, kind, parts_of(final, [tables[k] for k in others], [tables[k].rows for k in others]), every)
+        others = [tables[k] for k in range(len(tables)) if k not in members]
+        model = _with(final, kind, parts_of(final, others, [t.rows for t in others]), every)
         if model is None:
             return None
-        trained = evaluate(model, [tables[k] for k in others], [tables[k].rows for k in others])["train"]["rows"]
-        for k in members:
-            predictions[tables[k].path] = predict(model, model_inputs(model, tables[k]), "f64")[model.target.name]
-            held = evaluate(model, [tables[k]], [0])["held_out"]
-            per_run.append({"run": labels[k], "fold": label, **fold_of(label, trained, held).as_dict(),
-                            "rows_total": tables[k].rows})
-        found.append(fold_of(label, trained, evaluate(model, [tables[k] for k in members], [0] * len(members))["held_out"]))
+        trained = sum(int(np.count_nonzero(np.isfinite(t.columns[final.target.column]))) for t in others)
+        judged.append(judge_fold(model, tables, members, label, trained, True))
     whole = evaluate(final, tables, [t.rows for t in tables])
     protocol = f"{final.metrics['held_out']['protocol']}, each fold's slopes refitted for the change since the last probing"
     metrics = {**final.metrics, "train": whole["train"], "float32_vs_float64_max_um": whole["float32_vs_float64_max_um"],
-               "held_out": {**pooled(found), "protocol": protocol}, "cross_validation": [f.as_dict() for f in found],
-               "runs": per_run}
-    return Refitted(replace(final, metrics=metrics), predictions)
+               "held_out": {**pooled([j.fold for j in judged]), "protocol": protocol},
+               "cross_validation": [j.fold.as_dict() for j in judged], "runs": [r for j in judged for r in j.per_run]}
+    return Refitted(replace(final, metrics=metrics), {path: p for j in judged for path, p in j.predictions})

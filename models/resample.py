@@ -80,19 +80,21 @@ def resample(table: Table, time_column: str, rule: Resampling, probed: tuple[str
     return replace(table, columns=columns, lines=table.lines[at_or_before])
 
 
+def _following_call(t: np.ndarray, start: float, step: float) -> np.ndarray:
+    """For each row, the first call at or after it (the calls reach the last row: every row has one)."""
+    return np.ceil((t - start) / step - SLACK).astype(int)
+
+
 def _probings_at_calls(t: np.ndarray, values: np.ndarray, start: float, step: float, calls: int) -> np.ndarray:
     """Each finite value at the first call at or after its row; the later of two in one cycle; NaN elsewhere."""
     out = np.full(calls, np.nan)
     rows = np.flatnonzero(np.isfinite(values))
-    index = np.ceil((t[rows] - start) / step - SLACK).astype(int)
-    inside = index < calls
-    out[index[inside]] = values[rows[inside]]  # in time order: a later probing in the same cycle wins
+    out[_following_call(t[rows], start, step)] = values[rows]  # in time order: a later probing in a cycle wins
     return out
 
 
 def _pulses_at_calls(t: np.ndarray, values: np.ndarray, start: float, step: float, calls: int) -> np.ndarray:
     """1 at a call when any row since the call before it (or at it) is non-zero, else 0."""
     out = np.zeros(calls)
-    index = np.minimum(np.ceil((t - start) / step - SLACK).astype(int), calls - 1)
-    np.maximum.at(out, index, (values != 0.0).astype(float))
+    np.maximum.at(out, _following_call(t, start, step), (values != 0.0).astype(float))
     return out

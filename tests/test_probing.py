@@ -239,12 +239,17 @@ def test_auto_with_probe_ranks_every_candidate_fused_and_writes_a_fused_model(tm
     assert load_model(tmp_path / "auto.json").probe is not None
 
 
-def test_diff_replays_two_fused_blocks_with_the_probings_of_a_target_column(tmp_path):
+def _fused_campaign_block(folder) -> None:
+    """Two runs probed every 30 min and held, a fused mlr fitted on them, its block a.scl."""
     thermoplc("twin", "--runs", "2", "--hours", "4", "--dt", "60", "--seed", "3", "--probe-minutes", "30", "-o", "runs",
-              cwd=tmp_path)
+              cwd=folder)
     thermoplc("fit", "--data", "runs", "--model", "mlr", "--target", "E_z_um", "--held-target", "--temps",
-              "T_motor,T_bearing", "--folds", "2", "--probe", "-o", "m.json", cwd=tmp_path)
-    thermoplc("generate", "m.json", "--accept-unvalidated", "-o", "a.scl", cwd=tmp_path)
+              "T_motor,T_bearing", "--folds", "2", "--probe", "-o", "m.json", cwd=folder)
+    thermoplc("generate", "m.json", "--accept-unvalidated", "-o", "a.scl", cwd=folder)
+
+
+def test_diff_replays_two_fused_blocks_with_the_probings_of_a_target_column(tmp_path):
+    _fused_campaign_block(tmp_path)
     text = (tmp_path / "a.scl").read_text()
     gain = re.search(r"c_ProbeGain : Real := ([0-9.eE+-]+);", text)
     (tmp_path / "b.scl").write_text(text.replace(gain.group(0), "c_ProbeGain : Real := 0.25;"))
@@ -260,11 +265,7 @@ def test_diff_replays_two_fused_blocks_with_the_probings_of_a_target_column(tmp_
 
 
 def test_diff_refuses_fused_blocks_replayed_without_probings_and_reads_a_probed_target(tmp_path):
-    thermoplc("twin", "--runs", "2", "--hours", "4", "--dt", "60", "--seed", "3", "--probe-minutes", "30", "-o", "runs",
-              cwd=tmp_path)
-    thermoplc("fit", "--data", "runs", "--model", "mlr", "--target", "E_z_um", "--held-target", "--temps",
-              "T_motor,T_bearing", "--folds", "2", "--probe", "-o", "m.json", cwd=tmp_path)
-    thermoplc("generate", "m.json", "--accept-unvalidated", "-o", "a.scl", cwd=tmp_path)
+    _fused_campaign_block(tmp_path)
     silent = thermoplc("diff", "a.scl", "a.scl", "--data", "runs/run_001.csv", "--inputs", "ProbeValue=E_z_um",
                        cwd=tmp_path, check=2)
     assert "a fused block: without ProbeNew no probing reaches it" in silent.stderr

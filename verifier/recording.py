@@ -35,7 +35,8 @@ def read_recording(path: str, model: Model, progress=None, decimal: str = "auto"
     """The recording `path` read for a replay of `model`'s block, on the block's cycle: the speed (and feed) held
     under the columns they are read from (`--inputs` included), Enable and ProbeValue held, Reset and ProbeNew
     kept as pulses at the call that follows them."""
-    table = read_table(path, model.time_column, progress, decimal, sparse=model_targets(model))
+    targets = model_targets(model)
+    table = read_table(path, model.time_column, progress, decimal, sparse=targets)
     rule = resampling_for(model, period_s)
     if rule is None:
         return table
@@ -45,4 +46,4 @@ def read_recording(path: str, model: Model, progress=None, decimal: str = "auto"
     rule = replace(rule, hold=(*rule.hold, *held_inputs, column(ENABLE_INPUT), column(PROBE_VALUE_INPUT)),
                    pulses=(column(RESET_INPUT), column(PROBE_NEW_INPUT)))
     held = bool(model.metrics.get("probing", {}).get("held"))
-    return resample(table, model.time_column, rule, model_targets(model), held)
+    return resample(table, model.time_column, rule, targets, held)

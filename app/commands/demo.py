@@ -4,13 +4,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from thermoplc.commands.options import examples, FORCE_HELP
+from thermoplc.commands.options import FORCE_HELP, examples
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("demo", help="whole pipeline on the bundled FL_THERMAL recording",
-                       **examples("  thermoplc demo\n  thermoplc demo --out demo_out",
-                                  "README.md and docs/models.md#the-demo-fl_thermal-ch3"))
+                       **examples("README.md and docs/models.md#the-demo-fl_thermal-ch3",
+                                  "thermoplc demo",
+                                  "thermoplc demo --out demo_out"))
     p.add_argument("--out", default="thermoplc-demo", help="output folder (default: %(default)s)")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=run)

@@ -6,17 +6,17 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_outputs
-from thermoplc.commands.options import (examples, DECIMAL, FORCE_HELP, RESAMPLE, RUNS, campaign_arguments, columns, named,
-                                        scheduler_address, training_part)
+from thermoplc.commands.options import (DECIMAL, FORCE_HELP, RESAMPLE, RUNS, campaign_arguments, columns, examples,
+                                        named, scheduler_address, training_part)
 from thermoplc.commands.terminal import end_progress, progress
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("diagnose", help="find the physical effect the lumped-mass simulation misses",
-                       **examples("  thermoplc diagnose --data fl_thermal.csv --temps t5_C,t4_C --speed spindle_rpm --ambient t6_C \\\n"
-                 "      --target ch3_um --report diag -o diagnosed.json\n"
-                 "  thermoplc diagnose --data injected.csv ... --baseline diagnosed.json -o injected.json",
-                                  "docs/diagnosis.md"))
+                       **examples("docs/diagnosis.md",
+                                  "thermoplc diagnose --data fl_thermal.csv --temps t5_C,t4_C --speed spindle_rpm \\",
+                                  "    --ambient t6_C --target ch3_um --report diag -o diagnosed.json",
+                                  "thermoplc diagnose --data injected.csv ... --baseline diagnosed.json -o injected.json"))
     campaign_arguments(p, "each started as a fresh block, the evidence pooled over them", "")
     p.add_argument("--train-runs", type=RUNS, metavar="N",
                    help="a campaign: its first N runs train, the others are held out (default: 60%% of the runs)")

@@ -5,15 +5,15 @@ import argparse
 
 from thermoplc.commands import json_output
 from thermoplc.base.errors import UserError
-from thermoplc.commands.options import examples, DECIMAL, mapping, named, number
+from thermoplc.commands.options import DECIMAL, examples, mapping, named, number
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("diff", help="what changed between two blocks: constants, interface, statements, behaviour",
-                       **examples("  thermoplc diff old/ThermalComp.scl ThermalComp.scl\n"
-                 "  thermoplc diff a.scl b.scl --data recording.csv\n"
-                 "  thermoplc diff a.scl b.scl --data run.csv --probe-target E_z_um --held-target",
-                                  "docs/reliability.md"))
+                       **examples("docs/reliability.md",
+                                  "thermoplc diff old/ThermalComp.scl ThermalComp.scl",
+                                  "thermoplc diff a.scl b.scl --data recording.csv",
+                                  "thermoplc diff a.scl b.scl --data run.csv --probe-target E_z_um --held-target"))
     p.add_argument("old", help="the block as it was (ST source or PLCopen XML)")
     p.add_argument("new", help="the block as it is now (ST source or PLCopen XML)")
     p.add_argument("--data", help="replay both blocks on this CSV and report the largest output difference")
@@ -37,7 +37,8 @@ def run(args: argparse.Namespace) -> int:
     from thermoplc.verifier.documents import diff_document
     json_output.check(args, [args.old, args.new, args.data])
     if (args.probe_every or args.held_target) and not args.probe_target:
-        raise UserError("--probe-every and --held-target say how --probe-target holds the probings; give --probe-target")
+        raise UserError("--probe-every and --held-target say how --probe-target holds the probings; "
+                        "give --probe-target")
     if args.probe_target and not args.data:
         raise UserError("--probe-target replays probings on --data; give --data")
     table = (read_table(args.data, args.time, decimal=args.decimal, sparse=(args.probe_target,) if args.probe_target

@@ -11,8 +11,8 @@ from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_outputs, write_outputs
 from thermoplc.commands import json_output
 from thermoplc.commands.fit_options import Given, refuse_options_not_read
-from thermoplc.commands.options import (DECIMAL, FORCE_HELP, RESAMPLE, SEED, examples, campaign_arguments, columns, named, number,
-                                        scheduler_address, training_part)
+from thermoplc.commands.options import (DECIMAL, FORCE_HELP, RESAMPLE, SEED, campaign_arguments, columns, examples,
+                                        named, number, scheduler_address, training_part)
 from thermoplc.commands.terminal import end_progress, progress
 
 
@@ -33,17 +33,18 @@ class _KindChoices:
 
 def add_parser(sub) -> None:
     from thermoplc.models.bayes import UNSEEN_RULES
-    p = sub.add_parser("fit", help="fit a thermal-error model to a recording or a campaign of runs",
-                       description="Fit a thermal-error model to a recording or a campaign of runs (CSV, .npz,\n"
-                                   "Parquet) and judge it on rows it never saw; `thermoplc generate` compiles the\n"
-                                   "model file into a PLC block.", **examples(
-                           "  thermoplc fit --data fl_thermal.csv --model dlag --target ch3_um --temps t8_C,t4_C,t5_C,t11_C \\\n"
-                           "      --train-until 86400 -o model.json\n"
-                           "  thermoplc fit --data runs --model mlr --target E_z_um --held-target --temps T_motor,T_bearing \\\n"
-                           "      --folds 8 --probe --report report -o fused.json\n"
-                           "  thermoplc fit --data logger_files --resample 40 --model auto --target disp_x_um --temps @sensors.txt \\\n"
-                           "      --speed rpm --ambient hall_C --folds 10 -o auto.json",
-                           "docs/models.md (the kinds and their papers), docs/campaigns.md (runs, probed targets, --resample)"))
+    p = sub.add_parser(
+        "fit", help="fit a thermal-error model to a recording or a campaign of runs",
+        description="Fit a thermal-error model to a recording or a campaign of runs (CSV, .npz,\n"
+                    "Parquet) and judge it on rows it never saw; `thermoplc generate` compiles the\n"
+                    "model file into a PLC block.",
+        **examples("docs/models.md (the kinds and their papers), docs/campaigns.md (runs, probed targets, --resample)",
+                   "thermoplc fit --data fl_thermal.csv --model dlag --target ch3_um --temps t8_C,t4_C,t5_C,t11_C \\",
+                   "    --train-until 86400 -o model.json",
+                   "thermoplc fit --data runs --model mlr --target E_z_um --held-target --temps T_motor,T_bearing \\",
+                   "    --folds 8 --probe --report report -o fused.json",
+                   "thermoplc fit --data logger_files --resample 40 --model auto --target disp_x_um \\",
+                   "    --temps @sensors.txt --speed rpm --ambient hall_C --folds 10 -o auto.json"))
     p.register("action", None, Given)  # every plain option notes that it was given (fit_options.py)
     p.set_defaults(given=())
     data = p.add_argument_group("data")
@@ -55,15 +56,15 @@ def add_parser(sub) -> None:
     campaign_arguments(data, "each started as a fresh block (piecewise: one run per batch, its initial ambient read "
                           "from each)", " and free attribute columns (hall air setpoint, programme, date, ...)")
     model.add_argument("--model", choices=_KindChoices(), metavar="KIND", required=True,
-                   help="kalman (paper 000), lumped, mlr, dlag and piecewise (paper 001), bpnn (paper 002), gm0n and "
-                        "gm1n (paper 003), bayes (paper 004); auto: every kind the given roles allow on sensor "
-                        "sets from --temps (forward selection and fcm-grey), ranked by held-out RMSE, the best written")
+                       help="kalman (paper 000), lumped, mlr, dlag and piecewise (paper 001), bpnn (paper 002), gm0n and "
+                            "gm1n (paper 003), bayes (paper 004); auto: every kind the given roles allow on sensor "
+                            "sets from --temps (forward selection and fcm-grey), ranked by held-out RMSE, the best written")
     model.add_argument("--target", type=columns, required=True,
-                   help="measured displacement column, um; bpnn takes several: elongation,yaw,pitch. A probed "
-                        "target may be empty between probings: the fit and every error use the measured rows, the "
-                        "temperatures every row")
+                       help="measured displacement column, um; bpnn takes several: elongation,yaw,pitch. A probed "
+                            "target may be empty between probings: the fit and every error use the measured rows, the "
+                            "temperatures every row")
     model.add_argument("--temps", type=columns, required=True,
-                   help="temperature columns, comma-separated, or @FILE written by select-sensors -o")
+                       help="temperature columns, comma-separated, or @FILE written by select-sensors -o")
     model.add_argument("--speed", help="spindle speed column, rpm (kalman, lumped; auto tries them only with it)")
     model.add_argument("--ambient", help="ambient temperature column, degC (kalman, lumped, piecewise)")
     data.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
@@ -79,52 +80,52 @@ def add_parser(sub) -> None:
                            "the groups of this column of the --runs table (fit on the cool days, predict the warm "
                            "ones)")
     data.add_argument("--held-target", action="store_true",
-                   help="the target holds its last probing between probings: only the first row and the rows where "
-                        "it changes are measurements (an empty target cell is always a row without a measurement)")
+                      help="the target holds its last probing between probings: only the first row and the rows where "
+                           "it changes are measurements (an empty target cell is always a row without a measurement)")
     probing.add_argument("--probe", action="store_true",
-                   help="a fused block: the block also takes the machine's probings (ProbeValue, ProbeNew) and moves "
-                        "its prediction by an offset each probing teaches; gain, drift rate, decay and gate chosen on "
-                        "held-out runs (--folds or --group-by on a campaign, or the held-out part of one recording)")
+                         help="a fused block: the block also takes the machine's probings (ProbeValue, ProbeNew) and moves "
+                              "its prediction by an offset each probing teaches; gain, drift rate, decay and gate chosen on "
+                              "held-out runs (--folds or --group-by on a campaign, or the held-out part of one recording)")
     probing.add_argument("--probe-every", type=number(int, 1, 10 ** 9, "calls"), metavar="N",
-                   help="with --probe on a target measured at every call: simulate a probing every N calls (a probed "
-                        "target's own measured rows are its probings)")
+                         help="with --probe on a target measured at every call: simulate a probing every N calls (a probed "
+                              "target's own measured rows are its probings)")
     output.add_argument("--report", metavar="DIR", type=named("a folder for the report"),
-                   help="also write a report folder: per run measured, predicted and no compensation, the residual, "
-                        "the fold and group tables, one PNG per run and an index.html")
+                        help="also write a report folder: per run measured, predicted and no compensation, the residual, "
+                             "the fold and group tables, one PNG per run and an index.html")
     evaluation.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
-                   help="with --folds or --group-by: fit the folds as tasks of the Dask distributed cluster whose "
-                        "scheduler is at ADDRESS (tcp://HOST:PORT; the fleet extra) while this process fits on every "
-                        "row; every worker reads the runs by the paths given. The same model file, bit for bit")
+                            help="with --folds or --group-by: fit the folds as tasks of the Dask distributed cluster whose "
+                                 "scheduler is at ADDRESS (tcp://HOST:PORT; the fleet extra) while this process fits on every "
+                                 "row; every worker reads the runs by the paths given. The same model file, bit for bit")
     kinds.add_argument("--optimizer", choices=("ga", "de"), default="ga",
-                   help="ga: paper 000's genetic algorithm; de: scipy differential evolution")
+                       help="ga: paper 000's genetic algorithm; de: scipy differential evolution")
     kinds.add_argument("--seed", type=SEED, default=0, help="random seed of the optimiser (default: %(default)s)")
     kinds.add_argument("--generations", type=number(int, 1, 10000, "generations"), default=60,
-                   help="generations of the GA or DE (default: %(default)s)")
+                       help="generations of the GA or DE (default: %(default)s)")
     kinds.add_argument("--population", type=number(int, 2, 10000, "individuals"), default=40,
-                   help="individuals per generation (default: %(default)s)")
+                       help="individuals per generation (default: %(default)s)")
     kinds.add_argument("--ga-operators", choices=("paper002", "paper000"), default="paper002",
-                   help="bpnn: the GA's crossover and mutation, paper 002's single-point crossover and one mutated "
-                        "position, or paper 000's arithmetic crossover and Gaussian mutation (default: %(default)s; "
-                        "benchmarks/ga_operators.py compares them held out)")
+                       help="bpnn: the GA's crossover and mutation, paper 002's single-point crossover and one mutated "
+                            "position, or paper 000's arithmetic crossover and Gaussian mutation (default: %(default)s; "
+                            "benchmarks/ga_operators.py compares them held out)")
     kinds.add_argument("--jump-limit", type=number(float, 1e-6, 1e3, "kelvin"), help="K per call that marks a sensor faulty (default from data)")
     kinds.add_argument("--recover-limit", type=number(float, 1e-6, 1e3, "kelvin"), help="K between measurement and model to recover (default from data)")
     kinds.add_argument("--bins", type=number(int, 1, 4096, "intervals"), default=8, help="bayes: intervals per temperature (default: %(default)s)")
     kinds.add_argument("--precision-um", type=number(float, 1e-3, 1e6, "micrometres"), default=1.0,
-                   help="bayes: interval width of the error, the precision requirement (default: %(default)s)")
+                       help="bayes: interval width of the error, the precision requirement (default: %(default)s)")
     kinds.add_argument("--unseen", choices=UNSEEN_RULES, default=UNSEEN_RULES[0],
-                   help="bayes: a temperature configuration never seen in training answers as the nearest seen one, "
-                        "or the error interval most frequent overall (default: %(default)s)")
+                       help="bayes: a temperature configuration never seen in training answers as the nearest seen one, "
+                            "or the error interval most frequent overall (default: %(default)s)")
     kinds.add_argument("--time-bins", type=number(int, 0, 4096, "intervals"), default=0, metavar="N",
-                   help="bayes: the time since the first call is a parent too, in N intervals (paper 004's repeated "
-                        "runs: give one --data file per run; default: %(default)s, no time parent)")
+                       help="bayes: the time since the first call is a parent too, in N intervals (paper 004's repeated "
+                            "runs: give one --data file per run; default: %(default)s, no time parent)")
     kinds.add_argument("--lags", type=number(int, 1, 1000, "lags"), default=3, help="dlag: lagged terms per sensor (default: %(default)s)")
     kinds.add_argument("--lag-step", type=number(float, 1e-3, 1e7, "seconds"), default=600.0, metavar="SECONDS",
-                   dest="lag_step_s",
-                   help="dlag: time between lags (default: %(default)s)")
+                       dest="lag_step_s",
+                       help="dlag: time between lags (default: %(default)s)")
     kinds.add_argument("--tool-length", metavar="COLUMN",
-                   help="bpnn: tool length column, mm; adds paper 002's X/Y/Z compensation outputs")
+                       help="bpnn: tool length column, mm; adds paper 002's X/Y/Z compensation outputs")
     model.add_argument("--name", default="ThermalComp",
-                   help="function block name, kept in the model file (generate --name overrides it) (default: %(default)s)")
+                       help="function block name, kept in the model file (generate --name overrides it) (default: %(default)s)")
     data.add_argument("--decimal", **DECIMAL)
     data.add_argument("--resample", **RESAMPLE)
     output.add_argument("--force", action="store_true", help=FORCE_HELP)

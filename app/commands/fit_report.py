@@ -51,7 +51,9 @@ def _scored(measured: np.ndarray, predicted: np.ndarray, first: int, campaign: b
     return Scored(rms(measured - predicted), rms(measured), "fit without this run" if campaign else "held out")
 
 
-def _plot(run, model, held_out: np.ndarray | None, written: np.ndarray, first: int, score: Scored | None) -> bytes:
+def _plot(run, model, held_out: np.ndarray | None, written: np.ndarray, fused: tuple | None, first: int,
+          score: Scored | None) -> bytes:
+    """The run's figure; `fused` the fused block's output over the run and its probings (None: a static block)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -76,7 +78,6 @@ def _plot(run, model, held_out: np.ndarray | None, written: np.ndarray, first: i
         if held_out is not None:
             top.plot(hours, held_out, lw=1.2, color="tab:red", label="block's prediction, fit without this run")
         top.plot(hours, written, lw=1.0, color="tab:blue", ls="--", label="block's prediction, the model written")
-        fused = _fused(model, measured, predicted)
         if fused is not None:
             predicted, probed = fused  # the block's output is the fused one
             top.plot(hours, predicted, lw=1.2, color="tab:green", label="fused with its probings")
@@ -184,7 +185,7 @@ def report_files(folder: str, model, campaign, held_out: dict, command: str) -> 
         fused = _fused(model, measured, output)
         score = _scored(measured, fused[0] if fused is not None else output, first, fold is not None)
         png = _png_name(k, run.table.path)
-        files.append((Path(folder) / png, _plot(run, model, fold, written, first, score)))
+        files.append((Path(folder) / png, _plot(run, model, fold, written, fused, first, score)))
         pngs.append(png)
         scores.append(score)
     files.append((Path(folder) / INDEX, _page(model, campaign, pngs, scores, command)))

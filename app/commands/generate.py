@@ -11,16 +11,16 @@ from typing import Callable
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_output, write_atomic
 from thermoplc.base.text import decode_lenient
-from thermoplc.commands.options import (examples, FORCE_HELP, block_version, date, header_attribute, number, st_name,
-                                         value_range)
+from thermoplc.commands.options import (FORCE_HELP, block_version, date, examples, header_attribute, number, st_name,
+                                        value_range)
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("generate", help="compile a model file into a Structured Text function block",
-                       **examples("  thermoplc generate model.json -o ThermalComp.scl\n"
-                 "  thermoplc generate model.json --dialect step7 -o ThermalComp.scl\n"
-                 "  thermoplc generate model.json --dialect iec --format plcopen -o ThermalComp.xml",
-                                  "docs/commissioning.md"))
+                       **examples("docs/commissioning.md",
+                                  "thermoplc generate model.json -o ThermalComp.scl",
+                                  "thermoplc generate model.json --dialect step7 -o ThermalComp.scl",
+                                  "thermoplc generate model.json --dialect iec --format plcopen -o ThermalComp.xml"))
     p.add_argument("model", help="model file written by fit or diagnose")
     p.add_argument("--dialect", choices=("tia", "step7", "iec"), default="tia",
                    help="tia: S7-1500/SINUMERIK ONE (TIA Portal); step7: classic STEP 7 SCL (840D sl, S7-300); "

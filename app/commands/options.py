@@ -9,9 +9,11 @@ import re
 from pathlib import Path
 from typing import Callable
 
-def examples(lines: str, page: str) -> dict:
-    """add_parser keywords for a subcommand's --help: its examples and its docs page after the options."""
-    return {"epilog": f"examples:\n{lines}\n\nmore: {page}", "formatter_class": argparse.RawDescriptionHelpFormatter}
+def examples(page: str, *lines: str) -> dict:
+    """add_parser keywords for a subcommand's --help: its example command lines and its docs page after the
+    options (a line that continues the one before starts with spaces)."""
+    shown = "\n".join(f"  {line}" for line in lines)
+    return {"epilog": f"examples:\n{shown}\n\nmore: {page}", "formatter_class": argparse.RawDescriptionHelpFormatter}
 
 
 FORCE_HELP = "replace an existing output file (never an input of the command, never a non-regular file)"

@@ -7,14 +7,14 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_output, write_atomic
-from thermoplc.commands.options import examples, DECIMAL, FORCE_HELP, RESAMPLE, columns, number, training_part
+from thermoplc.commands.options import DECIMAL, FORCE_HELP, RESAMPLE, columns, examples, number, training_part
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("select-sensors", help="group similar temperature sensors and choose one per group",
-                       **examples("  thermoplc select-sensors --data fl_thermal.csv --target ch3_um --train-until 86400 -o sensors.txt\n"
-                 "  thermoplc fit --data fl_thermal.csv --temps @sensors.txt ...",
-                                  "docs/models.md"))
+                       **examples("docs/models.md",
+                                  "thermoplc select-sensors --data fl_thermal.csv --target ch3_um --train-until 86400 -o sensors.txt",
+                                  "thermoplc fit --data fl_thermal.csv --temps @sensors.txt ..."))
     p.add_argument("--data", required=True, help="CSV file (or .npz of columns)")
     p.add_argument("--target", required=True, help="measured displacement column, um")
     p.add_argument("--method", choices=("fcm-grey", "grey-cluster"), default="fcm-grey",

@@ -5,7 +5,7 @@ import argparse
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_output, write_atomic
-from thermoplc.commands.options import examples, FORCE_HELP, SEED, number
+from thermoplc.commands.options import FORCE_HELP, SEED, examples, number
 
 MAX_TWIN_ROWS = 50_000_000  # about 1.6 years at 1 s, over all runs; beyond it the files alone take several GB
 
@@ -15,10 +15,10 @@ def add_parser(sub) -> None:
     from thermoplc.machines import DEFAULT as DEFAULT_MACHINE, MACHINES as MACHINE_NAMES
     from thermoplc.models.effects import NAMES as EFFECT_NAMES
     p = sub.add_parser("twin", help="synthetic machine data with known truth",
-                       **examples("  thermoplc twin --hours 48 --seed 3 -o twin.csv\n"
-                 "  thermoplc twin --runs 8 --hours 8 --dt 60 --probe-minutes 30 -o runs\n"
-                 "  thermoplc twin --runs 6 --hours 6 --dt 40 --probe-minutes 30 --logger -o raw",
-                                  "README.md and docs/campaigns.md"))
+                       **examples("README.md and docs/campaigns.md",
+                                  "thermoplc twin --hours 48 --seed 3 -o twin.csv",
+                                  "thermoplc twin --runs 8 --hours 8 --dt 60 --probe-minutes 30 -o runs",
+                                  "thermoplc twin --runs 6 --hours 6 --dt 40 --probe-minutes 30 --logger -o raw"))
     p.add_argument("--machine", choices=MACHINE_NAMES, default=DEFAULT_MACHINE,
                    help="cascade: motor/bearing/ram/base network, run/stop at fixed speeds, daily sine ambient; "
                         "portal: three spindle-heated nodes and a lagging ram, random speeds, heated workshop "

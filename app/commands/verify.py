@@ -7,18 +7,18 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.commands import json_output
-from thermoplc.commands.options import (examples, DECIMAL, RECORDING, RESAMPLE, RUNS_TABLE, columns, mapping, named, number,
-                                        scheduler_address)
+from thermoplc.commands.options import (DECIMAL, RECORDING, RESAMPLE, RUNS_TABLE, columns, examples, mapping, named,
+                                        number, scheduler_address)
 from thermoplc.commands.terminal import progress
 
 
 def add_parser(sub) -> None:
     p = sub.add_parser("verify", help="replay data through a block and compare every output bit for bit",
-                       **examples("  thermoplc verify ThermalComp.scl --model model.json --data twin.csv\n"
-                 "  thermoplc verify ThermalComp.scl --model model.json --data twin.csv --faults\n"
-                 "  thermoplc verify ThermalComp.scl --model model.json --data twin.csv --outputs outputs.csv\n"
-                 "  thermoplc verify ThermalComp.scl --data trace.csv --expect E_z_um=plc_E",
-                                  "docs/reliability.md and docs/commissioning.md"))
+                       **examples("docs/reliability.md and docs/commissioning.md",
+                                  "thermoplc verify ThermalComp.scl --model model.json --data twin.csv",
+                                  "thermoplc verify ThermalComp.scl --model model.json --data twin.csv --faults",
+                                  "thermoplc verify ThermalComp.scl --model model.json --data twin.csv --outputs outputs.csv",
+                                  "thermoplc verify ThermalComp.scl --data trace.csv --expect E_z_um=plc_E"))
     p.add_argument("block", nargs="?", help="the block: its ST source, or the PLCopen XML of generate --format plcopen")
     p.add_argument("--data", action="append", type=RECORDING,
                    help="the recording (CSV, .npz or Parquet of columns), one row per call; columns Enable and Reset "
@@ -181,8 +181,9 @@ def _against_model(args: argparse.Namespace) -> int:
     from thermoplc.verifier.recording import read_recording, resampling_for
     from thermoplc.verifier.replay import verify_against_model
     model = load_model(args.model)
+    rule = resampling_for(model, args.resample)
     report, table = None, None
-    if not args.faults and args.outputs is None and resampling_for(model, args.resample) is None:
+    if not args.faults and args.outputs is None and rule is None:
         from thermoplc.verifier.stream import verify_streaming
         report = verify_streaming(args.block, model, args.model, args.data, args.inputs, args.engine,
                                   args.decimal, progress())
@@ -192,7 +193,6 @@ def _against_model(args: argparse.Namespace) -> int:
             return _faults(args, model, table)
         report = verify_against_model(args.block, model, args.model, table, args.inputs, args.engine,
                                       args.probe_every)
-    rule = resampling_for(model, args.resample)
     said = (f"\n  {args.data} taken onto the block's cycle of {rule.period_s:g} s first ("
             f"{'the model file' if model.resample else '--resample'}: {RULE})" if rule else "")
     said += _written_outputs(args, report, table, model.time_column)
