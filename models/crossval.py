@@ -46,9 +46,10 @@ class Fold:
     max_abs: float
     zero_rmse: float
     zero_max_abs: float
+    sensors: tuple[str, ...] = ()  # the fold's own choice of sensors (fit --choose-sensors), else empty
 
     def as_dict(self) -> dict:
-        return dict(self.__dict__)
+        return {k: (list(v) if k == "sensors" else v) for k, v in self.__dict__.items() if k != "sensors" or v}
 
 
 def cuts(table: Table, time_column: str, folds: int, speed: str | None) -> list[int]:
@@ -146,13 +147,23 @@ def run_fold(task: FoldTask, tables: list[Table] | None = None) -> FoldResult:
         model = _guarded(lambda: fit([tables[0].head(task.stop)], replace(task.request, train_until=None,
                                                                             train_rows=task.start), task.time_column),
                          f"fold {task.label}")
-        return FoldResult(fold_of(f"rows {task.start + 1}..{task.stop}", task.start, model.metrics["held_out"]))
+        return _with_choice(FoldResult(fold_of(f"rows {task.start + 1}..{task.stop}", task.start,
+                                               model.metrics["held_out"])), model)
     held = [tables[k] for k in task.members]
     others = [t for k, t in enumerate(tables) if k not in task.members]
     model = _guarded(lambda: fit(others, replace(task.request, train_until=math.inf, train_rows=None),
                                  task.time_column),
                      f"fold {task.label} (fitted without {runs_named(held)})")
-    return judge_fold(model, tables, task.members, task.label, model.metrics["train"]["rows"], task.predictions)
+    return _with_choice(judge_fold(model, tables, task.members, task.label, model.metrics["train"]["rows"],
+                                   task.predictions), model)
+
+
+def _with_choice(result: FoldResult, model: Model) -> FoldResult:
+    """A fold that chose its own sensors (fit --choose-sensors) says which: the evidence is of the procedure."""
+    choice = model.fit.get("sensor_choice")
+    if choice is None:
+        return result
+    return replace(result, fold=replace(result.fold, sensors=tuple(choice["chosen"])))
 
 
 def judge_fold(model, tables: list[Table], members, label: str, trained: int, predictions: bool) -> FoldResult:

@@ -9,7 +9,7 @@ import numpy as np
 
 from thermoplc.base.binary32 import INT_RANGES
 from thermoplc.base.errors import UserError
-from thermoplc.models.kind import Increments, Kind, Part, measured_rows
+from thermoplc.models.kind import Increments, Kind, Part, measured_counts, measured_rows
 from thermoplc.models.mlr import least_squares
 from thermoplc.models.modelfile import Coefficient, Model
 
@@ -35,7 +35,8 @@ def fit_dlag(parts: list[Part], names: list[str], lags: int, lag_step_s: float, 
                         f"use fewer or shorter lags")
     sensors = parts[0].temps.shape[1]
     labels = [f"{names[i]}(t-{lag * step * dt:g}s)" for i in range(sensors) for lag in range(lags + 1)]
-    beta, log = least_squares(*measured_rows(parts, lambda part: _columns(part, lags, step)), labels)
+    beta, log = least_squares(*measured_rows(parts, lambda part: _columns(part, lags, step)), labels,
+                              measured_counts(parts))
     coefficients = {"beta0": Coefficient.of(beta[0])}
     k = 1
     for i in range(sensors):

@@ -1,7 +1,7 @@
 """Fitting a model from a table: pick the training rows, fit, measure, package as a model file."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable
 
@@ -9,7 +9,7 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.identifiers import block_identifier, check_unique, identifier_problem
-from thermoplc.models import kalman
+from thermoplc.models import kalman, sensor_choice
 from thermoplc.models.kind import Part
 from thermoplc.models.kinds import kind_of, registry
 from thermoplc.models.modelfile import Model, Signal
@@ -43,6 +43,7 @@ class FitRequest:
     tool_length: str | None = None  # bpnn: tool length column, mm (enables the X/Y/Z compensation outputs)
     unseen: str = "nearest"  # bayes: what a configuration never seen in training answers
     time_bins: int = 0  # bayes: intervals of the time since the first call, a parent when > 0 (repeated runs)
+    choose_sensors: int = 0  # at most this many of `temps` chosen on the training rows (models/sensor_choice.py)
 
 
 def training_rows(table: Table, time_column: str, until: float | None, rows: int | None) -> int:
@@ -203,6 +204,11 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
     kind = kind_of(request.kind)
     n_train = [training_rows(t, time_column, request.train_until, request.train_rows) for t in tables]
     signals, target = check_inputs(tables, request, time_column, n_train)
+    choice = None
+    if request.choose_sensors:  # every candidate checked above; the block reads the chosen ones
+        choice = choose_sensors(tables, request, n_train)
+        request = replace(request, temps=choice.chosen)
+        signals, target = check_inputs(tables, request, time_column, n_train)
     dt = common_sample_period(tables, time_column)
     parts = [Part(np.column_stack([t.columns[c] for c in request.temps])[:n], t.columns[request.target][:n],
                   np.column_stack([t.columns[c] for c in request.extra_targets])[:n] if request.extra_targets
@@ -215,6 +221,8 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
         coefficients, settings, log = kind.fit(parts, request, names, dt, progress)
     except UserError as exc:
         raise UserError(f"{runs_named(tables)}: {exc}") from None
+    if choice is not None:
+        log = {**log, "sensor_choice": choice.log()}
     training = [{"file": Path(t.path).name, "sha256": t.sha256, "rows": n, "total_rows": t.rows,
                  "until_s": float(t.columns[time_column][n - 1])} for t, n in zip(tables, n_train)]
     model = Model(
@@ -223,6 +231,16 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
         training=training[0] if len(training) == 1 else {"batches": training}, fit=log,
     )
     return Model(**{**model.__dict__, "metrics": evaluate(model, tables, n_train)})
+
+
+def choose_sensors(tables: list[Table], request: FitRequest, n_train: list[int]) -> sensor_choice.Choice:
+    """At most `request.choose_sensors` of `request.temps`, chosen on the training rows of the runs."""
+    columns = [{c: t.columns[c][:n] for c in (*request.temps, request.target)} for t, n in zip(tables, n_train)]
+    try:
+        return sensor_choice.choose(sensor_choice.training_rises(columns, request.target, request.temps),
+                                    request.temps, request.choose_sensors)
+    except UserError as exc:
+        raise UserError(f"{runs_named(tables)}: {exc}") from None
 
 
 def evaluate(model: Model, tables: list[Table], n_train: list[int]) -> dict:

@@ -19,7 +19,7 @@ from thermoplc.base.binary32 import round_f32
 from thermoplc.models import kernels, lumped
 from thermoplc.models.ga import genetic_minimize, step_reporter
 from thermoplc.models.mlr import least_squares
-from thermoplc.models.kind import Kind, Part, fault_key
+from thermoplc.models.kind import Kind, Part, fault_key, measured_counts
 from thermoplc.models.modelfile import Coefficient, Model
 
 
@@ -231,7 +231,7 @@ def fit_kalman(parts: list[Part], dt: float, names: list[str], options: FitOptio
     log["steps"].append({"step": "Kalman covariances (eq. 13)", "rms_um": cost, "evaluations": evals,
                          "history": list(history)})
     series = fused_all(x[None, :])
-    beta, map_log = least_squares(rises(series, 0), target, names)
+    beta, map_log = least_squares(rises(series, 0), target, names, measured_counts(parts))
     log.update(map_log)
 
     coefficients: dict[str, Coefficient] = {}

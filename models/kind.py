@@ -54,6 +54,11 @@ def measured_rows(parts: list[Part], columns: Callable[[Part], np.ndarray]) -> t
     return np.vstack(designs), np.concatenate([p.target[p.measured] for p in parts])
 
 
+def measured_counts(parts: list[Part]) -> list[int]:
+    """Each run's measured rows, in the order `measured_rows` stacks them: the runs a fit may leave out."""
+    return [int(np.count_nonzero(p.measured)) for p in parts]
+
+
 @dataclass(frozen=True)
 class Increments:
     """Declared by a kind whose prediction is beta0 plus slopes times columns of its inputs: the probe fusion

@@ -4,19 +4,21 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.models import ridge
-from thermoplc.models.kind import Increments, Kind, Part, measured_rows
+from thermoplc.models.kind import Increments, Kind, Part, measured_counts, measured_rows
 from thermoplc.models.modelfile import Coefficient, Model
 
 
-def least_squares(features: np.ndarray, target: np.ndarray, names: list[str]) -> tuple[np.ndarray, dict]:
-    """Intercept + slopes, ridge-shrunk by forward validation (models/ridge.py), and the fit's log."""
-    fitted = ridge.fit_linear(features, target, names)
+def least_squares(features: np.ndarray, target: np.ndarray, names: list[str], runs: list[int] | None = None
+                  ) -> tuple[np.ndarray, dict]:
+    """Intercept + slopes, ridge-shrunk by forward validation, or by leaving out each of `runs` (the rows'
+    runs, models/ridge.py), and the fit's log."""
+    fitted = ridge.fit_linear(features, target, names, runs=runs)
     return np.r_[fitted.intercept, fitted.slopes], fitted.log()
 
 
 def fit_mlr(parts: list[Part], names: list[str]) -> tuple[dict[str, float], dict]:
     """The runs' training rows pooled; ΔT is taken from each run's first row, as the block does."""
-    beta, log = least_squares(*measured_rows(parts, lambda part: part.rises), names)
+    beta, log = least_squares(*measured_rows(parts, lambda part: part.rises), names, measured_counts(parts))
     return {"beta0": beta[0], **{f"beta_{i + 1}": b for i, b in enumerate(beta[1:])}}, log
 
 

@@ -4,15 +4,18 @@ Temperatures on one machine move together, so plain least squares on them return
 opposite sign that fit the training rows and cancel badly on rows it did not see (FL_THERMAL ch5:
 MLR on all 16 sensors 16.5 um held out, against 6.1 um on four). Every linear map of the fitted
 kinds goes through `fit_linear`: the columns are standardised, the slopes shrunk by a weight per
-row (the intercept is not shrunk), and the weight is the one that predicts best forward - fitted
-on the first two thirds of the training rows, scored on the last third, as the block would run
-after commissioning. Weight 0 (least squares) is among the candidates unless the columns are too
-collinear for binary32 to resolve the slopes.
+row (the intercept is not shrunk), and the weight is the one that predicts best on rows it did not
+see. One recording: forward - fitted on the first two thirds of the training rows, scored on the
+last third, as the block would run after commissioning. Several runs (a campaign): each run
+predicted by the fit on the others, the runs pooled - the last third of pooled runs would be the
+last runs only, one season of the hall, and chose a weight that suits them (the lathe campaign of
+issue 50). Weight 0 (least squares) is among the candidates unless the columns are too collinear
+for binary32 to resolve the slopes.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -32,10 +35,12 @@ class LinearFit:
     intercept: float
     slopes: np.ndarray
     weight: float
-    validation_rmse: float | None  # of the chosen weight on the last third; None when too few rows
+    validation_rmse: float | None  # of the chosen weight on the rows it did not see; None when too few rows
+    runs_left_out: int = 0  # the weight chosen leaving out each of these runs; 0: forward validation
 
     def log(self) -> dict:
-        return {"ridge_weight": self.weight, "ridge_validation_rmse": self.validation_rmse}
+        chosen = {"ridge_weight_by": f"leaving out each of {self.runs_left_out} runs"} if self.runs_left_out else {}
+        return {"ridge_weight": self.weight, "ridge_validation_rmse": self.validation_rmse, **chosen}
 
 
 def refuse_flat(features: np.ndarray, names: list[str]) -> None:
@@ -78,8 +83,9 @@ def condition(design: np.ndarray, intercept: bool) -> float:
 
 def fit_linear(features: np.ndarray, target: np.ndarray, names: list[str], intercept: bool = True,
                output_error: Callable[[float, np.ndarray, slice], np.ndarray] | None = None,
-               weights: tuple[float, ...] = WEIGHTS) -> LinearFit:
-    """Ridge fit of `target` on `features`, the weight chosen by forward validation.
+               weights: tuple[float, ...] = WEIGHTS, runs: Sequence[int] | None = None) -> LinearFit:
+    """Ridge fit of `target` on `features`, the weight chosen by forward validation, or by leaving out
+    each run when `runs` (the row counts of the runs stacked in the rows, in order) holds two or more.
 
     `output_error(intercept, slopes, rows)` is the error of what the block outputs on `rows` when
     that differs from the fitted target (GM(0,N) fits running sums and outputs their steps); by
@@ -91,6 +97,12 @@ def fit_linear(features: np.ndarray, target: np.ndarray, names: list[str], inter
         output_error = lambda offset, slopes, rows: target[rows] - offset - features[rows] @ slopes
     if condition(features, intercept) > CONDITION_LIMIT:
         weights = tuple(w for w in weights if w > 0.0) or WEIGHTS[1:]
+    if runs is not None and len(runs) >= 2 and intercept and len(weights) > 1:
+        if sum(runs) != len(target) or min(runs) < 1:
+            raise ValueError(f"runs {list(runs)} do not cover the {len(target)} rows")
+        rmse, weight = min(zip(leave_one_run_out(features, target, runs, weights), weights))
+        offset, slopes = ridge(features, target, weight, intercept)
+        return LinearFit(offset, slopes, float(weight), rmse, len(runs))
     cut = validation_cut(len(target))
     if cut is None:
         weight, rmse = weights[0], None  # too short to validate: least squares (or the least shrinkage)
@@ -102,6 +114,63 @@ def fit_linear(features: np.ndarray, target: np.ndarray, names: list[str], inter
         rmse, weight = min(scored)
     offset, slopes = ridge(features, target, weight, intercept)
     return LinearFit(offset, slopes, float(weight), rmse)
+
+
+@dataclass(frozen=True)
+class RunSums:
+    """Each run's sums of products of the columns and the target, centred on their overall means (so the sums
+    keep their digits): rows, column sums, X'X, X'y, y'y. Any subset of the columns is scored from them."""
+    rows: np.ndarray  # (runs,)
+    x: np.ndarray  # (runs, k)
+    y: np.ndarray  # (runs,)
+    xx: np.ndarray  # (runs, k, k)
+    xy: np.ndarray  # (runs, k)
+    yy: np.ndarray  # (runs,)
+
+    @classmethod
+    def of(cls, design: np.ndarray, y: np.ndarray, runs: Sequence[int]) -> "RunSums":
+        x = design - design.mean(axis=0)
+        t = y - y.mean()
+        bounds = np.cumsum([0, *runs])
+        pieces = [(x[a:b], t[a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
+        return cls(np.array(runs, float), np.array([p.sum(axis=0) for p, _ in pieces]),
+                   np.array([q.sum() for _, q in pieces]), np.array([p.T @ p for p, _ in pieces]),
+                   np.array([p.T @ q for p, q in pieces]), np.array([q @ q for _, q in pieces]))
+
+
+def leave_one_run_out(design: np.ndarray, y: np.ndarray, runs: Sequence[int], weights: Sequence[float]) -> list[float]:
+    """Pooled RMSE of each weight when each run is predicted by the ridge fitted on the others."""
+    sums = RunSums.of(design, y, runs)
+    return run_errors(sums, list(range(design.shape[1])), weights)
+
+
+def run_errors(sums: RunSums, columns: Sequence[int], weights: Sequence[float],
+               held: Sequence[int] | None = None) -> list[float]:
+    """`leave_one_run_out` on `columns` of the sums, scoring the runs `held` (default: every run): a fold's fit
+    is the totals less the run left out, and the run's squared error follows from its own sums, so forty
+    runs cost forty small eigendecompositions, not forty fits on the rows."""
+    c = np.asarray(columns)
+    x, xx, xy = sums.x[:, c], sums.xx[:, c][:, :, c], sums.xy[:, c]
+    weights = np.asarray(weights, float)
+    total = (sums.rows.sum(), x.sum(axis=0), sums.y.sum(), xx.sum(axis=0), xy.sum(axis=0))
+    squares = np.zeros(len(weights))
+    held = range(len(sums.rows)) if held is None else held
+    for r in held:
+        n, sx, sy, sxx, sxy = (t - v for t, v in zip(total, (sums.rows[r], x[r], sums.y[r], xx[r], xy[r])))
+        mx, my = sx / n, sy / n
+        centred = sxx - n * np.outer(mx, mx)
+        spread = np.sqrt(np.maximum(np.diag(centred), 0.0) / n)
+        spread[spread == 0.0] = 1.0
+        values, vectors = np.linalg.eigh(centred / np.outer(spread, spread))
+        projected = vectors.T @ ((sxy - n * mx * my) / spread)
+        kept = values > max(values.max(), 0.0) / CONDITION_LIMIT ** 2  # beyond it weight 0 is no candidate
+        denominator = values[:, None] + weights[None, :] * n
+        gain = np.where(kept[:, None] | (weights[None, :] > 0), 1.0 / np.where(denominator > 0, denominator, 1.0), 0.0)
+        slopes = (vectors @ (gain * projected[:, None])) / spread[:, None]  # (k, weights)
+        offset = my - mx @ slopes
+        squares += (sums.yy[r] - 2 * offset * sums.y[r] - 2 * xy[r] @ slopes + sums.rows[r] * offset ** 2
+                    + 2 * offset * (x[r] @ slopes) + np.einsum("kw,kj,jw->w", slopes, xx[r], slopes))
+    return [float(np.sqrt(max(v, 0.0) / sums.rows[list(held)].sum())) for v in squares]
 
 
 def validation_cut(rows: int) -> int | None:

@@ -64,7 +64,11 @@ def add_parser(sub) -> None:
                             "target may be empty between probings: the fit and every error use the measured rows, the "
                             "temperatures every row")
     model.add_argument("--temps", type=columns, required=True,
-                       help="temperature columns, comma-separated, or @FILE written by select-sensors -o")
+                       help="temperature columns, comma-separated, or @FILE written by select-sensors -o; with "
+                            "--choose-sensors the candidates")
+    model.add_argument("--choose-sensors", type=number(int, 1, 64, "sensors"), metavar="N", default=0,
+                       help="choose at most N of --temps on the training rows (forward selection, each run left out "
+                            "or the last third; every fold chooses again): the block reads the chosen ones")
     model.add_argument("--speed", help="spindle speed column, rpm (kalman, lumped; auto tries them only with it)")
     model.add_argument("--ambient", help="ambient temperature column, degC (kalman, lumped, piecewise)")
     data.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
@@ -184,8 +188,11 @@ def run(args: argparse.Namespace) -> int:
                          ambient=args.ambient, train_until=args.train_until, train_rows=args.train_rows,
                          block_name=args.name, options=options, bins=args.bins, precision_um=args.precision_um,
                          lags=args.lags, lag_step_s=args.lag_step_s, extra_targets=args.target[1:],
-                         tool_length=args.tool_length, unseen=args.unseen, time_bins=args.time_bins)
+                         tool_length=args.tool_length, unseen=args.unseen, time_bins=args.time_bins,
+                         choose_sensors=args.choose_sensors)
     refuse_options_not_read(args, request)
+    if args.choose_sensors and args.model == "auto":
+        raise UserError("--choose-sensors is for one kind: --model auto chooses its sensor sets itself")
     if args.scheduler and not (args.folds or args.group_by):
         raise UserError("--scheduler runs the folds of --folds or --group-by on a cluster; give one of them")
     if args.probe_every is not None and not args.probe:

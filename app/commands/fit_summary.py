@@ -29,6 +29,8 @@ def format_fit(model, campaign=None) -> str:
              f"{m['held_out']['rows']} held out" + (" in cross-validation" if "cross_validation" in m else "")
              + measured(m["held_out"]),
              f"  {'':<22}{'RMSE um':>10}{'max |residual| um':>20}"]
+    if "sensor_choice" in model.fit:
+        lines.insert(1, format_choice(model.fit["sensor_choice"], m.get("cross_validation")))
     if probed:
         lines.insert(1, "  probed target: errors on the measured rows only, the temperatures at every call")
     if model.resample is not None:
@@ -56,6 +58,17 @@ def format_fit(model, campaign=None) -> str:
                   f"open loop: {each('open_loop_rmse_K')}",
                   f"  filter gain (share of the reading taken each call): {gains}"]
     return "\n".join(lines)
+
+
+def format_choice(choice: dict, folds: list | None) -> str:
+    """The sensors the fit chose from the candidates, each step's error, and whether the folds chose alike."""
+    sizes = "; ".join(f"{','.join(s['sensors'])} {s['rmse_um']:.2f}" for s in choice["best_of_each_size"])
+    text = (f"  sensors chosen: {', '.join(choice['chosen'])} of {len(choice['candidates'])} candidates "
+            f"(ridge error {choice['by']}, best set of each size, um: {sizes})")
+    if folds:
+        same = sum(tuple(f.get("sensors", ())) == tuple(choice["chosen"]) for f in folds)
+        text += f"; {same} of {len(folds)} folds chose the same set on their own training rows"
+    return text
 
 
 METHODS = ("none", "static", "reset", "fused")

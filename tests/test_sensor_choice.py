@@ -1,0 +1,126 @@
+"""Issue 50 item 2: each kind earns its inputs. The ridge weight of a campaign's linear map is chosen
+leaving out each run (not on the last third of the pooled runs), and `fit --choose-sensors N` chooses the
+block's sensors among the candidates on the training rows alone, again inside every fold."""
+import json
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from thermoplc.base.errors import UserError
+from thermoplc.models import ridge
+from thermoplc.models.crossval import fit_held_out
+from thermoplc.models.fit import FitRequest
+from thermoplc.models.sensor_choice import choose, training_rises
+from thermoplc.models.table import Table, write_table
+from tests.cli_runner import thermoplc
+
+SENSORS = tuple(f"T{i}" for i in range(8))
+
+
+def _campaign(runs: int, seed: int, drivers=(2, 5)) -> list[Table]:
+    """Runs of 8 sensors: two drive the drift (each with its own heating), the rest follow other heat sources
+    or one another; every run starts afresh, so the drift follows the drivers' rises since the run's start."""
+    rng = np.random.default_rng(seed)
+    tables = []
+    for r in range(runs):
+        rows = 300
+        heat = np.cumsum(rng.normal(0.0, 0.05, (rows, 4)), axis=0)
+        temps = np.empty((rows, len(SENSORS)))
+        for i in range(len(SENSORS)):
+            temps[:, i] = 20.0 + heat[:, i % 4] * (1.0 + 0.1 * i) + rng.normal(0.0, 0.02, rows)
+        temps[:, drivers[0]] = 20.0 + heat[:, 0] * 0.3 + np.cumsum(rng.normal(0.0, 0.05, rows))
+        temps[:, drivers[1]] = 20.0 + np.cumsum(rng.normal(0.0, 0.05, rows))
+        drift = 4.0 * (temps[:, drivers[0]] - temps[0, drivers[0]]) - 2.5 * (temps[:, drivers[1]] - temps[0, drivers[1]])
+        columns = {"time_s": np.arange(rows) * 60.0, "E_um": drift + rng.normal(0.0, 0.1, rows),
+                   **{name: temps[:, i] for i, name in enumerate(SENSORS)}}
+        tables.append(Table(f"run{r + 1}.csv", columns, f"choice:{seed}:{r}", np.arange(2, rows + 2)))
+    return tables
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.integers(3, 30), min_size=2, max_size=6), st.integers(1, 5), st.integers(0, 2 ** 31))
+def test_leaving_out_each_run_from_sums_equals_refitting_without_it(runs, columns, seed):
+    """The sums-of-products shortcut gives, for every weight, the error of the ridge refitted on the other runs
+    (least squares where binary32 can resolve it: beyond ridge.CONDITION_LIMIT weight 0 is no candidate)."""
+    rng = np.random.default_rng(seed)
+    x = rng.normal(size=(sum(runs), columns)) + rng.normal(size=columns) * 10
+    y = x @ rng.normal(size=columns) + rng.normal(size=sum(runs)) + 3.0
+    fast = ridge.leave_one_run_out(x, y, runs, ridge.WEIGHTS)
+    bounds = np.cumsum([0, *runs])
+    resolved = all(ridge.condition(x[np.r_[0:a, b:len(y)]], True) <= ridge.CONDITION_LIMIT
+                   for a, b in zip(bounds[:-1], bounds[1:]))
+    for weight, found in zip(ridge.WEIGHTS, fast):
+        if weight == 0.0 and not resolved:
+            continue
+        squares = 0.0
+        for a, b in zip(bounds[:-1], bounds[1:]):
+            others = np.r_[0:a, b:len(y)]
+            offset, slopes = ridge.ridge(x[others], y[others], weight)
+            squares += float(np.sum((y[a:b] - offset - x[a:b] @ slopes) ** 2))
+        assert math.isclose(found, math.sqrt(squares / len(y)), rel_tol=1e-6, abs_tol=1e-9)
+
+
+def test_a_campaign_chooses_its_ridge_weight_leaving_out_each_run():
+    tables = _campaign(5, 1)
+    model = fit_held_out(tables, FitRequest("mlr", "E_um", SENSORS, train_until=math.inf), None)
+    assert model.fit["ridge_weight_by"] == "leaving out each of 5 runs"
+    one = fit_held_out(tables[:1], FitRequest("mlr", "E_um", SENSORS, train_rows=200), None)
+    assert "ridge_weight_by" not in one.fit  # one recording: forward validation, its model file unchanged
+
+
+@pytest.mark.parametrize("runs, seed", [(6, seed) for seed in range(2, 8)] + [(4, 5)])
+def test_the_drivers_are_found_among_followers(runs, seed):
+    """Two drivers whose difference is the drift: neither needs to lead alone (4 runs of seed 5: T7 leads, and
+    forward selection from it never takes T2 and T5), the pairs are all scored."""
+    tables = _campaign(runs, seed)
+    data = training_rises([t.columns for t in tables], "E_um", SENSORS)
+    found = choose(data, SENSORS, 4)
+    assert set(found.chosen) == {"T2", "T5"}
+    assert set(found.best[1][0]) == {"T2", "T5"} and found.best[1][1] < 0.5 * found.best[0][1]
+
+
+def test_every_fold_chooses_on_its_own_training_runs(tmp_path):
+    """The held-out evidence is of the procedure: each fold's set is the one chosen on its training runs alone
+    (two runs whose drift follows other sensors make the folds disagree), and the block reads the set chosen
+    on every run."""
+    tables = _campaign(4, 3) + _campaign(2, 4, drivers=(1, 6))
+    model = fit_held_out(tables, FitRequest("mlr", "E_um", SENSORS, train_until=math.inf, choose_sensors=3), 6)
+    folds = model.metrics["cross_validation"]
+    assert len(folds) == 6 and all(f["sensors"] for f in folds)
+    for k, fold in enumerate(folds):
+        others = [t for j, t in enumerate(tables) if j != k]
+        alone = choose(training_rises([t.columns for t in others], "E_um", SENSORS), SENSORS, 3)
+        assert tuple(fold["sensors"]) == alone.chosen
+    assert len({tuple(f["sensors"]) for f in folds}) > 1
+    assert [s.column for s in model.signals("temperature")] == list(model.fit["sensor_choice"]["chosen"])
+
+
+def test_choose_sensors_end_to_end(tmp_path):
+    (tmp_path / "runs").mkdir()
+    for table in _campaign(4, 5):
+        (tmp_path / "runs" / table.path).write_text(write_table(table.columns))
+    every = ",".join(SENSORS)
+    out = thermoplc("fit", "--data", "runs", "--model", "dlag", "--target", "E_um", "--temps", every,
+                    "--choose-sensors", 3, "--folds", 4, "-o", "m.json", cwd=tmp_path).stdout
+    assert "sensors chosen: T2, T5 of 8 candidates (ridge error leaving out each of 4 training runs" in out
+    assert "4 of 4 folds chose the same set on their own training rows" in out
+    written = json.loads((tmp_path / "m.json").read_text())
+    assert [s["column"] for s in written["inputs"]] == ["T2", "T5"]
+    thermoplc("generate", "m.json", "-o", "b.scl", cwd=tmp_path)
+    thermoplc("verify", "b.scl", "--model", "m.json", "--data", "runs", cwd=tmp_path)
+    auto = thermoplc("fit", "--data", "runs", "--model", "auto", "--target", "E_um", "--temps", every,
+                     "--choose-sensors", 3, "--folds", 4, "-o", "a.json", cwd=tmp_path, check=2).stderr
+    assert "--choose-sensors is for one kind: --model auto chooses its sensor sets itself" in auto
+    zero = thermoplc("fit", "--data", "runs", "--model", "mlr", "--target", "E_um", "--temps", every,
+                     "--choose-sensors", 0, "--folds", 4, "-o", "z.json", cwd=tmp_path, check=2).stderr
+    assert "--choose-sensors" in zero and not (tmp_path / "z.json").exists()
+
+
+def test_one_short_recording_cannot_choose():
+    table = _campaign(1, 6)[0].head(30)
+    with pytest.raises(UserError, match="--choose-sensors: 30 measured training rows; choosing sensors on one "
+                                        "recording fits two thirds"):
+        fit_held_out([table], FitRequest("mlr", "E_um", SENSORS, train_rows=30, choose_sensors=2), None)
