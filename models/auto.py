@@ -5,7 +5,13 @@ helps. Each candidate is fitted exactly as `fit --model KIND` would fit it, with
 held-out protocol (`--folds K` blocked cross-validation, or the `--train-until` split), so the
 ranking is by error on rows the candidate never saw.
 
-Sensor sets: forward selection (sensors added one at a time, each the one that lowers MLR's
+A campaign of runs: each kind is one candidate that chooses at most `max_sensors` of `--temps`
+itself (`fit --choose-sensors`, models/sensor_choice.py), again inside every fold of whole runs
+(leave one run out unless `--folds` or `--group-by` say otherwise), so the error a candidate is
+ranked by is the held-out evidence of the very procedure whose model is written - nothing is
+chosen on the runs that score it. A kind wins only by a lower error on runs it never saw.
+
+One recording: sensor sets from forward selection (sensors added one at a time, each the one that lowers MLR's
 held-out error most - or raises it least - up to `max_sensors`) and paper 000's fuzzy clustering with grey relational
 grades on the training rows only (`select-sensors --method fcm-grey`). The sets are chosen with
 the same held-out rows that rank the kinds, so the winner's error is a slightly optimistic
@@ -24,7 +30,7 @@ from typing import Callable
 import numpy as np
 
 from thermoplc.base.errors import ClusterError, UserError
-from thermoplc.models import acceptance, auto_nested, crossval, ridge
+from thermoplc.models import acceptance, crossval, ridge
 from thermoplc.models.fit import FitRequest, check_inputs, runs_named, training_rows
 from thermoplc.models.kind import Kind
 from thermoplc.models.kinds import registry
@@ -33,10 +39,6 @@ from thermoplc.models.selection import select_sensors
 from thermoplc.models.table import Table
 
 MAX_SENSORS = 4
-# a campaign's candidates are ranked on at most this many folds of whole runs (leave-one-run-out over 40 runs
-# would fit every candidate 40 times); the written model's evidence is then measured with the sensor choice
-# nested inside folds of whole runs (models/auto_nested.py)
-RANKING_FOLDS = 5
 
 
 @dataclass(frozen=True)
@@ -149,16 +151,13 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
                                      for t, n in zip(tables, rows)]), list(request.temps))
     except UserError as exc:
         raise UserError(f"{runs_named(tables)}: --temps {exc}") from None
+    if len(tables) > 1 or groups is not None:  # a campaign: each kind chooses its sensors inside every fold
+        found = [_candidate(tables, replace(request, choose_sensors=max_sensors), folds, time_column, kind.name,
+                            _candidates(kind, request), say, groups, remote, probing) for kind in kinds]
+        return sorted(found, key=Candidate.order)
     if say:
         say("auto: forward selection of sensors")
-    if (len(tables) > 1 or groups is not None) and groups is None:
-        folds = min(folds or len(tables), RANKING_FOLDS)  # a campaign's candidates: whole runs, a few folds
-    if len(tables) > 1 or groups is not None:  # a campaign: the direct ridge path, rises computed once
-        held_out = [members for _, members in crossval.run_folds(tables, folds, groups)]
-        sets = auto_nested.forward_selection(auto_nested.run_rises(tables, request), request.temps, held_out,
-                                             max_sensors)
-    else:
-        sets = forward_selection(tables, request, folds, time_column, max_sensors, remote=remote)
+    sets = forward_selection(tables, request, folds, time_column, max_sensors, remote=remote)
     seen = {frozenset(s) for s in sets}
     sets += [s for s in sensor_sets(tables[0], request, train_rows, max_sensors) if frozenset(s) not in seen]
     found = [_candidate(tables, request, folds, time_column, kind.name, sensors, say, groups, remote, probing)
@@ -169,10 +168,16 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
     return sorted(found, key=Candidate.order)
 
 
+def _candidates(kind: Kind, request: FitRequest) -> tuple[str, ...]:
+    """The sensors a kind may choose from: --temps, less the ambient for a kind that drives every sensor by it."""
+    return tuple(c for c in request.temps if not (kind.ambient_apart and c == request.ambient))
+
+
 def _candidate(tables, request, folds, time_column, kind, sensors, say, groups=None, remote=None,
                probing: Probing | None = None) -> Candidate:
     if say:
-        say(f"auto: {kind} on {', '.join(sensors)}")
+        say(f"auto: {kind} choosing at most {request.choose_sensors} of {len(sensors)} sensors in every fold"
+            if request.choose_sensors else f"auto: {kind} on {', '.join(sensors)}")
     wanted = replace(request, kind=kind, temps=sensors)  # the speed read or not, folds cut alike
     predictions: dict = {}
     try:
@@ -185,7 +190,8 @@ def _candidate(tables, request, folds, time_column, kind, sensors, say, groups=N
         raise
     except UserError as exc:
         return Candidate(kind, sensors, None, _without_paths(str(exc), tables))
-    return Candidate(kind, sensors, model, not_accepted=acceptance.refusal(model))
+    chosen = model.fit.get("sensor_choice", {}).get("chosen", sensors)
+    return Candidate(kind, tuple(chosen), model, not_accepted=acceptance.refusal(model))
 
 
 def _without_paths(text: str, tables: list[Table]) -> str:

@@ -76,7 +76,9 @@ def test_every_kind_fits_a_campaign_each_run_from_its_own_start():
     moved = Table(second.path, {**second.columns, **{c: second.columns[c] + 7.0 for c in ("T_motor", "T_bearing")}},
                   second.sha256, second.lines)
     shifted = fit([first, moved], request)  # an offset of run 2's sensors vanishes in its rises
-    assert shifted.coefficients == both.coefficients
+    # (x + 7) - (x0 + 7) is x - x0 to the last bit of float64 only mostly: the block's binary32 coefficients agree
+    assert {k: c.f32 for k, c in shifted.coefficients.items()} == {k: c.f32 for k, c in both.coefficients.items()}
+    assert all(math.isclose(c.f64, both.coefficients[k].f64, rel_tol=1e-12) for k, c in shifted.coefficients.items())
     assert both.metrics["train"]["rows"] == first.rows + second.rows
 
 

@@ -124,3 +124,23 @@ def test_one_short_recording_cannot_choose():
     with pytest.raises(UserError, match="--choose-sensors: 30 measured training rows; choosing sensors on one "
                                         "recording fits two thirds"):
         fit_held_out([table], FitRequest("mlr", "E_um", SENSORS, train_rows=30, choose_sensors=2), None)
+
+
+def test_auto_on_a_campaign_ranks_the_evidence_it_writes(tmp_path):
+    """Issue 50 item 4: each kind chooses its sensors inside every fold, the ranking is by that held-out error
+    (--folds 5 of 5 runs: each run left out), and the model written carries the very figure it was ranked by."""
+    (tmp_path / "runs").mkdir()
+    for table in _campaign(5, 7):
+        (tmp_path / "runs" / table.path).write_text(write_table(table.columns))
+    out = thermoplc("fit", "--data", "runs", "--model", "auto", "--target", "E_um", "--temps", ",".join(SENSORS),
+                    "--folds", 5, "-o", "a.json", "--json", "a.fit.json", cwd=tmp_path).stdout
+    assert "leave-one-run-out cross-validation over 5 runs" in out
+    assert "each kind chose at most 4 of its --temps itself, again inside every fold" in out
+    written = json.loads((tmp_path / "a.json").read_text())
+    ranking = [c for c in written["metrics"]["auto_ranking"] if "rmse_um" in c]
+    accepted = [c["rmse_um"] for c in ranking if not c["generate_refuses"]]
+    assert accepted == sorted(accepted) and len(ranking) >= 5
+    assert written["metrics"]["held_out"]["rmse_um"] == ranking[0]["rmse_um"]
+    assert written["kind"] == ranking[0]["kind"] and len(written["metrics"]["cross_validation"]) == 5
+    assert all(f["sensors"] for f in written["metrics"]["cross_validation"])
+    assert {c["kind"]: set(c["sensors"]) for c in ranking}["mlr"] == {"T2", "T5"}

@@ -15,7 +15,7 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
     (models/auto.Probing) each candidate is fused and ranked by its held-out error with its probings."""
     from thermoplc.generator.lower import lower_model
     from thermoplc.generator.stats import block_stats
-    from thermoplc.models.auto import rank
+    from thermoplc.models.auto import MAX_SENSORS, rank
     ranked = rank(tables, request, folds, time_column, say=progress, groups=groups, remote=remote, probing=probing)
     end_progress()
     fitted = [c for c in ranked if c.model is not None]
@@ -27,10 +27,9 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
     print(f"auto: {len(ranked)} candidates ranked by held-out RMSE" + (" with their probings (fused)" if probing else "")
           + (f" (no compensation {none:.3f} um)" if none is not None else "")
           + (f", {fitted[0].model.metrics['held_out']['protocol']}" if campaign else ""))
-    from thermoplc.models.auto import RANKING_FOLDS
-    if campaign and groups is None and (folds or len(tables)) > RANKING_FOLDS:
-        print(f"  (--folds {folds or len(tables)}: a campaign's candidates are ranked on {RANKING_FOLDS} folds of whole "
-              f"runs; the model written is judged again with its sensor choice nested)")
+    if campaign:
+        print(f"  each kind chose at most {MAX_SENSORS} of its --temps itself, again inside every fold: the "
+              f"error ranked is the written model's held-out evidence (the sensors shown: chosen on every run)")
     print(f"  {'rank':<6}{'kind':<8}{'sensors':<32}{'RMSE um':>9}{'max um':>9}{'ops/call':>10}"
           + (f"{'fused um':>10}" if probing else ""))
     for k, c in enumerate(ranked, start=1):
@@ -45,9 +44,11 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
     cheaper = min((c for c in fitted if c.rmse <= (1 + AUTO_TOLERANCE) * best.rmse and
                    (c.not_accepted is None) == (best.not_accepted is None)), key=lambda c: cost[id(c)])
     if cheaper is not best:
+        again = (f"--temps {','.join(request.temps)} --choose-sensors {MAX_SENSORS}" if campaign else
+                 f"--temps {','.join(cheaper.sensors)}")
         print(f"  cheapest within {AUTO_TOLERANCE:.0%} of the best: {cheaper.kind} on {','.join(cheaper.sensors)}, "
               f"{cheaper.rmse:.3f} um, {cost[id(cheaper)]} operations per call (fit it with --model {cheaper.kind} "
-              f"--temps {','.join(cheaper.sensors)})")
+              f"{again})")
     print(f"  writing the best: {best.kind} on {','.join(best.sensors)}")
     from thermoplc.models.modelfile import Model
     ranking = [{"kind": c.kind, "sensors": list(c.sensors), "refused": c.refused} if c.model is None else
@@ -55,25 +56,5 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
                 "max_abs_um": c.model.metrics["held_out"]["max_abs_um"], "operations_per_call": cost[id(c)],
                 "generate_refuses": c.not_accepted, **({"fused_rmse_um": c.rmse} if probing else {})} for c in ranked]
     model = best.model
-    if campaign:
-        model = _nested(tables, request, best, groups, progress)
     return Model(**{**model.__dict__, "metrics": {**model.metrics, "auto_ranking": ranking}})
 
-
-def _nested(tables: list, request, best, groups, progress):
-    """A campaign: the best kind's held-out evidence with the sensor choice made inside each fold."""
-    from dataclasses import replace
-    from thermoplc.models.auto import MAX_SENSORS
-    from thermoplc.models.auto_nested import nested_auto
-    from thermoplc.models.modelfile import Model
-    held = nested_auto(tables, replace(request, kind=best.kind), MAX_SENSORS, groups, progress)
-    end_progress()
-    ranked = best.model.metrics["held_out"]["rmse_um"]
-    print(f"  held out with the sensor choice inside the folds ({held['folds']} folds): RMSE {held['rmse_um']:.3f} um "
-          f"(ranked on the same folds: {ranked:.3f} um), no compensation {held['zero_rmse_um']:.3f} um; the model "
-          f"file carries this")
-    ranking = best.model.metrics
-    metrics = {key: value for key, value in ranking.items() if key not in ("runs", "cross_validation")}
-    metrics.update(held_out={k: v for k, v in held.items() if k != "folds_detail"},
-                   cross_validation=held["folds_detail"], ranking_held_out=ranking["held_out"])
-    return Model(**{**best.model.__dict__, "metrics": metrics})
