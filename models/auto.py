@@ -5,7 +5,7 @@ helps. Each candidate is fitted exactly as `fit --model KIND` would fit it, with
 held-out protocol (`--folds K` blocked cross-validation, or the `--train-until` split), so the
 ranking is by error on rows the candidate never saw.
 
-A campaign of runs: each kind is one candidate that chooses at most `max_sensors` of `--temps`
+A campaign of runs: each kind is one candidate that chooses at most its `auto_sensors` of `--temps`
 itself (`fit --choose-sensors`, models/sensor_choice.py), again inside every fold of whole runs
 (leave one run out unless `--folds` or `--group-by` say otherwise), so the error a candidate is
 ranked by is the held-out evidence of the very procedure whose model is written - nothing is
@@ -152,7 +152,7 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
     except UserError as exc:
         raise UserError(f"{runs_named(tables)}: --temps {exc}") from None
     if len(tables) > 1 or groups is not None:  # a campaign: each kind chooses its sensors inside every fold
-        found = [_candidate(tables, replace(request, choose_sensors=max_sensors), folds, time_column, kind.name,
+        found = [_candidate(tables, replace(request, choose_sensors=kind.auto_sensors), folds, time_column, kind.name,
                             _candidates(kind, request), say, groups, remote, probing) for kind in kinds]
         return sorted(found, key=Candidate.order)
     if say:

@@ -119,5 +119,5 @@ SETTINGS_SCHEMA = {
 INCREMENTS = Increments(lambda part, settings: _columns(part, settings["lags"], settings["lag_step_samples"]),
                         lambda settings, sensors: [f"beta_{i}_{lag}" for i in range(1, sensors + 1)
                                                    for lag in range(settings["lags"] + 1)])
-KIND = Kind("dlag", 4, _fit, predict, reads_options=("lags", "lag_step_s"), auto="closed-form",
+KIND = Kind("dlag", 4, _fit, predict, reads_options=("lags", "lag_step_s"), auto="closed-form", auto_sensors=8,
             settings_schema=SETTINGS_SCHEMA, stream_core=StreamCore, increments=INCREMENTS)

@@ -105,6 +105,10 @@ class Kind:
     # and the training part); `fit` refuses such an option given for a kind that does not read it
     reads_options: tuple[str, ...] = ()
     auto: str | None = None  # "closed-form" (tried on every sensor set), "iterative" (on the best), None
+    # how many of --temps `auto` lets it choose on a campaign: a ridge-shrunk linear map takes more sensors
+    # to its gain (FL_THERMAL in 6 h runs: mlr and dlag 1.0-1.3x a ridge on all 15 with 8, 1.3-1.5x with 4),
+    # GM(1,N) gets worse past 4 (ch3 5.2 -> 8.8 um)
+    auto_sensors: int = 4
     settings_schema: dict | None = None  # JSON schema of the model file's `settings` for this kind
     check_settings: Callable[["Model", str], None] = _no_settings_check  # what the schema cannot say
     # the streamed reference: a class (model, precision, dtype) -> callable(running, fused_valid) keeping the

@@ -135,7 +135,7 @@ def test_auto_on_a_campaign_ranks_the_evidence_it_writes(tmp_path):
     out = thermoplc("fit", "--data", "runs", "--model", "auto", "--target", "E_um", "--temps", ",".join(SENSORS),
                     "--folds", 5, "-o", "a.json", "--json", "a.fit.json", cwd=tmp_path).stdout
     assert "leave-one-run-out cross-validation over 5 runs" in out
-    assert "each kind chose at most 4 of its --temps itself, again inside every fold" in out
+    assert "each kind chose its sensors among --temps itself, again inside every fold (at most: " in out
     written = json.loads((tmp_path / "a.json").read_text())
     ranking = [c for c in written["metrics"]["auto_ranking"] if "rmse_um" in c]
     accepted = [c["rmse_um"] for c in ranking if not c["generate_refuses"]]

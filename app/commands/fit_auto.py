@@ -15,7 +15,8 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
     (models/auto.Probing) each candidate is fused and ranked by its held-out error with its probings."""
     from thermoplc.generator.lower import lower_model
     from thermoplc.generator.stats import block_stats
-    from thermoplc.models.auto import MAX_SENSORS, rank
+    from thermoplc.models.auto import rank
+    from thermoplc.models.kinds import kind_of
     ranked = rank(tables, request, folds, time_column, say=progress, groups=groups, remote=remote, probing=probing)
     end_progress()
     fitted = [c for c in ranked if c.model is not None]
@@ -28,7 +29,8 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
           + (f" (no compensation {none:.3f} um)" if none is not None else "")
           + (f", {fitted[0].model.metrics['held_out']['protocol']}" if campaign else ""))
     if campaign:
-        print(f"  each kind chose at most {MAX_SENSORS} of its --temps itself, again inside every fold: the "
+        most = ", ".join(f"{c.kind} {kind_of(c.kind).auto_sensors}" for c in ranked)
+        print(f"  each kind chose its sensors among --temps itself, again inside every fold (at most: {most}): the "
               f"error ranked is the written model's held-out evidence (the sensors shown: chosen on every run)")
     print(f"  {'rank':<6}{'kind':<8}{'sensors':<32}{'RMSE um':>9}{'max um':>9}{'ops/call':>10}"
           + (f"{'fused um':>10}" if probing else ""))
@@ -44,7 +46,7 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
     cheaper = min((c for c in fitted if c.rmse <= (1 + AUTO_TOLERANCE) * best.rmse and
                    (c.not_accepted is None) == (best.not_accepted is None)), key=lambda c: cost[id(c)])
     if cheaper is not best:
-        again = (f"--temps {','.join(request.temps)} --choose-sensors {MAX_SENSORS}" if campaign else
+        again = (f"--temps {','.join(request.temps)} --choose-sensors {kind_of(cheaper.kind).auto_sensors}" if campaign else
                  f"--temps {','.join(cheaper.sensors)}")
         print(f"  cheapest within {AUTO_TOLERANCE:.0%} of the best: {cheaper.kind} on {','.join(cheaper.sensors)}, "
               f"{cheaper.rmse:.3f} um, {cost[id(cheaper)]} operations per call (fit it with --model {cheaper.kind} "
