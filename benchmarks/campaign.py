@@ -26,6 +26,7 @@ from thermoplc.models.campaign import Campaign, Run, held_to_probed
 from thermoplc.models.crossval import cross_validate_runs, pooled
 from thermoplc.models.fit import FitRequest
 from thermoplc.models.kalman import FitOptions
+from thermoplc.models.kinds import kind_of
 from thermoplc.models.table import Table, read_table
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -111,9 +112,10 @@ def table_rows(label: str, tables: list[Table], target: str, temps: tuple[str, .
              f"ridge on all {len(every)} sensors' rises {floor['rmse']:.2f} um",
              f"  {'kind':<8}{'sensors':<22}{'RMSE um':>9}{'worst fold':>11}{'median':>8}{'/ridge':>8}  {'':<16}{'s/fit':>7}"]
     for kind in kinds:
-        for sensors, choose in ((temps, 0), (every, CHOOSE)):
+        choices = tuple(c for c in every if c != ambient) if kind_of(kind).ambient_apart else every
+        for sensors, choose in ((temps, 0), (choices, CHOOSE)):
             found = judge(tables, request_for(kind, target, sensors, speed, ambient, choose), groups)
-            named = ",".join(sensors) if not choose else f"best {choose} of {len(every)}"
+            named = ",".join(sensors) if not choose else f"best {choose} of {len(choices)}"
             if "refused" in found:
                 lines.append(f"  {kind:<8}{named[:21]:<22}refused: {found['refused']}")
                 continue

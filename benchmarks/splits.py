@@ -2,6 +2,7 @@
 
     python -m benchmarks.splits              # ch3 and ch5, splits 40..75 % in 5 % steps, every kind
     python -m benchmarks.splits --quick      # ch3, three splits, the closed-form kinds
+    python -m benchmarks.splits --choose 4   # each kind chooses at most 4 of every sensor on its training part
 
 Each kind is fitted on the first share of the recording (the sensors of the issue: t8, t4, t5, t11; ambient
 t6 and the spindle speed where a kind reads them) and judged on the rest: held-out RMSE um per split, the
@@ -46,10 +47,12 @@ def ridge_floor(table, channel: str, split: int) -> float:
     return float(np.sqrt(np.mean(residual ** 2)))
 
 
-def sweep(table, channel: str, kinds, shares) -> None:
+def sweep(table, channel: str, kinds, shares, choose: int = 0) -> None:
     t = table.columns["time_s"]
     splits = [int(np.searchsorted(t, t[0] + share * (t[-1] - t[0]), side="right")) for share in shares]
-    print(f"\nFL_THERMAL {channel}, sensors {','.join(TEMPS)}: held-out RMSE um by training share (trained until h)")
+    every = tuple(c for c in table.columns if c.startswith("t") and c.endswith("_C") and c != AMBIENT)
+    sensors = f"at most {choose} of {len(every)} chosen on the training part" if choose else ",".join(TEMPS)
+    print(f"\nFL_THERMAL {channel}, sensors {sensors}: held-out RMSE um by training share (trained until h)")
     head = "".join(f"{f'{s:.0%} ({t[k - 1] / 3600:.1f})':>14}" for s, k in zip(shares, splits))
     print(f"{'kind':<8}{head}{'worst':>8}{'median':>8}{'/mlr worst':>11}{'/ridge worst':>13}{'s':>6}")
     rows = {"none": [float(np.sqrt(np.mean(table.columns[channel][k:] ** 2))) for k in splits],
@@ -61,7 +64,8 @@ def sweep(table, channel: str, kinds, shares) -> None:
         extra = (SPEED, AMBIENT) if kind in NEEDS_SPEED_AND_AMBIENT else (None, None)
         started, found = time.perf_counter(), []
         for k in splits:
-            request = FitRequest(kind, channel, TEMPS, *extra, train_rows=k, options=FitOptions(seed=0))
+            request = FitRequest(kind, channel, every if choose else TEMPS, *extra, train_rows=k,
+                                 options=FitOptions(seed=0), choose_sensors=choose)
             try:
                 found.append(held_out_rmse(fit([table], request), table, k))
             except UserError:
@@ -77,11 +81,14 @@ def sweep(table, channel: str, kinds, shares) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="ch3, three splits, the closed-form kinds")
+    parser.add_argument("--choose", type=int, default=0, metavar="N",
+                        help="each kind chooses at most N of every sensor (but the ambient) on its training part")
+    parser.add_argument("--kinds", default=",".join(KINDS), help="comma-separated (default: every kind)")
     args = parser.parse_args()
     table = read_table(recording())
     shares = (0.4, 0.6, 0.75) if args.quick else SHARES
     for channel in ("ch3_um",) if args.quick else ("ch3_um", "ch5_um"):
-        sweep(table, channel, QUICK_KINDS if args.quick else KINDS, shares)
+        sweep(table, channel, QUICK_KINDS if args.quick else tuple(args.kinds.split(",")), shares, args.choose)
 
 
 if __name__ == "__main__":
