@@ -611,6 +611,16 @@ def _option_cases() -> list[Case]:
               "--train-rows", "200", "--optimizer", "de", "-o", "out.json"), lambda f: None, "error",
              "--optimizer is read by --model kalman only, which --model auto does not try here (kalman needs --speed "
              "and --ambient)"),
+        Case("option", "--choose-sensors 0", "fit", (*FIT, "good.csv", "--choose-sensors", "0"), lambda f: None,
+             "error", "argument --choose-sensors: expected sensors from 1 to 64, found 0"),
+        Case("option", "--choose-sensors with --model auto", "fit",
+             ("fit", "--data", "good.csv", "--model", "auto", "--target", "E_z_um", "--temps", "T_motor,T_bearing",
+              "--train-rows", "200", "--choose-sensors", "2", "-o", "out.json"), lambda f: None, "error",
+             "--choose-sensors is for one kind: --model auto chooses its sensor sets itself"),
+        Case("option", "--choose-sensors on 30 training rows", "fit",
+             ("fit", "--data", "good.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing",
+              "--train-rows", "30", "--choose-sensors", "1", "-o", "out.json"), lambda f: None, "error",
+             "--choose-sensors: 30 measured training rows; choosing sensors on one recording fits two thirds"),
     ]
     return cases
 
