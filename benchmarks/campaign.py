@@ -1,7 +1,8 @@
-"""Campaigns: every kind fitted on runs and judged on runs it never saw, beside no compensation and a
-plain ridge regression on every sensor (the floor any compensation tool must beat).
+"""Campaigns: every kind judged on runs it never saw, beside no compensation and a ridge on every sensor.
 
-Real data first: FL_THERMAL (46 h) cut into runs of `--run-hours`, each a fresh block start with its
+The ridge on every sensor's rise is the floor any compensation tool must beat. Each kind runs on
+sensors named by hand and with `--choose-sensors 4` (chosen again inside every fold).
+Real data first: FL_THERMAL (46 h) cut into runs of 6 h, each a fresh block start with its
 drift taken from the run's start (as a probing campaign measures it), full rate and probed every 30
 minutes (held). Then twin campaigns of both machines over several seeds: leave one run out, grouped
 (fit on the cool days, predict the warm ones: the runs table's `hall`), and probed every 30 min.

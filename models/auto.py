@@ -151,9 +151,9 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
                                      for t, n in zip(tables, rows)]), list(request.temps))
     except UserError as exc:
         raise UserError(f"{runs_named(tables)}: --temps {exc}") from None
-    if len(tables) > 1 or groups is not None:  # a campaign: each kind chooses its sensors inside every fold
+    if chooses_in_folds(tables, folds, groups):  # each kind chooses its sensors inside every fold
         found = [_candidate(tables, replace(request, choose_sensors=kind.auto_sensors), folds, time_column, kind.name,
-                            _candidates(kind, request), say, groups, remote, probing) for kind in kinds]
+                            candidates_of(kind, request), say, groups, remote, probing) for kind in kinds]
         return sorted(found, key=Candidate.order)
     if say:
         say("auto: forward selection of sensors")
@@ -168,7 +168,17 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
     return sorted(found, key=Candidate.order)
 
 
-def _candidates(kind: Kind, request: FitRequest) -> tuple[str, ...]:
+def chooses_in_folds(tables: list[Table], folds: int | None, groups: dict | None) -> bool:
+    """A campaign whose every fold trains on two runs or more: each kind chooses its sensors leaving out each
+    training run. With fewer (two runs, or a group holding all runs but one) a fold's choice would rest on one
+    run's last third, so such a campaign is ranked like one recording, on the sensor sets."""
+    if len(tables) < 2 and groups is None:
+        return False
+    held = [members for _, members in crossval.run_folds(tables, folds, groups)]
+    return min(len(tables) - len(members) for members in held) >= 2
+
+
+def candidates_of(kind: Kind, request: FitRequest) -> tuple[str, ...]:
     """The sensors a kind may choose from: --temps, less the ambient for a kind that drives every sensor by it."""
     return tuple(c for c in request.temps if not (kind.ambient_apart and c == request.ambient))
 
@@ -176,7 +186,8 @@ def _candidates(kind: Kind, request: FitRequest) -> tuple[str, ...]:
 def _candidate(tables, request, folds, time_column, kind, sensors, say, groups=None, remote=None,
                probing: Probing | None = None) -> Candidate:
     if say:
-        say(f"auto: {kind} choosing at most {request.choose_sensors} of {len(sensors)} sensors in every fold"
+        say(f"auto: {kind} choosing at most {min(request.choose_sensors, len(sensors))} of {len(sensors)} sensors "
+            f"in every fold"
             if request.choose_sensors else f"auto: {kind} on {', '.join(sensors)}")
     wanted = replace(request, kind=kind, temps=sensors)  # the speed read or not, folds cut alike
     predictions: dict = {}

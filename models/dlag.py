@@ -10,7 +10,7 @@ import numpy as np
 from thermoplc.base.binary32 import INT_RANGES
 from thermoplc.base.errors import UserError
 from thermoplc.models.kind import Increments, Kind, Part, measured_counts, measured_rows
-from thermoplc.models.mlr import least_squares
+from thermoplc.models.mlr import least_squares, weight_by
 from thermoplc.models.modelfile import Coefficient, Model
 
 
@@ -45,7 +45,7 @@ def fit_dlag(parts: list[Part], names: list[str], lags: int, lag_step_s: float, 
             k += 1
     settings = {"lags": lags, "lag_step_samples": step, "lag_step_s": step * dt}
     return coefficients, settings, {"method": "least squares on current and lagged temperature rises, ridge weight by "
-                                              "forward validation", **log}
+                                              f"{weight_by(log)}", **log}
 
 
 def _columns(part: Part, lags: int, step: int) -> np.ndarray:

@@ -40,7 +40,12 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
 def _fit(parts, request, names, dt, progress):
     values, log = fit_mlr(parts, names)
     coefficients = {k: Coefficient.of(v) for k, v in values.items()}
-    return coefficients, {}, {"method": "least squares (eq. 11), ridge weight by forward validation", **log}
+    return coefficients, {}, {"method": f"least squares (eq. 11), ridge weight by {weight_by(log)}", **log}
+
+
+def weight_by(log: dict) -> str:
+    """How the ridge weight was chosen, for the fit's method text: forward on one recording, else by runs."""
+    return log.get("ridge_weight_by", "forward validation")
 
 
 class StreamCore:

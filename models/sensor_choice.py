@@ -7,8 +7,11 @@ two sensors that only explain the drift together (a difference of two heat paths
 neither leads alone, where plain forward selection locks onto the best single one. From the best
 pair on, sequential floating forward selection (Pudil et al. 1994): the sensor added at each step is
 the one that lowers the error most, and after each addition a sensor chosen earlier is dropped while
-that gives a better set of its size than any seen. The set kept is the smallest whose error no larger set lowers by `MIN_GAIN` or more (a
-sensor that buys 0.2 % is noise fitted, and one more input the PLC wires). The error is measured on
+that gives a better set of its size than any seen. The search runs `LOOK_PAST` sizes beyond N (a floating step back
+from a larger set can find a better set of size N), and the set kept is the smallest of at most N
+whose error no larger set of at most N lowers by `MIN_GAIN` or more (a sensor that buys 0.2 % is noise
+fitted, and one more input the PLC wires). The block reads the chosen sensors in the order of
+`--temps`. A candidate that does not move on the training rows has no slope and is not chosen. The error is measured on
 the training rows alone - leaving out each training run in turn when there are several, else forward
 (first two thirds fitted, last third scored) - so inside cross-validation every fold chooses on its
 own training runs, and the held-out evidence `fit` writes is that of the whole procedure.
@@ -28,6 +31,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.models import ridge
 
 MIN_GAIN = 0.02  # a larger set is kept when it lowers the error by at least this share
+LOOK_PAST = 2  # sizes searched beyond the most asked for
 
 
 @dataclass(frozen=True)
@@ -36,10 +40,12 @@ class Choice:
     chosen: tuple[str, ...]
     best: tuple[tuple[tuple[str, ...], float], ...]  # the best set of each size 1.. and its error, um
     by: str  # how the error was measured
+    still: tuple[str, ...] = ()  # candidates that do not move on the training rows
 
     def log(self) -> dict:
         return {"candidates": list(self.candidates), "chosen": list(self.chosen), "by": self.by,
-                "best_of_each_size": [{"sensors": list(s), "rmse_um": e} for s, e in self.best]}
+                "best_of_each_size": [{"sensors": list(s), "rmse_um": e} for s, e in self.best],
+                **({"not_moving": list(self.still)} if self.still else {})}
 
 
 @dataclass(frozen=True)
@@ -49,6 +55,7 @@ class TrainingRises:
     sums: ridge.RunSums
     held: tuple[int, ...]
     by: str
+    still: tuple[int, ...]  # candidates flat on every training row
 
 
 def training_rises(columns_of_runs: list[dict[str, np.ndarray]], target: str, candidates: tuple[str, ...]
@@ -61,28 +68,33 @@ def training_rises(columns_of_runs: list[dict[str, np.ndarray]], target: str, ca
         designs.append(np.column_stack([(columns[c] - columns[c][0])[measured] for c in candidates]))
         targets.append(columns[target][measured])
     design, y = np.vstack(designs), np.concatenate(targets)
+    still = tuple(int(i) for i in np.flatnonzero(np.ptp(np.vstack([np.column_stack([c[n] for n in candidates])
+                                                                   for c in columns_of_runs]), axis=0) == 0.0))
     if len(targets) >= 2:
         return TrainingRises(ridge.RunSums.of(design, y, [len(t) for t in targets]), tuple(range(len(targets))),
-                             f"leaving out each of {len(targets)} training runs")
+                             f"leaving out each of {len(targets)} training runs", still)
     cut = ridge.validation_cut(len(y))
     if cut is None:
         raise UserError(f"--choose-sensors: {len(y)} measured training rows; choosing sensors on one recording fits "
                         f"two thirds and scores the last third, {ridge.MIN_VALIDATION_ROWS} rows at least each: train "
                         f"on more rows, or on several runs")
     return TrainingRises(ridge.RunSums.of(design, y, [cut, len(y) - cut]), (1,),
-                         "forward: fitted on the first two thirds of the training rows, scored on the last third")
+                         "forward: fitted on the first two thirds of the training rows, scored on the last third", still)
 
 
 def choose(data: TrainingRises, candidates: tuple[str, ...], most: int) -> Choice:
     """At most `most` of `candidates` by sequential floating forward selection (module docstring)."""
     error = lambda chosen: min(ridge.run_errors(data.sums, sorted(chosen), ridge.WEIGHTS, data.held))
-    everyone = range(len(candidates))
+    everyone = [c for c in range(len(candidates)) if c not in data.still]
+    if not everyone:
+        raise UserError("--choose-sensors: no candidate of --temps moves on the training rows")
+    search = min(most + LOOK_PAST, len(everyone))
     best = {1: min((error((c,)), (c,)) for c in everyone)}
-    if most >= 2 and len(candidates) >= 2:
+    if search >= 2:
         best[2] = min((error((a, b)), (a, b)) for a in everyone for b in everyone if a < b)
     current = best[max(best)][1]
-    while len(current) < min(most, len(candidates)):
-        found, added = min((error((*current, c)), c) for c in range(len(candidates)) if c not in current)
+    while len(current) < search:
+        found, added = min((error((*current, c)), c) for c in everyone if c not in current)
         current = (*current, added)
         if len(current) not in best or found < best[len(current)][0]:
             best[len(current)] = (found, current)
@@ -94,8 +106,9 @@ def choose(data: TrainingRises, candidates: tuple[str, ...], most: int) -> Choic
                 break
             current = tuple(s for s in current if s != leave)
             best[len(current)] = (dropped, current)
-    sizes = sorted(best)
+    sizes = sorted(k for k in best if k <= most)
     keep = next(k for k in sizes if all(best[j][0] > (1 - MIN_GAIN) * best[k][0] for j in sizes if j > k))
-    named = lambda indices: tuple(candidates[i] for i in indices)
+    named = lambda indices: tuple(candidates[i] for i in sorted(indices))  # the order of --temps
     return Choice(tuple(candidates), named(best[keep][1]),
-                  tuple((named(best[k][1]), float(best[k][0])) for k in sizes), data.by)
+                  tuple((named(best[k][1]), float(best[k][0])) for k in sizes), data.by,
+                  named(data.still))

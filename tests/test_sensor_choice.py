@@ -14,7 +14,7 @@ from thermoplc.models import ridge
 from thermoplc.models.crossval import fit_held_out
 from thermoplc.models.fit import FitRequest
 from thermoplc.models.sensor_choice import choose, training_rises
-from thermoplc.models.table import Table, write_table
+from thermoplc.models.table import Table, read_table, write_table
 from tests.cli_runner import thermoplc
 
 SENSORS = tuple(f"T{i}" for i in range(8))
@@ -144,3 +144,37 @@ def test_auto_on_a_campaign_ranks_the_evidence_it_writes(tmp_path):
     assert written["kind"] == ranking[0]["kind"] and len(written["metrics"]["cross_validation"]) == 5
     assert all(f["sensors"] for f in written["metrics"]["cross_validation"])
     assert {c["kind"]: set(c["sensors"]) for c in ranking}["mlr"] == {"T2", "T5"}
+
+
+def test_a_still_sensor_is_never_chosen_and_the_block_reads_the_order_of_temps():
+    tables = _campaign(4, 8)
+    for table in tables:
+        table.columns["T_flat"] = np.full(len(table.columns["E_um"]), 21.0)
+    candidates = ("T_flat", *SENSORS[::-1])
+    found = choose(training_rises([t.columns for t in tables], "E_um", candidates), candidates, 2)
+    assert found.chosen == ("T5", "T2") and found.still == ("T_flat",)  # T5 before T2, as --temps names them
+    assert found.log()["not_moving"] == ["T_flat"]
+    model = fit_held_out(tables, FitRequest("mlr", "E_um", candidates, train_until=math.inf, choose_sensors=2), 4)
+    assert [s.column for s in model.signals("temperature")] == ["T5", "T2"]
+
+
+def test_the_best_set_of_n_is_searched_past_n(tmp_path):
+    """A floating step back from a larger set finds a better set of 3 than forward reaches at 3 (twin seed 3:
+    T_bearing, T_struct, T_env 0.89 um against T_motor, T_struct, T_env 0.82 um)."""
+    thermoplc("twin", "--runs", 5, "--hours", 6, "--dt", 60, "--seed", 3, "-o", "runs", cwd=tmp_path)
+    tables = [read_table(path) for path in sorted((tmp_path / "runs").glob("run_*.csv"))]
+    candidates = ("T_env", "T_motor", "T_bearing", "T_struct", "T_base")
+    data = training_rises([t.columns for t in tables], "E_z_um", candidates)
+    three = choose(data, candidates, 3)
+    assert three.chosen == ("T_env", "T_motor", "T_struct")
+    assert dict((len(s), e) for s, e in choose(data, candidates, 5).best)[3] == three.best[-1][1]
+
+
+def test_auto_on_two_runs_ranks_sensor_sets_as_on_one_recording(tmp_path):
+    """Two runs: each fold would choose on one run's last third; auto ranks its sensor sets instead."""
+    (tmp_path / "runs").mkdir()
+    for table in _campaign(2, 10):
+        (tmp_path / "runs" / table.path).write_text(write_table(table.columns))
+    out = thermoplc("fit", "--data", "runs", "--model", "auto", "--target", "E_um", "--temps", ",".join(SENSORS),
+                    "--folds", 2, "-o", "a.json", cwd=tmp_path).stdout
+    assert "chose its sensors among --temps itself" not in out and "writing the best:" in out

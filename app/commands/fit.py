@@ -68,7 +68,8 @@ def add_parser(sub) -> None:
                             "--choose-sensors the candidates")
     model.add_argument("--choose-sensors", type=number(int, 1, 64, "sensors"), metavar="N", default=0,
                        help="choose at most N of --temps on the training rows (forward selection, each run left out "
-                            "or the last third; every fold chooses again): the block reads the chosen ones")
+                            "or the last third; every fold chooses again; on the first --target): the block reads the "
+                            "chosen ones")
     model.add_argument("--speed", help="spindle speed column, rpm (kalman, lumped; auto tries them only with it)")
     model.add_argument("--ambient", help="ambient temperature column, degC (kalman, lumped, piecewise)")
     data.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")

@@ -15,7 +15,7 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
     (models/auto.Probing) each candidate is fused and ranked by its held-out error with its probings."""
     from thermoplc.generator.lower import lower_model
     from thermoplc.generator.stats import block_stats
-    from thermoplc.models.auto import rank
+    from thermoplc.models.auto import candidates_of, chooses_in_folds, rank
     from thermoplc.models.kinds import kind_of
     ranked = rank(tables, request, folds, time_column, say=progress, groups=groups, remote=remote, probing=probing)
     end_progress()
@@ -25,10 +25,11 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
     cost = {id(c): block_stats(lower_model(c.model))["arithmetic_per_call"] for c in fitted}
     none = fitted[0].model.metrics["held_out"].get("zero_rmse_um")
     campaign = len(tables) > 1 or groups is not None
+    chose = chooses_in_folds(tables, folds, groups)
     print(f"auto: {len(ranked)} candidates ranked by held-out RMSE" + (" with their probings (fused)" if probing else "")
           + (f" (no compensation {none:.3f} um)" if none is not None else "")
           + (f", {fitted[0].model.metrics['held_out']['protocol']}" if campaign else ""))
-    if campaign:
+    if chose:
         most = ", ".join(f"{c.kind} {kind_of(c.kind).auto_sensors}" for c in ranked)
         print(f"  each kind chose its sensors among --temps itself, again inside every fold (at most: {most}): the "
               f"error ranked is the written model's held-out evidence (the sensors shown: chosen on every run)")
@@ -46,8 +47,10 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
     cheaper = min((c for c in fitted if c.rmse <= (1 + AUTO_TOLERANCE) * best.rmse and
                    (c.not_accepted is None) == (best.not_accepted is None)), key=lambda c: cost[id(c)])
     if cheaper is not best:
-        again = (f"--temps {','.join(request.temps)} --choose-sensors {kind_of(cheaper.kind).auto_sensors}" if campaign else
-                 f"--temps {','.join(cheaper.sensors)}")
+        kind = kind_of(cheaper.kind)
+        again = (f"--temps {','.join(candidates_of(kind, request))} --choose-sensors {kind.auto_sensors}" if chose else
+                 f"--temps {','.join(cheaper.sensors)}") + (" --probe" if probing else "") \
+            + (f" --probe-every {probing.every}" if probing and probing.every else "")
         print(f"  cheapest within {AUTO_TOLERANCE:.0%} of the best: {cheaper.kind} on {','.join(cheaper.sensors)}, "
               f"{cheaper.rmse:.3f} um, {cost[id(cheaper)]} operations per call (fit it with --model {cheaper.kind} "
               f"{again})")

@@ -66,7 +66,7 @@ def format_choice(choice: dict, folds: list | None) -> str:
     text = (f"  sensors chosen: {', '.join(choice['chosen'])} of {len(choice['candidates'])} candidates "
             f"(ridge error {choice['by']}, best set of each size, um: {sizes})")
     if folds:
-        same = sum(tuple(f.get("sensors", ())) == tuple(choice["chosen"]) for f in folds)
+        same = sum(set(f.get("sensors", ())) == set(choice["chosen"]) for f in folds)
         text += f"; {same} of {len(folds)} folds chose the same set on their own training rows"
     return text
 
@@ -135,4 +135,5 @@ def fit_document(model, path: str) -> dict:
     return {"format": "thermoplc-fit", "version": 1, "model_file": path, "kind": model.kind,
             "fingerprint": model.fingerprint(), "block_name": model.block_name,
             "inputs": [signal(s) for s in model.inputs], "target": signal(model.target),
-            "metrics": model.metrics, "generate_refuses": refusal(model)}
+            "metrics": model.metrics, "generate_refuses": refusal(model),
+            **({"sensor_choice": model.fit["sensor_choice"]} if "sensor_choice" in model.fit else {})}
