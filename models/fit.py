@@ -155,6 +155,10 @@ def check_inputs(tables: list[Table], request: FitRequest, time_column: str, n_t
     missing, misplaced, clashing as block names, no temperatures, or leaking the target on the training
     rows. `auto` asks it once for every candidate sensor before it fits anything."""
     _refuse_misplaced_temps(request, time_column)
+    for column in (request.speed, request.ambient):  # named though this kind may not read it: a typo is no input
+        if column is not None:
+            for table in tables:
+                table.column(column)
     signals = _signals(tables, request)
     target = Signal(block_identifier(request.target, "target"), request.target, "target", "um")
     named = [*signals, target]

@@ -611,6 +611,13 @@ def _option_cases() -> list[Case]:
               "--train-rows", "200", "--optimizer", "de", "-o", "out.json"), lambda f: None, "error",
              "--optimizer is read by --model kalman only, which --model auto does not try here (kalman needs --speed "
              "and --ambient)"),
+        Case("option", "--temps with an empty name", "fit",
+             ("fit", "--data", "good.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,,T_bearing",
+              "--train-rows", "200", "-o", "out.json"), lambda f: None, "error",
+             "argument --temps: an empty column name in 'T_motor,,T_bearing'"),
+        Case("option", "--speed with a typo for a kind that does not read it", "fit",
+             (*FIT, "good.csv", "--speed", "n_rpmm"), lambda f: None, "error",
+             "no column 'n_rpmm' (did you mean 'n_rpm'?)"),
         Case("option", "--choose-sensors 0", "fit", (*FIT, "good.csv", "--choose-sensors", "0"), lambda f: None,
              "error", "argument --choose-sensors: expected sensors from 1 to 64, found 0"),
         Case("option", "--choose-sensors with --model auto", "fit",

@@ -1,11 +1,15 @@
 """thermoplc diff: structure and behaviour, on generated and hand-edited blocks."""
+import json
 import re
+
+import jsonschema
 
 import numpy as np
 import pytest
 
 from tests.golden_models import golden_block, golden_twin_csv
 from tests.cli_runner import thermoplc
+from tests.test_json_output import schema
 from thermoplc.generator.literals import real_literal
 from thermoplc.models.table import read_table
 from thermoplc.verifier.diff import diff_blocks
@@ -108,3 +112,23 @@ def test_retain_counts_in_every_dialect_and_literal_spelling_or_name_case_do_not
     other = tmp_path / "other.st"
     other.write_text(text.replace("END_IF;", "END_IF;\n    Init := Init AND 1.00 > 0.0E0;", 1))
     thermoplc("diff", spelled, other, cwd=tmp_path)
+
+
+def test_diff_json_names_an_int_output_by_its_type(tmp_path):
+    """An INT output that differs is an INT in `diff --json` (it was called BOOL), counted in calls."""
+    block = """FUNCTION_BLOCK Counter
+VAR_INPUT k : INT; x : REAL; END_VAR
+VAR_OUTPUT n : INT; y : REAL; END_VAR
+n := k * {scale};
+y := x;
+END_FUNCTION_BLOCK
+"""
+    (tmp_path / "a.st").write_text(block.format(scale="2"))
+    (tmp_path / "b.st").write_text(block.format(scale="3"))
+    (tmp_path / "d.csv").write_text("time_s,k,x\n" + "".join(f"{k},{k},{k / 4}\n" for k in range(12)))
+    thermoplc("diff", "a.st", "b.st", "--data", "d.csv", "--json", "d.json", cwd=tmp_path, check=1)
+    document = json.loads((tmp_path / "d.json").read_text())
+    jsonschema.validate(document, schema("diff"))
+    behaviour = {b["output"]: b for b in document["behaviour"]}
+    assert behaviour["n"]["type"] == "INT" and behaviour["n"]["max_abs"] is None
+    assert behaviour["n"]["differing_calls"] > 0 and behaviour["y"]["type"] == "REAL"

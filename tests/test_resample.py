@@ -4,11 +4,13 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import jsonschema
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
 from tests.cli_runner import thermoplc
+from tests.test_json_output import schema
 from thermoplc import api
 from thermoplc.base.errors import UserError
 from thermoplc.models.resample import MAX_GAP_CALLS, Resampling, resample
@@ -67,6 +69,7 @@ def test_a_resampled_table_is_on_the_cycle_never_overshoots_and_keeps_every_prob
     t = np.r_[0.0, np.cumsum(steps)]
     temps, speed = rng.normal(20, 3, len(t)), rng.choice([0.0, 1500.0, 3000.0], len(t))
     probed = np.where(rng.random(len(t)) < 0.3, rng.normal(0, 10, len(t)), np.nan)
+    probed[rng.integers(len(t))] = np.nan  # a target measured at every row is a measured column: linear, as a temperature
     raw = _table(t, T=temps, rpm=speed, probe=probed)
     try:
         out = resample(raw, "time_s", Resampling(period, ("rpm",)), probed=("probe",))
@@ -114,8 +117,12 @@ def test_a_raw_logger_file_is_fitted_generated_and_verified_with_resample(tmp_pa
     model = json.loads((tmp_path / "m.json").read_text())
     assert model["sample_period_s"] == 40.0 and model["resample"]["period_s"] == 40.0
     thermoplc("generate", "m.json", "-o", "m.scl", "--accept-unvalidated", cwd=tmp_path)
-    verified = thermoplc("verify", "m.scl", "--model", "m.json", "--data", raw, cwd=tmp_path)
+    verified = thermoplc("verify", "m.scl", "--model", "m.json", "--data", raw, "--json", "v.json", "--outputs",
+                         "out.csv", cwd=tmp_path)
     assert verified.stdout.startswith("bit-exact") and "taken onto the block's cycle of 40 s first" in verified.stdout
+    document = json.loads((tmp_path / "v.json").read_text())  # the JSON says what the text says
+    assert document["resampled"] == {"period_s": 40.0, "by": "model file"} and document["outputs_file"] == "out.csv"
+    jsonschema.validate(document, schema("verify"))
     other = thermoplc("verify", "m.scl", "--model", "m.json", "--data", raw, "--resample", "10", cwd=tmp_path, check=None)
     assert other.returncode == 2 and "the block runs every 40 s" in other.stderr
     trace = thermoplc("verify", "m.scl", "--expect", "ch3_um", "--data", raw, "--resample", "40", cwd=tmp_path,

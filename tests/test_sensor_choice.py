@@ -4,6 +4,7 @@ block's sensors among the candidates on the training rows alone, again inside ev
 import json
 import math
 
+import jsonschema
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -16,6 +17,7 @@ from thermoplc.models.fit import FitRequest
 from thermoplc.models.sensor_choice import choose, training_rises
 from thermoplc.models.table import Table, read_table, write_table
 from tests.cli_runner import thermoplc
+from tests.test_json_output import schema
 
 SENSORS = tuple(f"T{i}" for i in range(8))
 
@@ -104,7 +106,10 @@ def test_choose_sensors_end_to_end(tmp_path):
         (tmp_path / "runs" / table.path).write_text(write_table(table.columns))
     every = ",".join(SENSORS)
     out = thermoplc("fit", "--data", "runs", "--model", "dlag", "--target", "E_um", "--temps", every,
-                    "--choose-sensors", 3, "--folds", 4, "-o", "m.json", cwd=tmp_path).stdout
+                    "--choose-sensors", 3, "--folds", 4, "-o", "m.json", "--json", "fit.json", cwd=tmp_path).stdout
+    document = json.loads((tmp_path / "fit.json").read_text())
+    jsonschema.validate(document, schema("fit"))
+    assert document["sensor_choice"]["chosen"] == ["T2", "T5"]
     assert "sensors chosen: T2, T5 of 8 candidates (ridge error leaving out each of 4 training runs" in out
     assert "4 of 4 folds chose the same set on their own training rows" in out
     written = json.loads((tmp_path / "m.json").read_text())

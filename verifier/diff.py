@@ -43,11 +43,15 @@ class ConstantChange:
 @dataclass(frozen=True)
 class OutputDifference:
     output: str
-    max_abs: float  # REAL: largest |new - old|; BOOL: number of calls that differ
+    max_abs: float  # REAL: largest |new - old|; any other type: number of calls that differ
     cycle: int  # first call with that largest difference
     time: float
     differing_calls: int
-    real: bool  # REAL output (max_abs in its unit) or BOOL (max_abs unused)
+    type: str  # the output's ST type (the new block's): REAL has max_abs in its unit, the others count calls
+
+    @property
+    def real(self) -> bool:
+        return self.type == "REAL"
 
 
 @dataclass
@@ -253,7 +257,7 @@ def _behaviour(old_path: str, new_path: str, old: s.Program, new: s.Program, tab
     one_sided += [d for key, d in old_outputs.items() if key not in new_keys]
     # an output only one block has, or of another type, differs on every call
     diffs = [OutputDifference(d.name, math.inf, 0, float(times[0]) if table.rows else 0.0, max(table.rows, 1),
-                              d.type.base == "REAL") for d in one_sided]
+                              d.type.base) for d in one_sided]
     for d in (d for d in new_outputs if d not in one_sided):
         a, b = before[old_outputs[d.name.upper()].name], after[d.name]
         differ = np.zeros(len(a), bool)
@@ -266,7 +270,7 @@ def _behaviour(old_path: str, new_path: str, old: s.Program, new: s.Program, tab
             gap = differ.astype(float)
         worst = int(np.argmax(gap)) if differ.any() else 0
         diffs.append(OutputDifference(d.name, float(gap[worst]) if d.type.base == "REAL" else float(differ.sum()),
-                                      worst, float(times[worst]), int(differ.sum()), d.type.base == "REAL"))
+                                      worst, float(times[worst]), int(differ.sum()), d.type.base))
     return diffs
 
 

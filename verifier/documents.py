@@ -82,7 +82,7 @@ def diff_document(result: BlockDiff, with_data: bool) -> dict:
     """The `diff --json` document: the structural differences and, with data (`with_data`), the outputs that
     behave differently; `same` only when the structure, and with data the behaviour, agree."""
     behaviour = None if result.behaviour is None else [
-        {"output": d.output, "type": "REAL" if d.real else "BOOL",
+        {"output": d.output, "type": d.type,
          "max_abs": (d.max_abs if math.isfinite(d.max_abs) else str(d.max_abs)) if d.real else None,
          "first_cycle": d.cycle, "time_s": d.time, "differing_calls": d.differing_calls} for d in result.behaviour]
     same = result.structurally_equal and (not with_data or result.behaviour_equal)

@@ -36,10 +36,13 @@ def columns(text: str) -> Names:
             text = Path(text[1:]).read_text("utf-8").strip()
         except OSError as exc:
             raise argparse.ArgumentTypeError(f"cannot read {text[1:]}: {exc.strerror}") from None
-        text = ",".join(line for line in text.splitlines() if not line.lstrip().startswith("#"))
-    names = tuple(c.strip() for c in text.split(",") if c.strip())
-    if not names:
+        text = ",".join(line for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#"))
+    names = tuple(c.strip() for c in text.split(","))
+    if not any(names):
         raise argparse.ArgumentTypeError("expected comma-separated column names")
+    if not all(names):
+        raise argparse.ArgumentTypeError(f"an empty column name in {text!r} (two commas, or one at an end); name each "
+                                         f"column once")
     found = Names(names)
     found.file = file
     return found

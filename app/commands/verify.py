@@ -196,7 +196,10 @@ def _against_model(args: argparse.Namespace) -> int:
     said = (f"\n  {args.data} taken onto the block's cycle of {rule.period_s:g} s first ("
             f"{'the model file' if model.resample else '--resample'}: {RULE})" if rule else "")
     said += _written_outputs(args, report, table, model.time_column)
-    return _result(args, report.text() + said, report.ok, lambda: verify_document(report))
+    resampled = {"resampled": {"period_s": rule.period_s, "by": "model file" if model.resample else "--resample"}} \
+        if rule else {}
+    return _result(args, report.text() + said, report.ok,
+                   lambda: {**verify_document(report), **resampled, **_outputs_named(args)})
 
 
 def _faults(args: argparse.Namespace, model, table) -> int:
@@ -226,7 +229,12 @@ def _against_trace(args: argparse.Namespace) -> int:
         expect[output] = column if sep else item
     report = verify_against_trace(args.block, table, expect, args.inputs, args.time, args.engine)
     said = _written_outputs(args, report, table, args.time)
-    return _result(args, report.text() + said, report.ok, lambda: verify_document(report))
+    return _result(args, report.text() + said, report.ok, lambda: {**verify_document(report), **_outputs_named(args)})
+
+
+def _outputs_named(args: argparse.Namespace) -> dict:
+    """`verify --json`: the file --outputs wrote the block's outputs to, when given."""
+    return {"outputs_file": args.outputs} if args.outputs is not None else {}
 
 
 def _result(args: argparse.Namespace, text: str, ok: bool, document) -> int:
