@@ -19,41 +19,52 @@ def add_parser(sub) -> None:
                                   "thermoplc verify ThermalComp.scl --model model.json --data twin.csv --faults",
                                   "thermoplc verify ThermalComp.scl --model model.json --data twin.csv --outputs outputs.csv",
                                   "thermoplc verify ThermalComp.scl --data trace.csv --expect E_z_um=plc_E"))
+    data = p.add_argument_group("data")
+    against = p.add_argument_group("compared with (a model's reference, or outputs a PLC recorded)")
+    replay = p.add_argument_group("replay")
+    many = p.add_argument_group("many pairs (docs/performance.md)")
+    output = p.add_argument_group("output")
     p.add_argument("block", nargs="?", help="the block: its ST source, or the PLCopen XML of generate --format plcopen")
-    p.add_argument("--data", action="append", type=RECORDING,
-                   help="the recording (CSV, .npz or Parquet of columns), one row per call; columns Enable and Reset "
-                        "(0/1), when present, drive those block inputs. Repeat it, or give a folder, for a campaign: "
-                        "each run replayed from a freshly started block, one line per run, one verdict")
-    p.add_argument("--runs", metavar="TABLE", type=RUNS_TABLE,
-                   help="a campaign's runs table (fit --runs) instead of --data: each run verified from a fresh block")
-    p.add_argument("--decimal", **DECIMAL)
-    p.add_argument("--resample", **{**RESAMPLE, "help": "with --model: take raw logger data onto the block's cycle of "
-                                                         "SECONDS by the rule fit --resample records (a model fitted "
-                                                         "with --resample applies it without this option)"})
-    p.add_argument("--model", help="compare with this model's float32 reference")
-    p.add_argument("--outputs", metavar="FILE", type=named("a file for the outputs (.csv or .parquet)"),
-                   help="also write what the block output at each call of the replay (one recording), beside the "
-                        "time column: CSV (REAL to 9 digits, every bit kept) or Parquet")
-    p.add_argument("--expect", type=columns, help="compare with recorded outputs: COLUMN or OUTPUT=COLUMN, comma-separated")
-    p.add_argument("--inputs", type=mapping, help="block input to column mapping NAME=COLUMN,...")
-    p.add_argument("--manifest", type=named("a manifest (CSV)"),
-                   help="CSV of pairs to verify (columns block,data and model or expect, optional inputs)")
-    p.add_argument("--jobs", type=number(int, 1, 256, "processes"), default=1, help="with --manifest: pairs verified in parallel (default: %(default)s)")
-    p.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
-                   help="with --manifest or a campaign: verify the pairs as tasks of the Dask distributed cluster whose "
-                        "scheduler is at ADDRESS (tcp://HOST:PORT; the fleet extra); every worker reads the files by "
-                        "the paths given")
-    p.add_argument("--engine", choices=("auto", "interp", "fast"), default="auto",
-                   help="interp: the reference interpreter; fast: the block compiled to C (same bits); "
-                        "auto: fast when a C compiler is there (default: %(default)s)")
-    p.add_argument("--faults", action="store_true",
-                   help="replay with injected sensor faults (NaN, open/short PT100, jumps, paper 000 sine and "
-                        "offset) and check exactness, finiteness, clamp and rate limit")
-    p.add_argument("--probe-every", type=number(int, 1, 10 ** 9, "calls"), metavar="N",
-                   help="a fused block (fit --probe) on a target measured at every call: replay a probing every N "
-                        "calls (a probed target's own measured rows, or columns ProbeValue and ProbeNew, need none)")
-    p.add_argument("--time", default="time_s", help="time column for --expect traces (default: %(default)s)")
-    json_output.add_arguments(p)
+    data.add_argument("--data", action="append", type=RECORDING,
+                      help="the recording (CSV, .npz or Parquet of columns), one row per call; columns Enable "
+                           "and Reset (0/1), when present, drive those block inputs. Repeat it, or give a "
+                           "folder, for a campaign: each run replayed from a freshly started block, one line "
+                           "per run, one verdict")
+    data.add_argument("--runs", metavar="TABLE", type=RUNS_TABLE,
+                      help="a campaign's runs table (fit --runs) instead of --data: each run verified from a "
+                           "fresh block")
+    data.add_argument("--decimal", **DECIMAL)
+    data.add_argument("--resample", **{**RESAMPLE, "help": "with --model: take raw logger data onto the block's "
+                                                            "cycle of SECONDS by the rule fit --resample records (a "
+                                                            "model fitted with --resample applies it without this "
+                                                            "option)"})
+    against.add_argument("--model", help="compare with this model's float32 reference")
+    output.add_argument("--outputs", metavar="FILE", type=named("a file for the outputs (.csv or .parquet)"),
+                        help="also write what the block output at each call of the replay (one recording), "
+                             "beside the time column: CSV (REAL to 9 digits, every bit kept) or Parquet")
+    against.add_argument("--expect", type=columns,
+                         help="compare with recorded outputs: COLUMN or OUTPUT=COLUMN, comma-separated")
+    data.add_argument("--inputs", type=mapping, help="block input to column mapping NAME=COLUMN,...")
+    many.add_argument("--manifest", type=named("a manifest (CSV)"),
+                      help="CSV of pairs to verify (columns block,data and model or expect, optional inputs)")
+    many.add_argument("--jobs", type=number(int, 1, 256, "processes"), default=1,
+                      help="with --manifest: pairs verified in parallel (default: %(default)s)")
+    many.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
+                      help="with --manifest or a campaign: verify the pairs as tasks of the Dask distributed "
+                           "cluster whose scheduler is at ADDRESS (tcp://HOST:PORT; the fleet extra); every "
+                           "worker reads the files by the paths given")
+    replay.add_argument("--engine", choices=("auto", "interp", "fast"), default="auto",
+                        help="interp: the reference interpreter; fast: the block compiled to C (same bits); "
+                             "auto: fast when a C compiler is there (default: %(default)s)")
+    replay.add_argument("--faults", action="store_true",
+                        help="replay with injected sensor faults (NaN, open/short PT100, jumps, paper 000 sine"
+                             " and offset) and check exactness, finiteness, clamp and rate limit")
+    replay.add_argument("--probe-every", type=number(int, 1, 10 ** 9, "calls"), metavar="N",
+                        help="a fused block (fit --probe) on a target measured at every call: replay a probing "
+                             "every N calls (a probed target's own measured rows, or columns ProbeValue and "
+                             "ProbeNew, need none)")
+    against.add_argument("--time", default="time_s", help="time column for --expect traces (default: %(default)s)")
+    json_output.add_arguments(output)
     p.set_defaults(func=run)
 
 
