@@ -9,6 +9,7 @@ import numpy as np
 
 from thermoplc.diagnosis.search import Diagnosis
 from thermoplc.diagnosis.findings import display, next_steps, percent
+from thermoplc.diagnosis.windows import SMOOTHING_S, smooth, smoothing_rows
 
 
 def _unit(channel: str, target: str) -> str:
@@ -17,7 +18,10 @@ def _unit(channel: str, target: str) -> str:
 
 
 def _plot(d: Diagnosis, run: int, channel: str, measured: np.ndarray, unit: str) -> bytes:
-    """One channel of one run: measured and simulated before/after, and the residuals with the windows."""
+    """One channel of one run, as an engineer compares it with the measurement: measured (and, noisy, its
+    average over the windows' smoothing time) beside the simulation before and after; the residuals averaged
+    the same way with the disagreement windows shaded; what the named effects add to the simulation on its own
+    axis; the spindle speed beneath. The title gives the held-out RMSE before and after."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -26,30 +30,46 @@ def _plot(d: Diagnosis, run: int, channel: str, measured: np.ndarray, unit: str)
     series, n_train = parts.runs[run], parts.train_rows[run]
     of_run = lambda pooled: parts.unpool(pooled)[run]
     hours = (series.t - series.t[0]) / 3600
+    width = smoothing_rows(series.dt)
     difference = "um" if unit == "um" else "K"
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
-    top.plot(hours, of_run(d.simulated_before[channel]), lw=1.0, color="tab:red", ls="--", label="simulation before",
-             zorder=2)
-    top.plot(hours, of_run(d.simulated_after[channel]), lw=1.0, color="tab:blue", ls="--", label="simulation after",
-             zorder=3)
-    top.plot(hours, measured, lw=0.8, color="black", alpha=0.8, label="measured", zorder=4)  # on top: it is the truth
+    before, after = of_run(d.simulated_before[channel]), of_run(d.simulated_after[channel])
+    residual_before, residual_after = of_run(d.residual_before[channel]), of_run(d.residual_after[channel])
+    fig, (top, middle, effect, speed) = plt.subplots(4, 1, figsize=(11, 8.5), sharex=True,
+                                                      gridspec_kw={"height_ratios": [3, 2, 1.2, 1]})
+    top.plot(hours, measured, lw=0.5, color="0.6", label="measured", zorder=1)
+    top.plot(hours, smooth(measured, width), lw=1.2, color="black",
+             label=f"measured, {SMOOTHING_S / 60:g} min average", zorder=4)
+    top.plot(hours, before, lw=1.2, color="tab:red", ls="--", label="simulation before", zorder=5)
+    top.plot(hours, after, lw=1.2, color="tab:blue", ls="--", label="simulation after", zorder=6)
     top.set_ylabel(f"{channel}, {unit}")
-    top.legend(loc="upper left", fontsize=8)
-    bottom.plot(hours, of_run(d.residual_before[channel]), lw=0.5, color="tab:red", label="residual before")
-    bottom.plot(hours, of_run(d.residual_after[channel]), lw=0.5, color="tab:blue", label="residual after")
+    top.legend(loc="upper left", fontsize=9, ncol=2)
+    for residual, colour, label in ((residual_before, "tab:red", "before"), (residual_after, "tab:blue", "after")):
+        middle.plot(hours, residual, lw=0.4, color=colour, alpha=0.25)
+        middle.plot(hours, smooth(residual, width), lw=1.2, color=colour,
+                    label=f"residual {label}, {SMOOTHING_S / 60:g} min average")
     for w in d.windows_before:
         if w.channel == channel and w.run == run:
-            bottom.axvspan(hours[w.start], hours[w.stop - 1], color="orange", alpha=0.25, lw=0)
-    if parts.campaign:
-        top.set_title(f"{parts.labels[run]}: " + ("training run" if n_train == series.rows else "held-out run"))
-    for ax in (top, bottom):
+            middle.axvspan(hours[w.start], hours[w.stop - 1], color="orange", alpha=0.25, lw=0)
+    middle.axhline(0.0, color="k", lw=0.6)
+    middle.set_ylabel(f"measured - simulated, {difference}")
+    middle.legend(loc="upper left", fontsize=9)
+    effect.plot(hours, after - before, lw=1.2, color="tab:green")
+    effect.set_ylabel(f"named effects, {difference}", fontsize=9)
+    effect.set_title("what the named effects add to the simulation (after - before)", fontsize=9, loc="left")
+    speed.plot(hours, series.n, lw=0.8, color="0.3")
+    speed.set_ylabel("speed, rpm", fontsize=9)
+    speed.set_xlabel("time, h (dotted: end of the training part; shaded: disagreement windows)")
+    for ax in (top, middle, effect, speed):
         if 0 < n_train < series.rows:
             ax.axvline(hours[n_train - 1], color="k", lw=0.8, ls=":")
         ax.grid(alpha=0.3)
-    bottom.set_xlabel("time, h (dotted: end of the training part; shaded: disagreement windows)")
-    bottom.set_ylabel(f"measured - simulated, {difference}")
-    bottom.legend(loc="upper left", fontsize=8)
-    return png_bytes(fig, 90)
+    held = slice(n_train, None) if n_train < series.rows else slice(None)
+    rms = lambda r: float(np.sqrt(np.mean(r[held] ** 2)))
+    where = "held-out" if n_train < series.rows else "training run"
+    name = f"{parts.labels[run]}: " if parts.campaign else ""
+    top.set_title(f"{name}{channel}: simulation RMSE on the {where} rows {rms(residual_before):.3g} {difference} "
+                  f"before, {rms(residual_after):.3g} after", fontsize=11)
+    return png_bytes(fig, 150)
 
 
 def png_bytes(fig, dpi: int) -> bytes:
