@@ -73,17 +73,15 @@ def ridge_floor(tables: list[Table], target: str, temps: tuple[str, ...], groups
     """The issue's floor: ridge on every sensor's rise since its run's start, each run (or group) predicted by
     the fit on the others, the weight the one best on those same folds (so a slightly optimistic floor)."""
     folds = list(groups.values()) if groups else [[k] for k in range(len(tables))]
-    order = [k for fold in folds for k in fold]
-    rises, ys, runs, zeros = [], [], [], []
+    rises, ys = [], []
     for fold in folds:  # the runs of a fold stacked as one "run": ridge.leave_one_run_out leaves it out whole
         keep = [np.isfinite(tables[k].columns[target]) for k in fold]
         rises.append(np.vstack([np.column_stack([tables[k].columns[c] - tables[k].columns[c][0] for c in temps])[m]
                                 for k, m in zip(fold, keep)]))
         ys.append(np.concatenate([tables[k].columns[target][m] for k, m in zip(fold, keep)]))
-        runs.append(len(ys[-1]))
     y = np.concatenate(ys)
-    rmse = min(ridge.leave_one_run_out(np.vstack(rises), y, runs, ridge.WEIGHTS))
-    return {"rmse": rmse, "zero": float(np.sqrt(np.mean(y ** 2))), "rows": len(y), "runs": len(order)}
+    rmse = min(ridge.leave_one_run_out(np.vstack(rises), y, [len(v) for v in ys], ridge.WEIGHTS))
+    return {"rmse": rmse, "zero": float(np.sqrt(np.mean(y ** 2))), "rows": len(y)}
 
 
 def judge(tables: list[Table], request: FitRequest, groups=None) -> dict:

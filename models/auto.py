@@ -151,7 +151,7 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
                                      for t, n in zip(tables, rows)]), list(request.temps))
     except UserError as exc:
         raise UserError(f"{runs_named(tables)}: --temps {exc}") from None
-    if chooses_in_folds(tables, folds, groups):  # each kind chooses its sensors inside every fold
+    if _chooses_in_folds(tables, folds, groups):  # each kind chooses its sensors inside every fold
         found = [_candidate(tables, replace(request, choose_sensors=kind.auto_sensors), folds, time_column, kind.name,
                             candidates_of(kind, request), say, groups, remote, probing) for kind in kinds]
         return sorted(found, key=Candidate.order)
@@ -168,7 +168,7 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
     return sorted(found, key=Candidate.order)
 
 
-def chooses_in_folds(tables: list[Table], folds: int | None, groups: dict | None) -> bool:
+def _chooses_in_folds(tables: list[Table], folds: int | None, groups: dict | None) -> bool:
     """A campaign whose every fold trains on two runs or more: each kind chooses its sensors leaving out each
     training run. With fewer (two runs, or a group holding all runs but one) a fold's choice would rest on one
     run's last third, so such a campaign is ranked like one recording, on the sensor sets."""

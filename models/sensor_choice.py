@@ -55,7 +55,7 @@ class TrainingRises:
     sums: ridge.RunSums
     held: tuple[int, ...]
     by: str
-    still: tuple[int, ...]  # candidates flat on every training row
+    still: tuple[int, ...]  # candidates whose rise never moves on the measured training rows
 
 
 def training_rises(columns_of_runs: list[dict[str, np.ndarray]], target: str, candidates: tuple[str, ...]
@@ -68,8 +68,7 @@ def training_rises(columns_of_runs: list[dict[str, np.ndarray]], target: str, ca
         designs.append(np.column_stack([(columns[c] - columns[c][0])[measured] for c in candidates]))
         targets.append(columns[target][measured])
     design, y = np.vstack(designs), np.concatenate(targets)
-    still = tuple(int(i) for i in np.flatnonzero(np.ptp(np.vstack([np.column_stack([c[n] for n in candidates])
-                                                                   for c in columns_of_runs]), axis=0) == 0.0))
+    still = tuple(int(i) for i in np.flatnonzero(np.ptp(design, axis=0) == 0.0))  # no rise to fit a slope to
     if len(targets) >= 2:
         return TrainingRises(ridge.RunSums.of(design, y, [len(t) for t in targets]), tuple(range(len(targets))),
                              f"leaving out each of {len(targets)} training runs", still)
@@ -98,7 +97,7 @@ def choose(data: TrainingRises, candidates: tuple[str, ...], most: int) -> Choic
         current = (*current, added)
         if len(current) not in best or found < best[len(current)][0]:
             best[len(current)] = (found, current)
-        elif best[len(current)][0] <= found:
+        else:
             current = best[len(current)][1]  # a floating step came back to a size it had done better at
         while len(current) > 2:  # drop an earlier sensor while that beats the best set of the smaller size
             dropped, leave = min((error(tuple(s for s in current if s != c)), c) for c in current[:-1])

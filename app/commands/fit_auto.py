@@ -15,7 +15,7 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
     (models/auto.Probing) each candidate is fused and ranked by its held-out error with its probings."""
     from thermoplc.generator.lower import lower_model
     from thermoplc.generator.stats import block_stats
-    from thermoplc.models.auto import candidates_of, chooses_in_folds, rank
+    from thermoplc.models.auto import candidates_of, rank
     from thermoplc.models.kinds import kind_of
     ranked = rank(tables, request, folds, time_column, say=progress, groups=groups, remote=remote, probing=probing)
     end_progress()
@@ -25,7 +25,7 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
     cost = {id(c): block_stats(lower_model(c.model))["arithmetic_per_call"] for c in fitted}
     none = fitted[0].model.metrics["held_out"].get("zero_rmse_um")
     campaign = len(tables) > 1 or groups is not None
-    chose = chooses_in_folds(tables, folds, groups)
+    chose = any("sensor_choice" in c.model.fit for c in fitted)  # each kind chose its own sensors in the folds
     print(f"auto: {len(ranked)} candidates ranked by held-out RMSE" + (" with their probings (fused)" if probing else "")
           + (f" (no compensation {none:.3f} um)" if none is not None else "")
           + (f", {fitted[0].model.metrics['held_out']['protocol']}" if campaign else ""))

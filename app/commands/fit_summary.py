@@ -61,7 +61,8 @@ def format_fit(model, campaign=None) -> str:
 
 
 def format_choice(choice: dict, folds: list | None) -> str:
-    """The sensors the fit chose from the candidates, each step's error, and whether the folds chose alike."""
+    """The sensors the fit chose from the candidates, the best set of each size with its error, and how many
+    folds chose the same set."""
     sizes = "; ".join(f"{','.join(s['sensors'])} {s['rmse_um']:.2f}" for s in choice["best_of_each_size"])
     text = (f"  sensors chosen: {', '.join(choice['chosen'])} of {len(choice['candidates'])} candidates "
             f"(ridge error {choice['by']}, best set of each size, um: {sizes})")
