@@ -186,20 +186,41 @@ def inject(name: str, data: dict, channel: str, seed: int, size: tuple[float, fl
     raise ValueError(name)
 
 
+def series_of(use: dict[str, np.ndarray], channel: str) -> Series:
+    return Series(DT, use["time_s"], use[SPEED], use[AMBIENT], np.column_stack([use[c] for c in TEMPS]), TEMPS,
+                  use[channel], None)
+
+
+def training_rows(share: float | None) -> int:
+    """The training part: the first 24 h, or the first `share` of the rows (diagnose's default is 0.6)."""
+    t = columns()["time_s"]
+    return int(np.count_nonzero(t <= TRAIN_UNTIL_S)) if share is None else int(len(t) * share)
+
+
+@lru_cache(maxsize=2)
+def clean(channel: str, share: float | None):
+    """The clean recording's own diagnosis: its final model (named effects included) is the baseline the
+    injected runs are judged on with `--baseline`, as `diagnose --baseline CLEAN_MODEL` does."""
+    return diagnose(series_of(columns(), channel), training_rows(share), channel)
+
+
 def one(case: tuple) -> dict:
-    channel, name, seed, size = case
+    channel, name, seed, size, share, on_clean = case
     data = columns()
     changes, parameters = inject(name, data, channel, seed, size)
     use = {**data, **{c: data[c] + change for c, change in changes.items()}}
-    series = Series(DT, use["time_s"], use[SPEED], use[AMBIENT], np.column_stack([use[c] for c in TEMPS]), TEMPS,
-                    use[channel], None)
+    baseline = clean(channel, share) if on_clean else None
     start = time.perf_counter()
-    d = diagnose(series, int(np.count_nonzero(use["time_s"] <= TRAIN_UNTIL_S)), channel)
+    d = diagnose(series_of(use, channel), training_rows(share), channel, None if baseline is None else baseline.final)
     seconds = time.perf_counter() - start
     size = {c: float(np.std(change) / max(d.sigma[c], 1e-12)) for c, change in changes.items()}
+    peak = max((float(np.max(np.abs(change))) for c, change in changes.items() if c == channel), default=0.0)
     return {"channel": channel, "effect": name, "seed": seed, "parameters": parameters, "verdict": d.verdict,
             "found": [e["name"] for e in d.named], "reason": d.reason, "before": d.before.rmse_held_out[channel],
-            "after": d.after.rmse_held_out[channel], "seconds": seconds, "size_sigmas": size}
+            "after": d.after.rmse_held_out[channel], "seconds": seconds, "size_sigmas": size,
+            "clean_named": [] if baseline is None else [e["name"] for e in baseline.named],
+            "peak_over_baseline": peak / max(baseline.after.rmse_held_out[channel] if baseline else
+                                             d.before.rmse_held_out[channel], 1e-12)}
 
 
 def visible(r: dict) -> bool:
@@ -280,6 +301,10 @@ def arguments(description: str, effects: tuple[str, ...], beside: bool = False) 
     parser.add_argument("--size", nargs=2, type=float, metavar=("LOW", "HIGH"),
                         help="the injected displacement's peak in this range of multiples of the channel's standard "
                              "deviation (default: 4-8 um on ch3, 2-4 um on ch5, about 0.2-0.4x)")
+    parser.add_argument("--train-share", type=float, help="train on this share of the rows (diagnose's default: "
+                        "0.6) instead of the first 24 h")
+    parser.add_argument("--baseline", action="store_true", help="judge each injected run on the clean recording's "
+                        "diagnosed model (diagnose --baseline CLEAN_MODEL), named effects included")
     if beside:
         parser.add_argument("--with-diagnose", action="store_true", help="run diagnose on each run too, beside the oracle")
     return parser.parse_args()
@@ -291,8 +316,8 @@ def main() -> None:
         print(f"not injected: {name}: {why}")
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     size = tuple(args.size) if args.size else None
-    cases = [(channel, name, seed, size) for channel in args.channels for name in args.effects
-             for seed in (seeds[:1] if name == "none" else seeds)]
+    cases = [(channel, name, seed, size, args.train_share, args.baseline) for channel in args.channels
+             for name in args.effects for seed in (seeds[:1] if name == "none" else seeds)]
     results = run_and_print(one, cases, args.jobs, args.json, table, summary)
     for r in results:
         if not right_alone(r):

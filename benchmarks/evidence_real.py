@@ -37,7 +37,7 @@ from benchmarks.runs import run_and_print  # noqa: E402  (before numpy: one BLAS
 import numpy as np  # noqa: E402
 
 from benchmarks.diagnose_real import (AMBIENT, CHANNELS, DT, LIBRARY, OUTSIDE, SPEED, TEMPS,  # noqa: E402
-                                      TRAIN_UNTIL_S, arguments, columns, inject)
+                                      arguments, columns, inject, training_rows)
 from benchmarks.diagnose_real import one as diagnose_run  # noqa: E402
 from thermoplc.diagnosis.search import BIC_MARGIN, effective_rows  # noqa: E402
 from thermoplc.models import identify  # noqa: E402
@@ -81,12 +81,12 @@ def evidence(residual: np.ndarray, innovations: np.ndarray, signature: tuple[np.
 
 
 def one(case: tuple) -> dict:
-    channel, name, seed, size, beside = case
+    channel, name, seed, size, share, on_clean, beside = case
     data = columns()
     changes, parameters = inject(name, data, channel, seed, size)
     injected = series_of({**data, **{c: data[c] + change for c, change in changes.items()}}, channel)
     clean = series_of(data, channel)
-    n = int(np.count_nonzero(data["time_s"] <= TRAIN_UNTIL_S))
+    n = training_rows(share)
     sim, _ = identify.fit([injected.head(n)])
     (r_injected, e_injected), (r_clean, e_clean) = residuals(sim, injected), residuals(sim, clean)
     signature = (r_injected - r_clean, e_injected - e_clean)
@@ -100,7 +100,7 @@ def one(case: tuple) -> dict:
               "baseline_held_out_um": rms(r_injected[n:]),
               "none_held_out_um": rms(injected.target[n:] - np.mean(injected.target[:n]))}
     if beside:  # diagnose on the same run, beside the oracle
-        said = diagnose_run((channel, name, seed, size))
+        said = diagnose_run((channel, name, seed, size, share, on_clean))
         result["diagnose"] = said["verdict"] + (f" naming {', '.join(said['found'])}" if said["found"] else "")
         result["diagnose_found"] = said["found"]
     return result
@@ -173,8 +173,8 @@ def main() -> None:
     args = arguments(__doc__.splitlines()[0], EFFECTS, beside=True)
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     size = tuple(args.size) if args.size else None
-    cases = [(channel, name, seed, size, args.with_diagnose) for channel in args.channels for name in args.effects
-             for seed in seeds]
+    cases = [(channel, name, seed, size, args.train_share, args.baseline, args.with_diagnose)
+             for channel in args.channels for name in args.effects for seed in seeds]
     run_and_print(one, cases, args.jobs, args.json, table, summary)
 
 

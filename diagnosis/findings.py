@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from thermoplc.diagnosis import sufficiency
 from thermoplc.diagnosis.search import Diagnosis
 from thermoplc.diagnosis.windows import Window
 from thermoplc.models.simulation import Series
@@ -63,6 +64,13 @@ def per_run(d: Diagnosis) -> list[dict]:
     return rows
 
 
+def _held_out_rms(residual: np.ndarray, n_train: int) -> float | None:
+    """RMS of a residual over its held-out rows, measured rows only (a probed target is NaN between probings)."""
+    held = residual[n_train:]
+    held = held[np.isfinite(held)]
+    return float(np.sqrt(np.mean(held ** 2))) if len(held) else None
+
+
 def document(d: Diagnosis, source: dict, model_path: str | None) -> dict:
     """The findings document (findings.json) as a dict: verdict and summary, the effects named, the disagreement
     windows before and after, and each channel's training and held-out errors (um for the target, else K)."""
@@ -71,7 +79,10 @@ def document(d: Diagnosis, source: dict, model_path: str | None) -> dict:
                     "train_rmse_before": d.before.rmse_train[c], "train_rmse_after": d.after.rmse_train[c],
                     "held_out_rmse_before": d.before.rmse_held_out[c], "held_out_rmse_after": d.after.rmse_held_out[c],
                     "held_out_max_abs_before": d.before.max_abs_held_out[c],
-                    "held_out_max_abs_after": d.after.max_abs_held_out[c]} for c in d.channels}
+                    "held_out_max_abs_after": d.after.max_abs_held_out[c],
+                    "open_loop_held_out_rmse_before": _held_out_rms(d.residual_before[c], d.parts.n_train),
+                    "open_loop_held_out_rmse_after": _held_out_rms(d.residual_after[c], d.parts.n_train)}
+                for c in d.channels}
     return {
         "format": FORMAT,
         "version": VERSION,
@@ -86,6 +97,7 @@ def document(d: Diagnosis, source: dict, model_path: str | None) -> dict:
         "disagreements": [_window(w, d, True) for w in d.windows_before],
         "remaining_disagreements": [_window(w, d, False) for w in d.windows_after],
         "rmse_before_um": d.before.rmse_held_out[target],
+        "no_compensation_rmse_um": sufficiency.no_compensation_rmse(d.parts),
         "rmse_after_um": d.after.rmse_held_out[target],
         "max_abs_before_um": d.before.max_abs_held_out[target],
         "max_abs_after_um": d.after.max_abs_held_out[target],
@@ -152,14 +164,18 @@ def text(doc: dict) -> str:
                      + f" (delta BIC {ev['delta_bic']:.1f}; held out it moves the target {ev['held_out_size_um']:.3g} um, "
                        f"{e['matters']}; {e['why_not_named']})")
     lines.append(f"  disagreement windows: {len(doc['disagreements'])} before, {len(doc['remaining_disagreements'])} after")
-    lines.append(f"  {'channel':<16}{'unit':<6}{'noise':>9}{'held-out RMSE before':>22}{'after':>10}{'max before':>12}"
-                 f"{'after':>10}")
+    lines.append(f"  {'held out':<31}{'judged RMSE (one step)':>22}{'open-loop RMSE':>20}{'max (judged)':>20}")
+    lines.append(f"  {'channel':<16}{'unit':<6}{'noise':>9}{'before':>12}{'after':>10}{'before':>10}{'after':>10}"
+                 f"{'before':>10}{'after':>10}")
     for c, v in doc["channels"].items():
         if v["held_out_rmse_before"] is None:
             continue
-        lines.append(f"  {c:<16}{v['unit']:<6}{v['noise_sigma']:>9.3g}{v['held_out_rmse_before']:>22.3f}"
-                     f"{v['held_out_rmse_after']:>10.3f}{v['held_out_max_abs_before']:>12.3f}"
+        lines.append(f"  {c:<16}{v['unit']:<6}{v['noise_sigma']:>9.3g}{v['held_out_rmse_before']:>12.3f}"
+                     f"{v['held_out_rmse_after']:>10.3f}{v['open_loop_held_out_rmse_before']:>10.3f}"
+                     f"{v['open_loop_held_out_rmse_after']:>10.3f}{v['held_out_max_abs_before']:>10.3f}"
                      f"{v['held_out_max_abs_after']:>10.3f}")
+    if doc.get("no_compensation_rmse_um") is not None:
+        lines.append(f"  no compensation: held-out RMSE {doc['no_compensation_rmse_um']:.3f} um")
     if doc["not_tested"]:
         lines.append("  not tested: " + "; ".join(f"{k} ({v})" for k, v in doc["not_tested"].items()))
     lines += ["next:", *(f"  {command}" for command in next_steps(doc))]

@@ -616,6 +616,8 @@ def diagnose_runs(parts: Parts, target_name: str, baseline: Simulation | None = 
     sigma = {c: noise_sigma(r) for c, r in residual0.items()}
     shown_sigma = {c: noise_sigma(r) for c, r in shown0.items()}  # the readings' own noise, open loop
     before = score(base, residual0, sigma, n_train)
+    insufficient = insufficient or sufficiency.worse_than_none(before.rmse_held_out[channels[-1]],
+                                                               sufficiency.no_compensation_rmse(parts))
     windows0 = all_windows(base, shown0, shown_sigma, parts)
     if windows0 and baseline is None and not insufficient:  # a candidate must not be credited with the refit
         base, before = polish(base, before, parts, channels, sigma)

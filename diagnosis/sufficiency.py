@@ -65,3 +65,22 @@ def unseen_conditions(train: Series, run: Series, held_start: int, window: Windo
         notes.append(f"ambient {te_window.min():.1f}..{te_window.max():.1f} degC outside the training part's "
                      f"{te_train.min():.1f}..{te_train.max():.1f} degC")
     return "ran at " + "; ".join(notes) if notes else None
+
+
+def no_compensation_rmse(parts) -> float | None:
+    """The held-out target's RMSE with nothing compensated (predicting 0), on its measured rows; None without any."""
+    held = parts.joined().target[parts.n_train:]
+    held = held[np.isfinite(held)]
+    return float(np.sqrt(np.mean(held ** 2))) if len(held) else None
+
+
+def worse_than_none(baseline_rmse: float, none_rmse: float | None) -> str | None:
+    """Why no effect is judged on a baseline that predicts the held-out target no better than no compensation, or
+    None. Its disagreement there is its own extrapolation: any candidate that bends it back is credited with
+    repairing the baseline, not with physics the machine has (FL_THERMAL ch3 on a 48 h structure-lag grid:
+    24.96 um held out against 24.98 with nothing compensated)."""
+    if none_rmse is None or baseline_rmse < none_rmse:
+        return None
+    return (f"the baseline predicts the held-out target no better than no compensation (RMSE {baseline_rmse:.4g} "
+            f"against {none_rmse:.4g} um): its disagreement there is its own extrapolation, and no effect is judged "
+            f"on it")

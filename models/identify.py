@@ -149,19 +149,13 @@ def structure_lags(runs: list[Series], cuts: list[int | None]) -> np.ndarray:
     return np.exp(np.linspace(np.log(SHORTEST_LAG_S), np.log(longest), points + 1))
 
 
-def fit_displacement(runs: list[Series], temps: list[np.ndarray], t0: list[np.ndarray], structure_lag: bool = True,
-                     bounded: bool = False) -> tuple[DisplacementParams, dict]:
+def fit_displacement(runs: list[Series], temps: list[np.ndarray], t0: list[np.ndarray],
+                     structure_lag: bool = True) -> tuple[DisplacementParams, dict]:
     """Structure time constant and ridge weight by forward validation (fitted on the first two thirds of each run,
     scored on the rest of each), then the map on the measured rows of every run. Without `structure_lag` the map
-    reads the temperatures alone (paper 000 eq. 10). `bounded` (the block kind, `fit --model lumped`): the lags of
-    `structure_lags` and none; else (diagnose's baseline) 10 min to 48 h, the grid its effects were judged on."""
+    reads the temperatures alone (paper 000 eq. 10); with it, the lags of `structure_lags` and none are tried."""
     cuts = [ridge.validation_cut(series.rows) for series in runs]
-    if not structure_lag:
-        taus = [None]
-    elif bounded:
-        taus = [None, *structure_lags(runs, cuts)]
-    else:
-        taus = np.exp(np.linspace(np.log(SHORTEST_LAG_S), np.log(GRID_SPAN_S), sim_.GRID_POINTS))
+    taus = [None, *structure_lags(runs, cuts)] if structure_lag else [None]
     measured = [np.isfinite(series.target) for series in runs]
 
     def design_of(tau: float, r: int) -> np.ndarray:
@@ -197,8 +191,8 @@ def fit_displacement(runs: list[Series], temps: list[np.ndarray], t0: list[np.nd
                     "validation_rows": int(sum(np.count_nonzero(late(r, c) & measured[r]) for r, c in enumerate(cuts)))}
 
 
-def fit(runs: list[Series], progress: Callable[[str], None] | None = None, structure_lag: bool = True,
-        bounded: bool = False) -> tuple[Simulation, dict]:
+def fit(runs: list[Series], progress: Callable[[str], None] | None = None,
+        structure_lag: bool = True) -> tuple[Simulation, dict]:
     """The identified baseline (no effects) on the runs' training parts; and what was measured. Each run
     starts from its own state; the parameters are shared. `progress` hears each sensor and the map."""
     shared = Shared(stopped_rpm=sim_.stopped_threshold(np.concatenate([series.n for series in runs])))
@@ -217,7 +211,7 @@ def fit(runs: list[Series], progress: Callable[[str], None] | None = None, struc
     filtered = [sim_.temperatures(series, shared, sensors, ()) for series in runs]  # one step ahead, and filtered
     displacement, chosen = fit_displacement(runs, [temps for _, temps in filtered],
                                             [sim_.first_temperatures(series, sensors) for series in runs],
-                                            structure_lag, bounded)
+                                            structure_lag)
     sim = Simulation((), shared, sensors, displacement)
     open_loop = tuple(replace(p, filter_gain=0.0) for p in sensors)
     simulated = [sim_.temperatures(series, shared, open_loop, ())[0] for series in runs]

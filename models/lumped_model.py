@@ -272,7 +272,7 @@ def _fit(parts, request, names, dt, progress):
     ridge.refuse_flat(np.vstack([part.temps for part in parts]), names)
     runs = [sim_.Series(dt, np.arange(len(part.target)) * dt, part.speed, part.ambient, part.temps, tuple(names),
                         part.target) for part in parts]
-    fitted, measured = identify.fit(runs, progress, bounded=True)  # a block on any training split (identify.py)
+    fitted, measured = identify.fit(runs, progress)  # a block on any training split (identify.py)
     coefficients_, settings = coefficients(fitted, dt)
     return coefficients_, settings, {
         "method": "lumped-mass model identified by least one-step prediction error (steady-state Kalman filter on "

@@ -329,14 +329,15 @@ def test_twin_machine_portal_from_the_cli(tmp_path, monkeypatch, capsys):
 
 
 def test_an_effect_the_held_out_part_does_not_support_is_listed_with_its_size_not_dropped(tmp_path):
-    """Issue 39 item 3: a 3 h lag of the air in the displacement of the training part only: the training part
+    """Issue 39 item 3: a 6 h lag of the air in the displacement of the training part only: the training part
     supports a lag of the air (BIC), the held-out part does not; it is listed beside the verdict with its
-    evidence, never named."""
+    evidence, never named. (A 3 h lag lies inside the baseline's own structure lags, 10 min to 4 h since issue 51:
+    the structure takes most of it and the lag of the air left over fits at the edge of its range.)"""
     columns = simulate(48, 5)
     hours = (columns["time_s"] - columns["time_s"][0]) / 3600
     n_train = int(0.6 * len(hours))
     air = columns["T_env"] - columns["T_env"][0]
-    pole = math.exp(-10.0 / (3 * 3600))
+    pole = math.exp(-10.0 / (6 * 3600))
     lagged = np.array(list(itertools.accumulate(air, lambda y, x: pole * y + (1 - pole) * x, initial=0.0))[1:])
     columns["E_z_um"] = columns["E_z_um"] + np.where(hours < hours[n_train], 4.0 * lagged, 0.0)
     series = _series(columns)
