@@ -48,6 +48,7 @@ class DiagnoseRequest:
     runs_table: str | None = None  # --runs TABLE
     train_runs: int | None = None  # a campaign: its first N runs train, the others are held out
     resample_s: float | None = None  # raw logger data taken onto this cycle (--resample), the speed held
+    held_target: bool = False  # the target holds its last probing: only its changes are measurements
 
     @property
     def resampling(self) -> Resampling | None:
@@ -102,8 +103,9 @@ def series_of(table: Table, request: DiagnoseRequest, dt: float) -> Series:
     repeated = float(np.mean(np.diff(table.columns[request.target]) == 0)) if table.rows > 2 else 0.0
     if repeated > MAX_REPEATED_SHARE:
         raise UserError(f"{table.path}: column {request.target!r}: {repeated:.0%} of its values "
-                        f"repeat the one before (a drift probed and held between probings?); diagnose estimates the "
-                        f"noise from each call's change and needs the target measured every call")
+                        f"repeat the one before (a drift probed and held between probings?); give --held-target "
+                        f"when it holds its last probing (only its changes are measurements), or leave the cells "
+                        f"between probings empty")
     return Series(dt, table.columns[request.time_column], table.columns[request.speed], table.columns[request.ambient],
                   np.column_stack([table.columns[c] for c in request.temps]), tuple(request.temps),
                   table.columns[request.target], table.columns[request.feed] if request.feed else None)
@@ -185,6 +187,10 @@ def _search(parts: Parts, request: DiagnoseRequest, progress, tries):
         if baseline.displacement.ridge_weight is None and parts.campaign:
             raise UserError(f"{request.baseline}: an open-loop simulation an earlier diagnose fitted runs on one "
                             f"recording; for a campaign give an identified model (`fit --model lumped`) or none")
+        if baseline.displacement.ridge_weight is None and not np.isfinite(parts.joined().target).all():
+            raise UserError(f"{request.baseline}: an open-loop simulation an earlier diagnose fitted needs the target "
+                            f"measured every call; {request.target!r} is probed: give an identified model "
+                            f"(`fit --model lumped`) or none")
         readings = [name for name, _ in baseline.effects if definition_of(name).part == "reading"]
         if readings and parts.campaign:
             raise UserError(f"{request.baseline}: field 'settings.effects': {', '.join(readings)} is an error of one "
@@ -198,13 +204,15 @@ def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report
     folder when asked, all or nothing; returns the findings document. With `scheduler` (tcp://HOST:PORT) each
     round's candidates are tried on that Dask cluster's workers (diagnosis/remote.py): the same bytes."""
     runs = run_list(list(request.data) if request.data is not None else None, request.runs_table)
-    campaign = read_campaign(runs, request.time_column, request.decimal, resampling=request.resampling)
+    campaign = read_campaign(runs, request.time_column, request.decimal, probed=(request.target,),
+                             held=request.held_target, resampling=request.resampling)
     parts, dt = parts_of(campaign, request)
     tries = None
     if scheduler:
         from thermoplc.base.cluster import connect
         from thermoplc.diagnosis.remote import OnCluster
-        read_again = source_of(campaign, runs, request.time_column, request.decimal, resampling=request.resampling)
+        read_again = source_of(campaign, runs, request.time_column, request.decimal, (request.target,),
+                               request.held_target, request.resampling)
         tries = OnCluster(connect(scheduler), read_again, request)
     try:
         d = _search(parts, request, progress, tries)

@@ -8,7 +8,7 @@ import numpy as np
 
 from thermoplc.diagnosis import sufficiency
 from thermoplc.diagnosis.search import Diagnosis
-from thermoplc.diagnosis.windows import Window
+from thermoplc.diagnosis.windows import Window, measured, rms
 from thermoplc.models.simulation import Series
 
 FORMAT = "thermoplc-findings"
@@ -26,7 +26,7 @@ def conditions(series: Series, w: Window, residual: np.ndarray) -> dict:
         "ambient_C": [float(series.te[rows].min()), float(series.te[rows].max())],
         "hours_since_start": [float((series.t[w.start] - series.t[0]) / 3600),
                               float((series.t[w.stop - 1] - series.t[0]) / 3600)],
-        "measured_minus_simulated_mean": float(np.mean(residual[rows])),
+        "measured_minus_simulated_mean": float(np.mean(measured(residual[rows]))),
     }
     if series.feed is not None:
         found["feed_mm_min"] = [float(series.feed[rows].min()), float(series.feed[rows].max())]
@@ -40,8 +40,7 @@ def _window(w: Window, d: Diagnosis, after: bool) -> dict:
              "start_s": float(series.t[w.start]), "end_s": float(series.t[w.stop - 1]), "channel": w.channel,
              "rms": w.rms}
     if after:
-        r = parts.unpool(d.residual_after[w.channel])[w.run][w.start:w.stop]
-        entry["rms_after"] = float(np.sqrt(np.mean(r ** 2)))
+        entry["rms_after"] = rms(parts.unpool(d.residual_after[w.channel])[w.run][w.start:w.stop])
     residual = (d.residual_before if after else d.residual_after)[w.channel]
     entry["conditions"] = conditions(series, w, parts.unpool(residual)[w.run])
     return entry
@@ -52,7 +51,6 @@ def per_run(d: Diagnosis) -> list[dict]:
     rows, and its disagreement windows before and after: where the gap was and how it shrank."""
     parts, target = d.parts, d.channels[-1]
     before, after = parts.unpool(d.residual_before[target]), parts.unpool(d.residual_after[target])
-    rms = lambda x: float(np.sqrt(np.mean(x ** 2))) if len(x) else None
     rows = []
     for k, (run, n) in enumerate(zip(parts.runs, parts.train_rows)):
         role = "training" if n == run.rows else "held out" if n == 0 else "split"
@@ -64,13 +62,6 @@ def per_run(d: Diagnosis) -> list[dict]:
     return rows
 
 
-def _held_out_rms(residual: np.ndarray, n_train: int) -> float | None:
-    """RMS of a residual over its held-out rows, measured rows only (a probed target is NaN between probings)."""
-    held = residual[n_train:]
-    held = held[np.isfinite(held)]
-    return float(np.sqrt(np.mean(held ** 2))) if len(held) else None
-
-
 def document(d: Diagnosis, source: dict, model_path: str | None) -> dict:
     """The findings document (findings.json) as a dict: verdict and summary, the effects named, the disagreement
     windows before and after, and each channel's training and held-out errors (um for the target, else K)."""
@@ -80,8 +71,8 @@ def document(d: Diagnosis, source: dict, model_path: str | None) -> dict:
                     "held_out_rmse_before": d.before.rmse_held_out[c], "held_out_rmse_after": d.after.rmse_held_out[c],
                     "held_out_max_abs_before": d.before.max_abs_held_out[c],
                     "held_out_max_abs_after": d.after.max_abs_held_out[c],
-                    "open_loop_held_out_rmse_before": _held_out_rms(d.residual_before[c], d.parts.n_train),
-                    "open_loop_held_out_rmse_after": _held_out_rms(d.residual_after[c], d.parts.n_train)}
+                    "open_loop_held_out_rmse_before": rms(d.residual_before[c][d.parts.n_train:]),
+                    "open_loop_held_out_rmse_after": rms(d.residual_after[c][d.parts.n_train:])}
                 for c in d.channels}
     return {
         "format": FORMAT,

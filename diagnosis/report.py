@@ -9,7 +9,7 @@ import numpy as np
 
 from thermoplc.diagnosis.search import Diagnosis
 from thermoplc.diagnosis.findings import display, next_steps, percent
-from thermoplc.diagnosis.windows import SMOOTHING_S, smooth, smoothing_rows
+from thermoplc.diagnosis.windows import SMOOTHING_S, rms as measured_rms, smooth, smoothing_rows
 
 
 def _unit(channel: str, target: str) -> str:
@@ -36,7 +36,11 @@ def _plot(d: Diagnosis, run: int, channel: str, measured: np.ndarray, unit: str)
     residual_before, residual_after = of_run(d.residual_before[channel]), of_run(d.residual_after[channel])
     fig, (top, middle, effect, speed) = plt.subplots(4, 1, figsize=(11, 8.5), sharex=True,
                                                       gridspec_kw={"height_ratios": [3, 2, 1.2, 1]})
-    top.plot(hours, measured, lw=0.5, color="0.6", label="measured", zorder=1)
+    probed = not np.isfinite(measured).all()  # a probed target: its probings as points
+    if probed:
+        top.plot(hours, measured, ls="none", marker=".", ms=4, color="black", label="probings", zorder=7)
+    else:
+        top.plot(hours, measured, lw=0.5, color="0.6", label="measured", zorder=1)
     top.plot(hours, smooth(measured, width), lw=1.2, color="black",
              label=f"measured, {SMOOTHING_S / 60:g} min average", zorder=4)
     top.plot(hours, before, lw=1.2, color="tab:red", ls="--", label="simulation before", zorder=5)
@@ -44,7 +48,8 @@ def _plot(d: Diagnosis, run: int, channel: str, measured: np.ndarray, unit: str)
     top.set_ylabel(f"{channel}, {unit}")
     top.legend(loc="upper left", fontsize=9, ncol=2)
     for residual, colour, label in ((residual_before, "tab:red", "before"), (residual_after, "tab:blue", "after")):
-        middle.plot(hours, residual, lw=0.4, color=colour, alpha=0.25)
+        middle.plot(hours, residual, **({"ls": "none", "marker": ".", "ms": 3} if probed else {"lw": 0.4}),
+                    color=colour, alpha=0.25)
         middle.plot(hours, smooth(residual, width), lw=1.2, color=colour,
                     label=f"residual {label}, {SMOOTHING_S / 60:g} min average")
     for w in d.windows_before:
@@ -64,7 +69,7 @@ def _plot(d: Diagnosis, run: int, channel: str, measured: np.ndarray, unit: str)
             ax.axvline(hours[n_train - 1], color="k", lw=0.8, ls=":")
         ax.grid(alpha=0.3)
     held = slice(n_train, None) if n_train < series.rows else slice(None)
-    rms = lambda r: float(np.sqrt(np.mean(r[held] ** 2)))
+    rms = lambda r: measured_rms(r[held]) if measured_rms(r[held]) is not None else float("nan")
     where = "held-out" if n_train < series.rows else "training run"
     name = f"{parts.labels[run]}: " if parts.campaign else ""
     top.set_title(f"{name}{channel}: simulation RMSE on the {where} rows {rms(residual_before):.3g} {difference} "

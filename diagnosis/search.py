@@ -23,7 +23,7 @@ import numpy as np
 
 from thermoplc.diagnosis import sufficiency
 from thermoplc.diagnosis.parts import Parts, single
-from thermoplc.diagnosis.windows import Window, find_windows, noise_sigma, settling_s
+from thermoplc.diagnosis.windows import Window, find_windows, measured, noise_sigma, rms, settling_s
 from thermoplc.models import identified_effects, identify
 from thermoplc.models import simulation as sim_
 from thermoplc.models.effects import NAMES, definition_of
@@ -173,11 +173,11 @@ def score(sim: Simulation, residual: dict, sigma: dict, n_train: int) -> Score:
     bic = 0.0
     held = 0.0
     rmse_train, rmse_held, max_held, normalised = {}, {}, {}, {}
-    for c, r in residual.items():
-        train, rest = r[:n_train], r[n_train:]
-        sse = float(train @ train)
-        bic += n_train * np.log(max(sse, 1e-300) / n_train)
-        rmse_train[c] = float(np.sqrt(sse / n_train))
+    for c, r in residual.items():  # a probed target counts its probings (NaN between them)
+        train, rest = measured(r[:n_train]), measured(r[n_train:])
+        sse, rows = float(train @ train), max(len(train), 1)
+        bic += rows * np.log(max(sse, 1e-300) / rows)
+        rmse_train[c] = float(np.sqrt(sse / rows))
         rmse_held[c] = float(np.sqrt(np.mean(rest ** 2))) if len(rest) else None
         max_held[c] = float(np.max(np.abs(rest))) if len(rest) else None
         if len(rest):
@@ -195,7 +195,9 @@ def effective_rows(residual: np.ndarray) -> float:
     residual counts every row;
     a residual that is a slow misfit (a real machine the model does not follow) counts a handful,
     however many samples it has: the Gaussian BIC treats rows as independent and otherwise credits
-    any extra parameter that bends the model toward a slow misfit with thousands of units."""
+    any extra parameter that bends the model toward a slow misfit with thousands of units. A probed target's
+    residual counts its probings, in order."""
+    residual = measured(residual)
     energy = float(residual @ residual)
     rho = float(residual[1:] @ residual[:-1]) / energy if energy > 0 and len(residual) > 1 else 0.0
     rho = min(max(rho, 0.0), 1.0 - 1e-9)
@@ -211,7 +213,7 @@ def effective_delta_bic(before: dict, after: dict, added_parameters: int, n_trai
     this judges the open-loop residual the diagnosis compares)."""
     change = 0.0
     for c, r in after.items():
-        new, old = r[:n_train], before[c][:n_train]
+        new, old = measured(r[:n_train]), measured(before[c][:n_train])
         change += effective_rows(new) * np.log(max(float(new @ new), 1e-300) / max(float(old @ old), 1e-300))
     return float(change + added_parameters * np.log(n_train * len(after)))
 
@@ -254,7 +256,7 @@ def held_out_evidence(before: dict, after: dict, parts: Parts) -> float:
     seen = parts.seen_held_out()
     total = 0.0
     for c, r in after.items():
-        new, old = r[parts.n_train:][seen], before[c][parts.n_train:][seen]
+        new, old = measured(r[parts.n_train:][seen]), measured(before[c][parts.n_train:][seen])
         if len(new):
             total += effective_rows(new) * np.log(max(float(old @ old), 1e-300) / max(float(new @ new), 1e-300))
     return float(total)
@@ -389,7 +391,7 @@ def not_the_named_physics(trial: Simulation, name: str, parts: Parts, train: Ser
 
 def window_rms(parts: Parts, w: Window, residual: dict) -> float:
     """RMS of a pooled residual inside window `w` (rows of its run)."""
-    return float(np.sqrt(np.mean(parts.unpool(residual[w.channel])[w.run][w.start:w.stop] ** 2)))
+    return rms(parts.unpool(residual[w.channel])[w.run][w.start:w.stop])
 
 
 def _window_change(parts: Parts, windows: list[Window], before: dict, after: dict) -> list[dict]:
@@ -472,7 +474,7 @@ def _named(name: str, parts: Parts, current: Simulation, current_score, residual
     change = residual[target][n_train:] - res[target][n_train:]
     before, after = current_score.rmse_held_out[target], s.rmse_held_out[target]
     return {"name": name, "parameters": describe(trial, name, parts.joined()), "evidence": {
-        "held_out_size_um": float(np.sqrt(np.mean(change ** 2))) if len(change) else None,
+        "held_out_size_um": rms(change),
         "held_out_error_removed": 1.0 - (after / before) ** 2 if before else None,
         "bic_before": current_score.bic, "bic_after": s.bic, "delta_bic": s.bic - current_score.bic,
         "delta_bic_white": effective_delta_bic(residual, res, trial.parameter_count() - current.parameter_count(),

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from thermoplc.diagnosis.windows import Window
+from thermoplc.diagnosis.windows import Window, rms
 from thermoplc.models import simulation as sim_
 from thermoplc.models.effects import definition_of
 from thermoplc.models.simulation import Series
@@ -17,6 +17,7 @@ from thermoplc.models.simulation import Series
 HOUR = 3600.0
 MIN_TRAIN_S = 6 * HOUR  # the slowest sensor time constants are about an hour; less cannot separate them
 MIN_RUNNING_S = 1 * HOUR
+MIN_PROBINGS = 20  # a probed target's measurements in the training part: fewer cannot fit the map and judge it
 
 
 def recording_problem(train: list[Series]) -> str | None:
@@ -25,6 +26,10 @@ def recording_problem(train: list[Series]) -> str | None:
     if span < MIN_TRAIN_S:
         return (f"the training part covers {span / HOUR:.1f} h; at least {MIN_TRAIN_S / HOUR:g} h are needed to "
                 f"separate the sensors' time constants (about an hour each)")
+    probings = sum(int(np.count_nonzero(np.isfinite(run.target))) for run in train)
+    if probings < MIN_PROBINGS:
+        return (f"the target is measured {probings} time(s) in the training part; at least {MIN_PROBINGS} probings "
+                f"are needed to fit the displacement map and judge an effect on it")
     speeds = np.concatenate([run.n for run in train])
     running = np.count_nonzero(speeds > sim_.stopped_threshold(speeds)) * train[0].dt
     if running < MIN_RUNNING_S:
@@ -69,9 +74,7 @@ def unseen_conditions(train: Series, run: Series, held_start: int, window: Windo
 
 def no_compensation_rmse(parts) -> float | None:
     """The held-out target's RMSE with nothing compensated (predicting 0), on its measured rows; None without any."""
-    held = parts.joined().target[parts.n_train:]
-    held = held[np.isfinite(held)]
-    return float(np.sqrt(np.mean(held ** 2))) if len(held) else None
+    return rms(parts.joined().target[parts.n_train:])
 
 
 def worse_than_none(baseline_rmse: float, none_rmse: float | None) -> str | None:
@@ -79,7 +82,7 @@ def worse_than_none(baseline_rmse: float, none_rmse: float | None) -> str | None
     None. Its disagreement there is its own extrapolation: any candidate that bends it back is credited with
     repairing the baseline, not with physics the machine has (FL_THERMAL ch3 on a 48 h structure-lag grid:
     24.96 um held out against 24.98 with nothing compensated)."""
-    if none_rmse is None or baseline_rmse < none_rmse:
+    if none_rmse is None or baseline_rmse is None or baseline_rmse < none_rmse:
         return None
     return (f"the baseline predicts the held-out target no better than no compensation (RMSE {baseline_rmse:.4g} "
             f"against {none_rmse:.4g} um): its disagreement there is its own extrapolation, and no effect is judged "

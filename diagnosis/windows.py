@@ -29,8 +29,9 @@ class Window:
 
 
 def noise_sigma(residual: np.ndarray) -> float:
-    """White-noise standard deviation from first differences (median absolute deviation)."""
-    d = np.diff(residual)
+    """White-noise standard deviation from first differences (median absolute deviation); of a probed target,
+    from the differences between successive probings (NaN between them)."""
+    d = np.diff(residual[np.isfinite(residual)])
     if len(d) == 0:
         return 0.0
     return float(MAD_TO_SIGMA * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0))
@@ -41,18 +42,24 @@ def smoothing_rows(dt: float) -> int:
     return max(3, int(round(SMOOTHING_S / dt)))
 
 
+def measured_counts(residual: np.ndarray, width: int) -> np.ndarray:
+    """How many measured (finite) samples the centred window of `width` rows around each row holds."""
+    return np.convolve(np.isfinite(residual).astype(float), np.ones(width), mode="same")
+
+
 def smooth(residual: np.ndarray, width: int) -> np.ndarray:
-    """Centred moving average; at the ends over the samples that exist."""
-    kernel = np.ones(width)
-    total = np.convolve(residual, kernel, mode="same")
-    count = np.convolve(np.ones(len(residual)), kernel, mode="same")
-    return total / count
+    """Centred moving average over the measured samples (a probed target is NaN between probings); at the ends
+    over the samples that exist; NaN where the window holds none."""
+    finite = np.isfinite(residual)
+    total = np.convolve(np.where(finite, residual, 0.0), np.ones(width), mode="same")
+    count = measured_counts(residual, width)
+    return np.where(count > 0, total / np.maximum(count, 1.0), np.nan)
 
 
-def band(sigma: float, width: int) -> float:
+def band(sigma: float, width) -> float | np.ndarray:
     """Half-width of the band the smoothed residual must leave: `BAND_SIGMAS` standard errors of a mean over
-    `width` rows, never below the noise `sigma` itself."""
-    return max(BAND_SIGMAS * sigma / np.sqrt(width), BAND_FLOOR * sigma)
+    `width` samples (per row, for a probed target: the probings in its window), never below the noise `sigma`."""
+    return np.maximum(BAND_SIGMAS * sigma / np.sqrt(np.maximum(width, 1.0)), BAND_FLOOR * sigma)
 
 
 def settling_s(time_constant_s: float) -> float:
@@ -67,7 +74,9 @@ def find_windows(channel: str, residual: np.ndarray, sigma: float, dt: float, se
     """The runs where the smoothed residual leaves the noise band, none in the first `settling` s: runs less
     than a smoothing width apart merge, and runs shorter than half of one are dropped."""
     width = smoothing_rows(dt)
-    outside = np.abs(smooth(residual, width)) > band(sigma, width)
+    probed = not np.isfinite(residual).all()
+    with np.errstate(invalid="ignore"):
+        outside = np.abs(smooth(residual, width)) > band(sigma, measured_counts(residual, width) if probed else width)
     outside[:int(round(settling / dt))] = False
     edges = np.flatnonzero(np.diff(np.r_[0, outside.astype(int), 0]))
     runs = list(zip(edges[::2], edges[1::2]))
@@ -77,5 +86,16 @@ def find_windows(channel: str, residual: np.ndarray, sigma: float, dt: float, se
             merged[-1][1] = stop
         else:
             merged.append([start, stop])
-    return [Window(channel, int(a), int(b), float(np.sqrt(np.mean(residual[a:b] ** 2))))
-            for a, b in merged if b - a >= width // 2]
+    return [Window(channel, int(a), int(b), rms(residual[a:b])) for a, b in merged
+            if b - a >= width // 2 and np.isfinite(residual[a:b]).any()]
+
+
+def measured(x: np.ndarray) -> np.ndarray:
+    """The measured samples of a residual: a probed target's are finite only at its probings."""
+    return x[np.isfinite(x)]
+
+
+def rms(x: np.ndarray) -> float | None:
+    """RMS over the measured samples; None when there are none."""
+    x = measured(x)
+    return float(np.sqrt(np.mean(x ** 2))) if len(x) else None

@@ -23,7 +23,12 @@ def add_parser(sub) -> None:
     p.add_argument("--temps", type=columns, required=True, help="temperature columns, comma-separated")
     p.add_argument("--speed", required=True, help="spindle speed column, rpm")
     p.add_argument("--ambient", required=True, help="ambient temperature column, degC")
-    p.add_argument("--target", required=True, help="measured displacement column, um")
+    p.add_argument("--target", required=True,
+                   help="measured displacement column, um; a probed target may be empty between probings (judged at "
+                        "its probings, its noise estimated from them)")
+    p.add_argument("--held-target", action="store_true",
+                   help="the target holds its last probing between probings: only the first row and the rows where "
+                        "it changes are measurements")
     p.add_argument("--feed", help="feed-axis rate column, mm/min (enables the feed_axis_heat candidate)")
     p.add_argument("--baseline", type=named("a model file"),
                    help="a lumped model file (`fit --model lumped` or diagnose wrote it) to start from "
@@ -56,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     request = DiagnoseRequest(tuple(args.data) if args.data else None, args.temps, args.speed, args.ambient,
                               args.target, args.feed, args.baseline, args.train_until, args.train_rows, args.time,
                               args.name, args.decimal, not args.no_structure_lag, args.runs, args.train_runs,
-                              args.resample)
+                              args.resample, args.held_target)
     if args.baseline and args.no_structure_lag:
         raise UserError("--no-structure-lag shapes a fitted baseline; with --baseline the model file decides")
     runs = run_list(args.data, args.runs)
