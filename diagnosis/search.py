@@ -612,8 +612,9 @@ def diagnose_runs(parts: Parts, target_name: str, baseline: Simulation | None = 
         insufficient = ("no held-out row runs at a speed the training part ran (standing, or within its running "
                         "speeds): the held-out part can judge no effect, only how the model extrapolates")
     if identified(base) and not insufficient:  # judged by the training likelihood every candidate is refitted by
-        base = identified_effects.refit_map(parts.train, replace(base, displacement=replace(
-            base.displacement, ridge_weight=LEAST_SQUARES)))
+        base = replace(base, displacement=replace(base.displacement, ridge_weight=LEAST_SQUARES))
+        base = (identified_effects.reidentify(parts.train, base) if baseline is not None
+                else identified_effects.refit_map(parts.train, base))
     (simulated0, shown0), residual0 = _simulate(base, parts, channels)
     sigma = {c: noise_sigma(r) for c, r in residual0.items()}
     shown_sigma = {c: noise_sigma(r) for c, r in shown0.items()}  # the readings' own noise, open loop
@@ -621,7 +622,7 @@ def diagnose_runs(parts: Parts, target_name: str, baseline: Simulation | None = 
     insufficient = insufficient or sufficiency.worse_than_none(before.rmse_held_out[channels[-1]],
                                                                sufficiency.no_compensation_rmse(parts))
     windows0 = all_windows(base, shown0, shown_sigma, parts)
-    if windows0 and baseline is None and not insufficient:  # a candidate must not be credited with the refit
+    if windows0 and not insufficient and (baseline is None or identified(base)):  # no candidate credited with the refit
         base, before = polish(base, before, parts, channels, sigma)
         (simulated0, shown0), residual0 = _simulate(base, parts, channels)
         windows0 = all_windows(base, shown0, shown_sigma, parts)

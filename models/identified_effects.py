@@ -189,3 +189,16 @@ def extend(runs: list[Series], effects, warm: Simulation, polish: bool = False) 
     temps = [sim_.temperatures(series, shared, sensors, effects)[1] for series in runs]
     t0 = [sim_.first_temperatures(series, sensors) for series in runs]
     return Simulation(effects, shared, sensors, extend_map(runs, temps, t0, effects, warm.displacement))
+
+
+def reidentify(runs: list[Series], model: Simulation) -> Simulation:
+    """`model`'s effects with every parameter identified again on these runs, from `model`'s: a model diagnosed
+    on one recording and judged on another (diagnose --baseline) lends its structure, not its numbers, so no
+    candidate is credited with what identifying the sensors on the new data alone gains."""
+    shared, sensors = model.shared, model.sensors
+    for _ in range(sim_.SEARCH_ROUNDS):
+        shared = _search_shared(runs, shared, model.effects, sensors)
+        sensors = _fit_sensors(runs, shared, model.effects, sensors)
+    temps = [sim_.temperatures(series, shared, sensors, model.effects)[1] for series in runs]
+    t0 = [sim_.first_temperatures(series, sensors) for series in runs]
+    return Simulation(model.effects, shared, sensors, extend_map(runs, temps, t0, model.effects, model.displacement))

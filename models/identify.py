@@ -86,8 +86,42 @@ def stacked(runs: list[Series], i: int, heats: list[list[np.ndarray]], shared: S
 def _cost(runs: list[Series], i: int, heats: list[list[np.ndarray]], shared: Shared, tau_s: float, gain: float,
           factor: float = 1.0):
     """Squared one-step prediction error of sensor i over the runs, and its coefficients (`stacked`'s order)."""
+    if len(runs) > 1:
+        found = _runs_solved(runs, i, heats, shared, tau_s, gain, factor)
+        if found is not None:
+            return found
     coef, sse = sim_._solve(*stacked(runs, i, heats, shared, tau_s, gain, factor))
     return sse, coef
+
+
+def _runs_solved(runs: list[Series], i: int, heats: list[list[np.ndarray]], shared: Shared, tau_s: float,
+                 gain: float, factor: float):
+    """`_cost` over many runs without stacking: each run's initial-state column is zero outside its run, so it
+    is eliminated run by run (a Schur complement) and the shared heat gains solve a system of their own size;
+    a campaign of 20 runs otherwise solves 20 mostly-zero columns over every row per evaluation. None where
+    the reduced system is ill-conditioned (then the stacked least squares decides)."""
+    p = SensorParams(tau_s, 0.0, factor)
+    gram, right, parts = 0.0, 0.0, []
+    for series, heat in zip(runs, heats):
+        known, columns = _prediction_design(series, i, heat, sim_._poles(series, shared, p), gain)
+        y, design, start = series.temps[:, i] - known, np.column_stack(columns[:-1]), columns[-1]
+        energy = float(start @ start)
+        cross, along = design.T @ start, float(start @ y)
+        gram = gram + design.T @ design - (np.outer(cross, cross) / energy if energy > 0.0 else 0.0)
+        right = right + design.T @ y - (cross * along / energy if energy > 0.0 else 0.0)
+        parts.append((y, design, start, energy, cross, along))
+    scale = np.sqrt(np.maximum(np.diag(gram), 0.0))
+    scale[scale == 0.0] = 1.0
+    scaled = gram / np.outer(scale, scale)
+    if np.linalg.cond(scaled) >= sim_.GRAM_CONDITION_LIMIT:
+        return None
+    gains = np.linalg.solve(scaled, right / scale) / scale
+    starts, sse = [], 0.0
+    for y, design, start, energy, cross, along in parts:
+        starts.append((along - float(cross @ gains)) / energy if energy > 0.0 else 0.0)
+        residual = y - design @ gains - starts[-1] * start
+        sse += float(residual @ residual)
+    return sse, np.r_[gains, starts]
 
 
 def held_cost(runs: list[Series], shared: Shared, effects, sensors) -> float:
@@ -117,10 +151,13 @@ def fit_sensor(runs: list[Series], i: int, shared: Shared, effects=(), start: Se
     cost = lambda x: _cost(runs, i, heats, shared, *unpack(x))[0]
     taus = np.linspace(np.log(120.0), np.log(24 * sim_.HOUR), TAU_GRID)
     factors = (-1.0, 0.0, 0.7, 1.4) if with_stop else (0.0,)
-    grid = [list(x) for x in itertools.product(taus, GAIN_GRID, factors)]
-    if start is not None:
+    if start is None:
+        grid = [list(x) for x in itertools.product(taus, GAIN_GRID, factors)]
+    else:  # warm: the start and the grid's points next to it (a candidate moves an identified sensor a little)
         gain = np.clip(start.filter_gain, 1e-9, 1 - 1e-9)
-        grid.append([np.log(start.tau_s), float(np.log(gain / (1 - gain))), float(np.log(start.stop_factor))])
+        x0 = [float(np.log(start.tau_s)), float(np.log(gain / (1 - gain))), float(np.log(start.stop_factor))]
+        near = lambda axis, v: axis[max(int(np.searchsorted(axis, v)) - 1, 0):int(np.searchsorted(axis, v)) + 1]
+        grid = [x0, *(list(x) for x in itertools.product(near(taus, x0[0]), near(GAIN_GRID, x0[1]), factors))]
     best = min(grid, key=cost)
     x = sim_.minimize(cost, best if with_stop else best[:2], method="Nelder-Mead",
                       options={"xatol": 1e-5, "fatol": 1e-12, "maxiter": 600 * (1 + with_stop)}).x
