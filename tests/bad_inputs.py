@@ -62,6 +62,16 @@ def _cell(text: str, row: int, column: str, value: str, delimiter: str = ",") ->
     return "\n".join(lines) + "\n"
 
 
+def _held_target(text: str, every: int = 30) -> str:
+    """The target probed every `every` rows and held between probings, as a lathe's logger records it."""
+    lines = text.splitlines()
+    column = lines[0].split(",").index("E_z_um")
+    rows = [line.split(",") for line in lines[1:]]
+    for k, cells in enumerate(rows):
+        cells[column] = rows[k - k % every][column]
+    return "\n".join([lines[0], *(",".join(cells) for cells in rows)]) + "\n"
+
+
 def _rename(text: str, old: str, new: str) -> str:
     head, rest = text.split("\n", 1)
     return ",".join(new if h == old else h for h in head.split(",")) + "\n" + rest
@@ -369,6 +379,10 @@ def _output_cases() -> list[Case]:
         Case("campaign", "a run that is a copy of another", "diagnose", (*DIAGNOSE, "good.csv", "--data", "b.csv"),
              lambda f: (f / "b.csv").write_bytes((f / "good.csv").read_bytes()), "error",
              "b.csv: the same recording as good.csv; a run held out against its own copy is not held out"),
+        Case("campaign", "a target held between probings, no --held-target", "diagnose", (*DIAGNOSE, "held.csv"),
+             with_text("held.csv", _held_target), "error",
+             "held.csv: column 'E_z_um': 97% of its values repeat the one before (a drift probed and held between "
+             "probings?); give --held-target"),
     ]
 
 
