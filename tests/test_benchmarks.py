@@ -120,7 +120,7 @@ def test_real_injections_scale_to_multiples_of_the_channels_spread_and_the_oracl
         assert 0.6 * spread <= np.max(np.abs(changes["ch3_um"])) <= 1.0 * spread
         default, _ = diagnose_real.inject(name, data, "ch3_um", 2)
         assert 4.0 <= np.max(np.abs(default["ch3_um"])) <= 8.0
-    row = evidence_real.one(("ch3_um", "ambient_coupling", 1, (0.6, 1.0), False))
+    row = evidence_real.one(("ch3_um", "ambient_coupling", 1, (0.6, 1.0), None, False, False))
     assert row["baseline_held_out_um"] < row["none_held_out_um"] and row["peak_um"] >= 0.6 * spread
     assert "| not run |" in evidence_real.table([row])[-1]
 

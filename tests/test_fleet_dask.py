@@ -222,7 +222,7 @@ def _twin_runs(folder, hours: int, *effect) -> str:
 
 
 def test_a_campaigns_diagnosis_on_a_cluster_gives_the_findings_of_one_process(cluster, tmp_path):
-    runs = _twin_runs(tmp_path, 7)
+    runs = _twin_runs(tmp_path, 8)  # 7 h runs: the baseline extrapolates worse than none and nothing is tried
     serial = _diagnose(tmp_path, "serial", runs)
     assert serial[0] == 0 and b'"rejected_because"' in serial[2]  # candidates were fitted and judged
     assert serial == _diagnose(tmp_path, "dask", runs, "--scheduler", cluster.scheduler_address)
