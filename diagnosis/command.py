@@ -27,6 +27,8 @@ from thermoplc.pipeline import becomes_block, block_problem
 
 DEFAULT_TRAIN_SHARE = 0.6
 MIN_ROWS = 10
+MIN_TRAIN_PROBINGS = 20  # a probed target's measurements the displacement map is fitted on
+MIN_HELD_OUT_PROBINGS = 10  # ... and those every effect is judged by
 MAX_REPEATED_SHARE = 0.5  # a target that repeats its value more often is held between probings (FL_THERMAL: 0.07 %)
 
 
@@ -141,7 +143,22 @@ def parts_of(campaign: Campaign, request: DiagnoseRequest) -> tuple[Parts, float
         for table in tables:
             if table.rows < MIN_ROWS:
                 raise UserError(f"{table.path}: {table.rows} rows; a run needs at least {MIN_ROWS}")
-    return Parts(tuple(series_of(t, request, dt) for t in tables), train_rows, tuple(campaign.labels)), dt
+    parts = Parts(tuple(series_of(t, request, dt) for t in tables), train_rows, tuple(campaign.labels))
+    refuse_few_probings(parts, request.target)
+    return parts, dt
+
+
+def refuse_few_probings(parts: Parts, target: str) -> None:
+    """A probed target needs probings on both sides: the training part fits the displacement map on them, the
+    held-out part judges every effect by them. Too few of either is refused before anything is fitted."""
+    pooled = parts.joined().target
+    for where, rows, needed in (("training part", pooled[:parts.n_train], MIN_TRAIN_PROBINGS),
+                                ("held-out part", pooled[parts.n_train:], MIN_HELD_OUT_PROBINGS)):
+        count = int(np.count_nonzero(np.isfinite(rows)))
+        if count < needed:
+            raise UserError(f"column {target!r}: measured {count} time(s) in the {where}; diagnose needs at least "
+                            f"{needed} probings there (the training part fits the displacement map on them, the "
+                            f"held-out part judges every effect by them)")
 
 
 def augmented_model(final: Simulation, added: list[dict], request: DiagnoseRequest, tables: list[Table], dt: float,
@@ -183,6 +200,9 @@ def _search(parts: Parts, request: DiagnoseRequest, progress, tries):
     if request.baseline:
         model = load_model(request.baseline)
         _check_baseline(model, request, request.baseline)
+        if model.sample_period_s != parts.runs[0].dt:
+            raise UserError(f"{request.baseline}: fitted at a sample period of {model.sample_period_s:g} s; the data "
+                            f"are sampled every {parts.runs[0].dt:g} s (give --resample {model.sample_period_s:g})")
         baseline = lumped_model.simulation_of(model)
         if baseline.displacement.ridge_weight is None and parts.campaign:
             raise UserError(f"{request.baseline}: an open-loop simulation an earlier diagnose fitted runs on one "

@@ -118,6 +118,10 @@ def summary(d: Diagnosis) -> str:
     return f"{found}{left} disagreement window(s) not explained by any known effect{because}"
 
 
+def _um(value: float | None) -> str:
+    return "an unmeasured amount" if value is None else f"{value:.3g} um"
+
+
 def percent(share: float) -> str:
     """A share in whole percent; a share that rounds to nothing is 0 %, never "-0%"."""
     return f"{round(share, 2) + 0.0:.0%}"
@@ -152,7 +156,7 @@ def text(doc: dict) -> str:
     for e in doc.get("supported_not_named", []):
         ev = e["evidence"]
         lines.append(f"  not named: {e['name']}" + (f" on {e['sensor']}" if e.get("sensor") else "")
-                     + f" (delta BIC {ev['delta_bic']:.1f}; held out it moves the target {ev['held_out_size_um']:.3g} um, "
+                     + f" (delta BIC {ev['delta_bic']:.1f}; held out it moves the target {_um(ev['held_out_size_um'])}, "
                        f"{e['matters']}; {e['why_not_named']})")
     lines.append(f"  disagreement windows: {len(doc['disagreements'])} before, {len(doc['remaining_disagreements'])} after")
     lines.append(f"  {'held out':<31}{'judged RMSE (one step)':>22}{'open-loop RMSE':>20}{'max (judged)':>20}")

@@ -72,6 +72,16 @@ def _held_target(text: str, every: int = 30) -> str:
     return "\n".join([lines[0], *(",".join(cells) for cells in rows)]) + "\n"
 
 
+def _unprobed_after(text: str, share: float = 0.6) -> str:
+    """The target left empty after the first `share` of the rows: every probing in the training part."""
+    lines = text.splitlines()
+    column = lines[0].split(",").index("E_z_um")
+    rows = [line.split(",") for line in lines[1:]]
+    for cells in rows[int(share * len(rows)):]:
+        cells[column] = ""
+    return "\n".join([lines[0], *(",".join(cells) for cells in rows)]) + "\n"
+
+
 def _rename(text: str, old: str, new: str) -> str:
     head, rest = text.split("\n", 1)
     return ",".join(new if h == old else h for h in head.split(",")) + "\n" + rest
@@ -383,6 +393,9 @@ def _output_cases() -> list[Case]:
              with_text("held.csv", _held_target), "error",
              "held.csv: column 'E_z_um': 97% of its values repeat the one before (a drift probed and held between "
              "probings?); give --held-target"),
+        Case("campaign", "a probed target never measured in the held-out part", "diagnose", (*DIAGNOSE, "late.csv"),
+             with_text("late.csv", _unprobed_after), "error",
+             "column 'E_z_um': measured 0 time(s) in the held-out part; diagnose needs at least 10 probings there"),
     ]
 
 

@@ -122,11 +122,23 @@ def test_a_campaign_with_a_held_target_is_diagnosed_at_its_probings(tmp_path, mo
     assert same(empty) == same(held)
 
 
-def test_a_target_probed_too_rarely_in_the_training_part_cannot_decide(tmp_path, monkeypatch, capsys):
-    """Fewer than 20 probings in the training runs: no map can be fitted and judged on them."""
+def test_a_target_probed_too_rarely_is_refused_before_anything_is_fitted(tmp_path, monkeypatch, capsys):
+    """Fewer than 20 probings in the training runs, or fewer than 10 in the held-out runs: one line, no file."""
     monkeypatch.chdir(tmp_path)
     assert main(["twin", "--runs", "3", "--hours", "8", "--seed", str(SEED), "--probe-minutes", "120",
                  "-o", "camp"]) == 0
-    assert main([*DIAGNOSE_CAMPAIGN, "--held-target", "--json", "f.json", "-o", "m.json"]) == 0
-    findings = json.loads((tmp_path / "f.json").read_text())
-    assert findings["verdict"] == "insufficient_data" and "probings are needed" in findings["summary"]
+    assert main([*DIAGNOSE_CAMPAIGN, "--held-target", "--json", "f.json", "-o", "m.json"]) == 2
+    assert "column 'E_z_um': measured 5 time(s) in the training part; diagnose needs at least 20" in \
+        capsys.readouterr().err
+    assert not (tmp_path / "m.json").exists() and not (tmp_path / "f.json").exists()
+    assert main(["twin", "--runs", "3", "--hours", "12", "--seed", str(SEED), "--probe-minutes", "30",
+                 "-o", "late"]) == 0
+    for held_out in ("late/run_002.csv", "late/run_003.csv"):  # the held-out runs' drift never probed
+        lines = (tmp_path / held_out).read_text().splitlines()
+        column = lines[0].split(",").index("E_z_um")
+        rows = [line.split(",") for line in lines[1:]]
+        for cells in rows:
+            cells[column] = ""
+        (tmp_path / held_out).write_text("\n".join([lines[0], *(",".join(c) for c in rows)]) + "\n")
+    assert main([*DIAGNOSE_CAMPAIGN[:2], "late", *DIAGNOSE_CAMPAIGN[3:], "--held-target", "-o", "m.json"]) == 2
+    assert "measured 0 time(s) in the held-out part; diagnose needs at least 10" in capsys.readouterr().err
