@@ -173,14 +173,16 @@ def text(doc: dict) -> str:
         lines.append(f"  no compensation: held-out RMSE {doc['no_compensation_rmse_um']:.3f} um")
     if doc["not_tested"]:
         lines.append("  not tested: " + "; ".join(f"{k} ({v})" for k, v in doc["not_tested"].items()))
-    lines += ["next:", *(f"  {command}" for command in next_steps(doc))]
+    steps = next_steps(doc)
+    if steps:
+        lines += ["next:", *(f"  {command}" for command in steps)]
     return "\n".join(lines)
 
 
 def next_steps(doc: dict) -> list[str]:
     """The commands that turn the diagnosed model into a proven block, as the user would type them."""
     model, data = doc.get("model"), doc["data"].get("file")
-    if not model:
+    if not model or doc.get("verdict") == "insufficient_data":  # the data could not judge it: no block to prove
         return []
     block = _argument(str(Path(model).with_suffix(".scl")))
     runs = doc["data"].get("given", [])  # a campaign as the command was given it: --data ... or --runs TABLE

@@ -78,3 +78,10 @@ def test_a_long_bpnn_fit_reports_an_estimate_and_stops_cleanly(tmp_path, stop, c
     _, rest = process.communicate(timeout=60)
     assert process.returncode == code and said in rest and "Traceback" not in rest, "".join(lines) + rest
     assert sorted(p.name for p in tmp_path.iterdir()) == ["t.csv"]
+
+
+def test_no_next_steps_after_data_that_could_not_decide():
+    """A model the data could not judge is written, but no block is offered to prove (generate refuses it)."""
+    from thermoplc.diagnosis.findings import next_steps
+    assert next_steps({"model": "m.json", "data": {"file": "x.csv"}, "verdict": "insufficient_data"}) == []
+    assert next_steps({"model": "m.json", "data": {"file": "x.csv"}, "verdict": "unexplained"}) != []
