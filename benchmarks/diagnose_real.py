@@ -214,13 +214,9 @@ def one(case: tuple) -> dict:
     d = diagnose(series_of(use, channel), training_rows(share), channel, None if baseline is None else baseline.final)
     seconds = time.perf_counter() - start
     size = {c: float(np.std(change) / max(d.sigma[c], 1e-12)) for c, change in changes.items()}
-    peak = max((float(np.max(np.abs(change))) for c, change in changes.items() if c == channel), default=0.0)
     return {"channel": channel, "effect": name, "seed": seed, "parameters": parameters, "verdict": d.verdict,
             "found": [e["name"] for e in d.named], "reason": d.reason, "before": d.before.rmse_held_out[channel],
-            "after": d.after.rmse_held_out[channel], "seconds": seconds, "size_sigmas": size,
-            "clean_named": [] if baseline is None else [e["name"] for e in baseline.named],
-            "peak_over_baseline": peak / max(baseline.after.rmse_held_out[channel] if baseline else
-                                             d.before.rmse_held_out[channel], 1e-12)}
+            "after": d.after.rmse_held_out[channel], "seconds": seconds, "size_sigmas": size}
 
 
 def visible(r: dict) -> bool:

@@ -69,7 +69,9 @@ def _plot(d: Diagnosis, run: int, channel: str, measured: np.ndarray, unit: str)
             ax.axvline(hours[n_train - 1], color="k", lw=0.8, ls=":")
         ax.grid(alpha=0.3)
     held = slice(n_train, None) if n_train < series.rows else slice(None)
-    rms = lambda r: measured_rms(r[held]) if measured_rms(r[held]) is not None else float("nan")
+    def rms(residual: np.ndarray) -> float:  # a held-out run never probed: nan, as its title says
+        found = measured_rms(residual[held])
+        return float("nan") if found is None else found
     where = "held-out" if n_train < series.rows else "training run"
     name = f"{parts.labels[run]}: " if parts.campaign else ""
     top.set_title(f"{name}{channel}: simulation RMSE on the {where} rows {rms(residual_before):.3g} {difference} "

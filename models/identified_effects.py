@@ -186,19 +186,23 @@ def extend(runs: list[Series], effects, warm: Simulation, polish: bool = False) 
             sensors = _fit_sensors(runs, shared, effects, sensors)
     elif not moved <= with_part("displacement"):
         sensors = _fit_sensors(runs, shared, effects, warm.sensors)
+    return _with_map(runs, effects, shared, sensors, warm.displacement)
+
+
+def _with_map(runs: list[Series], effects, shared: Shared, sensors, base: DisplacementParams) -> Simulation:
+    """The model of these effects, shared parameters and sensors, its map refitted on them from `base`."""
     temps = [sim_.temperatures(series, shared, sensors, effects)[1] for series in runs]
     t0 = [sim_.first_temperatures(series, sensors) for series in runs]
-    return Simulation(effects, shared, sensors, extend_map(runs, temps, t0, effects, warm.displacement))
+    return Simulation(effects, shared, sensors, extend_map(runs, temps, t0, effects, base))
 
 
 def reidentify(runs: list[Series], model: Simulation) -> Simulation:
-    """`model`'s effects with every parameter identified again on these runs, from `model`'s: a model diagnosed
-    on one recording and judged on another (diagnose --baseline) lends its structure, not its numbers, so no
-    candidate is credited with what identifying the sensors on the new data alone gains."""
+    """`model`'s effects with its sensors, shared parameters and map identified again on these runs, from
+    `model`'s (the structure lag within one step, `extend_map`): a model diagnosed on one recording and judged
+    on another (diagnose --baseline) lends its structure, not its numbers, so no candidate is credited with
+    what identifying the sensors on the new data alone gains."""
     shared, sensors = model.shared, model.sensors
     for _ in range(sim_.SEARCH_ROUNDS):
         shared = _search_shared(runs, shared, model.effects, sensors)
         sensors = _fit_sensors(runs, shared, model.effects, sensors)
-    temps = [sim_.temperatures(series, shared, sensors, model.effects)[1] for series in runs]
-    t0 = [sim_.first_temperatures(series, sensors) for series in runs]
-    return Simulation(model.effects, shared, sensors, extend_map(runs, temps, t0, model.effects, model.displacement))
+    return _with_map(runs, model.effects, shared, sensors, model.displacement)

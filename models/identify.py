@@ -64,14 +64,23 @@ def _prediction_design(series: Series, i: int, heat: list[np.ndarray], a, gain: 
     return predicted_known, [*columns, sim_.filtered(zero, a, zero, gain, 1.0)[0]]
 
 
+def _designs(runs: list[Series], i: int, heats: list[list[np.ndarray]], shared: Shared, tau_s: float, gain: float,
+             factor: float) -> list[tuple[np.ndarray, list[np.ndarray]]]:
+    """Each run's `_prediction_design` of sensor i for these pole, filter gain and standstill factor."""
+    p = SensorParams(tau_s, 0.0, factor)
+    return [_prediction_design(series, i, heat, sim_._poles(series, shared, p), gain)
+            for series, heat in zip(runs, heats)]
+
+
 def stacked(runs: list[Series], i: int, heats: list[list[np.ndarray]], shared: Shared, tau_s: float, gain: float,
             factor: float = 1.0) -> tuple[np.ndarray, list[np.ndarray]]:
     """Sensor i's readings less the known part of their one-step prediction over the runs, and the columns
     the unknowns multiply: the heat gains shared by every run, then one initial-state departure per run
     (each run starts from its own state)."""
-    p = SensorParams(tau_s, 0.0, factor)
-    designs = [_prediction_design(series, i, heat, sim_._poles(series, shared, p), gain)
-               for series, heat in zip(runs, heats)]
+    return _stacked(runs, i, _designs(runs, i, heats, shared, tau_s, gain, factor))
+
+
+def _stacked(runs: list[Series], i: int, designs: list) -> tuple[np.ndarray, list[np.ndarray]]:
     if len(runs) == 1:
         known, columns = designs[0]
         return runs[0].temps[:, i] - known, columns
@@ -86,24 +95,21 @@ def stacked(runs: list[Series], i: int, heats: list[list[np.ndarray]], shared: S
 def _cost(runs: list[Series], i: int, heats: list[list[np.ndarray]], shared: Shared, tau_s: float, gain: float,
           factor: float = 1.0):
     """Squared one-step prediction error of sensor i over the runs, and its coefficients (`stacked`'s order)."""
-    if len(runs) > 1:
-        found = _runs_solved(runs, i, heats, shared, tau_s, gain, factor)
-        if found is not None:
-            return found
-    coef, sse = sim_._solve(*stacked(runs, i, heats, shared, tau_s, gain, factor))
+    designs = _designs(runs, i, heats, shared, tau_s, gain, factor)
+    found = _runs_solved(runs, i, designs) if len(runs) > 1 else None
+    if found is not None:
+        return found
+    coef, sse = sim_._solve(*_stacked(runs, i, designs))
     return sse, coef
 
 
-def _runs_solved(runs: list[Series], i: int, heats: list[list[np.ndarray]], shared: Shared, tau_s: float,
-                 gain: float, factor: float):
+def _runs_solved(runs: list[Series], i: int, designs: list):
     """`_cost` over many runs without stacking: each run's initial-state column is zero outside its run, so it
     is eliminated run by run (a Schur complement) and the shared heat gains solve a system of their own size;
     a campaign of 20 runs otherwise solves 20 mostly-zero columns over every row per evaluation. None where
     the reduced system is ill-conditioned (then the stacked least squares decides)."""
-    p = SensorParams(tau_s, 0.0, factor)
     gram, right, parts = 0.0, 0.0, []
-    for series, heat in zip(runs, heats):
-        known, columns = _prediction_design(series, i, heat, sim_._poles(series, shared, p), gain)
+    for series, (known, columns) in zip(runs, designs):
         y, design, start = series.temps[:, i] - known, np.column_stack(columns[:-1]), columns[-1]
         energy = float(start @ start)
         cross, along = design.T @ start, float(start @ y)
