@@ -17,10 +17,10 @@ A refusal is a `thermoplc.base.errors.UserError` whose text names the file and w
 from __future__ import annotations
 
 from thermoplc.diagnosis.command import DiagnoseRequest, run as _diagnose
-from thermoplc.models.fit import FitRequest, fit
+from thermoplc.fitting.fit import FitRequest, fit
 from thermoplc.models.modelfile import Model, load_model
 from thermoplc.models.safety import Limits
-from thermoplc.models.table import Table, read_table
+from thermoplc.recordings.table import Table, read_table
 from thermoplc.pipeline import Generated, generate
 from thermoplc.verifier.diff import BlockDiff, diff_blocks
 from thermoplc.verifier.replay import Report, verify_against_model

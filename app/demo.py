@@ -14,10 +14,10 @@ from pathlib import Path
 
 from thermoplc.base.version import __version__
 from thermoplc.base.fileio import check_output, write_atomic
-from thermoplc.models.acceptance import refusal
-from thermoplc.models.fit import FitRequest, fit
+from thermoplc.fitting.acceptance import refusal
+from thermoplc.fitting.fit import FitRequest, fit
 from thermoplc.models.kinds import kind_of
-from thermoplc.models.table import read_table
+from thermoplc.recordings.table import read_table
 from thermoplc.pipeline import generate
 from thermoplc.verifier.replay import verify_against_model
 

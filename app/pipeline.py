@@ -13,7 +13,7 @@ from thermoplc.generator.lower import lower, prove
 from thermoplc.generator.printer import (DIALECTS, GenerationError, render, render_instance_db, render_plcopen,
                                         validate)
 from thermoplc.generator.ranges import RangeProof
-from thermoplc.models.acceptance import problem, quantisation_problem
+from thermoplc.fitting.acceptance import problem, quantisation_problem
 from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import Limits
 from thermoplc.verifier.parser import parse_text

@@ -22,13 +22,13 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.machines.campaign import TARGET, plan, simulate_run
-from thermoplc.models import ridge
-from thermoplc.models.campaign import Campaign, Run, held_to_probed
-from thermoplc.models.crossval import cross_validate_runs, pooled
-from thermoplc.models.fit import FitRequest
+from thermoplc.base import ridge
+from thermoplc.recordings.campaign import Campaign, Run, held_to_probed
+from thermoplc.fitting.crossval import cross_validate_runs, pooled
+from thermoplc.fitting.fit import FitRequest
 from thermoplc.models.kalman import FitOptions
 from thermoplc.models.kinds import kind_of
-from thermoplc.models.table import Table, read_table
+from thermoplc.recordings.table import Table, read_table
 
 ROOT = Path(__file__).resolve().parent.parent
 FL_THERMAL = ROOT / "app" / "data" / "fl_thermal" / "fl_thermal.csv"
@@ -147,7 +147,7 @@ def scale_campaign(runs: int = 40, hours: float = 6.0, dt: float = 40.0, sensors
 
 def scale_timings() -> list[str]:
     """Seconds for the issue's targets: auto leave-one-run-out and one kind, 40 runs x 6 h at 40 s, 23 sensors."""
-    from thermoplc.models.auto import rank
+    from thermoplc.fitting.auto import rank
     tables = scale_campaign()
     temps = tuple(c for c in tables[0].columns if c.startswith("T_"))
     lines = [f"## scale: {len(tables)} runs x 6 h at 40 s, {len(temps)} sensors, probed every 30 min"]

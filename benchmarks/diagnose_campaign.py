@@ -32,7 +32,7 @@ from thermoplc.diagnosis.search import diagnose_runs  # noqa: E402
 from thermoplc.machines import MACHINES, machine  # noqa: E402
 from thermoplc.machines.campaign import plan, simulate_run  # noqa: E402
 from thermoplc.machines.random_effects import draw  # noqa: E402
-from thermoplc.models.effects import NAMES  # noqa: E402
+from thermoplc.physics.effects import NAMES  # noqa: E402
 
 TRAIN_SHARE = 0.6
 DT = 10.0

@@ -59,8 +59,8 @@ from scipy.signal import lfilter  # noqa: E402
 
 from thermoplc.demo import recording  # noqa: E402
 from thermoplc.diagnosis.search import diagnose  # noqa: E402
-from thermoplc.models.simulation import Series  # noqa: E402
-from thermoplc.models.table import read_table  # noqa: E402
+from thermoplc.physics.simulation import Series  # noqa: E402
+from thermoplc.recordings.table import read_table  # noqa: E402
 
 DT = 15.0
 HOUR = 3600.0

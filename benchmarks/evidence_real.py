@@ -5,7 +5,7 @@
 
 A bound on every detector, not a detector: each run of `benchmarks/diagnose_real.py` (same
 injections, same seeds) is fitted with the identified baseline `fit --model lumped` uses
-(`models/identify.py`, training part the first 24 h, t5_C and t4_C). The injection's own
+(`physics/identify.py`, training part the first 24 h, t5_C and t4_C). The injection's own
 signature in the baseline's residual is then known exactly: the residual the fitted model
 leaves on the injected recording minus the residual the same model leaves on the clean one.
 An oracle regresses the residual on that one column; its evidence is the likelihood-ratio
@@ -40,9 +40,9 @@ from benchmarks.diagnose_real import (AMBIENT, CHANNELS, DT, LIBRARY, OUTSIDE, S
                                       arguments, columns, inject, training_rows)
 from benchmarks.diagnose_real import one as diagnose_run  # noqa: E402
 from thermoplc.diagnosis.search import BIC_MARGIN, effective_rows  # noqa: E402
-from thermoplc.models import identify  # noqa: E402
-from thermoplc.models import simulation as sim_  # noqa: E402
-from thermoplc.models.simulation import Series  # noqa: E402
+from thermoplc.physics import identify  # noqa: E402
+from thermoplc.physics import simulation as sim_  # noqa: E402
+from thermoplc.physics.simulation import Series  # noqa: E402
 
 EFFECTS = (*LIBRARY, *OUTSIDE)
 

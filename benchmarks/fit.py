@@ -14,9 +14,9 @@ import time
 from pathlib import Path
 
 from thermoplc.demo import AMBIENT, SPEED, TARGET, TEMPS, TRAIN_UNTIL_S, recording
-from thermoplc.models.fit import FitRequest, fit
+from thermoplc.fitting.fit import FitRequest, fit
 from thermoplc.models.kalman import FitOptions
-from thermoplc.models.table import read_table, write_table
+from thermoplc.recordings.table import read_table, write_table
 from thermoplc.machines.cascade import simulate
 
 

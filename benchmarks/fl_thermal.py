@@ -22,13 +22,13 @@ import numpy as np
 
 from thermoplc.demo import AMBIENT, SPEED, TRAIN_UNTIL_S, recording
 from thermoplc.base.errors import UserError
-from thermoplc.models.auto import rank
-from thermoplc.models.crossval import cuts, fit_cross_validated
-from thermoplc.models.fit import FitRequest, fit
+from thermoplc.fitting.auto import rank
+from thermoplc.fitting.crossval import cuts, fit_cross_validated
+from thermoplc.fitting.fit import FitRequest, fit
 from thermoplc.models.kalman import FitOptions
 from thermoplc.models.reference import model_inputs, predict
-from thermoplc.models.selection import select_sensors
-from thermoplc.models.table import read_table
+from thermoplc.fitting.selection import select_sensors
+from thermoplc.recordings.table import read_table
 
 CHANNELS = ("ch3_um", "ch5_um")
 KINDS = ("mlr", "kalman", "lumped", "dlag", "gm0n", "gm1n", "bayes", "bpnn")

@@ -23,10 +23,10 @@ import numpy as np  # noqa: E402
 from benchmarks.fl_thermal import chosen_sensors  # noqa: E402
 from thermoplc.demo import TRAIN_UNTIL_S, recording  # noqa: E402
 from thermoplc.machines.cascade import simulate  # noqa: E402
-from thermoplc.models.fit import FitRequest, fit  # noqa: E402
+from thermoplc.fitting.fit import FitRequest, fit  # noqa: E402
 from thermoplc.models.kalman import FitOptions  # noqa: E402
 from thermoplc.models.reference import model_inputs, predict  # noqa: E402
-from thermoplc.models.table import read_table, write_table  # noqa: E402
+from thermoplc.recordings.table import read_table, write_table  # noqa: E402
 
 OPERATORS = ("paper002", "paper000")
 TWIN_SEEDS = (20, 21, 22)

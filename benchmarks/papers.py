@@ -16,11 +16,11 @@ import numpy as np
 
 from thermoplc.demo import AMBIENT, SPEED, TEMPS, TARGET, TRAIN_UNTIL_S, recording
 from thermoplc.models import bayes, grey
-from thermoplc.models.fit import FitRequest, fit
+from thermoplc.fitting.fit import FitRequest, fit
 from thermoplc.models.kalman import FitOptions
 from thermoplc.models.modelfile import Coefficient
 from thermoplc.models.reference import model_inputs, predict
-from thermoplc.models.table import read_table, write_table
+from thermoplc.recordings.table import read_table, write_table
 from thermoplc.base.errors import UserError
 from thermoplc.machines.cascade import simulate
 from thermoplc.machines.faults import SensorFault

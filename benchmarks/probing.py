@@ -23,9 +23,9 @@ import numpy as np
 
 from benchmarks.campaign import fl_thermal_runs, twin_runs
 from thermoplc.machines.campaign import TRUTH
-from thermoplc.models.crossval import fit_held_out
-from thermoplc.models.fit import FitRequest
-from thermoplc.models.probe_fit import REFITTED, SCHEDULES_MIN, fit_probe
+from thermoplc.fitting.crossval import fit_held_out
+from thermoplc.fitting.fit import FitRequest
+from thermoplc.fitting.probe_fit import REFITTED, SCHEDULES_MIN, fit_probe
 
 FL_TEMPS = ("t4_C", "t5_C", "t8_C", "t11_C")
 TWIN_TEMPS = {"cascade": ("T_motor", "T_bearing", "T_struct"), "portal": ("T_spindle", "T_gearbox", "T_column")}

@@ -26,7 +26,7 @@ from tests.golden_models import GOLDEN, KINDS, golden_block  # noqa: E402
 from thermoplc.models.modelfile import load_model  # noqa: E402
 from thermoplc.models.reference import block_outputs, model_inputs  # noqa: E402
 from thermoplc.models.safety import Limits  # noqa: E402
-from thermoplc.models.table import read_table, write_table  # noqa: E402
+from thermoplc.recordings.table import read_table, write_table  # noqa: E402
 from thermoplc.machines.cascade import simulate  # noqa: E402
 from thermoplc.verifier.interpreter import Machine  # noqa: E402
 from thermoplc.verifier.native import NativeBlock  # noqa: E402

@@ -7,7 +7,7 @@
 Each kind is fitted on the first share of the recording (the sensors of the issue: t8, t4, t5, t11; ambient
 t6 and the spindle speed where a kind reads them) and judged on the rest: held-out RMSE um per split, the
 worst and the median beside no compensation (the held-out rows themselves) and the ridge floor (every
-temperature's rise, ridge weight by forward validation on the training rows: models/ridge.py). The last
+temperature's rise, ridge weight by forward validation on the training rows: base/ridge.py). The last
 columns: the worst ratio to mlr on the same split and the worst ratio to the ridge floor. Seeded.
 """
 from __future__ import annotations
@@ -19,11 +19,11 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.demo import AMBIENT, SPEED, recording
-from thermoplc.models import ridge
-from thermoplc.models.fit import FitRequest, fit
+from thermoplc.base import ridge
+from thermoplc.fitting.fit import FitRequest, fit
 from thermoplc.models.kalman import FitOptions
 from thermoplc.models.reference import model_inputs, predict
-from thermoplc.models.table import read_table
+from thermoplc.recordings.table import read_table
 
 TEMPS = ("t8_C", "t4_C", "t5_C", "t11_C")
 KINDS = ("mlr", "dlag", "gm0n", "gm1n", "bayes", "lumped", "kalman")

@@ -14,15 +14,15 @@ from thermoplc.diagnosis.search import diagnose_runs
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import REPORT_MANIFEST, check_report_folder, report_manifest, write_outputs
 from thermoplc.models import lumped_model
-from thermoplc.models.campaign import Campaign, read_campaign, run_list, source_of
-from thermoplc.models.crossval import refuse_copies
-from thermoplc.models.effects import definition_of
-from thermoplc.models.fit import block_identifier, common_sample_period, evaluate
+from thermoplc.recordings.campaign import Campaign, read_campaign, run_list, source_of
+from thermoplc.fitting.crossval import refuse_copies
+from thermoplc.physics.effects import definition_of
+from thermoplc.fitting.fit import block_identifier, common_sample_period, evaluate
 from thermoplc.models.modelfile import Model, Signal, load_model
-from thermoplc.models.resample import Resampling
-from thermoplc.models.simulation import Series, Simulation
-from thermoplc.models.leaks import refuse_leaks, refuse_non_temperatures
-from thermoplc.models.table import Table
+from thermoplc.recordings.resample import Resampling
+from thermoplc.physics.simulation import Series, Simulation
+from thermoplc.fitting.leaks import refuse_leaks, refuse_non_temperatures
+from thermoplc.recordings.table import Table
 from thermoplc.pipeline import becomes_block, block_problem
 
 DEFAULT_TRAIN_SHARE = 0.6
@@ -54,7 +54,7 @@ class DiagnoseRequest:
 
     @property
     def resampling(self) -> Resampling | None:
-        """The rule the augmented model file records (models/resample.py): the speed and feed held."""
+        """The rule the augmented model file records (recordings/resample.py): the speed and feed held."""
         held = (self.speed, *([self.feed] if self.feed else ()))
         return Resampling(self.resample_s, held) if self.resample_s else None
 

@@ -13,8 +13,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from thermoplc.models import simulation as sim_
-from thermoplc.models.simulation import Series
+from thermoplc.physics import simulation as sim_
+from thermoplc.physics.simulation import Series
 
 
 @dataclass(frozen=True, eq=False)

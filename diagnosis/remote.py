@@ -11,8 +11,8 @@ from thermoplc.base.cluster import Cluster, Lost
 from thermoplc.base.errors import ClusterError
 from thermoplc.diagnosis.parts import Parts
 from thermoplc.diagnosis.search import Attempt, attempt, completed
-from thermoplc.models.campaign import CampaignSource
-from thermoplc.models.simulation import Simulation
+from thermoplc.recordings.campaign import CampaignSource
+from thermoplc.physics.simulation import Simulation
 
 
 @dataclass(frozen=True)

@@ -24,10 +24,10 @@ import numpy as np
 from thermoplc.diagnosis import sufficiency
 from thermoplc.diagnosis.parts import Parts, single
 from thermoplc.diagnosis.windows import Window, find_windows, measured, noise_sigma, rms, settling_s
-from thermoplc.models import identified_effects, identify
-from thermoplc.models import simulation as sim_
-from thermoplc.models.effects import NAMES, definition_of
-from thermoplc.models.simulation import Series, Simulation
+from thermoplc.physics import identified_effects, identify
+from thermoplc.physics import simulation as sim_
+from thermoplc.physics.effects import NAMES, definition_of
+from thermoplc.physics.simulation import Series, Simulation
 
 BIC_MARGIN = 10.0
 AMBIGUOUS_BIC_SHARE = 0.02  # another effect within this share of the winner's BIC gain: no name
@@ -239,7 +239,7 @@ def identified(sim: Simulation) -> bool:
 
 def refit(train: list[Series], effects, warm: Simulation, polish: bool = False) -> Simulation:
     """`warm` refitted with these effects on the training parts: as a nested extension of an identified
-    model (models/identified_effects.py), or as the open-loop simulation (models/simulation.py, one run)."""
+    model (physics/identified_effects.py), or as the open-loop simulation (physics/simulation.py, one run)."""
     if identified(warm):
         return identified_effects.extend(train, effects, warm, polish)
     if len(train) != 1:

@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.diagnosis.windows import Window, rms
-from thermoplc.models import simulation as sim_
-from thermoplc.models.effects import definition_of
-from thermoplc.models.simulation import Series
+from thermoplc.physics import simulation as sim_
+from thermoplc.physics.effects import definition_of
+from thermoplc.physics.simulation import Series
 
 HOUR = 3600.0
 MIN_TRAIN_S = 6 * HOUR  # the slowest sensor time constants are about an hour; less cannot separate them

@@ -5,7 +5,7 @@ from functools import reduce
 
 from thermoplc.base.version import __version__
 from thermoplc.generator.ir import Assign, BinOp, BoolConst, Const, If, Ref, Region, Unary, Var
-from thermoplc.models.acceptance import header_lines
+from thermoplc.fitting.acceptance import header_lines
 from thermoplc.models.modelfile import Model
 
 

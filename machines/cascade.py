@@ -8,7 +8,7 @@ exactly (matrix exponential, inputs held over a sample), so the data does not de
 integrator's step. The displacement at the spindle nose follows the temperature rises of the
 bearing and the ram, the ambient-driven part included: without an effect the machine is inside
 paper 000's class (first-order sensors, displacement linear in their temperatures and a structure
-lagging them). Each named effect of `thermoplc.models.effects` can be switched on.
+lagging them). Each named effect of `thermoplc.physics.effects` can be switched on.
 """
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ from scipy.linalg import expm
 
 from thermoplc.base.errors import UserError
 from thermoplc.machines.faults import SensorFault
-from thermoplc.models.effects import Effect
+from thermoplc.physics.effects import Effect
 
 NAME = "cascade"
 DESCRIPTION = "motor and bearing nodes feeding a ram and a slow base, run/stop at fixed speed levels, daily sine ambient"

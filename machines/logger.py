@@ -1,7 +1,7 @@
 """A data logger's file, as real ones are written (`twin --logger`): every quarter of the block's cycle for
 the first FAST_MINUTES (a logger's start-up rate), then every cycle, each time stamp off by up to JITTER_S
 (the logger's clock against the machine's), rounded to 0.1 s. The values are those the machine had at the
-nominal instant; the file is what `--resample` (models/resample.py) takes back onto the cycle."""
+nominal instant; the file is what `--resample` (recordings/resample.py) takes back onto the cycle."""
 from __future__ import annotations
 
 import numpy as np

@@ -11,7 +11,7 @@ What stays inside paper 000's class (docs/diagnosis.md) when no effect is on: ea
 is exactly eq. 4's first-order lag of ambient + gain·speed, T[j] = a·T[j-1] + (1 − a)·u[j] with
 a = exp(−dt/τ) (the exact step for an input held over the sample), and the displacement is linear
 in the measured temperatures plus the ram node (eq. 10/16 through a structure lag). Every named
-effect of models/effects/ is a physical extension on top of that.
+effect of physics/effects/ is a physical extension on top of that.
 """
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from thermoplc.base.errors import UserError
-from thermoplc.models.effects import registry
+from thermoplc.physics.effects import registry
 
 NAME = "portal"
 DESCRIPTION = "gantry milling machine: spindle, gearbox and crossbeam nodes, unmeasured ram, random speeds"

@@ -11,7 +11,7 @@ from types import ModuleType
 
 import numpy as np
 
-from thermoplc.models.effects import Effect, definition_of
+from thermoplc.physics.effects import Effect, definition_of
 
 def draw(name: str, machine: ModuleType, clean: dict, train_rows: int, seed: int) -> Effect:
     """`name` with parameters drawn for this machine and seed (the effect's record says from what;

@@ -1,1 +1,1 @@
-"""Fitting, float32 references, the model file and the synthetic machine."""
+"""The model kinds, the model file and the float32 references every block is proven against."""

@@ -26,7 +26,8 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.base.errors import UserError
-from thermoplc.models import kernels, ridge
+from thermoplc.base import ridge
+from thermoplc.models import kernels
 from thermoplc.models.kind import Kind, Part
 from thermoplc.models.modelfile import Coefficient, Model
 

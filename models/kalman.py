@@ -16,7 +16,8 @@ from typing import Callable
 import numpy as np
 
 from thermoplc.base.binary32 import round_f32
-from thermoplc.models import kernels, lumped
+from thermoplc.models import kernels
+from thermoplc.physics import lumped
 from thermoplc.models.ga import genetic_minimize, step_reporter
 from thermoplc.models.mlr import least_squares
 from thermoplc.models.kind import Kind, Part, fault_key, measured_counts

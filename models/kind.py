@@ -62,7 +62,7 @@ def measured_counts(parts: list[Part]) -> list[int]:
 @dataclass(frozen=True)
 class Increments:
     """Declared by a kind whose prediction is beta0 plus slopes times columns of its inputs: the probe fusion
-    refits those slopes on the change since the last probing (models/probe_refit.py)."""
+    refits those slopes on the change since the last probing (fitting/probe_refit.py)."""
     columns: Callable[[Part, dict], np.ndarray]  # (part, the model's settings) -> (rows, slopes), as the fit takes them
     slopes: Callable[[dict, int], list[str]]  # (settings, sensors) -> the slopes' coefficient names, column order
 

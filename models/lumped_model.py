@@ -1,7 +1,7 @@
 """The `lumped` model kind: paper 000's lumped-mass simulation with named effects, as a block.
 
 The block simulates the temperatures from speed, ambient (and feed); the measured temperatures
-set the start and, in a model identified by `fit` (models/identify.py), correct the simulation
+set the start and, in a model identified by `fit` (physics/identify.py), correct the simulation
 each call by a fixed share KF_i (the steady-state Kalman filter); a model `diagnose` fitted runs
 open loop. Per call, in this order:
     S := n, or the n^p table interpolated at n                          (nonlinear_speed_heat)
@@ -23,10 +23,12 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.base.errors import UserError
-from thermoplc.models import identify, kernels, ridge, simulation as sim_
+from thermoplc.base import ridge
+from thermoplc.models import kernels
+from thermoplc.physics import identify, simulation as sim_
 from thermoplc.models.kind import Kind
 from thermoplc.models.modelfile import Coefficient, Model
-from thermoplc.models.simulation import Simulation
+from thermoplc.physics.simulation import Simulation
 
 
 def effect_names(model: Model) -> tuple[str, ...]:
@@ -268,7 +270,7 @@ def kernel_arguments(model: Model, inputs: dict, precision: str, state=None):
 
 
 def _fit(parts, request, names, dt, progress):
-    """The identified baseline (no effects) on every run: models/identify.py."""
+    """The identified baseline (no effects) on every run: physics/identify.py."""
     ridge.refuse_flat(np.vstack([part.temps for part in parts]), names)
     runs = [sim_.Series(dt, np.arange(len(part.target)) * dt, part.speed, part.ambient, part.temps, tuple(names),
                         part.target) for part in parts]

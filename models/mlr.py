@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from thermoplc.models import ridge
+from thermoplc.base import ridge
 from thermoplc.models.kind import Increments, Kind, Part, measured_counts, measured_rows
 from thermoplc.models.modelfile import Coefficient, Model
 
@@ -11,7 +11,7 @@ from thermoplc.models.modelfile import Coefficient, Model
 def least_squares(features: np.ndarray, target: np.ndarray, names: list[str], runs: list[int] | None = None
                   ) -> tuple[np.ndarray, dict]:
     """Intercept + slopes, ridge-shrunk by forward validation, or by leaving out each of `runs` (the rows'
-    runs, models/ridge.py), and the fit's log."""
+    runs, base/ridge.py), and the fit's log."""
     fitted = ridge.fit_linear(features, target, names, runs=runs)
     return np.r_[fitted.intercept, fitted.slopes], fitted.log()
 

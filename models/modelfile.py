@@ -11,10 +11,10 @@ from pathlib import Path
 
 from thermoplc.base.version import __version__
 from thermoplc.base.identifiers import identifier_problem
-from thermoplc.models.effects import NAMES as EFFECT_NAMES
+from thermoplc.physics.effects import NAMES as EFFECT_NAMES
 from thermoplc.models.kinds import kind_of, registry
 from thermoplc.models.probing import Fusion
-from thermoplc.models.resample import Resampling
+from thermoplc.recordings.resample import Resampling
 from thermoplc.base.binary32 import FLT_MAX, f32_hex, parse_f32_hex, round_f32, ulp_distance
 from thermoplc.base.errors import UserError, unreadable
 
@@ -57,7 +57,7 @@ class Model:
     metrics: dict = field(default_factory=dict)
     fit: dict = field(default_factory=dict)
     probe: Fusion | None = None  # the probe fusion's constants (models/probing.py); None: a static block
-    resample: Resampling | None = None  # the rule that took raw logger data onto the cycle (models/resample.py)
+    resample: Resampling | None = None  # the rule that took raw logger data onto the cycle (recordings/resample.py)
 
     def signals(self, role: str) -> tuple[Signal, ...]:
         """Inputs with this role; one input may hold several roles ('temperature,ambient')."""

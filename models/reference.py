@@ -7,7 +7,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import Limits, commissioned_predict
-from thermoplc.models.table import Table, close_match
+from thermoplc.recordings.table import Table, close_match
 
 def predict(model: Model, inputs: dict, precision: str) -> dict:
     """What the model computes, by output name; REAL outputs as float32 ('f32') or float64 ('f64') arrays."""

@@ -20,12 +20,12 @@ from tests.golden_models import (  # noqa: E402
     DIALECTS, FUSED, GOLDEN, KINDS, batch_csvs, golden_block, golden_twin_csv, rendered,
 )
 from thermoplc.diagnosis.command import DiagnoseRequest, augmented_model, series_of  # noqa: E402
-from thermoplc.models import simulation  # noqa: E402
-from thermoplc.models.fit import FitRequest, fit, sample_period  # noqa: E402
+from thermoplc.physics import simulation  # noqa: E402
+from thermoplc.fitting.fit import FitRequest, fit, sample_period  # noqa: E402
 from thermoplc.models.kalman import FitOptions  # noqa: E402
 from thermoplc.models.modelfile import Model, load_model  # noqa: E402
 from thermoplc.models.probing import Fusion  # noqa: E402
-from thermoplc.models.table import read_table  # noqa: E402
+from thermoplc.recordings.table import read_table  # noqa: E402
 
 # golden name -> the model kind `fit` writes for it: the identified baseline `fit --model lumped` writes
 # (filtered by the readings) beside the open-loop block with every effect diagnose can add

@@ -18,7 +18,7 @@ from typing import Callable
 
 from tests.cli_runner import thermoplc
 from tests.golden_models import GOLDEN, golden_block, golden_twin_csv
-from thermoplc.models.table import write_table
+from thermoplc.recordings.table import write_table
 from thermoplc.machines.cascade import simulate
 
 FIT = ("fit", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "--train-rows", "200",

@@ -5,9 +5,9 @@ import thermoplc  # noqa: F401  (first: it sets the BLAS thread count before num
 
 import pytest
 
-from thermoplc.models.fit import FitRequest, fit
+from thermoplc.fitting.fit import FitRequest, fit
 from thermoplc.models.kalman import FitOptions
-from thermoplc.models.table import read_table, write_table
+from thermoplc.recordings.table import read_table, write_table
 from thermoplc.machines.cascade import simulate
 
 pytest_plugins = ["tests.file_progress"]  # a line per test file as it finishes

@@ -12,7 +12,7 @@ from thermoplc.generator.printer import DIALECTS as PRINTER_DIALECTS, render, re
 from thermoplc.machines.cascade import simulate
 from thermoplc.models.kinds import names as kind_names
 from thermoplc.models.modelfile import load_model
-from thermoplc.models.table import write_table
+from thermoplc.recordings.table import write_table
 
 GOLDEN = Path(__file__).resolve().parent / "golden"
 TWIN = {"hours": 12, "seed": 7}

@@ -6,7 +6,7 @@ import pytest
 
 from tests.cli_runner import thermoplc
 from tests.golden_models import GOLDEN
-from thermoplc.models import acceptance
+from thermoplc.fitting import acceptance
 from thermoplc.models.modelfile import load_model
 from thermoplc import api
 

@@ -6,10 +6,10 @@ import pytest
 
 from thermoplc.models import grey
 from thermoplc.models.dlag import fit_dlag, lagged
-from thermoplc.models.fit import FitRequest, fit
+from thermoplc.fitting.fit import FitRequest, fit
 from thermoplc.models.kalman import FitOptions
 from thermoplc.models.mlr import fit_mlr
-from thermoplc.models.table import read_table, write_table
+from thermoplc.recordings.table import read_table, write_table
 from thermoplc.machines.cascade import simulate
 from thermoplc.models.kind import Part
 

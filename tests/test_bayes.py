@@ -46,7 +46,7 @@ def test_an_unseen_configuration_answers_as_the_nearest_seen_one():
 
 def test_time_parent_over_repeated_runs_is_bit_exact(tmp_path):
     from tests.cli_runner import thermoplc
-    from thermoplc.models.table import write_table
+    from thermoplc.recordings.table import write_table
     from thermoplc.machines.cascade import simulate
     rng = np.random.default_rng(4)
     runs = []

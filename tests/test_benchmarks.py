@@ -58,7 +58,7 @@ def test_diagnose_benchmark_counts_outcomes_per_machine_length_and_noise():
 
 def test_diagnose_real_benchmark_counts_names_verdicts_and_visible_runs_per_channel():
     from benchmarks import diagnose_real
-    from thermoplc.models.effects import NAMES
+    from thermoplc.physics.effects import NAMES
     assert set(diagnose_real.LIBRARY) | set(diagnose_real.SKIPPED) == set(NAMES)
     base = {"channel": "ch3_um", "seed": 1, "parameters": {}, "reason": None, "before": 20.0, "after": 10.0,
             "seconds": 15.0}

@@ -8,10 +8,10 @@ import pytest
 
 from tests.cli_runner import thermoplc
 from thermoplc.machines.campaign import plan, simulate_run
-from thermoplc.models.fit import FitRequest, fit
+from thermoplc.fitting.fit import FitRequest, fit
 from thermoplc.models.kalman import FitOptions
 from thermoplc.models.modelfile import load_model
-from thermoplc.models.table import Table, read_table, write_table
+from thermoplc.recordings.table import Table, read_table, write_table
 from thermoplc.verifier.replay import block_columns, load_block
 
 COMMON = ("--target", "E_z_um", "--temps", "T_motor,T_bearing,T_struct")

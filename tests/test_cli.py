@@ -11,7 +11,7 @@ from thermoplc.generator.printer import render
 from thermoplc.models.kind import fault_key
 from thermoplc.models.modelfile import Coefficient, Model, load_model
 from thermoplc.models.reference import model_inputs, predict
-from thermoplc.models.table import read_table
+from thermoplc.recordings.table import read_table
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,7 @@ from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
 from thermoplc.machines.cascade import simulate
 from thermoplc.models.modelfile import load_model
-from thermoplc.models.table import write_table
+from thermoplc.recordings.table import write_table
 from thermoplc.verifier.interpreter import Machine
 from thermoplc.verifier.parser import parse_text
 

@@ -7,8 +7,8 @@ import pytest
 
 from tests.cli_runner import thermoplc
 from thermoplc.base.errors import UserError
-from thermoplc.models import crossval
-from thermoplc.models.table import Table
+from thermoplc.fitting import crossval
+from thermoplc.recordings.table import Table
 from thermoplc import api
 
 FL_THERMAL = Path(api.__file__).parent / "data" / "fl_thermal" / "fl_thermal.csv"  # the copy the package ships

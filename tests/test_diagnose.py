@@ -19,11 +19,12 @@ from thermoplc.diagnosis.search import BIC_MARGIN, diagnose
 from thermoplc.diagnosis.windows import noise_sigma
 from thermoplc.machines import MACHINES, machine
 from thermoplc.machines.random_effects import draw
-from thermoplc.models import lumped_model, simulation
-from thermoplc.models.effects import NAMES, Effect
+from thermoplc.models import lumped_model
+from thermoplc.physics import simulation
+from thermoplc.physics.effects import NAMES, Effect
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.reference import model_inputs, predict
-from thermoplc.models.table import read_table
+from thermoplc.recordings.table import read_table
 from thermoplc.machines.cascade import simulate
 
 HOURS = 72
@@ -394,8 +395,8 @@ def test_fl_thermal_baseline_beats_no_compensation_on_every_training_part(channe
     from thermoplc.demo import recording
     from thermoplc.diagnosis import sufficiency
     from thermoplc.diagnosis.parts import single
-    from thermoplc.models.simulation import Series
-    from thermoplc.models.table import read_table
+    from thermoplc.physics.simulation import Series
+    from thermoplc.recordings.table import read_table
     columns = read_table(recording()).columns
     series = Series(15.0, columns["time_s"], columns["spindle_rpm"], columns["t6_C"],
                     np.column_stack([columns["t5_C"], columns["t4_C"]]), ("t5_C", "t4_C"), columns[channel], None)

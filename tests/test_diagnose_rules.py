@@ -18,9 +18,9 @@ from thermoplc.diagnosis.windows import Window
 from thermoplc.diagnosis.parts import single
 from thermoplc.machines import machine
 from thermoplc.machines.random_effects import draw
-from thermoplc.models import simulation
-from thermoplc.models.effects import slow_structure
-from thermoplc.models.simulation import DisplacementParams, SensorParams, Series, Shared, Simulation
+from thermoplc.physics import simulation
+from thermoplc.physics.effects import slow_structure
+from thermoplc.physics.simulation import DisplacementParams, SensorParams, Series, Shared, Simulation
 
 DT = 10.0
 HOUR = 3600.0

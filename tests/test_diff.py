@@ -11,7 +11,7 @@ from tests.golden_models import golden_block, golden_twin_csv
 from tests.cli_runner import thermoplc
 from tests.test_json_output import schema
 from thermoplc.generator.literals import real_literal
-from thermoplc.models.table import read_table
+from thermoplc.recordings.table import read_table
 from thermoplc.verifier.diff import diff_blocks
 
 

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from thermoplc.base.errors import UserError
-from thermoplc.models.effects import NAMES, Effect, registry
-from thermoplc.models.simulation import DisplacementParams, SensorParams, Shared, Simulation
+from thermoplc.physics.effects import NAMES, Effect, registry
+from thermoplc.physics.simulation import DisplacementParams, SensorParams, Shared, Simulation
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -102,8 +102,9 @@ def test_the_displacement_fit_and_the_model_file_read_each_displacement_term_fro
     """The columns, the search, the fitted fields and the block coefficients of a displacement effect
     (slow structure, ambient coupling, feed-axis heat) come from its record's DisplacementTerm."""
     import inspect
-    from thermoplc.models import lumped_model, simulation
-    from thermoplc.models.effects import with_part
+    from thermoplc.models import lumped_model
+    from thermoplc.physics import simulation
+    from thermoplc.physics.effects import with_part
     assert with_part("displacement") == {"slow_structure", "ambient_coupling", "feed_axis_heat"}
     assert all(registry()[name].displacement for name in with_part("displacement"))
     functions = (simulation._displacement_columns, simulation.fit_displacement, simulation._fitted_taus,

@@ -9,7 +9,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.generator.printer import DIALECTS as PRINTERS, _Printer
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.reference import model_inputs
-from thermoplc.models.table import read_table
+from thermoplc.recordings.table import read_table
 from thermoplc.verifier import native
 from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.faults import FAULT_KINDS, inject

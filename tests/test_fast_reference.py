@@ -9,7 +9,7 @@ from thermoplc.models import kernels
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import ENABLE, ENABLED, RESET, Limits, guards
-from thermoplc.models.table import read_table
+from thermoplc.recordings.table import read_table
 from thermoplc.verifier.faults import FAULT_KINDS, inject
 
 pytestmark = pytest.mark.skipif(kernels.numba is None, reason="numba not installed")

@@ -198,7 +198,7 @@ END_FUNCTION_BLOCK
 def test_the_interpreter_has_a_budget_for_the_whole_replay(tmp_path, monkeypatch, capsys):
     import numpy as np
     from thermoplc.cli import main
-    from thermoplc.models.table import write_table
+    from thermoplc.recordings.table import write_table
     from thermoplc.verifier import interpreter
     monkeypatch.setattr(interpreter, "MAX_REPLAY_LOOP_ITERATIONS", 20_000)
     monkeypatch.chdir(tmp_path)

@@ -150,7 +150,7 @@ def test_a_worker_killed_mid_fold_loses_nothing(cluster, runs, tmp_path):
 
 def test_a_run_that_differs_where_a_worker_reads_it_is_refused(runs, tmp_path):
     from thermoplc.base.errors import UserError
-    from thermoplc.models.campaign import read_campaign, run_list, source_of
+    from thermoplc.recordings.campaign import read_campaign, run_list, source_of
     copy = tmp_path / "runs"
     copy.mkdir()
     for run in sorted(runs.glob("run_*.csv"))[:2]:
@@ -160,7 +160,7 @@ def test_a_run_that_differs_where_a_worker_reads_it_is_refused(runs, tmp_path):
     assert [t.path for t in source.read().tables] == list(listed.paths)
     victim = copy / "run_002.csv"
     victim.write_bytes(victim.read_bytes().replace(b"\n", b"\r\n"))  # the same rows, other bytes
-    from thermoplc.models import campaign
+    from thermoplc.recordings import campaign
     campaign._LAST_READ.clear()
     with pytest.raises(UserError, match="run_002.csv: other bytes here .* every worker must read the same files"):
         source.read()
@@ -241,9 +241,9 @@ def test_auto_stops_on_a_cluster_refusal_instead_of_skipping_the_candidate(monke
     """A fold the cluster lost (or a worker that runs other code, or reads other bytes) is no candidate that
     could not be fitted: the ranking would quietly differ from one process's."""
     from thermoplc.base.errors import ClusterError
-    from thermoplc.models import auto, crossval
-    from thermoplc.models.fit import FitRequest
-    from thermoplc.models.table import read_table
+    from thermoplc.fitting import auto, crossval
+    from thermoplc.fitting.fit import FitRequest
+    from thermoplc.recordings.table import read_table
 
     def lost(*args, **kwargs):
         raise ClusterError("--scheduler tcp://10.0.0.9:8786: the cluster lost fold 2")

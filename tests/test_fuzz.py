@@ -17,7 +17,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
 from thermoplc.models.modelfile import load_model
-from thermoplc.models.table import read_table
+from thermoplc.recordings.table import read_table
 from thermoplc.verifier.interpreter import Machine
 from thermoplc.verifier.parser import parse_text
 

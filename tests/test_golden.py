@@ -11,7 +11,7 @@ from blark.parse import parse_source_code
 from tests.golden_models import DIALECTS, GOLDEN, KINDS, golden_block, golden_twin_csv, rendered
 from thermoplc.base.identifiers import identifier_problem
 from thermoplc.models.modelfile import load_model
-from thermoplc.models.table import read_table
+from thermoplc.recordings.table import read_table
 from thermoplc.verifier.parser import parse_file
 from thermoplc.verifier.replay import verify_against_model
 from thermoplc.verifier import syntax as s

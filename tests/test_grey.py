@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from thermoplc.models import grey
-from thermoplc.models.fit import FitRequest, fit
+from thermoplc.fitting.fit import FitRequest, fit
 from thermoplc.models.reference import model_inputs, predict
-from thermoplc.models.table import read_table, write_table
+from thermoplc.recordings.table import read_table, write_table
 from thermoplc.machines.cascade import simulate
 from thermoplc.models.kind import Part
 

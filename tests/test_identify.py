@@ -1,4 +1,4 @@
-"""The identified lumped model (models/identify.py): the filter gain the prediction-error fit finds
+"""The identified lumped model (physics/identify.py): the filter gain the prediction-error fit finds
 is the steady-state Kalman gain of the noise in the data, and on the real recording the block
 beats no compensation held out."""
 import json
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from tests.cli_runner import thermoplc
-from thermoplc.models import identify
-from thermoplc.models.simulation import Series, Shared
+from thermoplc.physics import identify
+from thermoplc.physics.simulation import Series, Shared
 from thermoplc import api
 
 DT = 15.0
@@ -83,7 +83,7 @@ def test_diagnose_starts_from_the_identified_model_and_beats_no_compensation(tmp
     columns = ("--temps", "t5_C,t4_C", "--ambient", "t6_C", "--speed", "spindle_rpm", "--target", "ch5_um")
     thermoplc("fit", "--data", FL_THERMAL, "--model", "lumped", *columns, "--train-until", 86400, "-o", "base.json",
               cwd=tmp_path)
-    from thermoplc.models.table import read_table
+    from thermoplc.recordings.table import read_table
     table = read_table(FL_THERMAL)
     train = table.columns["time_s"] <= 86400
     target = table.columns["ch5_um"]

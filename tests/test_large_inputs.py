@@ -5,8 +5,8 @@ import pytest
 from tests.golden_models import GOLDEN, golden_block, golden_twin_csv
 from tests.cli_runner import thermoplc
 from thermoplc.base.errors import UserError
-from thermoplc.models import table as table_module
-from thermoplc.models.table import read_table
+from thermoplc.recordings import table as table_module
+from thermoplc.recordings.table import read_table
 
 
 def test_streamed_reading_equals_whole_reading_and_points_at_late_lines(tmp_path, monkeypatch):

@@ -4,8 +4,8 @@ import pytest
 
 from tests.cli_runner import thermoplc
 from thermoplc.machines.cascade import simulate
-from thermoplc.models.leaks import leak_reason
-from thermoplc.models.table import write_table
+from thermoplc.fitting.leaks import leak_reason
+from thermoplc.recordings.table import write_table
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ import pytest
 
 from tests.golden_models import GOLDEN, golden_block, golden_twin_csv
 from thermoplc.cli import main
-from thermoplc.models.table import read_table
+from thermoplc.recordings.table import read_table
 
 moto_server = pytest.importorskip("moto.server")
 boto3 = pytest.importorskip("boto3")
@@ -124,7 +124,7 @@ def test_what_the_store_cannot_give_is_one_line(store, capsys, url, expected):
 
 def test_a_local_folder_still_lists_as_before(store):
     """The object-store branch changes nothing for files: a copied folder lists the same recordings."""
-    from thermoplc.models.campaign import run_list
+    from thermoplc.recordings.campaign import run_list
     copy = store / "copy"
     shutil.copytree(store / "runs", copy, dirs_exist_ok=True)
     assert [p.rsplit("/", 1)[-1] for p in run_list([str(copy)], None).paths] == [

@@ -9,7 +9,7 @@ from thermoplc.base.binary32 import f32_bits, f32_from_bits
 from thermoplc.generator.literals import real_literal
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.piecewise import node_of, select
-from thermoplc.models.table import read_table, write_table
+from thermoplc.recordings.table import read_table, write_table
 from thermoplc.machines.cascade import simulate
 from thermoplc.verifier.replay import verify_against_model
 

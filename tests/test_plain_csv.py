@@ -1,4 +1,4 @@
-"""Issue 40: the plain-number CSV parser (models/plain_csv/) reads every number with the bits pyarrow and
+"""Issue 40: the plain-number CSV parser (recordings/plain_csv/) reads every number with the bits pyarrow and
 Python's float() give it, declines anything that is not a plain number, and the streamed reader gives the same
 columns through it as through pyarrow and read_table."""
 import numpy as np
@@ -7,11 +7,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from tests.test_streaming import ODD_FILES, _same_as_read_table
-from thermoplc.models import kernels, table as table_module
-from thermoplc.models.table import CannotStream, read_table, stream_columns
+from thermoplc.models import kernels
+from thermoplc.recordings import table as table_module
+from thermoplc.recordings.table import CannotStream, read_table, stream_columns
 
 pytestmark = pytest.mark.skipif(kernels.numba is None, reason="numba not installed")
-plain_csv = pytest.importorskip("thermoplc.models.plain_csv") if kernels.numba is not None else None
+plain_csv = pytest.importorskip("thermoplc.recordings.plain_csv") if kernels.numba is not None else None
 
 
 def _block(lines: list[str]) -> tuple[bytes, int]:
@@ -190,7 +191,7 @@ def test_a_byte_order_mark_opening_a_data_line_is_never_skipped(plain, block_byt
 def test_a_numba_that_cannot_be_imported_leaves_the_blocks_to_pyarrow(tmp_path, monkeypatch, plain_route, capfd):
     """numba found but broken (say, a numpy too new for it): no thread tracebacks, the stream still reads."""
     import sys
-    monkeypatch.setitem(sys.modules, "thermoplc.models.plain_csv.kernels", None)  # importing it raises ImportError
+    monkeypatch.setitem(sys.modules, "thermoplc.recordings.plain_csv.kernels", None)  # importing it raises ImportError
     plain_csv.available.cache_clear()
     try:
         path = tmp_path / "r.csv"

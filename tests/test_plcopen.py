@@ -185,7 +185,7 @@ def _text_of(report, path: Path) -> list[str]:
 def test_an_edit_of_the_xml_fails_verify_exactly_as_the_same_edit_of_the_st(tmp_path, data, edit):
     from thermoplc.api import verify
     from thermoplc.models.modelfile import load_model
-    from thermoplc.models.table import read_table
+    from thermoplc.recordings.table import read_table
     st, xml = _edited(tmp_path, edit)
     assert parse_file(st) == parse_file(xml)
     model, table = load_model(GOLDEN / "mlr.json"), read_table(data)
@@ -215,7 +215,7 @@ def _diff_lines(old: Path, new: Path, table=None) -> tuple[bool, list[str]]:
 
 @pytest.mark.parametrize("kind", ("mlr", "lumped"))
 def test_diff_across_dialects_treats_the_xml_as_its_iec_text(data, kind):
-    from thermoplc.models.table import read_table
+    from thermoplc.recordings.table import read_table
     table = read_table(data)
     xml, iec, tia, step7 = (golden_block(kind, d) for d in ("plcopen", "iec", "tia", "step7"))
     same, lines = _diff_lines(iec, xml, table)

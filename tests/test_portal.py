@@ -9,7 +9,7 @@ import pytest
 
 from thermoplc.base.errors import UserError
 from thermoplc.machines import portal
-from thermoplc.models.effects import NAMES, Effect
+from thermoplc.physics.effects import NAMES, Effect
 
 TEMPS = portal.SENSORS
 DT = 10.0

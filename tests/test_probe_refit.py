@@ -1,4 +1,4 @@
-"""The static part of a fused block refitted for the change since the last probing (models/probe_refit.py)."""
+"""The static part of a fused block refitted for the change since the last probing (fitting/probe_refit.py)."""
 from __future__ import annotations
 
 import json
@@ -9,7 +9,7 @@ from hypothesis import given, settings, strategies as st
 from tests.cli_runner import thermoplc
 from thermoplc.models import mlr
 from thermoplc.models.kind import Part
-from thermoplc.models.probe_refit import refit, sums
+from thermoplc.fitting.probe_refit import refit, sums
 
 
 @settings(max_examples=40, deadline=None)

@@ -14,7 +14,7 @@ from tests.golden_models import (BATCH_AMBIENTS_C, DIALECTS as PRINTED, FUSED, F
                                  golden_block, golden_twin_csv, rendered)
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.probing import REFUSALS, REFUSED, USED, Fusion, fuse, probings
-from thermoplc.models.table import write_table
+from thermoplc.recordings.table import write_table
 from thermoplc.machines.cascade import simulate
 
 DIALECTS = (("tia", ".scl", ()), ("step7", ".scl", ()), ("iec", ".st", ()), ("iec", ".xml", ("--format", "plcopen")))
@@ -141,7 +141,7 @@ def test_hostile_probings_with_reset_and_enable_replay_bit_exact_and_move_the_ou
     assert "bit-exact" in result.stdout and "probings replayed" in result.stdout
     from thermoplc.models.reference import block_outputs, model_inputs
     from thermoplc.models.safety import Limits
-    from thermoplc.models.table import read_table
+    from thermoplc.recordings.table import read_table
     model = load_model(folder / f"{kind}.json")
     table = read_table(hostile, sparse=("E_z_um", "ProbeValue"))
     inputs = {**model_inputs(model, table), "probe:value": table.real_column("ProbeValue", "probe"),

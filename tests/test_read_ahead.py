@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from thermoplc.models import read_ahead as ahead
+from thermoplc.recordings import read_ahead as ahead
 
 
 def test_the_same_items_in_the_same_order():

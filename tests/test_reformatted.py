@@ -11,7 +11,7 @@ import pytest
 from tests.golden_models import GOLDEN, golden_block, golden_twin_csv
 from thermoplc.base.errors import UserError
 from thermoplc.models.modelfile import load_model
-from thermoplc.models.table import read_table
+from thermoplc.recordings.table import read_table
 from thermoplc.verifier.replay import verify_against_model
 
 KEYWORDS = ("IF", "THEN", "ELSIF", "ELSE", "END_IF", "NOT", "AND", "BEGIN", "END_REGION", "REGION", "VAR_INPUT",

@@ -1,4 +1,4 @@
-"""Raw logger data onto the block's cycle (`--resample`, models/resample.py): the rule, and the CLI end to end."""
+"""Raw logger data onto the block's cycle (`--resample`, recordings/resample.py): the rule, and the CLI end to end."""
 from __future__ import annotations
 
 import json
@@ -13,8 +13,8 @@ from tests.cli_runner import thermoplc
 from tests.test_json_output import schema
 from thermoplc import api
 from thermoplc.base.errors import UserError
-from thermoplc.models.resample import MAX_GAP_CALLS, Resampling, resample
-from thermoplc.models.table import Table, read_table, write_table
+from thermoplc.recordings.resample import MAX_GAP_CALLS, Resampling, resample
+from thermoplc.recordings.table import Table, read_table, write_table
 
 FL_THERMAL = Path(api.__file__).parent / "data" / "fl_thermal" / "fl_thermal.csv"  # the copy the package ships
 

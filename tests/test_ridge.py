@@ -5,10 +5,11 @@ import numpy as np
 import pytest
 
 from thermoplc.base.errors import UserError
-from thermoplc.models import grey, ridge
-from thermoplc.models.fit import FitRequest, fit
+from thermoplc.base import ridge
+from thermoplc.models import grey
+from thermoplc.fitting.fit import FitRequest, fit
 from thermoplc.models.reference import model_inputs, predict
-from thermoplc.models.table import read_table, write_table
+from thermoplc.recordings.table import read_table, write_table
 from thermoplc.models.kind import Part
 from tests.cli_runner import thermoplc
 

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from tests.cli_runner import thermoplc
-from thermoplc.models.selection import fuzzy_cluster, grey_relational_grades, select_sensors
+from thermoplc.fitting.selection import fuzzy_cluster, grey_relational_grades, select_sensors
 
 
 def test_duplicated_sensors_fall_into_one_group():
@@ -50,7 +50,7 @@ def test_select_sensors_and_fit_refuse_the_answer_in_disguise(tmp_path):
     another name, a column that alone predicts it, or a non-temperature given as one, is refused."""
     import numpy as np
     from tests.cli_runner import thermoplc
-    from thermoplc.models.table import read_table, write_table
+    from thermoplc.recordings.table import read_table, write_table
     thermoplc("twin", "--hours", 12, "--seed", 3, "-o", "twin.csv", cwd=tmp_path)
     out = thermoplc("select-sensors", "--data", "twin.csv", "--target", "E_z_um", "--train-until", 21600,
                     cwd=tmp_path).stdout

@@ -11,11 +11,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from thermoplc.base.errors import UserError
-from thermoplc.models import ridge
-from thermoplc.models.crossval import fit_held_out
-from thermoplc.models.fit import FitRequest
-from thermoplc.models.sensor_choice import choose, training_rises
-from thermoplc.models.table import Table, read_table, write_table
+from thermoplc.base import ridge
+from thermoplc.fitting.crossval import fit_held_out
+from thermoplc.fitting.fit import FitRequest
+from thermoplc.fitting.sensor_choice import choose, training_rises
+from thermoplc.recordings.table import Table, read_table, write_table
 from tests.cli_runner import thermoplc
 from tests.test_json_output import schema
 

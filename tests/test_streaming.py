@@ -10,9 +10,10 @@ from hypothesis import strategies as st
 
 from tests.golden_models import GOLDEN, golden_block, golden_twin_csv
 from thermoplc.base.errors import UserError
-from thermoplc.models import kernels, table as table_module
+from thermoplc.models import kernels
+from thermoplc.recordings import table as table_module
 from thermoplc.models.modelfile import load_model
-from thermoplc.models.table import CannotStream, read_table, stream_columns
+from thermoplc.recordings.table import CannotStream, read_table, stream_columns
 from thermoplc.verifier import stream
 from thermoplc.verifier.native import native_or_reason
 from thermoplc.verifier.parser import parse_text

@@ -12,7 +12,7 @@ import pytest
 
 from thermoplc.base.binary32 import f32_hex
 from thermoplc.base.identifiers import identifier_problem
-from thermoplc.models.table import write_table
+from thermoplc.recordings.table import write_table
 from thermoplc.verifier.parser import StSyntaxError, parse_text
 from tests.cli_runner import thermoplc as run_cli
 from tests.golden_models import GOLDEN
@@ -171,7 +171,7 @@ def test_nan_never_reaches_the_nc_and_fails_verify(folder):
     assert result.returncode == 1 and "UNSAFE" in result.stdout, result.stdout + result.stderr
     from thermoplc.models.reference import block_outputs, model_inputs
     from thermoplc.models.safety import INVALID, Limits, k0_key
-    from thermoplc.models.table import read_table
+    from thermoplc.recordings.table import read_table
     model = load_model(folder / "huge.json")
     out = block_outputs(model, model_inputs(model, read_table(folder / "twin.csv")), "f32", Limits())
     assert np.isfinite(out["E_z_um"]).all() and np.isfinite(out[k0_key(1)]).all() and out[INVALID].any()

@@ -5,7 +5,7 @@ import numpy as np
 import pyarrow.parquet as pq
 
 from tests.cli_runner import thermoplc
-from thermoplc.models.table import read_table
+from thermoplc.recordings.table import read_table
 
 
 def _block(folder) -> None:

@@ -6,7 +6,7 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.contract.outputs import CONTROL_INPUT_START, ENABLE_INPUT, RESET_INPUT
-from thermoplc.models.table import Table, close_match, spellings
+from thermoplc.recordings.table import Table, close_match, spellings
 
 
 def control_inputs(table: Table, overrides: dict | None = None) -> dict:

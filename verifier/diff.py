@@ -15,7 +15,7 @@ import numpy as np
 from thermoplc.base.binary32 import f32_bits
 from thermoplc.base.errors import UserError
 from thermoplc.contract.outputs import PROBE_NEW_INPUT, PROBE_VALUE_INPUT
-from thermoplc.models.table import Table
+from thermoplc.recordings.table import Table
 from thermoplc.verifier import syntax as s
 from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.parser import parse_file, read_source

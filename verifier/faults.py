@@ -20,7 +20,7 @@ from thermoplc.models.kind import fault_key
 from thermoplc.models.probing import rising
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits, guards
-from thermoplc.models.table import Table
+from thermoplc.recordings.table import Table
 from thermoplc.verifier.probings import probing_inputs, reference_keys, start_value_errors
 from thermoplc.verifier.replay import (check_interface, load_block, replay_and_compare, block_limits, check_model_inputs,
                                        compare_constants, constants_lines, subnormal_declarations)

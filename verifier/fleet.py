@@ -94,7 +94,7 @@ def verify_pair(pair: Pair, engine: str) -> Outcome:
     """One pair, in a worker process; errors become an outcome, never an exception."""
     started = time.perf_counter()
     from thermoplc.models.modelfile import load_model
-    from thermoplc.models.table import read_table
+    from thermoplc.recordings.table import read_table
     from thermoplc.verifier.replay import verify_against_model, verify_against_trace
     from thermoplc.verifier.recording import read_recording, resampling_for
     from thermoplc.verifier.stream import verify_streaming
@@ -129,7 +129,7 @@ def verify_pair(pair: Pair, engine: str) -> Outcome:
 def _same_bytes(pair: Pair) -> None:
     """Refuse a pair whose files here hold other bytes than where the command was given them: a worker that
     resolves a path in its own folder, or another machine's copy, must fail the pair, never pass it."""
-    from thermoplc.models.table import sha256_of
+    from thermoplc.recordings.table import sha256_of
     for path, digest in pair.sha256:
         try:
             found = sha256_of(path)

@@ -25,7 +25,7 @@ HASHING_S = 10 ** 7  # no limit on hashing a pair's files (a year of CSV takes s
 def pinned(pair: Pair) -> Pair | None:
     """The pair as a task carries it: every file by its absolute path (a URL as given) with its sha256 here;
     None when a file cannot be read here (the pair is then verified here, which says why as one process would)."""
-    from thermoplc.models.table import sha256_of
+    from thermoplc.recordings.table import sha256_of
     where = {f: f if is_url(f) else os.path.abspath(f) for f in (pair.block, pair.data, pair.model) if f}
     try:
         digests = tuple((path, sha256_of(path)) for path in dict.fromkeys(where.values()))

@@ -7,10 +7,10 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.contract.outputs import PROBE_INPUTS, PROBE_NEW_INPUT, PROBE_VALUE_INPUT
-from thermoplc.models.campaign import held_to_probed
+from thermoplc.recordings.campaign import held_to_probed
 from thermoplc.models.modelfile import Model
 from thermoplc.models.probing import needs_schedule, probings, rising
-from thermoplc.models.table import Table
+from thermoplc.recordings.table import Table
 from thermoplc.verifier.typed import cells_as
 
 

@@ -1,6 +1,6 @@
 """A recording as the block sees it in a replay against its model: the model's targets may be empty between
 measurements, and raw logger data are taken onto the block's cycle by the rule the model file records
-(`fit --resample`) or `verify --resample` names (models/resample.py), before anything is compared."""
+(`fit --resample`) or `verify --resample` names (recordings/resample.py), before anything is compared."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -8,8 +8,8 @@ from dataclasses import replace
 from thermoplc.base.errors import UserError
 from thermoplc.contract.outputs import ENABLE_INPUT, PROBE_NEW_INPUT, PROBE_VALUE_INPUT, RESET_INPUT
 from thermoplc.models.modelfile import Model
-from thermoplc.models.resample import Resampling, resample
-from thermoplc.models.table import Table, read_table
+from thermoplc.recordings.resample import Resampling, resample
+from thermoplc.recordings.table import Table, read_table
 
 
 def model_targets(model: Model) -> tuple[str, ...]:

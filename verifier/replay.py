@@ -13,11 +13,11 @@ from thermoplc.contract.constants import (LIMIT_NAMES, TABLE_PREFIX, constant_na
 from thermoplc.contract.outputs import (CONTROL_INPUT_START, FAULT_PREFIX, PROBE_INPUT_START, PROBE_INPUTS, block_names,
                                        control_of, named)
 from thermoplc.base.errors import UserError
-from thermoplc.models.fit import SAMPLING_TOLERANCE, sample_period
+from thermoplc.fitting.fit import SAMPLING_TOLERANCE, sample_period
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits
-from thermoplc.models.table import Table, close_match
+from thermoplc.recordings.table import Table, close_match
 from thermoplc.verifier.control import control_inputs, control_summary, unread_control_columns
 from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.interpreter import BlockFailure, Finding

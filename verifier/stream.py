@@ -1,6 +1,6 @@
 """verify --model on a long recording in bounded memory, at disk speed (issue 17).
 
-The file is read chunk by chunk (models/table.py::stream_columns), the float32 and float64
+The file is read chunk by chunk (recordings/table.py::stream_columns), the float32 and float64
 references are computed chunk by chunk by the compiled model loops (models/streaming.py, which
 never see the ST), the block runs chunk by chunk on the fast engine (its own ST -> C
 translation, state kept between chunks) and every output is compared bit for bit as it comes.
@@ -24,10 +24,10 @@ import numpy as np
 from thermoplc.base.errors import UserError
 from thermoplc.base.locations import size
 from thermoplc.contract.outputs import CONTROL_INPUT_START, block_names, named
-from thermoplc.models.fit import SAMPLING_TOLERANCE
+from thermoplc.fitting.fit import SAMPLING_TOLERANCE
 from thermoplc.models.modelfile import Model
 from thermoplc.models.streaming import StreamingReference, streamable
-from thermoplc.models.table import CannotStream, stream_columns
+from thermoplc.recordings.table import CannotStream, stream_columns
 from thermoplc.verifier.replay import (Report, check_interface, compare_constants, load_block, block_limits,
                                        known_overrides, mistyped, subnormal_declarations, unsafe_findings,
                                        verify_against_model)
@@ -89,7 +89,7 @@ def verify_file_against_model(block: str, model: Model, model_path: str, data: s
 
 class _Steps:
     """Time steps of the whole recording, kept as distinct values with counts: the exact median
-    and the first step off it, as models/fit.py::sample_period computes them."""
+    and the first step off it, as fitting/fit.py::sample_period computes them."""
 
     def __init__(self):
         self.counts = Counter()

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.base.errors import UserError
-from thermoplc.models.table import Table
+from thermoplc.recordings.table import Table
 from thermoplc.base.binary32 import INT_RANGES
 
 

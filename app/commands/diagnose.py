@@ -57,7 +57,7 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from thermoplc.diagnosis.command import DiagnoseRequest, run as diagnose
     from thermoplc.diagnosis.findings import text
-    from thermoplc.models.campaign import run_list
+    from thermoplc.recordings.campaign import run_list
     request = DiagnoseRequest(tuple(args.data) if args.data else None, args.temps, args.speed, args.ambient,
                               args.target, args.feed, args.baseline, args.train_until, args.train_rows, args.time,
                               args.name, args.decimal, not args.no_structure_lag, args.runs, args.train_runs,

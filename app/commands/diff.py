@@ -32,7 +32,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from thermoplc.models.table import read_table
+    from thermoplc.recordings.table import read_table
     from thermoplc.verifier.diff import diff_blocks, format_diff
     from thermoplc.verifier.documents import diff_document
     json_output.check(args, [args.old, args.new, args.data])

@@ -142,7 +142,7 @@ def add_parser(sub) -> None:
 def _refuse_nothing_held_out(args: argparse.Namespace, table) -> None:
     """One recording whose training part takes every row leaves no evidence: name where the data end instead of
     writing a model generate will refuse (a campaign trained on whole runs is verified on other runs)."""
-    from thermoplc.models.fit import training_rows
+    from thermoplc.fitting.fit import training_rows
     if training_rows(table, args.time, args.train_until, args.train_rows) < table.rows:
         return
     if args.train_rows is not None:
@@ -156,7 +156,7 @@ def _refuse_nothing_held_out(args: argparse.Namespace, table) -> None:
 
 def resampling_of(args: argparse.Namespace):
     """--resample as the rule the model file records: the speed column held at its last value."""
-    from thermoplc.models.resample import Resampling
+    from thermoplc.recordings.resample import Resampling
     return Resampling(args.resample, (args.speed,) if args.speed else ()) if args.resample else None
 
 
@@ -165,8 +165,8 @@ def _remote(args: argparse.Namespace, campaign, runs):
     if not args.scheduler:
         return None
     from thermoplc.base.cluster import connect
-    from thermoplc.models.campaign import source_of
-    from thermoplc.models.crossval import Remote
+    from thermoplc.recordings.campaign import source_of
+    from thermoplc.fitting.crossval import Remote
     source = source_of(campaign, runs, args.time, args.decimal, tuple(args.target), args.held_target,
                        resampling_of(args))
     return Remote(connect(args.scheduler), source)
@@ -174,13 +174,13 @@ def _remote(args: argparse.Namespace, campaign, runs):
 
 def run(args: argparse.Namespace) -> int:
     from thermoplc.commands.fit_auto import fit_auto
-    from thermoplc.models.auto import Probing
+    from thermoplc.fitting.auto import Probing
     from thermoplc.commands.fit_summary import fit_document, format_fit
-    from thermoplc.models.acceptance import refusal
-    from thermoplc.models.crossval import fit_held_out
-    from thermoplc.models.fit import FitRequest
+    from thermoplc.fitting.acceptance import refusal
+    from thermoplc.fitting.crossval import fit_held_out
+    from thermoplc.fitting.fit import FitRequest
     from thermoplc.models.kalman import FitOptions
-    from thermoplc.models.campaign import read_campaign, run_list
+    from thermoplc.recordings.campaign import read_campaign, run_list
     from thermoplc.pipeline import becomes_block
     from thermoplc.commands.fit_report import INDEX, is_report_file, report_files, report_names
     options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
@@ -226,7 +226,7 @@ def run(args: argparse.Namespace) -> int:
             remote.cluster.close()
     end_progress()
     if args.probe and args.model != "auto":  # auto fused every candidate it ranked
-        from thermoplc.models.probe_fit import fit_probe
+        from thermoplc.fitting.probe_fit import fit_probe
         model = fit_probe(model, tables, predictions, args.probe_every, args.held_target)
     if args.resample:
         model = replace(model, resample=resampling_of(args))

@@ -1,4 +1,4 @@
-"""`fit --model auto`: the candidates of models/auto.py ranked, each with the cost of its block on the PLC."""
+"""`fit --model auto`: the candidates of fitting/auto.py ranked, each with the cost of its block on the PLC."""
 from __future__ import annotations
 
 from typing import Callable
@@ -15,7 +15,7 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
     (models/auto.Probing) each candidate is fused and ranked by its held-out error with its probings."""
     from thermoplc.generator.lower import lower_model
     from thermoplc.generator.stats import block_stats
-    from thermoplc.models.auto import candidates_of, rank
+    from thermoplc.fitting.auto import candidates_of, rank
     from thermoplc.models.kinds import kind_of
     ranked = rank(tables, request, folds, time_column, say=progress, groups=groups, remote=remote, probing=probing)
     end_progress()

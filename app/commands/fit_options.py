@@ -9,7 +9,7 @@ import argparse
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from thermoplc.models.fit import FitRequest
+    from thermoplc.fitting.fit import FitRequest
     from thermoplc.models.kind import Kind
 
 
@@ -39,7 +39,7 @@ def refuse_options_not_read(args: argparse.Namespace, request: FitRequest) -> No
                 raise UserError(f"{option} is read by {readers_text} only; --model {args.model} does not read it, "
                                 f"leave it out")
             continue
-        from thermoplc.models.auto import tried
+        from thermoplc.fitting.auto import tried
         if not set(names) & {k.name for k in tried(request)}:
             raise UserError(f"{option} is read by {readers_text} only, which --model auto does not try here "
                             f"({'; '.join(_why_not_tried(k, request) for k in owners)}); leave it out")

@@ -3,8 +3,8 @@ the rows it never saw, beside compensating nothing."""
 from __future__ import annotations
 
 from thermoplc.base.identifiers import renaming_note
-from thermoplc.models.acceptance import refusal
-from thermoplc.models.probe_fit import REFITTED
+from thermoplc.fitting.acceptance import refusal
+from thermoplc.fitting.probe_fit import REFITTED
 
 
 def _runs_named(batches: list[dict]) -> str:

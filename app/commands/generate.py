@@ -132,7 +132,7 @@ def _summary(say: Callable[[str], None], args: argparse.Namespace, model, limits
     replay with --stats; the regions with --explain."""
     from thermoplc.generator.identity import NAME_MAX, header_name, show
     from thermoplc.generator.lower import lower_model
-    from thermoplc.models.acceptance import evidence, fused_summary
+    from thermoplc.fitting.acceptance import evidence, fused_summary
     block, proof, stressed = generated.block, generated.proof, generated.stressed
     say(f"wrote {'standard output' if args.output == '-' else args.output}: {model.kind} block {model.block_name!r}, "
         f"dialect {args.dialect}{', PLCopen XML' if args.format == 'plcopen' else ''}, model fingerprint "

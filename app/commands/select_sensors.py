@@ -1,5 +1,5 @@
 """`thermoplc select-sensors`: group similar temperature sensors and choose one per group
-(thermoplc.models.selection), on the training rows only."""
+(thermoplc.fitting.selection), on the training rows only."""
 from __future__ import annotations
 
 import argparse
@@ -38,14 +38,14 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from thermoplc.models.fit import training_rows
-    from thermoplc.models.selection import select_sensors
-    from thermoplc.models.table import read_table
+    from thermoplc.fitting.fit import training_rows
+    from thermoplc.fitting.selection import select_sensors
+    from thermoplc.recordings.table import read_table
     if args.output:
         check_output(args.output, args.force, inputs=[args.data])
     table = read_table(args.data, args.time, decimal=args.decimal)
     if args.resample:
-        from thermoplc.models.resample import Resampling, resample
+        from thermoplc.recordings.resample import Resampling, resample
         table = resample(table, args.time, Resampling(args.resample))
     target = table.column(args.target)
     candidates = _candidates(args, table)
@@ -79,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _candidates(args: argparse.Namespace, table) -> tuple[str, ...]:
     """--candidates, each a temperature; or the columns named and valued like temperatures."""
-    from thermoplc.models.leaks import TEMPERATURE_RULE, refuse_non_temperatures, temperature_columns
+    from thermoplc.fitting.leaks import TEMPERATURE_RULE, refuse_non_temperatures, temperature_columns
     if args.candidates:
         refuse_non_temperatures(table, args.candidates, "--candidates")
         return args.candidates
@@ -93,7 +93,7 @@ def _candidates(args: argparse.Namespace, table) -> tuple[str, ...]:
 def _without_leaks(args: argparse.Namespace, table, candidates: tuple[str, ...], target, rows: int) -> tuple[tuple, dict]:
     """A column that is the target in disguise: an error in the user's list, left out (with the reason)
     of the recognised ones. Returns the candidates kept and the reason for each left out."""
-    from thermoplc.models.leaks import leak_reason, refuse_leaks
+    from thermoplc.fitting.leaks import leak_reason, refuse_leaks
     if args.candidates:
         refuse_leaks({c: table.column(c)[:rows] for c in candidates}, args.target, target, args.data, "--candidates")
         return candidates, {}

@@ -13,7 +13,7 @@ MAX_TWIN_ROWS = 50_000_000  # about 1.6 years at 1 s, over all runs; beyond it t
 def add_parser(sub) -> None:
     # the choices come from the packages: imported here, inside main's handling of Ctrl-C
     from thermoplc.machines import DEFAULT as DEFAULT_MACHINE, MACHINES as MACHINE_NAMES
-    from thermoplc.models.effects import NAMES as EFFECT_NAMES
+    from thermoplc.physics.effects import NAMES as EFFECT_NAMES
     p = sub.add_parser("twin", help="synthetic machine data with known truth",
                        **examples("README.md and docs/campaigns.md",
                                   "thermoplc twin --hours 48 --seed 3 -o twin.csv",
@@ -66,8 +66,8 @@ def _run_numbers(text: str) -> tuple[int, ...]:
 def run(args: argparse.Namespace) -> int:
     from thermoplc.machines import machine
     from thermoplc.machines.faults import SensorFault
-    from thermoplc.models.table import write_table
-    from thermoplc.models.effects import Effect
+    from thermoplc.recordings.table import write_table
+    from thermoplc.physics.effects import Effect
     chosen = machine(args.machine)
     runs = args.runs or 1
     if runs * args.hours * 3600 / args.dt > MAX_TWIN_ROWS:  # each option is checked by its type; their product here
@@ -139,7 +139,7 @@ def _campaign(args: argparse.Namespace, effects: tuple) -> int:
     from pathlib import Path
     from thermoplc.base.fileio import write_outputs
     from thermoplc.machines.campaign import plan, simulate_run
-    from thermoplc.models.table import write_table
+    from thermoplc.recordings.table import write_table
     folder = Path(args.output)
     if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
         raise UserError(f"-o {folder}: with --runs, a new or empty folder (the runs and runs.csv are written in it)")

@@ -121,7 +121,7 @@ def _written_outputs(args: argparse.Namespace, report, table, time_column: str) 
 def _runs(args: argparse.Namespace) -> list[str]:
     """The recordings to replay, as `fit` reads them: --data (files, folders; a folder's runs.csv) or the
     runs table's files."""
-    from thermoplc.models.campaign import run_list
+    from thermoplc.recordings.campaign import run_list
     return list(run_list(args.data, args.runs).paths)
 
 
@@ -133,7 +133,7 @@ def _campaign(args: argparse.Namespace, runs: list[str]) -> int:
                         "each (verify a run alone for its --json, --faults or --outputs)")
     if "-" in runs:
         raise UserError("--data -: standard input holds one recording; give a campaign's runs as files")
-    from thermoplc.models.campaign import run_labels
+    from thermoplc.recordings.campaign import run_labels
     from thermoplc.verifier.fleet import Pair, verify_fleet
     expect = dict(item.partition("=")[::2] if "=" in item else (item, item) for item in args.expect or ()) or None
     pairs = [Pair(k, args.block, path, args.model, expect, args.inputs, decimal=args.decimal,
@@ -188,7 +188,7 @@ def _against_model(args: argparse.Namespace) -> int:
     (verifier/stream.py), else read whole; with --faults, replayed once per injected fault."""
     from thermoplc.models.modelfile import load_model
     from thermoplc.verifier.documents import verify_document
-    from thermoplc.models.resample import RULE
+    from thermoplc.recordings.resample import RULE
     from thermoplc.verifier.recording import read_recording, resampling_for
     from thermoplc.verifier.replay import verify_against_model
     model = load_model(args.model)
@@ -222,7 +222,7 @@ def _faults(args: argparse.Namespace, model, table) -> int:
 
 def _against_trace(args: argparse.Namespace) -> int:
     """The block against the outputs a PLC recorded (--expect OUTPUT=COLUMN,...)."""
-    from thermoplc.models.table import read_table
+    from thermoplc.recordings.table import read_table
     from thermoplc.verifier.documents import verify_document
     from thermoplc.verifier.replay import verify_against_trace
     if args.faults:

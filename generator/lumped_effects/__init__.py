@@ -9,7 +9,7 @@ import importlib
 import pkgutil
 
 from thermoplc.generator.lumped_effects.lowering import EffectLowering, Lumped, Speed, State, lag
-from thermoplc.models.effects import registry
+from thermoplc.physics.effects import registry
 
 __all__ = ["EffectLowering", "Lumped", "Speed", "State", "lag", "lowerings", "of_model"]
 

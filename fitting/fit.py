@@ -1,0 +1,277 @@
+"""Fitting a model from a table: pick the training rows, fit, measure, package as a model file."""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from thermoplc.base.errors import UserError
+from thermoplc.base.identifiers import block_identifier, check_unique, identifier_problem
+from thermoplc.fitting import sensor_choice
+from thermoplc.models import kalman
+from thermoplc.models.kind import Part
+from thermoplc.models.kinds import kind_of, registry
+from thermoplc.models.modelfile import Model, Signal
+from thermoplc.models.reference import model_inputs, predict
+from thermoplc.fitting.leaks import refuse_leaks, refuse_non_temperatures
+from thermoplc.recordings.table import Table
+
+SAMPLING_TOLERANCE = 0.05  # relative deviation of a time step from the median step
+# (content digest, column, target, training rows, option) that passed the input checks: cross-validation
+# fits every run again in each fold, and the checks (a copy of the target, a temperature range) depend
+# on the data alone
+_CHECKED: set[tuple] = set()
+
+
+@dataclass(frozen=True)
+class FitRequest:
+    kind: str
+    target: str
+    temps: tuple[str, ...]
+    speed: str | None = None
+    ambient: str | None = None
+    train_until: float | None = None
+    train_rows: int | None = None
+    block_name: str = "ThermalComp"
+    options: kalman.FitOptions = kalman.FitOptions()
+    bins: int = 8  # bayes: intervals per temperature
+    precision_um: float = 1.0  # bayes: interval width of the error
+    lags: int = 3  # dlag: lagged terms per sensor
+    lag_step_s: float = 600.0  # dlag: time between lags
+    extra_targets: tuple[str, ...] = ()  # bpnn: further outputs (elongation, yaw, pitch order for compensation)
+    tool_length: str | None = None  # bpnn: tool length column, mm (enables the X/Y/Z compensation outputs)
+    unseen: str = "nearest"  # bayes: what a configuration never seen in training answers
+    time_bins: int = 0  # bayes: intervals of the time since the first call, a parent when > 0 (repeated runs)
+    choose_sensors: int = 0  # at most this many of `temps` chosen on the training rows (fitting/sensor_choice.py)
+
+
+def training_rows(table: Table, time_column: str, until: float | None, rows: int | None) -> int:
+    """How many leading rows train: `rows`, or those timed at or before `until` s; refuses both or neither
+    given, fewer than 10, or more than the table has."""
+    if (until is None) == (rows is None):
+        raise UserError("give exactly one of --train-until SECONDS and --train-rows N")
+    if rows is None:
+        rows = int(np.searchsorted(table.columns[time_column], until, side="right"))
+    if table.rows < 10:
+        raise UserError(f"{table.path}: {table.rows} data row{'s' if table.rows != 1 else ''}; a fit needs at least 10")
+    if rows > table.rows:
+        asked = f"--train-rows {rows}" if until is None else f"--train-until {until:g}"
+        raise UserError(f"{table.path}: {asked} asks for {rows} training rows; the file has {table.rows}")
+    if rows < 10:
+        asked = f"--train-rows {rows}" if until is None else f"--train-until {until:g} (time starts at {table.columns[time_column][0]:g} s)"
+        raise UserError(f"{table.path}: {asked} gives {rows} training rows; a fit needs at least 10")
+    return rows
+
+
+def sample_period(table: Table, time_column: str, cycle: str = "SECONDS") -> float:
+    """The table's sample period in s, the median time step; refuses fewer than two rows or any step more
+    than 5 % off it (the block runs on a fixed cycle), naming `cycle` for --resample."""
+    t = table.columns[time_column]
+    if len(t) < 2:
+        raise UserError(f"{table.path}: need at least two rows to know the sample period")
+    steps = np.diff(t)
+    dt = float(np.median(steps))
+    bad = np.nonzero(np.abs(steps - dt) > SAMPLING_TOLERANCE * dt)[0]
+    if len(bad):
+        raise UserError(f"{table.path}:{table.lines[bad[0] + 1]}: column {time_column!r}: step {steps[bad[0]]:g} s, expected "
+                        f"{dt:g} s ±{SAMPLING_TOLERANCE:.0%}; the block runs on a fixed cycle: give --resample {cycle} "
+                        f"(the block's cycle) to take the data onto it")
+    return dt
+
+
+def runs_named(tables: list[Table]) -> str:
+    """The recordings a message is about: the path of one, the count, first and last of a campaign."""
+    if len(tables) <= 2:
+        return ", ".join(t.path for t in tables)
+    return f"{len(tables)} runs ({tables[0].path} .. {tables[-1].path})"
+
+
+def _metrics(residual: np.ndarray) -> dict:
+    if not len(residual):
+        return {"rows": 0, "rmse_um": None, "max_abs_um": None}
+    return {"rows": int(len(residual)), "rmse_um": float(np.sqrt(np.mean(residual ** 2))),
+            "max_abs_um": float(np.max(np.abs(residual)))}
+
+
+
+def _refuse_misplaced_temps(request: FitRequest, time_column: str) -> None:
+    """A --temps column that is no candidate temperature, named for what it is: given twice, the target,
+    the time or an input of another role."""
+    if not request.temps:
+        raise UserError("--temps needs at least one column")
+    twice = next((c for k, c in enumerate(request.temps) if c in request.temps[:k]), None)
+    if twice is not None:
+        raise UserError(f"--temps: column {twice!r} is given twice; name each sensor once")
+    roles = {request.target: "the target (--target): a thermal model explains it from temperatures",
+             **{extra: "a target (a further --target): a thermal model explains it from temperatures"
+                for extra in request.extra_targets},
+             time_column: "the time column (--time): the block runs on a fixed cycle, time is no input",
+             request.speed: "the --speed input: a speed is not a temperature"}
+    for column in request.temps:
+        if column in roles:
+            raise UserError(f"--temps {column}: the column is {roles[column]}")
+
+
+def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
+    signals = [Signal(block_identifier(c, "temperature"), c, "temperature", "degC") for c in request.temps]
+    for owner in registry().values():
+        for option, text in owner.owns_options:
+            if getattr(request, option) and owner.name != request.kind:
+                raise UserError(f"{text} for --model {owner.name} only")
+    if request.tool_length:
+        signals.append(Signal(block_identifier(request.tool_length, "tool length"), request.tool_length,
+                              "tool_length", "mm"))
+    kind = kind_of(request.kind)
+    for role in kind.roles:
+        column = getattr(request, role)
+        if column is None:
+            raise UserError(f"--model {request.kind} needs --{role} COLUMN")
+        shared = [i for i, s in enumerate(signals) if s.column == column]
+        if shared and signals[shared[0]].role != "temperature":
+            raise UserError(f"--{role} {column}: the column is already the {signals[shared[0]].role} input; "
+                            f"one column holds one signal")
+        if shared and (role == "speed" or kind.ambient_apart):
+            raise UserError(f"--{role} {column}: the column is also in --temps; "
+                            + ("a speed is not a temperature" if role == "speed" else
+                               f"the {request.kind} model drives each --temps sensor by the ambient and needs its "
+                               f"ambient sensor apart"))
+        if shared:  # e.g. the ambient sensor is also one of the regression temperatures (paper 001's T14)
+            s = signals[shared[0]]
+            signals[shared[0]] = Signal(s.name, s.column, f"{s.role},{role}", s.unit)
+            continue
+        signals.append(Signal(block_identifier(column, role), column, role, "rpm" if role == "speed" else "degC"))
+    for table in tables:  # the block reads them as REAL: a cell beyond binary32 is refused with its line
+        for s in signals:
+            table.real_column(s.column, f"a {s.role} input")
+        for column in (request.target, *request.extra_targets):
+            table.real_column(column, "a target")
+    return signals
+
+
+def check_inputs(tables: list[Table], request: FitRequest, time_column: str, n_train: list[int]
+                 ) -> tuple[list[Signal], Signal]:
+    """The block's inputs and target of a request, or the UserError every kind gives for them: columns that are
+    missing, misplaced, clashing as block names, no temperatures, or leaking the target on the training
+    rows. `auto` asks it once for every candidate sensor before it fits anything."""
+    _refuse_misplaced_temps(request, time_column)
+    for column in (request.speed, request.ambient):  # named though this kind may not read it: a typo is no input
+        if column is not None:
+            for table in tables:
+                table.column(column)
+    signals = _signals(tables, request)
+    target = Signal(block_identifier(request.target, "target"), request.target, "target", "um")
+    named = [*signals, target]
+    duplicate = check_unique([s.name for s in named] + [request.block_name])
+    if duplicate:
+        sources = {}
+        for s in named:
+            sources.setdefault(s.name.upper(), []).append(repr(s.column))
+        clash = next((columns for columns in sources.values() if len(columns) > 1), None)
+        raise UserError(f"columns {' and '.join(clash)} become the same block name: {duplicate}; rename one"
+                        if clash else f"column names clash in the block: {duplicate}")
+    problem = identifier_problem(request.block_name)
+    if problem:
+        raise UserError(f"block name {request.block_name!r} {problem}")
+    for table, n in zip(tables, n_train):
+        measured = int(np.count_nonzero(np.isfinite(table.columns[request.target][:n])))
+        if measured < 2:
+            raise UserError(f"{table.path}: the target {request.target!r} is measured on {measured} of the "
+                            f"{n} training rows (a held target counts its changes only); a fit needs at least 2 "
+                            f"measurements per run")
+        for s in signals:
+            option = "--" + s.role.split(",")[-1].replace("temperature", "temps").replace("_", "-")
+            if (table.sha256, s.column, request.target, n, option) in _CHECKED:
+                continue  # a fold's fit: the same run, the same part, already checked
+            if s.unit == "degC":
+                refuse_non_temperatures(table, [s.column], option)
+            refuse_leaks({s.column: table.columns[s.column][:n]}, request.target, table.columns[request.target][:n],
+                         table.path, option)
+            _CHECKED.add((table.sha256, s.column, request.target, n, option))
+    return signals, target
+
+
+def common_sample_period(tables: list[Table], time_column: str) -> float:
+    """The runs' one sample period (the first run's); a run sampled at another is refused."""
+    periods = [sample_period(t, time_column) for t in tables]
+    for table, period in zip(tables, periods):
+        if abs(period - periods[0]) > SAMPLING_TOLERANCE * periods[0]:
+            raise UserError(f"{table.path}: sampled every {period:g} s, but {tables[0].path} every {periods[0]:g} s; "
+                            f"the block has one sample period")
+    return periods[0]
+
+
+def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
+        progress: Callable[[str], None] | None = None) -> Model:
+    """Fit `request.kind` on the training part of each run (one table per run, one part each): every kind
+    takes its rises, lags, sums and filter states from each run's first row, as a freshly started block."""
+    kind = kind_of(request.kind)
+    n_train = [training_rows(t, time_column, request.train_until, request.train_rows) for t in tables]
+    signals, target = check_inputs(tables, request, time_column, n_train)
+    choice = None
+    if request.choose_sensors:  # every candidate checked above; the block reads the chosen ones
+        choice = choose_sensors(tables, request, n_train)
+        request = replace(request, temps=choice.chosen)
+        signals, target = check_inputs(tables, request, time_column, n_train)
+    dt = common_sample_period(tables, time_column)
+    parts = [Part(np.column_stack([t.columns[c] for c in request.temps])[:n], t.columns[request.target][:n],
+                  np.column_stack([t.columns[c] for c in request.extra_targets])[:n] if request.extra_targets
+                  else np.empty((n, 0)),
+                  t.columns[request.speed][:n] if request.speed in t.columns else None,
+                  t.columns[request.ambient][:n] if request.ambient in t.columns else None)
+             for t, n in zip(tables, n_train)]
+    names = [s.name for s in signals if s.role == "temperature"]
+    try:
+        coefficients, settings, log = kind.fit(parts, request, names, dt, progress)
+    except UserError as exc:
+        raise UserError(f"{runs_named(tables)}: {exc}") from None
+    if choice is not None:
+        log = {**log, "sensor_choice": choice.log()}
+    training = [{"file": Path(t.path).name, "sha256": t.sha256, "rows": n, "total_rows": t.rows,
+                 "until_s": float(t.columns[time_column][n - 1])} for t, n in zip(tables, n_train)]
+    model = Model(
+        kind=request.kind, block_name=request.block_name, inputs=tuple(signals), target=target,
+        time_column=time_column, sample_period_s=dt, coefficients=coefficients, settings=settings,
+        training=training[0] if len(training) == 1 else {"batches": training}, fit=log,
+    )
+    return Model(**{**model.__dict__, "metrics": evaluate(model, tables, n_train)})
+
+
+def choose_sensors(tables: list[Table], request: FitRequest, n_train: list[int]) -> sensor_choice.Choice:
+    """At most `request.choose_sensors` of `request.temps`, chosen on the training rows of the runs."""
+    columns = [{c: t.columns[c][:n] for c in (*request.temps, request.target)} for t, n in zip(tables, n_train)]
+    try:
+        return sensor_choice.choose(sensor_choice.training_rises(columns, request.target, request.temps),
+                                    request.temps, request.choose_sensors)
+    except UserError as exc:
+        raise UserError(f"{runs_named(tables)}: {exc}") from None
+
+
+def evaluate(model: Model, tables: list[Table], n_train: list[int]) -> dict:
+    """Fit (training rows) and prediction (held-out rows) errors of the float64 model, and the
+    float32-vs-float64 quantisation error over all rows, pooled over the tables (each replayed
+    from its first row, as the block would be). A probed target counts its measured rows only; the
+    rows each error was taken on are `rows`, the calls they span `calls`."""
+    train, held_out, zero, quantisation, calls = [], [], [], 0.0, [0, 0]
+    for table, n in zip(tables, n_train):
+        inputs = model_inputs(model, table)
+        ideal = predict(model, inputs, "f64")[model.target.name]
+        block = predict(model, inputs, "f32")[model.target.name]
+        measured = table.columns[model.target.column]
+        residual = measured - ideal
+        taken = np.isfinite(measured)
+        train.append(residual[:n][taken[:n]])
+        held_out.append(residual[n:][taken[n:]])
+        zero.append(measured[n:][taken[n:]])
+        calls = [calls[0] + n, calls[1] + table.rows - n]
+        quantisation = max(quantisation, float(np.max(np.abs(block.astype(np.float64) - ideal))))
+    held = _metrics(np.concatenate(held_out))
+    if held["rows"]:
+        nothing = _metrics(np.concatenate(zero))  # the error of compensating nothing
+        held["zero_rmse_um"], held["zero_max_abs_um"] = nothing["rmse_um"], nothing["max_abs_um"]
+    trained = _metrics(np.concatenate(train))
+    for section, spanned in ((trained, calls[0]), (held, calls[1])):
+        if section["rows"] != spanned:  # a probed target: measurements among the calls
+            section["calls"] = spanned
+    return {"train": trained, "held_out": held, "float32_vs_float64_max_um": quantisation}

@@ -1,0 +1,1 @@
+"""The physics of the lumped-mass model: the simulation, its identification, the named effects."""
