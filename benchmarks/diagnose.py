@@ -37,7 +37,7 @@ from thermoplc.machines import MACHINES, machine  # noqa: E402
 from thermoplc.machines.random_effects import draw  # noqa: E402
 from thermoplc.physics import simulation  # noqa: E402
 from thermoplc.physics.effects import NAMES  # noqa: E402
-from thermoplc.physics.simulation import Series  # noqa: E402
+from thermoplc.physics.primitives import Series  # noqa: E402
 
 TRAIN_SHARE = 0.6
 VISIBLE_EXCESS = 0.1  # share of the noise variance the exact baseline fit leaves on some channel (or a window)

@@ -59,7 +59,7 @@ from scipy.signal import lfilter  # noqa: E402
 
 from thermoplc.demo import recording  # noqa: E402
 from thermoplc.diagnosis.search import diagnose  # noqa: E402
-from thermoplc.physics.simulation import Series  # noqa: E402
+from thermoplc.physics.primitives import Series  # noqa: E402
 from thermoplc.recordings.table import read_table  # noqa: E402
 
 DT = 15.0

@@ -42,7 +42,7 @@ from benchmarks.diagnose_real import one as diagnose_run  # noqa: E402
 from thermoplc.diagnosis.search import BIC_MARGIN, effective_rows  # noqa: E402
 from thermoplc.physics import identify  # noqa: E402
 from thermoplc.physics import simulation as sim_  # noqa: E402
-from thermoplc.physics.simulation import Series  # noqa: E402
+from thermoplc.physics.primitives import Series  # noqa: E402
 
 EFFECTS = (*LIBRARY, *OUTSIDE)
 

@@ -20,7 +20,8 @@ from thermoplc.physics.effects import definition_of
 from thermoplc.fitting.fit import block_identifier, common_sample_period, evaluate
 from thermoplc.models.modelfile import Model, Signal, load_model
 from thermoplc.recordings.resample import Resampling
-from thermoplc.physics.simulation import Series, Simulation
+from thermoplc.physics.model import Simulation
+from thermoplc.physics.primitives import Series
 from thermoplc.fitting.leaks import refuse_leaks, refuse_non_temperatures
 from thermoplc.recordings.table import Table
 from thermoplc.pipeline import becomes_block, block_problem

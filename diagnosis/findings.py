@@ -9,7 +9,7 @@ import numpy as np
 from thermoplc.diagnosis import sufficiency
 from thermoplc.diagnosis.search import Diagnosis
 from thermoplc.diagnosis.windows import Window, measured, rms
-from thermoplc.physics.simulation import Series
+from thermoplc.physics.primitives import Series
 
 FORMAT = "thermoplc-findings"
 VERSION = 1

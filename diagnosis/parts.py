@@ -13,8 +13,10 @@ from functools import lru_cache
 
 import numpy as np
 
+from thermoplc.physics import primitives
+
 from thermoplc.physics import simulation as sim_
-from thermoplc.physics.simulation import Series
+from thermoplc.physics.primitives import Series
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,7 +82,7 @@ def _seen(parts: Parts) -> np.ndarray:
     running = train[train > stopped]
     if not len(running):
         return held <= stopped
-    tolerance = sim_.SPEED_GAP_SHARE * max(float(np.max(np.abs(train))), 1.0)  # a held-out spike widens nothing
+    tolerance = primitives.SPEED_GAP_SHARE * max(float(np.max(np.abs(train))), 1.0)  # a held-out spike widens nothing
     return (held <= stopped) | ((held >= running.min() - tolerance) & (held <= running.max() + tolerance))
 
 

@@ -12,7 +12,7 @@ from thermoplc.base.errors import ClusterError
 from thermoplc.diagnosis.parts import Parts
 from thermoplc.diagnosis.search import Attempt, attempt, completed
 from thermoplc.recordings.campaign import CampaignSource
-from thermoplc.physics.simulation import Simulation
+from thermoplc.physics.model import Simulation
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,8 @@ from thermoplc.diagnosis.windows import Window, find_windows, measured, noise_si
 from thermoplc.physics import identified_effects, identify
 from thermoplc.physics import simulation as sim_
 from thermoplc.physics.effects import NAMES, definition_of
-from thermoplc.physics.simulation import Series, Simulation
+from thermoplc.physics.model import Simulation
+from thermoplc.physics.primitives import Series
 
 BIC_MARGIN = 10.0
 AMBIGUOUS_BIC_SHARE = 0.02  # another effect within this share of the winner's BIC gain: no name

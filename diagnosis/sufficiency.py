@@ -10,9 +10,10 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.diagnosis.windows import Window, rms
+from thermoplc.physics import primitives
 from thermoplc.physics import simulation as sim_
 from thermoplc.physics.effects import definition_of
-from thermoplc.physics.simulation import Series
+from thermoplc.physics.primitives import Series
 
 HOUR = 3600.0
 MIN_TRAIN_S = 6 * HOUR  # the slowest sensor time constants are about an hour; less cannot separate them
@@ -52,7 +53,7 @@ def unseen_conditions(train: Series, run: Series, held_start: int, window: Windo
     trained = sim_.speed_levels(train.n, shared)
     start = max(window.start, held_start)
     seen = sim_.speed_levels(run.n[start:window.stop], shared)
-    tolerance = sim_.SPEED_GAP_SHARE * max(float(np.max(np.abs(train.n))), float(np.max(np.abs(run.n))), 1.0)
+    tolerance = primitives.SPEED_GAP_SHARE * max(float(np.max(np.abs(train.n))), float(np.max(np.abs(run.n))), 1.0)
     outside = [float(v) for v in seen if not len(trained) or v > trained.max() + tolerance
                or v < trained.min() - tolerance]
     notes = []

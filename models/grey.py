@@ -27,6 +27,7 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.base import ridge
+from thermoplc.base import compiled
 from thermoplc.models import kernels
 from thermoplc.models.kind import Kind, Part
 from thermoplc.models.modelfile import Coefficient, Model
@@ -246,7 +247,7 @@ def predict_gm0n(model: Model, inputs: dict, precision: str) -> dict:
     x1 = f(model.coef("X1", precision))
     b = [f(model.coef(f"b_{i}", precision)) for i in range(1, len(temps) + 1)]
     rises = bool(model.settings.get("rises"))
-    if kernels.enabled(len(temps[0]) if temps else 0):  # the same loop, compiled (models/kernels.py)
+    if compiled.enabled(len(temps[0]) if temps else 0):  # the same loop, compiled (models/kernels.py)
         return {model.target.name: kernels.gm0n(temps, x1, b, f, rises=rises)}
     xs = [x - x[0] for x in temps] if rises else temps
     out = np.empty(len(temps[0]), f)
@@ -274,7 +275,7 @@ def predict_gm1n(model: Model, inputs: dict, precision: str) -> dict:
     b = [c(f"b_{i}") for i in range(1, len(temps) + 1)]
     x1, keep, gain = c("X1"), c("Keep"), c("In")
     rises = bool(model.settings.get("rises"))
-    if kernels.enabled(len(temps[0]) if temps else 0):  # the same loop, compiled (models/kernels.py)
+    if compiled.enabled(len(temps[0]) if temps else 0):  # the same loop, compiled (models/kernels.py)
         return {model.target.name: kernels.gm1n(temps, x1, keep, gain, b, f, rises=rises)}
     xs = [x - x[0] for x in temps] if rises else temps
     out = np.empty(len(temps[0]), f)

@@ -16,6 +16,7 @@ from typing import Callable
 import numpy as np
 
 from thermoplc.base.binary32 import round_f32
+from thermoplc.base import compiled
 from thermoplc.models import kernels
 from thermoplc.physics import lumped
 from thermoplc.models.ga import genetic_minimize, step_reporter
@@ -69,7 +70,7 @@ def predict(model: Model, inputs: dict, precision: str, valid: dict | None = Non
     faults = np.zeros((k, rows), bool)
     in_range = [np.ones(rows, bool) if valid is None or s.name not in valid else np.asarray(valid[s.name], bool)
                 for s in temps]
-    if kernels.enabled(rows):  # the same loop, compiled (models/kernels.py)
+    if compiled.enabled(rows):  # the same loop, compiled (models/kernels.py)
         error, faults = kernels.kalman(te, n, measured, in_range, *kernel_coefficients(model, precision), f)
         out = {model.target.name: error}
         out.update({fault_key(s.name): faults[i] for i, s in enumerate(temps)})

@@ -24,11 +24,13 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.base import ridge
+from thermoplc.base import compiled
 from thermoplc.models import kernels
+from thermoplc.physics import primitives
 from thermoplc.physics import identify, simulation as sim_
 from thermoplc.models.kind import Kind
 from thermoplc.models.modelfile import Coefficient, Model
-from thermoplc.physics.simulation import Simulation
+from thermoplc.physics.model import Simulation
 
 
 def effect_names(model: Model) -> tuple[str, ...]:
@@ -76,7 +78,7 @@ def coefficients(sim: Simulation, dt: float) -> tuple[dict[str, Coefficient], di
     if sim.has("coolant_switching"):
         c["CoolOn"], c["CoolOff"] = Coefficient.of(s.relay[1]), Coefficient.of(s.relay[2])
     if sim.has("nonlinear_speed_heat"):
-        nodes, values, slopes = sim_.speed_table(s)
+        nodes, values, slopes = primitives.speed_table(s)
         for m, (x, y, k) in enumerate(zip(nodes, values, slopes), start=1):
             c[f"node_{m}"], c[f"heat_{m}"], c[f"slope_{m}"] = Coefficient.of(x), Coefficient.of(y), Coefficient.of(k)
     d = sim.displacement
@@ -106,7 +108,7 @@ def coefficients(sim: Simulation, dt: float) -> tuple[dict[str, Coefficient], di
     if sim.has("coolant_switching"):
         settings["relay_sensor"] = s.relay[0] + 1
     if sim.has("nonlinear_speed_heat"):
-        settings["speed_table_segments"] = len(sim_.speed_table(s)[0])
+        settings["speed_table_segments"] = len(primitives.speed_table(s)[0])
         settings.update(exponent=s.exponent, reference_rpm=s.reference_rpm, table_rpm=list(s.table_rpm))
     return c, settings
 
@@ -138,7 +140,7 @@ def simulation_of(model: Model) -> Simulation:
             fitted[term.tau_field] = tau(c(term.pole[0]))
             fitted[term.weight_field] = tuple(c(f"{term.weight}_{i}") for i in range(1, k + 1)) if term.per_sensor \
                 else c(term.weight)
-    displacement = sim_.DisplacementParams(
+    displacement = primitives.DisplacementParams(
         tau_struct_s=tau(c("AS")) if structure else None, beta0=c("beta0"),
         beta=tuple(c(f"beta_{i}") for i in range(1, k + 1)),
         gamma=tuple(c(f"gamma_{i}") for i in range(1, k + 1)) if structure else (), **fitted,
@@ -198,7 +200,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     offset = [coef.get(f"O_{i}") for i in range(1, k + 1)]
     relay_sensor = model.settings.get("relay_sensor", 1) - 1
-    if rows and kernels.enabled(rows):  # the same loop, compiled (models/kernels.py)
+    if rows and compiled.enabled(rows):  # the same loop, compiled (models/kernels.py)
         return {model.target.name: kernel_arguments(model, inputs, precision)[0]}
     sim = l_ = m_ = t0 = None
     la = te0 = lf = None

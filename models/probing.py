@@ -28,7 +28,7 @@ import numpy as np
 
 from thermoplc.base.binary32 import f32_hex, parse_f32_hex, round_f32
 from thermoplc.base.errors import UserError
-from thermoplc.models import kernels
+from thermoplc.base import compiled
 
 PROBE_VALUE, PROBE_NEW = "probe:value", "probe:new"  # the reference's keys of the block's probing inputs
 USED, REFUSED, REFUSALS = "status:probe_used", "status:probe_refused", "count:probe_refusals"
@@ -133,7 +133,7 @@ def fuse(fusion: Fusion, static: np.ndarray, value: np.ndarray, new: np.ndarray,
     used, refused = np.zeros(rows, bool), np.zeros(rows, bool)
     count = np.zeros(rows, np.int16)
     state = np.zeros(2, f)  # offset, rate
-    loop = _fuse if kernels.enabled(rows) else getattr(_fuse, "py_func", _fuse)
+    loop = _fuse if compiled.enabled(rows) else getattr(_fuse, "py_func", _fuse)
     loop(np.ascontiguousarray(static, f), np.ascontiguousarray(value, f), np.ascontiguousarray(new, np.bool_),
          state, c["gain"], c.get("rate_gain", f(0)), c.get("decay", f(1)), c["gate_um"], c["limit_um"],
          c["offset_max_um"], c.get("rate_max_um", f(0)), fusion.has_rate, fusion.decay is not None,
@@ -141,7 +141,7 @@ def fuse(fusion: Fusion, static: np.ndarray, value: np.ndarray, new: np.ndarray,
     return {"fused": out, "before": before, USED: used, REFUSED: refused, REFUSALS: count}
 
 
-@kernels.jit
+@compiled.jit
 def _fuse(static, value, new, state, gain, rate_gain, decay, gate, limit, offset_max, rate_max, has_rate, has_decay,
           out, before, used, refused, count):
     offset, rate = state[0], state[1]

@@ -16,6 +16,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from thermoplc.base.errors import UserError
+from thermoplc.base import compiled
 from thermoplc.models import kernels
 from thermoplc.models.kind import fault_key
 from thermoplc.models.kinds import kind_of
@@ -126,7 +127,7 @@ def axis_outputs(model: Model, names: list[str]) -> list[str]:
 
 def _hold(x: np.ndarray, valid: np.ndarray, guard: Guard, ready_row: int, limits: Limits, f):
     """Last good value and fault flag per call, as the guard region computes them."""
-    if kernels.enabled(len(x)):  # the same loop, compiled (models/kernels.py)
+    if compiled.enabled(len(x)):  # the same loop, compiled (models/kernels.py)
         return kernels.hold(x, valid, guard.kind == "range", ready_row, limits.settle_calls, limits.max_jump_K, f)
     rows = len(x)
     held = np.zeros(rows, f)
@@ -209,7 +210,7 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
         y = f(held.get(name, 0))
         series = np.full(rows, y, f)
         model_values = core[name] if core is not None else ()
-        if kernels.enabled(rows) and core is not None and np.asarray(model_values).dtype == f:
+        if compiled.enabled(rows) and core is not None and np.asarray(model_values).dtype == f:
             kernels.limit(model_values, ready_row, np.array([y], f), series, limited, clamped, invalid, constants, f)
             out[name] = series
             continue

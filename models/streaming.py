@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from thermoplc.base import compiled
+
 from thermoplc.models import kernels
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
@@ -25,7 +27,7 @@ NOT_YET = np.iinfo(np.int64).max  # the ready row before any call had every inpu
 
 def streamable(model: Model) -> bool:
     """The chunked route computes its reference with the compiled loops alone (models/kernels.py)."""
-    return kind_of(model.kind).streamable(model) and kernels.could_compile()
+    return kind_of(model.kind).streamable(model) and compiled.could_compile()
 
 
 class _FirstCallCore:

@@ -20,9 +20,11 @@ import numpy as np
 from thermoplc.base import ridge
 
 from thermoplc.physics import identify
+from thermoplc.physics import displacement, primitives
 from thermoplc.physics import simulation as sim_
 from thermoplc.physics.effects import definition_of, with_part
-from thermoplc.physics.simulation import DisplacementParams, Series, Shared, Simulation
+from thermoplc.physics.model import Simulation
+from thermoplc.physics.primitives import DisplacementParams, Series, Shared
 
 
 def _relay_sensor(effects) -> int:
@@ -47,7 +49,7 @@ def _relay(runs: list[Series], shared: Shared, effects, sensors) -> Shared:
         if np.ndim(a):
             return sim_.filtered(np.zeros(len(state)), a, state, p.filter_gain, 0.0)[0]
         pole = a * (1.0 - p.filter_gain)  # sim_.filtered with a zero reading, as one lag (the same bits)
-        return sim_.lag_columns(((1.0 - a) * state / (1.0 - pole))[:, None], pole, np.zeros(1))[:, 0]
+        return primitives.lag_columns(((1.0 - a) * state / (1.0 - pole))[:, None], pole, np.zeros(1))[:, 0]
 
     def cost(on: float, off: float) -> float:
         column = np.concatenate([share(a, sim_.relay(t, on, off)) for a, t in zip(poles, readings)])
@@ -109,7 +111,7 @@ def _fit_sensors(runs: list[Series], shared: Shared, effects, starts) -> tuple:
 # the structure lag is refitted within one step of identify's grid around the time constant forward validation
 # chose: that grid is coarse (a factor 1.44), and a candidate must not be credited with what the finer fit gains,
 # but a lag far from the chosen one fits the training part and extrapolates badly (FL_THERMAL ch5: 18 h)
-STRUCT_STEP = float(np.log(48 * sim_.HOUR / 600.0) / (sim_.GRID_POINTS - 1))
+STRUCT_STEP = float(np.log(48 * sim_.HOUR / 600.0) / (displacement.GRID_POINTS - 1))
 
 
 def extend_map(runs: list[Series], temps: list[np.ndarray], t0: list[np.ndarray], effects,
@@ -138,7 +140,7 @@ def extend_map(runs: list[Series], temps: list[np.ndarray], t0: list[np.ndarray]
         return taus
 
     def design(taus: dict) -> np.ndarray:
-        return np.vstack([np.column_stack(sim_._displacement_columns(series, temps[r], {**taus, "t0": t0[r]}, effects))[m]
+        return np.vstack([np.column_stack(displacement.displacement_columns(series, temps[r], {**taus, "t0": t0[r]}, effects))[m]
                           for r, (series, m) in enumerate(zip(runs, measured))])
 
     def cost(x) -> float:
@@ -146,7 +148,7 @@ def extend_map(runs: list[Series], temps: list[np.ndarray], t0: list[np.ndarray]
         offset, slopes = ridge.ridge(d, y, weight)
         return float(np.sum((y - offset - d @ slopes) ** 2))
 
-    axes = [sorted({*np.linspace(*bounds[key], sim_.GRID_POINTS),
+    axes = [sorted({*np.linspace(*bounds[key], displacement.GRID_POINTS),
                     *([np.log(known[key])] if known.get(key) else [])}) for key in keys]
     grid = sorted(itertools.product(*axes), key=lambda g: cost(list(g)))
     if len(keys) == 1:
@@ -157,12 +159,12 @@ def extend_map(runs: list[Series], temps: list[np.ndarray], t0: list[np.ndarray]
     elif keys:
         x = min((sim_.minimize(cost, list(g), method="Nelder-Mead", options={"xatol": 1e-4, "fatol": 1e-9,
                                                                              "maxiter": 400})
-                 for g in grid[:sim_.POLISHED_STARTS]), key=lambda result: result.fun).x
+                 for g in grid[:displacement.POLISHED_STARTS]), key=lambda result: result.fun).x
     else:
         x = []
     taus = taus_of(x)
     offset, slopes = ridge.ridge(design(taus), y, weight)
-    return sim_.displacement_params([offset, *slopes], len(t0[0]), taus, terms, base.ridge_weight,
+    return displacement.displacement_params([offset, *slopes], len(t0[0]), taus, terms, base.ridge_weight,
                                     chosen if base.tau_struct_s is not None else None)
 
 

@@ -28,8 +28,10 @@ from typing import Callable
 import numpy as np
 
 from thermoplc.base import ridge
+from thermoplc.physics import displacement, primitives
 from thermoplc.physics import simulation as sim_
-from thermoplc.physics.simulation import DisplacementParams, Series, SensorParams, Shared, Simulation
+from thermoplc.physics.model import Simulation
+from thermoplc.physics.primitives import DisplacementParams, SensorParams, Series, Shared
 
 TAU_GRID = 12
 GAIN_GRID = np.linspace(-6.0, 6.0, 9)  # logit of the filter gain
@@ -56,7 +58,7 @@ def _prediction_design(series: Series, i: int, heat: list[np.ndarray], a, gain: 
         start = np.r_[a * gain * 1.0, np.zeros(len(y) - 1)] / (1.0 - pole)  # a departure of 1 before the first row
         inputs = np.column_stack([(a * gain * np.r_[y[0], y[:-1]] + (1.0 - a) * series.te) / (1.0 - pole),
                                   *((1.0 - a) * x / (1.0 - pole) for x in heat), start])
-        lagged = sim_.lag_columns(inputs, pole, np.r_[y[0], np.zeros(len(heat)), 1.0])
+        lagged = primitives.lag_columns(inputs, pole, np.r_[y[0], np.zeros(len(heat)), 1.0])
         return lagged[:, 0], list(lagged[:, 1:].T)
     predicted_known, _ = sim_.filtered(y, a, series.te, gain, y[0])
     # a zero reading drops the correction from the columns: what stays is each gain's own share
@@ -99,7 +101,7 @@ def _cost(runs: list[Series], i: int, heats: list[list[np.ndarray]], shared: Sha
     found = _runs_solved(runs, i, designs) if len(runs) > 1 else None
     if found is not None:
         return found
-    coef, sse = sim_._solve(*_stacked(runs, i, designs))
+    coef, sse = primitives.least_squares(*_stacked(runs, i, designs))
     return sse, coef
 
 
@@ -119,7 +121,7 @@ def _runs_solved(runs: list[Series], i: int, designs: list):
     scale = np.sqrt(np.maximum(np.diag(gram), 0.0))
     scale[scale == 0.0] = 1.0
     scaled = gram / np.outer(scale, scale)
-    if np.linalg.cond(scaled) >= sim_.GRAM_CONDITION_LIMIT:
+    if np.linalg.cond(scaled) >= primitives.GRAM_CONDITION_LIMIT:
         return None
     gains = np.linalg.solve(scaled, right / scale) / scale
     starts, sse = [], 0.0
@@ -188,7 +190,7 @@ def structure_lags(runs: list[Series], cuts: list[int | None]) -> np.ndarray:
     a 41 h lag from a grid up to 48 h and predicted the rest at 22.8 um, against 6.1 for mlr)."""
     span = max((cut if cut is not None else series.rows) * series.dt for series, cut in zip(runs, cuts))
     longest = min(max(span / SETTLED_LAGS, SHORTEST_LAG_S), LONGEST_LAG_S)
-    points = max(int(round(sim_.GRID_POINTS * np.log(longest / SHORTEST_LAG_S) / np.log(GRID_SPAN_S / SHORTEST_LAG_S))), 1)
+    points = max(int(round(displacement.GRID_POINTS * np.log(longest / SHORTEST_LAG_S) / np.log(GRID_SPAN_S / SHORTEST_LAG_S))), 1)
     return np.exp(np.linspace(np.log(SHORTEST_LAG_S), np.log(longest), points + 1))
 
 
@@ -202,7 +204,7 @@ def fit_displacement(runs: list[Series], temps: list[np.ndarray], t0: list[np.nd
     measured = [np.isfinite(series.target) for series in runs]
 
     def design_of(tau: float, r: int) -> np.ndarray:
-        return np.column_stack(sim_._displacement_columns(runs[r], temps[r], {"t0": t0[r], "struct": tau}, ()))
+        return np.column_stack(displacement.displacement_columns(runs[r], temps[r], {"t0": t0[r], "struct": tau}, ()))
 
     def rows(tau: float, pick) -> tuple[np.ndarray, np.ndarray]:
         """Design and target of the rows `pick(r, cut)` selects from each run, measured rows only."""

@@ -18,35 +18,17 @@ gains follow by least squares (variable projection), so every fit is determinist
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
-from thermoplc.models import kernels
-from thermoplc.physics.effects import definition_of, registry, with_part
-from thermoplc.physics.effects.definition import DisplacementTerm
-
-
-def minimize(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
-    """scipy.optimize.minimize itself (same arguments, same result), imported on the first call."""
-    from scipy.optimize import minimize as function
-    return function(*args, **kwargs)
-
-def minimize_scalar(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
-    """scipy.optimize.minimize_scalar itself (same arguments, same result), imported on the first call."""
-    from scipy.optimize import minimize_scalar as function
-    return function(*args, **kwargs)
-
-def lfilter(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
-    """scipy.signal.lfilter itself (same arguments, same result), imported on the first call."""
-    from scipy.signal import lfilter as function
-    return function(*args, **kwargs)
-
-def savgol_filter(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
-    """scipy.signal.savgol_filter itself (same arguments, same result), imported on the first call."""
-    from scipy.signal import savgol_filter as function
-    return function(*args, **kwargs)
-
+from thermoplc.base import compiled
+from thermoplc.physics.displacement import displacement_columns, displacement_terms, fit_displacement, fitted_taus
+from thermoplc.physics.effects import definition_of, with_part
+from thermoplc.physics.model import Simulation
+from thermoplc.physics.primitives import (HOUR, Series, SensorParams, Shared, first_temperatures, lag, least_squares,
+                                          minimize, minimize_scalar, pole, relay, savgol_filter, speed_heat,
+                                          speed_levels, stopped, stopped_threshold)
 
 TABLE_SEGMENTS = 16
 RELAY_ROUNDS = 4
@@ -55,183 +37,8 @@ RELAY_GRID_LEVELS = 80
 RELAY_SMOOTHING_ROWS = 9
 RELAY_LOOKAHEAD_S = 7200.0
 CLOSED_LOOP_ROUNDS = 2  # relay state from the simulation, sensors refitted with it
-HOUR = 3600.0
-SPEED_GAP_SHARE = 0.005
-MAX_SPEED_LEVELS = 48
-GRID_POINTS = 13  # per time constant searched anew in the displacement
-POLISHED_STARTS = 4
 EXPONENT_RANGE = (0.2, 3.5)
-GRAM_CONDITION_LIMIT = 1e8  # above this the normal equations lose digits the fit needs
 SEARCH_ROUNDS = 2  # shared parameter by grid with the time constants held, then the time constants
-
-
-@dataclass(frozen=True)
-class Series:
-    """One recording by role. Rows are equally spaced by `dt`."""
-    dt: float
-    t: np.ndarray
-    n: np.ndarray
-    te: np.ndarray
-    temps: np.ndarray  # (rows, sensors)
-    names: tuple[str, ...]
-    target: np.ndarray
-    feed: np.ndarray | None = None
-
-    @property
-    def rows(self) -> int:
-        return len(self.t)
-
-    def head(self, rows: int) -> "Series":
-        return replace(self, t=self.t[:rows], n=self.n[:rows], te=self.te[:rows], temps=self.temps[:rows],
-                       target=self.target[:rows], feed=None if self.feed is None else self.feed[:rows])
-
-
-@dataclass(frozen=True)
-class Shared:
-    """Parameters every sensor shares: what the machine does, not where a sensor sits."""
-    stopped_rpm: float
-    gear_rpm: float | None = None
-    exponent: float | None = None
-    reference_rpm: float = 1.0
-    table_rpm: tuple[float, ...] = ()  # nodes of the n^p table
-    relay: tuple[int, float, float] | None = None  # (sensor, on at degC, off at degC)
-
-
-@dataclass(frozen=True)
-class SensorParams:
-    tau_s: float
-    gain: float
-    stop_factor: float = 1.0
-    load_K: float = 0.0  # standstill heat load: how far above the air the sensor settles with the spindle still
-    gear_gain: float = 0.0
-    cooling: float = 0.0
-    offset_K: float = 0.0
-    drift_K_per_s: float = 0.0
-    filter_gain: float = 0.0  # steady-state Kalman gain on the reading (0: open loop, the simulation alone)
-
-
-@dataclass(frozen=True)
-class DisplacementParams:
-    tau_struct_s: float | None  # None: the displacement follows the temperatures without a structure lag
-    beta0: float
-    beta: tuple[float, ...]
-    gamma: tuple[float, ...]
-    tau_slow_s: float | None = None
-    delta: tuple[float, ...] = ()
-    tau_ambient_s: float | None = None
-    alpha: float = 0.0
-    tau_feed_s: float | None = None
-    phi: float = 0.0
-    # the ridge weight of a map identified by forward validation (physics/identify.py), held when effects
-    # extend it; None: plain least squares (the open-loop simulation diagnose fitted before)
-    ridge_weight: float | None = None
-    # the structure lag forward validation chose: a refit for the diagnosis stays within a grid step of it
-    # (physics/identified_effects.py), however many times the map is refitted
-    tau_struct_chosen_s: float | None = None
-
-
-@dataclass(frozen=True)
-class Simulation:
-    effects: tuple[tuple[str, int | None], ...]  # (name, sensor index for per-sensor effects), in order added
-    shared: Shared
-    sensors: tuple[SensorParams, ...]
-    displacement: DisplacementParams
-
-    def has(self, name: str) -> bool:
-        return any(e == name for e, _ in self.effects)
-
-    @property
-    def filtered(self) -> bool:
-        """True for an identified model: its temperatures follow the readings through the filter gains."""
-        return any(p.filter_gain for p in self.sensors)
-
-    def sensor_of(self, name: str) -> int | None:
-        return next((s for e, s in self.effects if e == name), None)
-
-    def parameter_count(self) -> int:
-        """Fitted parameters: per sensor a time constant, a gain and a standstill load; the
-        displacement's offset and a weight per sensor; with the structure lag its time constant and
-        a second weight per sensor; and what each effect adds (its record says how many)."""
-        k = len(self.sensors)
-        structure = self.displacement.tau_struct_s is not None
-        count = 3 * k + 1 + k + (1 + k) * structure + k * self.filtered
-        return count + sum(definition_of(name).added_parameters(k) for name in {e for e, _ in self.effects})
-
-
-def pole(tau_s: float, dt: float) -> float:
-    """The share a = exp(-dt/tau) a first-order lag keeps of its last value per row of `dt` s (tau in s too)."""
-    return float(np.exp(-dt / tau_s))
-
-
-def lag(x: np.ndarray, a, y0: float) -> np.ndarray:
-    """y[j] = a[j] y[j-1] + (1 - a[j]) x[j], y[-1] = y0; `a` a number or one value per row."""
-    if np.ndim(a) == 0:
-        return lfilter([1.0 - a], [1.0, -a], x, zi=[a * y0])[0]
-    out = np.empty(len(x))
-    change = np.flatnonzero(np.diff(a)) + 1
-    y = y0
-    for start, stop in zip(np.r_[0, change], np.r_[change, len(x)]):
-        if stop > start:
-            p = a[start]
-            out[start:stop] = lfilter([1.0 - p], [1.0, -p], x[start:stop], zi=[p * y])[0]
-            y = out[stop - 1]
-    return out
-
-
-@kernels.jit
-def _lag_columns(x, a, y0):
-    rows, m = x.shape
-    out = np.empty((rows, m))
-    y = y0.copy()
-    b = 1.0 - a
-    for j in range(rows):
-        for i in range(m):
-            y[i] = b[i] * x[j, i] + a[i] * y[i]
-            out[j, i] = y[i]
-    return out
-
-
-def lag_columns(x: np.ndarray, a: float, y0: np.ndarray) -> np.ndarray:
-    """`lag` of every column of `x` (rows, m) by one pole, column i from y0[i]; for finite values the
-    same bits as `lag` column by column (one product each, then one sum; lfilter turns an infinite
-    input into NaN one row later, this keeps it infinite), and several times faster, since the
-    displacement fit lags every sensor thousands of times and the columns run side by side."""
-    if kernels.numba is None:
-        return np.column_stack([lag(x[:, i], a, y0[i]) for i in range(x.shape[1])])
-    return _lag_columns(np.ascontiguousarray(x, dtype=float), np.full(x.shape[1], float(a)),
-                        np.asarray(y0, dtype=float))
-
-
-def stopped(series: Series, shared: Shared) -> np.ndarray:
-    """Per row, True where the spindle counts as standing: speed at or below `shared.stopped_rpm`."""
-    return series.n <= shared.stopped_rpm
-
-
-def speed_table(shared: Shared) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Nodes, values and slopes of the n^p heat table (the block interpolates the same table)."""
-    nodes = np.asarray(shared.table_rpm)
-    values = shared.reference_rpm * (nodes / shared.reference_rpm) ** shared.exponent
-    slopes = np.diff(values) / np.diff(nodes)
-    return nodes[:-1], values[:-1], slopes
-
-
-def speed_heat(n: np.ndarray, shared: Shared) -> np.ndarray:
-    """The speed heat s(n) per row: n itself, or with an exponent fitted the n^p table interpolated at n as
-    the block interpolates it (extended linearly beyond its ends)."""
-    if shared.exponent is None:
-        return n
-    nodes, values, slopes = speed_table(shared)
-    index = np.clip(np.searchsorted(nodes, n, side="right") - 1, 0, len(nodes) - 1)
-    return values[index] + (n - nodes[index]) * slopes[index]
-
-
-def relay(temperature: np.ndarray, on: float, off: float) -> np.ndarray:
-    """Coolant state used at each row: switched by the temperatures of the rows before (hysteresis)."""
-    above, below = temperature > on, temperature < off
-    events = np.where(above | below, np.arange(len(temperature)), -1)
-    last = np.maximum.accumulate(events)
-    state = np.where(last >= 0, above[np.maximum(last, 0)], False)
-    return np.r_[False, state[:-1]].astype(float)
 
 
 def closed_loop_cooling(series: Series, shared: Shared, sensors, effects) -> np.ndarray:
@@ -261,7 +68,7 @@ def closed_loop_cooling(series: Series, shared: Shared, sensors, effects) -> np.
     return state
 
 
-@kernels.jit
+@compiled.jit
 def _filtered_relay(reading, a, drive, cooling, gain, start, on, off):
     """The relay state per row under the filter, as the block runs it: the filtered temperature of the
     switching sensor (corrected by its reading each row) switches the coolant from the next row."""
@@ -312,26 +119,10 @@ def _sensor_design(series: Series, i: int, shared: Shared, effects, a, cooling=N
     return known, columns
 
 
-def _solve(y: np.ndarray, columns: list[np.ndarray]):
-    """Least squares by the normal equations of the column-scaled design (the searches call this
-    tens of thousands of times); an SVD where the scaled Gram matrix is ill-conditioned."""
-    design = np.column_stack(columns)
-    scale = np.sqrt(np.einsum("ij,ij->j", design, design))
-    scale[scale == 0.0] = 1.0
-    scaled = design / scale
-    gram = scaled.T @ scaled
-    if np.linalg.cond(gram) < GRAM_CONDITION_LIMIT:
-        coef = np.linalg.solve(gram, scaled.T @ y) / scale
-    else:
-        coef = np.linalg.lstsq(design, y, rcond=None)[0]
-    residual = y - design @ coef
-    return coef, float(residual @ residual)
-
-
 def _sensor_cost(series, i, shared, effects, tau_s, factor, cooling=None):
     p = SensorParams(tau_s, 0.0, factor)
     known, columns = _sensor_design(series, i, shared, effects, _poles(series, shared, p), cooling)
-    coef, sse = _solve(series.temps[:, i] - known, [c for _, c in columns])
+    coef, sse = least_squares(series.temps[:, i] - known, [c for _, c in columns])
     return sse, replace(p, **{name: float(v) for (name, _), v in zip(columns, coef)})
 
 
@@ -372,20 +163,6 @@ def _fit_all_sensors(series, shared, effects, starts, cooling=None):
     fitted = [fit_sensor(series, i, shared, effects, starts[i] if starts else None, cooling)
               for i in range(len(series.names))]
     return tuple(p for p, _ in fitted), sum(sse for _, sse in fitted)
-
-
-def speed_levels(n: np.ndarray, shared: Shared) -> np.ndarray:
-    """The highest speed of each group of running speeds (groups split where sorted speeds jump by
-    more than `SPEED_GAP_SHARE` of the top speed): a gear threshold at one of these separates the
-    groups the data can tell apart. Quantiles where the speeds form no groups (a continuous sweep)."""
-    running = np.sort(n[n > shared.stopped_rpm])
-    if len(running) == 0:
-        return running
-    jumps = np.flatnonzero(np.diff(running) > SPEED_GAP_SHARE * running[-1])
-    levels = np.r_[running[jumps], running[-1]]
-    if len(levels) > MAX_SPEED_LEVELS:
-        levels = np.unique(np.quantile(running, np.linspace(0.02, 0.98, MAX_SPEED_LEVELS)))
-    return levels
 
 
 def _held_cost(series: Series, shared: Shared, effects, sensors) -> float:
@@ -582,110 +359,6 @@ def ambient_and_heat_parts(series: Series, sim: Simulation) -> tuple[np.ndarray,
     return ambient, heat, start
 
 
-def term_columns(series: Series, sim: Simulation, name: str, temps: np.ndarray, start: np.ndarray) -> np.ndarray:
-    """The columns of displacement effect `name`'s term for these temperatures (from `start`), before its weights."""
-    count = temps.shape[1] if definition_of(name).displacement.per_sensor else 1
-    taus = {**_fitted_taus(sim, series), "t0": start}
-    return np.column_stack(_displacement_columns(series, temps, taus, ((name, None),))[-count:])
-
-
-def displacement_terms(effects=None) -> list[DisplacementTerm]:
-    """The displacement terms these effects add (every effect's when None), in the order of their
-    records (the columns' order)."""
-    names = None if effects is None else {e for e, _ in effects}
-    return [record.displacement for name, record in registry().items()
-            if record.displacement and (names is None or name in names)]
-
-
-def _displacement_columns(series, temps, taus: dict, effects):
-    """Rises of the simulated temperatures (ambient part included), of the structures lagging them,
-    and each displacement effect's columns (its record's term)."""
-    t0 = taus["t0"]  # physical temperatures before the first row
-    k = temps.shape[1]
-    columns = [temps[:, i] - t0[i] for i in range(k)]
-    lagged = temps
-    if taus["struct"] is not None:
-        lagged = lag_columns(temps, pole(taus["struct"], series.dt), t0)
-        columns += [lagged[:, i] - t0[i] for i in range(k)]
-    for term in displacement_terms(effects):
-        columns += term.columns(series, temps, lagged, t0, taus[term.key])
-    return columns
-
-
-def fit_displacement(series: Series, temps: np.ndarray, t0: np.ndarray, effects, structure_lag: bool = True,
-                     start: DisplacementParams | None = None) -> tuple[DisplacementParams, float]:
-    """The displacement's time constants by grid search and polish, its weights by least squares on `temps`
-    (rises from `t0`); returns them and the squared error, starting from `start`'s time constants."""
-    terms = displacement_terms(effects)
-    wanted = (["struct"] if structure_lag else []) + [term.key for term in terms]
-    bounds = {"struct": (np.log(600.0), np.log(48 * HOUR)),
-              **{term.key: (np.log(term.search_s[0]), np.log(term.search_s[1])) for term in terms}}
-    known = {}
-    if start is not None:
-        known = {"struct": start.tau_struct_s, **{term.key: getattr(start, term.tau_field) for term in terms}}
-    k = temps.shape[1]
-
-    def taus_of(x):
-        taus = {"t0": t0, "struct": None, **{name: float(np.exp(np.clip(v, *bounds[name]))) for name, v in zip(wanted, x)}}
-        for term in terms:  # e.g. a slow lag kept well above the structure's, so the two cannot swap roles
-            if term.lowest_s is not None:
-                taus[term.key] = max(taus[term.key], term.lowest_s(taus["struct"]))
-        return taus
-
-    def cost(x):
-        columns = [np.ones(series.rows)] + _displacement_columns(series, temps, taus_of(x), effects)
-        return _solve(series.target, columns)[1]
-
-    # a grid over what is new, jointly with the structure's time constant (a slow lag added to a
-    # structure that had settled between the two true time constants must be able to move it)
-    axes = []
-    for name in wanted:
-        values = list(np.linspace(*bounds[name], GRID_POINTS))
-        if known.get(name):
-            joint = name == "struct" and any(not known.get(w) for w in wanted)
-            values = [np.log(known[name])] + (values if joint else [])
-        axes.append(values)
-    grid = sorted(itertools.product(*axes), key=lambda x: cost(list(x)))
-    if len(wanted) == 1:
-        lo, hi = bounds[wanted[0]]
-        x0 = grid[0][0]
-        x = [minimize_scalar(lambda g: cost([g]), bounds=(max(lo, x0 - 1.5), min(hi, x0 + 1.5)),
-                             method="bounded", options={"xatol": 1e-5}).x]
-    elif wanted:  # the valleys are narrow and curved: polish the best few grid points, keep the best
-        polished = [minimize(cost, list(x0), method="Nelder-Mead",
-                             options={"xatol": 1e-4, "fatol": 1e-9, "maxiter": 400}) for x0 in grid[:POLISHED_STARTS]]
-        x = min(polished, key=lambda result: result.fun).x
-    else:
-        x = []
-    taus = taus_of(x)
-    columns = [np.ones(series.rows)] + _displacement_columns(series, temps, taus, effects)
-    coef, sse = _solve(series.target, columns)
-    return displacement_params(coef, k, taus, terms), sse
-
-
-def displacement_params(coef, k: int, taus: dict, terms, ridge_weight: float | None = None,
-                        chosen_s: float | None = None) -> DisplacementParams:
-    """The map's parameters from its coefficients in column order (offset, a weight per sensor, per sensor
-    on the structure lag when `taus["struct"]` is set, then each term's) and the time constants."""
-    coef = [float(c) for c in coef]
-    lagged = k if taus["struct"] is not None else 0
-    params = DisplacementParams(tau_struct_s=taus["struct"], beta0=coef[0], beta=tuple(coef[1:1 + k]),
-                                gamma=tuple(coef[1 + k:1 + k + lagged]), ridge_weight=ridge_weight,
-                                tau_struct_chosen_s=chosen_s)
-    rest = coef[1 + k + lagged:]
-    for term in terms:
-        count = k if term.per_sensor else 1
-        weights = tuple(rest[:count]) if term.per_sensor else rest[0]
-        params = replace(params, **{term.tau_field: taus[term.key], term.weight_field: weights})
-        rest = rest[count:]
-    return params
-
-
-def first_temperatures(series: Series, sensors) -> np.ndarray:
-    """Physical temperature at each sensor before the first row: its first reading less the offset."""
-    return np.array([series.temps[0, i] - p.offset_K for i, p in enumerate(sensors)])
-
-
 def fit(series: Series, effects=(), warm: Simulation | None = None, structure_lag: bool = True,
         polish: bool = False) -> Simulation:
     """Fit the simulation with these effects on `series` (the training part). A warm start keeps
@@ -713,22 +386,11 @@ def fit(series: Series, effects=(), warm: Simulation | None = None, structure_la
     return Simulation(effects, shared, sensors, displacement)
 
 
-def stopped_threshold(n: np.ndarray) -> float:
-    """Speeds at or below 1 % of the highest speed count as standing (sensor noise at standstill)."""
-    return 0.01 * max(float(np.max(np.abs(n))), 1.0)
-
-
-def _fitted_taus(sim: Simulation, series: Series) -> dict:
-    d = sim.displacement
-    return {"t0": first_temperatures(series, sim.sensors), "struct": d.tau_struct_s,
-            **{term.key: getattr(d, term.tau_field) for term in displacement_terms()}}
-
-
 def displacement_term(sim: Simulation, series: Series, name: str) -> np.ndarray:
     """What one displacement effect adds to the simulated displacement over `series`."""
     _, temps = temperatures(series, sim.shared, sim.sensors, sim.effects)
     weights = definition_of(name).displacement.weights(sim.displacement)
-    columns = _displacement_columns(series, temps, _fitted_taus(sim, series), ((name, None),))
+    columns = displacement_columns(series, temps, fitted_taus(sim, series), ((name, None),))
     return sum(w * c for w, c in zip(weights, columns[-len(weights):]))
 
 
@@ -736,7 +398,7 @@ def run(sim: Simulation, series: Series) -> dict[str, np.ndarray]:
     """Simulated channels over the whole series: each temperature by name, and 'target'."""
     readings, temps = temperatures(series, sim.shared, sim.sensors, sim.effects)
     d = sim.displacement
-    columns = _displacement_columns(series, temps, _fitted_taus(sim, series), sim.effects)
+    columns = displacement_columns(series, temps, fitted_taus(sim, series), sim.effects)
     coef = [*d.beta, *d.gamma, *(w for term in displacement_terms(sim.effects) for w in term.weights(d))]
     target = d.beta0 + sum(c * x for c, x in zip(coef, columns))
     out = {name: readings[:, i] for i, name in enumerate(series.names)}

@@ -17,7 +17,7 @@ import numpy as np
 from thermoplc.base.binary32 import FLT_MAX, f32_from_bits
 from thermoplc.base.errors import UserError, unreadable
 from thermoplc.base.locations import name as location_name, open_binary
-from thermoplc.models import kernels
+from thermoplc.base import compiled
 from thermoplc.recordings import plain_csv
 from thermoplc.recordings.read_ahead import read_ahead
 
@@ -492,7 +492,7 @@ def _stream_csv(path: str, names: list[str], decimal: str, optional: tuple[str, 
                                              ignore_empty_lines=False),
             convert_options=pacsv.ConvertOptions(column_types={h: pa.float64() for h in header},
                                                  decimal_point=point, quoted_strings_can_be_null=False))
-        plain = kernels.could_compile()
+        plain = compiled.could_compile()
         keep = [h in names or any(h.upper() == name.upper() for name in optional) for h in header]
         # one buffer for every block, read into in place: a fresh 16 MiB object per block costs more in page faults
         # than the parsing of it; the unfinished last line of a block moves to the buffer's start

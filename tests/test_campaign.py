@@ -207,7 +207,7 @@ def test_grey_kinds_choose_rises_on_a_campaign_and_stay_bit_exact(campaign, tmp_
     """A campaign whose drift is zeroed at each run's start and whose hall air moves: the grey kinds take
     the rises since each run's start (chosen on the last third of the runs), beat no compensation held
     out, and the block, the compiled reference and the Python reference agree bit for bit."""
-    from thermoplc.models import kernels
+    from thermoplc.base import compiled as kernels
     from thermoplc.models.reference import model_inputs, predict
     thermoplc("fit", "--data", campaign, "--model", kind, *COMMON, "--held-target", "--folds", 6, "-o", "g.json",
               cwd=tmp_path)

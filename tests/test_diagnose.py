@@ -20,6 +20,7 @@ from thermoplc.diagnosis.windows import noise_sigma
 from thermoplc.machines import MACHINES, machine
 from thermoplc.machines.random_effects import draw
 from thermoplc.models import lumped_model
+from thermoplc.physics import primitives
 from thermoplc.physics import simulation
 from thermoplc.physics.effects import NAMES, Effect
 from thermoplc.models.modelfile import load_model
@@ -135,7 +136,7 @@ def test_data_inside_paper_000s_class_with_random_parameters_reads_clean(seed):
     sensors = tuple(simulation.SensorParams(tau_s=float(rng.uniform(900, 7200)), gain=float(rng.uniform(1e-3, 5e-3)))
                     for _ in range(3))
     k = len(sensors)
-    displacement = simulation.DisplacementParams(
+    displacement = primitives.DisplacementParams(
         tau_struct_s=float(rng.uniform(1, 6) * 3600), beta0=0.0, beta=tuple(rng.uniform(-4, 4, k)),
         gamma=tuple(rng.uniform(-6, 6, k)))
     truth = simulation.Simulation((), simulation.Shared(stopped_rpm=1.0), sensors, displacement)
@@ -395,7 +396,7 @@ def test_fl_thermal_baseline_beats_no_compensation_on_every_training_part(channe
     from thermoplc.demo import recording
     from thermoplc.diagnosis import sufficiency
     from thermoplc.diagnosis.parts import single
-    from thermoplc.physics.simulation import Series
+    from thermoplc.physics.primitives import Series
     from thermoplc.recordings.table import read_table
     columns = read_table(recording()).columns
     series = Series(15.0, columns["time_s"], columns["spindle_rpm"], columns["t6_C"],

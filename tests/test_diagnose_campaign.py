@@ -16,7 +16,7 @@ from thermoplc.diagnosis.parts import Parts, single
 from thermoplc.diagnosis.search import diagnose_runs
 from thermoplc.machines.campaign import plan, simulate_run
 from thermoplc.physics.effects import Effect
-from thermoplc.physics.simulation import Series
+from thermoplc.physics.primitives import Series
 
 RUNS, HOURS, SEED = 5, 8.0, 3
 GEAR = "gear_ratio_switch:threshold_rpm=750"

@@ -18,9 +18,11 @@ from thermoplc.diagnosis.windows import Window
 from thermoplc.diagnosis.parts import single
 from thermoplc.machines import machine
 from thermoplc.machines.random_effects import draw
+from thermoplc.physics import primitives
 from thermoplc.physics import simulation
 from thermoplc.physics.effects import slow_structure
-from thermoplc.physics.simulation import DisplacementParams, SensorParams, Series, Shared, Simulation
+from thermoplc.physics.model import Simulation
+from thermoplc.physics.primitives import DisplacementParams, SensorParams, Series, Shared
 
 DT = 10.0
 HOUR = 3600.0
@@ -305,7 +307,7 @@ def test_columns_lagged_together_have_the_bits_of_one_by_one(columns, rows, pole
     rng = np.random.default_rng(seed)
     x = rng.normal(0, 1e3, (rows, columns)) * 10.0 ** rng.integers(-30, 30, (rows, columns))
     y0 = rng.normal(0, 50, columns)
-    together = simulation.lag_columns(x, pole, y0)
+    together = primitives.lag_columns(x, pole, y0)
     for i in range(columns):
         alone = simulation.lag(x[:, i], pole, y0[i])
         assert together[:, i].view(np.uint64).tolist() == alone.view(np.uint64).tolist()

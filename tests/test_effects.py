@@ -10,7 +10,8 @@ import pytest
 
 from thermoplc.base.errors import UserError
 from thermoplc.physics.effects import NAMES, Effect, registry
-from thermoplc.physics.simulation import DisplacementParams, SensorParams, Shared, Simulation
+from thermoplc.physics.model import Simulation
+from thermoplc.physics.primitives import DisplacementParams, SensorParams, Shared
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -103,12 +104,13 @@ def test_the_displacement_fit_and_the_model_file_read_each_displacement_term_fro
     (slow structure, ambient coupling, feed-axis heat) come from its record's DisplacementTerm."""
     import inspect
     from thermoplc.models import lumped_model
+    from thermoplc.physics import displacement
     from thermoplc.physics import simulation
     from thermoplc.physics.effects import with_part
     assert with_part("displacement") == {"slow_structure", "ambient_coupling", "feed_axis_heat"}
     assert all(registry()[name].displacement for name in with_part("displacement"))
-    functions = (simulation._displacement_columns, simulation.fit_displacement, simulation._fitted_taus,
-                 simulation.displacement_term, simulation.run, simulation.term_columns,
+    functions = (displacement.displacement_columns, simulation.fit_displacement, displacement.fitted_taus,
+                 simulation.displacement_term, simulation.run, displacement.term_columns,
                  lumped_model.coefficients, lumped_model.simulation_of)
     pattern = re.compile("|".join(with_part("displacement")) + r"|\b(A2|AAm|AF|delta|alpha|phi|tau_slow_s|tau_feed_s)\b")
     named = [f"{f.__name__}: {line.strip()}" for f in functions for line in inspect.getsource(f).splitlines()

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from tests.golden_models import GOLDEN, KINDS, golden_twin_csv
+from thermoplc.base import compiled
 from thermoplc.models import kernels
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.reference import block_outputs, model_inputs
@@ -12,7 +13,7 @@ from thermoplc.models.safety import ENABLE, ENABLED, RESET, Limits, guards
 from thermoplc.recordings.table import read_table
 from thermoplc.verifier.faults import FAULT_KINDS, inject
 
-pytestmark = pytest.mark.skipif(kernels.numba is None, reason="numba not installed")
+pytestmark = pytest.mark.skipif(compiled.numba is None, reason="numba not installed")
 
 
 @pytest.fixture(scope="module")
@@ -21,9 +22,9 @@ def golden_table(tmp_path_factory):
 
 
 def _both(model, inputs, precision, limits, control=None):
-    with kernels.reference("slow"):
+    with compiled.reference("slow"):
         slow = block_outputs(model, inputs, precision, limits, control)
-    with kernels.reference("fast"):
+    with compiled.reference("fast"):
         fast = block_outputs(model, inputs, precision, limits, control)
     return slow, fast
 
@@ -116,7 +117,7 @@ def test_compiled_loops_contract_nothing():
                   np.zeros(3, bool), Limits().values(), f)
     kernels.lumped([np.ones(3, f)], np.ones(3, f), np.ones(3, f), None, (True,) * 6 + (False, True, True), {}, [(1.0, 1.0, 1.0)], 0, f)
     for fn in (kernels._kalman, kernels._hold, kernels._limit, kernels._gm0n, kernels._gm1n, kernels._lumped):
-        fresh = kernels.numba.njit(**{**kernels.JIT_OPTIONS, "cache": False})(fn.py_func)  # cached code has no IR
+        fresh = compiled.numba.njit(**{**compiled.JIT_OPTIONS, "cache": False})(fn.py_func)  # cached code has no IR
         for signature in fn.signatures:
             fresh.compile(signature)
         assert fresh.signatures
@@ -191,7 +192,7 @@ def test_streamed_reference_equals_the_whole_recording_at_any_chunk_boundary(kin
     cases.append(("hostile", hostile, Limits(settle_calls=3)))
     for label, inputs, limits in cases:
         for precision in ("f32", "f64"):
-            with kernels.reference("slow"):
+            with compiled.reference("slow"):
                 whole = block_outputs(model, inputs, precision, limits)
             streamed = _streamed(model, inputs, precision, limits, [1, 36, 7, 500, 3])
             _assert_same_bits(whole, streamed, (kind, label, precision))

@@ -9,7 +9,7 @@ import pytest
 
 from tests.cli_runner import thermoplc
 from thermoplc.physics import identify
-from thermoplc.physics.simulation import Series, Shared
+from thermoplc.physics.primitives import Series, Shared
 from thermoplc import api
 
 DT = 15.0

@@ -7,7 +7,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from tests.test_streaming import ODD_FILES, _same_as_read_table
-from thermoplc.models import kernels
+from thermoplc.base import compiled as kernels
 from thermoplc.recordings import table as table_module
 from thermoplc.recordings.table import CannotStream, read_table, stream_columns
 

@@ -8,7 +8,7 @@ import sys
 import pytest
 
 from tests.golden_models import GOLDEN, golden_block, golden_twin_csv
-from thermoplc.models import kernels
+from thermoplc.base import compiled as kernels
 
 PROBE = """
 import sys

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from tests.golden_models import GOLDEN, golden_block, golden_twin_csv
 from thermoplc.base.errors import UserError
-from thermoplc.models import kernels
+from thermoplc.base import compiled as kernels
 from thermoplc.recordings import table as table_module
 from thermoplc.models.modelfile import load_model
 from thermoplc.recordings.table import CannotStream, read_table, stream_columns

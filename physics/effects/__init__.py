@@ -10,8 +10,10 @@ from __future__ import annotations
 import functools
 import importlib
 import pkgutil
+from dataclasses import dataclass
 
-from thermoplc.physics.effects.definition import Effect, EffectDefinition
+from thermoplc.base.errors import UserError
+from thermoplc.physics.effects.definition import EffectDefinition
 
 __all__ = ["NAMES", "Effect", "EffectDefinition", "definition_of", "registry", "with_part"]
 
@@ -30,6 +32,26 @@ def registry() -> dict[str, EffectDefinition]:
     if len(named) != len(found) or len({record.rank for record in found}) != len(found):
         raise RuntimeError(f"two effects share a name or a rank: {[(r.rank, r.name) for r in found]}")
     return named
+
+
+@dataclass(frozen=True)
+class Effect:
+    """A named effect with its parameters (defaults filled in)."""
+    name: str
+    parameters: tuple[tuple[str, float | str], ...]
+
+    def get(self, key: str):
+        return dict(self.parameters)[key]
+
+    @staticmethod
+    def parse(text: str, columns: dict[str, str] | None = None) -> "Effect":
+        """NAME[:key=value,...]; `columns` names the sensor an effect with a `column` lands on
+        unless told (each machine has its own sensors)."""
+        name, _, rest = text.partition(":")
+        name = name.strip()
+        if name not in registry():
+            raise UserError(f"--effect {text!r}: unknown effect {name!r}; expected one of {', '.join(registry())}")
+        return Effect(name, registry()[name].parameters_from(text, rest, columns))
 
 
 def definition_of(name: str) -> EffectDefinition:

@@ -11,7 +11,7 @@ from thermoplc.physics.effects.evidence import HOUR, shorter_than_a_day, time_co
 
 def columns(series, temps, lagged, t0, tau_s: float) -> list:
     """A lag of the ambient from its first value."""
-    from thermoplc.physics.simulation import lag, pole
+    from thermoplc.physics.primitives import lag, pole
     return [lag(series.te, pole(tau_s, series.dt), series.te[0]) - series.te[0]]
 
 

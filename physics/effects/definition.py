@@ -1,4 +1,4 @@
-"""The record of one named physical effect, and an effect switched on with its parameters.
+"""The record of one named physical effect.
 
 Each effect is declared once, in its own module of this package (`EFFECT = EffectDefinition(...)`):
 its parameters and their rules, which part of the lumped-mass simulation it extends, how many
@@ -12,20 +12,33 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Callable, Literal
+from typing import TYPE_CHECKING, Any, Callable, Literal, Protocol
 
 from thermoplc.base.errors import UserError
 
 if TYPE_CHECKING:
     import numpy as np
 
-    from thermoplc.physics.simulation import SensorParams, Series, Simulation
+    from thermoplc.physics.primitives import DisplacementParams, SensorParams, Series, Shared
 
 # where the effect enters the simulation (physics/simulation.py):
 #   heat: one more heat input per sensor; speed: how speed becomes heat; pole: the sensors' time
 #   constants; reading: one sensor's reading, not the physics; displacement: one more term of it
 Part = Literal["heat", "speed", "pole", "reading", "displacement"]
 TEXT_PARAMETERS = frozenset({"column"})
+
+
+class Simulation(Protocol):
+    """What an effect's rules read of a fitted model (physics/model.Simulation, which counts its
+    parameters through these records: the records name the shape, not the class)."""
+    effects: tuple[tuple[str, int | None], ...]
+    shared: "Shared"
+    sensors: tuple["SensorParams", ...]
+    displacement: "DisplacementParams"
+
+    def has(self, name: str) -> bool: ...
+
+    def sensor_of(self, name: str) -> int | None: ...
 
 
 def _never(*_: Any) -> None:
@@ -38,7 +51,7 @@ class DisplacementTerm:
     within `search_s`, whose columns the least squares weighs (physics/simulation.py). The names say
     where the fit keeps it and what the lumped block calls its lag and weight (models/lumped_model.py)."""
     key: str  # its time constant among the searched ones
-    tau_field: str  # the field of simulation.DisplacementParams holding the fitted time constant
+    tau_field: str  # the field of primitives.DisplacementParams holding the fitted time constant
     weight_field: str  # ... holding its weights: a tuple with a weight per sensor, else one number
     per_sensor: bool
     search_s: tuple[float, float]  # the range its time constant is searched in, seconds
@@ -94,8 +107,8 @@ class EffectDefinition:
                 return f"{key} must be within {low:g}..{high:g}, found {value:g}"
         return None
 
-    def parse(self, text: str, rest: str, columns: dict[str, str] | None) -> "Effect":
-        """This effect with `rest` ('key=value,...') over its defaults; `text` is what the user typed."""
+    def parameters_from(self, text: str, rest: str, columns: dict[str, str] | None) -> tuple[tuple[str, float | str], ...]:
+        """This effect's parameters, `rest` ('key=value,...') over its defaults; `text` is what the user typed."""
         parameters = dict(self.defaults)
         if columns and self.name in columns:
             parameters["column"] = columns[self.name]
@@ -124,25 +137,4 @@ class EffectDefinition:
                 raise UserError(f"--effect {text!r}: {why}")
         if why := self.check(parameters):
             raise UserError(f"--effect {text!r}: {why}")
-        return Effect(self.name, tuple(parameters.items()))
-
-
-@dataclass(frozen=True)
-class Effect:
-    """A named effect with its parameters (defaults filled in)."""
-    name: str
-    parameters: tuple[tuple[str, float | str], ...]
-
-    def get(self, key: str):
-        return dict(self.parameters)[key]
-
-    @staticmethod
-    def parse(text: str, columns: dict[str, str] | None = None) -> "Effect":
-        """NAME[:key=value,...]; `columns` names the sensor an effect with a `column` lands on
-        unless told (each machine has its own sensors)."""
-        from thermoplc.physics.effects import registry
-        name, _, rest = text.partition(":")
-        name = name.strip()
-        if name not in registry():
-            raise UserError(f"--effect {text!r}: unknown effect {name!r}; expected one of {', '.join(registry())}")
-        return registry()[name].parse(text, rest, columns)
+        return tuple(parameters.items())

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from thermoplc.physics.simulation import Series
+    from thermoplc.physics.primitives import Series
 
 HOUR = 3600.0
 MIN_DAY_S = 24 * HOUR  # a slow structure or an ambient coupling: a whole daily cycle of the hall air
@@ -15,14 +15,14 @@ MIN_DAY_S = 24 * HOUR  # a slow structure or an ambient coupling: a whole daily 
 
 def speed_groups(train: "Series") -> int:
     """How many groups of running speeds the training part has (standstill not counted)."""
-    from thermoplc.physics import simulation
-    return len(simulation.speed_levels(train.n, simulation.Shared(stopped_rpm=simulation.stopped_threshold(train.n))))
+    from thermoplc.physics import primitives
+    return len(primitives.speed_levels(train.n, primitives.Shared(stopped_rpm=primitives.stopped_threshold(train.n))))
 
 
 def standstills(train: "Series", at_least_s: float) -> int:
     """Stretches at rest of at least `at_least_s`, each after running."""
-    from thermoplc.physics import simulation
-    at_rest = train.n <= simulation.stopped_threshold(train.n)
+    from thermoplc.physics import primitives
+    at_rest = train.n <= primitives.stopped_threshold(train.n)
     edges = np.flatnonzero(np.diff(np.r_[0, at_rest.astype(int), 0]))
     ran_before = np.r_[False, np.cumsum(~at_rest)[:-1] > 0]
     return sum((stop - start) * train.dt >= at_least_s and ran_before[start]

@@ -19,7 +19,7 @@ def describe(sim, series) -> dict:
 
 def columns(series, temps, lagged, t0, tau_s: float) -> list:
     """A lag of the feed rate from rest."""
-    from thermoplc.physics.simulation import lag, pole
+    from thermoplc.physics.primitives import lag, pole
     return [lag(series.feed, pole(tau_s, series.dt), 0.0)]
 
 

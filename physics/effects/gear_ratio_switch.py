@@ -14,7 +14,7 @@ RUNNING_RPM = 1.0
 
 
 def describe(sim, series) -> dict:
-    from thermoplc.physics.simulation import speed_levels
+    from thermoplc.physics.primitives import speed_levels
     s = sim.shared
     levels = speed_levels(series.n, s)
     above = levels[levels > s.gear_rpm]

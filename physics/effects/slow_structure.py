@@ -22,7 +22,7 @@ def reference_s(tau_struct_s: float | None) -> float:
 
 def columns(series, temps, lagged, t0, tau_s: float) -> list:
     """Per sensor a slow lag of the structure's lag (or of the temperature), from its start."""
-    from thermoplc.physics.simulation import lag_columns, pole
+    from thermoplc.physics.primitives import lag_columns, pole
     slow = lag_columns(lagged, pole(tau_s, series.dt), t0)
     return [slow[:, i] - t0[i] for i in range(temps.shape[1])]
 
@@ -40,12 +40,12 @@ def kept_shares(sim, train) -> tuple[float, float]:
     """How much of the machine's heat and of the ambient the fitted slow structure keeps: the RMS of
     its weighted sum over the RMS of the same sum with every weight made positive (1 when the
     sensors add up, near 0 when their weights cancel), for each part of the temperatures."""
-    from thermoplc.physics import simulation
+    from thermoplc.physics import displacement, simulation
     ambient, heat, start = simulation.ambient_and_heat_parts(train, sim)
     weights = np.asarray(sim.displacement.delta)
     shares = []
     for part, origin in ((heat, np.zeros_like(start)), (ambient, start)):
-        terms = simulation.term_columns(train, sim, "slow_structure", part, origin)
+        terms = displacement.term_columns(train, sim, "slow_structure", part, origin)
         whole = float(np.std(terms @ np.abs(weights)))
         shares.append(float(np.std(terms @ weights)) / whole if whole > 0 else 1.0)
     return shares[0], shares[1]

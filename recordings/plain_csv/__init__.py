@@ -24,7 +24,7 @@ import numpy as np
 
 PADDING = 8  # bytes after the text a block's buffer must have: the parser reads 8 at a time
 CELL_BYTES = 4  # bytes of text per cell assumed when sizing an output array
-NEWLINE = 10
+NEWLINE = ord("\n")
 
 
 @functools.cache

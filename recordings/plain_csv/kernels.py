@@ -9,8 +9,9 @@ from numba import uint64 as u64
 from numba.core.extending import intrinsic
 from numba.cpython.unsafe.numbers import trailing_zeros
 
-from thermoplc.models.kernels import njit
-from thermoplc.recordings.plain_csv import NEWLINE as _NEWLINE
+from thermoplc.base.compiled import njit
+
+_NEWLINE = ord("\n")
 
 POWERS = np.array([10.0 ** k for k in range(23)])  # exact doubles
 INTEGER_POWERS = np.array([10 ** k for k in range(20)], np.uint64)
