@@ -30,7 +30,7 @@ from thermoplc.recordings.table import read_table, write_table  # noqa: E402
 from thermoplc.machines.cascade import simulate  # noqa: E402
 from thermoplc.verifier.interpreter import Machine  # noqa: E402
 from thermoplc.verifier.native import NativeBlock  # noqa: E402
-from thermoplc.verifier.parser import parse_file  # noqa: E402
+from thermoplc.verifier.block_file import parse_file  # noqa: E402
 
 
 def _best(run, repeat: int = 3) -> float:

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from thermoplc.base.cluster import Cluster, Lost
 from thermoplc.base.errors import ClusterError
 from thermoplc.diagnosis.parts import Parts
+from thermoplc.diagnosis.runs import DiagnoseRequest, parts_of
 from thermoplc.diagnosis.search import Attempt, attempt, completed
 from thermoplc.recordings.campaign import CampaignSource
 from thermoplc.physics.model import Simulation
@@ -18,7 +19,7 @@ from thermoplc.physics.model import Simulation
 @dataclass(frozen=True)
 class CandidateTask:
     source: CampaignSource
-    request: object  # diagnosis.command.DiagnoseRequest
+    request: DiagnoseRequest
     current: Simulation
     sigma: dict
     target: str
@@ -31,7 +32,6 @@ _LAST_PARTS: list = []
 
 def _parts(task: CandidateTask) -> Parts:
     """The diagnosis's runs rebuilt from the files, the last kept (a worker tries many candidates of one run)."""
-    from thermoplc.diagnosis.command import parts_of
     key = (task.source.key, task.request)
     if not _LAST_PARTS or _LAST_PARTS[0] != key:
         _LAST_PARTS[:] = [key, parts_of(task.source.read(), task.request)[0]]

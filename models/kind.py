@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any, Callable
 import numpy as np
 
 if TYPE_CHECKING:
-    from thermoplc.models.modelfile import Model
+    from thermoplc.models.model import Model
 
 
 @dataclass(frozen=True)

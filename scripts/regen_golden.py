@@ -19,7 +19,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from tests.golden_models import (  # noqa: E402
     DIALECTS, FUSED, GOLDEN, KINDS, batch_csvs, golden_block, golden_twin_csv, rendered,
 )
-from thermoplc.diagnosis.command import DiagnoseRequest, augmented_model, series_of  # noqa: E402
+from thermoplc.diagnosis.command import augmented_model  # noqa: E402
+from thermoplc.diagnosis.runs import DiagnoseRequest, series_of  # noqa: E402
 from thermoplc.physics import simulation  # noqa: E402
 from thermoplc.fitting.fit import FitRequest, fit, sample_period  # noqa: E402
 from thermoplc.models.kalman import FitOptions  # noqa: E402

@@ -15,7 +15,8 @@ from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.faults import FAULT_KINDS, inject
 from thermoplc.verifier.interpreter import Machine
 from thermoplc.verifier.native import NativeBlock
-from thermoplc.verifier.parser import parse_file, parse_text
+from thermoplc.verifier.block_file import parse_file
+from thermoplc.verifier.parser import parse_text
 
 
 pytestmark = pytest.mark.skipif(native._compiler() is None, reason="no C compiler: the fast engine cannot be built here")

@@ -12,7 +12,7 @@ from tests.golden_models import DIALECTS, GOLDEN, KINDS, golden_block, golden_tw
 from thermoplc.base.identifiers import identifier_problem
 from thermoplc.models.modelfile import load_model
 from thermoplc.recordings.table import read_table
-from thermoplc.verifier.parser import parse_file
+from thermoplc.verifier.block_file import parse_file
 from thermoplc.verifier.replay import verify_against_model
 from thermoplc.verifier import syntax as s
 

@@ -12,7 +12,7 @@ import pytest
 from tests.golden_models import golden_block
 from thermoplc.verifier import native, native_cache
 from thermoplc.verifier.native import NativeBlock
-from thermoplc.verifier.parser import parse_file
+from thermoplc.verifier.block_file import parse_file
 
 pytestmark = [pytest.mark.skipif(native._compiler() is None, reason="no C compiler: the fast engine cannot be built"),
               pytest.mark.skipif(not os.sys.platform.startswith("linux"), reason="the cache is used on Linux only")]

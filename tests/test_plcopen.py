@@ -15,7 +15,8 @@ from hypothesis import strategies as st
 from tests.cli_runner import thermoplc
 from tests.golden_models import GOLDEN, KINDS, golden_block, golden_twin_csv
 from thermoplc.base.errors import UserError
-from thermoplc.verifier.parser import parse_body, parse_file
+from thermoplc.verifier.block_file import parse_file
+from thermoplc.verifier.parser import parse_body
 from thermoplc.verifier.plcopen import read_plcopen
 
 XML = golden_block("mlr", "plcopen")

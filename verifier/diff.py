@@ -18,7 +18,7 @@ from thermoplc.contract.outputs import PROBE_NEW_INPUT, PROBE_VALUE_INPUT
 from thermoplc.recordings.table import Table
 from thermoplc.verifier import syntax as s
 from thermoplc.verifier.engines import Replayer
-from thermoplc.verifier.parser import parse_file, read_source
+from thermoplc.verifier.block_file import parse_file, read_source
 from thermoplc.verifier.replay import block_columns
 from thermoplc.verifier.typed import differing_rows
 

@@ -17,7 +17,7 @@ from functools import partial
 from thermoplc.base.cluster import Lost, connect
 from thermoplc.base.deadline import within
 from thermoplc.base.locations import is_url
-from thermoplc.verifier.fleet import Outcome, Pair, verify_pair
+from thermoplc.verifier.pair import Outcome, Pair, verify_pair
 
 HASHING_S = 10 ** 7  # no limit on hashing a pair's files (a year of CSV takes seconds); the wait only lets Ctrl-C in
 

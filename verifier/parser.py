@@ -5,13 +5,11 @@ from __future__ import annotations
 import math
 import re
 from functools import lru_cache
-from pathlib import Path
 
 import numpy as np
 
 from thermoplc.base.binary32 import decimal_to_f32
-from thermoplc.base.errors import UserError, unreadable
-from thermoplc.base.text import decode, encoding_of
+from thermoplc.base.errors import UserError
 from thermoplc.verifier import syntax as s
 from thermoplc.verifier.one_reading import refuse_two_readings
 from thermoplc.verifier.st_standalone import (
@@ -429,34 +427,3 @@ def parse_literal(text: str, source: str, where: str):
         raise StSyntaxError(f"{where}: {text!r} is not a start value an ST declaration takes; expected a number, "
                             f"TRUE or FALSE") from None
     return _transform(tree, _ToAst(source, where), source)
-
-
-def _source_bytes(path: str) -> bytes:
-    """A block file's bytes, within the size a block may have."""
-    try:
-        if Path(path).stat().st_size > 4 * MAX_SOURCE_CHARACTERS:
-            raise StSyntaxError(f"{path}: {Path(path).stat().st_size:,} bytes; a function block source is at most "
-                                f"{MAX_SOURCE_CHARACTERS:,} here (characters)")
-        return Path(path).read_bytes()
-    except OSError as exc:
-        raise unreadable(path, exc, "the block") from None
-
-
-def _decoded(raw: bytes, path: str) -> str:
-    return decode(raw, path, "a block is read as Structured Text or PLCopen XML")
-
-
-def read_source(path: str) -> str:
-    """A block file's text (UTF-8, or as its byte order mark says), within the size a block may have."""
-    return _decoded(_source_bytes(path), path)
-
-
-def parse_file(path: str | Path) -> s.Program:
-    path = str(path)
-    raw = _source_bytes(path)
-    text = _decoded(raw, path)
-    from thermoplc.verifier.plcopen import is_xml, read_plcopen  # it reads its bodies with this module
-    if is_xml(text) or path.lower().endswith(".xml"):  # the PLCopen XML of generate --format plcopen
-        return read_plcopen(text, path, encoding_of(raw))
-    return parse_text(text, path)
-

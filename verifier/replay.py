@@ -21,7 +21,7 @@ from thermoplc.recordings.table import Table, close_match
 from thermoplc.verifier.control import control_inputs, control_summary, unread_control_columns
 from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.interpreter import BlockFailure, Finding
-from thermoplc.verifier.parser import parse_file
+from thermoplc.verifier.block_file import parse_file
 from thermoplc.verifier.probings import probing_inputs, reference_keys, start_value_errors, summary as probing_summary
 from thermoplc.verifier.syntax import Program, names_read
 from thermoplc.verifier.typed import cells_as, differing_rows, first_non_finite

@@ -1,0 +1,134 @@
+"""What `diagnose` is asked, and the runs it reads by role: one recording split in time (its first 60 %
+trains by default) or a campaign whose first runs train, each refused where it cannot be judged."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from thermoplc.base.errors import UserError
+from thermoplc.diagnosis.parts import Parts
+from thermoplc.fitting.crossval import refuse_copies
+from thermoplc.fitting.fit import common_sample_period
+from thermoplc.fitting.leaks import refuse_leaks, refuse_non_temperatures
+from thermoplc.physics.primitives import Series
+from thermoplc.recordings.campaign import Campaign
+from thermoplc.recordings.resample import Resampling
+from thermoplc.recordings.table import Table
+
+DEFAULT_TRAIN_SHARE = 0.6
+MIN_ROWS = 10
+MIN_TRAIN_PROBINGS = 20  # a probed target's measurements the displacement map is fitted on
+MIN_HELD_OUT_PROBINGS = 10  # ... and those every effect is judged by
+MAX_REPEATED_SHARE = 0.5  # a target that repeats its value more often is held between probings (FL_THERMAL: 0.07 %)
+
+
+@dataclass(frozen=True)
+class DiagnoseRequest:
+    data: tuple[str, ...] | None  # recordings or folders (--data, repeated); None with a runs table
+    temps: tuple[str, ...]
+    speed: str
+    ambient: str
+    target: str
+    feed: str | None = None
+    baseline: str | None = None
+    train_until: float | None = None
+    train_rows: int | None = None
+    time_column: str = "time_s"
+    block_name: str = "ThermalComp"
+    decimal: str = "auto"
+    structure_lag: bool = True
+    runs_table: str | None = None  # --runs TABLE
+    train_runs: int | None = None  # a campaign: its first N runs train, the others are held out
+    resample_s: float | None = None  # raw logger data taken onto this cycle (--resample), the speed held
+    held_target: bool = False  # the target holds its last probing: only its changes are measurements
+
+    @property
+    def resampling(self) -> Resampling | None:
+        """The rule the augmented model file records (recordings/resample.py): the speed and feed held."""
+        held = (self.speed, *([self.feed] if self.feed else ()))
+        return Resampling(self.resample_s, held) if self.resample_s else None
+
+
+def _training_rows(table: Table, request: DiagnoseRequest) -> int:
+    if request.train_rows is not None:
+        rows = request.train_rows
+    elif request.train_until is not None:
+        rows = int(np.searchsorted(table.columns[request.time_column], request.train_until, side="right"))
+    else:
+        rows = int(DEFAULT_TRAIN_SHARE * table.rows)
+    if rows < MIN_ROWS or table.rows - rows < MIN_ROWS:
+        raise UserError(f"{table.path}: the training part has {rows} of {table.rows} rows; both it and the held-out "
+                        f"part need at least {MIN_ROWS} rows (the held-out part judges every effect)")
+    return rows
+
+
+def series_of(table: Table, request: DiagnoseRequest, dt: float) -> Series:
+    """The request's columns as a Series at period `dt` s; refuses a missing column, a --temps or --ambient
+    column that is no temperature, and an input that leaks the target."""
+    for column in (*request.temps, request.speed, request.ambient, request.target,
+                   *((request.feed,) if request.feed else ())):
+        table.column(column)
+    refuse_non_temperatures(table, request.temps, "--temps")
+    refuse_non_temperatures(table, [request.ambient], "--ambient")
+    for option, columns in (("--temps", request.temps), ("--speed", [request.speed]), ("--ambient", [request.ambient]),
+                            ("--feed", [request.feed] if request.feed else [])):
+        refuse_leaks({c: table.columns[c] for c in columns}, request.target, table.columns[request.target],
+                     table.path, option)
+    repeated = float(np.mean(np.diff(table.columns[request.target]) == 0)) if table.rows > 2 else 0.0
+    if repeated > MAX_REPEATED_SHARE:
+        raise UserError(f"{table.path}: column {request.target!r}: {repeated:.0%} of its values "
+                        f"repeat the one before (a drift probed and held between probings?); give --held-target "
+                        f"when it holds its last probing (only its changes are measurements), or leave the cells "
+                        f"between probings empty")
+    return Series(dt, table.columns[request.time_column], table.columns[request.speed], table.columns[request.ambient],
+                  np.column_stack([table.columns[c] for c in request.temps]), tuple(request.temps),
+                  table.columns[request.target], table.columns[request.feed] if request.feed else None)
+
+
+def _train_runs(campaign: Campaign, request: DiagnoseRequest) -> int:
+    """How many of a campaign's first runs train: --train-runs, else 60 % of them; at least one each way."""
+    count = len(campaign.runs)
+    if request.train_until is not None or request.train_rows is not None:
+        raise UserError(f"--train-until/--train-rows split one recording; this campaign has {count} runs: give "
+                        f"--train-runs N (its first N runs train, the others are held out)")
+    chosen = request.train_runs if request.train_runs is not None else max(1, int(DEFAULT_TRAIN_SHARE * count))
+    if not 1 <= chosen < count:
+        raise UserError(f"--train-runs {chosen}: the campaign has {count} runs; both the training runs and the "
+                        f"held-out runs need at least one (the held-out runs judge every effect)")
+    return chosen
+
+
+def parts_of(campaign: Campaign, request: DiagnoseRequest) -> tuple[Parts, float]:
+    """The runs by role and which rows of each train, and their common sample period: one recording split in
+    time (--train-until/--train-rows, default its first 60 %), or a campaign whose first runs train."""
+    tables = campaign.tables
+    dt = common_sample_period(tables, request.time_column)
+    if request.train_runs is not None and len(tables) == 1:
+        raise UserError(f"--train-runs {request.train_runs}: only one run was given; split it in time with "
+                        f"--train-until or --train-rows")
+    refuse_copies(tables, "a run held out against its own copy is not held out")
+    if len(tables) == 1:
+        train_rows = (_training_rows(tables[0], request),)
+    else:
+        count = _train_runs(campaign, request)
+        train_rows = tuple(t.rows if k < count else 0 for k, t in enumerate(tables))
+        for table in tables:
+            if table.rows < MIN_ROWS:
+                raise UserError(f"{table.path}: {table.rows} rows; a run needs at least {MIN_ROWS}")
+    parts = Parts(tuple(series_of(t, request, dt) for t in tables), train_rows, tuple(campaign.labels))
+    refuse_few_probings(parts, request.target)
+    return parts, dt
+
+
+def refuse_few_probings(parts: Parts, target: str) -> None:
+    """A probed target needs probings on both sides: the training part fits the displacement map on them, the
+    held-out part judges every effect by them. Too few of either is refused before anything is fitted."""
+    pooled = parts.joined().target
+    for where, rows, needed in (("training part", pooled[:parts.n_train], MIN_TRAIN_PROBINGS),
+                                ("held-out part", pooled[parts.n_train:], MIN_HELD_OUT_PROBINGS)):
+        count = int(np.count_nonzero(np.isfinite(rows)))
+        if count < needed:
+            raise UserError(f"column {target!r}: measured {count} time(s) in the {where}; diagnose needs at least "
+                            f"{needed} probings there (the training part fits the displacement map on them, the "
+                            f"held-out part judges every effect by them)")
