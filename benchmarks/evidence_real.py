@@ -12,7 +12,7 @@ An oracle regresses the residual on that one column; its evidence is the likelih
 statistic of that single parameter:
 
 - displacement, levels: counted over the effective rows of the residual (the rule `diagnose`
-  applies, `diagnosis.search.effective_rows`);
+  applies, `diagnosis.judges.effective_rows`);
 - displacement, innovations: the misfit taken as a random walk under white noise, so the
   likelihood is that of the first differences (what a Kalman filter with a random-walk
   disturbance state judges);
@@ -39,7 +39,7 @@ import numpy as np  # noqa: E402
 from benchmarks.diagnose_real import (AMBIENT, CHANNELS, DT, LIBRARY, OUTSIDE, SPEED, TEMPS,  # noqa: E402
                                       arguments, columns, inject, training_rows)
 from benchmarks.diagnose_real import one as diagnose_run  # noqa: E402
-from thermoplc.diagnosis.search import BIC_MARGIN, effective_rows  # noqa: E402
+from thermoplc.diagnosis.judges import BIC_MARGIN, effective_rows  # noqa: E402
 from thermoplc.physics import identify  # noqa: E402
 from thermoplc.physics import simulation as sim_  # noqa: E402
 from thermoplc.physics.primitives import Series  # noqa: E402

@@ -1,5 +1,5 @@
 """A diagnosis round's candidates as tasks of a Dask cluster (`diagnose --scheduler`): each candidate effect is
-refitted and judged on a worker, which reads the runs where it runs (models/campaign.CampaignSource), rebuilds
+refitted and judged on a worker, which reads the runs where it runs (recordings/campaign.CampaignSource), rebuilds
 the parts as `diagnose` does, and recomputes the current model's residual and score from the model itself, so
 what it judges is the same bits as in one process. Only the candidate's fitted model comes back; the client
 simulates it again (cheap beside the refit) for the residuals the search keeps."""

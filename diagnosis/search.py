@@ -22,22 +22,24 @@ from typing import Callable
 import numpy as np
 
 from thermoplc.diagnosis import sufficiency
+from thermoplc.diagnosis.judges import (BIC_MARGIN, HELD_OUT_SHARE, MIN_TRAIN_EXCESS, Score, channels_of,
+                                        effective_delta_bic, effective_rows, held_out_evidence, held_out_gain,
+                                        held_out_threshold, identified, refit, score, simulate)
 from thermoplc.diagnosis.parts import Parts, single
-from thermoplc.diagnosis.windows import Window, find_windows, measured, noise_sigma, rms, settling_s
+from thermoplc.diagnosis.rules import (candidates, describe, each_run, follows_running, implausible,
+                                       not_the_named_physics, too_small, worsens_own_sensor)
+from thermoplc.diagnosis.windows import Window, find_windows, noise_sigma, rms, settling_s
 from thermoplc.physics import identified_effects, identify
-from thermoplc.physics import simulation as sim_
-from thermoplc.physics.effects import NAMES, definition_of
+from thermoplc.physics.effects import definition_of
 from thermoplc.physics.model import Simulation
 from thermoplc.physics.primitives import Series
 
-BIC_MARGIN = 10.0
+# the search's own steps, and the judges and physics rules it applies (diagnosis/judges.py, diagnosis/rules.py)
+__all__ = ["BIC_MARGIN", "Attempt", "Diagnosis", "Score", "Trial", "attempt", "candidates", "completed", "diagnose",
+           "diagnose_runs", "effective_delta_bic", "effective_rows", "follows_running", "held_out_gain", "implausible",
+           "polish", "refit", "score", "simulate", "too_small", "worsens_own_sensor"]
+
 AMBIGUOUS_BIC_SHARE = 0.02  # another effect within this share of the winner's BIC gain: no name
-HELD_OUT_SHARE = 0.2
-MIN_SENSOR_ERROR_SIGMAS = 1.5  # an offset or a drift over the recording smaller than this many noise sigmas is noise
-MIN_DISPLACEMENT_TERM_SIGMAS = 3.0  # a displacement term moving less than this many noise sigmas is noise
-MIN_TRAIN_EXCESS = 0.05  # ... and its training MSE by this share
-MIN_TRAIN_EVIDENCE = 100.0  # or a candidate cuts its training squared error by this many noise variances
-MIN_EXCESS = 0.1  # a channel counts as off when its held-out MSE exceeds its noise variance by this share
 MIN_STAND_INS = 2  # this many effects added with windows still left: none is named
 POLISH_ROUNDS = 3
 # the diagnosis refits an identified model's map by least squares, the likelihood its criteria assume: a ridge
@@ -46,17 +48,6 @@ POLISH_ROUNDS = 3
 # and a slow structure took the difference); on FL_THERMAL forward validation chooses 0 anyway
 LEAST_SQUARES = 0.0
 MIN_POLISH_GAIN = 1.0  # BIC; a refit that gains less has converged
-
-
-@dataclass(frozen=True)
-class Score:
-    rmse_train: dict  # channel -> RMSE on the training rows
-    rmse_held_out: dict
-    max_abs_held_out: dict
-    bic: float
-    held_out: float  # sum over channels of held-out MSE / noise variance
-    held_out_by_channel: dict
-    train_by_channel: dict  # channel -> training MSE / noise variance
 
 
 @dataclass(frozen=True)
@@ -144,252 +135,6 @@ class Diagnosis:
         return "; ".join(notes) or None
 
 
-def _channels(series: Series, target_name: str) -> tuple[str, ...]:
-    return (*series.names, target_name)
-
-
-def _simulate(sim: Simulation, parts: Parts, channels) -> tuple[tuple[dict, dict], dict]:
-    """((simulated channels as shown, residuals as shown), residuals judged), each pooled over the runs
-    (parts.pool), every run from its own first row. The judged residuals are measured minus what the model
-    predicts: for an identified model the temperatures' one-step innovations of the filter. The shown ones are
-    where its physics and the data disagree: the temperatures simulated open loop (filter gains 0), since a heat
-    the model lacks is taken by the filter for noise and shows only there as a window. The displacement's are
-    the same; a model without filter gains shows what it judges."""
-    outs = [sim_.run(sim, run) for run in parts.runs]
-    names = parts.runs[0].names
-    simulated = {c: parts.pool([out[c] for out in outs]) for c in names}
-    simulated[channels[-1]] = parts.pool([out["target"] for out in outs])
-    measured = {c: parts.pool([run.temps[:, i] for run in parts.runs]) for i, c in enumerate(names)}
-    measured[channels[-1]] = parts.pool([run.target for run in parts.runs])
-    judged = {c: measured[c] - simulated[c] for c in channels}
-    if not sim.filtered:
-        return (simulated, judged), judged
-    open_loop = tuple(replace(p, filter_gain=0.0) for p in sim.sensors)
-    readings = [sim_.temperatures(run, sim.shared, open_loop, sim.effects)[0] for run in parts.runs]
-    shown = {**simulated, **{c: parts.pool([r[:, i] for r in readings]) for i, c in enumerate(names)}}
-    return (shown, {c: measured[c] - shown[c] for c in channels}), judged
-
-
-def score(sim: Simulation, residual: dict, sigma: dict, n_train: int) -> Score:
-    bic = 0.0
-    held = 0.0
-    rmse_train, rmse_held, max_held, normalised = {}, {}, {}, {}
-    for c, r in residual.items():  # a probed target counts its probings (NaN between them)
-        train, rest = measured(r[:n_train]), measured(r[n_train:])
-        sse, rows = float(train @ train), max(len(train), 1)
-        bic += rows * np.log(max(sse, 1e-300) / rows)
-        rmse_train[c] = float(np.sqrt(sse / rows))
-        rmse_held[c] = float(np.sqrt(np.mean(rest ** 2))) if len(rest) else None
-        max_held[c] = float(np.max(np.abs(rest))) if len(rest) else None
-        if len(rest):
-            normalised[c] = float(np.mean(rest ** 2)) / max(sigma[c], 1e-12) ** 2
-            held += normalised[c]
-    bic += sim.parameter_count() * np.log(n_train * len(residual))
-    train_normalised = {c: (rmse_train[c] / max(sigma[c], 1e-12)) ** 2 for c in residual}
-    return Score(rmse_train, rmse_held, max_held, float(bic), held, normalised, train_normalised)
-
-
-def effective_rows(residual: np.ndarray) -> float:
-    """Rows a residual counts for in the BIC: n (1 - rho) / (1 + rho), rho its lag-1 autocorrelation
-    (not centred, so a bias counts as memory); the AR(1) effective size of a mean, fewer than the
-    n (1 - rho^2) / (1 + rho^2) of a sum of squares, so the count errs toward refusing. A white
-    residual counts every row;
-    a residual that is a slow misfit (a real machine the model does not follow) counts a handful,
-    however many samples it has: the Gaussian BIC treats rows as independent and otherwise credits
-    any extra parameter that bends the model toward a slow misfit with thousands of units. A probed target's
-    residual counts its probings, in order."""
-    residual = measured(residual)
-    energy = float(residual @ residual)
-    rho = float(residual[1:] @ residual[:-1]) / energy if energy > 0 and len(residual) > 1 else 0.0
-    rho = min(max(rho, 0.0), 1.0 - 1e-9)
-    return max(len(residual) * (1.0 - rho) / (1.0 + rho), 1.0)
-
-
-def effective_delta_bic(before: dict, after: dict, added_parameters: int, n_train: int) -> float:
-    """The BIC change with each channel's likelihood counted over the effective rows of the
-    candidate's training residual (`effective_rows`): on white residuals the plain change, on
-    residuals that keep a slow misfit a small fraction of it. An effect that explains what is
-    missing leaves white residuals behind; one that only bends the model toward a misfit it cannot
-    follow does not (residual whiteness as the stopping rule; CTSM judges the filter's innovations,
-    this judges the open-loop residual the diagnosis compares)."""
-    change = 0.0
-    for c, r in after.items():
-        new, old = measured(r[:n_train]), measured(before[c][:n_train])
-        change += effective_rows(new) * np.log(max(float(new @ new), 1e-300) / max(float(old @ old), 1e-300))
-    return float(change + added_parameters * np.log(n_train * len(after)))
-
-
-def held_out_gain(before: Score, after: Score, n_train: int) -> float:
-    """The largest share of a channel's excess above noise removed, over channels that are off on the
-    held-out part and that the training part supports: visibly off there too, or fitted better by
-    the candidate beyond what chance allows. A held-out gap the training part gives no evidence on is
-    extrapolation error (of coefficients the data hardly separates), not a missing effect."""
-    def supported(c: str) -> bool:
-        visible = before.train_by_channel[c] - 1.0 >= MIN_TRAIN_EXCESS
-        return visible or n_train * (before.train_by_channel[c] - after.train_by_channel[c]) >= MIN_TRAIN_EVIDENCE
-    gains = [(before.held_out_by_channel[c] - after.held_out_by_channel[c]) / (before.held_out_by_channel[c] - 1.0)
-             for c in before.held_out_by_channel if before.held_out_by_channel[c] - 1.0 >= MIN_EXCESS and supported(c)]
-    return max(gains, default=0.0)
-
-
-def identified(sim: Simulation) -> bool:
-    """True for a model identified as `fit --model lumped` identifies it (filter gains, a map whose ridge
-    weight forward validation chose); False for an open-loop simulation fitted by least squares."""
-    return sim.displacement.ridge_weight is not None
-
-
-def refit(train: list[Series], effects, warm: Simulation, polish: bool = False) -> Simulation:
-    """`warm` refitted with these effects on the training parts: as a nested extension of an identified
-    model (physics/identified_effects.py), or as the open-loop simulation (physics/simulation.py, one run)."""
-    if identified(warm):
-        return identified_effects.extend(train, effects, warm, polish)
-    if len(train) != 1:
-        raise ValueError("the open-loop simulation is fitted on one run")
-    return sim_.fit(train[0], effects, warm=warm, polish=polish)
-
-
-def held_out_evidence(before: dict, after: dict, parts: Parts) -> float:
-    """Twice the log-likelihood gain on the held-out rows the training part has seen the like of (`seen_rows`),
-    each channel's counted over the effective rows of the residual the candidate leaves there: the parameters
-    come from the training part, so this is evidence the fit never saw. On an identified model a missing heat
-    shows as larger one-step innovations of a sensor (the filter takes it for process noise), not as a window
-    of slow misfit: this is its judge."""
-    seen = parts.seen_held_out()
-    total = 0.0
-    for c, r in after.items():
-        new, old = measured(r[parts.n_train:][seen]), measured(before[c][parts.n_train:][seen])
-        if len(new):
-            total += effective_rows(new) * np.log(max(float(old @ old), 1e-300) / max(float(new @ new), 1e-300))
-    return float(total)
-
-
-def held_out_threshold(added_parameters: int, held_rows: int) -> float:
-    """The held-out evidence an identified model's extension needs: what the BIC would charge for its
-    parameters on the held-out rows, plus the margin."""
-    return added_parameters * float(np.log(max(held_rows, 2))) + BIC_MARGIN
-
-
-def each_run(parts: Parts, train: Series, rule: Callable[[Series], object]):
-    """A physics rule's objection: on the training part of a recording, or on each training run of a campaign,
-    the first run's objection (a rule that simulates or counts must not read the runs glued together: a jump
-    from one run's hall air to the next is no coolant switch, and two half standstills no standstill)."""
-    if not parts.campaign:
-        return rule(train)
-    return next((why for run in parts.train if (why := rule(run))), None)
-
-
-def _untestable(parts: Parts, train: Series, name: str) -> str | None:
-    """Why the training part cannot show effect `name`: the training rows pooled must show it, and in a campaign
-    one training run alone too (a daily cycle, two standstills, speeds on both sides of a threshold lie within
-    one run; eight-hour runs glued together are no day)."""
-    why = sufficiency.untestable(train, name)
-    if why or not parts.campaign:
-        return why
-    reasons = [sufficiency.untestable(run, name) for run in parts.train]
-    return None if not all(reasons) else f"no training run alone shows it ({reasons[0]})"
-
-
-ONE_RUN_ONLY = ("an error of one sensor's reading is fitted on one run: each run of a campaign may start with its "
-                "own offset, and a drift restarts nowhere")
-
-
-def candidates(parts: Parts, present: Simulation, train: Series) -> tuple[list[tuple[str, int | None]], dict]:
-    """Every named effect not in the model yet that the training part can show; per-sensor effects
-    once per sensor. The others with the reason they were not tested."""
-    found, skipped = [], {}
-    series = parts.runs[0]
-    for name in NAMES:
-        if present.has(name):
-            continue
-        why = _untestable(parts, train, name) or (
-            ONE_RUN_ONLY if parts.campaign and definition_of(name).part == "reading" else None)
-        if why:
-            skipped[name] = why
-            continue
-        if definition_of(name).per_sensor:
-            found += [(name, i) for i in range(len(series.names))]
-        else:
-            found.append((name, None))
-    return found, skipped
-
-
-def describe(sim: Simulation, name: str, series: Series) -> dict:
-    """The fitted parameters of one effect, in engineering units."""
-    return definition_of(name).describe(sim, series)
-
-
-def implausible(sim: Simulation, name: str, train: Series) -> str | None:
-    """Why a fitted effect is not the named physics (a parameter at its search bound or with the
-    wrong sign, of no size, or a slow structure that is a lag of the air), or None. Such a fit only
-    soaks up a mismatch; naming it would be made up. Each effect's record holds its rule."""
-    return definition_of(name).implausible(sim, train)
-
-
-def too_small(sim: Simulation, name: str, parts: Parts, sigma: dict, target: str) -> str | None:
-    """A sensor offset or drift, or a displacement term, that moves less than a few noise sigmas over
-    the recording (the run it moves most in) only soaks up the refit."""
-    definition = definition_of(name)
-    series = parts.runs[0]
-    if definition.part == "displacement":
-        size = max(float(np.ptp(sim_.displacement_term(sim, run, name))) for run in parts.runs)
-        noise = sigma[target]
-        if size < MIN_DISPLACEMENT_TERM_SIGMAS * noise:
-            return (f"it moves the displacement {size:.3g} over the recording, under {MIN_DISPLACEMENT_TERM_SIGMAS:g} times "
-                    f"its noise ({noise:.3g})")
-        return None
-    if definition.part != "reading":
-        return None
-    i = sim.sensor_of(name)
-    size = max(definition.reading_size_K(sim.sensors[i], run) for run in parts.runs)
-    noise = sigma[series.names[i]]
-    if size < MIN_SENSOR_ERROR_SIGMAS * noise:
-        return f"{size:.3g} K over the recording, under {MIN_SENSOR_ERROR_SIGMAS:g} times the sensor noise ({noise:.3g} K)"
-    return None
-
-
-def follows_running(trial: Simulation, trial_score: Score, parts: Parts, channels, sigma: dict) -> str | None:
-    """Why a fitted feed-axis heat is a lag of the spindle's running rather than of the feed, or
-    None: refitted with the feed replaced by its mean while the spindle runs, the model must lose
-    more than `BIC_MARGIN`. Otherwise the feed only marks when the machine runs, and the lag stands
-    in for a slow structure or the air (which a training part under a day cannot test)."""
-    running = [~sim_.stopped(run, trial.shared) for run in parts.runs]
-    feed = np.concatenate([run.feed[:k][on[:k]] for run, k, on in zip(parts.runs, parts.train_rows, running)])
-    level = float(np.mean(feed)) if len(feed) else 0.0
-    plain = replace(parts, runs=tuple(replace(run, feed=np.where(on, level, 0.0)) for run, on in zip(parts.runs, running)))
-    again = refit(plain.train, trial.effects, trial)
-    as_running = score(again, _simulate(again, plain, channels)[1], sigma, parts.n_train)
-    if as_running.bic < trial_score.bic + BIC_MARGIN:
-        return ("a lag of the spindle's running fits as well (the feed rate replaced by its mean while running): "
-                "it does not follow the feed")
-    return None
-
-
-def worsens_own_sensor(trial: Simulation, name: str, series: Series, before: Score, after: Score) -> str | None:
-    """Why a fitted offset or drift is not an error of its sensor, or None: a real one makes that
-    sensor's reading fit better, so one that leaves its held-out part off by more than before
-    (by `MIN_EXCESS` of the noise variance) only bends the displacement through the sensor."""
-    if definition_of(name).part != "reading":
-        return None
-    channel = series.names[trial.sensor_of(name)]
-    was, now = before.held_out_by_channel.get(channel), after.held_out_by_channel.get(channel)
-    if was is not None and now - was > MIN_EXCESS:
-        return (f"it makes {channel}'s own held-out error worse ({was:.3g} -> {now:.3g} noise variances): "
-                "not an error of that sensor")
-    return None
-
-
-def not_the_named_physics(trial: Simulation, name: str, parts: Parts, train: Series, channels, sigma: dict,
-                          before: Score, after: Score, by_bic: bool) -> str | None:
-    """Why the fitted effect is not the physics its name says, or None: implausible parameters, no
-    size, an offset or drift that makes its own sensor worse, or (checked only when the BIC
-    supports it, as it costs a refit) a feed lag that merely marks when the spindle runs."""
-    why = (each_run(parts, train, lambda run: implausible(trial, name, run)) or too_small(trial, name, parts, sigma, channels[-1])
-           or worsens_own_sensor(trial, name, parts.runs[0], before, after))
-    if why is None and by_bic and definition_of(name).driven_by == "feed":
-        why = follows_running(trial, after, parts, channels, sigma)
-    return why
-
-
 def window_rms(parts: Parts, w: Window, residual: dict) -> float:
     """RMS of a pooled residual inside window `w` (rows of its run)."""
     return rms(parts.unpool(residual[w.channel])[w.run][w.start:w.stop])
@@ -459,7 +204,7 @@ def polish(sim: Simulation, sim_score: Score, parts: Parts, channels, sigma: dic
     ratio of 1.00) named."""
     for _ in range(POLISH_ROUNDS):
         again = refit(parts.train, sim.effects, sim, polish=True)
-        again_score = score(again, _simulate(again, parts, channels)[1], sigma, parts.n_train)
+        again_score = score(again, simulate(again, parts, channels)[1], sigma, parts.n_train)
         if again_score.bic > sim_score.bic - MIN_POLISH_GAIN:
             break
         sim, sim_score = again, again_score
@@ -523,7 +268,7 @@ def _try(parts: Parts, train: Series, channels, sigma: dict, current: Simulation
     be told from (names, why) or None."""
     n_train = parts.n_train
     trial = refit(parts.train, (*current.effects, (name, sensor)), current)
-    sim_out, res = _simulate(trial, parts, channels)
+    sim_out, res = simulate(trial, parts, channels)
     s = score(trial, res, sigma, n_train)
     gain = held_out_gain(current_score, s, n_train)
     delta = s.bic - current_score.bic
@@ -560,8 +305,8 @@ class Attempt:
 def attempt(parts: Parts, target_name: str, current: Simulation, sigma: dict, name: str,
             sensor: int | None) -> Attempt:
     """`_try` from the current model alone: its residual and score recomputed as the search computed them."""
-    channels = _channels(parts.runs[0], target_name)
-    residual = _simulate(current, parts, channels)[1]
+    channels = channels_of(parts.runs[0], target_name)
+    residual = simulate(current, parts, channels)[1]
     current_score = score(current, residual, sigma, parts.n_train)
     row, fitted, judged, alike = _try(parts, parts.joined().head(parts.n_train), channels, sigma, current,
                                       current_score, residual, name, sensor)
@@ -572,7 +317,7 @@ def completed(found: Attempt, parts: Parts, target_name: str, sigma: dict) -> tu
     """`_try`'s answer from an attempt: the fitted model's residuals simulated again (the same bits)."""
     fitted = None
     if found.trial is not None:
-        sim_out, res = _simulate(found.trial, parts, _channels(parts.runs[0], target_name))
+        sim_out, res = simulate(found.trial, parts, channels_of(parts.runs[0], target_name))
         fitted = (found.trial, score(found.trial, res, sigma, parts.n_train), res, sim_out)
     return found.row, fitted, found.judged, found.alike
 
@@ -604,7 +349,7 @@ def diagnose_runs(parts: Parts, target_name: str, baseline: Simulation | None = 
     say = progress or (lambda message: None)
     series = parts.joined()  # names, noise, speed groups, ranges: nothing that depends on the dynamics
     n_train = parts.n_train
-    channels = _channels(series, target_name)
+    channels = channels_of(series, target_name)
     train = series.head(n_train)
     insufficient = sufficiency.recording_problem(parts.train)
     say("identifying the baseline (filter gains, standstill loads, the map by forward validation)")
@@ -616,7 +361,7 @@ def diagnose_runs(parts: Parts, target_name: str, baseline: Simulation | None = 
         base = replace(base, displacement=replace(base.displacement, ridge_weight=LEAST_SQUARES))
         base = (identified_effects.reidentify(parts.train, base) if baseline is not None
                 else identified_effects.refit_map(parts.train, base))
-    (simulated0, shown0), residual0 = _simulate(base, parts, channels)
+    (simulated0, shown0), residual0 = simulate(base, parts, channels)
     sigma = {c: noise_sigma(r) for c, r in residual0.items()}
     shown_sigma = {c: noise_sigma(r) for c, r in shown0.items()}  # the readings' own noise, open loop
     before = score(base, residual0, sigma, n_train)
@@ -625,7 +370,7 @@ def diagnose_runs(parts: Parts, target_name: str, baseline: Simulation | None = 
     windows0 = all_windows(base, shown0, shown_sigma, parts)
     if windows0 and not insufficient and (baseline is None or identified(base)):  # no candidate credited with the refit
         base, before = polish(base, before, parts, channels, sigma)
-        (simulated0, shown0), residual0 = _simulate(base, parts, channels)
+        (simulated0, shown0), residual0 = simulate(base, parts, channels)
         windows0 = all_windows(base, shown0, shown_sigma, parts)
     current, current_score, residual, simulated, shown = base, before, residual0, simulated0, shown0
     windows = windows0
@@ -671,7 +416,7 @@ def diagnose_runs(parts: Parts, target_name: str, baseline: Simulation | None = 
         added.append(_named(name, parts, current, current_score, residual, shown, trial, s, res, sim_out[1],
                             trials[index].held_out_gain, windows0))
         current, current_score = polish(trial, s, parts, channels, sigma)
-        (simulated, shown), residual = (sim_out, res) if current is trial else _simulate(current, parts, channels)
+        (simulated, shown), residual = (sim_out, res) if current is trial else simulate(current, parts, channels)
         windows = all_windows(current, shown, shown_sigma, parts)
     for effect in added:  # later refits move them: the parameters are those of the final model
         effect["parameters"] = describe(current, effect["name"], series)

@@ -3,7 +3,7 @@
 An effect extends the identified model where it acts. A heat, speed or pole effect changes each
 sensor's one-step prediction: its shared parameter (gear threshold, exponent, relay thresholds)
 is searched by the one-step prediction error with every sensor's pole, standstill factor and
-filter gain held, then each sensor is identified again with it (models/identify.fit_sensor). A
+filter gain held, then each sensor is identified again with it (physics/identify.fit_sensor). A
 displacement effect adds its term to the map, refitted by least squares with the structure lag
 kept within a grid step of forward validation's choice (`extend_map`).
 An effect on one sensor's reading (an offset, a drift) makes that sensor's reading a poor guide

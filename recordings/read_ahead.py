@@ -1,6 +1,6 @@
 """A generator run one step ahead on a thread, so reading the next block overlaps the work on this one.
 
-`verify` streams a CSV block by block: the next block is parsed (models/plain_csv or pyarrow, on every core,
+`verify` streams a CSV block by block: the next block is parsed (recordings/plain_csv or pyarrow, on every core,
 without the GIL) while the caller computes the references and replays the last one (numba and the compiled
 block, also without the GIL). At most `AHEAD` items wait, so memory stays bounded; an error the generator raises reaches the caller
 where the generator would have raised it; a caller that stops early (gives up, Ctrl-C) stops the thread,

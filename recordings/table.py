@@ -17,9 +17,6 @@ import numpy as np
 from thermoplc.base.binary32 import FLT_MAX, f32_from_bits
 from thermoplc.base.errors import UserError, unreadable
 from thermoplc.base.locations import name as location_name, open_binary
-from thermoplc.base import compiled
-from thermoplc.recordings import plain_csv
-from thermoplc.recordings.read_ahead import read_ahead
 
 
 CHUNK_ROWS = 65536  # rows parsed at once: bounds the memory of the text being parsed
@@ -118,7 +115,7 @@ def _cell_value(cell: str) -> float | None:
     return f32_from_bits(int(bits.group(1) + bits.group(2), 16)) if bits else None
 
 
-def _fields(path: str, line: int, text: str, delimiter: str) -> list[str]:
+def csv_fields(path: str, line: int, text: str, delimiter: str) -> list[str]:
     """One line's fields; a quote that never closes or a field beyond the csv module's limit is named."""
     try:
         return next(csv.reader([text], delimiter=delimiter), [])
@@ -150,7 +147,7 @@ def _parse_cells(path: str, header: list[str], text_lines: list[str], numbers: l
     bad = np.argwhere(~np.isfinite(block) & ~empty)
     if len(bad):
         r, c = bad[0]
-        cell = _fields(path, numbers[r], written[r], delimiter)[c]
+        cell = csv_fields(path, numbers[r], written[r], delimiter)[c]
         raise UserError(f"{path}:{numbers[r]}:{c + 1}: column {header[c]!r}: expected a finite number, "
                         f"found {cell.strip()!r}")
     return block
@@ -161,7 +158,7 @@ def _refuse_points(path: str, header: list[str], text_lines: list[str], numbers:
     convention: either way not a number this reader may guess, so it is named where it is, as written."""
     for line, text in zip(numbers, text_lines):
         if "." in text:
-            fields = _fields(path, line, text, delimiter)
+            fields = csv_fields(path, line, text, delimiter)
             for column, cell in enumerate(fields if len(fields) == len(header) else ()):  # else: the count is named
                 if "." in cell:
                     raise UserError(f"{path}:{line}:{column + 1}: column {header[column]!r}: {cell.strip()!r} has a "
@@ -177,7 +174,7 @@ def _parse_cells_one_by_one(path: str, header: list[str], text_lines: list[str],
     block = np.empty((len(text_lines), len(header)))
     empty = np.zeros(block.shape, bool)
     for r, (line, text) in enumerate(zip(numbers, text_lines)):
-        row = _fields(path, line, text, delimiter)
+        row = csv_fields(path, line, text, delimiter)
         if len(row) != len(header):
             quote = " (a '\"' opens a quoted field that runs to the end of the line)" if '"' in text else ""
             raise UserError(f"{path}:{line}: {len(row)} fields, expected {len(header)} as in the header{quote}")
@@ -254,7 +251,7 @@ def _check_time(table: Table, time_column: str | None, header: list[str]) -> Non
                         f"found {t[bad[0] + 1]:g} after {t[bad[0]]:g}")
 
 
-def _delimiter(path: str, header_line: str, decimal: str) -> tuple[str, bool]:
+def csv_delimiter(path: str, header_line: str, decimal: str) -> tuple[str, bool]:
     """',' with decimal points, or ';' (German Excel exports) where a comma can only be a decimal comma."""
     has_comma, has_semicolon = "," in header_line, ";" in header_line
     if has_comma and has_semicolon:
@@ -273,8 +270,8 @@ def _header(path: str, first: str, decimal: str) -> tuple[str, bool, list[str]]:
     comment line, an empty column name and a name given twice, by line and column."""
     if first.lstrip().startswith("#"):
         raise UserError(f"{path}:1: a comment line; expected the header (the column names) on the first line")
-    delimiter, comma_decimal = _delimiter(path, first, decimal)
-    header = [h.strip() for h in _fields(path, 1, first, delimiter)]
+    delimiter, comma_decimal = csv_delimiter(path, first, decimal)
+    header = [h.strip() for h in csv_fields(path, 1, first, delimiter)]
     seen = set()
     for col, name in enumerate(header, start=1):
         if not name:
@@ -369,73 +366,10 @@ def _cell(v) -> str:
     return f"{float(v):.6f}".rstrip("0").rstrip(".") if float(v) != 0 else "0"
 
 
-# ---------------------------------------------------------------------------------------------
-# Streaming at disk speed (issue 17). The fast readers below hand out the columns chunk by chunk
-# and never word an error: anything they do not take in their stride (a cell that is not a
-# plain number, a blank line, a NaN, time not increasing, an odd line ending, a file they cannot
-# open) raises CannotStream, and the caller reads the file again with read_table, whose messages
-# name the file, line and column. So a file is accepted by the streaming path only when every
-# row parsed as a finite number, with the row count checked against the line count: no row is
-# ever dropped silently.
-
-STREAM_ROWS = 1 << 20  # rows per chunk
-STREAM_BYTES = 16 << 20  # CSV text read at once (larger blocks parse slower: caches)
-# ... parsed by pyarrow in pieces of this size on every core (its thread pool): lines never span two pieces
-# (no newline inside a value), and the pieces are joined in order, so the columns are those of one thread
-CSV_PARSE_BYTES = 4 << 20
-# blocks of at least this much text are first offered to models/plain_csv (numba; a process that reads this much
-# loads numba for the references anyway), smaller ones go to pyarrow at once
-PLAIN_PARSE_BYTES = 4 << 20
-
-
-class CannotStream(Exception):
-    """The fast reader declines this file (the careful reader decides, and words any error)."""
-
-
-@dataclass(frozen=True)
-class Chunk:
-    start: int  # row number of the first row in the recording (0-based)
-    columns: dict  # name -> float64 array
-
-    @property
-    def rows(self) -> int:
-        return len(next(iter(self.columns.values())))
-
 
 def stream_kind(path: str | Path) -> str:
     lower = location_name(str(path)).lower()  # a URL's query is no part of its name
     return "npz" if lower.endswith(".npz") else "parquet" if lower.endswith(".parquet") else "csv"
-
-
-def stream_columns(path: str | Path, names: list[str], decimal: str = "auto", rows_per_chunk: int = STREAM_ROWS,
-                   optional: tuple[str, ...] = ()):
-    """Chunks of the named columns (float64), in order. Every column of the file is checked as
-    read_table checks it (finite numbers), so the file is accepted exactly when read_table accepts
-    it; only `names` (and those of `optional` the file has, in any case) are kept. Raises CannotStream instead
-    of any error."""
-    kind = stream_kind(path)
-    try:
-        if kind == "npz":
-            yield from _stream_npz(str(path), names, rows_per_chunk, optional)
-        elif kind == "parquet":
-            yield from _stream_parquet(str(path), names, rows_per_chunk, optional)
-        else:
-            for chunks in read_ahead(lambda: _stream_csv(str(path), names, decimal, optional)):
-                yield from chunks
-    except CannotStream:
-        raise
-    except (UserError, OSError, ValueError, EOFError, zipfile.BadZipFile, ImportError) as exc:
-        raise CannotStream(str(exc)) from None
-    except Exception as exc:  # pyarrow's own errors: the careful reader says what is wrong
-        raise CannotStream(f"{type(exc).__name__}: {exc}") from None
-
-
-def _finite_numbers(columns: dict) -> None:
-    for a in columns.values():
-        if a.dtype.kind not in "iuf" or a.ndim != 1:
-            raise CannotStream("not a column of numbers")
-        if a.dtype.kind == "f" and not np.isfinite(a).all():
-            raise CannotStream("a cell is not a finite number")
 
 
 def spellings(columns, name: str) -> list[str]:
@@ -449,211 +383,6 @@ def columns_named(columns, name: str) -> list[str]:
     if name in columns:
         return [name]
     return spellings(columns, name)
-
-
-def _keep(columns: dict, names: list[str], start: int, optional: tuple[str, ...] = ()) -> Chunk:
-    """The chunk of `names`, and of each `optional` name the file has in any case, kept under the name
-    asked for (a block input's name ignores case, so two spellings of it are refused)."""
-    missing = [n for n in names if n not in columns]
-    if missing:
-        raise CannotStream(f"no column {missing[0]!r}")
-    kept = {n: columns[n] for n in names}
-    for name in optional:
-        found = spellings(columns, name)  # two spellings of an input's name are two columns
-        if len(found) > 1:
-            raise CannotStream(f"two columns could be {name}")
-        if found and name not in kept:
-            kept[name] = columns[found[0]]
-    return Chunk(start, {n: np.asarray(values, np.float64) for n, values in kept.items()})
-
-
-def _stream_csv(path: str, names: list[str], decimal: str, optional: tuple[str, ...] = ()):
-    """The chunks of each block of the CSV text, a list per block."""
-    import pyarrow as pa
-    import pyarrow.csv as pacsv
-
-    pa.set_cpu_count(_usable_cores())  # Arrow sizes its pool by OMP_NUM_THREADS, which thermoplc sets to 1 for BLAS
-
-    with open_binary(path) as f:
-        head = f.readline()
-        if not head.endswith(b"\n"):
-            raise CannotStream("header only")
-        text = head.decode("utf-8-sig")
-        if not text.strip() or text.lstrip().startswith("#") or "\r" in text.rstrip("\r\n"):
-            raise CannotStream("not a plain header")
-        delimiter, comma_decimal = _delimiter(path, text, decimal)
-        header = [h.strip() for h in _fields(path, 1, text, delimiter)]
-        if not all(header) or len(set(header)) != len(header) or not all(name.isprintable() for name in header):
-            raise CannotStream("header needs the careful reader")
-        point = "," if comma_decimal else "."
-        options = dict(
-            read_options=pacsv.ReadOptions(column_names=header, use_threads=True, block_size=CSV_PARSE_BYTES),
-            parse_options=pacsv.ParseOptions(delimiter=delimiter, quote_char='"', newlines_in_values=False,
-                                             ignore_empty_lines=False),
-            convert_options=pacsv.ConvertOptions(column_types={h: pa.float64() for h in header},
-                                                 decimal_point=point, quoted_strings_can_be_null=False))
-        plain = compiled.could_compile()
-        keep = [h in names or any(h.upper() == name.upper() for name in optional) for h in header]
-        # one buffer for every block, read into in place: a fresh 16 MiB object per block costs more in page faults
-        # than the parsing of it; the unfinished last line of a block moves to the buffer's start
-        room = STREAM_BYTES + plain_csv.PADDING + 1  # a block, the parser's padding, the last line's line feed
-        buffer, kept, total = bytearray(room), 0, 0
-        while True:
-            if len(buffer) < kept + room:  # a line longer than a block
-                buffer = buffer[:kept] + bytearray(room)
-            got = _read_into(f, memoryview(buffer)[kept:kept + STREAM_BYTES])
-            last = got == 0
-            size = kept + got
-            if not last:
-                cut = buffer.rfind(b"\n", 0, size) + 1
-                end = _content_end(buffer, cut)  # trailing blank lines wait for the next block or the end
-                if end == 0:
-                    kept = size
-                    continue
-                end = buffer.index(b"\n", end, size) + 1
-            else:
-                end = _content_end(buffer, size)  # blank lines at the end: read_table skips them too
-                if end == 0:
-                    break
-                buffer[end] = plain_csv.NEWLINE  # the last line's
-                end += 1
-            parts = None
-            if plain and end >= PLAIN_PARSE_BYTES and plain_csv.available():
-                # one part more than the cores: the parsing threads, with more work than the thread verifying the last
-                # block, then get about two thirds of the cores instead of half (a year of CSV: 7.3-7.7 s -> 6.7-7.0 s)
-                parts = plain_csv.parse_block(buffer, end, keep, delimiter, point, _usable_cores() + 1)
-            if parts is None:
-                columns = _parse_block(pacsv, pa, buffer, end, header, options)
-                parts = [(len(columns[header[0]]), columns)]
-            else:  # the other columns were checked, not kept
-                kept_names = [h for h, k in zip(header, keep) if k]
-                parts = [(part.shape[1], dict(zip(kept_names, part))) for part in parts]
-            lines, chunks = 0, []
-            for rows, columns in parts:
-                for at in range(0, rows, STREAM_ROWS):  # bounded chunks, whatever the block held
-                    piece = {h: c[at:at + STREAM_ROWS] for h, c in columns.items()}
-                    chunks.append(_keep(piece, names, total + lines + at, optional))
-                lines += rows
-            yield chunks  # a block's chunks at once: read_ahead's one item ahead is then a whole block
-            total += lines
-            if last:
-                break
-            buffer[:size - end] = buffer[end:size]
-            kept = size - end
-        if total == 0:
-            raise CannotStream("no data rows")
-
-
-def _parse_block(pacsv, pa, data: bytes, end: int, header: list[str], options: dict) -> dict:
-    """The columns of the lines data[:end] by pyarrow's reader; CannotStream for anything the careful reader must
-    word."""
-    if data.find(b"\xef\xbb\xbf", 0, end) >= 0:  # pyarrow skips a byte-order mark opening any buffer it reads
-        raise CannotStream("a byte-order mark after the header")
-    returns = data.find(b"\r", 0, end) >= 0
-    if returns and data.count(b"\r", 0, end) != data.count(b"\r\n", 0, end):
-        raise CannotStream("a line ends in a bare carriage return")
-    table = pacsv.read_csv(pa.BufferReader(pa.py_buffer(data)[:end]), **options)
-    # without a quote or a carriage return every line is one row (a blank one a row of empty cells,
-    # refused below): the lines are counted only where a quoted field could hold a line end
-    lines = data.count(b"\n", 0, end) if returns or data.find(b'"', 0, end) >= 0 else table.num_rows
-    if table.num_rows != lines or table.num_columns != len(header):
-        raise CannotStream("rows and lines differ")
-    if any(c.null_count for c in table.columns):
-        raise CannotStream("an empty cell or a blank line")
-    columns = {h: table.column(h).to_numpy() for h in header}
-    del table
-    _finite_numbers(columns)
-    return columns
-
-
-def _read_into(f, view: memoryview) -> int:
-    """Bytes read into `view`: as many as fit, fewer only at the end of the file."""
-    got = 0
-    while got < len(view):
-        n = f.readinto(view[got:])
-        if not n:
-            break
-        got += n
-    return got
-
-
-def _usable_cores() -> int:
-    """The cores this process may run on (its affinity), for pyarrow's parsing threads."""
-    try:
-        return max(len(os.sched_getaffinity(0)), 1)
-    except AttributeError:  # not Linux
-        return max(os.cpu_count() or 1, 1)
-
-
-def _content_end(data: bytes, end: int) -> int:
-    """Where the text before `end` stops, blanks and line ends after it left out (0: only blanks)."""
-    while end > 0 and data[end - 1] in b" \t\r\n":
-        end -= 1
-    return end
-
-
-def _npy_header(member) -> tuple[tuple, np.dtype]:
-    version = np.lib.format.read_magic(member)
-    if version == (1, 0):
-        shape, fortran, dtype = np.lib.format.read_array_header_1_0(member)
-    elif version == (2, 0):
-        shape, fortran, dtype = np.lib.format.read_array_header_2_0(member)
-    else:
-        raise CannotStream(f"npy format {version}")
-    if dtype.hasobject or dtype.kind not in "iuf" or len(shape) != 1:
-        raise CannotStream("not a column of numbers")
-    return shape, dtype
-
-
-def _stream_npz(path: str, names: list[str], rows_per_chunk: int, optional: tuple[str, ...] = ()):
-    with open_binary(path) as f:
-        if f.read(4) != b"PK\x03\x04":
-            raise CannotStream("not a zip file")
-    with open_binary(path) as f, zipfile.ZipFile(f) as archive:
-        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-        if 2 * sum(info.file_size for info in archive.infolist()) > memory:
-            raise CannotStream("larger than memory")
-        members = {}
-        try:
-            for info in archive.infolist():
-                if not info.filename.endswith(".npy"):
-                    raise CannotStream("not an array")
-                member = archive.open(info)
-                members[info.filename[:-4]] = (member, *_npy_header(member))
-            if not members or len({shape for _, shape, _ in members.values()}) != 1:
-                raise CannotStream("columns of different lengths")
-            rows = next(iter(members.values()))[1][0]
-            if rows == 0:
-                raise CannotStream("no data rows")
-            for start in range(0, rows, rows_per_chunk):
-                n = min(rows_per_chunk, rows - start)
-                columns = {}
-                for name, (member, _, dtype) in members.items():
-                    raw = member.read(n * dtype.itemsize)
-                    if len(raw) != n * dtype.itemsize:
-                        raise CannotStream("truncated array")
-                    columns[name] = np.frombuffer(raw, dtype)
-                _finite_numbers(columns)
-                yield _keep(columns, names, start, optional)
-        finally:
-            for member, *_ in members.values():
-                member.close()
-
-
-def _stream_parquet(path: str, names: list[str], rows_per_chunk: int, optional: tuple[str, ...] = ()):
-    import pyarrow.parquet as pq
-
-    with open_binary(path) as f, pq.ParquetFile(f, pre_buffer=False, buffer_size=1 << 20) as pf:
-        if pf.metadata.num_rows == 0:
-            raise CannotStream("no data rows")
-        start = 0
-        for batch in pf.iter_batches(batch_size=rows_per_chunk, use_threads=False):
-            if any(c.null_count for c in batch.columns):
-                raise CannotStream("an empty cell")
-            columns = {n: batch.column(n).to_numpy(zero_copy_only=False) for n in batch.schema.names}
-            _finite_numbers(columns)
-            yield _keep(columns, names, start, optional)
-            start += batch.num_rows
 
 
 def _read_parquet(path: str, time_column: str | None, sparse: frozenset = frozenset()) -> Table:

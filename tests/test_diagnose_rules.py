@@ -193,13 +193,13 @@ def test_polishing_never_raises_the_criterion():
     channels = (*series.names, "E_z_um")
     fitted = simulation.fit(train, [("nonlinear_speed_heat", None)], warm=simulation.fit(train))
     parts = single(series, rows)
-    residual = search._simulate(fitted, parts, channels)[1]
+    residual = search.simulate(fitted, parts, channels)[1]
     sigma = {c: 1.0 for c in channels}
     first = search.score(fitted, residual, sigma, rows)
     again, again_score = search.polish(fitted, first, parts, channels, sigma)
     assert again_score.bic <= first.bic
     plain = simulation.fit(train)
-    plain_score = search.score(plain, search._simulate(plain, parts, channels)[1], sigma, rows)
+    plain_score = search.score(plain, search.simulate(plain, parts, channels)[1], sigma, rows)
     assert search.polish(plain, plain_score, parts, channels, sigma)[0] is plain
 
 
@@ -297,7 +297,7 @@ def test_a_feed_lag_that_only_marks_the_running_is_not_named():
     base = search.identify.fit(parts.train)[0]
     trial = search.refit(parts.train, (("feed_axis_heat", None),), base)
     sigma = {c: 1.0 for c in channels}
-    trial_score = search.score(trial, search._simulate(trial, parts, channels)[1], sigma, rows)
+    trial_score = search.score(trial, search.simulate(trial, parts, channels)[1], sigma, rows)
     assert "does not follow the feed" in search.follows_running(trial, trial_score, parts, channels, sigma)
 
 

@@ -8,8 +8,9 @@ from hypothesis import strategies as st
 
 from tests.test_streaming import ODD_FILES, _same_as_read_table
 from thermoplc.base import compiled as kernels
-from thermoplc.recordings import table as table_module
-from thermoplc.recordings.table import CannotStream, read_table, stream_columns
+from thermoplc.recordings import chunks
+from thermoplc.recordings.chunks import CannotStream, stream_columns
+from thermoplc.recordings.table import read_table
 
 pytestmark = pytest.mark.skipif(kernels.numba is None, reason="numba not installed")
 plain_csv = pytest.importorskip("thermoplc.recordings.plain_csv") if kernels.numba is not None else None
@@ -107,7 +108,7 @@ def plain_route(monkeypatch):
         calls.append(result is not None)
         return result
 
-    monkeypatch.setattr(table_module, "PLAIN_PARSE_BYTES", 0)
+    monkeypatch.setattr(chunks, "PLAIN_PARSE_BYTES", 0)
     monkeypatch.setattr(plain_csv, "parse_block", counted)
     return calls
 
@@ -128,11 +129,11 @@ def test_a_recording_streams_the_same_through_either_parser(block_bytes, tmp_pat
     lines[2000] = lines[2000].replace(",", ",2e1*", 1).split("*")[0] + "," + lines[2000].split(",", 2)[2]  # not plain
     path = tmp_path / "r.csv"
     path.write_text("\n".join(lines) + "\n")
-    monkeypatch.setattr(table_module, "STREAM_BYTES", block_bytes)
+    monkeypatch.setattr(chunks, "STREAM_BYTES", block_bytes)
     assert _same_as_read_table(path, ["time_s", "x", "y"]) == "streamed"
     assert any(plain_route) and not all(plain_route), plain_route  # both routes ran: plain blocks and the 2e1 one
     plain = list(stream_columns(path, ["x", "y", "time_s"]))
-    monkeypatch.setattr(table_module, "PLAIN_PARSE_BYTES", 1 << 60)
+    monkeypatch.setattr(chunks, "PLAIN_PARSE_BYTES", 1 << 60)
     arrow = list(stream_columns(path, ["x", "y", "time_s"]))
     for name in ("x", "y", "time_s"):
         assert np.array_equal(_bits(np.concatenate([c.columns[name] for c in plain])),
@@ -157,7 +158,7 @@ def test_verify_on_the_plain_route_is_bit_exact_and_a_tampered_block_is_not(tmp_
     from thermoplc.verifier import stream
 
     monkeypatch.setattr(stream, "WHOLE_BELOW_BYTES", 0)
-    monkeypatch.setattr(table_module, "STREAM_BYTES", 20_000)
+    monkeypatch.setattr(chunks, "STREAM_BYTES", 20_000)
     data = golden_twin_csv(tmp_path)
     block, model = golden_block("kalman", "tia"), GOLDEN / "kalman.json"
     assert main(["verify", str(block), "--model", str(model), "--data", str(data)]) == 0
@@ -180,8 +181,8 @@ def test_separators_that_a_number_could_contain_decline(delimiter, point):
 @pytest.mark.parametrize("block_bytes", [5, 9, 1 << 20])
 def test_a_byte_order_mark_opening_a_data_line_is_never_skipped(plain, block_bytes, tmp_path, monkeypatch):
     """pyarrow skips a byte-order mark at the start of a buffer, and each block starts one: read_table refuses."""
-    monkeypatch.setattr(table_module, "STREAM_BYTES", block_bytes)
-    monkeypatch.setattr(table_module, "PLAIN_PARSE_BYTES", 0 if plain else 1 << 60)
+    monkeypatch.setattr(chunks, "STREAM_BYTES", block_bytes)
+    monkeypatch.setattr(chunks, "PLAIN_PARSE_BYTES", 0 if plain else 1 << 60)
     for content in (b"t,a\n\xef\xbb\xbf1,2\n3,4\n", b"t,a\n1,2\n\xef\xbb\xbf3,4\n"):
         path = tmp_path / "bom.csv"
         path.write_bytes(content)
@@ -196,7 +197,7 @@ def test_a_numba_that_cannot_be_imported_leaves_the_blocks_to_pyarrow(tmp_path, 
     try:
         path = tmp_path / "r.csv"
         path.write_text("t,x\n" + "".join(f"{t},{t / 4}\n" for t in range(2000)))
-        monkeypatch.setattr(table_module, "STREAM_BYTES", 1000)
+        monkeypatch.setattr(chunks, "STREAM_BYTES", 1000)
         assert _same_as_read_table(path, ["t", "x"]) == "streamed"
         assert plain_route == []
         assert "Traceback" not in capfd.readouterr().err

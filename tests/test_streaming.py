@@ -11,9 +11,10 @@ from hypothesis import strategies as st
 from tests.golden_models import GOLDEN, golden_block, golden_twin_csv
 from thermoplc.base.errors import UserError
 from thermoplc.base import compiled as kernels
-from thermoplc.recordings import table as table_module
+from thermoplc.recordings import chunks
 from thermoplc.models.modelfile import load_model
-from thermoplc.recordings.table import CannotStream, read_table, stream_columns
+from thermoplc.recordings.chunks import CannotStream, stream_columns
+from thermoplc.recordings.table import read_table
 from thermoplc.verifier import stream
 from thermoplc.verifier.native import native_or_reason
 from thermoplc.verifier.parser import parse_text
@@ -56,8 +57,8 @@ def test_streamed_verify_reports_what_the_whole_recording_path_reports(kind, sou
         pa = pytest.importorskip("pyarrow")
         import pyarrow.parquet as pq
         pq.write_table(pa.table(table.columns), data)
-    monkeypatch.setattr(table_module, "STREAM_ROWS", 1000)  # chunk boundaries inside the data
-    monkeypatch.setattr(table_module, "STREAM_BYTES", 50_000)
+    monkeypatch.setattr(chunks, "STREAM_ROWS", 1000)  # chunk boundaries inside the data
+    monkeypatch.setattr(chunks, "STREAM_BYTES", 50_000)
     block, model_path = str(golden_block(kind, "tia")), str(GOLDEN / f"{kind}.json")
     model = load_model(model_path)
     streamed = stream.verify_file_against_model(block, model, model_path, str(data))
@@ -170,7 +171,7 @@ def test_parquet_reads_like_npz(tmp_path):
 
 @pytest.mark.parametrize("block_bytes", range(3, 40, 2))
 def test_a_blank_line_at_any_block_boundary_is_never_dropped(block_bytes, tmp_path, monkeypatch):
-    monkeypatch.setattr(table_module, "STREAM_BYTES", block_bytes)
+    monkeypatch.setattr(chunks, "STREAM_BYTES", block_bytes)
     for content in (b"a,b\n1,2\n3,4\n\n5,6\n7,8\n", b"a,b\n1,2\n3,4\n5,6\n7,8\n\n \n", b"a,b\r\n1,2\r\n\r\n3,4\r\n"):
         path = tmp_path / "b.csv"
         path.write_bytes(content)

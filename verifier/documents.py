@@ -14,7 +14,7 @@ import numpy as np
 from thermoplc.base.binary32 import f32_hex
 from thermoplc.verifier.diff import BlockDiff
 from thermoplc.verifier.faults import FaultReport
-from thermoplc.verifier.interpreter import Finding
+from thermoplc.verifier.semantics import Finding
 from thermoplc.verifier.replay import Report
 
 VERSION = 1

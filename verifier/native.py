@@ -24,8 +24,8 @@ import numpy as np
 
 from thermoplc.verifier import native_cache
 from thermoplc.verifier import syntax as s
-from thermoplc.verifier.interpreter import (CONVERSIONS, INT_RANGES, MAX_LOOP_ITERATIONS, int_result_kind,
-                                             literal_kind)
+from thermoplc.base.binary32 import INT_RANGES
+from thermoplc.verifier.semantics import CONVERSIONS, MAX_LOOP_ITERATIONS, int_result_kind, literal_kind
 
 CFLAGS = ["-O2", "-std=gnu99", "-fPIC", "-shared", "-ffp-contract=off", "-fno-fast-math", "-fexcess-precision=standard"]
 X86_FLAGS = ["-msse2", "-mfpmath=sse"]

@@ -20,7 +20,7 @@ from thermoplc.models.safety import Limits
 from thermoplc.recordings.table import Table, close_match
 from thermoplc.verifier.control import control_inputs, control_summary, unread_control_columns
 from thermoplc.verifier.engines import Replayer
-from thermoplc.verifier.interpreter import BlockFailure, Finding
+from thermoplc.verifier.semantics import BlockFailure, Finding
 from thermoplc.verifier.block_file import parse_file
 from thermoplc.verifier.probings import probing_inputs, reference_keys, start_value_errors, summary as probing_summary
 from thermoplc.verifier.syntax import Program, names_read

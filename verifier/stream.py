@@ -27,7 +27,7 @@ from thermoplc.contract.outputs import CONTROL_INPUT_START, block_names, named
 from thermoplc.fitting.fit import SAMPLING_TOLERANCE
 from thermoplc.models.modelfile import Model
 from thermoplc.models.streaming import StreamingReference, streamable
-from thermoplc.recordings.table import CannotStream, stream_columns
+from thermoplc.recordings.chunks import CannotStream, stream_columns
 from thermoplc.verifier.replay import (Report, check_interface, compare_constants, load_block, block_limits,
                                        known_overrides, mistyped, subnormal_declarations, unsafe_findings,
                                        verify_against_model)

@@ -12,7 +12,7 @@ AUTO_TOLERANCE = 0.1  # a cheaper model within this share of the best held-out R
 def fit_auto(tables: list, request, folds: int | None, time_column: str,
              progress: Callable[[str], None] | None, groups: dict | None = None, remote=None, probing=None):
     """The ranking printed with each candidate's PLC cost; the best model returned. With `probing`
-    (models/auto.Probing) each candidate is fused and ranked by its held-out error with its probings."""
+    (fitting/auto.Probing) each candidate is fused and ranked by its held-out error with its probings."""
     from thermoplc.generator.lower import lower_model
     from thermoplc.generator.stats import block_stats
     from thermoplc.fitting.auto import candidates_of, rank

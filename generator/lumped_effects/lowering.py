@@ -47,7 +47,7 @@ def _nothing(*_) -> tuple:
 @dataclass(frozen=True)
 class EffectLowering:
     """An effect's part of the lumped block; every hook defaults to adding nothing."""
-    name: str  # the effect's name (models/effects)
+    name: str  # the effect's name (physics/effects)
     comments: tuple[tuple[str, str], ...] = ()  # the comment of each of its constants, by stem (G2 for c_G2_1)
     table_stems: tuple[str, ...] = ()  # coefficients it declares as read-only tables (node for node_1..), not constants
     speed: Callable[[Lumped], Speed | None] | None = None  # S from the speed, or None for S := n
