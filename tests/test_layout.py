@@ -1,0 +1,87 @@
+"""The package's layout holds (issue 53): no import circle between modules, no hand-written module over
+500 lines (the parser lark generates, verifier/st_standalone.py, aside). Imports are counted on the
+installed layout, every one included: inside functions and under TYPE_CHECKING too (two modules that
+need each other to be read are one module in two files, wherever the import sits)."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from tests.test_architecture import _installed_layout
+
+MAX_LINES = 500
+GENERATED = {"st_standalone.py"}
+
+
+def import_graph(tree: Path) -> dict[str, list[str]]:
+    """Each module of `tree`'s thermoplc and the modules it imports, built by grimp in a fresh process (this
+    one has the repository's thermoplc imported already)."""
+    script = ("import grimp, json; graph = grimp.build_graph('thermoplc', cache_dir=None); "
+              "print(json.dumps({m: sorted(graph.find_modules_directly_imported_by(m)) for m in graph.modules}))")
+    result = subprocess.run([sys.executable, "-c", script], cwd=tree, capture_output=True, text=True,
+                            env={**os.environ, "PYTHONPATH": str(tree)}, stdin=subprocess.DEVNULL, check=True)
+    return json.loads(result.stdout)
+
+
+def circles(tree: Path) -> list[list[str]]:
+    """The strongly connected groups of more than one module in the import graph of `tree`'s thermoplc."""
+    imports = import_graph(tree)
+    assert "thermoplc.verifier.parser" in imports and len(imports) > 100, "grimp read no thermoplc"
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    found: list[list[str]] = []
+    for root in sorted(imports):  # Tarjan's algorithm, iteratively
+        if root in index:
+            continue
+        work = [(root, iter(imports[root]))]
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        while work:
+            node, children = work[-1]
+            child = next(children, None)
+            if child is not None:
+                if child not in index:
+                    index[child] = low[child] = len(index)
+                    stack.append(child)
+                    work.append((child, iter(imports[child])))
+                elif child in stack:
+                    low[node] = min(low[node], index[child])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                group = []
+                while True:
+                    member = stack.pop()
+                    group.append(member)
+                    if member == node:
+                        break
+                if len(group) > 1:
+                    found.append(sorted(group))
+    return found
+
+
+def long_modules(tree: Path) -> list[str]:
+    return [f"{path.relative_to(tree)}: {lines} lines" for path in sorted(tree.rglob("*.py"))
+            if path.name not in GENERATED and (lines := len(path.read_text("utf-8").splitlines())) > MAX_LINES]
+
+
+def test_no_module_imports_itself_through_others(tmp_path):
+    assert circles(_installed_layout(tmp_path)) == []
+
+
+def test_no_hand_written_module_is_over_500_lines(tmp_path):
+    assert long_modules(_installed_layout(tmp_path)) == []
+
+
+def test_a_circle_and_a_long_module_are_caught(tmp_path):
+    """The checks can fail: a circle through a function-level import, and a module of 501 lines."""
+    tree = _installed_layout(tmp_path)
+    base = tree / "thermoplc" / "base"
+    (base / "first.py").write_text("from thermoplc.base import second\n")
+    (base / "second.py").write_text("def later():\n    from thermoplc.base import first\n" + "\n" * 499)
+    assert ["thermoplc.base.first", "thermoplc.base.second"] in circles(tree)
+    assert long_modules(tree) == [f"{Path('thermoplc', 'base', 'second.py')}: 501 lines"]
