@@ -26,14 +26,13 @@ from thermoplc.base import ridge
 from thermoplc.recordings.campaign import Campaign, Run, held_to_probed
 from thermoplc.fitting.crossval import cross_validate_runs, pooled
 from thermoplc.fitting.fit import FitRequest
-from thermoplc.models.kalman import FitOptions
 from thermoplc.models.kinds import kind_of
 from thermoplc.recordings.table import Table, read_table
 
 ROOT = Path(__file__).resolve().parent.parent
 FL_THERMAL = ROOT / "app" / "data" / "fl_thermal" / "fl_thermal.csv"
 KINDS = ("mlr", "dlag", "gm0n", "gm1n", "bayes", "bpnn", "lumped", "kalman")
-QUICK_GA = FitOptions(population=20, generations=15)  # kalman's GA held short so the table runs in minutes
+QUICK_GA = {"population": 20, "generations": 15}  # kalman's GA held short so the table runs in minutes
 FL_RUN_HOURS = 6.0
 CHOOSE = 4  # each kind's second row: at most this many sensors chosen from every sensor, inside each fold
 
@@ -99,8 +98,7 @@ def judge(tables: list[Table], request: FitRequest, groups=None) -> dict:
 
 def request_for(kind: str, target: str, temps: tuple[str, ...], speed: str, ambient: str, choose: int = 0
                 ) -> FitRequest:
-    options = QUICK_GA if kind == "kalman" else FitOptions()
-    return FitRequest(kind=kind, target=target, temps=temps, speed=speed, ambient=ambient, options=options,
+    return FitRequest(kind=kind, target=target, temps=temps, speed=speed, ambient=ambient, settings=QUICK_GA if kind == "kalman" else {},
                       train_until=math.inf, choose_sensors=choose)
 
 

@@ -15,7 +15,6 @@ from pathlib import Path
 
 from thermoplc.demo import AMBIENT, SPEED, TARGET, TEMPS, TRAIN_UNTIL_S, recording
 from thermoplc.fitting.fit import FitRequest, fit
-from thermoplc.models.kalman import FitOptions
 from thermoplc.recordings.table import read_table, write_table
 from thermoplc.machines.cascade import simulate
 
@@ -35,7 +34,7 @@ def main() -> None:
     for label, table, request, target in cases:
         for optimizer in ("ga", "de"):
             start = time.perf_counter()
-            model = fit([table], replace(request, options=FitOptions(optimizer=optimizer)))
+            model = fit([table], replace(request, settings={"optimizer": optimizer}))
             seconds = time.perf_counter() - start
             held = model.metrics["held_out"]["rmse_um"] if model.metrics.get("held_out") else float("nan")
             print(f"{label:<26}{table.rows:>8}{model.metrics['train']['rows']:>12}{optimizer:>11}{seconds:>9.1f}"

@@ -25,7 +25,6 @@ from thermoplc.base.errors import UserError
 from thermoplc.fitting.auto import rank
 from thermoplc.fitting.crossval import cuts, fit_cross_validated
 from thermoplc.fitting.fit import FitRequest, fit
-from thermoplc.models.kalman import FitOptions
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.fitting.selection import select_sensors
 from thermoplc.recordings.table import read_table
@@ -87,7 +86,7 @@ def main() -> None:
         sensors = chosen_sensors(table, channel, split)
         for kind in KINDS:
             extra = (SPEED, AMBIENT) if kind in NEEDS_SPEED_AND_AMBIENT else (None, None)
-            request = FitRequest(kind, channel, sensors, *extra, train_rows=split, options=FitOptions(seed=0))
+            request = FitRequest(kind, channel, sensors, *extra, train_rows=split, settings={"seed": 0})
             start = time.perf_counter()
             try:
                 model = fit([table], request)
@@ -106,7 +105,7 @@ def auto_rows(table, channel: str, split: int) -> None:
     judged on the 22 h it never saw; and on the whole recording, judged by its own folds (the
     choice among candidates by the same folds makes that number slightly optimistic)."""
     candidates = tuple(c for c in table.columns if c.startswith("t") and c.endswith("_C") and c != AMBIENT)
-    request = FitRequest("auto", channel, candidates, SPEED, AMBIENT, options=FitOptions(seed=0))
+    request = FitRequest("auto", channel, candidates, SPEED, AMBIENT, settings={"seed": 0})
     start = time.perf_counter()
     first_day = best(rank([table.head(split)], request, FOLDS, "time_s"))
     chosen = replace(request, kind=first_day.kind, temps=first_day.sensors, train_rows=split)

@@ -24,7 +24,6 @@ from benchmarks.fl_thermal import chosen_sensors  # noqa: E402
 from thermoplc.demo import TRAIN_UNTIL_S, recording  # noqa: E402
 from thermoplc.machines.cascade import simulate  # noqa: E402
 from thermoplc.fitting.fit import FitRequest, fit  # noqa: E402
-from thermoplc.models.kalman import FitOptions  # noqa: E402
 from thermoplc.models.reference import model_inputs, predict  # noqa: E402
 from thermoplc.recordings.table import read_table, write_table  # noqa: E402
 
@@ -34,7 +33,7 @@ TWIN_SEEDS = (20, 21, 22)
 
 def held_out_rmse(table, channel: str, sensors: tuple[str, ...], split: int, operators: str, seed: int) -> float:
     model = fit([table], FitRequest("bpnn", channel, sensors, train_rows=split,
-                                    options=FitOptions(seed=seed, ga_operators=operators)))
+                                    settings={"seed": seed, "ga_operators": operators}))
     residual = predict(model, model_inputs(model, table), "f64")[model.target.name][split:] - table.columns[channel][split:]
     return float(np.sqrt(np.mean(residual ** 2)))
 

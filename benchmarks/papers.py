@@ -17,7 +17,6 @@ import numpy as np
 from thermoplc.demo import AMBIENT, SPEED, TEMPS, TARGET, TRAIN_UNTIL_S, recording
 from thermoplc.models import bayes, grey
 from thermoplc.fitting.fit import FitRequest, fit
-from thermoplc.models.kalman import FitOptions
 from thermoplc.models.modelfile import Coefficient
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.recordings.table import read_table, write_table
@@ -61,7 +60,7 @@ def paper_000(folder: Path) -> None:
     sine = table_of(folder, "p0_sine", hours=24, seed=102, faults=(SensorFault("sin", "T_motor"),))
     offset = table_of(folder, "p0_offset", hours=24, seed=102, faults=(SensorFault("offset", "T_motor", 7200.0),))
     models = {kind: fit([train], FitRequest(kind, "E_z_um", sensors, "n_rpm", "T_env", train_rows=train.rows,
-                                           options=FitOptions(seed=0)))
+                                           settings={"seed": 0}))
               for kind in ("mlr", "kalman")}
     fitted = {k: rmse(m, train) for k, m in models.items()}
     for case, data, theirs in (("1300 rpm (case 1)", case1, "+0.0032 / +0.0106 mm"),
@@ -142,7 +141,7 @@ def paper_002(folder: Path) -> None:
     held_out = []
     for seed in range(PAPER_002_SEEDS):
         model = fit([data], FitRequest("bpnn", "E_z_um", ("T_motor", "T_bearing", "T_struct"), train_until=12 * 3600.0,
-                                       extra_targets=("yaw_urad", "pitch_urad"), options=FitOptions(seed=seed)))
+                                       extra_targets=("yaw_urad", "pitch_urad"), settings={"seed": seed}))
         for key in epochs:
             epochs[key].append(model.fit[key])
         held_out.append(model.metrics["held_out"]["rmse_um"])
@@ -212,7 +211,7 @@ def paper_004(folder: Path) -> None:
         path.write_text(write_table(run))
         tables.append(read_table(path))
     trained, unseen_runs = tables[:PAPER_004_TRAIN_RUNS], tables[PAPER_004_TRAIN_RUNS:]
-    network = fit(trained, FitRequest("bayes", "E_z_um", temps, train_until=1e9, time_bins=PAPER_004_TIME_BINS))
+    network = fit(trained, FitRequest("bayes", "E_z_um", temps, train_until=1e9, settings={"time_bins": PAPER_004_TIME_BINS}))
     rises = lambda t: np.column_stack([t.columns[c] - t.columns[c][0] for c in temps])
     design = lambda t: np.column_stack([np.ones(t.rows), rises(t)])
     slopes = np.linalg.lstsq(np.vstack([design(t) for t in trained]),
@@ -227,7 +226,7 @@ def paper_004(folder: Path) -> None:
     measured = data.columns["E_z_um"]
     mapes = []
     for request in (FitRequest("bayes", "E_z_um", temps, train_rows=split),
-                    FitRequest("bayes", "E_z_um", temps, train_rows=split, unseen="frequent"),
+                    FitRequest("bayes", "E_z_um", temps, train_rows=split, settings={"unseen": "frequent"}),
                     FitRequest("mlr", "E_z_um", temps, train_rows=split)):
         model = fit([data], request)
         predicted = predict(model, model_inputs(model, data), "f64")["E_z_um"]

@@ -21,7 +21,6 @@ from thermoplc.base.errors import UserError
 from thermoplc.demo import AMBIENT, SPEED, recording
 from thermoplc.base import ridge
 from thermoplc.fitting.fit import FitRequest, fit
-from thermoplc.models.kalman import FitOptions
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.recordings.table import read_table
 
@@ -65,7 +64,7 @@ def sweep(table, channel: str, kinds, shares, choose: int = 0) -> None:
         started, found = time.perf_counter(), []
         for k in splits:
             request = FitRequest(kind, channel, every if choose else TEMPS, *extra, train_rows=k,
-                                 options=FitOptions(seed=0), choose_sensors=choose)
+                                 settings={"seed": 0}, choose_sensors=choose)
             try:
                 found.append(held_out_rmse(fit([table], request), table, k))
             except UserError:

@@ -1,18 +1,17 @@
 """Fitting a model from a table: pick the training rows, fit, measure, package as a model file."""
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import InitVar, dataclass, replace
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.identifiers import block_identifier, check_unique, identifier_problem
 from thermoplc.fitting import sensor_choice
-from thermoplc.models import kalman
 from thermoplc.models.kind import Part
-from thermoplc.models.kinds import kind_of, registry
+from thermoplc.models.kinds import kind_of, options, registry
 from thermoplc.models.modelfile import Model, Signal
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.fitting.leaks import refuse_leaks, refuse_non_temperatures
@@ -23,6 +22,7 @@ SAMPLING_TOLERANCE = 0.05  # relative deviation of a time step from the median s
 # fits every run again in each fold, and the checks (a copy of the target, a temperature range) depend
 # on the data alone
 _CHECKED: set[tuple] = set()
+LEGACY_OPTIONS = ("bins", "precision_um", "lags", "lag_step_s", "tool_length", "unseen", "time_bins")
 
 
 @dataclass(frozen=True)
@@ -35,16 +35,38 @@ class FitRequest:
     train_until: float | None = None
     train_rows: int | None = None
     block_name: str = "ThermalComp"
-    options: kalman.FitOptions = kalman.FitOptions()
-    bins: int = 8  # bayes: intervals per temperature
-    precision_um: float = 1.0  # bayes: interval width of the error
-    lags: int = 3  # dlag: lagged terms per sensor
-    lag_step_s: float = 600.0  # dlag: time between lags
-    extra_targets: tuple[str, ...] = ()  # bpnn: further outputs (elongation, yaw, pitch order for compensation)
-    tool_length: str | None = None  # bpnn: tool length column, mm (enables the X/Y/Z compensation outputs)
-    unseen: str = "nearest"  # bayes: what a configuration never seen in training answers
-    time_bins: int = 0  # bayes: intervals of the time since the first call, a parent when > 0 (repeated runs)
+    extra_targets: tuple[str, ...] = ()  # further targets (bpnn: elongation, yaw, pitch, the compensation's order)
     choose_sensors: int = 0  # at most this many of `temps` chosen on the training rows (fitting/sensor_choice.py)
+    # the kinds' own options given, by field (models/kind.py::KindOption: --bins is "bins"); one not given
+    # is its record's default. Held as sorted (field, value) pairs, so a request stays hashable
+    settings: Mapping[str, Any] | tuple[tuple[str, Any], ...] = ()
+    # the keywords these options had before the kinds declared them (issue 53): still taken and kept in
+    # `settings`, so old callers of thermoplc.api.FitRequest run unchanged; `options` takes a kalman.FitOptions
+    options: InitVar[Any] = None
+    bins: InitVar[int | None] = None
+    precision_um: InitVar[float | None] = None
+    lags: InitVar[int | None] = None
+    lag_step_s: InitVar[float | None] = None
+    tool_length: InitVar[str | None] = None
+    unseen: InitVar[str | None] = None
+    time_bins: InitVar[int | None] = None
+
+    def __post_init__(self, options_, *legacy) -> None:
+        declared = options()
+        given = dict(self.settings)
+        given.update({name: value for name, value in zip(LEGACY_OPTIONS, legacy) if value is not None})
+        if options_ is not None:
+            given.update({name: value for name, value in vars(options_).items() if name in declared})
+        for name, value in given.items():
+            if name not in declared:
+                raise UserError(f"fit option {name!r}: no kind reads it; the kinds' options are {', '.join(declared)}")
+            if why := declared[name].problem(value):
+                raise UserError(f"{declared[name].flag}: {why}")
+        object.__setattr__(self, "settings", tuple(sorted(given.items(), key=lambda item: item[0])))
+
+    def option(self, name: str) -> Any:
+        """A kind's own option as given, else its record's default."""
+        return dict(self.settings).get(name, options()[name].default)
 
 
 def training_rows(table: Table, time_column: str, until: float | None, rows: int | None) -> int:
@@ -117,12 +139,15 @@ def _refuse_misplaced_temps(request: FitRequest, time_column: str) -> None:
 def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
     signals = [Signal(block_identifier(c, "temperature"), c, "temperature", "degC") for c in request.temps]
     for owner in registry().values():
-        for option, text in owner.owns_options:
-            if getattr(request, option) and owner.name != request.kind:
+        owned = [*((getattr(request, name), text) for name, text in owner.owns_options),
+                 *((request.option(option.field), option.owned) for option in owner.options if option.owned)]
+        for given, text in owned:
+            if given and owner.name != request.kind:
                 raise UserError(f"{text} for --model {owner.name} only")
-    if request.tool_length:
-        signals.append(Signal(block_identifier(request.tool_length, "tool length"), request.tool_length,
-                              "tool_length", "mm"))
+    for option in options().values():  # an option naming a column the block reads (bpnn's --tool-length)
+        if option.column and (column := request.option(option.field)):
+            role, unit = option.column
+            signals.append(Signal(block_identifier(column, role.replace("_", " ")), column, role, unit))
     kind = kind_of(request.kind)
     for role in kind.roles:
         column = getattr(request, role)

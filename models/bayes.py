@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from thermoplc.base.errors import UserError
-from thermoplc.models.kind import Kind
+from thermoplc.models.kind import Kind, KindOption
 from thermoplc.models.modelfile import Coefficient, Model
 
 MAX_CONFIGURATIONS = 4096  # table entries in the block
@@ -158,8 +158,8 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
 
 
 def _fit(parts, request, names, dt, progress):
-    return fit_bayes([(p.temps, p.target) for p in parts], request.bins, request.precision_um, request.unseen,
-                     request.time_bins, dt)
+    return fit_bayes([(p.temps, p.target) for p in parts], request.option("bins"), request.option("precision_um"),
+                     request.option("unseen"), request.option("time_bins"), dt)
 
 
 def check_settings(model: Model, path: str) -> None:
@@ -185,8 +185,18 @@ SETTINGS_SCHEMA = {
                    "unseen": {"enum": list(UNSEEN_RULES)},
                    "time_parent": {"type": "boolean"}}}
 
-KIND = Kind("bayes", 7, _fit, predict, owns_options=(("time_bins", "--time-bins is"),),
-            reads_options=("bins", "precision_um", "unseen"),
+OPTIONS = (
+    KindOption("bins", "--bins", 8, "intervals per temperature (default: %(default)s)", number=(int, 1, 4096, "intervals")),
+    KindOption("precision_um", "--precision-um", 1.0, "interval width of the error, the precision requirement "
+               "(default: %(default)s)", number=(float, 1e-3, 1e6, "micrometres")),
+    KindOption("unseen", "--unseen", UNSEEN_RULES[0], "a temperature configuration never seen in training answers as "
+               "the nearest seen one, or the error interval most frequent overall (default: %(default)s)",
+               choices=UNSEEN_RULES),
+    KindOption("time_bins", "--time-bins", 0, "the time since the first call is a parent too, in N intervals (paper "
+               "004's repeated runs: give one --data file per run; default: %(default)s, no time parent)",
+               number=(int, 0, 4096, "intervals"), metavar="N", owned="--time-bins is"),
+)
+KIND = Kind("bayes", 7, _fit, predict, options=OPTIONS,
             auto="closed-form",
             settings_schema=SETTINGS_SCHEMA, check_settings=check_settings,
             streamable=lambda model: not model.settings.get("time_parent"))

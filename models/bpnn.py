@@ -23,9 +23,9 @@ from typing import Callable
 import numpy as np
 
 from thermoplc.base.errors import UserError
-from thermoplc.models.ga import genetic_minimize, step_reporter
+from thermoplc.models.ga import GA_OPTIONS, genetic_minimize, step_reporter
 from thermoplc.base.identifiers import block_identifier
-from thermoplc.models.kind import Kind
+from thermoplc.models.kind import Kind, KindOption
 from thermoplc.models.modelfile import Coefficient, Model
 
 PADE_P = (1.0, 17325 / 135135, 378 / 135135, 1 / 135135)
@@ -282,12 +282,12 @@ def _unit_of(column: str) -> str:
 def _fit(parts, request, names, dt, progress):
     rises = np.vstack([p.rises[p.measured] for p in parts])
     targets = np.vstack([np.column_stack([p.target, p.extra])[p.measured] for p in parts])
-    coefficients, settings, log = fit_bpnn(rises, targets, names, request.options.seed,
-                                           request.options.population, request.options.generations,
-                                           operators=request.options.ga_operators, progress=progress)
+    coefficients, settings, log = fit_bpnn(rises, targets, names, request.option("seed"), request.option("population"),
+                                           request.option("generations"), operators=request.option("ga_operators"),
+                                           progress=progress)
     settings["targets"] = [{"name": block_identifier(c, "target"), "column": c, "unit": _unit_of(c)}
                            for c in (request.target, *request.extra_targets)]
-    if request.tool_length:
+    if request.option("tool_length"):
         if len(settings["targets"]) < 3:
             raise UserError("--tool-length needs three targets: axial elongation (um), yaw and pitch (urad)")
         coefficients["um_per_mm_urad"] = Coefficient.of(1e-3)
@@ -314,7 +314,15 @@ SETTINGS_SCHEMA = {
                                                         "column": {"type": "string"},
                                                         "unit": {"enum": ["um", "urad"]}}}}}}
 
-KIND = Kind("bpnn", 8, _fit, predict, owns_options=(("extra_targets", "several targets are"),
-                                                   ("tool_length", "--tool-length is")),
-            reads_options=("seed", "population", "generations", "ga_operators"), auto="iterative",
+OPTIONS = (
+    *GA_OPTIONS,
+    KindOption("ga_operators", "--ga-operators", "paper002", "the GA's crossover and mutation, paper 002's "
+               "single-point crossover and one mutated position, or paper 000's arithmetic crossover and Gaussian "
+               "mutation (default: %(default)s; benchmarks/ga_operators.py compares them held out)",
+               choices=("paper002", "paper000")),
+    KindOption("tool_length", "--tool-length", None, "tool length column, mm; adds paper 002's X/Y/Z compensation "
+               "outputs", metavar="COLUMN", column=("tool_length", "mm"), owned="--tool-length is"),
+)
+KIND = Kind("bpnn", 8, _fit, predict, owns_options=(("extra_targets", "several targets are"),), options=OPTIONS,
+            auto="iterative",
             settings_schema=SETTINGS_SCHEMA, check_settings=check_settings)

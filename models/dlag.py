@@ -9,7 +9,7 @@ import numpy as np
 
 from thermoplc.base.binary32 import INT_RANGES
 from thermoplc.base.errors import UserError
-from thermoplc.models.kind import Increments, Kind, Part, measured_counts, measured_rows
+from thermoplc.models.kind import Increments, Kind, KindOption, Part, measured_counts, measured_rows
 from thermoplc.models.mlr import least_squares, weight_by
 from thermoplc.models.modelfile import Coefficient, Model
 
@@ -69,7 +69,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
 
 
 def _fit(parts, request, names, dt, progress):
-    return fit_dlag(parts, names, request.lags, request.lag_step_s, dt)
+    return fit_dlag(parts, names, request.option("lags"), request.option("lag_step_s"), dt)
 
 
 class StreamCore:
@@ -119,5 +119,10 @@ SETTINGS_SCHEMA = {
 INCREMENTS = Increments(lambda part, settings: _columns(part, settings["lags"], settings["lag_step_samples"]),
                         lambda settings, sensors: [f"beta_{i}_{lag}" for i in range(1, sensors + 1)
                                                    for lag in range(settings["lags"] + 1)])
-KIND = Kind("dlag", 4, _fit, predict, reads_options=("lags", "lag_step_s"), auto="closed-form", auto_sensors=8,
+OPTIONS = (
+    KindOption("lags", "--lags", 3, "lagged terms per sensor (default: %(default)s)", number=(int, 1, 1000, "lags")),
+    KindOption("lag_step_s", "--lag-step", 600.0, "time between lags (default: %(default)s)",
+               number=(float, 1e-3, 1e7, "seconds"), metavar="SECONDS"),
+)
+KIND = Kind("dlag", 4, _fit, predict, options=OPTIONS, auto="closed-form", auto_sensors=8,
             settings_schema=SETTINGS_SCHEMA, stream_core=StreamCore, increments=INCREMENTS)

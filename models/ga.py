@@ -17,7 +17,17 @@ from typing import Callable
 
 import numpy as np
 
+from thermoplc.models.kind import KindOption
+
 REDRAW_LIMIT = 50
+# the options of a fit by GA or DE, read by kalman and bpnn alike
+GA_OPTIONS = (
+    KindOption("seed", "--seed", 0, "random seed of the optimiser (default: %(default)s)", number=(int, 0, 2 ** 32 - 1, "a seed")),
+    KindOption("generations", "--generations", 60, "generations of the GA or DE (default: %(default)s)",
+               number=(int, 1, 10000, "generations")),
+    KindOption("population", "--population", 40, "individuals per generation (default: %(default)s)",
+               number=(int, 2, 10000, "individuals")),
+)
 
 
 @dataclass(frozen=True)

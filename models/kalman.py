@@ -10,7 +10,7 @@ then E = beta0 + sum_i beta_i*(TF_i - T0_i) with T0_i the measured temperature a
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Callable
 
 import numpy as np
@@ -19,9 +19,9 @@ from thermoplc.base.binary32 import round_f32
 from thermoplc.base import compiled
 from thermoplc.models import kernels
 from thermoplc.physics import lumped
-from thermoplc.models.ga import genetic_minimize, step_reporter
+from thermoplc.models.ga import GA_OPTIONS, genetic_minimize, step_reporter
 from thermoplc.models.mlr import least_squares
-from thermoplc.models.kind import Kind, Part, fault_key, measured_counts
+from thermoplc.models.kind import Kind, KindOption, Part, fault_key, measured_counts
 from thermoplc.models.modelfile import Coefficient, Model
 
 
@@ -41,7 +41,6 @@ class FitOptions:
     generations: int = 60
     jump_limit: float | None = None  # K; default from the training data
     recover_limit: float | None = None
-    ga_operators: str = "paper002"  # bpnn: the GA's crossover and mutation, models/ga.py OPERATORS
 
 
 def predict(model: Model, inputs: dict, precision: str, valid: dict | None = None) -> dict:
@@ -251,7 +250,19 @@ def fit_kalman(parts: list[Part], dt: float, names: list[str], options: FitOptio
 
 
 def _fit(parts, request, names, dt, progress):
-    return fit_kalman(parts, dt, names, request.options, progress)
+    options = FitOptions(**{field.name: request.option(field.name) for field in fields(FitOptions)})
+    return fit_kalman(parts, dt, names, options, progress)
+
+
+OPTIONS = (
+    KindOption("optimizer", "--optimizer", "ga", "ga: paper 000's genetic algorithm; de: scipy differential evolution",
+               choices=("ga", "de")),
+    *GA_OPTIONS,
+    KindOption("jump_limit", "--jump-limit", None, "K per call that marks a sensor faulty (default from data)",
+               number=(float, 1e-6, 1e3, "kelvin")),
+    KindOption("recover_limit", "--recover-limit", None, "K between measurement and model to recover (default from "
+               "data)", number=(float, 1e-6, 1e3, "kelvin")),
+)
 
 
 class StreamCore:
@@ -279,6 +290,6 @@ class StreamCore:
 
 
 KIND = Kind("kalman", 2, _fit, predict, roles=("speed", "ambient"), fused_guards=True, ambient_apart=True,
-            reads_options=("optimizer", "seed", "population", "generations", "jump_limit", "recover_limit"),
+            options=OPTIONS,
             auto="iterative", settings_schema={"type": "object", "properties": {"sensors": {"type": "array"}}},
             stream_core=StreamCore)

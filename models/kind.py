@@ -88,6 +88,36 @@ def _no_settings_check(model: "Model", path: str) -> None:
 
 
 @dataclass(frozen=True)
+class KindOption:
+    """One of a kind's own fit options, declared by its record: `fit` builds its flag, help and check from this,
+    `FitRequest.settings` carries it and the fitter reads it with `request.option(field)`. Kinds that read the
+    same option declare the same record (kalman and bpnn share the GA's, models/ga.py)."""
+    field: str  # its key in FitRequest.settings
+    flag: str  # its command-line option
+    default: Any
+    help: str  # argparse help; "%(default)s" shows the default
+    number: tuple[type, float, float, str] | None = None  # a number: int or float, its range, what it counts
+    choices: tuple[str, ...] | None = None  # else one of these words
+    metavar: str | None = None
+    column: tuple[str, str] | None = None  # its value names a column the block reads: (role, unit)
+    owned: str | None = None  # refused for any other kind, in these words ("--time-bins is")
+
+    def problem(self, value: Any) -> str | None:
+        """Why `value` is not one this option takes, in the words the command line uses, or None."""
+        if self.choices is not None and value not in self.choices:
+            return f"expected one of {', '.join(self.choices)}, found {value!r}"
+        if self.number is not None and value is not None:
+            kind, low, high, what = self.number
+            number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+            if not number or (kind is int and int(value) != value) or not low <= value <= high:
+                shown = (lambda v: f"{int(v):,}") if kind is int else (lambda v: f"{v:g}")
+                return f"expected {what} from {shown(low)} to {shown(high)}, found {value!r}"
+        if self.column is not None and value is not None and not isinstance(value, str):
+            return f"expected a column name, found {value!r}"
+        return None
+
+
+@dataclass(frozen=True)
 class Kind:
     name: str  # the model file's `kind` and `fit --model NAME`
     order: int  # position in listings (help, errors, the schema enum): the papers' order, not the alphabet
@@ -101,9 +131,9 @@ class Kind:
     ambient_apart: bool = False  # the ambient drives every temperature, so it may not be one of them
     # FitRequest fields no other kind may set: (field, what the error says of it, with its verb)
     owns_options: tuple[tuple[str, str], ...] = ()
-    # further FitRequest / kalman.FitOptions fields its fitter reads (beside the target, the temperatures
-    # and the training part); `fit` refuses such an option given for a kind that does not read it
-    reads_options: tuple[str, ...] = ()
+    # its own options (beside the target, the temperatures and the training part): `fit` refuses one given
+    # for a kind that does not read it
+    options: tuple[KindOption, ...] = ()
     auto: str | None = None  # "closed-form" (tried on every sensor set), "iterative" (on the best), None
     # how many of --temps `auto` lets it choose on a campaign: a ridge-shrunk linear map takes more sensors
     # to its gain (FL_THERMAL in 6 h runs: mlr and dlag 1.0-1.3x a ridge on all 15 with 8, 1.3-1.5x with 4),
@@ -118,6 +148,6 @@ class Kind:
     increments: Increments | None = None  # a linear kind: its slopes may be refitted for a fused block
 
     def reads(self, field: str) -> bool:
-        """Whether its fit reads this FitRequest or FitOptions field, an option it owns or reads (the
-        input roles, `--speed` and `--ambient`, name columns of the recording, not options of a fit)."""
-        return field in self.reads_options or field in dict(self.owns_options)
+        """Whether its fit reads this FitRequest field or option, one it owns or reads (the input roles,
+        `--speed` and `--ambient`, name columns of the recording, not options of a fit)."""
+        return field in dict(self.owns_options) or any(option.field == field for option in self.options)

@@ -8,7 +8,7 @@ import importlib
 import pkgutil
 
 from thermoplc.base.errors import UserError
-from thermoplc.models.kind import Kind
+from thermoplc.models.kind import Kind, KindOption
 
 
 @functools.cache
@@ -30,8 +30,20 @@ def names() -> tuple[str, ...]:
     return tuple(registry())
 
 
+@functools.cache
+def options() -> dict[str, KindOption]:
+    """Every kind's own options by field, in the papers' order of the kinds that declare them; kinds that read
+    the same option declare the same record."""
+    found: dict[str, KindOption] = {}
+    for kind in registry().values():
+        for option in kind.options:
+            if found.setdefault(option.field, option) != option:
+                raise RuntimeError(f"option {option.field!r} is declared two ways: by {kind.name} and before it")
+    return found
+
+
 def readers(field: str) -> tuple[Kind, ...]:
-    """The kinds whose fit reads this FitRequest or FitOptions field (Kind.reads), in the papers' order."""
+    """The kinds whose fit reads this FitRequest field or option (Kind.reads), in the papers' order."""
     return tuple(kind for kind in registry().values() if kind.reads(field))
 
 

@@ -23,7 +23,6 @@ from thermoplc.diagnosis.command import augmented_model  # noqa: E402
 from thermoplc.diagnosis.runs import DiagnoseRequest, series_of  # noqa: E402
 from thermoplc.physics import simulation  # noqa: E402
 from thermoplc.fitting.fit import FitRequest, fit, sample_period  # noqa: E402
-from thermoplc.models.kalman import FitOptions  # noqa: E402
 from thermoplc.models.modelfile import Model, load_model  # noqa: E402
 from thermoplc.models.probing import Fusion  # noqa: E402
 from thermoplc.recordings.table import read_table  # noqa: E402
@@ -55,9 +54,9 @@ def refit(folder: Path, kinds: tuple[str, ...]) -> None:
             continue
         bpnn = kind == "bpnn"
         request = FitRequest(FIT_KIND.get(kind, kind), "E_z_um", ("T_motor", "T_bearing"), "n_rpm", "T_env", train_until=6 * 3600.0,
-                             options=FitOptions(seed=1, population=20, generations=10),
-                             extra_targets=("yaw_urad", "pitch_urad") if bpnn else (),
-                             tool_length="tool_length_mm" if bpnn else None)
+                             settings={"seed": 1, "population": 20, "generations": 10,
+                                       **({"tool_length": "tool_length_mm"} if bpnn else {})},
+                             extra_targets=("yaw_urad", "pitch_urad") if bpnn else ())
         tables = batches if kind == "piecewise" else [table]
         (GOLDEN / f"{kind}.json").write_text(fit(tables, request).to_json())
     for fused, kind in FUSED.items():  # the static golden with a fusion that keeps a rate and decays its offset

@@ -6,7 +6,6 @@ import thermoplc  # noqa: F401  (first: it sets the BLAS thread count before num
 import pytest
 
 from thermoplc.fitting.fit import FitRequest, fit
-from thermoplc.models.kalman import FitOptions
 from thermoplc.recordings.table import read_table, write_table
 from thermoplc.machines.cascade import simulate
 
@@ -30,7 +29,7 @@ def twin_table(twin_csv):
 def fit_small(table, kind: str, **options):
     request = FitRequest(kind, "E_z_um", TEMPS, "n_rpm" if kind == "kalman" else None,
                          "T_env" if kind == "kalman" else None, train_until=4 * 3600.0,
-                         options=FitOptions(population=12, generations=4, **options))
+                         settings={"population": 12, "generations": 4, **options})
     return fit([table], request)
 
 

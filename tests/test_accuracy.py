@@ -7,7 +7,6 @@ import pytest
 from thermoplc.models import grey
 from thermoplc.models.dlag import fit_dlag, lagged
 from thermoplc.fitting.fit import FitRequest, fit
-from thermoplc.models.kalman import FitOptions
 from thermoplc.models.mlr import fit_mlr
 from thermoplc.recordings.table import read_table, write_table
 from thermoplc.machines.cascade import simulate
@@ -29,7 +28,7 @@ def twin(tmp_path_factory):
 def _fit(table, kind: str):
     extra = ("n_rpm", "T_env") if kind in ("kalman", "lumped") else (None, None)
     return fit([table], FitRequest(kind, "E_z_um", ("T_motor", "T_bearing"), *extra, train_rows=table.rows // 2,
-                                   options=FitOptions(seed=0)))
+                                   settings={"seed": 0}))
 
 
 @pytest.mark.parametrize("kind", sorted(FACTOR_OF_MLR))

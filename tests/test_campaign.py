@@ -9,7 +9,6 @@ import pytest
 from tests.cli_runner import thermoplc
 from thermoplc.machines.campaign import plan, simulate_run
 from thermoplc.fitting.fit import FitRequest, fit
-from thermoplc.models.kalman import FitOptions
 from thermoplc.models.modelfile import load_model
 from thermoplc.recordings.table import Table, read_table, write_table
 from thermoplc.verifier.replay import block_columns, load_block
@@ -47,7 +46,7 @@ def test_a_reset_replay_equals_a_fresh_block_per_run(tmp_path, kind):
     the block as a new instance would, except the outputs, which the rate limiter moves)."""
     first, second = _runs()
     request = FitRequest(kind=kind, target="E_z_um", temps=("T_motor", "T_bearing"), speed="n_rpm", ambient="T_env",
-                         train_until=math.inf, options=FitOptions(population=8, generations=3))
+                         train_until=math.inf, settings={"population": 8, "generations": 3})
     model = fit([first, second], request)
     (tmp_path / "m.json").write_text(model.to_json())
     thermoplc("generate", "m.json", "-o", "b.st", "--dialect", "iec", "--accept-unvalidated", cwd=tmp_path)

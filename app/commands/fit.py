@@ -11,7 +11,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_outputs, write_outputs
 from thermoplc.commands import json_output
 from thermoplc.commands.fit_options import Given, refuse_options_not_read
-from thermoplc.commands.options import (DECIMAL, FORCE_HELP, RESAMPLE, SEED, campaign_arguments, columns, examples,
+from thermoplc.commands.options import (DECIMAL, FORCE_HELP, RESAMPLE, campaign_arguments, columns, examples,
                                         named, number, scheduler_address, training_part)
 from thermoplc.commands.terminal import end_progress, progress
 
@@ -32,7 +32,6 @@ class _KindChoices:
 
 
 def add_parser(sub) -> None:
-    from thermoplc.models.bayes import UNSEEN_RULES
     p = sub.add_parser(
         "fit", help="fit a thermal-error model to a recording or a campaign of runs",
         description="Fit a thermal-error model to a recording or a campaign of runs (CSV, .npz,\n"
@@ -51,7 +50,7 @@ def add_parser(sub) -> None:
     model = p.add_argument_group("model")
     evaluation = p.add_argument_group("training part and held-out evidence")
     probing = p.add_argument_group("probe fusion (docs/probing.md)")
-    kinds = p.add_argument_group("kind-specific (each refused for a kind that does not read it)")
+    kinds = _kind_groups(p)
     output = p.add_argument_group("output")
     campaign_arguments(data, "each started as a fresh block (piecewise: one run per batch, its initial ambient read "
                           "from each)", " and free attribute columns (hall air setpoint, programme, date, ...)")
@@ -101,34 +100,7 @@ def add_parser(sub) -> None:
                             help="with --folds or --group-by: fit the folds as tasks of the Dask distributed cluster whose "
                                  "scheduler is at ADDRESS (tcp://HOST:PORT; the fleet extra) while this process fits on every "
                                  "row; every worker reads the runs by the paths given. The same model file, bit for bit")
-    kinds.add_argument("--optimizer", choices=("ga", "de"), default="ga",
-                       help="ga: paper 000's genetic algorithm; de: scipy differential evolution")
-    kinds.add_argument("--seed", type=SEED, default=0, help="random seed of the optimiser (default: %(default)s)")
-    kinds.add_argument("--generations", type=number(int, 1, 10000, "generations"), default=60,
-                       help="generations of the GA or DE (default: %(default)s)")
-    kinds.add_argument("--population", type=number(int, 2, 10000, "individuals"), default=40,
-                       help="individuals per generation (default: %(default)s)")
-    kinds.add_argument("--ga-operators", choices=("paper002", "paper000"), default="paper002",
-                       help="bpnn: the GA's crossover and mutation, paper 002's single-point crossover and one mutated "
-                            "position, or paper 000's arithmetic crossover and Gaussian mutation (default: %(default)s; "
-                            "benchmarks/ga_operators.py compares them held out)")
-    kinds.add_argument("--jump-limit", type=number(float, 1e-6, 1e3, "kelvin"), help="K per call that marks a sensor faulty (default from data)")
-    kinds.add_argument("--recover-limit", type=number(float, 1e-6, 1e3, "kelvin"), help="K between measurement and model to recover (default from data)")
-    kinds.add_argument("--bins", type=number(int, 1, 4096, "intervals"), default=8, help="bayes: intervals per temperature (default: %(default)s)")
-    kinds.add_argument("--precision-um", type=number(float, 1e-3, 1e6, "micrometres"), default=1.0,
-                       help="bayes: interval width of the error, the precision requirement (default: %(default)s)")
-    kinds.add_argument("--unseen", choices=UNSEEN_RULES, default=UNSEEN_RULES[0],
-                       help="bayes: a temperature configuration never seen in training answers as the nearest seen one, "
-                            "or the error interval most frequent overall (default: %(default)s)")
-    kinds.add_argument("--time-bins", type=number(int, 0, 4096, "intervals"), default=0, metavar="N",
-                       help="bayes: the time since the first call is a parent too, in N intervals (paper 004's repeated "
-                            "runs: give one --data file per run; default: %(default)s, no time parent)")
-    kinds.add_argument("--lags", type=number(int, 1, 1000, "lags"), default=3, help="dlag: lagged terms per sensor (default: %(default)s)")
-    kinds.add_argument("--lag-step", type=number(float, 1e-3, 1e7, "seconds"), default=600.0, metavar="SECONDS",
-                       dest="lag_step_s",
-                       help="dlag: time between lags (default: %(default)s)")
-    kinds.add_argument("--tool-length", metavar="COLUMN",
-                       help="bpnn: tool length column, mm; adds paper 002's X/Y/Z compensation outputs")
+    _kind_options(kinds)
     model.add_argument("--name", default="ThermalComp",
                        help="function block name, kept in the model file (generate --name overrides it) (default: %(default)s)")
     data.add_argument("--decimal", **DECIMAL)
@@ -137,6 +109,29 @@ def add_parser(sub) -> None:
     output.add_argument("-o", "--output", required=True, help="model file to write (JSON)")
     json_output.add_arguments(output, force=False)
     p.set_defaults(func=run)
+
+
+def _kind_groups(p: argparse.ArgumentParser) -> dict[tuple[str, ...], argparse._ArgumentGroup]:
+    """A help group for each set of kinds that read the same options (models/kind.py::KindOption)."""
+    from thermoplc.models.kinds import options, readers
+    groups = {}
+    for option in options().values():
+        names = tuple(kind.name for kind in readers(option.field))
+        if names not in groups:
+            groups[names] = p.add_argument_group(f"{' and '.join(names)} only (refused for any other kind)")
+    return groups
+
+
+def _kind_options(groups: dict[tuple[str, ...], argparse._ArgumentGroup]) -> None:
+    """Each kind's own options as its record declares them: flag, default, help and the check of its value;
+    each is refused for a kind that does not read it (fit_options.py)."""
+    from thermoplc.models.kinds import options, readers
+    for option in options().values():
+        parse = number(*option.number) if option.number else None
+        group = groups[tuple(kind.name for kind in readers(option.field))]
+        group.add_argument(option.flag, dest=option.field, default=option.default, help=option.help,
+                           **({"type": parse} if parse else {}), **({"choices": option.choices} if option.choices else {}),
+                           **({"metavar": option.metavar} if option.metavar else {}))
 
 
 def _refuse_nothing_held_out(args: argparse.Namespace, table) -> None:
@@ -179,18 +174,14 @@ def run(args: argparse.Namespace) -> int:
     from thermoplc.fitting.acceptance import refusal
     from thermoplc.fitting.crossval import fit_held_out
     from thermoplc.fitting.fit import FitRequest
-    from thermoplc.models.kalman import FitOptions
+    from thermoplc.models.kinds import options
     from thermoplc.recordings.campaign import read_campaign, run_list
     from thermoplc.pipeline import becomes_block
     from thermoplc.commands.fit_report import INDEX, is_report_file, report_files, report_names
-    options = FitOptions(args.optimizer, args.seed, args.population, args.generations, args.jump_limit,
-                         args.recover_limit, args.ga_operators)
     request = FitRequest(kind=args.model, target=args.target[0], temps=args.temps, speed=args.speed,
                          ambient=args.ambient, train_until=args.train_until, train_rows=args.train_rows,
-                         block_name=args.name, options=options, bins=args.bins, precision_um=args.precision_um,
-                         lags=args.lags, lag_step_s=args.lag_step_s, extra_targets=args.target[1:],
-                         tool_length=args.tool_length, unseen=args.unseen, time_bins=args.time_bins,
-                         choose_sensors=args.choose_sensors)
+                         block_name=args.name, extra_targets=args.target[1:], choose_sensors=args.choose_sensors,
+                         settings={field: getattr(args, field) for field in options()})
     refuse_options_not_read(args, request)
     if args.choose_sensors and args.model == "auto":
         raise UserError("--choose-sensors is for one kind: --model auto chooses its sensor sets itself")
