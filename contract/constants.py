@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import re
 
-from thermoplc.base.binary32 import round_f32
 from thermoplc.base.errors import UserError
+from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
 from thermoplc.models.probing import COUNT_MAX, REJOIN
 from thermoplc.models.safety import Limits, axis_outputs, guards
@@ -82,21 +82,17 @@ def required(model: Model) -> set[str]:
     return set(structure(model)) | {limit_name(key) for key in keys}
 
 
+def structure_name(key: str) -> str:
+    """The block constant of a structure value its kind's record keys by what it is: `len` is `c_Len`,
+    `lag_2` is `c_Lag_2`, `k_1` is `c_K_1`."""
+    return CONSTANT_PREFIX + "_".join(part if part.isdigit() else part.capitalize() for part in key.split("_"))
+
+
 def structure(model: Model) -> dict:
-    """Constants the settings fix (INT as int, REAL as binary32 float): what a kind's block counts with."""
-    s = model.settings
+    """Constants the settings fix (INT as int, REAL as binary32 float): what a kind's block counts with, as
+    its record says (Kind.structure), named by `structure_name`."""
     out: dict = {"c_Zero": 0.0}
-    if model.kind == "dlag":
-        step, lags = s["lag_step_samples"], s["lags"]
-        out.update({"c_One": 1, "c_Len": lags * step + 1, "c_Last": lags * step})
-        out.update({f"c_Lag_{lag}": lag * step for lag in range(lags + 1)})
-    elif model.kind == "bayes":
-        counts = s["intervals"]
-        out.update({f"c_K_{i}": counts[i - 1] for i in range(1, len(counts))})
-        if s.get("time_parent"):
-            out["c_Dt"] = round_f32(model.sample_period_s)
-    elif model.kind == "piecewise":
-        out["c_One"] = 1.0
+    out.update({structure_name(key): value for key, value in kind_of(model.kind).structure(model).items()})
     if model.probe is not None:
         out.update(probe_constants(model))
     return out

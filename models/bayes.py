@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 
+from thermoplc.base.binary32 import round_f32
 from thermoplc.base.errors import UserError
 from thermoplc.models.kind import Kind, KindOption
 from thermoplc.models.modelfile import Coefficient, Model
@@ -196,7 +197,16 @@ OPTIONS = (
                "004's repeated runs: give one --data file per run; default: %(default)s, no time parent)",
                number=(int, 0, 4096, "intervals"), metavar="N", owned="--time-bins is"),
 )
-KIND = Kind("bayes", 7, _fit, predict, options=OPTIONS,
+def structure(model: Model) -> dict:
+    """The interval counts the configuration index multiplies by, and the seconds per call of a time parent."""
+    counts = model.settings["intervals"]
+    out = {f"k_{i}": counts[i - 1] for i in range(1, len(counts))}
+    if model.settings.get("time_parent"):
+        out["dt"] = round_f32(model.sample_period_s)
+    return out
+
+
+KIND = Kind("bayes", 7, "004", _fit, predict, options=OPTIONS, structure=structure,
             auto="closed-form",
             settings_schema=SETTINGS_SCHEMA, check_settings=check_settings,
             streamable=lambda model: not model.settings.get("time_parent"))

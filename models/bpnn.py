@@ -323,6 +323,7 @@ OPTIONS = (
     KindOption("tool_length", "--tool-length", None, "tool length column, mm; adds paper 002's X/Y/Z compensation "
                "outputs", metavar="COLUMN", column=("tool_length", "mm"), owned="--tool-length is"),
 )
-KIND = Kind("bpnn", 8, _fit, predict, owns_options=(("extra_targets", "several targets are"),), options=OPTIONS,
+KIND = Kind("bpnn", 8, "002", _fit, predict, owns_options=(("extra_targets", "several targets are"),),
+            options=OPTIONS,
             auto="iterative",
             settings_schema=SETTINGS_SCHEMA, check_settings=check_settings)

@@ -124,5 +124,12 @@ OPTIONS = (
     KindOption("lag_step_s", "--lag-step", 600.0, "time between lags (default: %(default)s)",
                number=(float, 1e-3, 1e7, "seconds"), metavar="SECONDS"),
 )
-KIND = Kind("dlag", 4, _fit, predict, options=OPTIONS, auto="closed-form", auto_sensors=8,
+def structure(model: Model) -> dict:
+    """The ring buffer the block keeps: its step, length, last index and each lag's distance, in samples."""
+    step, lags = model.settings["lag_step_samples"], model.settings["lags"]
+    return {"one": 1, "len": lags * step + 1, "last": lags * step, **{f"lag_{lag}": lag * step for lag in range(lags + 1)}}
+
+
+KIND = Kind("dlag", 4, "001", _fit, predict, options=OPTIONS, structure=structure, auto="closed-form",
+            auto_sensors=8,
             settings_schema=SETTINGS_SCHEMA, stream_core=StreamCore, increments=INCREMENTS)

@@ -320,11 +320,11 @@ class StreamCore:
         return {self.target: out}
 
 
-GM0N = Kind("gm0n", 5, lambda parts, request, names, dt, progress: fit_choosing("gm0n", parts, names, fit_gm0n),
+GM0N = Kind("gm0n", 5, "003", lambda parts, request, names, dt, progress: fit_choosing("gm0n", parts, names, fit_gm0n),
             predict_gm0n, auto="closed-form",
             settings_schema={"type": "object", "properties": {"a": {"type": "number"}, "rises": {"type": "boolean"}}},
             stream_core=StreamCore)
-GM1N = Kind("gm1n", 6, lambda parts, request, names, dt, progress: fit_choosing(
+GM1N = Kind("gm1n", 6, "003", lambda parts, request, names, dt, progress: fit_choosing(
                 "gm1n", parts, names, lambda runs, labels, rises: fit_gm1n(runs, labels, dt, rises)),
             predict_gm1n, auto="closed-form",
             settings_schema={"type": "object", "properties": {"a": {"type": "number"},

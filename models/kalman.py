@@ -289,7 +289,7 @@ class StreamCore:
         return out
 
 
-KIND = Kind("kalman", 2, _fit, predict, roles=("speed", "ambient"), fused_guards=True, ambient_apart=True,
+KIND = Kind("kalman", 2, "000", _fit, predict, roles=("speed", "ambient"), fused_guards=True, ambient_apart=True,
             options=OPTIONS,
             auto="iterative", settings_schema={"type": "object", "properties": {"sensors": {"type": "array"}}},
             stream_core=StreamCore)

@@ -83,6 +83,10 @@ def _always(model: "Model") -> bool:
     return True
 
 
+def _no_structure(model: "Model") -> dict:
+    return {}
+
+
 def _no_settings_check(model: "Model", path: str) -> None:
     """Kinds whose settings the JSON schema describes completely."""
 
@@ -121,6 +125,7 @@ class KindOption:
 class Kind:
     name: str  # the model file's `kind` and `fit --model NAME`
     order: int  # position in listings (help, errors, the schema enum): the papers' order, not the alphabet
+    paper: str  # the paper it comes from (docs/references.md): "000" .. "004"
     fit: Fitter
     predict: Predictor  # the reference: float64 (ideal) or binary32 (what the block computes), per call
     roles: tuple[str, ...] = ()  # input roles the block reads beside its temperatures
@@ -146,6 +151,9 @@ class Kind:
     stream_core: type | None = None
     streamable: Callable[["Model"], bool] = _always
     increments: Increments | None = None  # a linear kind: its slopes may be refitted for a fused block
+    # what its settings fix that its block counts with (a ring buffer's length, an interval count), keyed by
+    # what it is ("len", "lag_2", "k_1"); the contract names each in the block (contract/constants.py)
+    structure: Callable[["Model"], dict] = _no_structure
 
     def reads(self, field: str) -> bool:
         """Whether its fit reads this FitRequest field or option, one it owns or reads (the input roles,

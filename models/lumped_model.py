@@ -333,5 +333,5 @@ SETTINGS_SCHEMA = {
                    "relay_sensor": {"type": "integer", "minimum": 1},
                    "speed_table_segments": {"type": "integer", "minimum": 0, "maximum": 4096}}}
 
-KIND = Kind("lumped", 9, _fit, predict, roles=("speed", "ambient"), ambient_apart=True, auto="iterative",
+KIND = Kind("lumped", 9, "000", _fit, predict, roles=("speed", "ambient"), ambient_apart=True, auto="iterative",
             settings_schema=SETTINGS_SCHEMA, check_settings=check_settings, stream_core=StreamCore)

@@ -107,5 +107,6 @@ SETTINGS_SCHEMA = {
                              "items": {"type": "object", "required": ["node_C"],
                                        "properties": {"node_C": {"type": "number"}}}}}}
 
-KIND = Kind("piecewise", 3, _fit, predict, roles=("ambient",), settings_schema=SETTINGS_SCHEMA,
+KIND = Kind("piecewise", 3, "001", _fit, predict, roles=("ambient",), settings_schema=SETTINGS_SCHEMA,
+            structure=lambda model: {"one": 1.0},  # the weight of a single node
             check_settings=check_settings)

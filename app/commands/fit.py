@@ -55,13 +55,12 @@ def add_parser(sub) -> None:
     campaign_arguments(data, "each started as a fresh block (piecewise: one run per batch, its initial ambient read "
                           "from each)", " and free attribute columns (hall air setpoint, programme, date, ...)")
     model.add_argument("--model", choices=_KindChoices(), metavar="KIND", required=True,
-                       help="kalman (paper 000), lumped, mlr, dlag and piecewise (paper 001), bpnn (paper 002), gm0n and "
-                            "gm1n (paper 003), bayes (paper 004); auto: every kind the given roles allow on sensor "
-                            "sets from --temps (forward selection and fcm-grey), ranked by held-out RMSE, the best written")
+                       help=f"{_by_paper()}; auto: every kind the given roles allow on sensor sets from --temps "
+                            "(forward selection and fcm-grey), ranked by held-out RMSE, the best written")
     model.add_argument("--target", type=columns, required=True,
-                       help="measured displacement column, um; bpnn takes several: elongation,yaw,pitch. A probed "
-                            "target may be empty between probings: the fit and every error use the measured rows, the "
-                            "temperatures every row")
+                       help=f"measured displacement column, um; {_reading('extra_targets')} takes several: "
+                            "elongation,yaw,pitch. A probed target may be empty between probings: the fit and every "
+                            "error use the measured rows, the temperatures every row")
     model.add_argument("--temps", type=columns, required=True,
                        help="temperature columns, comma-separated, or @FILE written by select-sensors -o; with "
                             "--choose-sensors the candidates")
@@ -69,8 +68,8 @@ def add_parser(sub) -> None:
                        help="choose at most N of --temps on the training rows (forward selection, each run left out "
                             "or the last third; every fold chooses again; on the first --target): the block reads the "
                             "chosen ones")
-    model.add_argument("--speed", help="spindle speed column, rpm (kalman, lumped; auto tries them only with it)")
-    model.add_argument("--ambient", help="ambient temperature column, degC (kalman, lumped, piecewise)")
+    model.add_argument("--speed", help=f"spindle speed column, rpm ({_with_role('speed')}; auto tries them only with it)")
+    model.add_argument("--ambient", help=f"ambient temperature column, degC ({_with_role('ambient')})")
     data.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
     part = training_part(evaluation, required=True)
     part.add_argument(
@@ -109,6 +108,25 @@ def add_parser(sub) -> None:
     output.add_argument("-o", "--output", required=True, help="model file to write (JSON)")
     json_output.add_arguments(output, force=False)
     p.set_defaults(func=run)
+
+
+def _by_paper() -> str:
+    """The kinds by the paper each comes from, as their records say."""
+    from thermoplc.models.kinds import registry
+    papers: dict[str, list[str]] = {}
+    for kind in registry().values():
+        papers.setdefault(kind.paper, []).append(kind.name)
+    return "; ".join(f"paper {paper}: {', '.join(names)}" for paper, names in sorted(papers.items()))
+
+
+def _with_role(role: str) -> str:
+    from thermoplc.models.kinds import registry
+    return ", ".join(kind.name for kind in registry().values() if role in kind.roles)
+
+
+def _reading(field: str) -> str:
+    from thermoplc.models.kinds import readers
+    return " and ".join(kind.name for kind in readers(field))
 
 
 def _kind_groups(p: argparse.ArgumentParser) -> dict[tuple[str, ...], argparse._ArgumentGroup]:
