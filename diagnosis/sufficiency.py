@@ -11,7 +11,6 @@ import numpy as np
 
 from thermoplc.diagnosis.windows import Window, rms
 from thermoplc.physics import primitives
-from thermoplc.physics import simulation as sim_
 from thermoplc.physics.effects import definition_of
 from thermoplc.physics.primitives import Series
 
@@ -27,7 +26,7 @@ def recording_problem(train: list[Series]) -> str | None:
         return (f"the training part covers {span / HOUR:.1f} h; at least {MIN_TRAIN_S / HOUR:g} h are needed to "
                 f"separate the sensors' time constants (about an hour each)")
     speeds = np.concatenate([run.n for run in train])
-    running = np.count_nonzero(speeds > sim_.stopped_threshold(speeds)) * train[0].dt
+    running = np.count_nonzero(speeds > primitives.stopped_threshold(speeds)) * train[0].dt
     if running < MIN_RUNNING_S:
         return (f"the spindle runs {running / HOUR:.2f} h in the training part; at least {MIN_RUNNING_S / HOUR:g} h "
                 f"of running are needed to learn how speed heats the machine")
@@ -49,10 +48,10 @@ def unseen_conditions(train: Series, run: Series, held_start: int, window: Windo
     or ambient, or None; `held_start` is the run's first held-out row (a window before it is training)."""
     if window.stop <= held_start:
         return None
-    shared = sim_.Shared(stopped_rpm=sim_.stopped_threshold(train.n))
-    trained = sim_.speed_levels(train.n, shared)
+    shared = primitives.Shared(stopped_rpm=primitives.stopped_threshold(train.n))
+    trained = primitives.speed_levels(train.n, shared)
     start = max(window.start, held_start)
-    seen = sim_.speed_levels(run.n[start:window.stop], shared)
+    seen = primitives.speed_levels(run.n[start:window.stop], shared)
     tolerance = primitives.SPEED_GAP_SHARE * max(float(np.max(np.abs(train.n))), float(np.max(np.abs(run.n))), 1.0)
     outside = [float(v) for v in seen if not len(trained) or v > trained.max() + tolerance
                or v < trained.min() - tolerance]

@@ -18,73 +18,20 @@ from dataclasses import replace
 import numpy as np
 
 from thermoplc.base import ridge
-
-from thermoplc.physics import identify
-from thermoplc.physics import displacement, primitives
+from thermoplc.physics import displacement, identify
 from thermoplc.physics import simulation as sim_
-from thermoplc.physics.effects import definition_of, with_part
+from thermoplc.physics.effects import definition_of, registry, with_part
 from thermoplc.physics.model import Simulation
 from thermoplc.physics.primitives import DisplacementParams, Series, Shared
 
 
-def _relay_sensor(effects) -> int:
-    return next(s for e, s in effects if e == "coolant_switching")
-
-
-def _relay(runs: list[Series], shared: Shared, effects, sensors) -> Shared:
-    """The coolant thresholds: a grid over the switching sensor's smoothed readings, scored by its one-step
-    error with the others' columns projected out (two dot products per row and pair), then each threshold
-    moved to the middle of its best plateau."""
-    sensor = _relay_sensor(effects)
-    p = sensors[sensor]
-    smooth = lambda t: sim_.savgol_filter(t, sim_.RELAY_SMOOTHING_ROWS, 2) if len(t) > sim_.RELAY_SMOOTHING_ROWS else t
-    readings = [smooth(series.temps[:, sensor]) for series in runs]
-    heats = [[x for _, x in inputs] for inputs in identify.heat_inputs(runs, replace(shared, relay=None), effects)]
-    y, columns = identify.stacked(runs, sensor, heats, shared, p.tau_s, p.filter_gain, p.stop_factor)
-    basis, y_perp = sim_._Projection.of(y, columns)
-    poles = [sim_._poles(series, shared, p) for series in runs]
-
-    def share(a, state: np.ndarray) -> np.ndarray:
-        """The cooling column of one run: the share of a unit cooling the one-step prediction carries."""
-        if np.ndim(a):
-            return sim_.filtered(np.zeros(len(state)), a, state, p.filter_gain, 0.0)[0]
-        pole = a * (1.0 - p.filter_gain)  # sim_.filtered with a zero reading, as one lag (the same bits)
-        return primitives.lag_columns(((1.0 - a) * state / (1.0 - pole))[:, None], pole, np.zeros(1))[:, 0]
-
-    def cost(on: float, off: float) -> float:
-        column = np.concatenate([share(a, sim_.relay(t, on, off)) for a, t in zip(poles, readings)])
-        return sim_._added_column_sse(basis, y_perp, column)
-
-    every = np.concatenate(readings)
-    low, high = np.quantile(every, [0.02, 0.995])
-    levels = np.linspace(low, high, int(np.clip((high - low) / sim_.RELAY_GRID_STEP_K, 16, sim_.RELAY_GRID_LEVELS)))
-    pairs = [(on, off) for on, off in itertools.product(levels, levels) if on - off >= 0.5]
-    if not pairs:
-        return replace(shared, relay=(sensor, float(levels[-1]), float(levels[0])))
-    on, off = min(pairs, key=lambda pair: cost(*pair))
-    on, off = sim_._centred(on, off, max(float(np.ptp(every)) / 100, 0.01), cost)
-    return replace(shared, relay=(sensor, float(on), float(off)))
-
-
 def _search_shared(runs: list[Series], shared: Shared, effects, sensors) -> Shared:
-    """Gear threshold, speed-heat exponent and relay thresholds of these effects, sensors held."""
-    names = {e for e, _ in effects}
-    speeds = np.concatenate([series.n for series in runs])
-    if "gear_ratio_switch" in names:
-        levels = sim_.speed_levels(speeds, shared)
-        shared = (replace(shared, gear_rpm=float(min(levels[:-1], key=lambda v: identify.held_cost(
-            runs, replace(shared, gear_rpm=float(v)), effects, sensors)))) if len(levels) > 1
-            else replace(shared, gear_rpm=0.0))
-    if "nonlinear_speed_heat" in names:
-        running = speeds[speeds > shared.stopped_rpm]
-        top = float(np.max(running)) if len(running) else 1.0
-        shared = replace(shared, reference_rpm=float(np.median(running)) if len(running) else 1.0,
-                         table_rpm=tuple(np.linspace(0.0, 1.25 * top, sim_.TABLE_SEGMENTS + 1)))
-        cost = lambda v: identify.held_cost(runs, replace(shared, exponent=float(v)), effects, sensors)
-        shared = replace(shared, exponent=float(sim_.minimize_scalar(
-            cost, bounds=sim_.EXPONENT_RANGE, method="bounded", options={"xatol": 1e-3}).x))
-    if "coolant_switching" in names:
-        shared = _relay(runs, shared, effects, sensors)
+    """The shared parameters of these effects (gear threshold, speed-heat exponent; a closed loop's thresholds
+    last), sensors held: each effect's record searches its own."""
+    records = [record for name, record in registry().items() if any(e == name for e, _ in effects)]
+    for record in sorted(records, key=lambda record: record.closed_loop is not None):  # stable: by rank otherwise
+        if record.search_identified:
+            shared = record.search_identified(runs, shared, effects, sensors)
     return shared
 
 
@@ -99,12 +46,12 @@ def _fit_sensor(runs: list[Series], i: int, shared: Shared, effects, start, cool
 
 
 def _fit_sensors(runs: list[Series], shared: Shared, effects, starts) -> tuple:
-    """Every sensor fitted with the effects; with a coolant relay twice, the second time with the relay
-    switched by the filtered temperature (as the block switches it) instead of the smoothed reading."""
+    """Every sensor fitted with the effects; with a closed loop (a coolant relay) twice, the second time with the
+    relay switched by the filtered temperature (as the block switches it) instead of the smoothed reading."""
     sensors = tuple(_fit_sensor(runs, i, shared, effects, p) for i, p in enumerate(starts))
-    if shared.relay is None:
+    cooling = [sim_.closed_loop_state(series, shared, sensors, effects) for series in runs]
+    if cooling[0] is None:
         return sensors
-    cooling = [sim_.closed_loop_cooling(series, shared, sensors, effects) for series in runs]
     return tuple(_fit_sensor(runs, i, shared, effects, p, cooling) for i, p in enumerate(sensors))
 
 

@@ -30,6 +30,7 @@ import numpy as np
 from thermoplc.base import ridge
 from thermoplc.physics import displacement, primitives
 from thermoplc.physics import simulation as sim_
+from thermoplc.physics.effects import definition_of
 from thermoplc.physics.model import Simulation
 from thermoplc.physics.primitives import DisplacementParams, SensorParams, Series, Shared
 
@@ -70,7 +71,7 @@ def _designs(runs: list[Series], i: int, heats: list[list[np.ndarray]], shared: 
              factor: float) -> list[tuple[np.ndarray, list[np.ndarray]]]:
     """Each run's `_prediction_design` of sensor i for these pole, filter gain and standstill factor."""
     p = SensorParams(tau_s, 0.0, factor)
-    return [_prediction_design(series, i, heat, sim_._poles(series, shared, p), gain)
+    return [_prediction_design(series, i, heat, sim_.sensor_poles(series, shared, p), gain)
             for series, heat in zip(runs, heats)]
 
 
@@ -142,7 +143,7 @@ def held_cost(runs: list[Series], shared: Shared, effects, sensors) -> float:
 def heat_inputs(runs: list[Series], shared: Shared, effects=(), cooling: list | None = None
                 ) -> list[list[tuple[str, np.ndarray]]]:
     """Each run's heat input columns with these effects (the coolant state per run when given)."""
-    return [sim_._heat_inputs(series, shared, effects, None if cooling is None else cooling[r])
+    return [sim_.heat_inputs(series, shared, effects, None if cooling is None else cooling[r])
             for r, series in enumerate(runs)]
 
 
@@ -152,7 +153,7 @@ def fit_sensor(runs: list[Series], i: int, shared: Shared, effects=(), start: Se
     least one-step prediction error over the runs; the search starts from a grid, and from `start`."""
     named = heat_inputs(runs, shared, effects, cooling)
     heats = [[x for _, x in inputs] for inputs in named]
-    with_stop = any(e == "stop_convection" for e, _ in effects)
+    with_stop = any(definition_of(e).part == "pole" for e, _ in effects)
     low, high = np.log(2 * runs[0].dt), np.log(72 * sim_.HOUR)
     unpack = lambda x: (float(np.exp(np.clip(x[0], low, high))), _gain(x[1]),
                         float(np.exp(np.clip(x[2], -2.5, 2.5))) if with_stop else 1.0)

@@ -1,10 +1,11 @@
 """The named physical effects (docs/diagnosis.md), found in the modules of this package that
 declare one (`EFFECT = EffectDefinition(...)`, see `definition.py`): the single list the twin's
 `--effect`, the model file, the simulation's bookkeeping and the diagnosis read. Adding an effect
-is a new module here (a displacement effect's fitted term is its record's `DisplacementTerm`), the
-term of any other part in the simulation it extends (`physics/simulation.py`), its per-call
-arithmetic in the reference (`models/lumped_model.py`, `models/kernels.py`) and in the block (a module
-of `generator/lumped_effects/`), and its physics in each synthetic machine."""
+is a new module here (its term: a displacement term, a heat input, the search of its shared
+parameters, a closed loop or a reading's column, as its record declares; the simulation and the
+identified model call them), its per-call arithmetic in the reference (`models/lumped_model.py`,
+`models/kernels.py`) and in the block (a module of `generator/lumped_effects/`), and its physics in
+each synthetic machine."""
 from __future__ import annotations
 
 import functools

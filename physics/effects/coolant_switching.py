@@ -1,14 +1,28 @@
 """Coolant switching: extra cooling switched on and off at temperature thresholds (hysteresis).
 
 Term: one more heat input per sensor, `cooling * state`, the relay switched by the simulated
-temperature of one sensor (tried on each); the thresholds are searched."""
+temperature of one sensor (tried on each); the thresholds are searched. A closed loop: the relay's
+state follows the simulated temperature it cools, so the simulation asks this record for it
+(`closed_loop`), and its thresholds are searched with the sensors refitted around them, open loop
+(`fit_closed_loop`) and on the identified model (`search_identified`)."""
 from __future__ import annotations
+
+import itertools
+from dataclasses import replace
 
 import numpy as np
 
+from thermoplc.base import compiled
 from thermoplc.physics.effects.definition import EffectDefinition
+from thermoplc.physics.primitives import Series, Shared, first_temperatures, lag, lag_columns, savgol_filter
 
 MIN_RELAY_SWITCHES = 3  # on, off, on: one cycle and the start of another
+RELAY_ROUNDS = 4
+RELAY_GRID_STEP_K = 0.05
+RELAY_GRID_LEVELS = 80
+RELAY_SMOOTHING_ROWS = 9
+RELAY_LOOKAHEAD_S = 7200.0
+CLOSED_LOOP_ROUNDS = 2  # relay state from the simulation, sensors refitted with it
 
 
 def check(parameters: dict) -> str | None:
@@ -41,7 +55,6 @@ def implausible(sim, train) -> str | None:
 
 def too_quiet(sim, train) -> str | None:
     """A fitted coolant relay that switches too rarely in training is a step, not a coolant."""
-    from thermoplc.physics.simulation import closed_loop_cooling
     state = closed_loop_cooling(train, sim.shared, sim.sensors, sim.effects)
     switches = int(np.count_nonzero(np.diff(np.r_[0.0, state])))
     if switches < MIN_RELAY_SWITCHES:
@@ -50,9 +63,215 @@ def too_quiet(sim, train) -> str | None:
     return None
 
 
+def relay(temperature: np.ndarray, on: float, off: float) -> np.ndarray:
+    """Coolant state used at each row: switched by the temperatures of the rows before (hysteresis)."""
+    above, below = temperature > on, temperature < off
+    events = np.where(above | below, np.arange(len(temperature)), -1)
+    last = np.maximum.accumulate(events)
+    state = np.where(last >= 0, above[np.maximum(last, 0)], False)
+    return np.r_[False, state[:-1]].astype(float)
+
+
+def heat_input(series: Series, shared: Shared, state) -> tuple[str, np.ndarray] | None:
+    """The cooling column: the relay's closed-loop `state` when given, else switched by the measured
+    temperature (a fast stand-in while its thresholds are searched); none while they are unknown."""
+    if shared.relay is None:
+        return None
+    sensor, on, off = shared.relay
+    return "cooling", relay(series.temps[:, sensor], on, off) if state is None else state
+
+
+def closed_loop(series: Series, shared: Shared, sensors, effects) -> np.ndarray | None:
+    """The relay's state per row switched by the simulated temperature; None while its thresholds are unknown."""
+    return None if shared.relay is None else closed_loop_cooling(series, shared, sensors, effects)
+
+
+def closed_loop_cooling(series: Series, shared: Shared, sensors, effects) -> np.ndarray:
+    """The coolant state per row (1.0 while cooling), switched by the *simulated* temperature of the relay
+    sensor: the coolant's controller reacts to the true temperature, which the simulation estimates
+    without the sensor noise that would trip a relay early. Between switches the sensor is a
+    linear lag, so the state is found switch by switch over windows of `RELAY_LOOKAHEAD_S`."""
+    from thermoplc.physics import simulation
+    index, on, off = shared.relay
+    p = sensors[index]
+    a = np.broadcast_to(simulation.sensor_poles(series, shared, p), (series.rows,))
+    drive = series.te + sum(getattr(p, name) * x for name, x in simulation.heat_inputs(series, replace(shared, relay=None), effects))
+    if p.filter_gain:
+        return _filtered_relay(series.temps[:, index], np.ascontiguousarray(a, dtype=float), drive, p.cooling,
+                               p.filter_gain, float(first_temperatures(series, sensors)[index]), on, off)
+    state = np.zeros(series.rows)
+    window = max(2, int(RELAY_LOOKAHEAD_S / series.dt))
+    y, cooling, j = first_temperatures(series, sensors)[index], False, 0
+    while j < series.rows:
+        stop = min(j + window, series.rows)
+        trajectory = lag(drive[j:stop] + (p.cooling if cooling else 0.0), a[j:stop], y)
+        crossing = np.flatnonzero(trajectory < off if cooling else trajectory > on)
+        end = j + int(crossing[0]) + 1 if len(crossing) else stop  # the new state acts from the next row
+        state[j:end] = cooling
+        y = trajectory[end - j - 1]
+        cooling = cooling != bool(len(crossing))
+        j = end
+    return state
+
+
+@compiled.jit
+def _filtered_relay(reading, a, drive, cooling, gain, start, on, off):
+    """The relay state per row under the filter, as the block runs it: the filtered temperature of the
+    switching sensor (corrected by its reading each row) switches the coolant from the next row."""
+    state = np.zeros(len(reading))
+    x, cool = start, False
+    for j in range(len(reading)):
+        state[j] = 1.0 if cool else 0.0
+        x = a[j] * x + (1.0 - a[j]) * (drive[j] + (cooling if cool else 0.0))
+        x = x + gain * (reading[j] - x)
+        if x > on:
+            cool = True
+        elif x < off:
+            cool = False
+    return state
+
+
+def fit_closed_loop(series, shared, effects, starts):
+    """Thresholds by grid with the time constants held, then the time constants with the thresholds
+    held, alternating: the cooling shortens the apparent time constant, so both must move. The
+    grid switches the relay by the measured temperature (fast); the last rounds switch it by the
+    simulated one (the closed loop the model runs) and move the thresholds and sensors with it.
+    Returns the shared parameters and the sensors fitted with the closed-loop relay."""
+    from thermoplc.physics import simulation
+    sensor = next(s for e, s in effects if e == "coolant_switching")
+    temperature = savgol_filter(series.temps[:, sensor], RELAY_SMOOTHING_ROWS, 2) if series.rows > RELAY_SMOOTHING_ROWS else series.temps[:, sensor]
+    # the cost is spiky in the thresholds (a relay switched by a noisy reading trips on single
+    # samples): a grid as fine as the noise finds the right basin where 16 levels missed it
+    low, high = np.quantile(temperature, [0.02, 0.995])
+    levels = np.linspace(low, high, int(np.clip((high - low) / RELAY_GRID_STEP_K, 16, RELAY_GRID_LEVELS)))
+    pairs = [(on, off) for on, off in itertools.product(levels, levels) if on - off >= 0.5]
+    if not pairs:
+        shared = replace(shared, relay=(sensor, float(levels[-1]), float(levels[0])))
+        return shared, simulation.fit_all_sensors(series, shared, effects, starts, relay(temperature, *shared.relay[1:]))[0]
+    sensors = starts or simulation.fit_all_sensors(series, shared, [e for e in effects if e[0] != "coolant_switching"], None)[0]
+
+    def prepared():  # everything but the cooling column, per sensor, for the time constants held
+        out = []
+        for i, p in enumerate(sensors):
+            a = simulation.sensor_poles(series, shared, p)
+            known, columns = simulation.sensor_design(series, i, replace(shared, relay=None), effects, a)
+            out.append((a, *_Projection.of(series.temps[:, i] - known, [c for _, c in columns])))
+        return out
+
+    def cost_of(state):
+        return sum(_added_column_sse(basis, y_perp, lag(state, a, 0.0)) for a, basis, y_perp in parts)
+
+    measured = lambda on, off: cost_of(relay(temperature, on, off))
+    closed = lambda on, off: cost_of(closed_loop_cooling(series, replace(shared, relay=(sensor, on, off)), sensors,
+                                                         effects))
+    step = max(float(np.ptp(temperature)) / 100, 0.01)
+    chosen = None
+    a, basis, y_perp = prepared()[sensor]  # the grid scores the switch sensor alone (the others follow it)
+    on, off = min(pairs, key=lambda pair: _added_column_sse(basis, y_perp, lag(relay(temperature, *pair), a, 0.0)))
+    for _ in range(RELAY_ROUNDS):  # the whole grid once; later rounds move the thresholds near it
+        parts = prepared()
+        on, off = _centred(on, off, step, measured)
+        if chosen == (on, off):
+            break
+        chosen = (on, off)
+        shared = replace(shared, relay=(sensor, float(on), float(off)))
+        sensors = simulation.fit_all_sensors(series, shared, effects, None, relay(temperature, on, off))[0]
+    for _ in range(CLOSED_LOOP_ROUNDS):
+        parts = prepared()
+        for reach, points in ((4.0, 17), (0.5, 11)):  # coarse, then fine: the measured relay trips early
+            on, off = _centred(on, off, step, closed, reach, passes=2, points=points)
+        shared = replace(shared, relay=(sensor, float(on), float(off)))
+        sensors = simulation.fit_all_sensors(series, shared, effects, sensors,
+                                   closed_loop_cooling(series, shared, sensors, effects))[0]
+    return shared, sensors
+
+
+def _centred(on: float, off: float, step: float, cost, reach: float = 8, passes: int = 2, points: int = 64
+             ) -> tuple[float, float]:
+    """Each threshold to the middle of its best plateau within `reach` steps (the cost is flat between data)."""
+    for _ in range(passes):
+        grid = lambda centre: np.linspace(centre - reach * step, centre + reach * step, points)
+        on = _plateau_centre(grid(on), lambda v: cost(v, min(off, v - 0.5)))
+        off = _plateau_centre(grid(off), lambda v: cost(max(on, v + 0.5), v))
+        off = min(off, on - 0.5)
+    return on, off
+
+
+class _Projection:
+    """The fixed columns' orthonormal basis and the target's part outside it: the squared error with
+    one more column then costs two dot products per row instead of a new least-squares solve."""
+
+    @staticmethod
+    def of(y: np.ndarray, columns: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        basis, _ = np.linalg.qr(np.column_stack(columns))
+        return basis, y - basis @ (basis.T @ y)
+
+
+def _added_column_sse(basis: np.ndarray, y_perp: np.ndarray, column: np.ndarray) -> float:
+    c_perp = column - basis @ (basis.T @ column)
+    norm = float(c_perp @ c_perp)
+    base = float(y_perp @ y_perp)
+    if norm <= 1e-12 * max(float(column @ column), 1e-300):  # the column adds nothing new
+        return base
+    return base - float(c_perp @ y_perp) ** 2 / norm
+
+
+def _plateau_centre(values: np.ndarray, cost) -> float:
+    costs = np.array([cost(v) for v in values])
+    best = int(np.argmin(costs))
+    flat = costs <= costs[best] * (1 + 1e-9) + 1e-12
+    low = high = best
+    while low > 0 and flat[low - 1]:
+        low -= 1
+    while high < len(values) - 1 and flat[high + 1]:
+        high += 1
+    return float((values[low] + values[high]) / 2)
+
+
+def _relay_sensor(effects) -> int:
+    return next(s for e, s in effects if e == "coolant_switching")
+
+
+def search_identified(runs: list[Series], shared: Shared, effects, sensors) -> Shared:
+    """The coolant thresholds: a grid over the switching sensor's smoothed readings, scored by its one-step
+    error with the others' columns projected out (two dot products per row and pair), then each threshold
+    moved to the middle of its best plateau."""
+    from thermoplc.physics import identify, simulation
+    sensor = _relay_sensor(effects)
+    p = sensors[sensor]
+    smooth = lambda t: savgol_filter(t, RELAY_SMOOTHING_ROWS, 2) if len(t) > RELAY_SMOOTHING_ROWS else t
+    readings = [smooth(series.temps[:, sensor]) for series in runs]
+    heats = [[x for _, x in inputs] for inputs in identify.heat_inputs(runs, replace(shared, relay=None), effects)]
+    y, columns = identify.stacked(runs, sensor, heats, shared, p.tau_s, p.filter_gain, p.stop_factor)
+    basis, y_perp = _Projection.of(y, columns)
+    poles = [simulation.sensor_poles(series, shared, p) for series in runs]
+
+    def share(a, state: np.ndarray) -> np.ndarray:
+        """The cooling column of one run: the share of a unit cooling the one-step prediction carries."""
+        if np.ndim(a):
+            return simulation.filtered(np.zeros(len(state)), a, state, p.filter_gain, 0.0)[0]
+        pole = a * (1.0 - p.filter_gain)  # simulation.filtered with a zero reading, as one lag (the same bits)
+        return lag_columns(((1.0 - a) * state / (1.0 - pole))[:, None], pole, np.zeros(1))[:, 0]
+
+    def cost(on: float, off: float) -> float:
+        column = np.concatenate([share(a, relay(t, on, off)) for a, t in zip(poles, readings)])
+        return _added_column_sse(basis, y_perp, column)
+
+    every = np.concatenate(readings)
+    low, high = np.quantile(every, [0.02, 0.995])
+    levels = np.linspace(low, high, int(np.clip((high - low) / RELAY_GRID_STEP_K, 16, RELAY_GRID_LEVELS)))
+    pairs = [(on, off) for on, off in itertools.product(levels, levels) if on - off >= 0.5]
+    if not pairs:
+        return replace(shared, relay=(sensor, float(levels[-1]), float(levels[0])))
+    on, off = min(pairs, key=lambda pair: cost(*pair))
+    on, off = _centred(on, off, max(float(np.ptp(every)) / 100, 0.01), cost)
+    return replace(shared, relay=(sensor, float(on), float(off)))
+
+
 EFFECT = EffectDefinition(
     name="coolant_switching", rank=1, bounds=(("on_C", -50.0, 250.0), ("off_C", -50.0, 250.0), ("cooling_K", -100.0, 100.0)),
     description="extra motor cooling switched on/off at temperature thresholds with hysteresis",
     defaults=(("on_C", 27.0), ("off_C", 24.0), ("cooling_K", 4.0)), check=check,
     part="heat", per_sensor=True, added_parameters=lambda sensors: sensors + 2,
-    describe=describe, draw=draw, implausible=implausible, after_fit=too_quiet)
+    describe=describe, draw=draw, implausible=implausible, after_fit=too_quiet, heat_input=heat_input,
+    closed_loop=closed_loop, fit_closed_loop=fit_closed_loop, search_identified=search_identified)

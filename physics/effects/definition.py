@@ -95,6 +95,22 @@ class EffectDefinition:
     reading_size_K: Callable[["SensorParams", "Series"], float] | None = None  # part "reading": its size
     driven_by: str | None = None  # a recorded signal it needs besides speed and ambient (the feed rate)
     displacement: DisplacementTerm | None = None  # part "displacement": its term
+    # where it changes the simulation beyond a term (physics/simulation.py, physics/identified_effects.py):
+    # a heat input, (the SensorParams field weighing it, its column) from (series, shared, a closed loop's
+    # state or None), or None while its shared parameters are unknown
+    heat_input: Callable[..., tuple[str, Any] | None] | None = None
+    # part reading: the column its parameter multiplies in the sensor's least squares, (the SensorParams field,
+    # the column) from (series, the decay of the sensor's start)
+    reading_column: Callable[..., tuple[str, Any]] | None = None
+    # its shared parameters searched with the sensors held: (series, shared, effects, starts) -> shared on
+    # one series open loop, (runs, shared, effects, sensors) -> shared on the identified model's runs
+    search_open_loop: Callable[..., Any] | None = None
+    search_identified: Callable[..., Any] | None = None
+    # a closed loop (the coolant relay): its state per row switched by the simulated temperature,
+    # (series, shared, sensors, effects) -> state or None, and its open-loop fit, searched last,
+    # (series, shared, effects, starts) -> (shared, sensors)
+    closed_loop: Callable[..., Any] | None = None
+    fit_closed_loop: Callable[..., tuple] | None = None
 
     def __post_init__(self) -> None:
         if (self.part == "displacement") != (self.displacement is not None):

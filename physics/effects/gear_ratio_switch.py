@@ -4,6 +4,8 @@ Term: one more heat input per sensor, `gear_gain * n` while n is above the thres
 threshold is searched among the speed groups the training part runs."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from thermoplc.physics.effects.definition import EffectDefinition
@@ -62,9 +64,36 @@ def implausible(sim, train) -> str | None:
     return None
 
 
+
+def heat_input(series, shared, state) -> tuple[str, np.ndarray]:
+    """The heat per rpm above the threshold."""
+    return "gear_gain", np.where(series.n > shared.gear_rpm, series.n, 0.0)
+
+
+def search_open_loop(series, shared, effects, starts):
+    """The threshold at the top of one of the speed groups below the highest (none with one group)."""
+    from thermoplc.physics import simulation
+    from thermoplc.physics.primitives import speed_levels
+    levels = speed_levels(series.n, shared)
+    if len(levels) > 1:
+        return simulation.search_shared(series, shared, effects, starts, "gear_ratio_switch", list(levels[:-1]),
+                                        lambda s, v: replace(s, gear_rpm=float(v)))
+    return replace(shared, gear_rpm=0.0)
+
+
+def search_identified(runs, shared, effects, sensors):
+    from thermoplc.physics import identify
+    from thermoplc.physics.primitives import speed_levels
+    levels = speed_levels(np.concatenate([series.n for series in runs]), shared)
+    return (replace(shared, gear_rpm=float(min(levels[:-1], key=lambda v: identify.held_cost(
+        runs, replace(shared, gear_rpm=float(v)), effects, sensors)))) if len(levels) > 1
+        else replace(shared, gear_rpm=0.0))
+
+
 EFFECT = EffectDefinition(
     name="gear_ratio_switch", rank=0, bounds=(("threshold_rpm", 0.0, 100000.0), ("ratio", 0.0, 100.0)),
     description="motor heat per rpm changes above a speed threshold (paper 000's 750 rpm gearbox)",
     defaults=(("threshold_rpm", 750.0), ("ratio", 1.6)), positive=("ratio",),
     part="heat", added_parameters=lambda sensors: sensors + 1,
-    describe=describe, draw=draw, untestable=untestable, look_alike=look_alike, implausible=implausible)
+    describe=describe, draw=draw, untestable=untestable, look_alike=look_alike, implausible=implausible,
+    heat_input=heat_input, search_open_loop=search_open_loop, search_identified=search_identified)

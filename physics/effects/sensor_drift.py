@@ -24,4 +24,5 @@ EFFECT = EffectDefinition(
     defaults=(("column", "T_motor"), ("rate_K_per_h", 0.05)),
     part="reading", per_sensor=True, added_parameters=lambda sensors: 1,
     describe=describe, draw=draw,
-    reading_size_K=lambda sensor, series: abs(sensor.drift_K_per_s) * (series.t[-1] - series.t[0]))
+    reading_size_K=lambda sensor, series: abs(sensor.drift_K_per_s) * (series.t[-1] - series.t[0]),
+    reading_column=lambda series, decay: ("drift_K_per_s", series.t - series.t[0]))

@@ -30,4 +30,5 @@ EFFECT = EffectDefinition(
     defaults=(("column", "T_bearing"), ("offset_K", 1.0)),
     part="reading", per_sensor=True, added_parameters=lambda sensors: 1,
     describe=describe, draw=draw, untestable=untestable,
-    reading_size_K=lambda sensor, series: abs(sensor.offset_K))
+    reading_size_K=lambda sensor, series: abs(sensor.offset_K),
+    reading_column=lambda series, decay: ("offset_K", 1.0 - decay))  # the start's share of the offset decays
