@@ -1,9 +1,13 @@
 """The package's layout holds (issue 53): no import circle between modules, no hand-written module over
-500 lines (the parser lark generates, verifier/st_standalone.py, aside). Imports are counted on the
+500 lines (the parser lark generates, verifier/st_standalone.py, aside), an effect named in at most 4
+files outside the tests and the synthetic machines. Imports are counted on the
 installed layout, every one included: inside functions and under TYPE_CHECKING too (two modules that
 need each other to be read are one module in two files, wherever the import sits)."""
+import functools
+import io
 import json
 import os
+import tokenize
 import subprocess
 import sys
 from pathlib import Path
@@ -11,6 +15,8 @@ from pathlib import Path
 from tests.test_architecture import _installed_layout
 
 MAX_LINES = 500
+MAX_EFFECT_FILES = 4
+ROOT = Path(__file__).resolve().parent.parent
 GENERATED = {"st_standalone.py"}
 
 
@@ -85,3 +91,41 @@ def test_a_circle_and_a_long_module_are_caught(tmp_path):
     (base / "second.py").write_text("def later():\n    from thermoplc.base import first\n" + "\n" * 499)
     assert ["thermoplc.base.first", "thermoplc.base.second"] in circles(tree)
     assert long_modules(tree) == [f"{Path('thermoplc', 'base', 'second.py')}: 501 lines"]
+
+
+@functools.lru_cache(maxsize=None)
+def code_of(path: Path) -> str:
+    """A module's code without its comments and docstrings: the words it acts on, not the words about it."""
+    tokens = [t for t in tokenize.generate_tokens(io.StringIO(path.read_text("utf-8")).readline)
+              if t.type not in (tokenize.NL, tokenize.INDENT, tokenize.DEDENT, tokenize.COMMENT)]
+    kept = []
+    for k, token in enumerate(tokens):
+        statement_start = k == 0 or tokens[k - 1].type == tokenize.NEWLINE or tokens[k - 1].string == ":"
+        alone = k + 1 == len(tokens) or tokens[k + 1].type in (tokenize.NEWLINE, tokenize.ENDMARKER)
+        if not (token.type == tokenize.STRING and statement_start and alone):
+            kept.append(token.string)
+    return " ".join(kept)
+
+
+def files_naming(word: str) -> list[str]:
+    """The package's modules outside the synthetic machines whose code names `word`."""
+    import tomllib
+    folders = tomllib.loads((ROOT / "pyproject.toml").read_text("utf-8"))["tool"]["setuptools"]["package-dir"].values()
+    return sorted(str(path.relative_to(ROOT)) for folder in set(folders) if not folder.startswith("machines")
+                  for path in (ROOT / folder).glob("*.py") if word in code_of(path))
+
+
+def test_an_effect_lives_in_at_most_four_files():
+    """Its record, its lowering, the block's reference and its compiled loop: the simulation, the identified
+    model and the diagnosis call the record's hooks and name no effect."""
+    from thermoplc.physics.effects import NAMES
+    spread = {name: files_naming(name) for name in NAMES}
+    assert {name: files for name, files in spread.items() if len(files) > MAX_EFFECT_FILES} == {}
+    assert "physics/effects/coolant_switching.py" in spread["coolant_switching"]
+
+
+def test_code_of_drops_comments_and_docstrings_only(tmp_path):
+    module = tmp_path / "module.py"
+    module.write_text('"""coolant_switching here"""\nx = 1  # coolant_switching\ny = "coolant_switching"\n')
+    code = code_of(module)
+    assert code.count("coolant_switching") == 1 and '"coolant_switching"' in code
