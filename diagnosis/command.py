@@ -18,7 +18,7 @@ from thermoplc.recordings.campaign import read_campaign, run_list, source_of
 from thermoplc.physics.effects import definition_of
 from thermoplc.fitting.fit import block_identifier, evaluate
 from thermoplc.models.modelfile import Model, Signal, load_model
-from thermoplc.physics.model import Simulation
+from thermoplc.physics.fitted import Simulation
 from thermoplc.recordings.table import Table
 from thermoplc.pipeline import becomes_block, block_problem
 

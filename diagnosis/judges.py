@@ -11,7 +11,7 @@ from thermoplc.diagnosis.parts import Parts
 from thermoplc.diagnosis.windows import measured
 from thermoplc.physics import identified_effects
 from thermoplc.physics import simulation as sim_
-from thermoplc.physics.model import Simulation
+from thermoplc.physics.fitted import Simulation
 from thermoplc.physics.primitives import Series
 
 BIC_MARGIN = 10.0

@@ -13,7 +13,7 @@ from thermoplc.diagnosis.parts import Parts
 from thermoplc.diagnosis.runs import DiagnoseRequest, parts_of
 from thermoplc.diagnosis.search import Attempt, attempt, completed
 from thermoplc.recordings.campaign import CampaignSource
-from thermoplc.physics.model import Simulation
+from thermoplc.physics.fitted import Simulation
 
 
 @dataclass(frozen=True)

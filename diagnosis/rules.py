@@ -13,7 +13,7 @@ from thermoplc.diagnosis.judges import BIC_MARGIN, MIN_EXCESS, Score, refit, sco
 from thermoplc.diagnosis.parts import Parts
 from thermoplc.physics import simulation as sim_
 from thermoplc.physics.effects import NAMES, definition_of
-from thermoplc.physics.model import Simulation
+from thermoplc.physics.fitted import Simulation
 from thermoplc.physics.primitives import Series
 
 MIN_SENSOR_ERROR_SIGMAS = 1.5  # an offset or a drift over the recording smaller than this many noise sigmas is noise

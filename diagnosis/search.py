@@ -12,7 +12,8 @@ added, unless another plausible one gains nearly as much BIC (then the data cann
 apart, whichever the held-out part prefers); the model is refitted until its BIC stops falling,
 and the search repeats until no disagreement window is left or no candidate passes; what is left
 unexplained is reported as windows, never named, and when several effects were needed and
-windows are still left, none of them is named either.
+windows are still left, none of them is named either. The judges' thresholds are in
+diagnosis/judges.py, the physics rules' in diagnosis/rules.py.
 """
 from __future__ import annotations
 
@@ -31,7 +32,7 @@ from thermoplc.diagnosis.rules import (candidates, describe, each_run, follows_r
 from thermoplc.diagnosis.windows import Window, find_windows, noise_sigma, rms, settling_s
 from thermoplc.physics import identified_effects, identify
 from thermoplc.physics.effects import definition_of
-from thermoplc.physics.model import Simulation
+from thermoplc.physics.fitted import Simulation
 from thermoplc.physics.primitives import Series
 
 # the search's own steps, and the judges and physics rules it applies (diagnosis/judges.py, diagnosis/rules.py)

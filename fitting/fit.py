@@ -1,7 +1,7 @@
 """Fitting a model from a table: pick the training rows, fit, measure, package as a model file."""
 from __future__ import annotations
 
-from dataclasses import InitVar, dataclass, replace
+from dataclasses import InitVar, dataclass, fields, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
@@ -27,6 +27,11 @@ LEGACY_OPTIONS = ("bins", "precision_um", "lags", "lag_step_s", "tool_length", "
 
 @dataclass(frozen=True)
 class FitRequest:
+    """What to fit: the kind, the columns, the training part; each kind's own options in `settings` by field
+    (models/kind.py::KindOption: `--bins` is "bins"), an option not given being its record's default. The
+    keywords these options had before the kinds declared them (options=FitOptions(...), bins=, lags=, ...)
+    are still taken, in their old places, and read back as attributes; one given overrides the same option in
+    `settings`, as `dataclasses.replace(request, bins=5)` expects."""
     kind: str
     target: str
     temps: tuple[str, ...]
@@ -35,38 +40,53 @@ class FitRequest:
     train_until: float | None = None
     train_rows: int | None = None
     block_name: str = "ThermalComp"
-    extra_targets: tuple[str, ...] = ()  # further targets (bpnn: elongation, yaw, pitch, the compensation's order)
-    choose_sensors: int = 0  # at most this many of `temps` chosen on the training rows (fitting/sensor_choice.py)
-    # the kinds' own options given, by field (models/kind.py::KindOption: --bins is "bins"); one not given
-    # is its record's default. Held as sorted (field, value) pairs, so a request stays hashable
-    settings: Mapping[str, Any] | tuple[tuple[str, Any], ...] = ()
-    # the keywords these options had before the kinds declared them (issue 53): still taken and kept in
-    # `settings`, so old callers of thermoplc.api.FitRequest run unchanged; `options` takes a kalman.FitOptions
-    options: InitVar[Any] = None
+    options: InitVar[Any] = None  # a models.kalman.FitOptions
     bins: InitVar[int | None] = None
     precision_um: InitVar[float | None] = None
     lags: InitVar[int | None] = None
     lag_step_s: InitVar[float | None] = None
+    extra_targets: tuple[str, ...] = ()  # further targets (bpnn: elongation, yaw, pitch, the compensation's order)
     tool_length: InitVar[str | None] = None
     unseen: InitVar[str | None] = None
     time_bins: InitVar[int | None] = None
+    choose_sensors: int = 0  # at most this many of `temps` chosen on the training rows (fitting/sensor_choice.py)
+    # held as sorted (field, value) pairs of the options given other than their defaults: a request stays
+    # hashable, and equal whether a default is spelled out or not
+    settings: Mapping[str, Any] | tuple[tuple[str, Any], ...] = ()
 
     def __post_init__(self, options_, *legacy) -> None:
         declared = options()
         given = dict(self.settings)
-        given.update({name: value for name, value in zip(LEGACY_OPTIONS, legacy) if value is not None})
-        if options_ is not None:
-            given.update({name: value for name, value in vars(options_).items() if name in declared})
-        for name, value in given.items():
+        for name in given:
             if name not in declared:
                 raise UserError(f"fit option {name!r}: no kind reads it; the kinds' options are {', '.join(declared)}")
+        if options_ is not None:  # what an old FitOptions sets other than its defaults
+            defaults = type(options_)()
+            given.update({name: value for name, value in vars(options_).items()
+                          if name in declared and value != getattr(defaults, name)})
+        given.update({name: value for name, value in zip(LEGACY_OPTIONS, legacy) if value is not None})
+        for name, value in given.items():
             if why := declared[name].problem(value):
                 raise UserError(f"{declared[name].flag}: {why}")
-        object.__setattr__(self, "settings", tuple(sorted(given.items(), key=lambda item: item[0])))
+        kept = {name: value for name, value in given.items() if value != declared[name].default}
+        object.__setattr__(self, "settings", tuple(sorted(kept.items(), key=lambda item: item[0])))
 
     def option(self, name: str) -> Any:
         """A kind's own option as given, else its record's default."""
         return dict(self.settings).get(name, options()[name].default)
+
+    def __getattr__(self, name: str) -> Any:
+        """The old attributes: `request.bins`, `request.options` (a kalman.FitOptions) read the settings."""
+        if name in LEGACY_OPTIONS:
+            return self.option(name)
+        if name == "options":
+            from thermoplc.models.kalman import FitOptions
+            return FitOptions(**{field.name: self.option(field.name) for field in fields(FitOptions)})
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+
+for _name in ("options", *LEGACY_OPTIONS):  # an InitVar's default is a class attribute: read through __getattr__
+    delattr(FitRequest, _name)
 
 
 def training_rows(table: Table, time_column: str, until: float | None, rows: int | None) -> int:

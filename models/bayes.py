@@ -20,7 +20,7 @@ import numpy as np
 from thermoplc.base.binary32 import round_f32
 from thermoplc.base.errors import UserError
 from thermoplc.models.kind import Kind, KindOption
-from thermoplc.models.modelfile import Coefficient, Model
+from thermoplc.models.model import Coefficient, Model
 
 MAX_CONFIGURATIONS = 4096  # table entries in the block
 MAX_TABLE_CELLS = 20_000_000  # configurations x error intervals counted while fitting (160 MB)

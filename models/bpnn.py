@@ -26,7 +26,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.models.ga import GA_OPTIONS, genetic_minimize, step_reporter
 from thermoplc.base.identifiers import block_identifier
 from thermoplc.models.kind import Kind, KindOption
-from thermoplc.models.modelfile import Coefficient, Model
+from thermoplc.models.model import Coefficient, Model
 
 PADE_P = (1.0, 17325 / 135135, 378 / 135135, 1 / 135135)
 PADE_Q = (1.0, 62370 / 135135, 3150 / 135135, 28 / 135135)

@@ -11,7 +11,7 @@ from thermoplc.base.binary32 import INT_RANGES
 from thermoplc.base.errors import UserError
 from thermoplc.models.kind import Increments, Kind, KindOption, Part, measured_counts, measured_rows
 from thermoplc.models.mlr import least_squares, weight_by
-from thermoplc.models.modelfile import Coefficient, Model
+from thermoplc.models.model import Coefficient, Model
 
 
 def lagged(x: np.ndarray, step: int) -> np.ndarray:

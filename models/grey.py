@@ -30,7 +30,7 @@ from thermoplc.base import ridge
 from thermoplc.base import compiled
 from thermoplc.models import kernels
 from thermoplc.models.kind import Kind, Part
-from thermoplc.models.modelfile import Coefficient, Model
+from thermoplc.models.model import Coefficient, Model
 
 DEVELOPMENT_GRID = 16  # candidate development coefficients a, log-spaced in time constant
 

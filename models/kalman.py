@@ -22,7 +22,7 @@ from thermoplc.physics import lumped
 from thermoplc.models.ga import GA_OPTIONS, genetic_minimize, step_reporter
 from thermoplc.models.mlr import least_squares
 from thermoplc.models.kind import Kind, KindOption, Part, fault_key, measured_counts
-from thermoplc.models.modelfile import Coefficient, Model
+from thermoplc.models.model import Coefficient, Model
 
 
 def differential_evolution(*args, **kwargs):  # scipy on first use: verify never fits, and importing it costs ~1 s
@@ -41,6 +41,7 @@ class FitOptions:
     generations: int = 60
     jump_limit: float | None = None  # K; default from the training data
     recover_limit: float | None = None
+    ga_operators: str = "paper002"  # bpnn's (models/ga.py OPERATORS): kept so old callers' FitOptions still work
 
 
 def predict(model: Model, inputs: dict, precision: str, valid: dict | None = None) -> dict:

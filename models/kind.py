@@ -7,6 +7,7 @@ The block lowering is the generator's side of the same kind and is registered th
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable
 
@@ -107,16 +108,21 @@ class KindOption:
     owned: str | None = None  # refused for any other kind, in these words ("--time-bins is")
 
     def problem(self, value: Any) -> str | None:
-        """Why `value` is not one this option takes, in the words the command line uses, or None."""
+        """Why `value` is not one this option takes, in the words the command line uses, or None. None is
+        taken only where it is the default (a limit found from the data, no tool length column)."""
+        if value is None:
+            return None if self.default is None else f"expected a value, found None (its default is {self.default!r})"
         if self.choices is not None and value not in self.choices:
             return f"expected one of {', '.join(self.choices)}, found {value!r}"
-        if self.number is not None and value is not None:
+        if self.number is not None:  # the words of the command line's check (app/commands/options.py::number)
             kind, low, high, what = self.number
-            number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
-            if not number or (kind is int and int(value) != value) or not low <= value <= high:
+            types = (int, np.integer) if kind is int else (int, float, np.integer, np.floating)
+            if not isinstance(value, types) or isinstance(value, bool):
+                return f"expected {'an integer' if kind is int else 'a number'}, found {value!r}"
+            if not (math.isfinite(value) and low <= value <= high):
                 shown = (lambda v: f"{int(v):,}") if kind is int else (lambda v: f"{v:g}")
                 return f"expected {what} from {shown(low)} to {shown(high)}, found {value!r}"
-        if self.column is not None and value is not None and not isinstance(value, str):
+        if self.column is not None and not isinstance(value, str):
             return f"expected a column name, found {value!r}"
         return None
 

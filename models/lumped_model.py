@@ -29,8 +29,8 @@ from thermoplc.models import kernels
 from thermoplc.physics import primitives
 from thermoplc.physics import identify, simulation as sim_
 from thermoplc.models.kind import Kind
-from thermoplc.models.modelfile import Coefficient, Model
-from thermoplc.physics.model import Simulation
+from thermoplc.models.model import Coefficient, Model
+from thermoplc.physics.fitted import Simulation
 
 
 def effect_names(model: Model) -> tuple[str, ...]:

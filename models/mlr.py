@@ -5,7 +5,7 @@ import numpy as np
 
 from thermoplc.base import ridge
 from thermoplc.models.kind import Increments, Kind, Part, measured_counts, measured_rows
-from thermoplc.models.modelfile import Coefficient, Model
+from thermoplc.models.model import Coefficient, Model
 
 
 def least_squares(features: np.ndarray, target: np.ndarray, names: list[str], runs: list[int] | None = None

@@ -13,7 +13,7 @@ import numpy as np
 from thermoplc.base.errors import UserError
 from thermoplc.models.kind import Kind
 from thermoplc.models.mlr import least_squares
-from thermoplc.models.modelfile import Coefficient, Model
+from thermoplc.models.model import Coefficient, Model
 
 NODE_SPACING_C = 5.0
 NODE_RANGE_C = (0.0, 40.0)

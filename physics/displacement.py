@@ -10,7 +10,7 @@ import numpy as np
 
 from thermoplc.physics.effects import definition_of, registry
 from thermoplc.physics.effects.definition import DisplacementTerm
-from thermoplc.physics.model import Simulation
+from thermoplc.physics.fitted import Simulation
 from thermoplc.physics.primitives import (HOUR, DisplacementParams, Series, first_temperatures, lag_columns,
                                           least_squares, minimize, minimize_scalar, pole)
 

@@ -21,7 +21,7 @@ from thermoplc.base import ridge
 from thermoplc.physics import displacement, identify
 from thermoplc.physics import simulation as sim_
 from thermoplc.physics.effects import definition_of, registry, with_part
-from thermoplc.physics.model import Simulation
+from thermoplc.physics.fitted import Simulation
 from thermoplc.physics.primitives import DisplacementParams, Series, Shared
 
 

@@ -31,7 +31,7 @@ from thermoplc.base import ridge
 from thermoplc.physics import displacement, primitives
 from thermoplc.physics import simulation as sim_
 from thermoplc.physics.effects import definition_of
-from thermoplc.physics.model import Simulation
+from thermoplc.physics.fitted import Simulation
 from thermoplc.physics.primitives import DisplacementParams, SensorParams, Series, Shared
 
 TAU_GRID = 12

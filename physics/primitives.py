@@ -1,5 +1,5 @@
 """The pieces the lumped-mass simulation (physics/simulation.py) is built from: the recording by
-role, the fitted parameters, the first-order lag, the speed heat, the coolant relay, the least squares.
+role, the fitted parameters, the first-order lag, the speed heat, the least squares.
 They know no named effect, so the effect records (physics/effects/) can name their types."""
 from __future__ import annotations
 
@@ -167,15 +167,6 @@ def speed_heat(n: np.ndarray, shared: Shared) -> np.ndarray:
     nodes, values, slopes = speed_table(shared)
     index = np.clip(np.searchsorted(nodes, n, side="right") - 1, 0, len(nodes) - 1)
     return values[index] + (n - nodes[index]) * slopes[index]
-
-
-def relay(temperature: np.ndarray, on: float, off: float) -> np.ndarray:
-    """Coolant state used at each row: switched by the temperatures of the rows before (hysteresis)."""
-    above, below = temperature > on, temperature < off
-    events = np.where(above | below, np.arange(len(temperature)), -1)
-    last = np.maximum.accumulate(events)
-    state = np.where(last >= 0, above[np.maximum(last, 0)], False)
-    return np.r_[False, state[:-1]].astype(float)
 
 
 def speed_levels(n: np.ndarray, shared: Shared) -> np.ndarray:

@@ -23,7 +23,7 @@ import numpy as np
 
 from thermoplc.physics.displacement import displacement_columns, displacement_terms, fit_displacement, fitted_taus
 from thermoplc.physics.effects import definition_of, registry, with_part
-from thermoplc.physics.model import Simulation
+from thermoplc.physics.fitted import Simulation
 from thermoplc.physics.primitives import (HOUR, Series, SensorParams, Shared, first_temperatures, lag, least_squares,
                                           minimize, minimize_scalar, pole, speed_heat, stopped, stopped_threshold)
 

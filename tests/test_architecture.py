@@ -1,6 +1,6 @@
 """The layers of pyproject.toml's import-linter contracts hold: app over diagnosis over generator |
-verifier | machines over the contract over the models over the base, and the verifier never
-imports the generator. The repository maps each folder to a subpackage (setuptools package-dir),
+verifier | machines over the contract over fitting over the models over physics over recordings over
+the base, and the verifier never imports the generator. The repository maps each folder to a subpackage (setuptools package-dir),
 which import-linter cannot follow in place, so the test lays the package out as an installed
 copy would be and lints that."""
 import os

@@ -21,7 +21,7 @@ from thermoplc.machines.random_effects import draw
 from thermoplc.physics import primitives
 from thermoplc.physics import simulation
 from thermoplc.physics.effects import slow_structure
-from thermoplc.physics.model import Simulation
+from thermoplc.physics.fitted import Simulation
 from thermoplc.physics.primitives import DisplacementParams, SensorParams, Series, Shared
 
 DT = 10.0

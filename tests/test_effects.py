@@ -10,7 +10,7 @@ import pytest
 
 from thermoplc.base.errors import UserError
 from thermoplc.physics.effects import NAMES, Effect, registry
-from thermoplc.physics.model import Simulation
+from thermoplc.physics.fitted import Simulation
 from thermoplc.physics.primitives import DisplacementParams, SensorParams, Shared
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -36,8 +36,8 @@ def test_every_kind_option_of_the_command_line_comes_from_a_record():
 
 def test_the_generic_request_stores_no_kind_option_as_a_field():
     stored = {field.name for field in dataclasses.fields(FitRequest)}
-    assert stored & set(kinds.options()) == set()
-    assert "options" not in stored
+    assert stored == {"kind", "target", "temps", "speed", "ambient", "train_until", "train_rows", "block_name",
+                      "extra_targets", "choose_sensors", "settings"}
 
 
 def test_a_request_reads_an_option_given_or_its_records_default():
@@ -52,15 +52,34 @@ def test_the_old_keywords_still_reach_the_options():
     new = FitRequest("bayes", "E", ("a",), settings={"bins": 12, "unseen": "frequent", "seed": 3, "generations": 5,
                                                        "population": 40, "optimizer": "ga", "jump_limit": None,
                                                        "recover_limit": None})
-    assert old == new and old.option("seed") == 3
+    assert old == new and hash(old) == hash(new) and old.option("seed") == 3
     assert dataclasses.replace(old, kind="mlr").settings == old.settings
+    assert (old.bins, old.lags, old.unseen, old.options.seed, old.options.population) == (12, 3, "frequent", 3, 40)
+    assert FitRequest("bayes", "E", ("a",)).bins == 8 and FitRequest("bayes", "E", ("a",)) == FitRequest(
+        "bayes", "E", ("a",), bins=8, settings={"lags": 3})
+    positional = FitRequest("kalman", "E", ("a",), "n", "T", 3600.0, None, "Blk", FitOptions(seed=3))
+    assert positional.option("seed") == 3 and positional.extra_targets == ()
+    assert FitOptions(ga_operators="paper000") and FitRequest("bpnn", "E", ("a",), options=FitOptions(
+        ga_operators="paper000")).option("ga_operators") == "paper000"
+
+
+def test_an_old_keyword_overrides_the_setting_as_replace_expects():
+    request = FitRequest("bayes", "E", ("a",), settings={"bins": 6, "seed": 4})
+    assert dataclasses.replace(request, bins=5).option("bins") == 5
+    assert dataclasses.replace(request, options=dataclasses.replace(request.options, seed=1)).option("seed") == 1
+    assert FitRequest("kalman", "E", ("a",), options=FitOptions(), settings={"seed": 4}).option("seed") == 4
 
 
 @pytest.mark.parametrize("settings, message", [
     ({"binz": 3}, "fit option 'binz': no kind reads it"),
     ({"bins": 0}, "--bins: expected intervals from 1 to 4,096, found 0"),
-    ({"bins": 2.5}, "--bins: expected intervals from 1 to 4,096, found 2.5"),
-    ({"bins": True}, "--bins: expected intervals from 1 to 4,096, found True"),
+    ({"bins": 2.5}, "--bins: expected an integer, found 2.5"),
+    ({"bins": 8.0}, "--bins: expected an integer, found 8.0"),
+    ({"bins": True}, "--bins: expected an integer, found True"),
+    ({"bins": None}, "--bins: expected a value, found None"),
+    ({"bins": float("inf")}, "--bins: expected an integer, found inf"),
+    ({"precision_um": float("inf")}, "--precision-um: expected micrometres from 0.001 to 1e+06, found inf"),
+    ({"precision_um": "1"}, "--precision-um: expected a number, found '1'"),
     ({"unseen": "guess"}, "--unseen: expected one of nearest, frequent, found 'guess'"),
     ({"lag_step_s": float("nan")}, "--lag-step: expected seconds from 0.001 to 1e+07, found nan"),
     ({"tool_length": 3}, "--tool-length: expected a column name, found 3"),

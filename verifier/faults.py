@@ -121,7 +121,7 @@ class FaultCase:
     flagged: bool
     clear_at_end: bool
     max_change: float  # largest |output with fault - output without| of the model's target
-    failure: str | None = None  # the block's run-time error in this case (verifier/interpreter.py::BlockFailure)
+    failure: str | None = None  # the block's run-time error in this case (verifier/semantics.py::BlockFailure)
 
     @property
     def ok(self) -> bool:

@@ -1,6 +1,6 @@
 """verify --model on a long recording in bounded memory, at disk speed (issue 17).
 
-The file is read chunk by chunk (recordings/table.py::stream_columns), the float32 and float64
+The file is read chunk by chunk (recordings/chunks.py::stream_columns), the float32 and float64
 references are computed chunk by chunk by the compiled model loops (models/streaming.py, which
 never see the ST), the block runs chunk by chunk on the fast engine (its own ST -> C
 translation, state kept between chunks) and every output is compared bit for bit as it comes.

@@ -1,4 +1,4 @@
-"""`thermoplc fit`: a model file from one or more recordings (thermoplc.models: fit, held-out evidence)."""
+"""`thermoplc fit`: a model file from one or more recordings (thermoplc.fitting: fit, held-out evidence)."""
 from __future__ import annotations
 
 import argparse
@@ -16,22 +16,8 @@ from thermoplc.commands.options import (DECIMAL, FORCE_HELP, RESAMPLE, campaign_
 from thermoplc.commands.terminal import end_progress, progress
 
 
-class _KindChoices:
-    """`fit --model`'s choices, found when first asked: finding the kinds imports every model (numba
-    included), which `--version`, `twin` or `diff` do not need."""
-
-    def _all(self) -> tuple[str, ...]:
-        from thermoplc.models.kinds import names
-        return (*names(), "auto")
-
-    def __contains__(self, value) -> bool:
-        return value in self._all()
-
-    def __iter__(self):
-        return iter(self._all())
-
-
 def add_parser(sub) -> None:
+    from thermoplc.models.kinds import names  # the kinds' records build the options below too
     p = sub.add_parser(
         "fit", help="fit a thermal-error model to a recording or a campaign of runs",
         description="Fit a thermal-error model to a recording or a campaign of runs (CSV, .npz,\n"
@@ -54,7 +40,7 @@ def add_parser(sub) -> None:
     output = p.add_argument_group("output")
     campaign_arguments(data, "each started as a fresh block (piecewise: one run per batch, its initial ambient read "
                           "from each)", " and free attribute columns (hall air setpoint, programme, date, ...)")
-    model.add_argument("--model", choices=_KindChoices(), metavar="KIND", required=True,
+    model.add_argument("--model", choices=(*names(), "auto"), metavar="KIND", required=True,
                        help=f"{_by_paper()}; auto: every kind the given roles allow on sensor sets from --temps "
                             "(forward selection and fcm-grey), ranked by held-out RMSE, the best written")
     model.add_argument("--target", type=columns, required=True,

@@ -28,8 +28,8 @@ Part = Literal["heat", "speed", "pole", "reading", "displacement"]
 TEXT_PARAMETERS = frozenset({"column"})
 
 
-class Simulation(Protocol):
-    """What an effect's rules read of a fitted model (physics/model.Simulation, which counts its
+class FittedModel(Protocol):
+    """What an effect's rules read of a fitted model (physics/fitted.Simulation, which counts its
     parameters through these records: the records name the shape, not the class)."""
     effects: tuple[tuple[str, int | None], ...]
     shared: "Shared"
@@ -76,7 +76,7 @@ class EffectDefinition:
     defaults: tuple[tuple[str, float | str], ...]  # the twin's parameters unless told
     part: Part
     added_parameters: Callable[[int], int]  # fitted parameters it adds, given the number of sensors
-    describe: Callable[["Simulation", "Series"], dict]  # its fitted parameters in engineering units
+    describe: Callable[["FittedModel", "Series"], dict]  # its fitted parameters in engineering units
     draw: Callable[["np.random.Generator", dict, slice, Any], dict]  # (rng, clean recording, training rows,
     #                                                                    machine module) -> parameters to hide
     per_sensor: bool = False  # tried on each sensor in turn
@@ -87,11 +87,11 @@ class EffectDefinition:
     check: Callable[[dict], str | None] = _never  # a rule across its parameters
     untestable: Callable[["Series"], str | None] = _never  # why a training part cannot show it
     look_alike: Callable[["Series"], tuple[str, str] | None] = _never  # an effect that fits alike by construction
-    implausible: Callable[["Simulation", "Series"], str | None] = _never  # why a fit is not the named physics
-    after_fit: Callable[["Simulation", "Series"], str | None] = _never  # a rule on the fit's own behaviour
+    implausible: Callable[["FittedModel", "Series"], str | None] = _never  # why a fit is not the named physics
+    after_fit: Callable[["FittedModel", "Series"], str | None] = _never  # a rule on the fit's own behaviour
     # (model before, model with it, training part) -> (names, why) when an effect added before
     # leaves a fit of this one that the data cannot tell from that effect
-    alike_after: Callable[["Simulation", "Simulation", "Series"], tuple[tuple[str, ...], str] | None] = _never
+    alike_after: Callable[["FittedModel", "FittedModel", "Series"], tuple[tuple[str, ...], str] | None] = _never
     reading_size_K: Callable[["SensorParams", "Series"], float] | None = None  # part "reading": its size
     driven_by: str | None = None  # a recorded signal it needs besides speed and ambient (the feed rate)
     displacement: DisplacementTerm | None = None  # part "displacement": its term
