@@ -28,7 +28,6 @@ import numpy as np
 from thermoplc.base.errors import UserError
 from thermoplc.base import ridge
 from thermoplc.base import compiled
-from thermoplc.models import kernels
 from thermoplc.models.kind import Kind, Part
 from thermoplc.models.model import Coefficient, Model
 
@@ -247,8 +246,8 @@ def predict_gm0n(model: Model, inputs: dict, precision: str) -> dict:
     x1 = f(model.coef("X1", precision))
     b = [f(model.coef(f"b_{i}", precision)) for i in range(1, len(temps) + 1)]
     rises = bool(model.settings.get("rises"))
-    if compiled.enabled(len(temps[0]) if temps else 0):  # the same loop, compiled (models/kernels.py)
-        return {model.target.name: kernels.gm0n(temps, x1, b, f, rises=rises)}
+    if compiled.enabled(len(temps[0]) if temps else 0):  # the same loop, compiled (below)
+        return {model.target.name: gm0n_loop(temps, x1, b, f, rises=rises)}
     xs = [x - x[0] for x in temps] if rises else temps
     out = np.empty(len(temps[0]), f)
     for k in range(len(out)):
@@ -275,8 +274,8 @@ def predict_gm1n(model: Model, inputs: dict, precision: str) -> dict:
     b = [c(f"b_{i}") for i in range(1, len(temps) + 1)]
     x1, keep, gain = c("X1"), c("Keep"), c("In")
     rises = bool(model.settings.get("rises"))
-    if compiled.enabled(len(temps[0]) if temps else 0):  # the same loop, compiled (models/kernels.py)
-        return {model.target.name: kernels.gm1n(temps, x1, keep, gain, b, f, rises=rises)}
+    if compiled.enabled(len(temps[0]) if temps else 0):  # the same loop, compiled (below)
+        return {model.target.name: gm1n_loop(temps, x1, keep, gain, b, f, rises=rises)}
     xs = [x - x[0] for x in temps] if rises else temps
     out = np.empty(len(temps[0]), f)
     previous = f(0.0)
@@ -308,16 +307,90 @@ class StreamCore:
         c = lambda name: f(model.coef(name, precision))
         self.b = [c(f"b_{i}") for i in range(1, len(self.temps) + 1)]
         self.scalars = (c("X1"),) if model.kind == "gm0n" else (c("X1"), c("Keep"), c("In"))
-        self.state = kernels.GreyState(len(self.temps), f)
+        self.state = GreyState(len(self.temps), f)
         self.rises = bool(model.settings.get("rises"))
 
     def __call__(self, running: dict, fused_valid: dict) -> dict:
         temps = [np.asarray(running[s.name], self.f) for s in self.temps]
         if self.kind == "gm0n":
-            out = kernels.gm0n(temps, *self.scalars, self.b, self.f, self.state, self.rises)
+            out = gm0n_loop(temps, *self.scalars, self.b, self.f, self.state, self.rises)
         else:
-            out = kernels.gm1n(temps, *self.scalars, self.b, self.f, self.state, self.rises)
+            out = gm1n_loop(temps, *self.scalars, self.b, self.f, self.state, self.rises)
         return {self.target: out}
+
+
+# The same loop compiled (base/compiled.py; the rules that keep its bits in models/kernels.py).
+# Grey models (models/grey.py::predict_gm0n, predict_gm1n). temps: (k, rows).
+
+@compiled.jit
+def _gm0n(temps, x1, b, rises, first, started, out):
+    k = temps.shape[0]
+    for j in range(out.shape[0]):
+        if started[0] == 0:
+            for i in range(k):
+                first[i] = temps[i, j]
+            out[j] = x1
+            started[0] = 1
+            continue
+        level = b[0] * (temps[0, j] - first[0] if rises else temps[0, j])
+        for i in range(1, k):
+            level = level + b[i] * (temps[i, j] - first[i] if rises else temps[i, j])
+        out[j] = level
+
+
+@compiled.jit
+def _gm1n(temps, x1, keep, gain, b, rises, first, prev, started, out):
+    k = temps.shape[0]
+    previous = prev[0]
+    for j in range(out.shape[0]):
+        if started[0] == 0:
+            for i in range(k):
+                first[i] = temps[i, j]
+            level = x1
+            started[0] = 1
+        elif started[0] == 1:
+            forced = b[0] * (temps[0, j] - first[0] if rises else first[0] + temps[0, j])
+            for i in range(1, k):
+                forced = forced + b[i] * (temps[i, j] - first[i] if rises else first[i] + temps[i, j])
+            level = (keep * previous + gain * forced) - x1
+            started[0] = 2
+        else:
+            forced = b[0] * (temps[0, j] - first[0] if rises else temps[0, j])
+            for i in range(1, k):
+                forced = forced + b[i] * (temps[i, j] - first[i] if rises else temps[i, j])
+            level = keep * previous + gain * forced
+        out[j] = level
+        previous = level
+    prev[0] = previous
+
+
+class GreyState:
+    """The first call's temperatures, the previous error estimate and how many calls happened (0, 1, 2+)."""
+
+    def __init__(self, k: int, f):
+        self.first = np.zeros(k, f)
+        self.prev = np.zeros(1, f)
+        self.started = np.zeros(1, np.int64)
+
+
+def gm0n_loop(temps: list, x1, b: list, f, state: GreyState | None = None, rises: bool = False) -> np.ndarray:
+    """GM(0,N) error estimates of `temps` (one array per sensor) by the compiled loop, bit for bit
+    those of grey.predict_gm0n; `state` carries the first temperatures from chunk to chunk."""
+    state = state or GreyState(len(temps), f)
+    stacked = np.array(temps, f).reshape(len(temps), -1)
+    out = np.empty(stacked.shape[1], f)
+    _gm0n(stacked, f(x1), np.array(b, f), rises, state.first, state.started, out)
+    return out
+
+
+def gm1n_loop(temps: list, x1, keep, gain, b: list, f, state: GreyState | None = None, rises: bool = False) -> np.ndarray:
+    """GM(1,N) error estimates of `temps` (one array per sensor) by the compiled loop, bit for bit
+    those of grey.predict_gm1n; `state` carries the first temperatures and the last estimate."""
+    state = state or GreyState(len(temps), f)
+    stacked = np.array(temps, f).reshape(len(temps), -1)
+    out = np.empty(stacked.shape[1], f)
+    _gm1n(stacked, f(x1), f(keep), f(gain), np.array(b, f), rises, state.first, state.prev, state.started, out)
+    return out
 
 
 GM0N = Kind("gm0n", 5, "003", lambda parts, request, names, dt, progress: fit_choosing("gm0n", parts, names, fit_gm0n),

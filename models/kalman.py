@@ -17,7 +17,6 @@ import numpy as np
 
 from thermoplc.base.binary32 import round_f32
 from thermoplc.base import compiled
-from thermoplc.models import kernels
 from thermoplc.physics import lumped
 from thermoplc.models.ga import GA_OPTIONS, genetic_minimize, step_reporter
 from thermoplc.models.mlr import least_squares
@@ -70,8 +69,8 @@ def predict(model: Model, inputs: dict, precision: str, valid: dict | None = Non
     faults = np.zeros((k, rows), bool)
     in_range = [np.ones(rows, bool) if valid is None or s.name not in valid else np.asarray(valid[s.name], bool)
                 for s in temps]
-    if compiled.enabled(rows):  # the same loop, compiled (models/kernels.py)
-        error, faults = kernels.kalman(te, n, measured, in_range, *kernel_coefficients(model, precision), f)
+    if compiled.enabled(rows):  # the same loop, compiled (below)
+        error, faults = kalman_loop(te, n, measured, in_range, *kernel_coefficients(model, precision), f)
         out = {model.target.name: error}
         out.update({fault_key(s.name): faults[i] for i, s in enumerate(temps)})
         return out
@@ -109,7 +108,7 @@ def predict(model: Model, inputs: dict, precision: str, valid: dict | None = Non
 
 
 def kernel_coefficients(model: Model, precision: str) -> tuple:
-    """(sc, betas, beta0) for kernels.kalman: sc[i] holds SENSOR_COEFFICIENTS of sensor i+1."""
+    """(sc, betas, beta0) for kalman_loop: sc[i] holds SENSOR_COEFFICIENTS of sensor i+1."""
     f = np.float32 if precision == "f32" else np.float64
     k = len(model.signals("temperature"))
     sc = np.array([[model.coef(f"{c}_{i}", precision) for c in SENSOR_COEFFICIENTS] for i in range(1, k + 1)],
@@ -267,7 +266,7 @@ OPTIONS = (
 
 
 class StreamCore:
-    """predict, with the filter's state (kernels.KalmanState) kept between chunks."""
+    """predict, with the filter's state (KalmanState) kept between chunks."""
 
     def __init__(self, model: Model, precision: str, f):
         self.f = f
@@ -275,19 +274,96 @@ class StreamCore:
         self.ambient = model.signals("ambient")[0].name
         self.speed = model.signals("speed")[0].name
         self.args = kernel_coefficients(model, precision)
-        self.state = kernels.KalmanState(len(self.temps), f)
+        self.state = KalmanState(len(self.temps), f)
         self.target = model.target.name
 
     def __call__(self, running: dict, fused_valid: dict) -> dict:
         rows = len(running[self.ambient])
         in_range = [np.asarray(fused_valid[s.name], bool) if s.name in fused_valid else np.ones(rows, bool)
                     for s in self.temps]
-        error, faults = kernels.kalman(running[self.ambient], running[self.speed],
+        error, faults = kalman_loop(running[self.ambient], running[self.speed],
                                        [np.asarray(running[s.name], self.f) for s in self.temps], in_range,
                                        *self.args, self.f, self.state)
         out = {self.target: error}
         out.update({fault_key(s.name): faults[i] for i, s in enumerate(self.temps)})
         return out
+
+
+# The same loop compiled (base/compiled.py; the rules that keep its bits in models/kernels.py).
+# Kalman fusion (models/kalman_loop.py::predict). sc[i] = A, AA, B, C, D, N, R, P0, Jmp, Agr of sensor i.
+# state: tf, pf, t0, tm_prev (float, per sensor); fault (bool, per sensor); started[0] (int).
+
+@compiled.jit
+def _kalman(te, n, measured, in_range, sc, betas, beta0, tf, pf, t0, tm_prev, fault, started, error, faults):
+    k = measured.shape[0]
+    rows = te.shape[0]
+    for j in range(rows):
+        if started[0] == 0:
+            for i in range(k):
+                tf[i] = measured[i, j]
+                t0[i] = measured[i, j]
+                tm_prev[i] = measured[i, j]
+                pf[i] = sc[i, 7]
+                fault[i] = False
+            started[0] = 1
+        for i in range(k):
+            tm = measured[i, j]
+            tp = sc[i, 0] * tf[i] + sc[i, 2] * te[j] + sc[i, 3] * n[j] + sc[i, 4]
+            pp = sc[i, 1] * pf[i] + sc[i, 5]
+            if not in_range[i, j]:
+                fault[i] = True
+                tf[i] = tp
+                pf[i] = pp
+                faults[i, j] = True
+                continue
+            jump = abs(tm - tm_prev[i])
+            tm_prev[i] = tm
+            if not jump <= sc[i, 8]:
+                fault[i] = True
+            elif abs(tm - tp) <= sc[i, 9]:
+                fault[i] = False
+            if fault[i]:
+                tf[i] = tp
+                pf[i] = pp
+            else:
+                gain = pp / (pp + sc[i, 6])
+                tf[i] = tp + gain * (tm - tp)
+                pf[i] = pp - gain * pp
+            faults[i, j] = fault[i]
+        e = beta0
+        for i in range(k):
+            e = e + betas[i] * (tf[i] - t0[i])
+        error[j] = e
+
+
+class KalmanState:
+    """What the block keeps between calls, for a run in chunks."""
+
+    def __init__(self, k: int, f):
+        self.f = f
+        self.tf, self.pf, self.t0, self.tm_prev = (np.zeros(k, f) for _ in range(4))
+        self.fault = np.zeros(k, np.bool_)
+        self.started = np.zeros(1, np.int64)
+
+
+def kalman_loop(te, n, measured: list, in_range: list, sc: np.ndarray, betas: np.ndarray, beta0, f,
+           state: KalmanState | None = None):
+    """(error, faults (k, rows)) for these calls; state carries over when given."""
+    rows = len(te)
+    k = len(measured)
+    state = state or KalmanState(k, f)
+    error = np.empty(rows, f)
+    faults = np.zeros((k, rows), np.bool_)
+    stacked = np.empty((k, rows), f)
+    for i, m in enumerate(measured):
+        stacked[i] = m
+    ranges = np.empty((k, rows), np.bool_)
+    for i, r in enumerate(in_range):
+        ranges[i] = r
+    _kalman(np.ascontiguousarray(te, f), np.ascontiguousarray(n, f), stacked, ranges, np.ascontiguousarray(sc, f),
+            np.ascontiguousarray(betas, f), f(beta0), state.tf, state.pf, state.t0, state.tm_prev, state.fault,
+            state.started, error, faults)
+    return error, faults
 
 
 KIND = Kind("kalman", 2, "000", _fit, predict, roles=("speed", "ambient"), fused_guards=True, ambient_apart=True,

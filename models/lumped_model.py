@@ -25,7 +25,6 @@ import numpy as np
 from thermoplc.base.errors import UserError
 from thermoplc.base import ridge
 from thermoplc.base import compiled
-from thermoplc.models import kernels
 from thermoplc.physics import primitives
 from thermoplc.physics import identify, simulation as sim_
 from thermoplc.models.kind import Kind
@@ -200,7 +199,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     offset = [coef.get(f"O_{i}") for i in range(1, k + 1)]
     relay_sensor = model.settings.get("relay_sensor", 1) - 1
-    if rows and compiled.enabled(rows):  # the same loop, compiled (models/kernels.py)
+    if rows and compiled.enabled(rows):  # the same loop, compiled (below)
         return {model.target.name: kernel_arguments(model, inputs, precision)[0]}
     sim = l_ = m_ = t0 = None
     la = te0 = lf = None
@@ -260,14 +259,14 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
 
 
 def kernel_arguments(model: Model, inputs: dict, precision: str, state=None):
-    """(the compiled loop's output, its state) for these calls; predict's setup, for kernels.lumped."""
+    """(the compiled loop's output, its state) for these calls; predict's setup, for lumped_loop."""
     f, coef, temps, te, n, feed = _arrays(model, inputs, precision)
     flags = (*(has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection", "slow_structure",
                                        "ambient_coupling")), "AS" in coef, feed is not None, "H_1" in coef,
              any(name.startswith("KF_") for name in coef))
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
-    state = state or kernels.LumpedState(len(temps), f)
-    out = kernels.lumped(temps, te, n, feed, flags, coef, table, model.settings.get("relay_sensor", 1) - 1, f, state)
+    state = state or LumpedState(len(temps), f)
+    out = lumped_loop(temps, te, n, feed, flags, coef, table, model.settings.get("relay_sensor", 1) - 1, f, state)
     return out, state
 
 
@@ -313,7 +312,7 @@ def check_settings(model: Model, path: str) -> None:
 
 
 class StreamCore:
-    """predict with the simulation's state kept (kernels.LumpedState)."""
+    """predict with the simulation's state kept (LumpedState)."""
 
     def __init__(self, model: Model, precision: str, f):
         self.f, self.target, self.model, self.precision = f, model.target.name, model, precision
@@ -332,6 +331,136 @@ SETTINGS_SCHEMA = {
                                                         "sensor": {"type": ["integer", "null"], "minimum": 1}}}},
                    "relay_sensor": {"type": "integer", "minimum": 1},
                    "speed_table_segments": {"type": "integer", "minimum": 0, "maximum": 4096}}}
+
+
+# The same loop compiled (base/compiled.py; the rules that keep its bits in models/kernels.py).
+# Lumped-mass simulation with effects (models/lumped_model.py::predict).
+# flags: gear, cool_on, stop, slow, amb, structure, feed, load, filtered (0/1); per (k,): G, G2, K,
+# As, Bs, A, B, beta, gamma, delta, offset, H (standstill load), KF (filter gain); present (2, k):
+# whether each sensor has an offset, a filter gain; sc: Gear_rpm, Stop_rpm, AS, BS, A2, B2, AAm,
+# BAm, AF, BF, beta0, alpha, phi, CoolOn, CoolOff (absent ones 0; never used then);
+# table: (segments, 3) node, heat, slope.
+
+@compiled.jit
+def _lumped(temps, te, n, feed, flags, per, present, sc, table, relay, zero, sim, ll, mm, t0, carried, status, out):
+    k = temps.shape[0]
+    gear, cool_on, stop, slow, amb, structure, with_feed, load = (flags[0], flags[1], flags[2], flags[3], flags[4],
+                                                                   flags[5], flags[6], flags[7])
+    filtered = flags[8]
+    la = carried[0]
+    te0 = carried[1]
+    lf = carried[2]
+    cool = status[1] != 0
+    segs = table.shape[0]
+    for j in range(out.shape[0]):
+        if status[0] == 0:
+            for i in range(k):
+                if present[0, i]:
+                    sim[i] = temps[i, j] - per[10, i]
+                else:
+                    sim[i] = temps[i, j]
+                ll[i] = sim[i]
+                mm[i] = sim[i]
+                t0[i] = sim[i]
+            la = te[j]
+            te0 = te[j]
+            lf = zero
+            status[0] = 1
+        s = n[j]
+        if segs > 0:
+            index = 0
+            for m in range(segs - 1, 0, -1):
+                if n[j] >= table[m, 0]:
+                    index = m
+                    break
+            s = table[index, 1] + (n[j] - table[index, 0]) * table[index, 2]
+        for i in range(k):
+            q = per[0, i] * s
+            if load:
+                q = q + per[11, i]
+            if gear and n[j] > sc[0]:
+                q = q + per[1, i] * n[j]
+            if cool_on and cool:
+                q = q + per[2, i]
+            if stop and n[j] <= sc[1]:
+                sim[i] = per[3, i] * sim[i] + per[4, i] * (q + te[j])
+            else:
+                sim[i] = per[5, i] * sim[i] + per[6, i] * (q + te[j])
+            if filtered and present[1, i]:
+                sim[i] = sim[i] + per[12, i] * (temps[i, j] - sim[i])
+            if structure:
+                ll[i] = sc[2] * ll[i] + sc[3] * sim[i]
+            if slow:
+                if structure:
+                    mm[i] = sc[4] * mm[i] + sc[5] * ll[i]
+                else:
+                    mm[i] = sc[4] * mm[i] + sc[5] * sim[i]
+        if amb:
+            la = sc[6] * la + sc[7] * te[j]
+        if with_feed:
+            lf = sc[8] * lf + sc[9] * feed[j]
+        e = sc[10]
+        for i in range(k):
+            e = e + per[7, i] * (sim[i] - t0[i])
+            if structure:
+                e = e + per[8, i] * (ll[i] - t0[i])
+            if slow:
+                e = e + per[9, i] * (mm[i] - t0[i])
+        if amb:
+            e = e + sc[11] * (la - te0)
+        if with_feed:
+            e = e + sc[12] * lf
+        out[j] = e
+        if cool_on:
+            t_switch = sim[relay]
+            if t_switch > sc[13]:
+                cool = True
+            elif t_switch < sc[14]:
+                cool = False
+    carried[0] = la
+    carried[1] = te0
+    carried[2] = lf
+    status[1] = 1 if cool else 0
+
+
+class LumpedState:
+    """Simulated temperatures, structure and slow lags, their start values, the ambient and feed
+    lags, the ambient at the first call; whether the first call happened and the coolant relay."""
+
+    def __init__(self, k: int, f):
+        self.sim, self.ll, self.mm, self.t0 = (np.zeros(k, f) for _ in range(4))
+        self.carried = np.zeros(3, f)  # LA, Te0, LF
+        self.status = np.zeros(2, np.int64)  # started, cool
+
+
+LUMPED_PER_SENSOR = ("G", "G2", "K", "As", "Bs", "A", "B", "beta", "gamma", "delta", "O", "H", "KF")
+LUMPED_SCALARS = ("Gear_rpm", "Stop_rpm", "AS", "BS", "A2", "B2", "AAm", "BAm", "AF", "BF", "beta0", "alpha", "phi",
+                  "CoolOn", "CoolOff")
+
+
+def lumped_loop(temps: list, te, n, feed, flags: tuple, coef: dict, table: list, relay: int, f,
+           state: LumpedState | None = None) -> np.ndarray:
+    """coef: name -> value of dtype f (absent coefficients are not in it)."""
+    k = len(temps)
+    state = state or LumpedState(k, f)
+    per = np.zeros((len(LUMPED_PER_SENSOR), k), f)
+    for r, name in enumerate(LUMPED_PER_SENSOR):
+        for i in range(k):
+            per[r, i] = coef.get(f"{name}_{i + 1}", f(0))
+    present = np.array([[f"{stem}_{i + 1}" in coef for i in range(k)] for stem in ("O", "KF")], np.bool_)
+    sc = np.array([coef.get(name, f(0)) for name in LUMPED_SCALARS], f)
+    rows = len(te)
+    stacked = np.empty((k, rows), f)
+    for i, x in enumerate(temps):
+        stacked[i] = x
+    table_array = np.array(table, f).reshape(len(table), 3)
+    out = np.empty(rows, f)
+    _lumped(stacked, np.ascontiguousarray(te, f), np.ascontiguousarray(n, f),
+            np.ascontiguousarray(feed if feed is not None else te, f), np.array(flags, np.bool_), per, present, sc,
+            table_array, np.int64(relay), f(0), state.sim, state.ll, state.mm, state.t0, state.carried, state.status,
+            out)
+    return out
+
 
 KIND = Kind("lumped", 9, "000", _fit, predict, roles=("speed", "ambient"), ambient_apart=True, auto="iterative",
             settings_schema=SETTINGS_SCHEMA, check_settings=check_settings, stream_core=StreamCore)

@@ -1,4 +1,4 @@
-"""The compiled reference (models/kernels.py) equals the numpy/Python reference bit for bit:
+"""The compiled reference (models/kernels.py and each kind's loop) equals the numpy/Python reference bit for bit:
 every golden model, clean and with every injected fault, NaN/Inf and out-of-range inputs, both
 precisions; and the compiled loops carry no FMA or fast-math flag."""
 import numpy as np
@@ -6,7 +6,7 @@ import pytest
 
 from tests.golden_models import GOLDEN, KINDS, golden_twin_csv
 from thermoplc.base import compiled
-from thermoplc.models import kernels
+from thermoplc.models import grey, kalman, kernels, lumped_model
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import ENABLE, ENABLED, RESET, Limits, guards
@@ -108,15 +108,15 @@ def test_fast_reference_equals_slow_on_hostile_inputs(kind, golden_table):
 def test_compiled_loops_contract_nothing():
     """No fused multiply-add and no fast-math flag in the LLVM IR of any compiled loop."""
     f = np.float32
-    kernels.kalman(np.ones(3, f), np.ones(3, f), [np.ones(3, f)], [np.ones(3, bool)],
+    kalman.kalman_loop(np.ones(3, f), np.ones(3, f), [np.ones(3, f)], [np.ones(3, bool)],
                    np.ones((1, 10), f), np.ones(1, f), f(0), f)
     kernels.hold(np.ones(3, f), np.ones(3, bool), False, 0, 3, 1.0, f)
-    kernels.gm0n([np.ones(3, f)], 1.0, [1.0], f)
-    kernels.gm1n([np.ones(3, f)], 1.0, 1.0, 1.0, [1.0], f)
+    grey.gm0n_loop([np.ones(3, f)], 1.0, [1.0], f)
+    grey.gm1n_loop([np.ones(3, f)], 1.0, 1.0, 1.0, [1.0], f)
     kernels.limit(np.ones(3, f), 0, np.zeros(1, f), np.zeros(3, f), np.zeros(3, bool), np.zeros(3, bool),
                   np.zeros(3, bool), Limits().values(), f)
-    kernels.lumped([np.ones(3, f)], np.ones(3, f), np.ones(3, f), None, (True,) * 6 + (False, True, True), {}, [(1.0, 1.0, 1.0)], 0, f)
-    for fn in (kernels._kalman, kernels._hold, kernels._limit, kernels._gm0n, kernels._gm1n, kernels._lumped):
+    lumped_model.lumped_loop([np.ones(3, f)], np.ones(3, f), np.ones(3, f), None, (True,) * 6 + (False, True, True), {}, [(1.0, 1.0, 1.0)], 0, f)
+    for fn in (kalman._kalman, kernels._hold, kernels._limit, grey._gm0n, grey._gm1n, lumped_model._lumped):
         fresh = compiled.numba.njit(**{**compiled.JIT_OPTIONS, "cache": False})(fn.py_func)  # cached code has no IR
         for signature in fn.signatures:
             fresh.compile(signature)
@@ -137,7 +137,7 @@ def test_kalman_kernel_rounds_each_operation_where_fma_would_not():
     te, n = rng.uniform(-30, 30, rows).astype(f), rng.uniform(-3, 3, rows).astype(f)
     temp = rng.uniform(15, 25, rows).astype(f)
     sc = np.array([[0.999, 0.998, 0.0013, 0.0007, 0.011, 1e-3, 0.5, 0.5, -1.0, 0.1]], f)  # Jmp < 0: model only
-    error, _ = kernels.kalman(te, n, [temp], [np.ones(rows, bool)], sc, np.ones(1, f), f(0), f)
+    error, _ = kalman.kalman_loop(te, n, [temp], [np.ones(rows, bool)], sc, np.ones(1, f), f(0), f)
     a, b, c, d = (f(x) for x in sc[0, [0, 2, 3, 4]])
     tf = t0 = temp[0]
     separate, fused = [], []
