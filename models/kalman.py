@@ -347,7 +347,7 @@ class KalmanState:
 
 
 def kalman_loop(te, n, measured: list, in_range: list, sc: np.ndarray, betas: np.ndarray, beta0, f,
-           state: KalmanState | None = None):
+                state: KalmanState | None = None):
     """(error, faults (k, rows)) for these calls; state carries over when given."""
     rows = len(te)
     k = len(measured)

@@ -439,7 +439,7 @@ LUMPED_SCALARS = ("Gear_rpm", "Stop_rpm", "AS", "BS", "A2", "B2", "AAm", "BAm", 
 
 
 def lumped_loop(temps: list, te, n, feed, flags: tuple, coef: dict, table: list, relay: int, f,
-           state: LumpedState | None = None) -> np.ndarray:
+                state: LumpedState | None = None) -> np.ndarray:
     """coef: name -> value of dtype f (absent coefficients are not in it)."""
     k = len(temps)
     state = state or LumpedState(k, f)

@@ -20,7 +20,7 @@ import numpy as np
 from thermoplc.base import ridge
 from thermoplc.physics import displacement, identify
 from thermoplc.physics import simulation as sim_
-from thermoplc.physics.effects import definition_of, registry, with_part
+from thermoplc.physics.effects import definition_of, with_part
 from thermoplc.physics.fitted import Simulation
 from thermoplc.physics.primitives import DisplacementParams, Series, Shared
 
@@ -28,11 +28,11 @@ from thermoplc.physics.primitives import DisplacementParams, Series, Shared
 def _search_shared(runs: list[Series], shared: Shared, effects, sensors) -> Shared:
     """The shared parameters of these effects (gear threshold, speed-heat exponent; a closed loop's thresholds
     last), sensors held: each effect's record searches its own."""
-    records = [record for name, record in registry().items() if any(e == name for e, _ in effects)]
-    for record in sorted(records, key=lambda record: record.closed_loop is not None):  # stable: by rank otherwise
-        if record.search_identified:
+    for record in sim_.records_with(effects, "search_identified"):
+        if not record.closed_loop:
             shared = record.search_identified(runs, shared, effects, sensors)
-    return shared
+    loop = sim_.closed_loop_of(effects)
+    return shared if loop is None else loop.search_identified(runs, shared, effects, sensors)
 
 
 def _fit_sensor(runs: list[Series], i: int, shared: Shared, effects, start, cooling=None):

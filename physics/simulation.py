@@ -37,7 +37,7 @@ def sensor_poles(series: Series, shared: Shared, p: SensorParams):
     return np.where(stopped(series, shared), pole(p.tau_s * p.stop_factor, series.dt), a_run)
 
 
-def _records(effects, hook: str) -> list:
+def records_with(effects, hook: str) -> list:
     """The records of these effects that have `hook`, by rank."""
     names = {e for e, _ in effects}
     return [record for name, record in registry().items() if name in names and getattr(record, hook)]
@@ -45,7 +45,7 @@ def _records(effects, hook: str) -> list:
 
 def closed_loop_of(effects):
     """The record of the closed loop among these effects (the coolant relay), or None."""
-    return next(iter(_records(effects, "closed_loop")), None)
+    return next(iter(records_with(effects, "closed_loop")), None)
 
 
 def closed_loop_state(series: Series, shared: Shared, sensors, effects) -> np.ndarray | None:
@@ -60,7 +60,7 @@ def heat_inputs(series: Series, shared: Shared, effects, cooling: np.ndarray | N
     """Heat input columns: the speed heat, the standstill load and each heat effect's (its record's
     `heat_input`); a closed loop's state is `cooling` when given, else its record's stand-in."""
     inputs = [("gain", speed_heat(series.n, shared)), ("load_K", np.ones(series.rows))]
-    for record in _records(effects, "heat_input"):
+    for record in records_with(effects, "heat_input"):
         column = record.heat_input(series, shared, cooling)
         if column is not None:
             inputs.append(column)
@@ -73,8 +73,8 @@ def sensor_design(series: Series, i: int, shared: Shared, effects, a, cooling=No
     decay = lag(np.zeros(series.rows), a, 1.0)
     known = lag(series.te, a, series.te[0]) + decay * first
     columns = [(name, lag(x, a, 0.0)) for name, x in heat_inputs(series, shared, effects, cooling)]
-    for name, record in registry().items():  # an error of this sensor's reading (offset, drift): its column
-        if (name, i) in effects and record.reading_column:
+    for record in records_with(effects, "reading_column"):  # an error of this sensor's reading (offset, drift)
+        if (record.name, i) in effects:
             columns.append(record.reading_column(series, decay))
     return known, columns
 
@@ -152,7 +152,7 @@ def search_shared(series, shared, effects, starts, without: str, options, apply)
 def fit_temperatures(series: Series, shared: Shared, effects, starts=None):
     """Shared parameters (gear threshold, exponent; a closed loop's thresholds last) by search, sensors inside:
     each effect's record searches its own."""
-    for record in _records(effects, "search_open_loop"):
+    for record in records_with(effects, "search_open_loop"):
         shared = record.search_open_loop(series, shared, effects, starts)
     loop = closed_loop_of(effects)
     if loop is not None:

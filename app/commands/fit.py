@@ -115,27 +115,29 @@ def _reading(field: str) -> str:
     return " and ".join(kind.name for kind in readers(field))
 
 
-def _kind_groups(p: argparse.ArgumentParser) -> dict[tuple[str, ...], argparse._ArgumentGroup]:
-    """A help group for each set of kinds that read the same options (models/kind.py::KindOption)."""
+def _kind_groups(p: argparse.ArgumentParser) -> dict[str, argparse._ArgumentGroup]:
+    """Each kind option's help group (models/kind.py::KindOption): one per set of kinds that read the same options."""
     from thermoplc.models.kinds import options, readers
-    groups = {}
-    for option in options().values():
-        names = tuple(kind.name for kind in readers(option.field))
+    groups: dict[tuple[str, ...], argparse._ArgumentGroup] = {}
+    by_field = {}
+    for field in options():
+        names = tuple(kind.name for kind in readers(field))
         if names not in groups:
             groups[names] = p.add_argument_group(f"{' and '.join(names)} only (refused for any other kind)")
-    return groups
+        by_field[field] = groups[names]
+    return by_field
 
 
-def _kind_options(groups: dict[tuple[str, ...], argparse._ArgumentGroup]) -> None:
+def _kind_options(groups: dict[str, argparse._ArgumentGroup]) -> None:
     """Each kind's own options as its record declares them: flag, default, help and the check of its value;
     each is refused for a kind that does not read it (fit_options.py)."""
-    from thermoplc.models.kinds import options, readers
+    from thermoplc.models.kinds import options
     for option in options().values():
         parse = number(*option.number) if option.number else None
-        group = groups[tuple(kind.name for kind in readers(option.field))]
-        group.add_argument(option.flag, dest=option.field, default=option.default, help=option.help,
-                           **({"type": parse} if parse else {}), **({"choices": option.choices} if option.choices else {}),
-                           **({"metavar": option.metavar} if option.metavar else {}))
+        groups[option.field].add_argument(option.flag, dest=option.field, default=option.default, help=option.help,
+                                          **({"type": parse} if parse else {}),
+                                          **({"choices": option.choices} if option.choices else {}),
+                                          **({"metavar": option.metavar} if option.metavar else {}))
 
 
 def _refuse_nothing_held_out(args: argparse.Namespace, table) -> None:
