@@ -12,7 +12,7 @@ from thermoplc.diagnosis.parts import Parts
 from thermoplc.diagnosis.runs import DiagnoseRequest, parts_of
 from thermoplc.diagnosis.search import diagnose_runs
 from thermoplc.base.errors import UserError
-from thermoplc.base.fileio import REPORT_MANIFEST, check_report_folder, report_manifest, write_outputs
+from thermoplc.base.fileio import REPORT_MANIFEST, check_outputs, report_manifest, write_outputs
 from thermoplc.models import lumped_model
 from thermoplc.recordings.campaign import read_campaign, run_list, source_of
 from thermoplc.physics.effects import definition_of
@@ -103,6 +103,8 @@ def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report
     folder when asked, all or nothing; returns the findings document. With `scheduler` (tcp://HOST:PORT) each
     round's candidates are tried on that Dask cluster's workers (diagnosis/remote.py): the same bytes."""
     runs = run_list(list(request.data) if request.data is not None else None, request.runs_table)
+    inputs = [*runs.paths, *([runs.table] if runs.table else []), *([request.baseline] if request.baseline else [])]
+    check_outputs({"model_path": model_path, "json_path": json_path}, True, inputs)  # never onto an input
     campaign = read_campaign(runs, request.time_column, request.decimal, probed=(request.target,),
                              held=request.held_target, resampling=request.resampling)
     parts, dt = parts_of(campaign, request)
@@ -133,8 +135,8 @@ def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report
     if report_dir:
         from thermoplc.diagnosis.report import is_report_file, report
         files = report(doc, d)
-        stale = [Path(report_dir) / n for n in check_report_folder(report_dir, list(files), list(runs.paths),
-                                                                   is_report_file)]
+        stale = [Path(report_dir) / n for n in check_outputs({"model_path": model_path, "json_path": json_path}, True,
+                                                             inputs, report_dir, list(files), is_report_file)]
         outputs += [(Path(report_dir) / name, content) for name, content in files.items()]
         outputs.append((Path(report_dir) / REPORT_MANIFEST, report_manifest(list(files.items()))))
     write_outputs(outputs, remove=stale)

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from thermoplc.commands.options import FORCE_HELP, examples
+from thermoplc.commands.options import FORCE_HELP, OUTPUT, examples
 
 
 def add_parser(sub) -> None:
@@ -12,7 +12,7 @@ def add_parser(sub) -> None:
                        **examples("README.md and docs/models.md#the-demo-fl_thermal-ch3",
                                   "thermoplc demo",
                                   "thermoplc demo --out demo_out"))
-    p.add_argument("--out", default="thermoplc-demo", help="output folder (default: %(default)s)")
+    p.add_argument("--out", default="thermoplc-demo", type=OUTPUT, help="output folder (default: %(default)s)")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.set_defaults(func=run)
 

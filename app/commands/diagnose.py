@@ -6,8 +6,9 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_outputs
-from thermoplc.commands.options import (DECIMAL, FORCE_HELP, RESAMPLE, RUNS, campaign_arguments, columns, examples,
-                                        named, scheduler_address, training_part)
+from thermoplc.commands.options import (DECIMAL, FORCE_HELP, MODEL_FILE, OUTPUT, RESAMPLE, RUNS, campaign_arguments,
+                                        columns, examples, named, scheduler_address, training_part)
+from thermoplc.commands.reads import Writes, files_read
 from thermoplc.commands.terminal import end_progress, progress
 
 
@@ -30,7 +31,7 @@ def add_parser(sub) -> None:
                    help="the target holds its last probing between probings: only the first row and the rows where "
                         "it changes are measurements")
     p.add_argument("--feed", help="feed-axis rate column, mm/min (enables the feed_axis_heat candidate)")
-    p.add_argument("--baseline", type=named("a model file"),
+    p.add_argument("--baseline", type=MODEL_FILE,
                    help="a lumped model file (`fit --model lumped` or diagnose wrote it) to start from "
                         "instead of identifying the baseline")
     p.add_argument("--no-structure-lag", action="store_true",
@@ -46,10 +47,10 @@ def add_parser(sub) -> None:
                    help="try each round's candidate effects as tasks of the Dask distributed cluster whose scheduler "
                         "is at ADDRESS (tcp://HOST:PORT; the fleet extra); every worker reads the runs by the paths "
                         "given. The same findings, bit for bit")
-    p.add_argument("--json", help="write the findings here (findings.json)")
-    p.add_argument("--report", metavar="FOLDER", type=named("a folder for the report"),
+    p.add_argument("--json", type=OUTPUT, help="write the findings here (findings.json)")
+    p.add_argument("--report", metavar="FOLDER", type=Writes(named("a folder for the report")),
                    help="write an HTML report with plots into this folder")
-    p.add_argument("-o", "--output", default="diagnosed_model.json",
+    p.add_argument("-o", "--output", default="diagnosed_model.json", type=OUTPUT,
                    help="augmented model file (default: %(default)s)")
     p.set_defaults(func=run)
 
@@ -65,9 +66,8 @@ def run(args: argparse.Namespace) -> int:
     if args.baseline and args.no_structure_lag:
         raise UserError("--no-structure-lag shapes a fitted baseline; with --baseline the model file decides")
     runs = run_list(args.data, args.runs)
-    inputs = [*runs.paths, *([runs.table] if runs.table else []), *([args.baseline] if args.baseline else [])]
     from thermoplc.diagnosis.report import is_report_file, report_files
-    check_outputs({"-o": args.output, "--json": args.json}, args.force, inputs, args.report,
+    check_outputs({"-o": args.output, "--json": args.json}, args.force, files_read(args), args.report,
                   report_files(len(args.temps) + 1, len(runs.paths)), is_report_file)
     doc = diagnose(request, args.output, args.json, args.report, progress(), args.scheduler)
     end_progress()

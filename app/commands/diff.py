@@ -5,7 +5,8 @@ import argparse
 
 from thermoplc.commands import json_output
 from thermoplc.base.errors import UserError
-from thermoplc.commands.options import DECIMAL, examples, mapping, named, number
+from thermoplc.commands.options import DECIMAL, READ_FILE, examples, mapping, named, number
+from thermoplc.commands.reads import files_read
 
 
 def add_parser(sub) -> None:
@@ -14,9 +15,9 @@ def add_parser(sub) -> None:
                                   "thermoplc diff old/ThermalComp.scl ThermalComp.scl",
                                   "thermoplc diff a.scl b.scl --data recording.csv",
                                   "thermoplc diff a.scl b.scl --data run.csv --probe-target E_z_um --held-target"))
-    p.add_argument("old", help="the block as it was (ST source or PLCopen XML)")
-    p.add_argument("new", help="the block as it is now (ST source or PLCopen XML)")
-    p.add_argument("--data", help="replay both blocks on this CSV and report the largest output difference")
+    p.add_argument("old", type=READ_FILE, help="the block as it was (ST source or PLCopen XML)")
+    p.add_argument("new", type=READ_FILE, help="the block as it is now (ST source or PLCopen XML)")
+    p.add_argument("--data", type=READ_FILE, help="replay both blocks on this CSV and report the largest output difference")
     p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--inputs", type=mapping, help="block input to column mapping NAME=COLUMN,...")
     p.add_argument("--probe-target", metavar="COLUMN", type=named("--probe-target"),
@@ -35,7 +36,7 @@ def run(args: argparse.Namespace) -> int:
     from thermoplc.recordings.table import read_table
     from thermoplc.verifier.diff import diff_blocks, format_diff
     from thermoplc.verifier.documents import diff_document
-    json_output.check(args, [args.old, args.new, args.data])
+    json_output.check(args, files_read(args))
     if (args.probe_every or args.held_target) and not args.probe_target:
         raise UserError("--probe-every and --held-target say how --probe-target holds the probings; "
                         "give --probe-target")

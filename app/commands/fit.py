@@ -11,8 +11,9 @@ from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_outputs, write_outputs
 from thermoplc.commands import json_output
 from thermoplc.commands.fit_options import Given, refuse_options_not_read
-from thermoplc.commands.options import (DECIMAL, FORCE_HELP, RESAMPLE, campaign_arguments, columns, examples,
+from thermoplc.commands.options import (DECIMAL, FORCE_HELP, OUTPUT, RESAMPLE, campaign_arguments, columns, examples,
                                         named, number, scheduler_address, training_part)
+from thermoplc.commands.reads import Writes, files_read
 from thermoplc.commands.terminal import end_progress, progress
 
 
@@ -78,7 +79,7 @@ def add_parser(sub) -> None:
     probing.add_argument("--probe-every", type=number(int, 1, 10 ** 9, "calls"), metavar="N",
                          help="with --probe on a target measured at every call: simulate a probing every N calls (a probed "
                               "target's own measured rows are its probings)")
-    output.add_argument("--report", metavar="DIR", type=named("a folder for the report"),
+    output.add_argument("--report", metavar="DIR", type=Writes(named("a folder for the report")),
                         help="also write a report folder: per run measured, predicted and no compensation, the residual, "
                              "the fold and group tables, one PNG per run and an index.html")
     evaluation.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
@@ -91,7 +92,7 @@ def add_parser(sub) -> None:
     data.add_argument("--decimal", **DECIMAL)
     data.add_argument("--resample", **RESAMPLE)
     output.add_argument("--force", action="store_true", help=FORCE_HELP)
-    output.add_argument("-o", "--output", required=True, help="model file to write (JSON)")
+    output.add_argument("-o", "--output", required=True, type=OUTPUT, help="model file to write (JSON)")
     json_output.add_arguments(output, force=False)
     p.set_defaults(func=run)
 
@@ -201,8 +202,7 @@ def run(args: argparse.Namespace) -> int:
                         "--train-rows instead of --folds (or a campaign of runs with --folds)")
     if args.probe and len(runs.paths) > 1 and not (args.folds or args.group_by):
         raise UserError("--probe on a campaign chooses the fusion on runs held out: give --folds K or --group-by")
-    inputs = [*runs.paths, *([runs.table] if runs.table else []), args.temps.file]  # none may become an output
-    stale = check_outputs({"-o": args.output, "--json": json_output.file(args)}, args.force, inputs, args.report,
+    stale = check_outputs({"-o": args.output, "--json": json_output.file(args)}, args.force, files_read(args), args.report,
                           report_names(list(runs.paths)), is_report_file)
     campaign = read_campaign(runs, args.time, args.decimal, probed=args.target, held=args.held_target,
                              resampling=resampling_of(args))

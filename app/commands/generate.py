@@ -11,7 +11,8 @@ from typing import Callable
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_output, write_atomic
 from thermoplc.base.text import decode_lenient
-from thermoplc.commands.options import (FORCE_HELP, block_version, date, examples, header_attribute, number, st_name,
+from thermoplc.commands.reads import files_read
+from thermoplc.commands.options import (FORCE_HELP, OUTPUT, READ_FILE, block_version, date, examples, header_attribute, number, st_name,
                                         value_range)
 
 
@@ -21,7 +22,7 @@ def add_parser(sub) -> None:
                                   "thermoplc generate model.json -o ThermalComp.scl",
                                   "thermoplc generate model.json --dialect step7 -o ThermalComp.scl",
                                   "thermoplc generate model.json --dialect iec --format plcopen -o ThermalComp.xml"))
-    p.add_argument("model", help="model file written by fit or diagnose")
+    p.add_argument("model", type=READ_FILE, help="model file written by fit or diagnose")
     p.add_argument("--dialect", choices=("tia", "step7", "iec"), default="tia",
                    help="tia: S7-1500/SINUMERIK ONE (TIA Portal); step7: classic STEP 7 SCL (840D sl, S7-300); "
                         "iec: IEC 61131-3 for CODESYS/TwinCAT/OpenPLC (default: %(default)s)")
@@ -66,7 +67,7 @@ def add_parser(sub) -> None:
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--explain", action="store_true", help="print which region computes which model term, "
                                                           "with its constants")
-    p.add_argument("-o", "--output", required=True, help="source file to write (.scl, .st or .xml)")
+    p.add_argument("-o", "--output", required=True, type=OUTPUT, help="source file to write (.scl, .st or .xml)")
     p.set_defaults(func=run)
 
 
@@ -79,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     from thermoplc.pipeline import generate
     to_stdout = args.output == "-"  # the block on standard output, what generate says on standard error
     if not to_stdout:
-        check_output(args.output, args.force, inputs=[args.model])
+        check_output(args.output, args.force, inputs=files_read(args))
     say = functools.partial(print, file=sys.stderr if to_stdout else sys.stdout)
     model = load_model(args.model)
     if args.name is not None:

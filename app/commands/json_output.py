@@ -15,6 +15,7 @@ import numpy as np
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_outputs, write_atomic
 from thermoplc.commands.options import FORCE_HELP
+from thermoplc.commands.reads import Writes
 
 JSON_HELP = ("also write the result as a JSON document to FILE ('-': standard output, the text then goes to "
              "standard error); its JSON Schema is installed with thermoplc (thermoplc/schemas/<command>_v1.json), "
@@ -28,7 +29,7 @@ def _file_name(text: str) -> str:
 
 
 def add_arguments(p, force: bool = True) -> None:
-    p.add_argument("--json", metavar="FILE", type=_file_name, help=JSON_HELP)
+    p.add_argument("--json", metavar="FILE", type=Writes(_file_name), help=JSON_HELP)
     if force:
         p.add_argument("--force", action="store_true", help=FORCE_HELP)
 

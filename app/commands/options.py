@@ -9,6 +9,9 @@ import re
 from pathlib import Path
 from typing import Callable
 
+from thermoplc.commands.reads import Reads, Writes
+
+
 def examples(page: str, *lines: str) -> dict:
     """add_parser keywords for a subcommand's --help: its example command lines and its docs page after the
     options (a line that continues the one before starts with spaces)."""
@@ -28,7 +31,7 @@ class Names(tuple):
     file: str | None = None
 
 
-def columns(text: str) -> Names:
+def column_list(text: str) -> Names:
     """Comma-separated column names, or @FILE written by select-sensors -o (its '#' lines are comments)."""
     file = text[1:] if text.startswith("@") else None
     if file is not None:
@@ -57,8 +60,12 @@ def named(what: str) -> Callable[[str], str]:
     return parse
 
 
-RECORDING = named("a recording (CSV, .npz or Parquet) or a folder of them")
-RUNS_TABLE = named("a runs table (CSV)")
+columns = Reads("list", column_list)  # an @FILE list is an input of the command
+RECORDING = Reads("recordings", named("a recording (CSV, .npz or Parquet) or a folder of them"))
+RUNS_TABLE = Reads("runs table", named("a runs table (CSV)"))
+MODEL_FILE = Reads("file", named("a model file"))
+READ_FILE = Reads("file")  # a block, a model or one recording, taken as given (the reading names a bad one)
+OUTPUT = Writes()  # -o FILE: checked by base/fileio.check_outputs
 
 
 def number(kind: type, low: float, high: float, what: str = "") -> Callable[[str], float]:

@@ -7,7 +7,9 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_output, write_atomic
-from thermoplc.commands.options import DECIMAL, FORCE_HELP, RESAMPLE, columns, examples, number, training_part
+from thermoplc.commands.options import (DECIMAL, FORCE_HELP, OUTPUT, READ_FILE, RESAMPLE, columns, examples, number,
+                                        training_part)
+from thermoplc.commands.reads import files_read
 
 
 def add_parser(sub) -> None:
@@ -15,7 +17,7 @@ def add_parser(sub) -> None:
                        **examples("docs/models.md",
                                   "thermoplc select-sensors --data fl_thermal.csv --target ch3_um --train-until 86400 -o sensors.txt",
                                   "thermoplc fit --data fl_thermal.csv --temps @sensors.txt ..."))
-    p.add_argument("--data", required=True, help="CSV file (or .npz of columns)")
+    p.add_argument("--data", required=True, type=READ_FILE, help="CSV file (or .npz of columns)")
     p.add_argument("--target", required=True, help="measured displacement column, um")
     p.add_argument("--method", choices=("fcm-grey", "grey-cluster"), default="fcm-grey",
                    help="fcm-grey: paper 001's fuzzy clustering + grey relational grade; "
@@ -28,7 +30,7 @@ def add_parser(sub) -> None:
     p.add_argument("--max-groups", type=number(int, 1, 1000, "groups"), default=5, help="fcm-grey: at most this many groups (default: %(default)s)")
     training_part(p, required=False, default="all rows")
     p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
-    p.add_argument("-o", "--output", help="write the chosen sensors for fit --temps @FILE")
+    p.add_argument("-o", "--output", type=OUTPUT, help="write the chosen sensors for fit --temps @FILE")
     p.add_argument("--decimal", **DECIMAL)
     p.add_argument("--resample", **{**RESAMPLE, "help": "take raw logger data onto the block's cycle of SECONDS "
                                                          "first (temperatures linear; docs/campaigns.md), as fit "
@@ -42,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
     from thermoplc.fitting.selection import select_sensors
     from thermoplc.recordings.table import read_table
     if args.output:
-        check_output(args.output, args.force, inputs=[args.data])
+        check_output(args.output, args.force, inputs=files_read(args))
     table = read_table(args.data, args.time, decimal=args.decimal)
     if args.resample:
         from thermoplc.recordings.resample import Resampling, resample

@@ -5,7 +5,7 @@ import argparse
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_output, write_atomic
-from thermoplc.commands.options import FORCE_HELP, SEED, examples, number
+from thermoplc.commands.options import FORCE_HELP, OUTPUT, SEED, examples, number
 
 MAX_TWIN_ROWS = 50_000_000  # about 1.6 years at 1 s, over all runs; beyond it the files alone take several GB
 
@@ -49,7 +49,7 @@ def add_parser(sub) -> None:
                    help="write each file as a raw data logger does: every --dt/4 s for the first 16 min, then every "
                         "--dt s, each time stamp off by up to 1 s (fit it with --resample DT)")
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
-    p.add_argument("-o", "--output", required=True, help="CSV file to write (with --runs: a new or empty folder)")
+    p.add_argument("-o", "--output", required=True, type=OUTPUT, help="CSV file to write (with --runs: a new or empty folder)")
     p.set_defaults(func=run)
 
 

@@ -7,8 +7,9 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.commands import json_output
-from thermoplc.commands.options import (DECIMAL, RECORDING, RESAMPLE, RUNS_TABLE, columns, examples, mapping, named,
-                                        number, scheduler_address)
+from thermoplc.commands.options import (DECIMAL, READ_FILE, RECORDING, RESAMPLE, RUNS_TABLE, columns, examples, mapping,
+                                        named, number, scheduler_address)
+from thermoplc.commands.reads import Reads, Writes, files_read
 from thermoplc.commands.terminal import progress
 
 
@@ -24,7 +25,7 @@ def add_parser(sub) -> None:
     replay = p.add_argument_group("replay")
     many = p.add_argument_group("many pairs (docs/performance.md)")
     output = p.add_argument_group("output")
-    p.add_argument("block", nargs="?", help="the block: its ST source, or the PLCopen XML of generate --format plcopen")
+    p.add_argument("block", nargs="?", type=READ_FILE, help="the block: its ST source, or the PLCopen XML of generate --format plcopen")
     data.add_argument("--data", action="append", type=RECORDING,
                       help="the recording (CSV, .npz or Parquet of columns), one row per call; columns Enable "
                            "and Reset (0/1), when present, drive those block inputs. Repeat it, or give a "
@@ -38,14 +39,14 @@ def add_parser(sub) -> None:
                                                             "cycle of SECONDS by the rule fit --resample records (a "
                                                             "model fitted with --resample applies it without this "
                                                             "option)"})
-    against.add_argument("--model", help="compare with this model's float32 reference")
-    output.add_argument("--outputs", metavar="FILE", type=named("a file for the outputs (.csv or .parquet)"),
+    against.add_argument("--model", type=READ_FILE, help="compare with this model's float32 reference")
+    output.add_argument("--outputs", metavar="FILE", type=Writes(named("a file for the outputs (.csv or .parquet)")),
                         help="also write what the block output at each call of the replay (one recording), "
                              "beside the time column: CSV (REAL to 9 digits, every bit kept) or Parquet")
     against.add_argument("--expect", type=columns,
                          help="compare with recorded outputs: COLUMN or OUTPUT=COLUMN, comma-separated")
     data.add_argument("--inputs", type=mapping, help="block input to column mapping NAME=COLUMN,...")
-    many.add_argument("--manifest", type=named("a manifest (CSV)"),
+    many.add_argument("--manifest", type=Reads("manifest", named("a manifest (CSV)")),
                       help="CSV of pairs to verify (columns block,data and model or expect, optional inputs)")
     many.add_argument("--jobs", type=number(int, 1, 256, "processes"), default=1,
                       help="with --manifest: pairs verified in parallel (default: %(default)s)")
@@ -70,10 +71,11 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     try:
+        read = files_read(args)  # before args.data becomes the one run: no output may replace any of them
         if args.scheduler and args.jobs != 1:
             raise UserError("--scheduler and --jobs: the cluster's workers verify the pairs; give one of the two")
         if args.manifest:
-            return _fleet(args)
+            return _fleet(args, read)
         if not args.block or not (args.data or args.runs):
             raise UserError("verify needs BLOCK and --data (or --runs TABLE; or --manifest FILE for many pairs)")
         if (args.model is None) == (args.expect is None):
@@ -85,13 +87,13 @@ def run(args: argparse.Namespace) -> int:
             raise UserError(f"{'--jobs' if args.jobs != 1 else '--scheduler'} runs the pairs of a --manifest or the "
                             f"runs of a campaign in parallel")
         args.data = runs[0]
-        _check_outputs_file(args)
+        _check_outputs_file(args, read)
         return _against_model(args) if args.model else _against_trace(args)
     except UserError as exc:  # a model file that lacks what its kind needs: name the file
         raise UserError(str(exc).replace("model file:", f"{args.model}:", 1) if args.model else str(exc)) from None
 
 
-def _check_outputs_file(args: argparse.Namespace) -> None:
+def _check_outputs_file(args: argparse.Namespace, read: list[str]) -> None:
     """--json and --outputs by the one output rule, before any work."""
     from thermoplc.base.fileio import check_outputs
     from thermoplc.verifier.outputs_file import check_name
@@ -100,7 +102,7 @@ def _check_outputs_file(args: argparse.Namespace) -> None:
             raise UserError("--outputs writes one replay's outputs; --faults replays once per fault")
         check_name(args.outputs)
     check_outputs({"--json": json_output.file(args), "--outputs": args.outputs}, args.force,
-                  inputs=[i for i in (args.block, args.data, args.model) if i])
+                  inputs=read)
 
 
 def _written_outputs(args: argparse.Namespace, report, table, time_column: str) -> str:
@@ -168,14 +170,14 @@ def _block_lines(outcomes) -> list[str]:
     return [line for line in texts[0].splitlines() if line.startswith(wanted)] if texts else []
 
 
-def _fleet(args: argparse.Namespace) -> int:
+def _fleet(args: argparse.Namespace, read: list[str]) -> int:
     """Many pairs from a manifest: 2 when any pair could not be read, else 1 when any is not bit-exact."""
     if args.block or args.data or args.runs or args.model or args.expect or args.faults or args.outputs:
         raise UserError("--manifest lists the blocks, data and models itself; give no BLOCK, --data, --model, --expect, "
                         "--faults or --outputs (verify one pair alone for its --outputs)")
     from thermoplc.verifier.fleet import fleet_document, format_fleet, read_manifest, verify_fleet
     pairs = read_manifest(args.manifest, args.decimal, args.probe_every, args.resample)
-    json_output.check(args, [args.manifest, *(f for p in pairs for f in (p.block, p.data, p.model))])
+    json_output.check(args, read)
     outcomes, seconds = verify_fleet(pairs, args.jobs, args.engine, args.scheduler)
     json_output.emit(args, format_fleet(outcomes, args.manifest, seconds), fleet_document(outcomes, args.manifest))
     if any(o.status == "error" for o in outcomes):
