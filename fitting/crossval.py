@@ -104,12 +104,20 @@ def contiguous(indices: list[int], count: int) -> list[list[int]]:
 
 
 def refuse_copies(tables: list[Table], why: str) -> None:
-    """A recording given twice (the same bytes under any name) is refused; `why` says what a copy would spoil."""
-    seen = {}
+    """A run given twice is refused naming both files; `why` says what a copy would spoil. Two runs are the same
+    when they hold the same columns and numbers (Table.content_sha256), whatever their format or bytes."""
+    seen: dict[str, str] = {}
     for table in tables:
-        if table.sha256 in seen:
-            raise UserError(f"{table.path}: the same recording as {seen[table.sha256]}; {why}")
-        seen[table.sha256] = table.path
+        if table.content_sha256 in seen:
+            first = seen[table.content_sha256]
+            same = ("its very bytes" if table.sha256 == _bytes_of(tables, first) else
+                    "the same columns and numbers in other bytes")
+            raise UserError(f"{table.path}: the same recording as {first} ({same}); {why}; give each run once")
+        seen[table.content_sha256] = table.path
+
+
+def _bytes_of(tables: list[Table], path: str) -> str:
+    return next(t.sha256 for t in tables if t.path == path)
 
 
 @dataclass(frozen=True)

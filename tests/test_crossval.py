@@ -106,3 +106,32 @@ def test_several_recordings_need_one_fold_each_and_no_copies(tmp_path):
     (tmp_path / "copy.csv").write_text(paths[0].read_text())
     copied = thermoplc(*common, *data, "--data", "copy.csv", "--folds", len(paths) + 1, cwd=tmp_path, check=2)
     assert f"copy.csv: the same recording as {paths[0].name}" in copied.stderr
+
+
+def test_a_run_in_other_bytes_is_the_same_run(tmp_path):
+    """Issue 60: the same run as Parquet, with CRLF line endings, or with its columns reordered, semicolons and
+    decimal commas is refused naming both files, by fit and diagnose alike; a run one cell apart is another run."""
+    import pyarrow.csv
+    import pyarrow.parquet
+    from tests.golden_models import batch_csvs
+    paths = batch_csvs(tmp_path)
+    common = ("fit", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "-o", "m.json")
+    data = [x for p in paths for x in ("--data", p.name)]
+    text = paths[1].read_text()
+    header, *rows = text.splitlines()
+    flipped = [";".join(reversed(line.split(","))).replace(".", ",") for line in (header, *rows)]
+    copies = {"copy.parquet": None, "crlf.csv": text.replace("\n", "\r\n"), "flipped.csv": "\n".join(flipped) + "\n"}
+    pyarrow.parquet.write_table(pyarrow.csv.read_csv(paths[1]), tmp_path / "copy.parquet")
+    for name, content in copies.items():
+        if content is not None:
+            (tmp_path / name).write_text(content, newline="")
+        refused = thermoplc(*common, *data, "--data", name, "--folds", len(paths) + 1, cwd=tmp_path, check=2)
+        assert refused.stderr.startswith(f"thermoplc: error: {name}: the same recording as {paths[1].name} (the same "
+                                         f"columns and numbers in other bytes)"), refused.stderr
+        assert not (tmp_path / "m.json").exists()
+    diagnosed = thermoplc("diagnose", *data, "--data", "crlf.csv", "--temps", "T_motor", "--speed", "n_rpm",
+                          "--ambient", "T_env", "--target", "E_z_um", cwd=tmp_path, check=2)
+    assert f"crlf.csv: the same recording as {paths[1].name}" in diagnosed.stderr
+    (tmp_path / "crlf.csv").write_text(text.replace("\n", "\r\n").replace(rows[5], rows[5].replace(",", ",1", 1), 1),
+                                       newline="")
+    thermoplc(*common, *data, "--data", "crlf.csv", "--folds", len(paths) + 1, cwd=tmp_path)
