@@ -13,7 +13,9 @@ rule that matches what the PLC would have seen at that call (after the last row:
   target (`held`): its last value, so each change still marks a probing, at the call that follows it;
 - a target measured at every row: linear, as a temperature;
 - pulses (a replay's Reset and ProbeNew: `pulses`): true at a call when true on any row since the call before,
-  so a pulse between two calls still reaches the block, at the call that follows it.
+  so a pulse between two calls still reaches the block, at the call that follows it; a pulse's value (ProbeValue
+  beside ProbeNew: `pulse_values`) is taken from the pulse's own row (the later of two in one cycle), the last
+  value elsewhere, so a probing's value is never one of the empty rows around it.
 A row gap longer than MAX_GAP_CALLS cycles is refused with its time named: no rule knows what happened there.
 """
 from __future__ import annotations
@@ -35,6 +37,7 @@ class Resampling:
     period_s: float
     hold: tuple[str, ...] = ()
     pulses: tuple[str, ...] = ()  # given by a replay for the block's control inputs, not recorded
+    pulse_values: tuple[tuple[str, str], ...] = ()  # (value column, its pulse column): ProbeValue with ProbeNew
 
     def to_doc(self) -> dict:
         return {"period_s": self.period_s, "hold": list(self.hold), "rule": RULE}
@@ -66,9 +69,12 @@ def resample(table: Table, time_column: str, rule: Resampling, probed: tuple[str
     calls = t[0] + step * np.arange(int(np.ceil((t[-1] - t[0]) / step - SLACK)) + 1)
     at_or_before = np.clip(np.searchsorted(t, calls + SLACK * step, side="right") - 1, 0, len(t) - 1)
     columns = {}
+    values_of_pulse = {value: pulse for value, pulse in rule.pulse_values if pulse in table.columns}
     for name, values in table.columns.items():
         if name == time_column:
             columns[name] = calls
+        elif name in values_of_pulse:
+            columns[name] = _value_at_pulses(t, values, table.columns[values_of_pulse[name]], step, at_or_before)
         elif name in rule.pulses:
             columns[name] = _pulses_at_calls(t, values, t[0], step, len(calls))
         elif name in rule.hold or (held and name in probed):
@@ -90,6 +96,15 @@ def _probings_at_calls(t: np.ndarray, values: np.ndarray, start: float, step: fl
     out = np.full(calls, np.nan)
     rows = np.flatnonzero(np.isfinite(values))
     out[_following_call(t[rows], start, step)] = values[rows]  # in time order: a later probing in a cycle wins
+    return out
+
+
+def _value_at_pulses(t: np.ndarray, values: np.ndarray, pulse: np.ndarray, step: float,
+                     at_or_before: np.ndarray) -> np.ndarray:
+    """`values` at each call: from the row of the latest pulse since the call before, else the last value."""
+    out = values[at_or_before]
+    rows = np.flatnonzero(pulse != 0.0)
+    out[_following_call(t[rows], t[0], step)] = values[rows]  # in time order: a later pulse in a cycle wins
     return out
 
 

@@ -184,3 +184,37 @@ def test_a_hand_edited_resample_section_is_one_line_and_a_mapped_speed_is_held(t
     thermoplc("verify", "m.scl", "--model", "m.json", "--data", "renamed.csv", "--inputs", "n_rpm=spindle",
               "--outputs", "b.csv", cwd=tmp_path)
     assert (tmp_path / "a.csv").read_bytes() == (tmp_path / "b.csv").read_bytes()  # the mapped column held too
+
+
+def test_a_probing_between_two_calls_keeps_its_own_value():
+    """Issue 60: a sparse ProbeValue (only on the probing's row) reaches the call that follows with the probing's
+    value, not the empty row at or before the call; two in one cycle: the later."""
+    raw = _table([0.0, 10.0, 15.0, 20.0, 31.0, 34.0, 47.0], ProbeNew=[0, 0, 1, 0, 1, 1, 0],
+                 ProbeValue=[np.nan, np.nan, 4.5, np.nan, 6.0, 7.0, np.nan], T=[1, 2, 3, 4, 5, 6, 7])
+    rule = Resampling(20.0, hold=("ProbeValue",), pulses=("ProbeNew",), pulse_values=(("ProbeValue", "ProbeNew"),))
+    out = resample(raw, "time_s", rule)
+    assert list(out.columns["ProbeNew"]) == [0.0, 1.0, 1.0, 0.0]
+    assert out.columns["ProbeValue"][1] == 4.5 and out.columns["ProbeValue"][2] == 7.0
+    assert np.isnan(out.columns["ProbeValue"][0]) and np.isnan(out.columns["ProbeValue"][3])
+
+
+@pytest.mark.parametrize("control, values", [("ProbeNew", (2, -1, 0.5)), ("Reset", (2,)), ("Enable", (2,))])
+def test_a_control_column_keeps_its_0_or_1_rule_through_resample(tmp_path, control, values):
+    """Issue 60: Reset=2, Enable=2 or ProbeNew=0.5 between two calls was a reset or a probing after --resample
+    (and verify said bit-exact); refused as without resampling, naming the line."""
+    raw = _raw_logger(tmp_path, hours=3.0)
+    fit = ("fit", "--data", raw, "--model", "mlr", "--target", "ch3_um", "--temps", "t4_C,t5_C", "--train-until",
+           "7000", "--resample", "40", "-o", "m.json")
+    thermoplc(*fit, *(("--probe", "--probe-every", "30") if control == "ProbeNew" else ()), cwd=tmp_path)
+    thermoplc("generate", "m.json", "-o", "m.scl", "--accept-unvalidated", cwd=tmp_path)
+    header, *rows = (tmp_path / raw).read_text().splitlines()
+    extra = "ProbeValue,ProbeNew" if control == "ProbeNew" else control
+    for value in values:
+        cells = [("0,0" if control == "ProbeNew" else "1" if control == "Enable" else "0") for _ in rows]
+        cells[40] = f"3.5,{value}" if control == "ProbeNew" else str(value)
+        (tmp_path / "ctl.csv").write_text("\n".join([f"{header},{extra}", *(f"{r},{c}" for r, c in zip(rows, cells))])
+                                          + "\n")
+        refused = thermoplc("verify", "m.scl", "--model", "m.json", "--data", "ctl.csv", cwd=tmp_path, check=2)
+        what = f"input {control} of type BOOL" if control == "ProbeNew" else f"the {control} input (BOOL)"
+        assert f"ctl.csv: line 42, column '{control}': {float(value):.17g} cannot be {what}; expected 0 or 1" \
+            in refused.stderr, refused.stderr

@@ -16,7 +16,7 @@ def control_inputs(table: Table, overrides: dict | None = None) -> dict:
     overrides = overrides or {}
     control = {}
     for name in CONTROL_INPUT_START:
-        column = overrides.get(name) or _column_of(table, name)
+        column = control_column(table, name, overrides)
         if column in table.columns:
             values = table.columns[column]
             bad = ~np.isin(values, (0.0, 1.0))
@@ -29,8 +29,11 @@ def control_inputs(table: Table, overrides: dict | None = None) -> dict:
     return control
 
 
-def _column_of(table: Table, name: str) -> str:
-    """The column of block input `name` in any case (`enable`); refuses two."""
+def control_column(table: Table, name: str, overrides: dict | None = None) -> str:
+    """The column of control input `name`: mapped by --inputs, else named like it in any case (`enable`);
+    refuses two."""
+    if (overrides or {}).get(name):
+        return overrides[name]
     found = spellings(table.columns, name)  # an exact one does not win: 'Enable' and 'enable' both name it
     if len(found) > 1:
         raise UserError(f"{table.path}: columns {', '.join(found)} could each drive the block input {name}; "

@@ -10,6 +10,8 @@ from thermoplc.contract.outputs import ENABLE_INPUT, PROBE_NEW_INPUT, PROBE_VALU
 from thermoplc.models.modelfile import Model
 from thermoplc.recordings.resample import Resampling, resample
 from thermoplc.recordings.table import Table, read_table
+from thermoplc.verifier.control import control_column, control_inputs
+from thermoplc.verifier.typed import cells_as
 
 
 def model_targets(model: Model) -> tuple[str, ...]:
@@ -42,8 +44,13 @@ def read_recording(path: str, model: Model, progress=None, decimal: str = "auto"
         return table
     overrides = overrides or {}
     column = lambda name: overrides.get(name, name)
+    control_inputs(table, overrides)  # 0 or 1 on every raw row, as without resampling: a 2 or a 0.5 between two
+    if column(PROBE_NEW_INPUT) in table.columns:  # calls must not become a reset or a probing
+        cells_as(table, column(PROBE_NEW_INPUT), "BOOL", f"input {PROBE_NEW_INPUT}")
+    enable, reset = (control_column(table, name, overrides) for name in (ENABLE_INPUT, RESET_INPUT))
     held_inputs = [overrides.get(s.name, s.column) for s in (*model.signals("speed"), *model.signals("feed"))]
-    rule = replace(rule, hold=(*rule.hold, *held_inputs, column(ENABLE_INPUT), column(PROBE_VALUE_INPUT)),
-                   pulses=(column(RESET_INPUT), column(PROBE_NEW_INPUT)))
+    rule = replace(rule, hold=(*rule.hold, *held_inputs, enable, column(PROBE_VALUE_INPUT)),
+                   pulses=(reset, column(PROBE_NEW_INPUT)),
+                   pulse_values=((column(PROBE_VALUE_INPUT), column(PROBE_NEW_INPUT)),))
     held = bool(model.metrics.get("probing", {}).get("held"))
     return resample(table, model.time_column, rule, targets, held)
