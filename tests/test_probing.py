@@ -220,10 +220,21 @@ def test_verify_faults_injects_hostile_probings_into_a_fused_block(folder):
     result = thermoplc("verify", "f.mlr.scl", "--model", "mlr.json", "--data", "golden_twin.csv", "--probe-every", "90",
                        "--faults", cwd=folder)
     rows = {line.split()[1]: line.split() for line in result.stdout.splitlines() if line.startswith("ProbeValue")}
-    assert sorted(rows) == ["probe-flood:", "probe-held:", "probe-inf:", "probe-nan:", "probe-spike:", "probe-stuck:"]
+    assert sorted(rows) == ["probe-clamp:", "probe-flood:", "probe-held:", "probe-inf:", "probe-nan:", "probe-spike:",
+                            "probe-stuck:"]
     for name in ("probe-nan:", "probe-inf:", "probe-spike:"):
         assert rows[name][-6:-2] == ["yes", "yes", "yes", "yes"] and rows[name][-3] == "yes"  # exact..rate; refused
+    assert rows["probe-clamp:"][-3] == "yes"  # the run of probings took the offset to its clamp
     assert "all cases bit-exact, finite, inside the clamp and the rate limit" in result.stdout
+    text = (folder / "f.mlr.scl").read_text()  # issue 60: a block without its offset clamp fails --faults
+    unclamped = text.replace("IF #ProbeOffset > #c_ProbeOffsetMax THEN", "IF FALSE THEN") \
+        .replace("ELSIF #ProbeOffset < #c_ProbeOffsetMin THEN", "ELSIF FALSE THEN")
+    assert unclamped.count("IF FALSE THEN") == 2
+    (folder / "unclamped.scl").write_text(unclamped)
+    failed = thermoplc("verify", "unclamped.scl", "--model", "mlr.json", "--data", "golden_twin.csv", "--probe-every",
+                       "90", "--faults", cwd=folder, check=1)
+    clamp = next(line for line in failed.stdout.splitlines() if "probe-clamp:" in line)
+    assert clamp.split()[-7] == "NO" and "ProbeValue/probe-clamp" in failed.stdout
 
 
 def test_auto_with_probe_ranks_every_candidate_fused_and_writes_a_fused_model(tmp_path):

@@ -60,6 +60,10 @@ PROBE_KINDS = (
     FaultKind("probe-flood", "ProbeNew toggles for 30 calls", False, None),
     FaultKind("probe-held", "ProbeNew held TRUE for 30 calls", False, None),
 )
+# probings at the limit, one every second call, until the taught offset stands at its clamp: a block whose clamp
+# is missing or wrong differs from the reference there (the other cases never take the offset that far)
+PROBE_CLAMP = FaultKind("probe-clamp", "at the limit, every 2nd call", False, None)
+CLAMP_HOLD_CALLS = 50  # calls the run of probings goes on once the offset is at its clamp
 
 
 def _probe_fault(kind: FaultKind, value: np.ndarray, new: np.ndarray, first: int) -> tuple[dict, int]:
@@ -80,6 +84,26 @@ def _probe_fault(kind: FaultKind, value: np.ndarray, new: np.ndarray, first: int
         held = kind.name == "probe-held"
         new[at:last + 1] = True if held else (np.arange(at, last + 1) - at) % 2 == 0
     return {PROBE_VALUE_INPUT: value, PROBE_NEW_INPUT: new}, last
+
+
+def _probe_clamp(model: Model, static: np.ndarray, value: np.ndarray, new: np.ndarray, first: int
+                 ) -> tuple[dict, int, np.ndarray]:
+    """The probing inputs with a run of probings at the limit (on the side away from the static prediction) from
+    row `first`, an edge every second call, until the offset the reference learns from them has stood at its clamp
+    for CLAMP_HOLD_CALLS calls (or the data end), no probing after; the last row of the run, and per call whether
+    the offset is at its clamp."""
+    from thermoplc.models.probing import fuse
+    fusion = model.probe
+    limit, clamp = np.float32(fusion.value("limit_um")), np.float32(fusion.value("offset_max_um"))
+    value, new = np.array(value, np.float32), np.array(new, bool)
+    value[first:] = limit if static[first] <= 0 else -limit
+    new[first:] = (np.arange(first, len(new)) - first) % 2 == 0
+    offset = fuse(fusion, static, value, new, "f32")["fused"].astype(np.float64) - static.astype(np.float64)
+    at_clamp = np.abs(offset) >= np.float64(clamp) * (1 - 1e-6)
+    reached = np.flatnonzero(at_clamp[first:])
+    last = min(len(new) - 1, first + int(reached[0]) + CLAMP_HOLD_CALLS) if len(reached) else len(new) - 1
+    new[last + 1:] = False
+    return {PROBE_VALUE_INPUT: value, PROBE_NEW_INPUT: new}, last, at_clamp
 
 
 def _pulses(rows: int, first: int, *offsets: int) -> np.ndarray:
@@ -238,6 +262,15 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
         report = replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
         cases.append(_case(kind, PROBE_VALUE_INPUT, first, last, expected, report, machine, limits, model, baseline,
                            np.asarray(expected[PROBE_REFUSED_OUTPUT], bool)))
+    if probing:
+        static = _reference(model, {**clean, PROBE_NEW_INPUT: np.zeros(table.rows, bool)}, limits)[model.target.name]
+        faulty, last, at_clamp = _probe_clamp(model, static, probing[PROBE_VALUE_INPUT], probing[PROBE_NEW_INPUT],
+                                              first)
+        inputs = {**clean, **faulty}
+        expected = named(_reference(model, inputs, limits), names)
+        report = replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
+        cases.append(_case(PROBE_CLAMP, PROBE_VALUE_INPUT, first, last, expected, report, machine, limits, model,
+                           baseline, at_clamp))
     return cases
 
 
@@ -273,5 +306,10 @@ def format_cases(cases: list[FaultCase], block: str, rows: int) -> str:
     probed = any(c.kind in PROBE_KINDS for c in cases)
     lines.append("flagged/clear at end describe the block's behaviour, they are not pass criteria; max change "
                  "is the largest |error with fault - error without| in the target's unit; for Enable/Reset, "
-                 "flagged means Ready or ENO went FALSE" + ("; for a probing, that ProbeRefused came up" if probed else ""))
+                 "flagged means Ready or ENO went FALSE" + ("; for a probing, that ProbeRefused came up; for "
+                                                            "probe-clamp, that the offset reached its clamp"
+                                                            if probed else ""))
+    lines += [f"probe-clamp: the offset never reached its clamp in {c.last_row - c.first_row + 1} calls; the clamp "
+              f"is checked against the model file's constant only" for c in cases if c.kind is PROBE_CLAMP
+              and not c.flagged]
     return "\n".join(lines)
