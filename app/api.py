@@ -16,12 +16,19 @@ A refusal is a `thermoplc.base.errors.UserError` whose text names the file and w
 """
 from __future__ import annotations
 
+import functools
+import os
+from typing import Callable
+
+from thermoplc.base.errors import UserError
 from thermoplc.diagnosis.command import DiagnoseRequest, run as _diagnose
-from thermoplc.fitting.fit import FitRequest, fit
+from thermoplc.fitting import fit as _fitting
+from thermoplc.fitting.fit import FitRequest
+from thermoplc.fitting.options_read import refuse_roles_not_read, refuse_settings_not_read
 from thermoplc.models.modelfile import Model, load_model
 from thermoplc.models.safety import Limits
 from thermoplc.recordings.table import Table, read_table
-from thermoplc.pipeline import Generated, generate
+from thermoplc.pipeline import Generated, generate as _generate
 from thermoplc.verifier.diff import BlockDiff, diff_blocks
 from thermoplc.verifier.replay import Report, verify_against_model
 
@@ -29,20 +36,69 @@ __all__ = ["FitRequest", "fit", "generate", "verify", "diff", "diagnose", "Diagn
            "Limits", "Model", "load_model", "read_table", "Table", "Report", "BlockDiff"]
 
 
+def _expect(value, types: type | tuple[type, ...], argument: str, what: str) -> None:
+    """A wrong Python type is refused in one line naming the argument, not as a TypeError deep inside."""
+    if not isinstance(value, types):
+        raise UserError(f"{argument}: expected {what}, found {type(value).__name__} {value!r:.60}")
+
+
+PATH = (str, os.PathLike)
+
+
+def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
+        progress: Callable[[str], None] | None = None) -> Model:
+    """Fit `request.kind` on the training part of each run (one Table per run, each from its first row, as a
+    freshly started block). An option or a column role the kind does not read is refused, as `thermoplc fit`
+    refuses it."""
+    if isinstance(tables, Table):
+        raise UserError("tables: expected a list of tables, one per run, found one Table: give [table]")
+    _expect(tables, (list, tuple), "tables", "a list of tables, one per run")
+    for table in tables:
+        _expect(table, Table, "tables", "Table items (thermoplc.api.read_table)")
+    if not tables:
+        raise UserError("tables: an empty list; expected one table per run")
+    _expect(request, FitRequest, "request", "a FitRequest")
+    _expect(time_column, str, "time_column", "a column name")
+    refuse_settings_not_read(request)
+    refuse_roles_not_read(request)
+    return _fitting.fit(list(tables), request, time_column, progress)
+
+
+@functools.wraps(_generate)
+def generate(model: Model, *args, **kwargs) -> Generated:
+    _expect(model, Model, "model", "a Model (thermoplc.api.fit or load_model)")
+    limits = kwargs.get("limits", args[1] if len(args) > 1 else Limits())
+    _expect(limits, Limits, "limits", "a Limits")
+    return _generate(model, *args, **kwargs)
+
+
 def verify(block_path: str, model: Model, table: Table, model_path: str = "model", overrides: dict | None = None) -> Report:
     """Replay `table` through the block's ST and compare every output of every call, bit for bit,
     with the model's binary32 reference; also every declared constant and table with the model's."""
-    return verify_against_model(str(block_path), model, model_path, table, overrides)
+    _expect(block_path, PATH, "block_path", "the path of a block file")
+    _expect(model, Model, "model", "a Model (thermoplc.api.fit or load_model)")
+    _expect(table, Table, "table", "a Table (thermoplc.api.read_table)")
+    _expect(overrides, (dict, type(None)), "overrides", "a dict of block input to column, or None")
+    return verify_against_model(str(block_path), model, str(model_path), table, overrides)
 
 
 def diff(old_path: str, new_path: str, table: Table | None = None) -> BlockDiff:
     """What changed between two blocks: interface, header, constants, statements, and with `table`
     the first call on which their outputs differ."""
+    _expect(old_path, PATH, "old_path", "the path of a block file")
+    _expect(new_path, PATH, "new_path", "the path of a block file")
+    _expect(table, (Table, type(None)), "table", "a Table (thermoplc.api.read_table) or None")
     return diff_blocks(str(old_path), str(new_path), table)
 
 
 def diagnose(request: DiagnoseRequest, model_path: str, json_path: str | None = None,
              report_dir: str | None = None) -> dict:
     """Find the effects the lumped simulation misses on `request.data`, write the augmented model
-    to `model_path` (and the findings to `json_path`, a report to `report_dir`); the findings."""
-    return _diagnose(request, model_path, json_path, report_dir)
+    to `model_path` (and the findings to `json_path`, a report to `report_dir`); the findings. No output
+    may be a file the request reads, as on the command line."""
+    _expect(request, DiagnoseRequest, "request", "a DiagnoseRequest")
+    _expect(model_path, PATH, "model_path", "a file name")
+    _expect(json_path, (*PATH, type(None)), "json_path", "a file name or None")
+    _expect(report_dir, (*PATH, type(None)), "report_dir", "a folder name or None")
+    return _diagnose(request, os.fspath(model_path), json_path and os.fspath(json_path),
+                     report_dir and os.fspath(report_dir))

@@ -22,6 +22,9 @@ from thermoplc.physics.fitted import Simulation
 from thermoplc.recordings.table import Table
 from thermoplc.pipeline import becomes_block, block_problem
 
+PERIOD_TOLERANCE = 1e-4  # relative: time stamps far from 0 (a logger's Unix time) round each step a little
+
+
 def _check_baseline(model: Model, request: DiagnoseRequest, path: str) -> None:
     if model.kind != "lumped":
         raise UserError(f"{path}: --baseline needs a lumped model (written by `fit --model lumped` or by diagnose), "
@@ -34,6 +37,9 @@ def _check_baseline(model: Model, request: DiagnoseRequest, path: str) -> None:
                             f"{', '.join(columns)}; give the columns the baseline was fitted on")
     if model.target.column != request.target:
         raise UserError(f"{path}: the baseline predicts {model.target.column!r}, not --target {request.target!r}")
+    if model.probe is not None:
+        raise UserError(f"{path}: a fused model (fit --probe); diagnose compares the simulation with the measured "
+                        f"drift and would drop the fusion: give the model fitted without --probe")
     lumped_model.check_fit_log(model, path)
     problem = block_problem(model)  # an effect listed without its coefficients is no model a block is made of
     if problem:
@@ -79,7 +85,7 @@ def _search(parts: Parts, request: DiagnoseRequest, progress, tries):
     if request.baseline:
         model = load_model(request.baseline)
         _check_baseline(model, request, request.baseline)
-        if model.sample_period_s != parts.runs[0].dt:
+        if abs(model.sample_period_s - parts.runs[0].dt) > PERIOD_TOLERANCE * model.sample_period_s:
             raise UserError(f"{request.baseline}: fitted at a sample period of {model.sample_period_s:g} s; the data "
                             f"are sampled every {parts.runs[0].dt:g} s (give --resample {model.sample_period_s:g})")
         baseline = lumped_model.simulation_of(model)

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from thermoplc.base.errors import UserError
+from thermoplc.base.values import UNIX_SECONDS, cycle_problem, name_problem, names_problem, number_problem
 from thermoplc.diagnosis.parts import Parts
 from thermoplc.fitting.crossval import refuse_copies
 from thermoplc.fitting.fit import common_sample_period
@@ -43,11 +44,41 @@ class DiagnoseRequest:
     resample_s: float | None = None  # raw logger data taken onto this cycle (--resample), the speed held
     held_target: bool = False  # the target holds its last probing: only its changes are measurements
 
+    def __post_init__(self) -> None:
+        problem = request_problem(self)
+        if problem:
+            raise UserError(problem)
+        for name in ("data", "temps"):  # a list is taken as the tuple it means (a request is hashable)
+            if isinstance(getattr(self, name), list):
+                object.__setattr__(self, name, tuple(getattr(self, name)))
+
     @property
     def resampling(self) -> Resampling | None:
         """The rule the augmented model file records (recordings/resample.py): the speed and feed held."""
         held = (self.speed, *([self.feed] if self.feed else ()))
         return Resampling(self.resample_s, held) if self.resample_s else None
+
+
+def request_problem(request: DiagnoseRequest) -> str | None:
+    """What is wrong with a request's own fields, in the command line's words (base/values.py), or None."""
+    optional = lambda check, value: None if value is None else check(value)
+    checks = {
+        "--data": optional(names_problem, request.data) and f"expected a tuple of recordings or folders, found "
+                                                            f"{request.data!r}",
+        "--temps": names_problem(request.temps), "--speed": name_problem(request.speed),
+        "--ambient": name_problem(request.ambient), "--target": name_problem(request.target),
+        "--feed": name_problem(request.feed, optional=True),
+        "--baseline": None if request.baseline is None or isinstance(request.baseline, str) else
+        f"expected a model file's path, found {request.baseline!r}",
+        "--train-until": optional(lambda v: number_problem(v, float, -UNIX_SECONDS, UNIX_SECONDS, "seconds"), request.train_until),
+        "--train-rows": optional(lambda v: number_problem(v, int, 1, 10 ** 9, "a row count"), request.train_rows),
+        "--time": name_problem(request.time_column), "--runs": None if request.runs_table is None or
+        isinstance(request.runs_table, str) else f"expected a runs table's path, found {request.runs_table!r}",
+        "--train-runs": optional(lambda v: number_problem(v, int, 1, 10 ** 6, "a run count"), request.train_runs),
+        "--resample": optional(cycle_problem, request.resample_s)}
+    if request.train_until is not None and request.train_rows is not None:
+        return "--train-until and --train-rows: give one of the two"
+    return next((f"{flag}: {problem}" for flag, problem in checks.items() if problem), None)
 
 
 def _training_rows(table: Table, request: DiagnoseRequest) -> int:

@@ -1,6 +1,7 @@
 """Fitting a model from a table: pick the training rows, fit, measure, package as a model file."""
 from __future__ import annotations
 
+import math
 from dataclasses import InitVar, dataclass, fields, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping
@@ -9,6 +10,7 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.identifiers import block_identifier, check_unique, identifier_problem
+from thermoplc.base.values import UNIX_SECONDS, name_problem, names_problem, number_problem
 from thermoplc.fitting import sensor_choice
 from thermoplc.models.kind import Part
 from thermoplc.models.kinds import kind_of, options, registry
@@ -55,6 +57,12 @@ class FitRequest:
     settings: Mapping[str, Any] | tuple[tuple[str, Any], ...] = ()
 
     def __post_init__(self, options_, *legacy) -> None:
+        for name in ("temps", "extra_targets"):  # a list is taken as the tuple it means (a request is hashable)
+            if isinstance(getattr(self, name), list):
+                object.__setattr__(self, name, tuple(getattr(self, name)))
+        problem = request_problem(self)
+        if problem:
+            raise UserError(problem)
         declared = options()
         given = dict(self.settings)
         for name in given:
@@ -89,6 +97,28 @@ for _name in ("options", *LEGACY_OPTIONS):  # an InitVar's default is a class at
     delattr(FitRequest, _name)
 
 
+def request_problem(request: FitRequest) -> str | None:
+    """What is wrong with a request's own fields, in the command line's words (base/values.py), or None: the
+    API takes what the command line takes, and refuses the rest in one line, not a TypeError later."""
+    from thermoplc.models.kinds import names
+    if request.kind not in (*names(), "auto"):
+        return f"--model: expected one of {', '.join((*names(), 'auto'))}, found {request.kind!r}"
+    checks = {"--target": name_problem(request.target), "--temps": names_problem(request.temps),
+              "--speed": name_problem(request.speed, optional=True),
+              "--ambient": name_problem(request.ambient, optional=True),
+              "--train-until": None if request.train_until in (None, math.inf) else  # inf: every row
+              number_problem(request.train_until, float, -UNIX_SECONDS, UNIX_SECONDS, "seconds"),
+              "--train-rows": None if request.train_rows is None else
+              number_problem(request.train_rows, int, 1, 10 ** 9, "a row count"),
+              "--choose-sensors": number_problem(request.choose_sensors, int, 0, 64, "a sensor count"),
+              "--name": None if isinstance(request.block_name, str) else
+              f"expected a block name, found {request.block_name!r}",
+              "extra_targets": names_problem(request.extra_targets) if request.extra_targets else None}
+    if not isinstance(request.settings, (Mapping, tuple, list)):
+        return f"settings: expected a mapping of option to value, found {request.settings!r}"
+    return next((f"{flag}: {problem}" for flag, problem in checks.items() if problem), None)
+
+
 def training_rows(table: Table, time_column: str, until: float | None, rows: int | None) -> int:
     """How many leading rows train: `rows`, or those timed at or before `until` s; refuses both or neither
     given, fewer than 10, or more than the table has."""
@@ -99,10 +129,10 @@ def training_rows(table: Table, time_column: str, until: float | None, rows: int
     if table.rows < 10:
         raise UserError(f"{table.path}: {table.rows} data row{'s' if table.rows != 1 else ''}; a fit needs at least 10")
     if rows > table.rows:
-        asked = f"--train-rows {rows}" if until is None else f"--train-until {until:g}"
+        asked = f"--train-rows {rows}" if until is None else f"--train-until {until:.12g}"
         raise UserError(f"{table.path}: {asked} asks for {rows} training rows; the file has {table.rows}")
     if rows < 10:
-        asked = f"--train-rows {rows}" if until is None else f"--train-until {until:g} (time starts at {table.columns[time_column][0]:g} s)"
+        asked = f"--train-rows {rows}" if until is None else f"--train-until {until:.12g} (time starts at {table.columns[time_column][0]:.12g} s)"
         raise UserError(f"{table.path}: {asked} gives {rows} training rows; a fit needs at least 10")
     return rows
 

@@ -7,11 +7,12 @@ The block lowering is the generator's side of the same kind and is registered th
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
+
+from thermoplc.base.values import number_problem
 
 if TYPE_CHECKING:
     from thermoplc.models.model import Model
@@ -114,14 +115,10 @@ class KindOption:
             return None if self.default is None else f"expected a value, found None (its default is {self.default!r})"
         if self.choices is not None and value not in self.choices:
             return f"expected one of {', '.join(self.choices)}, found {value!r}"
-        if self.number is not None:  # the words of the command line's check (app/commands/options.py::number)
-            kind, low, high, what = self.number
-            types = (int, np.integer) if kind is int else (int, float, np.integer, np.floating)
-            if not isinstance(value, types) or isinstance(value, bool):
-                return f"expected {'an integer' if kind is int else 'a number'}, found {value!r}"
-            if not (math.isfinite(value) and low <= value <= high):
-                shown = (lambda v: f"{int(v):,}") if kind is int else (lambda v: f"{v:g}")
-                return f"expected {what} from {shown(low)} to {shown(high)}, found {value!r}"
+        if self.number is not None:  # the command line's check (base/values.py)
+            problem = number_problem(value, *self.number)
+            if problem:
+                return problem
         if self.column is not None and not isinstance(value, str):
             return f"expected a column name, found {value!r}"
         return None

@@ -75,8 +75,9 @@ def twin_two_hours(tmp_path_factory):
 def test_auto_refuses_what_every_kind_refuses_before_it_fits_anything(twin_two_hours, case):
     """Issue 38 item 4: auto dropped a bad --temps column and wrote a smaller model (exit 0) where mlr exited 2."""
     temps, message = BAD_TEMPS[case]
-    for kind in ("mlr", "auto"):
+    for kind in ("kalman", "auto"):  # a kind that reads --speed and --ambient (mlr refuses them, issue 60)
         result = thermoplc("fit", "--data", "t.csv", "--model", kind, "--target", "E_z_um", "--temps", temps,
-                           "--speed", "n_rpm", "--train-rows", 400, "-o", f"{kind}.json", cwd=twin_two_hours, check=2)
+                           "--speed", "n_rpm", "--ambient", "T_env", "--train-rows", 400, "-o", f"{kind}.json",
+                           cwd=twin_two_hours, check=2)
         assert message in result.stderr and result.stdout == "", (kind, result.stderr)
         assert len(result.stderr.strip().splitlines()) == 1 and not (twin_two_hours / f"{kind}.json").exists()

@@ -151,8 +151,8 @@ def _refuse_nothing_held_out(args: argparse.Namespace, table) -> None:
         raise UserError(f"{table.path}: --train-rows {args.train_rows} leaves no row held out (the file has {table.rows} "
                         f"rows); train on fewer, or judge by cross-validation with --folds K")
     t = table.columns[args.time]
-    raise UserError(f"{table.path}: --train-until {args.train_until:g} leaves no row held out (the data run from "
-                    f"{t[0]:g} s to {t[-1]:g} s); give a time before {t[-1]:g} s, or judge by cross-validation with "
+    raise UserError(f"{table.path}: --train-until {args.train_until:.12g} leaves no row held out (the data run from "
+                    f"{t[0]:.12g} s to {t[-1]:.12g} s); give a time before {t[-1]:.12g} s, or judge by cross-validation with "
                     f"--folds K")
 
 
@@ -189,7 +189,6 @@ def run(args: argparse.Namespace) -> int:
                          ambient=args.ambient, train_until=args.train_until, train_rows=args.train_rows,
                          block_name=args.name, extra_targets=args.target[1:], choose_sensors=args.choose_sensors,
                          settings={field: getattr(args, field) for field in options()})
-    refuse_options_not_read(args, request)
     if args.choose_sensors and args.model == "auto":
         raise UserError("--choose-sensors is for one kind: --model auto chooses its sensor sets itself")
     if args.scheduler and not (args.folds or args.group_by):
@@ -197,6 +196,7 @@ def run(args: argparse.Namespace) -> int:
     if args.probe_every is not None and not args.probe:
         raise UserError("--probe-every sets the probing schedule of a fused block; give --probe")
     runs = run_list(args.data, args.runs)
+    refuse_options_not_read(args, request, len(runs.paths))
     if args.probe and len(runs.paths) == 1 and (args.folds or args.group_by):
         raise UserError("--probe on one recording chooses the fusion on its held-out part: give --train-until or "
                         "--train-rows instead of --folds (or a campaign of runs with --folds)")

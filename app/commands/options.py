@@ -9,6 +9,7 @@ import re
 from pathlib import Path
 from typing import Callable
 
+from thermoplc.base.values import UNIX_SECONDS, cycle_problem, number_problem
 from thermoplc.commands.reads import Reads, Writes
 
 
@@ -75,9 +76,9 @@ def number(kind: type, low: float, high: float, what: str = "") -> Callable[[str
             value = kind(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected {'an integer' if kind is int else 'a number'}, found {text!r}") from None
-        if not (math.isfinite(value) and low <= value <= high):
-            shown = (lambda v: f"{int(v):,}") if kind is int else (lambda v: f"{v:g}")
-            raise argparse.ArgumentTypeError(f"expected {what or 'a value'} from {shown(low)} to {shown(high)}, found {text}")
+        problem = number_problem(value, kind, low, high, what, shown=text)
+        if problem:
+            raise argparse.ArgumentTypeError(problem)
         return value
     return parse
 
@@ -85,10 +86,13 @@ def number(kind: type, low: float, high: float, what: str = "") -> Callable[[str
 def cycle(text: str) -> float:
     """--resample PERIOD: the block's cycle in seconds, more than 0 and at most a day, a whole number of
     milliseconds (a PLC cycle is set in ms)."""
-    value = number(float, 0.001, 86400.0, "the block's cycle in seconds")(text)
-    if abs(value * 1000 - round(value * 1000)) > 1e-6:
-        raise argparse.ArgumentTypeError(f"expected a whole number of milliseconds (a PLC cycle is set in ms), "
-                                          f"found {text}")
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, found {text!r}") from None
+    problem = cycle_problem(value, shown=text)
+    if problem:
+        raise argparse.ArgumentTypeError(problem)
     return round(value * 1000) / 1000
 
 
@@ -97,7 +101,7 @@ RESAMPLE = {"type": cycle, "metavar": "SECONDS",
                     "last value, a probing at the call that follows it; docs/campaigns.md); the model file "
                     "records the rule and verify applies it"}
 SEED = number(int, 0, 2 ** 32 - 1, "a seed")
-SECONDS = number(float, 0.0, 1e9, "seconds")
+SECONDS = number(float, -UNIX_SECONDS, UNIX_SECONDS, "seconds")  # a logger's Unix time stamps too
 ROWS = number(int, 1, 10 ** 9, "a row count")
 RUNS = number(int, 1, 10 ** 6, "a run count")
 
@@ -179,11 +183,20 @@ def mapping(text: str) -> dict:
     return pairs
 
 
+def _until(text: str) -> float:
+    """--train-until SECONDS, with the other ways to choose the training part named when refused."""
+    try:
+        return SECONDS(text)
+    except argparse.ArgumentTypeError as exc:
+        raise argparse.ArgumentTypeError(f"{exc}; or choose the training part with --train-rows N, or judge by "
+                                         f"cross-validation with --folds K") from None
+
+
 def training_part(parser: argparse.ArgumentParser, required: bool, default: str = ""):
     """The training part, in the same words for every command that has one."""
     part = parser.add_mutually_exclusive_group(required=required)
     tail = f" (default: {default})" if default else ""
-    part.add_argument("--train-until", type=SECONDS, metavar="SECONDS", help=f"training part: rows with time <= SECONDS{tail}")
+    part.add_argument("--train-until", type=_until, metavar="SECONDS", help=f"training part: rows with time <= SECONDS{tail}")
     part.add_argument("--train-rows", type=ROWS, metavar="N", help=f"training part: the first N rows{tail}")
     return part
 

@@ -80,6 +80,10 @@ def run(args: argparse.Namespace) -> int:
             raise UserError("verify needs BLOCK and --data (or --runs TABLE; or --manifest FILE for many pairs)")
         if (args.model is None) == (args.expect is None):
             raise UserError("verify needs either --model MODEL.json or --expect COLUMN[,COLUMN] (a recorded PLC trace)")
+        if args.expect and args.probe_every is not None:
+            raise UserError("--probe-every makes up the probings of a replay against a model; a PLC trace (--expect) "
+                            "holds the probings the PLC saw: give them as columns ProbeValue and ProbeNew (or map "
+                            "them with --inputs ProbeValue=COLUMN,ProbeNew=COLUMN)")
         runs = _runs(args)
         if len(runs) > 1 or args.runs:
             return _campaign(args, runs)
