@@ -10,7 +10,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.base.values import UNIX_SECONDS, cycle_problem, name_problem, names_problem, number_problem
 from thermoplc.diagnosis.parts import Parts
 from thermoplc.fitting.crossval import refuse_copies
-from thermoplc.fitting.fit import common_sample_period
+from thermoplc.fitting.fit import common_sample_period, runs_named
 from thermoplc.fitting.leaks import refuse_leaks, refuse_non_temperatures
 from thermoplc.physics.primitives import Series
 from thermoplc.recordings.campaign import Campaign
@@ -148,11 +148,11 @@ def parts_of(campaign: Campaign, request: DiagnoseRequest) -> tuple[Parts, float
             if table.rows < MIN_ROWS:
                 raise UserError(f"{table.path}: {table.rows} rows; a run needs at least {MIN_ROWS}")
     parts = Parts(tuple(series_of(t, request, dt) for t in tables), train_rows, tuple(campaign.labels))
-    refuse_few_probings(parts, request.target)
+    refuse_few_probings(parts, request.target, runs_named(tables))
     return parts, dt
 
 
-def refuse_few_probings(parts: Parts, target: str) -> None:
+def refuse_few_probings(parts: Parts, target: str, where_from: str = "") -> None:
     """A probed target needs probings on both sides: the training part fits the displacement map on them, the
     held-out part judges every effect by them. Too few of either is refused before anything is fitted."""
     pooled = parts.joined().target
@@ -160,6 +160,8 @@ def refuse_few_probings(parts: Parts, target: str) -> None:
                                 ("held-out part", pooled[parts.n_train:], MIN_HELD_OUT_PROBINGS)):
         count = int(np.count_nonzero(np.isfinite(rows)))
         if count < needed:
-            raise UserError(f"column {target!r}: measured {count} time(s) in the {where}; diagnose needs at least "
+            raise UserError(f"{where_from + ': ' if where_from else ''}column {target!r}: measured {count} time(s) "
+                            f"in the {where} (an empty cell is no measurement; with --held-target only a change is "
+                            f"one); diagnose needs at least "
                             f"{needed} probings there (the training part fits the displacement map on them, the "
                             f"held-out part judges every effect by them)")

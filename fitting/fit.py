@@ -253,8 +253,8 @@ def check_inputs(tables: list[Table], request: FitRequest, time_column: str, n_t
         measured = int(np.count_nonzero(np.isfinite(table.columns[request.target][:n])))
         if measured < 2:
             raise UserError(f"{table.path}: the target {request.target!r} is measured on {measured} of the "
-                            f"{n} training rows (a held target counts its changes only); a fit needs at least 2 "
-                            f"measurements per run")
+                            f"{n} training rows (an empty cell is no measurement; with --held-target only a change "
+                            f"is one); a fit needs at least 2 measurements per run")
         for s in signals:
             option = "--" + s.role.split(",")[-1].replace("temperature", "temps").replace("_", "-")
             if (table.sha256, s.column, request.target, n, option) in _CHECKED:

@@ -26,6 +26,7 @@ from thermoplc.recordings.table import Table, read_table
 RECORDING_SUFFIXES = (".csv", ".npz", ".parquet")
 FILE_COLUMN = "file"
 RUNS_TABLE = "runs.csv"  # in a folder given as --data: its runs table, not a run
+MIN_CALLS = 10  # a run resampled onto fewer calls is too short for any fit or diagnosis
 
 
 @dataclass(frozen=True)
@@ -233,7 +234,10 @@ def read_campaign(runs: RunList, time_column: str, decimal: str = "auto", probed
         try:
             table = read_table(path, time_column, progress, decimal, sparse=probed)
             if resampling is not None:
-                table = resample(table, time_column, resampling, tuple(probed), held)
+                raw_rows, table = table.rows, resample(table, time_column, resampling, tuple(probed), held)
+                if table.rows < MIN_CALLS:
+                    raise UserError(f"{path}: --resample {resampling.period_s:g} takes its {raw_rows} rows onto "
+                                    f"{table.rows} calls; at least {MIN_CALLS} are needed: give a shorter cycle")
         except UserError as exc:
             relative = (f" (a runs table names its files relative to its own folder, "
                         f"{Path(runs.table).parent}/)" if runs.table and not is_url(runs.table)

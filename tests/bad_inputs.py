@@ -1198,10 +1198,129 @@ def _resample_cases() -> list[Case]:
     ]
 
 
+def _parquet_copy(folder: Path) -> None:
+    import pyarrow.csv
+    import pyarrow.parquet
+    (folder / "runs").mkdir()
+    (folder / "runs" / "a.csv").write_text(good_csv(folder))
+    (folder / "runs" / "b.csv").write_text(_cell(good_csv(folder), 5, "E_z_um", "0.125"))
+    pyarrow.parquet.write_table(pyarrow.csv.read_csv(folder / "runs" / "a.csv"), folder / "runs" / "c.parquet")
+
+
+def _fused(folder: Path) -> None:
+    """fused.json (mlr with --probe) and its block fused.scl, fitted on good.csv."""
+    thermoplc("fit", "--data", "good.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing",
+              "--train-rows", "400", "--probe", "--probe-every", "30", "-o", "fused.json", cwd=folder)
+    thermoplc("generate", "fused.json", "-o", "fused.scl", "--accept-unvalidated", cwd=folder)
+
+
+def _control_column(name: str, value: str):
+    """good.csv with a control column `name`, 0 (Enable: 1) but `value` on one row."""
+    def make(text: str) -> str:
+        lines = text.splitlines()
+        rest = ["1" if name == "Enable" else "0"] * (len(lines) - 1)
+        rest[40] = value
+        return "\n".join([f"{lines[0]},{name}", *(f"{line},{cell}" for line, cell in zip(lines[1:], rest))]) + "\n"
+    return make
+
+
+def _unix_time(text: str) -> str:
+    """The time column as a logger's Unix time stamps (2026-01-01 on)."""
+    lines = text.splitlines()
+    rows = [line.split(",") for line in lines[1:]]
+    for cells in rows:
+        cells[0] = f"{1767225600 + float(cells[0]):.1f}"
+    return "\n".join([lines[0], *(",".join(cells) for cells in rows)]) + "\n"
+
+
+def _inputs_stay_inputs_cases() -> list[Case]:
+    """Issue 60: no output replaces a file the command read, a copy of a run in other bytes is no held-out run,
+    control columns keep their rule through --resample, and the API's refusals have the command line's words."""
+    fit = ("fit", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "-o", "out.json")
+    fused = ("verify", "fused.scl", "--model", "fused.json", "--data", "ctl.csv", "--resample", "10")
+    one_run = _files({"one/a.csv": lambda t: t, "one/runs.csv": lambda _: "file\na.csv\n"})
+    return [
+        Case("inputs", "verify --outputs onto the runs table it read", "verify",
+             ("verify", "block.scl", "--model", "mlr.json", "--data", "one", "--outputs", "one/runs.csv", "--force"),
+             one_run, "error", "one/runs.csv: is also an input of this command"),
+        Case("inputs", "verify --json onto the --expect @FILE", "verify",
+             ("verify", "block.scl", "--data", "good.csv", "--expect", "@exp.csv", "--json", "exp.csv", "--force"),
+             _files({"exp.csv": lambda _: "E_z_um\n"}), "error", "exp.csv: is also an input of this command"),
+        Case("inputs", "fit -o onto the --target @FILE", "fit",
+             ("fit", "--model", "mlr", "--target", "@t.txt", "--temps", "T_motor", "--train-rows", "200", "--data",
+              "good.csv", "-o", "t.txt", "--force"), _files({"t.txt": lambda _: "E_z_um\n"}), "error",
+             "t.txt: is also an input of this command"),
+        Case("inputs", "select-sensors -o onto the --candidates @FILE", "select-sensors",
+             ("select-sensors", "--data", "good.csv", "--target", "E_z_um", "--candidates", "@c.txt", "-o", "c.txt",
+              "--force"), _files({"c.txt": lambda _: "T_motor,T_bearing\n"}), "error",
+             "c.txt: is also an input of this command"),
+        Case("inputs", "diagnose --json onto the --temps @FILE", "diagnose",
+             (*DIAGNOSE[:5], "--temps", "@d.txt", "--target", "E_z_um", "--data", "good.csv", "--json", "d.txt"),
+             _files({"d.txt": lambda _: "T_motor\n"}), "error", "d.txt: is also an input of this command"),
+        Case("inputs", "a run and its Parquet copy in one folder", "fit", (*fit, "--data", "runs", "--folds", "3"),
+             _parquet_copy, "error", "runs/c.parquet: the same recording as runs/a.csv (the same columns and numbers "
+                                     "in other bytes)"),
+        Case("inputs", "a run and its CRLF copy", "fit",
+             (*fit, "--data", "good.csv", "--data", "crlf.csv", "--folds", "2"),
+             with_text("crlf.csv", lambda t: t.replace("\n", "\r\n").encode()), "error",
+             "crlf.csv: the same recording as good.csv (the same columns and numbers in other bytes)"),
+        *[Case("inputs", f"{name}={value} on a row between two calls under --resample", "verify",
+               ("verify", "block.scl", "--model", "mlr.json", "--data", "ctl.csv", "--resample", "10"),
+               _files({"ctl.csv": _control_column(name, value)}), "error",
+               f"ctl.csv: line 42, column '{name}': {value} cannot be the {name} input (BOOL); expected 0 or 1")
+          for name, value in (("Reset", "2"), ("Enable", "2"))],
+        Case("inputs", "ProbeNew=0.5 on a row under --resample", "verify", fused,
+             lambda f: (_fused(f), _files({"ctl.csv": lambda t: _control_column("ProbeNew", "0.5")(
+                 _control_column("ProbeValue", "3.5")(t))})(f)), "error",
+             "ctl.csv: line 42, column 'ProbeNew': 0.5 cannot be input ProbeNew of type BOOL; expected 0 or 1"),
+        Case("inputs", "--resample onto fewer than 10 calls", "fit",
+             (*fit, "--data", "good.csv", "--train-rows", "5", "--resample", "3600"), lambda f: None, "error",
+             "good.csv: --resample 3600 takes its 721 rows onto 3 calls; at least 10 are needed: give a shorter cycle"),
+        Case("inputs", "--train-until in a logger's Unix time", "fit",
+             (*fit, "--data", "unix.csv", "--train-until", "1767229200"), with_text("unix.csv", _unix_time),
+             "accepted", "wrote out.json"),
+        Case("inputs", "--train-until before every row", "fit", (*fit, "--data", "good.csv", "--train-until", "-1e13"),
+             lambda f: None, "error", "expected seconds from -1e+12 to 1e+12, found -1e13; or choose the training part "
+                                      "with --train-rows N, or judge by cross-validation with --folds K"),
+        Case("inputs", "--ambient for a kind that reads none", "fit",
+             (*fit, "--data", "good.csv", "--train-rows", "400", "--ambient", "T_env"), lambda f: None, "error",
+             "--ambient is read by --model kalman, piecewise or lumped only; --model mlr does not read it: leave it "
+             "out or name it in --temps to read it as a temperature"),
+        Case("inputs", "--speed for a kind that reads none", "fit",
+             (*fit, "--data", "good.csv", "--train-rows", "400", "--speed", "n_rpm"), lambda f: None, "error",
+             "--speed is read by --model kalman or lumped only"),
+        Case("inputs", "verify --expect with --probe-every", "verify",
+             ("verify", "block.scl", "--expect", "E_z_um", "--data", "good.csv", "--probe-every", "30"), lambda f: None,
+             "error", "--probe-every makes up the probings of a replay against a model; a PLC trace (--expect) holds "
+                      "the probings the PLC saw"),
+        Case("inputs", "diff of fused blocks without their probings", "diff",
+             ("diff", "fused.scl", "fused.scl", "--data", "good.csv"), _fused, "error",
+             "no column 'ProbeValue' for input ProbeValue of fused.scl; a fused block replays its probings from "
+             "columns ProbeValue and ProbeNew, from its target with --probe-target COLUMN, or map them with --inputs"),
+        Case("inputs", "a probed target with one probing", "fit", (*fit, "--data", "one.csv", "--train-rows", "400"),
+             with_text("one.csv", lambda t: "\n".join(
+                 [line if k in (0, 100) else ",".join("" if c == 8 else cell for c, cell in enumerate(line.split(",")))
+                  for k, line in enumerate(t.splitlines())]) + "\n"), "error",
+             "one.csv: the target 'E_z_um' is measured on 1 of the 400 training rows (an empty cell is no measurement; "
+             "with --held-target only a change is one)"),
+        Case("inputs", "diagnose --held-target on a target that never changes", "diagnose",
+             (*DIAGNOSE, "flat.csv", "--held-target"), with_text("flat.csv", lambda t: "\n".join(
+                 [line if k == 0 else ",".join("5.0" if c == 8 else cell for c, cell in enumerate(line.split(",")))
+                  for k, line in enumerate(t.splitlines())]) + "\n"), "error",
+             "flat.csv: column 'E_z_um': measured 1 time(s) in the training part"),
+        Case("inputs", "twin --logger at a 0.5 s cycle, then fit", "fit",
+             ("fit", "--data", "lg.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor", "--train-rows",
+              "400", "--resample", "0.5", "-o", "out.json"),
+             lambda f: thermoplc("twin", "--hours", "0.5", "--dt", "0.5", "--logger", "-o", "lg.csv", cwd=f),
+             "accepted", "wrote out.json"),
+    ]
+
+
 CASES = [*_csv_cases(), *_model_cases(), *_st_cases(), *_injection_cases(), *_output_cases(), *_option_cases(),
          *_bounded_cases(), *_schema_cases(), *_nesting_cases(), *_data_file_cases(), *_verify_cases(),
          *_review_cases(), *_plcopen_cases(), *_campaign_cases(),
-         *_read_two_ways_cases(), *_hostile_review_cases(), *_probing_cases(), *_resample_cases()]
+         *_read_two_ways_cases(), *_hostile_review_cases(), *_probing_cases(), *_resample_cases(),
+         *_inputs_stay_inputs_cases()]
 
 
 def setup_folder(folder: Path) -> None:

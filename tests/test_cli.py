@@ -229,12 +229,16 @@ def test_fit_and_diagnose_write_no_model_file_that_cannot_become_a_block(tmp_pat
 ])
 def test_fit_refuses_an_option_its_kind_does_not_read(workdir, extra, message):
     """Issue 27 review: such an option was silently ignored (exit 0); given explicitly, even at its
-    default value, it is refused before any file is read. --speed and --ambient name columns, not options."""
+    default value, it is refused before any file is read. Issue 60: so are --speed and --ambient columns the kind
+    does not read (mlr fitted the same model with them as without), once the data are read."""
     result = thermoplc("fit", "--data", "twin.csv", "--target", "E_z_um", "--temps", "T_motor,T_bearing", *extra,
                        "--train-until", 18000, "-o", "unread.json", cwd=workdir, check=2)
     assert message in result.stderr and len(result.stderr.strip().splitlines()) == 1
     assert not (workdir / "unread.json").exists()
-    thermoplc(*FIT_MLR, "--speed", "n_rpm", "--ambient", "T_env", "-o", "roles.json", "--force", cwd=workdir)
+    for role, column in (("--speed", "n_rpm"), ("--ambient", "T_env")):
+        roles = thermoplc(*FIT_MLR, role, column, "-o", "roles.json", "--force", cwd=workdir, check=2)
+        assert f"thermoplc: error: {role} is read by --model " in roles.stderr and "leave it out" in roles.stderr
+    thermoplc(*FIT_MLR[:-2], "--speed", "n_rpm", "--folds", 3, "-o", "roles.json", "--force", cwd=workdir)  # cuts
 
 
 def test_demo_removes_an_earlier_block_of_a_model_it_now_refuses(tmp_path, monkeypatch, capsys):

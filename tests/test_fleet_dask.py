@@ -123,7 +123,9 @@ def _fit(tmp_path, name: str, *options, report: bool = False) -> tuple:
 
 @pytest.mark.parametrize("kind", ["kalman", "dlag"])
 def test_a_campaigns_folds_on_a_cluster_give_the_model_file_of_one_process(cluster, runs, tmp_path, kind):
-    options = ("--data", str(runs), "--model", kind, *FIT, *(GA if kind == "kalman" else ()), "--folds", "4")
+    roles = () if kind == "kalman" else ("--speed", "n_rpm", "--ambient", "T_env")  # dlag reads neither (issue 60)
+    options = ("--data", str(runs), "--model", kind, *(a for a in FIT if a not in roles), *(GA if kind == "kalman" else ()),
+               "--folds", "4")
     serial = _fit(tmp_path, "serial", *options, report=True)
     assert serial[0] == 0 and any(name.endswith(".png") for name in serial[3])
     assert serial == _fit(tmp_path, "dask", *options, "--scheduler", cluster.scheduler_address, report=True)

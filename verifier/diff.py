@@ -241,7 +241,8 @@ def _behaviour(old_path: str, new_path: str, old: s.Program, new: s.Program, tab
     replayed = []
     for program, path in ((old, old_path), (new, new_path)):
         replayer = Replayer(program, path)
-        columns = block_columns(replayer.inputs, table, overrides, path)
+        columns = block_columns(replayer.inputs, table, overrides, path,
+                                ", from its target with --probe-target COLUMN")
         takes_probings = any(d.name.upper() == PROBE_NEW_INPUT.upper() for d in replayer.inputs)
         if takes_probings and not any(name.upper() == PROBE_NEW_INPUT.upper() for name in columns):
             raise UserError(f"{path}: a fused block: without {PROBE_NEW_INPUT} no probing reaches it and its fusion "

@@ -184,8 +184,9 @@ def known_overrides(overrides: dict | None, names, what: str) -> dict:
     return {by_key[key.upper()]: column for key, column in (overrides or {}).items()}
 
 
-def block_columns(inputs: list, table: Table, overrides: dict | None, block: str) -> dict:
-    """The data column of each block input (by its name unless --inputs maps it), REAL as float32."""
+def block_columns(inputs: list, table: Table, overrides: dict | None, block: str, probings: str = "") -> dict:
+    """The data column of each block input (by its name unless --inputs maps it), REAL as float32; `probings`
+    says where else a fused block's probing inputs may come from (diff: --probe-target)."""
     overrides = known_overrides(overrides, [d.name for d in inputs], block)
     columns = {}
     for d in inputs:
@@ -193,8 +194,12 @@ def block_columns(inputs: list, table: Table, overrides: dict | None, block: str
         if column not in table.columns and d.initial is not None and d.name not in overrides:
             continue  # unwired: the input keeps its start value (Enable TRUE, Reset FALSE)
         if column not in table.columns:
+            probing = d.name.upper() in {name.upper() for name in PROBE_INPUTS.values()}
+            where = (f"a fused block replays its probings from columns {' and '.join(PROBE_INPUTS.values())}"
+                     f"{probings}, or map them with --inputs {d.name}=COLUMN" if probing else
+                     f"map it with --inputs {d.name}=COLUMN")
             raise UserError(f"{table.path}: no column {column!r} for input {d.name} of {block}"
-                            f"{close_match(column, table.columns)}; map it with --inputs {d.name}=COLUMN")
+                            f"{close_match(column, table.columns)}; {where}")
         columns[d.name] = cells_as(table, column, d.type.base, f"input {d.name} of {block}")
     return columns
 

@@ -10,7 +10,7 @@ from pathlib import Path
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_outputs, write_outputs
 from thermoplc.commands import json_output
-from thermoplc.commands.fit_options import Given, refuse_options_not_read
+from thermoplc.commands.fit_options import Given, refuse_columns_not_read, refuse_options_not_read
 from thermoplc.commands.options import (DECIMAL, FORCE_HELP, OUTPUT, RESAMPLE, campaign_arguments, columns, examples,
                                         named, number, scheduler_address, training_part)
 from thermoplc.commands.reads import Writes, files_read
@@ -195,8 +195,8 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--scheduler runs the folds of --folds or --group-by on a cluster; give one of them")
     if args.probe_every is not None and not args.probe:
         raise UserError("--probe-every sets the probing schedule of a fused block; give --probe")
+    refuse_options_not_read(args, request)
     runs = run_list(args.data, args.runs)
-    refuse_options_not_read(args, request, len(runs.paths))
     if args.probe and len(runs.paths) == 1 and (args.folds or args.group_by):
         raise UserError("--probe on one recording chooses the fusion on its held-out part: give --train-until or "
                         "--train-rows instead of --folds (or a campaign of runs with --folds)")
@@ -208,6 +208,7 @@ def run(args: argparse.Namespace) -> int:
                              resampling=resampling_of(args))
     groups = campaign.groups(args.group_by) if args.group_by else None
     tables = campaign.tables
+    refuse_columns_not_read(args, request, tables)
     if len(tables) == 1 and not (args.folds or args.group_by):
         _refuse_nothing_held_out(args, tables[0])
     predictions: dict = {}  # each run's held-out prediction: the report draws it, the probe fusion is chosen on it

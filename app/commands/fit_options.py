@@ -21,11 +21,24 @@ class Given(argparse.Action):
         namespace.given = (*getattr(namespace, "given", ()), (self.dest, max(self.option_strings, key=len)))
 
 
-def refuse_options_not_read(args: argparse.Namespace, request: FitRequest, runs: int) -> None:
+def refuse_options_not_read(args: argparse.Namespace, request: FitRequest) -> None:
     """Raise a UserError for the first option given that the chosen kind does not read (fitting/options_read.py:
-    the API's words too), and for --speed or --ambient where nothing reads them: the kind, --folds on one
-    recording (cut at standstills) or --resample (held at its last value)."""
-    from thermoplc.fitting.options_read import refuse_options_not_read as refuse, refuse_roles_not_read
+    the API's words too), before any file is read."""
+    from thermoplc.fitting.options_read import refuse_options_not_read as refuse
     refuse(request, dict(args.given))
-    speed_read_by = "--resample" if args.resample else "--folds" if args.folds and runs == 1 else None
-    refuse_roles_not_read(request, speed_read_by)
+
+
+def refuse_columns_not_read(args: argparse.Namespace, request: FitRequest, tables: list) -> None:
+    """--speed or --ambient where nothing reads them: not the kind, nor --folds on one recording (it cuts at
+    standstills), nor --resample (it holds the speed at its last value). Asked once the runs are read and their
+    sample period is known, so that raw logger data hear "give --resample" first, not "leave --speed out"."""
+    from thermoplc.fitting.fit import common_sample_period
+    from thermoplc.fitting.options_read import refuse_roles_not_read
+    for table in tables:  # a typo is named first: no such column
+        for column in (request.speed, request.ambient):
+            if column is not None:
+                table.column(column)
+    if not args.resample:
+        common_sample_period(tables, args.time)
+    refuse_roles_not_read(request, "--resample" if args.resample else
+                          "--folds" if args.folds and len(tables) == 1 else None)
