@@ -161,7 +161,6 @@ def refuse_few_probings(parts: Parts, target: str, where_from: str = "") -> None
         count = int(np.count_nonzero(np.isfinite(rows)))
         if count < needed:
             raise UserError(f"{where_from + ': ' if where_from else ''}column {target!r}: measured {count} time(s) "
-                            f"in the {where} (an empty cell is no measurement; with --held-target only a change is "
-                            f"one); diagnose needs at least "
-                            f"{needed} probings there (the training part fits the displacement map on them, the "
-                            f"held-out part judges every effect by them)")
+                            f"in the {where}; diagnose needs at least {needed} probings there (the training part fits "
+                            f"the displacement map on them, the held-out part judges every effect by them; an empty "
+                            f"cell is no measurement, and with --held-target only a change is one)")
