@@ -41,10 +41,18 @@ def refuse_settings_not_read(request: FitRequest) -> None:
 
 
 def refuse_roles_not_read(request: FitRequest, speed_read_by: str | None = None) -> None:
-    """--speed or --ambient given for a kind that reads no such input (auto tries the kinds that do); the speed
-    may still be read by the command itself (`speed_read_by`: folds cut at standstills, --resample holds it)."""
+    """--speed or --ambient given for a kind that reads no such input (roles_not_read) is refused."""
+    problem = roles_not_read(request, speed_read_by)
+    if problem:
+        raise UserError(problem)
+
+
+def roles_not_read(request: FitRequest, speed_read_by: str | None = None) -> str | None:
+    """Why --speed or --ambient is given for a kind that reads no such input (auto tries the kinds that do), or
+    None; the speed may still be read by the command itself (`speed_read_by`: folds cut at standstills,
+    --resample holds it)."""
     if request.kind == "auto":
-        return
+        return None
     kind = kind_of(request.kind)
     for role in ("speed", "ambient"):
         if getattr(request, role) is None or role in kind.roles or (role == "speed" and speed_read_by):
@@ -53,8 +61,9 @@ def refuse_roles_not_read(request: FitRequest, speed_read_by: str | None = None)
         also = (" (and by --folds on one recording, which cuts it at standstills, or --resample, which holds it)"
                 if role == "speed" else "")
         instead = " or name it in --temps to read it as a temperature" if role == "ambient" else ""
-        raise UserError(f"--{role} is read by {_readers_text(names)} only{also}; --model {request.kind} does not "
-                        f"read it: leave it out{instead}")
+        return (f"--{role} is read by {_readers_text(names)} only{also}; --model {request.kind} does not read it: "
+                f"leave it out{instead}")
+    return None
 
 
 def _why_not_tried(kind: Kind, request: FitRequest) -> str:

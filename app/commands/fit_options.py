@@ -32,13 +32,17 @@ def refuse_columns_not_read(args: argparse.Namespace, request: FitRequest, table
     """--speed or --ambient where nothing reads them: not the kind, nor --folds on one recording (it cuts at
     standstills), nor --resample (it holds the speed at its last value). Asked once the runs are read and their
     sample period is known, so that raw logger data hear "give --resample" first, not "leave --speed out"."""
+    from thermoplc.base.errors import UserError
     from thermoplc.fitting.fit import common_sample_period
-    from thermoplc.fitting.options_read import refuse_roles_not_read
+    from thermoplc.fitting.options_read import roles_not_read
+    problem = roles_not_read(request, "--resample" if args.resample else
+                             "--folds" if args.folds and len(tables) == 1 else None)
+    if problem is None:
+        return
     for table in tables:  # a typo is named first: no such column
         for column in (request.speed, request.ambient):
             if column is not None:
                 table.column(column)
     if not args.resample:
         common_sample_period(tables, args.time)
-    refuse_roles_not_read(request, "--resample" if args.resample else
-                          "--folds" if args.folds and len(tables) == 1 else None)
+    raise UserError(problem)
