@@ -388,7 +388,7 @@ def _output_cases() -> list[Case]:
              lambda f: None, "error", "--train-runs 1: only one run was given"),
         Case("campaign", "a run that is a copy of another", "diagnose", (*DIAGNOSE, "good.csv", "--data", "b.csv"),
              lambda f: (f / "b.csv").write_bytes((f / "good.csv").read_bytes()), "error",
-             "b.csv: the same recording as good.csv; a run held out against its own copy is not held out"),
+             "b.csv: the same recording as good.csv (its very bytes); a run held out against its own copy is not held out"),
         Case("campaign", "a target held between probings, no --held-target", "diagnose", (*DIAGNOSE, "held.csv"),
              with_text("held.csv", _held_target), "error",
              "held.csv: column 'E_z_um': 97% of its values repeat the one before (a drift probed and held between "

@@ -57,7 +57,8 @@ def run(args: argparse.Namespace) -> int:
         rows = training_rows(table, args.time, args.train_until, args.train_rows)
     candidates, skipped = _without_leaks(args, table, candidates, target[:rows], rows)
     if rows < 3:
-        raise UserError(f"{args.data}: {rows} rows; grouping sensors needs at least 3 of them")
+        taken = f" (--resample {args.resample:g} took the data onto {table.rows} calls)" if args.resample else ""
+        raise UserError(f"{args.data}: {rows} rows{taken}; grouping sensors needs at least 3 of them")
     try:
         selection = select_sensors({c: table.column(c)[:rows] for c in candidates}, target[:rows],
                                    args.method, args.threshold, args.max_groups)
