@@ -46,6 +46,13 @@ def _check_baseline(model: Model, request: DiagnoseRequest, path: str) -> None:
         raise UserError(f"{path}: --baseline is no model a block can be made of: {problem}")
 
 
+def check_period(model: Model, dt: float, path: str) -> None:
+    """The baseline's sample period against the data's, within PERIOD_TOLERANCE."""
+    if abs(model.sample_period_s - dt) > PERIOD_TOLERANCE * model.sample_period_s:
+        raise UserError(f"{path}: fitted at a sample period of {model.sample_period_s:g} s; the data are sampled "
+                        f"every {dt:g} s (give --resample {model.sample_period_s:g})")
+
+
 def augmented_model(final: Simulation, added: list[dict], request: DiagnoseRequest, tables: list[Table], dt: float,
                     train_rows: tuple[int, ...]) -> Model:
     """The model file of a fitted simulation; `added` is the evidence for each effect, kept in the fit log."""
@@ -85,9 +92,7 @@ def _search(parts: Parts, request: DiagnoseRequest, progress, tries):
     if request.baseline:
         model = load_model(request.baseline)
         _check_baseline(model, request, request.baseline)
-        if abs(model.sample_period_s - parts.runs[0].dt) > PERIOD_TOLERANCE * model.sample_period_s:
-            raise UserError(f"{request.baseline}: fitted at a sample period of {model.sample_period_s:g} s; the data "
-                            f"are sampled every {parts.runs[0].dt:g} s (give --resample {model.sample_period_s:g})")
+        check_period(model, parts.runs[0].dt, request.baseline)
         baseline = lumped_model.simulation_of(model)
         if baseline.displacement.ridge_weight is None and parts.campaign:
             raise UserError(f"{request.baseline}: an open-loop simulation an earlier diagnose fitted runs on one "

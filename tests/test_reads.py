@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import shutil
 
+import numpy as np
 import pytest
 
 from thermoplc.cli import build_parser, main
@@ -131,3 +132,30 @@ def test_the_api_refuses_to_write_onto_what_it_reads(folder, monkeypatch):
         with pytest.raises(UserError, match="is also an input of this command"):
             diagnose(request, model_path, json_path)
     assert {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()} == before
+
+
+def test_diagnose_baseline_refuses_a_fused_model_and_takes_a_period_rounded_by_large_time_stamps(tmp_path):
+    """Issue 60: a fused --baseline lost its fusion without a word; a period read from time stamps near 1e6 s
+    (0.30000001 s) was refused against the model's 0.3 s, and so was the advice's --resample 0.3."""
+    from dataclasses import replace
+    from pathlib import Path
+    from thermoplc.base.errors import UserError
+    from thermoplc.diagnosis import command
+    from thermoplc.diagnosis.runs import DiagnoseRequest
+    from thermoplc.models.modelfile import load_model
+    from thermoplc.models.probing import Fusion
+    lumped = load_model(str(Path(__file__).parent / "golden" / "lumped.json"))
+    request = DiagnoseRequest(("x.csv",), tuple(s.column for s in lumped.signals("temperature")),
+                              lumped.signals("speed")[0].column, lumped.signals("ambient")[0].column,
+                              lumped.target.column)
+    command._check_baseline(lumped, request, "lumped.json")
+    fused = replace(lumped, probe=Fusion.of(0.5, 20.0, 100.0, 100.0))
+    with pytest.raises(UserError, match="lumped.json: a fused model \\(fit --probe\\); diagnose .* give the model "
+                                        "fitted without --probe"):
+        command._check_baseline(fused, request, "lumped.json")
+    at_03 = replace(lumped, sample_period_s=0.3)
+    for start in (0.0, 1e6, 1.7e9):  # a logger's Unix time: each step rounded to the stamps' spacing
+        dt = float(np.median(np.diff(start + 0.3 * np.arange(1000))))
+        command.check_period(at_03, dt, "lumped.json")
+    with pytest.raises(UserError, match="fitted at a sample period of 0.3 s; the data are sampled every 0.301 s"):
+        command.check_period(at_03, 0.301, "lumped.json")
