@@ -20,7 +20,7 @@ import tempfile
 from pathlib import Path
 
 from thermoplc.base.errors import UserError
-from thermoplc.base.locations import is_url, refuse_as_output
+from thermoplc.base.locations import is_url, local_path, refuse_as_output
 
 REPORT_MANIFEST = ".thermoplc-report"
 
@@ -44,7 +44,7 @@ def check_output(path: str | Path, force: bool, inputs=()) -> None:
     if str(path).endswith(("/", os.sep)):
         raise UserError(f"{path}: ends in a separator, so it names a folder; expected a file name for the output")
     path = Path(path)
-    for source in inputs:
+    for source in (local_path(str(s)) for s in inputs if s):  # a file:// URL is its file
         if source and same_file(path, Path(source)):
             raise UserError(f"{path}: is also an input of this command; thermoplc never writes onto its input, "
                             f"not even with --force: choose another output name")
@@ -92,8 +92,8 @@ def check_outputs(outputs: dict[str, str | None], force: bool, inputs=(), report
         if _inside(path, report):
             raise UserError(f"{path}: is inside the --report folder {report}, whose files are the report's; give "
                             f"{option} a file outside it")
-    for source in inputs:
-        if source and not is_url(str(source)) and _inside(source, report) and not same_file(Path(report), Path(source)):
+    for source in (local_path(str(s)) for s in inputs if s):
+        if source and _inside(source, report) and not same_file(Path(report), Path(source)):
             raise UserError(f"--report {report}: holds {source}, an input of this command; give the report a folder "
                             f"of its own")
     return check_report_folder(report, list(report_names), inputs, recognised)
@@ -129,7 +129,7 @@ def check_report_folder(folder: str | Path, names: list[str], inputs=(), recogni
     files (`recognised`, by default only the names written now)."""
     refuse_as_output(str(folder), "a report")
     folder = Path(folder)
-    for source in inputs:
+    for source in (local_path(str(s)) for s in inputs if s):
         if source and same_file(folder, Path(source)):
             raise UserError(f"--report {folder}: is also an input of this command")
     if not os.path.lexists(folder):

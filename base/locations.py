@@ -42,6 +42,17 @@ def _parts(location: str) -> tuple[str, str, str]:
     return f"{scheme}://{authority}", path, mark + query
 
 
+def local_path(location: str) -> str | None:
+    """The local file a location names: a path as given, a file:// URL's path; None for a store's URL (no output
+    of this machine can be that object)."""
+    if not is_url(location):
+        return str(location)
+    if not str(location).lower().startswith("file://"):
+        return None
+    from urllib.parse import unquote, urlsplit
+    return unquote(urlsplit(str(location)).path) or None
+
+
 def name(location: str) -> str:
     """The last part of a URL (without its query) or a path: a run's name in tables, its suffix its format."""
     if is_url(location):

@@ -60,9 +60,11 @@ PROBE_KINDS = (
     FaultKind("probe-flood", "ProbeNew toggles for 30 calls", False, None),
     FaultKind("probe-held", "ProbeNew held TRUE for 30 calls", False, None),
 )
-# probings at the limit, one every second call, until the taught offset stands at its clamp: a block whose clamp
-# is missing or wrong differs from the reference there (the other cases never take the offset that far)
-PROBE_CLAMP = FaultKind("probe-clamp", "at the limit, every 2nd call", False, None)
+# probings at either limit, one every second call, until the taught offset stands at that side's clamp: a block
+# whose clamp (either branch) is missing or wrong differs from the reference there (the other cases never take
+# the offset that far)
+PROBE_CLAMPS = {1.0: FaultKind("probe-clamp+", "at +limit every 2nd call", False, None),
+                -1.0: FaultKind("probe-clamp-", "at -limit every 2nd call", False, None)}
 CLAMP_HOLD_CALLS = 50  # calls the run of probings goes on once the offset is at its clamp
 
 
@@ -86,24 +88,27 @@ def _probe_fault(kind: FaultKind, value: np.ndarray, new: np.ndarray, first: int
     return {PROBE_VALUE_INPUT: value, PROBE_NEW_INPUT: new}, last
 
 
-def _probe_clamp(model: Model, static: np.ndarray, value: np.ndarray, new: np.ndarray, first: int
-                 ) -> tuple[dict, int, np.ndarray]:
-    """The probing inputs with a run of probings at the limit (on the side away from the static prediction) from
-    row `first`, an edge every second call, until the offset the reference learns from them has stood at its clamp
-    for CLAMP_HOLD_CALLS calls (or the data end), no probing after; the last row of the run, and per call whether
-    the offset is at its clamp."""
+def _probe_clamp(model: Model, static: np.ndarray, value: np.ndarray, new: np.ndarray, sign: float
+                 ) -> tuple[dict, int, int, np.ndarray]:
+    """The probing inputs with a run of probings at `sign` times the limit, an edge every second call, until the
+    offset the reference learns from them has stood at that side's clamp for CLAMP_HOLD_CALLS calls (or the data
+    end), no probing after. The run starts where the static prediction leaves the offset the most room to that
+    side (in the first three quarters of the data: a clamp wider than the limit minus the prediction can never
+    be reached). Returns the inputs, the run's first and last rows, and per call whether the offset is there."""
     from thermoplc.models.probing import fuse
     fusion = model.probe
     limit, clamp = np.float32(fusion.value("limit_um")), np.float32(fusion.value("offset_max_um"))
     value, new = np.array(value, np.float32), np.array(new, bool)
-    value[first:] = limit if static[first] <= 0 else -limit
-    new[first:] = (np.arange(first, len(new)) - first) % 2 == 0
+    rows = len(new)
+    first = int(np.argmin(sign * static[:max(1, rows - rows // 4)].astype(np.float64)))
+    value[first:] = np.float32(sign) * limit
+    new[first:] = (np.arange(first, rows) - first) % 2 == 0
     offset = fuse(fusion, static, value, new, "f32")["fused"].astype(np.float64) - static.astype(np.float64)
-    at_clamp = np.abs(offset) >= np.float64(clamp) * (1 - 1e-6)
+    at_clamp = sign * offset >= np.float64(clamp) * (1 - 1e-6)
     reached = np.flatnonzero(at_clamp[first:])
-    last = min(len(new) - 1, first + int(reached[0]) + CLAMP_HOLD_CALLS) if len(reached) else len(new) - 1
+    last = min(rows - 1, first + int(reached[0]) + CLAMP_HOLD_CALLS) if len(reached) else rows - 1
     new[last + 1:] = False
-    return {PROBE_VALUE_INPUT: value, PROBE_NEW_INPUT: new}, last, at_clamp
+    return {PROBE_VALUE_INPUT: value, PROBE_NEW_INPUT: new}, first, last, at_clamp
 
 
 def _pulses(rows: int, first: int, *offsets: int) -> np.ndarray:
@@ -262,15 +267,16 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
         report = replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
         cases.append(_case(kind, PROBE_VALUE_INPUT, first, last, expected, report, machine, limits, model, baseline,
                            np.asarray(expected[PROBE_REFUSED_OUTPUT], bool)))
-    if probing:
-        static = _reference(model, {**clean, PROBE_NEW_INPUT: np.zeros(table.rows, bool)}, limits)[model.target.name]
-        faulty, last, at_clamp = _probe_clamp(model, static, probing[PROBE_VALUE_INPUT], probing[PROBE_NEW_INPUT],
-                                              first)
+    static = _reference(model, {**clean, PROBE_NEW_INPUT: np.zeros(table.rows, bool)}, limits)[model.target.name] \
+        if probing else None
+    for sign, kind in PROBE_CLAMPS.items() if probing else ():
+        faulty, start, last, at_clamp = _probe_clamp(model, static, probing[PROBE_VALUE_INPUT],
+                                                     probing[PROBE_NEW_INPUT], sign)
         inputs = {**clean, **faulty}
         expected = named(_reference(model, inputs, limits), names)
         report = replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
-        cases.append(_case(PROBE_CLAMP, PROBE_VALUE_INPUT, first, last, expected, report, machine, limits, model,
-                           baseline, at_clamp))
+        cases.append(_case(kind, PROBE_VALUE_INPUT, start, last, expected, report, machine, limits, model, baseline,
+                           at_clamp))
     return cases
 
 
@@ -307,9 +313,9 @@ def format_cases(cases: list[FaultCase], block: str, rows: int) -> str:
     lines.append("flagged/clear at end describe the block's behaviour, they are not pass criteria; max change "
                  "is the largest |error with fault - error without| in the target's unit; for Enable/Reset, "
                  "flagged means Ready or ENO went FALSE" + ("; for a probing, that ProbeRefused came up; for "
-                                                            "probe-clamp, that the offset reached its clamp"
+                                                            "probe-clamp+/-, that the offset reached that clamp"
                                                             if probed else ""))
-    lines += [f"probe-clamp: the offset never reached its clamp in {c.last_row - c.first_row + 1} calls; the clamp "
-              f"is checked against the model file's constant only" for c in cases if c.kind is PROBE_CLAMP
-              and not c.flagged]
+    lines += [f"{c.kind.name}: the offset never reached its clamp from call {c.first_row} on (the limit minus the "
+              f"prediction stays inside it); that clamp is checked against the model file's constant only"
+              for c in cases if c.kind in PROBE_CLAMPS.values() and not c.flagged]
     return "\n".join(lines)

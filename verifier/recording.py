@@ -6,11 +6,13 @@ from __future__ import annotations
 from dataclasses import replace
 
 from thermoplc.base.errors import UserError
-from thermoplc.contract.outputs import ENABLE_INPUT, PROBE_NEW_INPUT, PROBE_VALUE_INPUT, RESET_INPUT
+from thermoplc.contract.outputs import (CONTROL_INPUT_START, ENABLE_INPUT, PROBE_INPUTS, PROBE_NEW_INPUT, PROBE_VALUE_INPUT,
+                                       RESET_INPUT)
 from thermoplc.models.modelfile import Model
 from thermoplc.recordings.resample import Resampling, resample
 from thermoplc.recordings.table import Table, read_table
 from thermoplc.verifier.control import control_column, control_inputs
+from thermoplc.verifier.mapping import known_overrides
 from thermoplc.verifier.typed import cells_as
 
 
@@ -42,7 +44,9 @@ def read_recording(path: str, model: Model, progress=None, decimal: str = "auto"
     rule = resampling_for(model, period_s)
     if rule is None:
         return table
-    overrides = overrides or {}
+    probe_names = PROBE_INPUTS.values() if model.probe is not None else ()
+    overrides = known_overrides(overrides, [*(s.name for s in model.inputs), *CONTROL_INPUT_START, *probe_names],
+                                "the model file")  # `reset=R` is `Reset=R`, here as in the replay
     column = lambda name: overrides.get(name, name)
     control_inputs(table, overrides)  # 0 or 1 on every raw row, as without resampling: a 2 or a 0.5 between two
     if column(PROBE_NEW_INPUT) in table.columns:  # calls must not become a reset or a probing

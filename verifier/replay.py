@@ -20,6 +20,7 @@ from thermoplc.models.safety import Limits
 from thermoplc.recordings.table import Table, close_match
 from thermoplc.verifier.control import control_inputs, control_summary, unread_control_columns
 from thermoplc.verifier.engines import Replayer
+from thermoplc.verifier.mapping import known_overrides
 from thermoplc.verifier.semantics import BlockFailure, Finding
 from thermoplc.verifier.block_file import parse_file
 from thermoplc.verifier.probings import probing_inputs, reference_keys, start_value_errors, summary as probing_summary
@@ -172,16 +173,6 @@ def check_model_inputs(machine, block: str, model: Model, source: str) -> None:
             raise UserError(f"{source}: field 'inputs[{k}]': input {s.name!r} (role {s.role!r}) is not an input of "
                             f"{block} (its inputs: {', '.join(d.name for d in machine.inputs)}); was the model file "
                             f"edited, or is the block another model's?")
-
-
-def known_overrides(overrides: dict | None, names, what: str) -> dict:
-    """--inputs keyed by the declared names (ST names ignore case); a key no input has is an error,
-    not a mapping silently ignored."""
-    by_key = {name.upper(): name for name in names}
-    unknown = [key for key in (overrides or {}) if key.upper() not in by_key]
-    if unknown:
-        raise UserError(f"--inputs maps {', '.join(unknown)}, but {what} has no such input; inputs are {', '.join(names)}")
-    return {by_key[key.upper()]: column for key, column in (overrides or {}).items()}
 
 
 def block_columns(inputs: list, table: Table, overrides: dict | None, block: str, probings: str = "") -> dict:

@@ -12,9 +12,10 @@ from __future__ import annotations
 import argparse
 from typing import Callable
 
-from thermoplc.base.locations import is_url
+from thermoplc.base.locations import local_path
 
 KINDS = ("recordings", "runs table", "file", "list", "manifest")
+STDIN = "/dev/stdin"  # `--data -`: standard input, which a shell may have opened on a file an output names
 
 
 class Reads:
@@ -46,8 +47,9 @@ def declare(parser: argparse.ArgumentParser) -> None:
 
 
 def files_read(args: argparse.Namespace) -> list[str]:
-    """Every local file the command reads, by its declared reading options (standard input and object-store
-    URLs are not files an output could replace)."""
+    """Every local file the command reads, by its declared reading options: a file:// URL as its path, standard
+    input as /dev/stdin (the file a shell redirected it from); an object store's URL is no file an output could
+    replace."""
     kinds = dict(getattr(args, "reads", ()))
     found: list[str] = []
     for dest, kind in kinds.items():
@@ -56,14 +58,15 @@ def files_read(args: argparse.Namespace) -> list[str]:
             continue
         if kind == "file":
             found.append(value)
-        elif kind == "list":
-            found.append(getattr(value, "file", None))
+        elif kind == "list":  # an @FILE named '-' is that file, not standard input
+            found.append("./-" if getattr(value, "file", None) == "-" else getattr(value, "file", None))
         elif kind == "manifest":
             found += _manifest_files(args, value)
     campaign = [dest for dest, kind in kinds.items() if kind in ("recordings", "runs table")]
     if any(getattr(args, dest, None) for dest in campaign):
         found += _campaign_files(args, kinds)
-    return [f for f in dict.fromkeys(found) if f and f != "-" and not is_url(str(f))]
+    local = [STDIN if f == "-" else local_path(str(f)) for f in found if f]
+    return [f for f in dict.fromkeys(local) if f]
 
 
 def _campaign_files(args: argparse.Namespace, kinds: dict[str, str]) -> list[str]:
