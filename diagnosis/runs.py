@@ -9,7 +9,7 @@ import numpy as np
 from thermoplc.base.errors import UserError
 from thermoplc.base.values import UNIX_SECONDS, cycle_problem, name_problem, names_problem, number_problem
 from thermoplc.diagnosis.parts import Parts
-from thermoplc.fitting.crossval import refuse_copies
+from thermoplc.fitting.copies import refuse_copies
 from thermoplc.fitting.fit import common_sample_period, runs_named
 from thermoplc.fitting.leaks import refuse_leaks, refuse_non_temperatures
 from thermoplc.physics.primitives import Series
@@ -138,7 +138,8 @@ def parts_of(campaign: Campaign, request: DiagnoseRequest) -> tuple[Parts, float
     if request.train_runs is not None and len(tables) == 1:
         raise UserError(f"--train-runs {request.train_runs}: only one run was given; split it in time with "
                         f"--train-until or --train-rows")
-    refuse_copies(tables, "a run held out against its own copy is not held out")
+    refuse_copies(tables, "a run held out against its own copy is not held out",
+                  (*request.temps, request.speed, request.ambient, request.target, *((request.feed,) if request.feed else ())))
     if len(tables) == 1:
         train_rows = (_training_rows(tables[0], request),)
     else:

@@ -28,6 +28,7 @@ import numpy as np
 from thermoplc.base.cluster import Cluster, Lost
 from thermoplc.base.errors import ClusterError, UserError
 from thermoplc.recordings.campaign import CampaignSource, run_labels
+from thermoplc.fitting.copies import refuse_copies
 from thermoplc.fitting.fit import FitRequest, evaluate, fit, runs_named
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import model_inputs, predict
@@ -101,23 +102,6 @@ def contiguous(indices: list[int], count: int) -> list[list[int]]:
     """`indices` in `count` contiguous folds of (nearly) equal size, in order (fewer when there are fewer)."""
     bounds = np.linspace(0, len(indices), min(count, len(indices)) + 1).round().astype(int)
     return [indices[a:b] for a, b in zip(bounds, bounds[1:]) if b > a]
-
-
-def refuse_copies(tables: list[Table], why: str) -> None:
-    """A run given twice is refused naming both files; `why` says what a copy would spoil. Two runs are the same
-    when they hold the same columns and numbers (Table.content_sha256), whatever their format or bytes."""
-    seen: dict[str, str] = {}
-    for table in tables:
-        if table.content_sha256 in seen:
-            first = seen[table.content_sha256]
-            same = ("its very bytes" if table.sha256 == _bytes_of(tables, first) else
-                    "the same columns and numbers in other bytes")
-            raise UserError(f"{table.path}: the same recording as {first} ({same}); {why}; give each run once")
-        seen[table.content_sha256] = table.path
-
-
-def _bytes_of(tables: list[Table], path: str) -> str:
-    return next(t.sha256 for t in tables if t.path == path)
 
 
 @dataclass(frozen=True)
@@ -207,9 +191,15 @@ def _start_folds(tables: list[Table], tasks: list[FoldTask], remote: Remote | No
     return in_order()
 
 
+def read_columns(request: FitRequest) -> tuple[str, ...]:
+    """The columns a fit of `request` reads: where two runs agree on these, one is the other's copy."""
+    return tuple(c for c in (*request.temps, request.target, *request.extra_targets, request.speed, request.ambient)
+                 if c)
+
+
 def _run_tasks(tables: list[Table], request: FitRequest, time_column: str, folds: int | None,
                groups: dict[str, list[int]] | None, predictions: bool) -> list[FoldTask]:
-    refuse_copies(tables, "a fold predicted by a fit on its own copy is not held out")
+    refuse_copies(tables, "a fold predicted by a fit on its own copy is not held out", read_columns(request))
     return [FoldTask(request, time_column, label, tuple(members), predictions=predictions)
             for label, members in run_folds(tables, folds, groups)]
 

@@ -110,7 +110,7 @@ def test_several_recordings_need_one_fold_each_and_no_copies(tmp_path):
 
 def test_a_run_in_other_bytes_is_the_same_run(tmp_path):
     """Issue 60: the same run as Parquet, with CRLF line endings, or with its columns reordered, semicolons and
-    decimal commas is refused naming both files, by fit and diagnose alike; a run one cell apart is another run."""
+    decimal commas is refused naming both files, by fit and diagnose alike; so is a copy one cell apart."""
     import pyarrow.csv
     import pyarrow.parquet
     from tests.golden_models import batch_csvs
@@ -133,5 +133,27 @@ def test_a_run_in_other_bytes_is_the_same_run(tmp_path):
                           "--ambient", "T_env", "--target", "E_z_um", cwd=tmp_path, check=2)
     assert f"crlf.csv: the same recording as {paths[1].name}" in diagnosed.stderr
     (tmp_path / "crlf.csv").write_text(text.replace("\n", "\r\n").replace(rows[5], rows[5].replace(",", ",1", 1), 1),
-                                       newline="")
-    thermoplc(*common, *data, "--data", "crlf.csv", "--folds", len(paths) + 1, cwd=tmp_path)
+                                       newline="")  # one cell apart: still the same run, in part
+    edited = thermoplc(*common, *data, "--data", "crlf.csv", "--folds", len(paths) + 1, cwd=tmp_path, check=2)
+    assert f"of {paths[1].name} (a copy of one recording, in part or with other bytes)" in edited.stderr
+
+
+def test_a_piece_of_a_run_or_a_copy_with_other_time_stamps_is_no_held_out_run(tmp_path):
+    """Hostile review of issue 60: a copy with its time shifted, a column the model does not read dropped, or
+    half of a run in a file of its own fitted as a run of its own; now refused naming where both files agree.
+    A campaign of distinct runs (the twin's, FL_THERMAL cut in four) is taken."""
+    from tests.golden_models import batch_csvs
+    paths = batch_csvs(tmp_path)
+    common = ("fit", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor,T_bearing", "-o", "m.json")
+    data = [x for p in paths for x in ("--data", p.name)]
+    header, *rows = paths[1].read_text().splitlines()
+    shifted = [",".join([f"{float(r.split(',')[0]) + 1e5:g}", *r.split(",")[1:]]) for r in rows]
+    dropped = [",".join(r.split(",")[:-1]) for r in [header, *rows]]  # the last column: no input of the model
+    pieces = {"shifted.csv": "\n".join([header, *shifted]), "dropped.csv": "\n".join(dropped),
+              "half.csv": "\n".join([header, *rows[len(rows) // 2:]])}
+    for name, text in pieces.items():
+        (tmp_path / name).write_text(text + "\n")
+        refused = thermoplc(*common, *data, "--data", name, "--folds", len(paths) + 1, cwd=tmp_path, check=2)
+        assert f"hold the same values of T_motor, T_bearing, E_z_um, in the same order, as calls" in refused.stderr
+        assert paths[1].name in refused.stderr and name in refused.stderr and not (tmp_path / "m.json").exists()
+    thermoplc(*common, *data, "--folds", len(paths), cwd=tmp_path)
