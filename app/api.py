@@ -24,6 +24,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.diagnosis.command import DiagnoseRequest, run as _diagnose
 from thermoplc.fitting import fit as _fitting
 from thermoplc.fitting.fit import FitRequest
+from thermoplc.generator.ir import Identity
 from thermoplc.fitting.options_read import refuse_roles_not_read, refuse_settings_not_read
 from thermoplc.models.modelfile import Model, load_model
 from thermoplc.models.safety import Limits
@@ -59,6 +60,8 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
         raise UserError("tables: an empty list; expected one table per run")
     _expect(request, FitRequest, "request", "a FitRequest")
     _expect(time_column, str, "time_column", "a column name")
+    for table in tables:
+        table.column(time_column)  # a missing time column named with the file and its header
     refuse_settings_not_read(request)
     refuse_roles_not_read(request)
     return _fitting.fit(list(tables), request, time_column, progress)
@@ -69,6 +72,8 @@ def generate(model: Model, *args, **kwargs) -> Generated:
     _expect(model, Model, "model", "a Model (thermoplc.api.fit or load_model)")
     limits = kwargs.get("limits", args[1] if len(args) > 1 else Limits())
     _expect(limits, Limits, "limits", "a Limits")
+    identity = kwargs.get("identity", args[4] if len(args) > 4 else None)
+    _expect(identity, (Identity, type(None)), "identity", "a thermoplc.generator.ir.Identity or None")
     return _generate(model, *args, **kwargs)
 
 
@@ -79,6 +84,9 @@ def verify(block_path: str, model: Model, table: Table, model_path: str = "model
     _expect(model, Model, "model", "a Model (thermoplc.api.fit or load_model)")
     _expect(table, Table, "table", "a Table (thermoplc.api.read_table)")
     _expect(overrides, (dict, type(None)), "overrides", "a dict of block input to column, or None")
+    for name, column in (overrides or {}).items():
+        _expect(name, str, "overrides", "block input names as keys")
+        _expect(column, str, f"overrides[{name!r}]", "a column name")
     return verify_against_model(str(block_path), model, str(model_path), table, overrides)
 
 

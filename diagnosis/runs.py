@@ -2,11 +2,13 @@
 trains by default) or a campaign whose first runs train, each refused where it cannot be judged."""
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
 
 from thermoplc.base.errors import UserError
+from thermoplc.base.identifiers import identifier_problem
 from thermoplc.base.values import UNIX_SECONDS, cycle_problem, name_problem, names_problem, number_problem
 from thermoplc.diagnosis.parts import Parts
 from thermoplc.fitting.copies import refuse_copies
@@ -45,6 +47,12 @@ class DiagnoseRequest:
     held_target: bool = False  # the target holds its last probing: only its changes are measurements
 
     def __post_init__(self) -> None:
+        if isinstance(self.data, (list, tuple)):  # a path object is the path it names
+            object.__setattr__(self, "data", tuple(os.fspath(d) if isinstance(d, os.PathLike) else d
+                                                   for d in self.data))
+        for name in ("baseline", "runs_table"):
+            if isinstance(getattr(self, name), os.PathLike):
+                object.__setattr__(self, name, os.fspath(getattr(self, name)))
         problem = request_problem(self)
         if problem:
             raise UserError(problem)
@@ -78,6 +86,16 @@ def request_problem(request: DiagnoseRequest) -> str | None:
         "--resample": optional(cycle_problem, request.resample_s)}
     if request.train_until is not None and request.train_rows is not None:
         return "--train-until and --train-rows: give one of the two"
+    if request.data is not None and not request.data:
+        return "--data: an empty tuple; expected the recordings or folders of the runs"
+    if request.decimal not in ("auto", ".", ","):
+        return f"--decimal: expected one of auto, ., ',', found {request.decimal!r}"
+    naming = identifier_problem(request.block_name) if isinstance(request.block_name, str) else "is no text"
+    if naming:
+        return f"--name: block name {request.block_name!r} {naming}"
+    for flag, value in (("structure_lag", request.structure_lag), ("--held-target", request.held_target)):
+        if not isinstance(value, bool):
+            return f"{flag}: expected True or False, found {value!r}"
     return next((f"{flag}: {problem}" for flag, problem in checks.items() if problem), None)
 
 

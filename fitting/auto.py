@@ -32,6 +32,7 @@ import numpy as np
 from thermoplc.base.errors import ClusterError, UserError
 from thermoplc.base import ridge
 from thermoplc.fitting import acceptance, crossval
+from thermoplc.fitting.copies import refuse_copies
 from thermoplc.fitting.fit import FitRequest, check_inputs, runs_named, training_rows
 from thermoplc.models.kind import Kind
 from thermoplc.models.kinds import registry
@@ -147,6 +148,7 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
     kinds = tried(request)
     rows = [train_rows] + [t.rows for t in tables[1:]]
     check_inputs(tables, replace(request, kind="mlr"), time_column, rows)  # what every kind refuses, up front
+    refuse_copies(tables, "a fold predicted by a fit on its own copy is not held out", crossval.read_columns(request))
     try:  # a sensor that never moves: every kind refuses it, so auto must not quietly leave it out
         ridge.refuse_flat(np.vstack([np.column_stack([t.columns[c][:n] for c in request.temps])
                                      for t, n in zip(tables, rows)]), list(request.temps))

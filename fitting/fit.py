@@ -69,6 +69,10 @@ class FitRequest:
             if name not in declared:
                 raise UserError(f"fit option {name!r}: no kind reads it; the kinds' options are {', '.join(declared)}")
         if options_ is not None:  # what an old FitOptions sets other than its defaults
+            from thermoplc.models.kalman import FitOptions
+            if not isinstance(options_, FitOptions):
+                raise UserError(f"options: expected a thermoplc.models.kalman.FitOptions, found {options_!r}; give "
+                                f"settings={{'option': value}} instead")
             defaults = type(options_)()
             given.update({name: value for name, value in vars(options_).items()
                           if name in declared and value != getattr(defaults, name)})

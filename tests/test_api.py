@@ -79,9 +79,22 @@ def test_the_api_refuses_what_the_kind_does_not_read_and_wrong_types(fitted):
         api.verify("block.scl", model, "fl.csv")
     with pytest.raises(UserError, match="model: expected a Model"):
         api.generate("model.json")
+    with pytest.raises(UserError, match="no column 'nope'"):
+        api.fit([table], api.FitRequest(**base), time_column="nope")
+    with pytest.raises(UserError, match=re.escape("overrides['t1_C']: expected a column name, found int 5")):
+        api.verify("block.scl", model, table, overrides={"t1_C": 5})
+    with pytest.raises(UserError, match="identity: expected a thermoplc.generator.ir.Identity"):
+        api.generate(model, "model.json", identity="x")
+    with pytest.raises(UserError, match="options: expected a thermoplc.models.kalman.FitOptions, found 5"):
+        api.FitRequest(**base, options=5)
     request = dict(data=(str(DATA),), temps=("t5_C",), speed="spindle_rpm", ambient="t6_C", target="ch3_um")
+    assert api.DiagnoseRequest(**{**request, "data": (DATA,)}).data == (str(DATA),)  # a Path is its path
     for fields, message in (({"resample_s": float("nan")}, "--resample: expected the block's cycle in seconds"),
                             ({"resample_s": -40.0}, "--resample: expected the block's cycle in seconds"),
-                            ({"data": str(DATA)}, "--data: expected a tuple of recordings or folders")):
+                            ({"data": str(DATA)}, "--data: expected a tuple of recordings or folders"),
+                            ({"data": ()}, "--data: an empty tuple"),
+                            ({"decimal": "x"}, "--decimal: expected one of auto"),
+                            ({"block_name": "1x"}, "--name: block name '1x' must start with a letter"),
+                            ({"structure_lag": "no"}, "structure_lag: expected True or False, found 'no'")):
         with pytest.raises(UserError, match=re.escape(message)):
             api.DiagnoseRequest(**{**request, **fields})

@@ -159,3 +159,28 @@ def test_diagnose_baseline_refuses_a_fused_model_and_takes_a_period_rounded_by_l
         command.check_period(at_03, dt, "lumped.json")
     with pytest.raises(UserError, match="fitted at a sample period of 0.3 s; the data are sampled every 0.301 s"):
         command.check_period(at_03, 0.301, "lumped.json")
+
+
+def test_a_file_url_standard_input_and_a_list_named_dash_are_inputs_too(folder, monkeypatch, capsys):
+    """Hostile review of issue 60: `--data file:///...` and `--data - < run.csv` replaced the file read, and so
+    did `-o ./-` over the list `--temps @-`."""
+    import subprocess
+    import sys
+    monkeypatch.chdir(folder)
+    before = {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+    url = (folder / "run.csv").as_uri()
+    for argv in ((*FIT, "--data", url, "-o", "run.csv", "--force"),
+                 (*FIT, "--data", (folder / "camp").as_uri(), "-o", "camp/a.csv", "--force"),
+                 (*VERIFY, "--data", url, "--outputs", "run.csv", "--force")):
+        assert main(list(argv)) == 2, argv
+        assert "is also an input of this command" in capsys.readouterr().err
+    (folder / "-").write_text("T_motor\n")
+    assert main(["fit", "--data", "run.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "@-", "--train-until",
+                 "7200", "-o", "./-", "--force"]) == 2
+    assert "is also an input of this command" in capsys.readouterr().err
+    (folder / "-").unlink()
+    with open(folder / "run.csv", "rb") as stdin:
+        piped = subprocess.run([sys.executable, "-m", "thermoplc", *FIT, "--data", "-", "-o", "run.csv", "--force"],
+                               stdin=stdin, capture_output=True, text=True, cwd=folder)
+    assert piped.returncode == 2 and "run.csv: is also an input of this command" in piped.stderr
+    assert {p: p.read_bytes() for p in folder.rglob("*") if p.is_file()} == before

@@ -218,3 +218,22 @@ def test_a_control_column_keeps_its_0_or_1_rule_through_resample(tmp_path, contr
         what = f"input {control} of type BOOL" if control == "ProbeNew" else f"the {control} input (BOOL)"
         assert f"ctl.csv: line 42, column '{control}': {float(value):.17g} cannot be {what}; expected 0 or 1" \
             in refused.stderr, refused.stderr
+
+
+def test_inputs_mapped_in_any_case_drive_the_resampling_as_the_replay(tmp_path):
+    """Hostile review of issue 60: `--inputs reset=R` (ST names ignore case) was honoured by the replay but not by
+    the resampling, which interpolated R linearly: the pulse was lost and a 2 got through."""
+    raw = _raw_logger(tmp_path, hours=3.0)
+    thermoplc("fit", "--data", raw, "--model", "mlr", "--target", "ch3_um", "--temps", "t4_C,t5_C", "--train-until",
+              "7000", "--resample", "40", "-o", "m.json", cwd=tmp_path)
+    thermoplc("generate", "m.json", "-o", "m.scl", "--accept-unvalidated", cwd=tmp_path)
+    header, *rows = (tmp_path / raw).read_text().splitlines()
+    for value, status in (("1", 0), ("2", 2)):
+        cells = ["0"] * len(rows)
+        cells[41] = value
+        (tmp_path / "r.csv").write_text("\n".join([f"{header},R", *(f"{r},{c}" for r, c in zip(rows, cells))]) + "\n")
+        for key in ("Reset", "reset", "RESET"):
+            result = thermoplc("verify", "m.scl", "--model", "m.json", "--data", "r.csv", "--inputs", f"{key}=R",
+                               cwd=tmp_path, check=status)
+            assert ("1 reset call(s)" in result.stdout) if status == 0 else \
+                ("column 'R': 2 cannot be the Reset input (BOOL)" in result.stderr)

@@ -39,15 +39,15 @@ def read_recording(path: str, model: Model, progress=None, decimal: str = "auto"
     """The recording `path` read for a replay of `model`'s block, on the block's cycle: the speed (and feed) held
     under the columns they are read from (`--inputs` included), Enable and ProbeValue held, Reset and ProbeNew
     kept as pulses at the call that follows them."""
-    targets = model_targets(model)
-    table = read_table(path, model.time_column, progress, decimal, sparse=targets)
-    rule = resampling_for(model, period_s)
-    if rule is None:
-        return table
     probe_names = PROBE_INPUTS.values() if model.probe is not None else ()
     overrides = known_overrides(overrides, [*(s.name for s in model.inputs), *CONTROL_INPUT_START, *probe_names],
                                 "the model file")  # `reset=R` is `Reset=R`, here as in the replay
     column = lambda name: overrides.get(name, name)
+    targets = (*model_targets(model), *((column(PROBE_VALUE_INPUT),) if probe_names else ()))  # mapped: also empty
+    table = read_table(path, model.time_column, progress, decimal, sparse=targets)  # between probings
+    rule = resampling_for(model, period_s)
+    if rule is None:
+        return table
     control_inputs(table, overrides)  # 0 or 1 on every raw row, as without resampling: a 2 or a 0.5 between two
     if column(PROBE_NEW_INPUT) in table.columns:  # calls must not become a reset or a probing
         cells_as(table, column(PROBE_NEW_INPUT), "BOOL", f"input {PROBE_NEW_INPUT}")

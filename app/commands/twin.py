@@ -130,8 +130,13 @@ def _as_written(args: argparse.Namespace, columns: dict, seed: int) -> dict:
 
 
 def _pace(args: argparse.Namespace) -> str:
-    return (f"as a data logger writes them (every {args.dt / 4:g} s for 16 min, then {args.dt:g} s, 1 s of jitter)"
-            if args.logger else f"every {args.dt:g} s")
+    from thermoplc.machines.logger import FAST_MINUTES, JITTER_S, fast_period
+    if not args.logger:
+        return f"every {args.dt:g} s"
+    minutes = min(FAST_MINUTES, args.hours * 60)
+    then = f", then {args.dt:g} s" if args.hours * 60 > FAST_MINUTES else ""
+    return (f"as a data logger writes them (every {fast_period(args.dt):g} s for {minutes:g} min{then}, "
+            f"{min(JITTER_S, 0.45 * fast_period(args.dt)):g} s of jitter)")
 
 
 def _campaign(args: argparse.Namespace, effects: tuple) -> int:
