@@ -48,7 +48,7 @@ def verify_pair(pair: Pair, engine: str) -> Outcome:
                       if resampling_for(model, pair.resample_s) is None else None)
             if report is None:
                 table = read_recording(pair.data, model, decimal=pair.decimal, period_s=pair.resample_s,
-                                       overrides=pair.inputs)
+                                       overrides=pair.inputs, model_path=pair.model)
                 report = verify_against_model(pair.block, model, pair.model, table, pair.inputs, engine,
                                               pair.probe_every)
         else:

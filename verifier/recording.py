@@ -35,13 +35,14 @@ def resampling_for(model: Model, period_s: float | None) -> Resampling | None:
 
 
 def read_recording(path: str, model: Model, progress=None, decimal: str = "auto",
-                   period_s: float | None = None, overrides: dict | None = None) -> Table:
+                   period_s: float | None = None, overrides: dict | None = None, model_path: str = "model file"
+                   ) -> Table:
     """The recording `path` read for a replay of `model`'s block, on the block's cycle: the speed (and feed) held
     under the columns they are read from (`--inputs` included), Enable and ProbeValue held, Reset and ProbeNew
     kept as pulses at the call that follows them."""
     probe_names = PROBE_INPUTS.values() if model.probe is not None else ()
     overrides = known_overrides(overrides, [*(s.name for s in model.inputs), *CONTROL_INPUT_START, *probe_names],
-                                "the model file")  # `reset=R` is `Reset=R`, here as in the replay
+                                model_path)  # `reset=R` is `Reset=R`, here as in the replay
     column = lambda name: overrides.get(name, name)
     targets = (*model_targets(model), *((column(PROBE_VALUE_INPUT),) if probe_names else ()))  # mapped: also empty
     table = read_table(path, model.time_column, progress, decimal, sparse=targets)  # between probings

@@ -79,7 +79,7 @@ def verify_file_against_model(block: str, model: Model, model_path: str, data: s
     if report is not None:
         return report
     t = time.perf_counter()
-    table = read_recording(data, model, progress, decimal)
+    table = read_recording(data, model, progress, decimal, overrides=overrides, model_path=model_path)
     LAST_TIMINGS["read"] = time.perf_counter() - t
     t = time.perf_counter()
     report = verify_against_model(block, model, model_path, table, overrides, engine)

@@ -205,7 +205,7 @@ def _against_model(args: argparse.Namespace) -> int:
         report = verify_streaming(args.block, model, args.model, args.data, args.inputs, args.engine,
                                   args.decimal, progress())
     if report is None:
-        table = read_recording(args.data, model, progress(), args.decimal, args.resample, args.inputs)
+        table = read_recording(args.data, model, progress(), args.decimal, args.resample, args.inputs, args.model)
         if args.faults:
             return _faults(args, model, table)
         report = verify_against_model(args.block, model, args.model, table, args.inputs, args.engine,
