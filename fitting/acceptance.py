@@ -149,8 +149,11 @@ def fused_summary(model: Model) -> str | None:
     values, where = found
     u = model.target.unit
     probings = _section(_section(model.metrics, "probing"), "pooled").get("probings")
+    rule = _section(_section(model.metrics, "probing"), "chosen").get("gate_rule")
+    gate = f"; a probing further than {model.probe.value('gate_um', 'f64'):.4g} {u} from the prediction is refused " \
+           f"({rule})" if rule and model.probe is not None else ""
     return (f"with its probings ({probings} held out), RMSE {values['fused']:.4g} {u} {where}; static block fitted "
-            f"without --probe {values['static']:.4g} {u}, no compensation {values['none']:.4g} {u}")
+            f"without --probe {values['static']:.4g} {u}, no compensation {values['none']:.4g} {u}{gate}")
 
 
 def _fused_problem(model: Model) -> str | None:

@@ -48,6 +48,7 @@ class Probing:
     """`fit --probe` with auto: each candidate fused as it would be alone (fitting/probe_fit.py), ranked fused."""
     every: int | None  # a probing every N calls on a target measured at every call; None: the target's own
     held: bool  # the target holds its last probing
+    gate_um: float | None = None  # fit --probe-gate-um: the engineer's gate, else the rule of probe_fit.gate_of
 
 
 @dataclass(frozen=True)
@@ -199,7 +200,7 @@ def _candidate(tables, request, folds, time_column, kind, sensors, say, groups=N
                                       predictions=predictions if probing else None)
         if probing:
             from thermoplc.fitting.probe_fit import fit_probe
-            model = fit_probe(model, tables, predictions, probing.every, probing.held)
+            model = fit_probe(model, tables, predictions, probing.every, probing.held, probing.gate_um)
     except ClusterError:
         raise
     except UserError as exc:

@@ -4,8 +4,11 @@ The static model's held-out predictions (each run predicted by a fit that never 
 part of one recording) are replayed through the fusion with the probings a user would take: the probed
 target's own measurements, or one every N calls on a target measured at every call. The gain of the offset,
 whether a drift rate is added (the steady-state alpha-beta pair) and whether the offset decays between
-probings are chosen on those runs; the gate is a multiple of the chosen fusion's innovation spread, chosen
-the same way. The evidence is nested: each run's figures come from the choice made on the other runs.
+probings are chosen on those runs. The gate is not chosen on them: clean held-out runs reward the widest gate,
+which then takes a chip on the probe in full. It comes from what the drift did between two probings on those runs
+(`gate_of`: the chosen fusion's innovations, gate open, each run's first probing left out since the block takes
+that one anyway), or from the engineer (`fit --probe-gate-um`). The evidence is nested: each run's figures come
+from the choice made on the other runs.
 """
 from __future__ import annotations
 
@@ -20,10 +23,12 @@ from thermoplc.models.probing import Fusion, fuse, probings, rising
 
 GAINS = (0.1, 0.2, 0.3, 0.5, 0.7, 0.85, 1.0)
 HALF_LIVES_H = (None, 2.0, 8.0)  # None: the offset is held between probings
-# of the innovations' RMS: the widest unless a narrower one is clearly better on the runs (it refuses wild
-# probings there); a narrow gate chosen by default refused a run's own fast drift (the cascade twin's gm1n: 8.6 um
-# fused against 4.5 reset on its worst run)
-GATE_MULTIPLES = (50.0, 20.0, 10.0, 6.0, 4.0)
+# the gate: GATE_RMS times the innovations' RMS, at least GATE_LARGEST times the largest the runs showed (the drift's
+# own fastest move between two probings is taken, with room), at least GATE_FLOOR_UM (a probe's repeatability); a
+# real move beyond it costs one probing: the second in a row beyond the gate is taken (models/probing.REJOIN)
+GATE_RMS = 4.0
+GATE_LARGEST = 1.5
+GATE_FLOOR_UM = 0.5
 MARGIN = 0.03  # a choice beyond the plain one (offset reset, widest gate) must lower the objective by 3 %: a few
 # dozen probings cannot tell smaller differences from chance (measured: the nested choice lost to the reset)
 PLAIN = (1.0, False, None)  # gain, rate, half-life of the plain offset reset
@@ -47,7 +52,6 @@ class Choice:
     gain: float
     rate: bool
     half_life_h: float | None
-    gate_multiple: float
 
 
 def _alpha_beta(alpha: float) -> float:
@@ -55,16 +59,24 @@ def _alpha_beta(alpha: float) -> float:
     return 2 * (2 - alpha) - 4 * math.sqrt(1 - alpha)
 
 
-def _fusion(choice: Choice, every: float, dt: float, spread: tuple[float, float] | None = None,
-            limit: float = OPEN) -> Fusion:
-    """The fusion of `choice`; `spread` (RMS, largest) of the innovations sets the gate: the chosen multiple of the
-    RMS, never below twice the largest innovation the runs showed (a run's own drift must not look like a wild
-    probing), at least 0.5 um, at most the limit."""
+def _fusion(choice: Choice, every: float, dt: float, gate: float = OPEN, limit: float = OPEN) -> Fusion:
+    """The fusion of `choice` with `gate` (open while the gains are chosen), probings beyond +-`limit` refused."""
     rate_gain = _alpha_beta(choice.gain) / every if choice.rate else None
     decay = 0.5 ** (dt / (choice.half_life_h * 3600)) if choice.half_life_h else None
-    gate = OPEN if spread is None else min(max(choice.gate_multiple * spread[0], 2 * spread[1], 0.5), limit)
-    return Fusion.of(choice.gain, gate, limit, limit, rate_gain,
+    return Fusion.of(choice.gain, min(gate, limit), limit, limit, rate_gain,
                      limit / max(every, 1.0) / 4 if choice.rate else None, decay)
+
+
+def gate_of(innovations: np.ndarray, limit: float) -> tuple[float, str]:
+    """The gate from what the drift did between two probings on the held-out runs, and the rule in words: GATE_RMS
+    times the innovations' RMS, at least GATE_LARGEST times the largest of them and GATE_FLOOR_UM, at most the
+    limit."""
+    if not len(innovations):
+        return limit, "the limit: no innovation after a run's first probing to judge by"
+    rms, largest = float(np.sqrt(np.mean(innovations ** 2))), float(np.max(np.abs(innovations)))
+    gate = min(max(GATE_RMS * rms, GATE_LARGEST * largest, GATE_FLOOR_UM), limit)
+    return gate, (f"{GATE_RMS:g} x RMS {rms:.3g} um, at least {GATE_LARGEST:g} x largest {largest:.3g} um of "
+                  f"{len(innovations)} held-out innovations (each run's first probing left out)")
 
 
 def _replay(fusion: Fusion, run: ProbeRun, every: int | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -135,50 +147,48 @@ def _best(table: dict[Choice, list[Errors]], runs: list[int], full_rate: bool) -
     return best if score[best] < (1 - MARGIN) * score[plain] else plain
 
 
-def _spread(choice: Choice, runs: list[ProbeRun], every, interval, dt) -> tuple[float, float]:
-    """RMS and largest magnitude of the chosen fusion's innovations over the runs (gate open)."""
+def _innovations(choice: Choice, runs: list[ProbeRun], every, interval, dt) -> np.ndarray:
+    """The chosen fusion's innovations over the runs (gate open), each run's first probing left out: the block
+    takes that one whatever it reads (nothing learnt yet), and it holds the static model's start error, not the
+    drift's move since a probing."""
     innovations = []
     for run in runs:
         _, before, edges = _replay(_fusion(choice, interval, dt), run, every)
-        at = edges & run.scored & np.isfinite(run.target)
-        innovations.append((run.target - before)[at])
-    found = np.concatenate(innovations) if innovations else np.zeros(0)
-    return (float(np.sqrt(np.mean(found ** 2))), float(np.max(np.abs(found)))) if len(found) else (1.0, 1.0)
+        at = np.flatnonzero(edges & run.scored & np.isfinite(run.target))
+        innovations.append((run.target - before)[at[1:]])
+    return np.concatenate(innovations) if innovations else np.zeros(0)
 
 
 def choose(runs: list[ProbeRun], minutes: float | None, dt: float, limit: float,
-           held_out: ProbeRun | None = None) -> tuple[Fusion, dict]:
+           held_out: ProbeRun | None = None, gate_um: float | None = None) -> tuple[Fusion, dict]:
     """The fusion for `minutes` between probings (None: the target's own probings), chosen on every run, and
     the nested evidence: each run replayed with the fusion chosen on the other runs (with `held_out`, the one
-    recording's part the choice never saw, replayed with the fusion chosen on `runs`, its training part)."""
+    recording's part the choice never saw, replayed with the fusion chosen on `runs`, its training part). The
+    gate is `gate_um` when given, else gate_of the innovations on the runs the fusion is chosen on."""
     every, interval = _schedule(runs, minutes, dt)
     full_rate = every is not None
-    candidates = [Choice(g, r, h, GATE_MULTIPLES[0]) for g, r, h in product(GAINS, (False, True), HALF_LIVES_H)]
+    candidates = [Choice(g, r, h) for g, r, h in product(GAINS, (False, True), HALF_LIVES_H)]
     table = _table(runs, candidates, every, interval, dt)
     everyone = list(range(len(runs)))
 
-    def finished(chosen: Choice, on: list[int]) -> Fusion:
-        spread = _spread(chosen, [runs[k] for k in on], every, interval, dt)
-        gated = {m: _fusion(Choice(chosen.gain, chosen.rate, chosen.half_life_h, m), interval, dt, spread, limit)
-                 for m in GATE_MULTIPLES}
-        score = {m: _objective(sum((_errors(*_replay(f, runs[k], every), runs[k]) for k in on), Errors(0, 0, 0, 0)),
-                               full_rate) for m, f in gated.items()}
-        best = min(GATE_MULTIPLES, key=score.get)
-        return gated[best if score[best] < (1 - MARGIN) * score[GATE_MULTIPLES[0]] else GATE_MULTIPLES[0]]
+    def finished(chosen: Choice, on: list[int]) -> tuple[Fusion, str]:
+        gate, rule = (gate_um, "set by --probe-gate-um") if gate_um is not None else \
+            gate_of(_innovations(chosen, [runs[k] for k in on], every, interval, dt), limit)
+        return _fusion(chosen, interval, dt, gate, limit), rule
 
-    final = finished(_best(table, everyone, full_rate), everyone)
+    final, rule = finished(_best(table, everyone, full_rate), everyone)
     if held_out is not None:  # one recording: chosen on its training part, judged on the part it never saw
-        return final, _evidence([evaluate(final, held_out, every)], every, interval, full_rate, False)
+        return final, _evidence([evaluate(final, held_out, every)], every, interval, full_rate, False, rule)
     per_run = []
     for k, run in enumerate(runs):
         others = [j for j in everyone if j != k] or everyone
-        per_run.append(evaluate(finished(_best(table, others, full_rate), others), run, every))
-    return final, _evidence(per_run, every, interval, full_rate, len(runs) > 1)
+        per_run.append(evaluate(finished(_best(table, others, full_rate), others)[0], run, every))
+    return final, _evidence(per_run, every, interval, full_rate, len(runs) > 1, rule)
 
 
-def _evidence(per_run: list[dict], every, interval: float, full_rate: bool, nested: bool) -> dict:
+def _evidence(per_run: list[dict], every, interval: float, full_rate: bool, nested: bool, gate_rule: str) -> dict:
     return {"every_calls": every, "calls_between_probings": interval, "full_rate": full_rate, "runs": per_run,
-            "nested": nested}
+            "nested": nested, "gate_rule": gate_rule}
 
 
 def evaluate(fusion: Fusion, run: ProbeRun, every: int | None) -> dict:
@@ -244,7 +254,7 @@ def probe_runs(model, tables: list, predictions: dict) -> tuple[list[ProbeRun], 
             ProbeRun(f"{label} (held out)", static, table.column(column), rows >= trained))
 
 
-def fit_probe(model, tables: list, predictions: dict, every: int | None, held: bool):
+def fit_probe(model, tables: list, predictions: dict, every: int | None, held: bool, gate_um: float | None = None):
     """`model` with the probe fusion chosen on held-out runs and its evidence in metrics.probing: the model's
     own schedule (the probed target's probings, or one every `every` calls), and on a target measured at every
     call the same for probings every 15, 30, 60 and 120 min. A linear kind's slopes are refitted for the change
@@ -267,32 +277,36 @@ def fit_probe(model, tables: list, predictions: dict, every: int | None, held: b
                         f"has {max(len(r.target) for r in runs)} calls); give a shorter --probe-every")
     limit = limit_of([*runs, *([held_out] if held_out else [])])
     plain = (runs, held_out)
-    chosen, evidence = _fused(model, tables, plain, every, dt, limit, full_rate)
-    probing = {**summarise(evidence), "held": held, "chosen": _described(chosen.fusion, dt),
+    if gate_um is not None and gate_um > limit:
+        raise UserError(f"--probe-gate-um {gate_um:g}: wider than the limit {limit:.4g} um (twice the largest drift "
+                        f"measured), where every probing beyond is refused anyway; give at most {limit:.4g}")
+    chosen, evidence = _fused(model, tables, plain, every, dt, limit, full_rate, gate_um)
+    probing = {**summarise(evidence), "held": held,
+               "chosen": {**_described(chosen.fusion, dt), "gate_rule": evidence["gate_rule"]},
                "static": REFITTED if chosen.model is not model else "as fitted"}
     if full_rate:  # the model's own schedule is among them more often than not: its evidence is not computed again
         calls = {minutes: max(int(round(minutes * 60 / dt)), 1) for minutes in SCHEDULES_MIN}
         found = {every: evidence}
         for n in calls.values():
             if n not in found:
-                found[n] = _fused(model, tables, plain, n, dt, limit, True)[1]
+                found[n] = _fused(model, tables, plain, n, dt, limit, True, gate_um)[1]
         probing["schedules"] = [{"minutes": m, **summarise(found[calls[m]])["pooled"]} for m in SCHEDULES_MIN]
     return replace(chosen.model, probe=chosen.fusion, metrics={**chosen.model.metrics, "probing": probing})
 
 
 def _fused(model, tables: list, plain: tuple, every: int | None, dt: float, limit: float,
-           full_rate: bool) -> tuple["Variant", dict]:
+           full_rate: bool, gate_um: float | None = None) -> tuple["Variant", dict]:
     """The fusion for a probing every `every` calls (None: the target's own) on the static part as fitted and, for a
     linear kind, refitted for that schedule where its static part alone passes the acceptance gate (probings may
     stop); the better of the two by the margin, with the nested evidence."""
     from thermoplc.fitting.acceptance import problem
     from thermoplc.fitting.probe_refit import refitted
     minutes = every * dt / 60 if every else None
-    variants = [Variant(model, *plain, *choose(plain[0], minutes, dt, limit, plain[1]))]
+    variants = [Variant(model, *plain, *choose(plain[0], minutes, dt, limit, plain[1], gate_um))]
     refit = refitted(model, tables, every)
     if refit is not None and problem(refit.model) is None:
         runs, held_out = probe_runs(refit.model, tables, refit.predictions)
-        variants.append(Variant(refit.model, runs, held_out, *choose(runs, minutes, dt, limit, held_out)))
+        variants.append(Variant(refit.model, runs, held_out, *choose(runs, minutes, dt, limit, held_out, gate_um)))
     return _static_part(variants, every, full_rate)
 
 
@@ -324,7 +338,8 @@ def _static_part(variants: list[Variant], every: int | None, full_rate: bool) ->
     fused = lambda v, on: _objective(sum((v.evidence["runs"][k]["fused"] for k in on), Errors(0, 0, 0, 0)), full_rate)
     everyone = range(len(variants[0].runs))
     per_run = [beside_plain(k, pick(lambda v: fused(v, [j for j in everyone if j != k] or everyone))) for k in everyone]
-    return pick(lambda v: fused(v, everyone)), {**variants[0].evidence, "runs": per_run}
+    chosen = pick(lambda v: fused(v, everyone))
+    return chosen, {**variants[0].evidence, "runs": per_run, "gate_rule": chosen.evidence["gate_rule"]}
 
 
 def _described(fusion: Fusion, dt: float) -> dict:

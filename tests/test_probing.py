@@ -290,3 +290,52 @@ def test_diff_refuses_fused_blocks_replayed_without_probings_and_reads_a_probed_
     (tmp_path / "probed.csv").write_text("\n".join(probed) + "\n")
     same = thermoplc("diff", "a.scl", "a.scl", "--data", "probed.csv", "--probe-target", "E_z_um", cwd=tmp_path)
     assert "identical, every output bit equal" in same.stdout
+
+
+def test_the_gate_comes_from_the_held_out_innovations_not_the_limit():
+    """Issue 61 item 2: the gate was chosen by the held-out error, which clean runs minimise with the widest one
+    (FL_THERMAL: 99 um of a 142 um limit), so one probing 80 um off moved the axis 95 um. Now 4 x the RMS of the
+    innovations, at least 1.5 x the largest and 0.5 um, at most the limit."""
+    from thermoplc.fitting.probe_fit import gate_of
+    innovations = np.array([1.0, -2.0, 1.5, -1.0, 0.5])
+    rms = float(np.sqrt(np.mean(innovations ** 2)))
+    assert gate_of(innovations, 100.0)[0] == pytest.approx(max(4 * rms, 3.0))
+    assert gate_of(innovations * 100, 50.0)[0] == 50.0 and gate_of(innovations / 1e3, 50.0)[0] == 0.5
+    assert gate_of(np.zeros(0), 42.0) == (42.0, "the limit: no innovation after a run's first probing to judge by")
+    assert "4 x RMS 1.3 um, at least 1.5 x largest 2 um of 5 held-out innovations" in gate_of(innovations, 100.0)[1]
+
+
+def test_on_fl_thermal_one_wrong_probing_is_refused_and_the_engineer_may_set_the_gate(tmp_path):
+    from tests.test_resample import FL_THERMAL
+    from thermoplc.models.reference import block_outputs, model_inputs
+    from thermoplc.models.safety import Limits
+    from thermoplc.recordings.table import read_table
+    from thermoplc.verifier.probings import reference_keys
+    fit = ("fit", "--data", FL_THERMAL, "--model", "mlr", "--target", "ch3_um", "--temps", "t8_C,t4_C,t5_C,t11_C",
+           "--train-until", "100035", "--probe", "--probe-every", "120")
+    fitted = thermoplc(*fit, "-o", "f.json", cwd=tmp_path)
+    model = load_model(tmp_path / "f.json")
+    gate = model.probe.value("gate_um", "f64")
+    assert gate < 20.0 < model.probe.value("limit_um", "f64"), gate  # 7.73 um; the old rule: 99 um
+    assert f"gate {gate:.3g} um" in fitted.stdout
+    assert model.metrics["probing"]["chosen"]["gate_rule"].startswith("4 x RMS ")
+    table = read_table(str(FL_THERMAL))
+    value, new = probings(table.column("ch3_um"), 120)
+    value = np.asarray(value, np.float32)
+    for off in (20.0, 50.0, 80.0):
+        wrong = value.copy()
+        wrong[2400:2403] += np.float32(off)  # the 20th probing, 3 calls as a PLC holds it
+        out = block_outputs(model, {**model_inputs(model, table), **reference_keys(
+            {"ProbeValue": wrong, "ProbeNew": new})}, "f32", Limits())
+        assert out[REFUSED][2400] and not out[USED][2400], off
+    generated = thermoplc("generate", "f.json", "-o", "f.scl", cwd=tmp_path)
+    assert f"a probing further than {gate:.4g} um from the prediction is refused (4 x RMS" in generated.stdout
+    assert "a probing further than" in (tmp_path / "f.scl").read_text()
+    thermoplc(*fit, "--probe-gate-um", "12.5", "-o", "g.json", cwd=tmp_path)
+    set_by_hand = load_model(tmp_path / "g.json")
+    assert set_by_hand.probe.value("gate_um", "f64") == 12.5
+    assert set_by_hand.metrics["probing"]["chosen"]["gate_rule"] == "set by --probe-gate-um"
+    wide = thermoplc(*fit, "--probe-gate-um", "500", "-o", "h.json", cwd=tmp_path, check=2)
+    assert "--probe-gate-um 500: wider than the limit 142 um" in wide.stderr
+    alone = thermoplc(*fit[:-3], "--probe-gate-um", "5", "-o", "h.json", cwd=tmp_path, check=2)
+    assert "--probe-gate-um sets the gate of a fused block; give --probe" in alone.stderr

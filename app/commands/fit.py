@@ -76,6 +76,10 @@ def add_parser(sub) -> None:
                          help="a fused block: the block also takes the machine's probings (ProbeValue, ProbeNew) and moves "
                               "its prediction by an offset each probing teaches; gain, drift rate, decay and gate chosen on "
                               "held-out runs (--folds or --group-by on a campaign, or the held-out part of one recording)")
+    probing.add_argument("--probe-gate-um", type=number(float, 0.1, 1e5, "um"), metavar="UM",
+                         help="with --probe: refuse a probing further than UM from the prediction (one in a row; the "
+                              "second beyond it is taken: the drift moved). Default: 4 x the RMS of the held-out "
+                              "innovations, at least 1.5 x the largest of them, at least 0.5 um (docs/probing.md)")
     probing.add_argument("--probe-every", type=number(int, 1, 10 ** 9, "calls"), metavar="N",
                          help="with --probe on a target measured at every call: simulate a probing every N calls (a probed "
                               "target's own measured rows are its probings)")
@@ -195,6 +199,8 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--scheduler runs the folds of --folds or --group-by on a cluster; give one of them")
     if args.probe_every is not None and not args.probe:
         raise UserError("--probe-every sets the probing schedule of a fused block; give --probe")
+    if args.probe_gate_um is not None and not args.probe:
+        raise UserError("--probe-gate-um sets the gate of a fused block; give --probe")
     refuse_options_not_read(args, request)
     runs = run_list(args.data, args.runs)
     if args.probe and len(runs.paths) == 1 and (args.folds or args.group_by):
@@ -215,7 +221,7 @@ def run(args: argparse.Namespace) -> int:
     remote = _remote(args, campaign, runs)
     try:
         if args.model == "auto":
-            probing = Probing(args.probe_every, args.held_target) if args.probe else None
+            probing = Probing(args.probe_every, args.held_target, args.probe_gate_um) if args.probe else None
             model = fit_auto(tables, request, args.folds, args.time, progress(), groups, remote, probing)
         else:
             model = fit_held_out(tables, request, args.folds, args.time, progress(), groups, predictions, remote)
@@ -225,7 +231,7 @@ def run(args: argparse.Namespace) -> int:
     end_progress()
     if args.probe and args.model != "auto":  # auto fused every candidate it ranked
         from thermoplc.fitting.probe_fit import fit_probe
-        model = fit_probe(model, tables, predictions, args.probe_every, args.held_target)
+        model = fit_probe(model, tables, predictions, args.probe_every, args.held_target, args.probe_gate_um)
     if args.resample:
         model = replace(model, resample=resampling_of(args))
     becomes_block(model, args.output)
