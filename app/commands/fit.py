@@ -79,7 +79,7 @@ def add_parser(sub) -> None:
     probing.add_argument("--probe-gate-um", type=number(float, 0.1, 1e5, "um"), metavar="UM",
                          help="with --probe: refuse a probing further than UM from the prediction (one in a row; the "
                               "second beyond it is taken: the drift moved). Default: 4 x the RMS of the held-out "
-                              "innovations, at least 1.5 x the largest of them, at least 0.5 um (docs/probing.md)")
+                              "innovations, at least 2 x the largest of them, at least 0.5 um (docs/probing.md)")
     probing.add_argument("--probe-every", type=number(int, 1, 10 ** 9, "calls"), metavar="N",
                          help="with --probe on a target measured at every call: simulate a probing every N calls (a probed "
                               "target's own measured rows are its probings)")
