@@ -31,7 +31,7 @@ HALF_LIVES_H = (None, 2.0, 8.0)  # None: the offset is held between probings
 GATE_RMS = 4.0
 GATE_LARGEST = 2.0
 GATE_FLOOR_UM = 0.5
-MARGIN = 0.03  # a choice beyond the plain one (offset reset, widest gate) must lower the objective by 3 %: a few
+MARGIN = 0.03  # a choice beyond the plain one (the offset reset) must lower the objective by 3 %: a few
 # dozen probings cannot tell smaller differences from chance (measured: the nested choice lost to the reset)
 PLAIN = (1.0, False, None)  # gain, rate, half-life of the plain offset reset
 SCHEDULES_MIN = (15, 30, 60, 120)
