@@ -95,7 +95,17 @@ def structure(model: Model) -> dict:
     out.update({structure_name(key): value for key, value in kind_of(model.kind).structure(model).items()})
     if model.probe is not None:
         out.update(probe_constants(model))
+    if model.start is not None:
+        out.update(start_constants(model))
     return out
+
+
+START_NAMES = {"drift_um": "c_StartDrift", "decay": "c_StartDecay"}  # a constant of the known start -> its name
+
+
+def start_constants(model: Model) -> dict:
+    """The known start's constants as the block declares them (name -> binary32 value)."""
+    return {START_NAMES[key]: value for key, value in model.start.values().items()}
 
 
 PROBE_NAMES = {"gain": "c_ProbeGain", "gate_um": "c_ProbeGate", "limit_um": "c_ProbeLimit",

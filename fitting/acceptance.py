@@ -66,6 +66,14 @@ def _rows(section: dict, key: str) -> int:
     return rows
 
 
+def metrics_of(model: Model) -> dict:
+    """The model file's metrics, an object."""
+    metrics = model.metrics or {}
+    if not isinstance(metrics, dict):
+        raise UserError(f"field 'metrics' must be an object, found {type(metrics).__name__}")
+    return metrics
+
+
 def evidence(model: Model) -> Evidence | None:
     """The held-out evidence in the model file, or None when it has none (no held-out rows, or a
     file written without the error of compensating nothing); a malformed value is an error."""
@@ -122,6 +130,13 @@ def problem(model: Model) -> str | None:
     if not found.rmse <= CLEAR_SHARE * found.zero_rmse:
         return (f"{found.summary()}: not clearly better than no compensation (at most {CLEAR_SHARE:.0%} of it "
                 f"is required); this block would not make the part better")
+    start = _section(metrics_of(model), "start")
+    if start.get("max_abs_um") is not None:
+        error = _number(start["max_abs_um"], "start.max_abs_um")
+        if not error <= found.rmse:
+            return (f"{found.summary()}, but at a run's start (first call) it is {error:.4g} {found.unit} off: more "
+                    f"than its held-out RMSE; after power-on or Reset the block would move the axis the wrong way "
+                    f"(refit with this thermoplc: the block then starts at the drift measured at its runs' start)")
     worse = _worse_fold(model)
     if worse:
         return f"{found.summary()}, but in {worse}: worse than no compensation in part of the recording"

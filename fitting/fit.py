@@ -16,6 +16,7 @@ from thermoplc.models.kind import Part
 from thermoplc.models.kinds import kind_of, options, registry
 from thermoplc.models.modelfile import Model, Signal
 from thermoplc.models.reference import model_inputs, predict
+from thermoplc.fitting.start_fit import fit_start
 from thermoplc.fitting.leaks import refuse_leaks, refuse_non_temperatures
 from thermoplc.recordings.table import Table
 
@@ -314,7 +315,8 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
         time_column=time_column, sample_period_s=dt, coefficients=coefficients, settings=settings,
         training=training[0] if len(training) == 1 else {"batches": training}, fit=log,
     )
-    return Model(**{**model.__dict__, "metrics": evaluate(model, tables, n_train)})
+    model = replace(model, start=fit_start(model, tables, n_train))
+    return replace(model, metrics=evaluate(model, tables, n_train))
 
 
 def choose_sensors(tables: list[Table], request: FitRequest, n_train: list[int]) -> sensor_choice.Choice:
@@ -331,8 +333,9 @@ def evaluate(model: Model, tables: list[Table], n_train: list[int]) -> dict:
     """Fit (training rows) and prediction (held-out rows) errors of the float64 model, and the
     float32-vs-float64 quantisation error over all rows, pooled over the tables (each replayed
     from its first row, as the block would be). A probed target counts its measured rows only; the
-    rows each error was taken on are `rows`, the calls they span `calls`."""
-    train, held_out, zero, quantisation, calls = [], [], [], 0.0, [0, 0]
+    rows each error was taken on are `rows`, the calls they span `calls`; `start`: the error at each run's first
+    measured row, the largest over the runs (what the block outputs after power-on or Reset, models/start.py)."""
+    train, held_out, zero, quantisation, calls, starts = [], [], [], 0.0, [0, 0], []
     for table, n in zip(tables, n_train):
         inputs = model_inputs(model, table)
         ideal = predict(model, inputs, "f64")[model.target.name]
@@ -340,6 +343,8 @@ def evaluate(model: Model, tables: list[Table], n_train: list[int]) -> dict:
         measured = table.columns[model.target.column]
         residual = measured - ideal
         taken = np.isfinite(measured)
+        if taken.any():
+            starts.append(float(abs(residual[np.argmax(taken)])))
         train.append(residual[:n][taken[:n]])
         held_out.append(residual[n:][taken[n:]])
         zero.append(measured[n:][taken[n:]])
@@ -353,4 +358,5 @@ def evaluate(model: Model, tables: list[Table], n_train: list[int]) -> dict:
     for section, spanned in ((trained, calls[0]), (held, calls[1])):
         if section["rows"] != spanned:  # a probed target: measurements among the calls
             section["calls"] = spanned
-    return {"train": trained, "held_out": held, "float32_vs_float64_max_um": quantisation}
+    start = {"runs": len(starts), "max_abs_um": max(starts)} if starts else {"runs": 0, "max_abs_um": None}
+    return {"train": trained, "held_out": held, "start": start, "float32_vs_float64_max_um": quantisation}

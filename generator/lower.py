@@ -10,10 +10,11 @@ from dataclasses import replace
 from thermoplc.generator.commissioning import with_commissioning
 from thermoplc.generator.ir import Block, GenerationError, Identity
 from thermoplc.generator.probing import Fusion
+from thermoplc.generator.start import KnownStart
 from thermoplc.generator.ranges import RangeProof, prove_ranges
 from thermoplc.generator.safety import with_safety
 from thermoplc.models.modelfile import Model
-from thermoplc.contract.constants import probe_constants
+from thermoplc.contract.constants import probe_constants, start_constants
 from thermoplc.contract.outputs import ENABLE_INPUT, PROBE_VALUE_INPUT, READY_OUTPUT, fault_outputs
 from thermoplc.models.safety import Limits, axis_outputs, guards
 
@@ -46,7 +47,9 @@ def lower(model: Model, limits: Limits = Limits(), identity: Identity | None = N
     core = lower_model(model)
     _refuse_unread_inputs(model, core)
     axes = axis_outputs(model, [v.name for v in core.outputs if v.type == "REAL"])
-    block = with_commissioning(with_safety(core, guards(model), axes, limits, fault_outputs(model), _fusion(model)))
+    start = KnownStart(model.target.name, start_constants(model)) if model.start is not None else None
+    block = with_commissioning(with_safety(core, guards(model), axes, limits, fault_outputs(model), _fusion(model),
+                                           start))
     return replace(block, identity=identity or Identity(), retain=retain)
 
 

@@ -14,6 +14,7 @@ from thermoplc.generator.ir import (
 from thermoplc.contract.constants import limit_constants, limit_name
 from thermoplc.contract.outputs import CLAMPED_OUTPUT, INVALID_OUTPUT, LIMITED_OUTPUT, READY_OUTPUT, k0_output
 from thermoplc.generator.probing import COMMENTS as PROBE_COMMENTS, Fusion, declarations, fusion_region
+from thermoplc.generator.start import CONSTANTS as START_COMMENTS, STATICS as START_STATICS, KnownStart, start_region
 from thermoplc.models.safety import Guard, Limits
 
 _CONSTANT_COMMENTS = {
@@ -85,10 +86,11 @@ def model_values(block: Block) -> dict:
 
 
 def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], limits: Limits,
-                faults: dict[str, str], fusion: Fusion | None = None) -> Block:
+                faults: dict[str, str], fusion: Fusion | None = None, start: KnownStart | None = None) -> Block:
     """The block `core` computes, made safe: guarded inputs, a start gate and limited outputs;
     `faults` names each input's fault bit (contract/outputs.py), which a fused core declares itself;
-    `fusion` moves the target by the probings' offset before it is limited (generator/probing.py)."""
+    `fusion` moves the target by the probings' offset before it is limited (generator/probing.py);
+    `start` moves the target to the drift at the runs' start first (generator/start.py)."""
     limited = [v for v in core.outputs if v.type == "REAL"]
     model_names = {v.name: f"Model_{j}" for j, v in enumerate(limited, start=1)}
     held = {g.name: f"Good_{g.index}" for g in plan if g.kind != "fused"}
@@ -101,6 +103,7 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
         Region("Start the model at the first call with every input in range", (
             If(((Unary("NOT", Ref(READY_OUTPUT)), (Assign(READY_OUTPUT, ready),)),)),)),
         *(gated(r.title, r.body) for r in body),
+        *(gated(r.title, r.body) for r in ([start_region(model_names[start.target])] if start else [])),
         *(gated(r.title, r.body) for r in ([fusion_region(fusion, model_names[fusion.target])] if fusion else [])),
         Region("Output status: nothing limited yet in this call",
                (Assign(LIMITED_OUTPUT, BoolConst(False)), Assign(CLAMPED_OUTPUT, BoolConst(False)),
@@ -126,7 +129,7 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
                Var(LIMITED_OUTPUT, "BOOL", "an output was rate-limited in this call"),
                Var(CLAMPED_OUTPUT, "BOOL", "an output was clamped in this call"),
                Var(INVALID_OUTPUT, "BOOL", "the model gave NaN or Inf in this call: the last output is held"))
-    statics = [*core.statics, *added.get("statics", ())]
+    statics = [*core.statics, *(START_STATICS if start else ()), *added.get("statics", ())]
     for g in plan:
         if g.kind == "temperature":
             statics += [Var(f"LastIn_{g.index}", "REAL", f"{g.name}: last reading in range"),
@@ -137,9 +140,10 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
              *(Var(model_names[v.name], "REAL", f"{_MODEL_VALUE}{v.name}") for v in limited),
              Var("Delta", "REAL", "wanted output change"), *added.get("temps", ()))
     referenced = {e.name for e in walk_exprs(tuple(regions)) if isinstance(e, Ref)}
-    comments = {**_CONSTANT_COMMENTS, **PROBE_COMMENTS}
+    comments = {**_CONSTANT_COMMENTS, **PROBE_COMMENTS, **START_COMMENTS}
     constants = (*core.constants, *(Const(name, value, comments[name], "INT" if isinstance(value, int) else "REAL")
-                                    for name, value in {**limit_constants(limits), **(fusion.constants if fusion else {})}
+                                    for name, value in {**limit_constants(limits), **(fusion.constants if fusion else {}),
+                                                                 **(start.constants if start else {})}
                                     .items() if name in referenced))
     return replace(core, inputs=(*core.inputs, *added.get("inputs", ())), outputs=outputs, statics=tuple(statics),
                    temps=temps, constants=constants, regions=tuple(regions))

@@ -11,6 +11,7 @@ from thermoplc.base.binary32 import f32_hex, round_f32
 from thermoplc.base.errors import UserError
 from thermoplc.base.version import __version__
 from thermoplc.models.probing import Fusion
+from thermoplc.models.start import Start
 from thermoplc.recordings.resample import Resampling
 
 FORMAT = "thermoplc-model"
@@ -52,6 +53,7 @@ class Model:
     metrics: dict = field(default_factory=dict)
     fit: dict = field(default_factory=dict)
     probe: Fusion | None = None  # the probe fusion's constants (models/probing.py); None: a static block
+    start: Start | None = None  # the known start (models/start.py); None: the model's own first value
     resample: Resampling | None = None  # the rule that took raw logger data onto the cycle (recordings/resample.py)
 
     def signals(self, role: str) -> tuple[Signal, ...]:
@@ -71,7 +73,7 @@ class Model:
         """Hash of everything that decides the block's behaviour (not the metrics or fit log)."""
         doc = _document(self)
         essential = {k: doc[k] for k in ("kind", "inputs", "target", "sample_period_s", "coefficients", "settings",
-                                         "probe") if k in doc}
+                                         "probe", "start") if k in doc}
         return hashlib.sha256(json.dumps(essential, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -89,6 +91,7 @@ def _document(m: Model) -> dict:
         "coefficients": {k: {"f64": c.f64, "f32": f32_hex(c.f32)} for k, c in m.coefficients.items()},
         "settings": m.settings,
         **({"probe": m.probe.to_doc()} if m.probe is not None else {}),
+        **({"start": m.start.to_doc()} if m.start is not None else {}),
         **({"resample": m.resample.to_doc()} if m.resample is not None else {}),
         "training": m.training,
         "metrics": m.metrics,

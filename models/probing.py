@@ -88,7 +88,7 @@ class Fusion:
                 if name in REQUIRED:
                     raise UserError(f"{path}: field 'probe.{name}' is missing")
                 continue
-            values[name] = _pair(doc[name], path, f"probe.{name}")
+            values[name] = constant_pair(doc[name], path, f"probe.{name}")
         if ("rate_gain" in values) != ("rate_max_um" in values):
             raise UserError(f"{path}: field 'probe': a rate state needs both rate_gain and rate_max_um")
         fusion = Fusion(**values)
@@ -96,7 +96,8 @@ class Fusion:
         return fusion
 
 
-def _pair(entry, path: str, where: str) -> tuple[float, float]:
+def constant_pair(entry, path: str, where: str) -> tuple[float, float]:
+    """A constant of the model file as {"f64": number, "f32": "0x........"}, f32 the f64 rounded to binary32."""
     if not isinstance(entry, dict) or not isinstance(entry.get("f64"), (int, float)) or isinstance(entry.get("f64"), bool) \
             or not isinstance(entry.get("f32"), str):
         raise UserError(f"{path}: field {where!r}: expected {{\"f64\": number, \"f32\": \"0x........\"}}")

@@ -5,13 +5,22 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.models.kinds import kind_of
+from thermoplc.models import start
 from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import Limits, commissioned_predict
 from thermoplc.recordings.table import Table, close_match
 
 def predict(model: Model, inputs: dict, precision: str) -> dict:
-    """What the model computes, by output name; REAL outputs as float32 ('f32') or float64 ('f64') arrays."""
-    return kind_of(model.kind).predict(model, inputs, precision)
+    """What the model computes, by output name; REAL outputs as float32 ('f32') or float64 ('f64') arrays;
+    the target from the known start (models/start.py) when the model has one."""
+    return with_start(model, kind_of(model.kind).predict(model, inputs, precision), precision)
+
+
+def with_start(model: Model, outputs: dict, precision: str, state=None) -> dict:
+    """The kind's outputs with the target moved by the start offset (`state`: carried between chunks)."""
+    if model.start is None:
+        return outputs
+    return {**outputs, model.target.name: start.apply(model.start, outputs[model.target.name], precision, state)}
 
 
 def guarded_core(model: Model, inputs: dict, precision: str, fused_valid: dict) -> dict:
@@ -19,8 +28,8 @@ def guarded_core(model: Model, inputs: dict, precision: str, fused_valid: dict) 
     per-call validity (its filter ignores a faulty sensor), every other kind held inputs."""
     kind = kind_of(model.kind)
     if kind.fused_guards:
-        return kind.predict(model, inputs, precision, fused_valid)
-    return kind.predict(model, inputs, precision)
+        return with_start(model, kind.predict(model, inputs, precision, fused_valid), precision)
+    return with_start(model, kind.predict(model, inputs, precision), precision)
 
 
 def block_outputs(model: Model, inputs: dict, precision: str, limits: Limits, control: dict | None = None) -> dict:

@@ -18,7 +18,7 @@ from thermoplc.base import compiled
 from thermoplc.models import kernels
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
-from thermoplc.models.reference import guarded_core
+from thermoplc.models.reference import guarded_core, with_start
 from thermoplc.models.safety import (CLAMPED, ENABLED, INVALID, LIMITED, READY, Limits, axis_outputs, fault_flags,
                                      guards, k0_key, real_outputs_of)
 
@@ -35,8 +35,7 @@ class _FirstCallCore:
     kind whose output at a call depends on that call and the first call only."""
 
     def __init__(self, model: Model, precision: str, f):
-        from thermoplc.models.reference import predict
-        self.predict = lambda inputs: predict(model, inputs, precision)
+        self.predict = lambda inputs: kind_of(model.kind).predict(model, inputs, precision)
         self.first = None
 
     def __call__(self, running: dict, fused_valid: dict) -> dict:
@@ -55,6 +54,7 @@ class StreamingReference:
         if not streamable(model):
             raise ValueError(f"{model.kind} models are not streamed")
         self.model = model
+        self.precision = precision
         self.f = f = np.float32 if precision == "f32" else np.float64
         self.limits = limits
         self.constants = limits.values()
@@ -64,6 +64,7 @@ class StreamingReference:
         self.axes = axis_outputs(model, self.names)
         self.holds = {g.name: kernels.HoldState(f) for g in self.plan if g.kind != "fused"}
         self.y = {name: np.zeros(1, f) for name in self.names}
+        self.start_state = np.zeros(2, f)  # the known start's offset and latch (models/start.py)
         self.ready = NOT_YET
         self.calls = 0
 
@@ -95,7 +96,7 @@ class StreamingReference:
         if local < rows:
             running = {name: values[local:] for name, values in core_inputs.items()}
             fused_valid = {g.name: valid[g.name][local:] for g in self.plan if g.kind == "fused"}
-            core = self.core(running, fused_valid)
+            core = with_start(self.model, self.core(running, fused_valid), self.precision, self.start_state)
         out = {}
         limited, clamped, invalid = (np.zeros(rows, bool) for _ in range(3))
         for name in self.names:

@@ -37,12 +37,12 @@ LUMPED_EFFECTS = (("gear_ratio_switch", None), ("nonlinear_speed_heat", None), (
 
 
 def lumped_golden(path: Path) -> Model:
-    request = DiagnoseRequest(str(path), ("T_motor", "T_bearing"), "n_rpm", "T_env", "E_z_um", "v_feed_mm_min")
+    request = DiagnoseRequest((str(path),), ("T_motor", "T_bearing"), "n_rpm", "T_env", "E_z_um", "v_feed_mm_min")
     table = read_table(path)
     series = series_of(table, request, sample_period(table, "time_s"))
     rows = int(np.searchsorted(table.columns["time_s"], 6 * 3600.0, side="right"))
     fitted = simulation.fit(series.head(rows), LUMPED_EFFECTS)
-    return augmented_model(fitted, [], request, table, series.dt, rows)
+    return augmented_model(fitted, [], request, [table], series.dt, (rows,))
 
 
 def refit(folder: Path, kinds: tuple[str, ...]) -> None:

@@ -41,6 +41,10 @@ def format_fit(model, campaign=None) -> str:
     for label, key in (("fit (training)", "train"), (held_label, "held_out")):
         if m[key]["rows"]:
             lines.append(f"  {label:<22}{m[key]['rmse_um']:>10.3f}{m[key]['max_abs_um']:>20.3f}")
+    start = m.get("start") or {}
+    if start.get("runs"):
+        lines.append(f"  {'start (first call)':<22}{'':>10}{start['max_abs_um']:>20.3f}   "
+                     f"worst of {start['runs']} run start{'s' if start['runs'] != 1 else ''}")
     if "cross_validation" in m:
         lines += _format_folds(m)
     if m.get("runs") and len(m["runs"]) != len(m["cross_validation"]):
