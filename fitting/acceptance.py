@@ -20,6 +20,8 @@ WORSE_RUNS_SHARE = 0.25  # of a campaign's held-out runs that may do worse than 
 MIN_HELD_OUT_ROWS = 100  # fewer predicted rows than this say nothing of a thermal model
 CLEAR_SHARE = 0.9  # the held-out RMSE must be at most this share of no compensation's
 HEADER_WIDTH = 96
+START_TOLERANCE = 1.0  # um: a start within this of the measured drift is right whatever the held-out RMSE (runs
+# that start a few tenths apart by sensor noise must not refuse a model that predicts to 0.1 um)
 QUANTISATION_SHARE = 0.1  # the float32 block may move the output by at most this share of the held-out RMSE
 
 
@@ -133,9 +135,9 @@ def problem(model: Model) -> str | None:
     start = _section(metrics_of(model), "start")
     if start.get("max_abs_um") is not None:
         error = _number(start["max_abs_um"], "start.max_abs_um")
-        if not error <= found.rmse:
+        if not error <= max(found.rmse, START_TOLERANCE):
             return (f"{found.summary()}, but at a run's start (first call) it is {error:.4g} {found.unit} off: more "
-                    f"than its held-out RMSE; after power-on or Reset the block would move the axis the wrong way "
+                    f"than its held-out RMSE and {START_TOLERANCE:g} {found.unit}; after power-on or Reset the block would move the axis the wrong way "
                     f"(refit with this thermoplc: the block then starts at the drift measured at its runs' start)")
     worse = _worse_fold(model)
     if worse:

@@ -11,7 +11,8 @@ from thermoplc.generator.ir import Assign, BinOp, BoolConst, Call, If, Ref, Regi
 
 OFFSET, LATCHED = "StartOffset", "StartLatched"
 CONSTANTS = {"c_StartDrift": "drift measured at the start of the training runs, um: the output at the first call",
-             "c_StartDecay": "factor per call by which the model's start error fades (fitted on the training runs)"}
+             "c_StartDecay": "factor per call by which the model's start error fades (fitted on the training runs)",
+             "c_StartFloor": "a start offset below this is gone (set to 0 before it becomes subnormal), um"}
 
 
 @dataclass(frozen=True)
@@ -28,6 +29,7 @@ def start_region(model_value: str) -> Region:
         Assign(LATCHED, BoolConst(True)))),))
     return Region("Known start: the output starts at the drift the runs started at; the model's start error fades", (
         If(((Unary("NOT", Ref(LATCHED)), (latch,)),), orelse=(Assign(OFFSET, BinOp("*", Ref(OFFSET), Ref("c_StartDecay"))),)),
+        If(((BinOp("<", Call("ABS", (Ref(OFFSET),)), Ref("c_StartFloor")), (Assign(OFFSET, Ref("c_Zero")),)),)),
         Assign(model_value, BinOp("+", Ref(model_value), Ref(OFFSET))),
     ))
 

@@ -9,6 +9,7 @@ runs (fitting/start_fit.py fits the decay). Per call, in this order (generator/s
 
     if not Latched: if |model| <= REAL_MAX: Offset := Drift - model; Latched := TRUE
     else:           Offset := Offset * Decay
+    if |Offset| < FLOOR: Offset := 0      (a faded offset ends before it becomes subnormal)
     output: model + Offset   (then the probe fusion, if any, and the output limiter of every block)
 
 A model value that is NaN or Inf at the first call latches nothing (the limiter holds the output); the
@@ -26,6 +27,9 @@ from thermoplc.base.errors import UserError
 from thermoplc.models.probing import constant_pair
 
 REAL_MAX = 3.402823e38  # models/safety.py's REAL_TEXT_MAX: a model value beyond it is not latched
+FLOOR_UM = 1e-6  # an offset below this is gone: it is set to 0 before decaying into binary32's subnormals
+MIN_DECAY = 1e-6  # a decay is 0 (the offset is gone after the first call) or at least this, so a product of
+# an offset at the floor and the decay stays a normal number
 FIELDS = ("drift_um", "decay")
 
 
@@ -63,9 +67,9 @@ class Start:
             if name not in doc:
                 raise UserError(f"{path}: field 'start.{name}' is missing")
         start = Start(*(constant_pair(doc[name], path, f"start.{name}") for name in FIELDS))
-        if not 0.0 <= start.decay[1] < 1.0:
-            raise UserError(f"{path}: field 'start.decay': {start.decay[0]!r}; expected a factor per call from 0 "
-                            f"to below 1 (the model's start error fades)")
+        if not (start.decay[1] == 0.0 or MIN_DECAY <= start.decay[1] < 1.0):
+            raise UserError(f"{path}: field 'start.decay': {start.decay[0]!r}; expected a factor per call from "
+                            f"{MIN_DECAY:g} to below 1, or 0 (the model's start error fades)")
         if not abs(start.drift_um[1]) <= 1e6:
             raise UserError(f"{path}: field 'start.drift_um': {start.drift_um[0]!r}; expected a drift within "
                             f"+-1e6 um")
@@ -80,12 +84,13 @@ def apply(start: Start, model_values: np.ndarray, precision: str, state: np.ndar
     state = np.zeros(2, f) if state is None else state
     out = np.empty(len(values), f)
     loop = _apply if compiled.enabled(len(values)) else getattr(_apply, "py_func", _apply)
-    loop(values, f(start.value("drift_um", precision)), f(start.value("decay", precision)), f(REAL_MAX), state, out)
+    loop(values, f(start.value("drift_um", precision)), f(start.value("decay", precision)), f(REAL_MAX), f(FLOOR_UM),
+         f(0), state, out)
     return out
 
 
 @compiled.jit
-def _apply(values, drift, decay, real_max, state, out):
+def _apply(values, drift, decay, real_max, floor, zero, state, out):
     offset = state[0]
     latched = state[1] != 0
     for j in range(values.shape[0]):
@@ -96,6 +101,8 @@ def _apply(values, drift, decay, real_max, state, out):
                 latched = True
         else:
             offset = offset * decay
+        if abs(offset) < floor:
+            offset = zero
         out[j] = m + offset
     state[0] = offset
     state[1] = 1 if latched else 0

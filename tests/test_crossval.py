@@ -91,8 +91,8 @@ def test_several_recordings_are_folds_of_their_own(tmp_path):
 def test_on_fl_thermal_forward_folds_show_the_spread_a_single_split_hides(tmp_path):
     fitted = thermoplc("fit", "--data", FL_THERMAL, "--model", "dlag", "--target", "ch5_um", "--temps",
                        "t8_C,t4_C,t5_C,t11_C", "--folds", 4, "-o", "d.json", cwd=tmp_path)
-    assert "  spread: fold RMSE 4.028 to 16.332 um" in fitted.stdout
-    assert "  all folds (8336 rows)                     10.889   28.796        23.769       39.134" in fitted.stdout
+    assert "  spread: fold RMSE 4.028 to 16.337 um" in fitted.stdout
+    assert "  all folds (8336 rows)                     10.892   28.797        23.769       39.134" in fitted.stdout
 
 
 def test_several_recordings_need_one_fold_each_and_no_copies(tmp_path):
