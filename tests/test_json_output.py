@@ -53,10 +53,12 @@ def test_verify_json_on_standard_output_carries_the_first_mismatch_in_bits(folde
 
 def test_verify_faults_json(folder):
     result = thermoplc("verify", "block.scl", "--model", "model.json", "--data", "data.csv", "--faults", "--json", "-",
-                       cwd=folder)
+                       cwd=folder, check=None)
     doc = json.loads(result.stdout)
     jsonschema.validate(doc, schema("verify_faults"))
-    assert doc["ok"] and doc["cases"] and all(case["bit_exact"] for case in doc["cases"])
+    assert doc["cases"] and all(case["bit_exact"] for case in doc["cases"])
+    assert doc["ok"] == all(case["safe"] for case in doc["cases"]) and result.returncode == (0 if doc["ok"] else 1)
+    assert all((case["error"] is None) == (case["sensor"] in ("Reset", "Enable", "Enable/Reset")) for case in doc["cases"])
 
 
 def test_diff_json_with_and_without_data(folder):

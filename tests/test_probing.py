@@ -218,14 +218,17 @@ def test_a_block_that_takes_a_level_for_an_edge_or_starts_probenew_true_is_not_b
 def test_verify_faults_injects_hostile_probings_into_a_fused_block(folder):
     thermoplc("generate", "mlr.json", "--accept-unvalidated", "-o", "f.mlr.scl", "--force", cwd=folder)
     result = thermoplc("verify", "f.mlr.scl", "--model", "mlr.json", "--data", "golden_twin.csv", "--probe-every", "90",
-                       "--faults", cwd=folder)
+                       "--faults", cwd=folder, check=None)
     rows = {line.split()[1]: line.split() for line in result.stdout.splitlines() if line.startswith("ProbeValue")}
     assert sorted(rows) == ["probe-clamp+:", "probe-clamp-:", "probe-flood:", "probe-held:", "probe-inf:",
-                            "probe-nan:", "probe-spike:", "probe-stuck:"]
-    for name in ("probe-nan:", "probe-inf:", "probe-spike:"):
-        assert rows[name][-6:-2] == ["yes", "yes", "yes", "yes"] and rows[name][-3] == "yes"  # exact..rate; refused
-    assert "yes" in (rows["probe-clamp+:"][-3], rows["probe-clamp-:"][-3])  # a run took the offset to a clamp
-    assert "all cases bit-exact, finite, inside the clamp and the rate limit" in result.stdout
+                            "probe-nan:", "probe-spike:", "probe-stuck:", "probe-wrong:"]
+    for name in ("probe-nan:", "probe-inf:", "probe-spike:", "probe-wrong:"):
+        assert rows[name][-9:-5] == ["yes", "yes", "yes", "yes"] and rows[name][-5] == "yes"  # exact..rate; refused
+    assert "yes" in (rows["probe-clamp+:"][-5], rows["probe-clamp-:"][-5])  # a run took the offset to a clamp
+    assert rows["probe-clamp+:"][-2:] == ["-", "-"]  # a drive to the clamp is no fault of a machine: not judged
+    failed = [line for line in result.stdout.splitlines() if "case(s) FAILED" in line]
+    # every case exact, finite, limited; only a slowly drifting sensor may still pull the axis (issue 61 item 4)
+    assert not failed or all(case.split("/")[1] == "sine" for case in failed[0].split(": ", 1)[1].split(", "))
     text = (folder / "f.mlr.scl").read_text()  # issue 60: a block without its offset clamp fails --faults
     unclamped = text.replace("IF #ProbeOffset > #c_ProbeOffsetMax THEN", "IF FALSE THEN") \
         .replace("ELSIF #ProbeOffset < #c_ProbeOffsetMin THEN", "ELSIF FALSE THEN")
@@ -234,7 +237,7 @@ def test_verify_faults_injects_hostile_probings_into_a_fused_block(folder):
     failed = thermoplc("verify", "unclamped.scl", "--model", "mlr.json", "--data", "golden_twin.csv", "--probe-every",
                        "90", "--faults", cwd=folder, check=1)
     clamps = [line.split() for line in failed.stdout.splitlines() if "probe-clamp" in line and line.startswith("Probe")]
-    assert len(clamps) == 2 and "NO" in (clamps[0][-7], clamps[1][-7]) and "ProbeValue/probe-clamp" in failed.stdout
+    assert len(clamps) == 2 and "NO" in (clamps[0][-9], clamps[1][-9]) and "ProbeValue/probe-clamp" in failed.stdout
 
 
 def test_auto_with_probe_ranks_every_candidate_fused_and_writes_a_fused_model(tmp_path):

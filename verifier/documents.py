@@ -72,7 +72,10 @@ def faults_document(report: FaultReport) -> dict:
                    "ok": c.ok, "bit_exact": c.bit_exact, "finite": c.finite, "within_clamp": c.within_clamp,
                    "within_rate": c.within_rate, "flagged": c.flagged, "clear_at_end": c.clear_at_end,
                    "max_change": c.max_change if math.isfinite(c.max_change) else str(c.max_change),
-                   "runtime_error": c.failure} for c in report.cases],
+                   "runtime_error": c.failure, "safe": c.safe,
+                   "error": None if c.harm is None else c.harm.worst,
+                   "error_row": None if c.harm is None else c.harm.worst_row,
+                   "none_error": None if c.harm is None else c.harm.none} for c in report.cases],
         "constants": {"checked": report.constants_checked, "differ": list(report.constant_errors)},
         "unsafe": list(report.unsafe),
     }

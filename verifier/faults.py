@@ -3,9 +3,11 @@
 Each fault kind is injected on each temperature input in turn, starting a third into the data;
 then the PLC program's side: Reset pulses, Reset held, Enable off for a while (with a Reset inside).
 For every case the block must still match the float32 reference bit for bit, keep every REAL
-output finite, inside the clamp and within the rate limit; the table also says whether the
-sensor's fault bit came up, whether it was clear again at the end, and how far the fault moved
-the predicted error compared with the run without it.
+output finite, inside the clamp and within the rate limit, and - where the data measure the target -
+stay no further from the measured drift than no compensation, unless a status bit says so (the
+sensor's fault bit, ProbeRefused, Ready/ENO): no single fault may move the axis further than no
+compensation would, unannounced (issue 61). The table also says whether the fault bit was clear
+again at the end and how far the fault moved the output compared with the run without it.
 """
 from __future__ import annotations
 
@@ -26,6 +28,7 @@ from thermoplc.verifier.replay import (check_interface, load_block, replay_and_c
                                        compare_constants, constants_lines, subnormal_declarations)
 
 TRANSIENT_CALLS = 30
+WRONG_PROBING_UM = 50.0  # a chip on the probe: inside any limit a machine has, far beyond what drift does between probings
 
 
 def _constant(value: float):
@@ -56,6 +59,7 @@ PROBE_KINDS = (
     FaultKind("probe-nan", "one probing reads NaN", False, None),
     FaultKind("probe-inf", "one probing reads +Inf", False, None),
     FaultKind("probe-spike", "one probing 1000 um off", False, None),
+    FaultKind("probe-wrong", "one probing 50 um off (a chip)", False, None),
     FaultKind("probe-stuck", "stuck to the end, edges go on", True, None),
     FaultKind("probe-flood", "ProbeNew toggles for 30 calls", False, None),
     FaultKind("probe-held", "ProbeNew held TRUE for 30 calls", False, None),
@@ -74,8 +78,9 @@ def _probe_fault(kind: FaultKind, value: np.ndarray, new: np.ndarray, first: int
     edges = np.flatnonzero(rising(new))
     at = int(edges[edges >= first][0]) if (edges >= first).any() else first
     last = at
-    if kind.name in ("probe-nan", "probe-inf", "probe-spike"):
-        bad = {"probe-nan": np.nan, "probe-inf": np.inf}.get(kind.name, value[at] + np.float32(1000.0))
+    if kind.name in ("probe-nan", "probe-inf", "probe-spike", "probe-wrong"):
+        off = np.float32(WRONG_PROBING_UM if kind.name == "probe-wrong" else 1000.0)
+        bad = {"probe-nan": np.nan, "probe-inf": np.inf}.get(kind.name, value[at] + off)
         value[at:] = np.where(np.arange(at, len(value)) < (edges[edges > at][0] if (edges > at).any() else len(value)),
                               np.float32(bad), value[at:])
     elif kind.name == "probe-stuck":
@@ -138,6 +143,37 @@ CONTROL_KINDS = (
 
 
 @dataclass(frozen=True)
+class Harm:
+    """Over a case's rows (the fault's and every later one where the output differs from the fault-free block's):
+    the faulted block's largest distance from the measured drift, where it was, and no compensation's largest."""
+    worst: float
+    worst_row: int
+    none: float
+
+
+def harm_of(output: np.ndarray, baseline: np.ndarray, measured: np.ndarray | None, first: int, last: int
+            ) -> Harm | None:
+    """How far the faulted target output is from the measured drift beside compensating nothing, on the case's
+    rows where the target is measured; None without a measured target there."""
+    if measured is None:
+        return None
+    moved = np.flatnonzero(output.view(np.uint32) != baseline.view(np.uint32))
+    end = max(last, int(moved[-1]) if len(moved) else last)
+    rows = np.arange(first, end + 1)
+    rows = rows[np.isfinite(measured[rows])]
+    if not len(rows):
+        return None
+    error = np.abs(output[rows].astype(np.float64) - measured[rows])
+    k = int(np.argmax(error))
+    return Harm(float(error[k]), int(rows[k]), float(np.max(np.abs(measured[rows]))))
+
+
+# cases not judged against no compensation: a drive to the clamp is a test of the clamp, no fault of a machine; an
+# Enable/Reset action is the PLC program's command, and a Reset starts a run whose drift the recording does not measure
+UNJUDGED = (*PROBE_CLAMPS.values(), *(kind for kind, _, _ in CONTROL_KINDS))
+
+
+@dataclass(frozen=True)
 class FaultCase:
     kind: FaultKind
     sensor: str
@@ -151,10 +187,16 @@ class FaultCase:
     clear_at_end: bool
     max_change: float  # largest |output with fault - output without| of the model's target
     failure: str | None = None  # the block's run-time error in this case (verifier/semantics.py::BlockFailure)
+    harm: Harm | None = None  # the faulted block against no compensation; None: the data do not measure the target
+
+    @property
+    def safe(self) -> bool:
+        """Not further from the measured drift than no compensation, or a status bit said so."""
+        return self.harm is None or self.flagged or self.harm.worst <= self.harm.none
 
     @property
     def ok(self) -> bool:
-        return self.bit_exact and self.finite and self.within_clamp and self.within_rate
+        return self.bit_exact and self.finite and self.within_clamp and self.within_rate and self.safe
 
 
 def inject(values: np.ndarray, times: np.ndarray, kind: FaultKind, first: int) -> tuple[np.ndarray, int]:
@@ -236,6 +278,8 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
     check_interface(machine, block, clean, "the model inputs")
     times = table.columns[model.time_column] if model.time_column in table.columns else np.arange(table.rows) * 1.0
     baseline = _reference(model, clean, limits)[model.target.name]
+    measured = (np.asarray(table.columns[model.target.column], np.float64)
+                if model.target.column in table.columns else None)
     first = table.rows // 3
     names = block_names(model, [d.name for d in machine.outputs])
     cases = []
@@ -247,7 +291,7 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
             inputs[g.name], last = inject(clean[g.name], np.asarray(times), kind, first)
             expected = named(_reference(model, inputs, limits), names)
             report = replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
-            cases.append(_case(kind, g.name, first, last, expected, report, machine, limits, model, baseline,
+            cases.append(_case(kind, g.name, first, last, expected, report, machine, limits, model, baseline, measured,
                                np.asarray(expected[names[fault_key(g.name)]], bool)))
     declared = {d.name for d in machine.inputs}
     for kind, action, length in CONTROL_KINDS:
@@ -258,14 +302,14 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
         report = replay_and_compare(machine, block, "reference", table, model.time_column, {**clean, **control},
                                      expected, {})
         cases.append(_case(kind, "/".join(control), first, min(first + length, table.rows - 1), expected, report,
-                           machine, limits, model, baseline, ~np.asarray(expected[READY_OUTPUT], bool)
+                           machine, limits, model, baseline, measured, ~np.asarray(expected[READY_OUTPUT], bool)
                            | ~np.asarray(expected[ENO], bool)))
     for kind in PROBE_KINDS if probing else ():
         faulty, last = _probe_fault(kind, probing[PROBE_VALUE_INPUT], probing[PROBE_NEW_INPUT], first)
         inputs = {**clean, **faulty}
         expected = named(_reference(model, inputs, limits), names)
         report = replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
-        cases.append(_case(kind, PROBE_VALUE_INPUT, first, last, expected, report, machine, limits, model, baseline,
+        cases.append(_case(kind, PROBE_VALUE_INPUT, first, last, expected, report, machine, limits, model, baseline, measured,
                            np.asarray(expected[PROBE_REFUSED_OUTPUT], bool)))
     static = _reference(model, {**clean, PROBE_NEW_INPUT: np.zeros(table.rows, bool)}, limits)[model.target.name] \
         if probing else None
@@ -275,13 +319,13 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
         inputs = {**clean, **faulty}
         expected = named(_reference(model, inputs, limits), names)
         report = replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
-        cases.append(_case(kind, PROBE_VALUE_INPUT, start, last, expected, report, machine, limits, model, baseline,
+        cases.append(_case(kind, PROBE_VALUE_INPUT, start, last, expected, report, machine, limits, model, baseline, measured,
                            at_clamp))
     return cases
 
 
 def _case(kind: FaultKind, what: str, first: int, last: int, expected: dict, report, machine, limits: Limits,
-          model: Model, baseline: np.ndarray, flags: np.ndarray) -> FaultCase:
+          model: Model, baseline: np.ndarray, measured: np.ndarray | None, flags: np.ndarray) -> FaultCase:
     """A case's row of the table from the reference outputs and the replay's report."""
     real = [np.asarray(v, np.float32) for v in expected.values() if np.asarray(v).dtype.kind == "f"]
     limited = [np.asarray(expected[v.name], np.float32) for v in machine.outputs
@@ -293,25 +337,36 @@ def _case(kind: FaultKind, what: str, first: int, last: int, expected: dict, rep
         all(_within_rate(v, limits.max_step) for v in limited),
         bool(flags[first:last + 1].any()), not bool(flags[-1]),
         float(np.max(np.abs(expected[model.target.name].astype(np.float64) - baseline.astype(np.float64)))),
-        report.failure)
+        report.failure, None if kind in UNJUDGED else harm_of(np.asarray(expected[model.target.name], np.float32), np.asarray(baseline, np.float32), measured,
+                first, last))
 
 
 def format_cases(cases: list[FaultCase], block: str, rows: int) -> str:
     lines = [f"fault injection on {block}: {len(cases)} cases over {rows} calls each, faults start at call "
              f"{cases[0].first_row if cases else 0}; transient faults last {TRANSIENT_CALLS} calls",
              f"{'sensor':<16}{'fault':<44}{'bit-exact':>10}{'finite':>8}{'clamp':>7}{'rate':>6}"
-             f"{'flagged':>9}{'clear at end':>14}{'max change':>12}"]
+             f"{'flagged':>9}{'clear at end':>14}{'max change':>12}{'error':>9}{'none':>8}"]
     yes = lambda b: "yes" if b else "NO"
+    judged = lambda h: f"{h.worst:>9.4g}{h.none:>8.4g}" if h is not None else f"{'-':>9}{'-':>8}"
     for c in cases:
         lines.append(f"{c.sensor:<16}{c.kind.name + ': ' + c.kind.description:<44}{yes(c.bit_exact):>10}"
                      f"{yes(c.finite):>8}{yes(c.within_clamp):>7}{yes(c.within_rate):>6}"
-                     f"{'yes' if c.flagged else 'no':>9}{'yes' if c.clear_at_end else 'no':>14}{c.max_change:>12.4g}")
+                     f"{'yes' if c.flagged else 'no':>9}{'yes' if c.clear_at_end else 'no':>14}{c.max_change:>12.4g}"
+                     f"{judged(c.harm)}")
     bad = [c for c in cases if not c.ok]
-    lines.append("all cases bit-exact, finite, inside the clamp and the rate limit" if not bad else
+    lines.append("all cases bit-exact, finite, inside the clamp and the rate limit, none further from the measured "
+                 "drift than no compensation unflagged" if not bad else
                  f"{len(bad)} case(s) FAILED: " + ", ".join(f"{c.sensor}/{c.kind.name}" for c in bad))
+    lines += [f"{c.sensor}/{c.kind.name}: {c.harm.worst:.4g} um from the measured drift at call {c.harm.worst_row}, "
+              f"further than no compensation ({c.harm.none:.4g} um at most on calls {c.first_row}..), and no status "
+              f"bit said so" for c in cases if not c.safe]
     probed = any(c.kind in PROBE_KINDS for c in cases)
-    lines.append("flagged/clear at end describe the block's behaviour, they are not pass criteria; max change "
-                 "is the largest |error with fault - error without| in the target's unit; for Enable/Reset, "
+    lines.append("clear at end describes the block's behaviour, it is no pass criterion; max change is the largest "
+                 "|error with fault - error without| in the target's unit; error is the faulted block's largest "
+                 "|output - measured drift| and none no compensation's (the largest |drift|) over the case's calls "
+                 "(from the fault on, as long as the output differs from the fault-free block's); a case whose error "
+                 "exceeds none fails unless flagged ('-': not judged: the data do not measure the target, a drive to "
+                 "the clamp, or an Enable/Reset action the PLC program commands); for Enable/Reset, "
                  "flagged means Ready or ENO went FALSE" + ("; for a probing, that ProbeRefused came up; for "
                                                             "probe-clamp+/-, that the offset reached that clamp"
                                                             if probed else ""))
