@@ -14,7 +14,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
 from thermoplc.base.binary32 import round_f32
-from thermoplc.models.probing import COUNT_MAX, REJOIN
+from thermoplc.models.probing import COUNT_MAX, HELD_MAX, REJOIN, STUCK_COUNT
 from thermoplc.models.start import FLOOR_UM
 from thermoplc.models.safety import Limits, axis_outputs, guards
 
@@ -113,16 +113,17 @@ def start_constants(model: Model) -> dict:
 
 PROBE_NAMES = {"gain": "c_ProbeGain", "gate_um": "c_ProbeGate", "limit_um": "c_ProbeLimit",
                "offset_max_um": "c_ProbeOffsetMax", "rate_gain": "c_ProbeRateGain", "rate_max_um": "c_ProbeRateMax",
-               "decay": "c_ProbeDecay"}  # a constant of the probe fusion -> the block constant that holds it
+               "decay": "c_ProbeDecay", "min_calls": "c_ProbeMinCalls"}  # a constant of the probe fusion -> the block constant that holds it
 PROBE_NEGATED = {"offset_max_um": "c_ProbeOffsetMin", "rate_max_um": "c_ProbeRateMin"}  # the lower clamps
 
 
 def probe_constants(model: Model) -> dict:
     """The probe fusion's constants as the block declares them (name -> binary32 value or INT)."""
     values = model.probe.values()
-    out = {PROBE_NAMES[key]: value for key, value in values.items()}
+    out = {PROBE_NAMES[key]: int(value) if key == "min_calls" else value for key, value in values.items()}
     out.update({PROBE_NEGATED[key]: -value for key, value in values.items() if key in PROBE_NEGATED})
-    out.update({"c_ProbeCountMax": COUNT_MAX, "c_ProbeOne": 1, "c_ProbeRejoin": REJOIN})
+    out.update({"c_ProbeCountMax": COUNT_MAX, "c_ProbeOne": 1, "c_ProbeRejoin": REJOIN,
+                "c_ProbeStuckCount": STUCK_COUNT, "c_ProbeHeldMax": HELD_MAX})
     return out
 
 

@@ -22,16 +22,17 @@ from typing import Iterable
 from thermoplc.base.identifiers import identifier_problem
 from thermoplc.models.kind import fault_key
 from thermoplc.models.modelfile import Model
-from thermoplc.models.probing import PROBE_NEW, PROBE_VALUE, REFUSALS, REFUSED, USED
+from thermoplc.models.probing import PROBE_NEW, PROBE_VALUE, REFUSALS, REFUSED, SUSPECT, USED
 from thermoplc.models.safety import (CLAMPED, CONTROL_START, ENABLE, ENABLED, INVALID, LIMITED, READY, RESET,
                                      guards, k0_key)
 
 FAULT_PREFIX = "Fault_"
 ENO, READY_OUTPUT, LIMITED_OUTPUT, CLAMPED_OUTPUT, INVALID_OUTPUT = "ENO", "Ready", "Limited", "Clamped", "Invalid"
 PROBE_USED_OUTPUT, PROBE_REFUSED_OUTPUT, PROBE_REFUSALS_OUTPUT = "ProbeUsed", "ProbeRefused", "ProbeRefusals"
+PROBE_SUSPECT_OUTPUT = "ProbeSuspect"
 STATUS_OUTPUTS = {READY: READY_OUTPUT, LIMITED: LIMITED_OUTPUT, CLAMPED: CLAMPED_OUTPUT, INVALID: INVALID_OUTPUT,
                   ENABLED: ENO, USED: PROBE_USED_OUTPUT, REFUSED: PROBE_REFUSED_OUTPUT,
-                  REFUSALS: PROBE_REFUSALS_OUTPUT}  # reference key -> block output
+                  REFUSALS: PROBE_REFUSALS_OUTPUT, SUSPECT: PROBE_SUSPECT_OUTPUT}  # reference key -> block output
 # a fused block's probing inputs (models/probing.py): the value, um, and the BOOL whose rising edge is a new probing
 PROBE_VALUE_INPUT, PROBE_NEW_INPUT = "ProbeValue", "ProbeNew"
 PROBE_INPUTS = {PROBE_VALUE: PROBE_VALUE_INPUT, PROBE_NEW: PROBE_NEW_INPUT}  # reference key -> block input

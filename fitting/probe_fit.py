@@ -18,6 +18,7 @@ from itertools import product
 
 import numpy as np
 
+from thermoplc.base.binary32 import round_f32
 from thermoplc.base.errors import UserError
 from thermoplc.models.probing import Fusion, fuse, probings, rising
 
@@ -293,7 +294,18 @@ def fit_probe(model, tables: list, predictions: dict, every: int | None, held: b
             if n not in found:
                 found[n] = _fused(model, tables, plain, n, dt, limit, True, gate_um)[1]
         probing["schedules"] = [{"minutes": m, **summarise(found[calls[m]])["pooled"]} for m in SCHEDULES_MIN]
-    return replace(chosen.model, probe=chosen.fusion, metrics={**chosen.model.metrics, "probing": probing})
+    fusion = replace(chosen.fusion, min_calls=(float(m := min_calls(runs, held_out, every)), round_f32(m)))
+    probing["chosen"]["flood_calls"] = m
+    return replace(chosen.model, probe=fusion, metrics={**chosen.model.metrics, "probing": probing})
+
+
+def min_calls(runs: list[ProbeRun], held_out: ProbeRun | None, every: int | None) -> int:
+    """Half the shortest gap between two probings of the schedule the fusion was fitted for (at least one call): a
+    probing sooner than that after the last is a flooding probe, and none of the fitted runs' probings is one."""
+    fitted = [*runs, *([held_out] if held_out else [])]
+    gaps = [np.diff(np.flatnonzero(rising(probings(r.target, every)[1]))) for r in fitted]
+    shortest = min((int(g.min()) for g in gaps if len(g)), default=2)
+    return max(1, shortest // 2)
 
 
 def _fused(model, tables: list, plain: tuple, every: int | None, dt: float, limit: float,

@@ -57,7 +57,8 @@ def _fusion(model: Model) -> Fusion | None:
     """What the probe fusion adds to the block of a model fitted with probings; None for a static model."""
     if model.probe is None:
         return None
-    return Fusion(model.target.name, probe_constants(model), model.probe.has_rate, model.probe.decay is not None)
+    return Fusion(model.target.name, probe_constants(model), model.probe.has_rate, model.probe.decay is not None,
+                  model.probe.min_calls is not None)
 
 
 def _refuse_unread_inputs(model: Model, core: Block) -> None:

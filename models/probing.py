@@ -8,11 +8,17 @@ prediction plus the offset. Per call, in this order (generator/probing.py emits 
 
     rate:   Offset := Offset + Rate                       (only with a rate state)
     decay:  Offset := Offset * Decay                      (only when the offset decays between probings)
+    counts: Held := Held + 1 while ProbeNew is TRUE, else 0; Since := Since + 1 (both stop at COUNT_MAX)
     edge:   New := ProbeNew AND NOT Seen; Seen := ProbeNew
-    if New: a probing whose |value| <= Limit gives Innov := value - (static + Offset); with |Innov| <= Gate, or
+    if New: the probing is suspect (Suspect) when it comes sooner than MinCalls after the last one (a flooding
+            probe; only with a fitted schedule), or when its value equals the last STUCK_COUNT + 1 probings' while the
+            prediction moved further than the gate since the first of them (a frozen probe); Since := 0. A suspect
+            probing is refused; else it is judged: a probing whose |value| <= Limit gives Innov := value - (static + Offset); with |Innov| <= Gate, or
             as the first probing taken since the start (nothing learnt yet for the gate to judge by), or after
             REJOIN probings in a row beyond the gate, Offset := Offset + Gain * Innov (Rate := Rate + RateGain *
             Innov), Used; else Refused, counted
+    held:   ProbeNew TRUE for more than HELD_MAX calls in a row (a stuck bit) sets Suspect too; the next probing
+            that is not suspect clears it
     clamp:  Offset within +-OffsetMax, Rate within +-RateMax
     output: static + Offset (then the output limiter of every block)
 
@@ -32,11 +38,14 @@ from thermoplc.base import compiled
 
 PROBE_VALUE, PROBE_NEW = "probe:value", "probe:new"  # the reference's keys of the block's probing inputs
 USED, REFUSED, REFUSALS = "status:probe_used", "status:probe_refused", "count:probe_refusals"
+SUSPECT = "status:probe_suspect"
 COUNT_MAX = 32767  # the refusal counter is an INT: it stops there
 REJOIN = 1  # after this many probings in a row refused by the gate alone, the next is taken: the drift really moved
 # (a run whose static error starts beyond the gate, a shift after a crash) and the offset must follow it
+STUCK_COUNT = 2  # a probing equal to the last this many is frozen when the prediction moved beyond the gate since
+HELD_MAX = 20  # calls ProbeNew may stay TRUE (a PLC's pulse lasts a few): longer is a stuck bit
 REQUIRED = ("gain", "gate_um", "limit_um", "offset_max_um")
-OPTIONAL = ("rate_gain", "rate_max_um", "decay")
+OPTIONAL = ("rate_gain", "rate_max_um", "decay", "min_calls")
 
 
 @dataclass(frozen=True)
@@ -49,13 +58,14 @@ class Fusion:
     rate_gain: tuple[float, float] | None = None  # None: no rate state
     rate_max_um: tuple[float, float] | None = None
     decay: tuple[float, float] | None = None  # None: the offset is held between probings
+    min_calls: tuple[float, float] | None = None  # a probing sooner than this after the last floods; None: not judged
 
     @staticmethod
     def of(gain: float, gate_um: float, limit_um: float, offset_max_um: float, rate_gain: float | None = None,
-           rate_max_um: float | None = None, decay: float | None = None) -> "Fusion":
+           rate_max_um: float | None = None, decay: float | None = None, min_calls: int | None = None) -> "Fusion":
         pair = lambda v: None if v is None else (float(v), round_f32(float(v)))
         return Fusion(pair(gain), pair(gate_um), pair(limit_um), pair(offset_max_um), pair(rate_gain),
-                      pair(rate_max_um), pair(decay))
+                      pair(rate_max_um), pair(decay), pair(min_calls))
 
     @property
     def has_rate(self) -> bool:
@@ -116,11 +126,14 @@ def constant_pair(entry, path: str, where: str) -> tuple[float, float]:
 def _check(fusion: Fusion, path: str) -> None:
     """Ranges that keep the state finite and the block's range proof simple."""
     rules = {"gain": (1e-6, 1.0), "rate_gain": (0.0, 1.0), "decay": (1e-6, 1.0), "gate_um": (1e-3, 1e6),
-             "limit_um": (1e-3, 1e6), "offset_max_um": (1e-3, 1e6), "rate_max_um": (1e-9, 1e3)}
+             "limit_um": (1e-3, 1e6), "offset_max_um": (1e-3, 1e6), "rate_max_um": (1e-9, 1e3),
+             "min_calls": (1, COUNT_MAX)}
     for name, (low, high) in rules.items():
         pair = getattr(fusion, name)
         if pair is not None and not (np.isfinite(pair[1]) and low <= pair[1] <= high):
             raise UserError(f"{path}: field 'probe.{name}': {pair[0]!r}; expected a value from {low:g} to {high:g}")
+    if fusion.min_calls is not None and fusion.min_calls[0] != int(fusion.min_calls[0]):
+        raise UserError(f"{path}: field 'probe.min_calls': {fusion.min_calls[0]!r}; expected a whole number of calls")
 
 
 def fuse(fusion: Fusion, static: np.ndarray, value: np.ndarray, new: np.ndarray, precision: str) -> dict:
@@ -131,36 +144,58 @@ def fuse(fusion: Fusion, static: np.ndarray, value: np.ndarray, new: np.ndarray,
     rows = len(static)
     c = {name: f(fusion.value(name, precision)) for name in fusion.values()}
     out, before = np.empty(rows, f), np.empty(rows, f)
-    used, refused = np.zeros(rows, bool), np.zeros(rows, bool)
+    used, refused, suspect = np.zeros(rows, bool), np.zeros(rows, bool), np.zeros(rows, bool)
     count = np.zeros(rows, np.int16)
     state = np.zeros(2, f)  # offset, rate
+    min_calls = int(fusion.min_calls[0]) if fusion.min_calls is not None else 0
     loop = _fuse if compiled.enabled(rows) else getattr(_fuse, "py_func", _fuse)
     loop(np.ascontiguousarray(static, f), np.ascontiguousarray(value, f), np.ascontiguousarray(new, np.bool_),
          state, c["gain"], c.get("rate_gain", f(0)), c.get("decay", f(1)), c["gate_um"], c["limit_um"],
-         c["offset_max_um"], c.get("rate_max_um", f(0)), fusion.has_rate, fusion.decay is not None,
-         out, before, used, refused, count)
-    return {"fused": out, "before": before, USED: used, REFUSED: refused, REFUSALS: count}
+         c["offset_max_um"], c.get("rate_max_um", f(0)), fusion.has_rate, fusion.decay is not None, min_calls,
+         out, before, used, refused, suspect, count)
+    return {"fused": out, "before": before, USED: used, REFUSED: refused, SUSPECT: suspect, REFUSALS: count}
 
 
 @compiled.jit
 def _fuse(static, value, new, state, gain, rate_gain, decay, gate, limit, offset_max, rate_max, has_rate, has_decay,
-          out, before, used, refused, count):
+          min_calls, out, before, used, refused, suspected, count):
     offset, rate = state[0], state[1]
+    last, stuck_ref = offset * 0, offset * 0
     seen = False
     refusals = 0
     missed = 0
     anchored = False
+    suspect = False
+    any_probing = False
+    same, held, since = 0, 0, 0
     for j in range(static.shape[0]):
         if has_rate:
             offset = offset + rate
         if has_decay:
             offset = offset * decay
         before[j] = static[j] + offset
+        if new[j]:
+            if held < COUNT_MAX:
+                held += 1
+        else:
+            held = 0
+        if since < COUNT_MAX:
+            since += 1
         edge = new[j] and not seen
         seen = new[j]
         if edge:
+            if value[j] == last:
+                if same < COUNT_MAX:
+                    same += 1
+            else:
+                same = 0
+                stuck_ref = static[j]
+            last = value[j]
+            suspect = (any_probing and since < min_calls) or (same >= STUCK_COUNT and abs(static[j] - stuck_ref) > gate)
+            any_probing = True
+            since = 0
             accepted = False
-            if abs(value[j]) <= limit:
+            if not suspect and abs(value[j]) <= limit:
                 innovation = value[j] - (static[j] + offset)
                 if abs(innovation) <= gate or not anchored or missed >= REJOIN:
                     offset = offset + gain * innovation
@@ -177,6 +212,9 @@ def _fuse(static, value, new, state, gain, rate_gain, decay, gate, limit, offset
                 refused[j] = True
                 if refusals < COUNT_MAX:
                     refusals += 1
+        if held > HELD_MAX:
+            suspect = True
+        suspected[j] = suspect
         if offset > offset_max:
             offset = offset_max
         elif offset < -offset_max:
@@ -195,7 +233,8 @@ def fused_core(model, core: dict | None, inputs: dict, start: int, precision: st
     """The model's values with the target fused from call `start` on (the block's first running call), and
     the fusion's outputs per call; `inputs` without the probing keys is a block whose probing is unwired."""
     rows = len(next(iter(inputs.values())))
-    status = {USED: np.zeros(rows, bool), REFUSED: np.zeros(rows, bool), REFUSALS: np.zeros(rows, np.int16)}
+    status = {USED: np.zeros(rows, bool), REFUSED: np.zeros(rows, bool), SUSPECT: np.zeros(rows, bool),
+              REFUSALS: np.zeros(rows, np.int16)}
     if core is None:
         return core, status
     f = np.float32 if precision == "f32" else np.float64

@@ -17,7 +17,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from tests.golden_models import (  # noqa: E402
-    DIALECTS, FUSED, GOLDEN, KINDS, batch_csvs, golden_block, golden_twin_csv, rendered,
+    DIALECTS, FUSED, FUSED_EVERY, GOLDEN, KINDS, batch_csvs, golden_block, golden_twin_csv, rendered,
 )
 from thermoplc.diagnosis.command import augmented_model  # noqa: E402
 from thermoplc.diagnosis.runs import DiagnoseRequest, series_of  # noqa: E402
@@ -61,7 +61,8 @@ def refit(folder: Path, kinds: tuple[str, ...]) -> None:
         (GOLDEN / f"{kind}.json").write_text(fit(tables, request).to_json())
     for fused, kind in FUSED.items():  # the static golden with a fusion that keeps a rate and decays its offset
         model = load_model(GOLDEN / f"{kind}.json")
-        probe = Fusion.of(0.7, 12.0, 100.0, 100.0, rate_gain=0.002, rate_max_um=0.05, decay=0.9999)
+        probe = Fusion.of(0.7, 12.0, 100.0, 100.0, rate_gain=0.002, rate_max_um=0.05, decay=0.9999,
+                          min_calls=FUSED_EVERY // 2)
         (GOLDEN / f"{fused}.json").write_text(replace(model, probe=probe).to_json())
 
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from thermoplc.models.modelfile import Model
 from thermoplc.contract.outputs import (ENABLE_INPUT, ENO, K0_PREFIX, PROBE_NEW_INPUT, PROBE_REFUSED_OUTPUT,
+                                       PROBE_SUSPECT_OUTPUT,
                                        PROBE_VALUE_INPUT, READY_OUTPUT, RESET_INPUT, block_names, control_of, named)
 from thermoplc.models.kind import fault_key
 from thermoplc.models.probing import rising
@@ -67,8 +68,8 @@ PROBE_KINDS = (
 # probings at either limit, one every second call, until the taught offset stands at that side's clamp: a block
 # whose clamp (either branch) is missing or wrong differs from the reference there (the other cases never take
 # the offset that far)
-PROBE_CLAMPS = {1.0: FaultKind("probe-clamp+", "at +limit every 2nd call", False, None),
-                -1.0: FaultKind("probe-clamp-", "at -limit every 2nd call", False, None)}
+PROBE_CLAMPS = {1.0: FaultKind("probe-clamp+", "at +limit, as often as allowed", False, None),
+                -1.0: FaultKind("probe-clamp-", "at -limit, as often as allowed", False, None)}
 CLAMP_HOLD_CALLS = 50  # calls the run of probings goes on once the offset is at its clamp
 
 
@@ -95,8 +96,8 @@ def _probe_fault(kind: FaultKind, value: np.ndarray, new: np.ndarray, first: int
 
 def _probe_clamp(model: Model, static: np.ndarray, value: np.ndarray, new: np.ndarray, sign: float
                  ) -> tuple[dict, int, int, np.ndarray]:
-    """The probing inputs with a run of probings at `sign` times the limit, an edge every second call, until the
-    offset the reference learns from them has stood at that side's clamp for CLAMP_HOLD_CALLS calls (or the data
+    """The probing inputs with a run of probings at `sign` times the limit, an edge every second call (or, with a
+    fitted schedule, as often as it lets a probing through: every `min_calls`), until the offset the reference learns from them has stood at that side's clamp for CLAMP_HOLD_CALLS calls (or the data
     end), no probing after. The run starts where the static prediction leaves the offset the most room to that
     side (in the first three quarters of the data: a clamp wider than the limit minus the prediction can never
     be reached). Returns the inputs, the run's first and last rows, and per call whether the offset is there."""
@@ -107,7 +108,8 @@ def _probe_clamp(model: Model, static: np.ndarray, value: np.ndarray, new: np.nd
     rows = len(new)
     first = int(np.argmin(sign * static[:max(1, rows - rows // 4)].astype(np.float64)))
     value[first:] = np.float32(sign) * limit
-    new[first:] = (np.arange(first, rows) - first) % 2 == 0
+    spacing = max(2, int(fusion.min_calls[0])) if fusion.min_calls is not None else 2
+    new[first:] = (np.arange(first, rows) - first) % spacing == 0
     offset = fuse(fusion, static, value, new, "f32")["fused"].astype(np.float64) - static.astype(np.float64)
     at_clamp = sign * offset >= np.float64(clamp) * (1 - 1e-6)
     reached = np.flatnonzero(at_clamp[first:])
@@ -309,8 +311,9 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
         inputs = {**clean, **faulty}
         expected = named(_reference(model, inputs, limits), names)
         report = replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
-        cases.append(_case(kind, PROBE_VALUE_INPUT, first, last, expected, report, machine, limits, model, baseline, measured,
-                           np.asarray(expected[PROBE_REFUSED_OUTPUT], bool)))
+        cases.append(_case(kind, PROBE_VALUE_INPUT, first, last, expected, report, machine, limits, model, baseline,
+                           measured, np.asarray(expected[PROBE_REFUSED_OUTPUT], bool)
+                           | np.asarray(expected.get(PROBE_SUSPECT_OUTPUT, False), bool)))
     static = _reference(model, {**clean, PROBE_NEW_INPUT: np.zeros(table.rows, bool)}, limits)[model.target.name] \
         if probing else None
     for sign, kind in PROBE_CLAMPS.items() if probing else ():
@@ -367,7 +370,7 @@ def format_cases(cases: list[FaultCase], block: str, rows: int) -> str:
                  "(from the fault on, as long as the output differs from the fault-free block's); a case whose error "
                  "exceeds none fails unless flagged ('-': not judged: the data do not measure the target, a drive to "
                  "the clamp, or an Enable/Reset action the PLC program commands); for Enable/Reset, "
-                 "flagged means Ready or ENO went FALSE" + ("; for a probing, that ProbeRefused came up; for "
+                 "flagged means Ready or ENO went FALSE" + ("; for a probing, that ProbeRefused or ProbeSuspect came up; for "
                                                             "probe-clamp+/-, that the offset reached that clamp"
                                                             if probed else ""))
     lines += [f"{c.kind.name}: the offset never reached its clamp from call {c.first_row} on (the limit minus the "
