@@ -9,10 +9,11 @@ from dataclasses import replace
 from functools import reduce
 
 from thermoplc.generator.ir import (
-    Assign, BinOp, Block, BoolConst, Call, Const, If, IntConst, Ref, Region, Unary, Var, rename, walk_exprs,
+    GenerationError, Assign, BinOp, Block, BoolConst, Call, Const, If, IntConst, Ref, Region, Unary, Var, rename, walk_exprs,
 )
 from thermoplc.contract.constants import limit_constants, limit_name
 from thermoplc.contract.outputs import CLAMPED_OUTPUT, INVALID_OUTPUT, LIMITED_OUTPUT, READY_OUTPUT, k0_output
+from thermoplc.generator.fault_hold import COMMENT as HOLD_COMMENT, declarations as hold_declarations, hold_region
 from thermoplc.generator.probing import COMMENTS as PROBE_COMMENTS, Fusion, declarations, fusion_region
 from thermoplc.generator.start import CONSTANTS as START_COMMENTS, STATICS as START_STATICS, KnownStart, start_region
 from thermoplc.models.safety import Guard, Limits
@@ -28,6 +29,7 @@ _CONSTANT_COMMENTS = {
     "c_OutMax": "output clamp (--max-offset-um)", "c_OutMin": "output clamp, negative side",
     "c_K0_mm": "K0 in mm per um of error: the NC moves the axis back by the error",
     "c_RealMax": "largest REAL as S7 documents it: a model value beyond it (Inf) or unordered (NaN) is not passed on",
+    "c_FaultMove": HOLD_COMMENT,
 }
 
 
@@ -105,6 +107,8 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
         *(gated(r.title, r.body) for r in body),
         *(gated(r.title, r.body) for r in ([start_region(model_names[start.target])] if start else [])),
         *(gated(r.title, r.body) for r in ([fusion_region(fusion, model_names[fusion.target])] if fusion else [])),
+        gated("Fault hold: while a fault bit is set, no output moves further than c_FaultMove",
+              hold_region([faults[g.name] for g in plan], [model_names[v.name] for v in limited]).body),
         Region("Output status: nothing limited yet in this call",
                (Assign(LIMITED_OUTPUT, BoolConst(False)), Assign(CLAMPED_OUTPUT, BoolConst(False)),
                 Assign(INVALID_OUTPUT, BoolConst(False)))),
@@ -129,7 +133,11 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
                Var(LIMITED_OUTPUT, "BOOL", "an output was rate-limited in this call"),
                Var(CLAMPED_OUTPUT, "BOOL", "an output was clamped in this call"),
                Var(INVALID_OUTPUT, "BOOL", "the model gave NaN or Inf in this call: the last output is held"))
-    statics = [*core.statics, *(START_STATICS if start else ()), *added.get("statics", ())]
+    if limits.fault_move is None:
+        raise GenerationError("the safety limits have no fault hold (fault_move None: a block read back from before "
+                              "it); give --fault-move-um")
+    hold = hold_declarations(len(limited))
+    statics = [*core.statics, *(START_STATICS if start else ()), *added.get("statics", ()), *hold.get("statics", ())]
     for g in plan:
         if g.kind == "temperature":
             statics += [Var(f"LastIn_{g.index}", "REAL", f"{g.name}: last reading in range"),
@@ -138,7 +146,7 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
             statics.append(Var(f"Good_{g.index}", "REAL", f"{g.name}: last good value"))
     temps = (*core.temps, *(Var(f"InOk_{g.index}", "BOOL", f"{g.name} reads in range") for g in plan),
              *(Var(model_names[v.name], "REAL", f"{_MODEL_VALUE}{v.name}") for v in limited),
-             Var("Delta", "REAL", "wanted output change"), *added.get("temps", ()))
+             Var("Delta", "REAL", "wanted output change"), *added.get("temps", ()), *hold.get("temps", ()))
     referenced = {e.name for e in walk_exprs(tuple(regions)) if isinstance(e, Ref)}
     comments = {**_CONSTANT_COMMENTS, **PROBE_COMMENTS, **START_COMMENTS}
     constants = (*core.constants, *(Const(name, value, comments[name], "INT" if isinstance(value, int) else "REAL")

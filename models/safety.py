@@ -17,7 +17,7 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.base import compiled
-from thermoplc.models import kernels
+from thermoplc.models import fault_hold, kernels
 from thermoplc.models.kind import fault_key
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
@@ -54,10 +54,14 @@ class Limits:
     max_other: float = 1.0e6  # feed, tool length and other non-temperature inputs
     max_jump_K: float = 1.0  # temperature change per call that marks a sensor faulty
     settle_calls: int = 30  # steady calls after which a held sensor is trusted again
+    fault_move: float | None = 2.0  # um: while a fault bit is set each output stays this near (models/fault_hold.py);
+    # None: a block generated before the hold
 
     def __post_init__(self):
         for f in fields(self):
             value = getattr(self, f.name)
+            if value is None and f.name == "fault_move":
+                continue
             if not np.isfinite(value) or value <= 0 and f.name not in ("temp_min_C",):
                 raise UserError(f"safety limit {f.name} must be a positive finite number, got {value}")
             if abs(value) > LIMIT_MAX:  # a block constant: must stay a finite REAL, with room for the arithmetic
@@ -77,15 +81,15 @@ class Limits:
                 "jump_max": f(self.max_jump_K), "settle_calls": int(self.settle_calls), "one_call": 1,
                 "step_max": f(self.max_step), "step_min": f(-self.max_step),
                 "out_max": f(self.max_output), "out_min": f(-self.max_output), "k0_mm": f(K0_MM_PER_UM),
-                "real_max": f(REAL_TEXT_MAX)}
+                "real_max": f(REAL_TEXT_MAX), **({"fault_move": f(self.fault_move)} if self.fault_move else {})}
 
     @classmethod
     def from_values(cls, given: dict) -> "Limits":
         """The limits whose `values()` these are (a key not given keeps its default)."""
         fields_of = {"temp_min": "temp_min_C", "temp_max": "temp_max_C", "speed_max": "max_speed_rpm",
                      "other_max": "max_other", "jump_max": "max_jump_K", "settle_calls": "settle_calls",
-                     "step_max": "max_step", "out_max": "max_output"}
-        return cls(**{field: given[key] for key, field in fields_of.items() if key in given})
+                     "step_max": "max_step", "out_max": "max_output", "fault_move": "fault_move"}
+        return cls(**{"fault_move": None, **{field: given[key] for key, field in fields_of.items() if key in given}})
 
 
 @dataclass(frozen=True)
@@ -199,6 +203,11 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     if model.probe is not None:
         core, probing = fused_core(model, core, inputs, ready_row, precision)
     names = limited_outputs(core) if core is not None else real_outputs_of(model, core_predict, precision)
+    flags = fault_flags(plan, valid, faults, core, ready_row)
+    if core is not None and limits.fault_move is not None:
+        any_fault = np.logical_or.reduce([np.asarray(v, bool) for v in flags.values()])[ready_row:]
+        core = {**core, **{name: fault_hold.apply(core[name], any_fault, limits.fault_move, precision)
+                           for name in names}}
     out = {}
     limited = np.zeros(rows, bool)
     clamped = np.zeros(rows, bool)
@@ -236,7 +245,7 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
         k0 = np.full(rows, held.get(k0_key(k), 0), f)
         k0[ready_row:] = out[name][ready_row:] * f(constants["k0_mm"])
         out[k0_key(k)] = k0
-    out.update(fault_flags(plan, valid, faults, core, ready_row))
+    out.update(flags)
     out.update(probing)
     out[READY] = np.arange(rows) >= ready_row
     out[LIMITED] = limited

@@ -15,7 +15,7 @@ import numpy as np
 
 from thermoplc.base import compiled
 
-from thermoplc.models import kernels
+from thermoplc.models import fault_hold, kernels
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import guarded_core, with_start
@@ -65,6 +65,7 @@ class StreamingReference:
         self.holds = {g.name: kernels.HoldState(f) for g in self.plan if g.kind != "fused"}
         self.y = {name: np.zeros(1, f) for name in self.names}
         self.start_state = np.zeros(2, f)  # the known start's offset and latch (models/start.py)
+        self.hold_states = {name: np.zeros(3, f) for name in self.names}  # models/fault_hold.py, per output
         self.ready = NOT_YET
         self.calls = 0
 
@@ -97,6 +98,11 @@ class StreamingReference:
             running = {name: values[local:] for name, values in core_inputs.items()}
             fused_valid = {g.name: valid[g.name][local:] for g in self.plan if g.kind == "fused"}
             core = with_start(self.model, self.core(running, fused_valid), self.precision, self.start_state)
+        flags = fault_flags(self.plan, valid, faults, core, local)
+        if core is not None and self.limits.fault_move is not None:
+            any_fault = np.logical_or.reduce([np.asarray(v, bool) for v in flags.values()])[local:]
+            core = {**core, **{name: fault_hold.apply(core[name], any_fault, self.limits.fault_move, self.precision,
+                                                      self.hold_states[name]) for name in self.names}}
         out = {}
         limited, clamped, invalid = (np.zeros(rows, bool) for _ in range(3))
         for name in self.names:
@@ -108,7 +114,7 @@ class StreamingReference:
             k0 = np.zeros(rows, f)
             k0[local:] = out[name][local:] * f(constants["k0_mm"])
             out[k0_key(k)] = k0
-        out.update(fault_flags(self.plan, valid, faults, core, local))
+        out.update(flags)
         out[READY] = np.arange(offset, offset + rows) >= self.ready
         out[LIMITED] = limited
         out[CLAMPED] = clamped

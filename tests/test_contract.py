@@ -194,7 +194,7 @@ def test_the_models_name_no_status_output_or_commissioning_input_of_the_block():
     assert named_in_models == []
     assert set(CONTROL_INPUTS) == set(CONTROL_START)
     assert set(STATUS_OUTPUTS.values()) == {"ENO", "Ready", "Limited", "Clamped", "Invalid", "ProbeUsed", "ProbeRefused",
-                                            "ProbeRefusals"}
+                                            "ProbeRefusals", "ProbeSuspect"}
     from thermoplc.contract.outputs import ENO
     from thermoplc.generator import ir
     assert ir.ENO == ENO
