@@ -199,7 +199,8 @@ def test_the_models_name_no_status_output_or_commissioning_input_of_the_block():
     from thermoplc.generator import ir
     assert ir.ENO == ENO
     assert list(named({k0_key(2): 1, "E_z_um": 2, **dict.fromkeys(STATUS_OUTPUTS, 3)}, {})) == \
-        ["K0_2", "E_z_um", "Ready", "Limited", "Clamped", "Invalid", "ENO", "ProbeUsed", "ProbeRefused", "ProbeRefusals"]
+        ["K0_2", "E_z_um", "Ready", "Limited", "Clamped", "Invalid", "ENO", "ProbeUsed", "ProbeRefused", "ProbeRefusals",
+         "ProbeSuspect"]
     model = load_model(GOLDEN / "mlr.json")
     inputs = {s.name: np.full(4, 20.0, np.float32) for s in model.inputs}
     with pytest.raises(ValueError, match="control keys"):
