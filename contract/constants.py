@@ -10,11 +10,13 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
+
 from thermoplc.base.errors import UserError
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
 from thermoplc.base.binary32 import round_f32
-from thermoplc.models.probing import COUNT_MAX, HELD_MAX, REJOIN, STUCK_COUNT
+from thermoplc.models.probing import COUNT_MAX, HELD_MAX, REJOIN, STUCK_COUNT, STUCK_SHARE
 from thermoplc.models.start import FLOOR_UM
 from thermoplc.models.safety import Limits, axis_outputs, guards
 
@@ -123,7 +125,8 @@ def probe_constants(model: Model) -> dict:
     out = {PROBE_NAMES[key]: int(value) if key == "min_calls" else value for key, value in values.items()}
     out.update({PROBE_NEGATED[key]: -value for key, value in values.items() if key in PROBE_NEGATED})
     out.update({"c_ProbeCountMax": COUNT_MAX, "c_ProbeOne": 1, "c_ProbeRejoin": REJOIN,
-                "c_ProbeStuckCount": STUCK_COUNT, "c_ProbeHeldMax": HELD_MAX})
+                "c_ProbeStuckCount": STUCK_COUNT, "c_ProbeHeldMax": HELD_MAX,
+                "c_ProbeStuckMove": float(np.float32(values["gate_um"]) * np.float32(STUCK_SHARE))})
     return out
 
 

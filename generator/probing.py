@@ -25,7 +25,8 @@ COMMENTS = {
     "c_ProbeRateMax": "drift rate clamp, um per call", "c_ProbeRateMin": "drift rate clamp, negative side",
     "c_ProbeCountMax": "the refusal counter stops here", "c_ProbeOne": "one refusal",
     "c_ProbeRejoin": "after this many probings in a row beyond the gate the next is taken (the drift moved)",
-    "c_ProbeStuckCount": "a probing equal to the last this many, the prediction moved beyond the gate since: frozen",
+    "c_ProbeStuckCount": "a probing equal to the last this many, the prediction moved since: frozen",
+    "c_ProbeStuckMove": "the prediction's move that makes equal probings frozen: a quarter of the gate, um",
     "c_ProbeHeldMax": "calls ProbeNew may stay TRUE; longer is a stuck bit (ProbeSuspect)",
     "c_ProbeMinCalls": "a probing sooner than this many calls after the last floods (half the fitted schedule)",
 }
@@ -68,7 +69,7 @@ def fusion_region(fusion: Fusion, model_value: str) -> Region:
     missed = (Assign(MISSED, BinOp("+", Ref(MISSED), Ref("c_ProbeOne"))),)
     innovation = Assign(INNOVATION, BinOp("-", Ref(PROBE_VALUE_INPUT), BinOp("+", Ref(model_value), Ref(OFFSET))))
     frozen = BinOp("AND", BinOp(">=", Ref(SAME), Ref("c_ProbeStuckCount")),
-                   BinOp(">", Call("ABS", (BinOp("-", Ref(model_value), Ref(STUCK_REF)),)), Ref("c_ProbeGate")))
+                   BinOp(">", Call("ABS", (BinOp("-", Ref(model_value), Ref(STUCK_REF)),)), Ref("c_ProbeStuckMove")))
     suspect = BinOp("OR", BinOp("AND", Ref(ANY), BinOp("<", Ref(SINCE), Ref("c_ProbeMinCalls"))), frozen) \
         if fusion.flood else frozen
     plausibility = (

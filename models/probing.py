@@ -11,8 +11,8 @@ prediction plus the offset. Per call, in this order (generator/probing.py emits 
     counts: Held := Held + 1 while ProbeNew is TRUE, else 0; Since := Since + 1 (both stop at COUNT_MAX)
     edge:   New := ProbeNew AND NOT Seen; Seen := ProbeNew
     if New: the probing is suspect (Suspect) when it comes sooner than MinCalls after the last one (a flooding
-            probe; only with a fitted schedule), or when its value equals the last STUCK_COUNT + 1 probings' while the
-            prediction moved further than the gate since the first of them (a frozen probe); Since := 0. A suspect
+            probe; only with a fitted schedule), or when its value equals the last STUCK_COUNT probings' while the
+            prediction moved further than STUCK_SHARE of the gate since the first of them (a frozen probe); Since := 0. A suspect
             probing is refused; else it is judged: a probing whose |value| <= Limit gives Innov := value - (static + Offset); with |Innov| <= Gate, or
             as the first probing taken since the start (nothing learnt yet for the gate to judge by), or after
             REJOIN probings in a row beyond the gate, Offset := Offset + Gain * Innov (Rate := Rate + RateGain *
@@ -42,7 +42,8 @@ SUSPECT = "status:probe_suspect"
 COUNT_MAX = 32767  # the refusal counter is an INT: it stops there
 REJOIN = 1  # after this many probings in a row refused by the gate alone, the next is taken: the drift really moved
 # (a run whose static error starts beyond the gate, a shift after a crash) and the offset must follow it
-STUCK_COUNT = 2  # a probing equal to the last this many is frozen when the prediction moved beyond the gate since
+STUCK_COUNT = 2  # a probing equal to the last this many is frozen when the prediction moved since by more than
+STUCK_SHARE = 0.25  # this share of the gate (the gate is 4 x the innovations' RMS: about one typical innovation)
 HELD_MAX = 20  # calls ProbeNew may stay TRUE (a PLC's pulse lasts a few): longer is a stuck bit
 REQUIRED = ("gain", "gate_um", "limit_um", "offset_max_um")
 OPTIONAL = ("rate_gain", "rate_max_um", "decay", "min_calls")
@@ -152,13 +153,14 @@ def fuse(fusion: Fusion, static: np.ndarray, value: np.ndarray, new: np.ndarray,
     loop(np.ascontiguousarray(static, f), np.ascontiguousarray(value, f), np.ascontiguousarray(new, np.bool_),
          state, c["gain"], c.get("rate_gain", f(0)), c.get("decay", f(1)), c["gate_um"], c["limit_um"],
          c["offset_max_um"], c.get("rate_max_um", f(0)), fusion.has_rate, fusion.decay is not None, min_calls,
+         c["gate_um"] * f(STUCK_SHARE),
          out, before, used, refused, suspect, count)
     return {"fused": out, "before": before, USED: used, REFUSED: refused, SUSPECT: suspect, REFUSALS: count}
 
 
 @compiled.jit
 def _fuse(static, value, new, state, gain, rate_gain, decay, gate, limit, offset_max, rate_max, has_rate, has_decay,
-          min_calls, out, before, used, refused, suspected, count):
+          min_calls, stuck_move, out, before, used, refused, suspected, count):
     offset, rate = state[0], state[1]
     last, stuck_ref = offset * 0, offset * 0
     seen = False
@@ -191,7 +193,7 @@ def _fuse(static, value, new, state, gain, rate_gain, decay, gate, limit, offset
                 same = 0
                 stuck_ref = static[j]
             last = value[j]
-            suspect = (any_probing and since < min_calls) or (same >= STUCK_COUNT and abs(static[j] - stuck_ref) > gate)
+            suspect = (any_probing and since < min_calls) or (same >= STUCK_COUNT and abs(static[j] - stuck_ref) > stuck_move)
             any_probing = True
             since = 0
             accepted = False
