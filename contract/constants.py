@@ -26,7 +26,8 @@ LIMIT_NAMES = {"temp_min": "c_TempMin", "temp_max": "c_TempMax", "speed_min": "c
                "other_min": "c_OtherMin", "other_max": "c_OtherMax", "jump_max": "c_JumpMax",
                "settle_calls": "c_SettleCalls", "one_call": "c_OneCall", "step_max": "c_StepMax",
                "step_min": "c_StepMin", "out_max": "c_OutMax", "out_min": "c_OutMin", "k0_mm": "c_K0_mm",
-               "real_max": "c_RealMax", "fault_move": "c_FaultMove"}  # a value of the safety logic -> its constant
+               "real_max": "c_RealMax", "fault_move": "c_FaultMove",
+               "fault_fade": "c_FaultFade", "fault_floor": "c_FaultFloor"}  # a value of the safety logic -> its constant
 NEEDED_LIMITS = ("step_max", "out_max")  # every block limits its outputs: without them it is not one of ours
 _TABLE = re.compile(r"tab_([A-Za-z][A-Za-z0-9]*)(?:_(\d+))?\Z", re.IGNORECASE)  # ST names ignore case
 
@@ -76,7 +77,7 @@ def required(model: Model) -> set[str]:
     """The constants every block of this model declares whatever its coefficients: the structure,
     each guard's range, the jump and settle rule of a held temperature, the output limiter and the
     K0 factor of an output in um. A block without one of them computes with something else."""
-    keys = {"step_max", "step_min", "out_max", "out_min", "real_max", "fault_move"}
+    keys = {"step_max", "step_min", "out_max", "out_min", "real_max", "fault_move", "fault_fade", "fault_floor"}
     for guard in guards(model):
         keys |= {guard.low, guard.high}
         if guard.kind == "temperature":

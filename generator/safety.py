@@ -13,7 +13,7 @@ from thermoplc.generator.ir import (
 )
 from thermoplc.contract.constants import limit_constants, limit_name
 from thermoplc.contract.outputs import CLAMPED_OUTPUT, INVALID_OUTPUT, LIMITED_OUTPUT, READY_OUTPUT, k0_output
-from thermoplc.generator.fault_hold import COMMENT as HOLD_COMMENT, declarations as hold_declarations, hold_region
+from thermoplc.generator.fault_hold import COMMENTS as HOLD_COMMENTS, declarations as hold_declarations, hold_region
 from thermoplc.generator.probing import COMMENTS as PROBE_COMMENTS, Fusion, declarations, fusion_region
 from thermoplc.generator.start import CONSTANTS as START_COMMENTS, STATICS as START_STATICS, KnownStart, start_region
 from thermoplc.models.safety import Guard, Limits
@@ -29,7 +29,7 @@ _CONSTANT_COMMENTS = {
     "c_OutMax": "output clamp (--max-offset-um)", "c_OutMin": "output clamp, negative side",
     "c_K0_mm": "K0 in mm per um of error: the NC moves the axis back by the error",
     "c_RealMax": "largest REAL as S7 documents it: a model value beyond it (Inf) or unordered (NaN) is not passed on",
-    "c_FaultMove": HOLD_COMMENT,
+    **HOLD_COMMENTS,
 }
 
 
@@ -100,15 +100,15 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
     ready = reduce(lambda a, b: BinOp("AND", a, b), [Ref(f"InOk_{g.index}") for g in plan])
     # every model region runs only once the block is Ready; REGIONs stay at the top level (TIA)
     gated = lambda title, stmts: Region(title, (If(((Ref(READY_OUTPUT), tuple(stmts)),)),))
+    fault_hold = hold_region([faults[g.name] for g in plan], [model_names[v.name] for v in limited])
     regions = [
         *(_guard_region(g, faults[g.name]) for g in plan),
         Region("Start the model at the first call with every input in range", (
             If(((Unary("NOT", Ref(READY_OUTPUT)), (Assign(READY_OUTPUT, ready),)),)),)),
         *(gated(r.title, r.body) for r in body),
         *(gated(r.title, r.body) for r in ([start_region(model_names[start.target])] if start else [])),
+        gated(fault_hold.title, fault_hold.body),
         *(gated(r.title, r.body) for r in ([fusion_region(fusion, model_names[fusion.target])] if fusion else [])),
-        gated("Fault hold: while a fault bit is set, no output moves further than c_FaultMove",
-              hold_region([faults[g.name] for g in plan], [model_names[v.name] for v in limited]).body),
         Region("Output status: nothing limited yet in this call",
                (Assign(LIMITED_OUTPUT, BoolConst(False)), Assign(CLAMPED_OUTPUT, BoolConst(False)),
                 Assign(INVALID_OUTPUT, BoolConst(False)))),
@@ -136,8 +136,8 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
     if limits.fault_move is None:
         raise GenerationError("the safety limits have no fault hold (fault_move None: a block read back from before "
                               "it); give --fault-move-um")
-    hold = hold_declarations(len(limited))
-    statics = [*core.statics, *(START_STATICS if start else ()), *added.get("statics", ()), *hold.get("statics", ())]
+    added_hold = hold_declarations(len(limited))
+    statics = [*core.statics, *(START_STATICS if start else ()), *added.get("statics", ()), *added_hold["statics"]]
     for g in plan:
         if g.kind == "temperature":
             statics += [Var(f"LastIn_{g.index}", "REAL", f"{g.name}: last reading in range"),
@@ -146,7 +146,7 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
             statics.append(Var(f"Good_{g.index}", "REAL", f"{g.name}: last good value"))
     temps = (*core.temps, *(Var(f"InOk_{g.index}", "BOOL", f"{g.name} reads in range") for g in plan),
              *(Var(model_names[v.name], "REAL", f"{_MODEL_VALUE}{v.name}") for v in limited),
-             Var("Delta", "REAL", "wanted output change"), *added.get("temps", ()), *hold.get("temps", ()))
+             Var("Delta", "REAL", "wanted output change"), *added.get("temps", ()), *added_hold["temps"])
     referenced = {e.name for e in walk_exprs(tuple(regions)) if isinstance(e, Ref)}
     comments = {**_CONSTANT_COMMENTS, **PROBE_COMMENTS, **START_COMMENTS}
     constants = (*core.constants, *(Const(name, value, comments[name], "INT" if isinstance(value, int) else "REAL")

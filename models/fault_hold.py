@@ -2,11 +2,14 @@
 
 A faulty sensor is held at its last good value (models/safety.py), but the model goes on computing from that
 value while the machine moves: a Kalman block's open-loop bearing temperature drifted 35 um in 30 calls. So while
-any input's fault bit is set, each limited output's model value is kept within `bound` of the value it had the
-call before the fault began; the rate limiter then moves the output as usual. Per call and output, after the
-model, the known start and the probe fusion, before the limiter (generator/fault_hold.py emits the same):
+any input's fault bit is set, each limited output's model value is kept within `bound` of an anchor: the value
+it had the call before the fault began, fading towards 0 (no compensation) by `fade` per call. A short fault
+moves the axis little; a sensor that died leaves the block at no compensation, never held at a value the
+machine has long left (FL_THERMAL: a frozen hold ended 91 um from the drift where no compensation is 71 um).
+Per call and output, after the model and the known start, before the probe fusion (so probings still correct
+a held model) and the limiter (generator/fault_hold.py emits the same):
 
-    if AnyFault:  if not Holding: Anchor := Last; Holding := TRUE
+    if AnyFault:  if not Holding: Anchor := Last; Holding := TRUE  else: Anchor := Anchor * Fade
                   model := min(max(model, Anchor - Bound), Anchor + Bound)
     else:         Holding := FALSE
     if |model| <= REAL_MAX: Last := model
@@ -20,9 +23,10 @@ import numpy as np
 from thermoplc.base import compiled
 
 REAL_MAX = 3.402823e38
+FLOOR = 1e-6  # um: a faded anchor below this is 0, before it becomes subnormal
 
 
-def apply(values: np.ndarray, any_fault: np.ndarray, bound: float, precision: str,
+def apply(values: np.ndarray, any_fault: np.ndarray, bound: float, fade: float, precision: str,
           state: np.ndarray | None = None) -> np.ndarray:
     """The model values held near their value before each fault; `state` (anchor, last, holding as 0/1) carries
     the block's memory from one chunk of calls to the next (models/streaming.py)."""
@@ -31,12 +35,13 @@ def apply(values: np.ndarray, any_fault: np.ndarray, bound: float, precision: st
     state = np.zeros(3, f) if state is None else state
     out = np.empty(len(values), f)
     loop = _apply if compiled.enabled(len(values)) else getattr(_apply, "py_func", _apply)
-    loop(values, np.ascontiguousarray(any_fault, np.bool_), f(bound), f(REAL_MAX), state, out)
+    loop(values, np.ascontiguousarray(any_fault, np.bool_), f(bound), f(fade), f(REAL_MAX), f(FLOOR), f(0), state,
+         out)
     return out
 
 
 @compiled.jit
-def _apply(values, any_fault, bound, real_max, state, out):
+def _apply(values, any_fault, bound, fade, real_max, floor, zero, state, out):
     anchor, last = state[0], state[1]
     holding = state[2] != 0
     for j in range(values.shape[0]):
@@ -45,6 +50,10 @@ def _apply(values, any_fault, bound, real_max, state, out):
             if not holding:
                 anchor = last
                 holding = True
+            else:
+                anchor = anchor * fade
+                if abs(anchor) < floor:
+                    anchor = zero
             high = anchor + bound
             low = anchor - bound
             if m > high:

@@ -56,11 +56,17 @@ class Limits:
     settle_calls: int = 30  # steady calls after which a held sensor is trusted again
     fault_move: float | None = 2.0  # um: while a fault bit is set each output stays this near (models/fault_hold.py);
     # None: a block generated before the hold
+    fault_fade: float = 0.995  # per call, the held value's factor towards no compensation (generate --fault-fade-s)
 
     def __post_init__(self):
         for f in fields(self):
             value = getattr(self, f.name)
             if value is None and f.name == "fault_move":
+                continue
+            if f.name == "fault_fade":
+                if not (np.isfinite(value) and 0 < value <= 1 and float(np.float32(value)) >= 1e-6):
+                    raise UserError(f"safety limit fault_fade must be a factor per call above 0 and at most 1, got "
+                                    f"{value}")
                 continue
             if not np.isfinite(value) or value <= 0 and f.name not in ("temp_min_C",):
                 raise UserError(f"safety limit {f.name} must be a positive finite number, got {value}")
@@ -81,14 +87,16 @@ class Limits:
                 "jump_max": f(self.max_jump_K), "settle_calls": int(self.settle_calls), "one_call": 1,
                 "step_max": f(self.max_step), "step_min": f(-self.max_step),
                 "out_max": f(self.max_output), "out_min": f(-self.max_output), "k0_mm": f(K0_MM_PER_UM),
-                "real_max": f(REAL_TEXT_MAX), **({"fault_move": f(self.fault_move)} if self.fault_move else {})}
+                "real_max": f(REAL_TEXT_MAX), **({"fault_move": f(self.fault_move), "fault_fade": f(self.fault_fade), "fault_floor": f(fault_hold.FLOOR)}
+                   if self.fault_move else {})}
 
     @classmethod
     def from_values(cls, given: dict) -> "Limits":
         """The limits whose `values()` these are (a key not given keeps its default)."""
         fields_of = {"temp_min": "temp_min_C", "temp_max": "temp_max_C", "speed_max": "max_speed_rpm",
                      "other_max": "max_other", "jump_max": "max_jump_K", "settle_calls": "settle_calls",
-                     "step_max": "max_step", "out_max": "max_output", "fault_move": "fault_move"}
+                     "step_max": "max_step", "out_max": "max_output", "fault_move": "fault_move",
+                     "fault_fade": "fault_fade"}
         return cls(**{"fault_move": None, **{field: given[key] for key, field in fields_of.items() if key in given}})
 
 
@@ -199,15 +207,15 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     running = {name: values[ready_row:] for name, values in core_inputs.items()}
     fused_valid = {g.name: valid[g.name][ready_row:] for g in plan if g.kind == "fused"}
     core = core_predict(model, running, precision, fused_valid) if ready_row < rows else None
+    names = limited_outputs(core) if core is not None else real_outputs_of(model, core_predict, precision)
+    flags = fault_flags(plan, valid, faults, core, ready_row)
+    if core is not None and limits.fault_move is not None:  # before the fusion: probings still correct a held model
+        any_fault = np.logical_or.reduce([np.asarray(v, bool) for v in flags.values()])[ready_row:]
+        core = {**core, **{name: fault_hold.apply(core[name], any_fault, limits.fault_move, limits.fault_fade,
+                                                  precision) for name in names}}
     probing = {}
     if model.probe is not None:
         core, probing = fused_core(model, core, inputs, ready_row, precision)
-    names = limited_outputs(core) if core is not None else real_outputs_of(model, core_predict, precision)
-    flags = fault_flags(plan, valid, faults, core, ready_row)
-    if core is not None and limits.fault_move is not None:
-        any_fault = np.logical_or.reduce([np.asarray(v, bool) for v in flags.values()])[ready_row:]
-        core = {**core, **{name: fault_hold.apply(core[name], any_fault, limits.fault_move, precision)
-                           for name in names}}
     out = {}
     limited = np.zeros(rows, bool)
     clamped = np.zeros(rows, bool)

@@ -101,7 +101,8 @@ class StreamingReference:
         flags = fault_flags(self.plan, valid, faults, core, local)
         if core is not None and self.limits.fault_move is not None:
             any_fault = np.logical_or.reduce([np.asarray(v, bool) for v in flags.values()])[local:]
-            core = {**core, **{name: fault_hold.apply(core[name], any_fault, self.limits.fault_move, self.precision,
+            core = {**core, **{name: fault_hold.apply(core[name], any_fault, self.limits.fault_move, self.limits.fault_fade,
+                                                      self.precision,
                                                       self.hold_states[name]) for name in self.names}}
         out = {}
         limited, clamped, invalid = (np.zeros(rows, bool) for _ in range(3))

@@ -111,5 +111,26 @@ def test_verify_faults_checks_the_declared_constants_as_plain_verify_does(tmp_pa
                     check=1).stdout
     assert out.startswith("NOT bit-exact: b.scl holds constants that differ from the model")
     assert "all cases bit-exact, finite, inside the clamp and the rate limit" in out  # the replay alone passes
-    assert "constants and tables: 95 values checked against the model, 1 differs" in out
+    assert "constants and tables: 97 values checked against the model, 1 differs" in out
     assert "tab_Pred[5]: block 99.5 (0x42C70000), model 15.5 (0x41780000)" in out
+
+
+def test_the_fault_hold_keeps_a_short_fault_near_and_fades_a_dead_sensor_to_no_compensation():
+    """Issue 61 item 4: while any fault bit is set each output stays within the bound of its value before the
+    fault, and that value fades to 0, so a sensor that died leaves the block at no compensation, not frozen."""
+    from thermoplc.models import fault_hold
+    rows = 5000
+    model = np.linspace(30.0, -60.0, rows).astype(np.float32)  # the machine cools while the sensor is dead
+    faulty = np.zeros(rows, bool)
+    faulty[1000:1030] = True  # a 30-call NaN
+    faulty[2000:] = True  # then the sensor dies
+    held = fault_hold.apply(model, faulty, 2.0, 0.995, "f32").astype(np.float64)
+    before = float(model[999])
+    assert np.all(np.abs(held[1000:1030] - before) <= 2.0 + 1e-5)
+    assert held.view(np.uint64)[:1000].tolist() == model.astype(np.float64).view(np.uint64)[:1000].tolist()
+    assert np.all(held[1030:2000] == model[1030:2000].astype(np.float64))  # released: the model again
+    assert abs(held[-1]) <= 2.0 + 1e-5 and abs(held[2000] - model[1999]) <= 2.0 + 1e-5
+    state = np.zeros(3, np.float32)
+    chunked = np.concatenate([fault_hold.apply(model[:2500], faulty[:2500], 2.0, 0.995, "f32", state),
+                              fault_hold.apply(model[2500:], faulty[2500:], 2.0, 0.995, "f32", state)])
+    assert chunked.view(np.uint32).tolist() == fault_hold.apply(model, faulty, 2.0, 0.995, "f32").view(np.uint32).tolist()

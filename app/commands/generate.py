@@ -1,6 +1,8 @@
 """`thermoplc generate`: a model file compiled into a checked Structured Text block (thermoplc.pipeline)."""
 from __future__ import annotations
 
+import math
+
 import argparse
 import datetime
 import functools
@@ -41,6 +43,9 @@ def add_parser(sub) -> None:
     p.add_argument("--fault-move-um", type=number(float, 1e-6, 1e12, "micrometres"), default=2.0,
                    help="while an input's fault bit is set, each output stays within this of its value before the "
                         "fault (default: %(default)s)")
+    p.add_argument("--fault-fade-s", type=number(float, 1.0, 1e9, "seconds"), default=1800.0,
+                   help="while the fault lasts, that value fades to no compensation with this time constant, s "
+                        "(default: %(default)s)")
     p.add_argument("--name", help="function block name (default: the model file's, set by fit --name); one block "
                                   "per axis needs one name each")
     p.add_argument("--retain", action="store_true",
@@ -93,7 +98,8 @@ def run(args: argparse.Namespace) -> int:
         model = replace(model, block_name=args.name)
     low, high = args.temp_range
     limits = Limits(args.max_offset_um, args.max_step_um, low, high, max_jump_K=args.max_jump_k,
-                    settle_calls=args.settle_calls, fault_move=args.fault_move_um)
+                    settle_calls=args.settle_calls, fault_move=args.fault_move_um,
+                    fault_fade=math.exp(-model.sample_period_s / args.fault_fade_s))
     version, why = _version(args, model)
     identity = Identity(author=args.author, family=args.family, version=version, date=args.date or _today(),
                         name=args.header_name or "")
@@ -149,7 +155,7 @@ def _summary(say: Callable[[str], None], args: argparse.Namespace, model, limits
                                   if cut else "--header-name" if block.identity.name else "the block name"))
     say(f"  outputs within +-{limits.max_output:g}, at most {limits.max_step:g} per call; temperatures "
         f"{limits.temp_min_C:g}..{limits.temp_max_C:g} degC, jump {limits.max_jump_K:g} K per call; while a fault "
-        f"bit is set within {limits.fault_move:g} of the output before it")
+        f"bit is set within {limits.fault_move:g} of the output before it, fading to none in {args.fault_fade_s:g} s")
     say("  " + (f"NOT VALIDATED (--accept-unvalidated): {generated.unvalidated}" if generated.unvalidated
                 else f"accepted on {evidence(model).summary()}"))
     if model.probe is not None and not generated.unvalidated:
