@@ -67,7 +67,7 @@ class Start:
             if name not in doc:
                 raise UserError(f"{path}: field 'start.{name}' is missing")
         start = Start(*(constant_pair(doc[name], path, f"start.{name}") for name in FIELDS))
-        if not (start.decay[1] == 0.0 or MIN_DECAY <= start.decay[1] < 1.0):
+        if not (start.decay[1] == 0.0 or round_f32(MIN_DECAY) <= start.decay[1] < 1.0):
             raise UserError(f"{path}: field 'start.decay': {start.decay[0]!r}; expected a factor per call from "
                             f"{MIN_DECAY:g} to below 1, or 0 (the model's start error fades)")
         if not abs(start.drift_um[1]) <= 1e6:
