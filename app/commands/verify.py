@@ -59,7 +59,9 @@ def add_parser(sub) -> None:
                              "auto: fast when a C compiler is there (default: %(default)s)")
     replay.add_argument("--faults", action="store_true",
                         help="replay with injected sensor faults (NaN, open/short PT100, jumps, paper 000 sine"
-                             " and offset) and check exactness, finiteness, clamp and rate limit")
+                             " and offset), Enable/Reset actions and, fused, probing faults; check exactness, "
+                             "finiteness, clamp and rate limit, and fail a case further from the measured drift "
+                             "than no compensation that no status bit flags")
     replay.add_argument("--probe-every", type=number(int, 1, 10 ** 9, "calls"), metavar="N",
                         help="a fused block (fit --probe) on a target measured at every call: replay a probing "
                              "every N calls (a probed target's own measured rows, or columns ProbeValue and "
