@@ -655,7 +655,7 @@ def test_generate_stress_replays_the_xml_it_writes_not_the_iec_text_beside_it(mo
     rendered = pipeline.render_plcopen
     monkeypatch.setattr(pipeline, "render_plcopen", lambda block, version: rendered(block, version).replace(
         "Model_1 := c_beta0 +", "Model_1 := 1.0E38 * 1.0E38 * c_beta0 +"))
-    with pytest.raises(UserError, match=r"mlr\.json: .*\(stress replay\): ThermalComp\.xml:350:20: Inf \('\*' gives \+Inf\)"):
+    with pytest.raises(UserError, match=r"mlr\.json: .*\(stress replay\): ThermalComp\.xml:360:20: Inf \('\*' gives \+Inf\)"):
         pipeline.generate(load_model(str(GOLDEN / "mlr.json")), "mlr.json", dialect="iec", plcopen=True,
                           output="ThermalComp.xml")
 
@@ -664,7 +664,8 @@ def test_safety_limits_in_a_localvars_without_constant_are_named_as_such(tmp_pat
     """They read as state the PLC may change: verify used to say the block had no safety constants."""
     unconstant = _write(tmp_path, "block.xml", _text().replace('<localVars constant="true">', "<localVars>"))
     result = thermoplc("verify", unconstant, "--model", GOLDEN / "mlr.json", "--data", data, cwd=tmp_path, check=2)
-    assert ("c_StepMax, c_StepMin, c_OutMax, c_OutMin, c_K0_mm, c_RealMax, c_FaultMove declared outside VAR CONSTANT (in PLCopen "
+    assert ("c_StepMax, c_StepMin, c_OutMax, c_OutMin, c_K0_mm, c_RealMax, c_FaultMove, c_FaultFade, c_FaultFloor "
+            "declared outside VAR CONSTANT (in PLCopen "
             "XML: localVars without constant=\"true\"); a safety limit must be a constant") in result.stderr
 
 
