@@ -295,7 +295,7 @@ def _st_cases() -> list[Case]:
                       ("verify", "bad.scl", "--model", "mlr.json", "--data", "good.csv"),
                       _block_edit(lambda t: t.replace("VAR CONSTANT", "VAR", 1)), "error",
                       "bad.scl: c_TempMin, c_TempMax, c_JumpMax, c_SettleCalls, c_OneCall, c_StepMax, c_StepMin, c_OutMax, "
-                      "c_OutMin, c_K0_mm, c_RealMax declared outside VAR CONSTANT"))
+                      "c_OutMin, c_K0_mm, c_RealMax, c_FaultMove, c_FaultFade, c_FaultFloor declared outside VAR CONSTANT"))
     return cases
 
 
@@ -770,7 +770,7 @@ def _review_cases() -> list[Case]:
              "NOT bit-exact: bad.scl holds constants that differ from the model"),
         Case("ST file", "an index stride edited: c_K_1 sends the index outside tab_Pred", "verify", golden,
              _golden_pair("bayes", lambda t: t.replace("c_K_1 : Int := 8;", "c_K_1 : Int := 9;")), "refused",
-             "bad.scl:233:22: index 69 outside tab_Pred[0..63] at cycle 388"),
+             "bad.scl:250:22: index 69 outside tab_Pred[0..63] at cycle 388"),
         Case("ST file", "a declared INT constant replaced by a literal where it is read", "verify", golden,
              _golden_pair("bayes", lambda t: t.replace("+ #c_OneCall", "+ 2")), "refused",
              "c_OneCall: declared but never read by the statements"),
