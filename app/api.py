@@ -70,8 +70,8 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
 @functools.wraps(_generate)
 def generate(model: Model, *args, **kwargs) -> Generated:
     _expect(model, Model, "model", "a Model (thermoplc.api.fit or load_model)")
-    limits = kwargs.get("limits", args[1] if len(args) > 1 else Limits())
-    _expect(limits, Limits, "limits", "a Limits")
+    limits = kwargs.get("limits", args[1] if len(args) > 1 else None)
+    _expect(limits, (Limits, type(None)), "limits", "a Limits, or None for the model's own (Limits.for_model)")
     identity = kwargs.get("identity", args[4] if len(args) > 4 else None)
     _expect(identity, (Identity, type(None)), "identity", "a thermoplc.generator.ir.Identity or None")
     return _generate(model, *args, **kwargs)

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import json
-from dataclasses import replace
 from pathlib import Path
 from typing import Callable
 
@@ -17,8 +16,7 @@ from thermoplc.base.fileio import REPORT_MANIFEST, check_outputs, report_manifes
 from thermoplc.models import lumped_model
 from thermoplc.recordings.campaign import read_campaign, run_list, source_of
 from thermoplc.physics.effects import definition_of
-from thermoplc.fitting.fit import block_identifier, evaluate
-from thermoplc.fitting.start_fit import fit_start
+from thermoplc.fitting.fit import block_identifier, with_evidence
 from thermoplc.models.modelfile import Model, Signal, load_model
 from thermoplc.physics.fitted import Simulation
 from thermoplc.recordings.table import Table
@@ -77,8 +75,7 @@ def augmented_model(final: Simulation, added: list[dict], request: DiagnoseReque
                 else {}),
              **({"structure_lag_chosen_s": final.displacement.tau_struct_chosen_s}
                 if final.displacement.tau_struct_chosen_s is not None else {}), "effects": added})
-    model = replace(model, start=fit_start(model, tables, list(train_rows)))
-    return replace(model, metrics=evaluate(model, tables, list(train_rows)))
+    return with_evidence(model, tables, list(train_rows))
 
 
 def _training_record(tables: list[Table], train_rows: tuple[int, ...], time_column: str) -> dict:

@@ -16,6 +16,7 @@ from thermoplc.models.kind import Part
 from thermoplc.models.kinds import kind_of, options, registry
 from thermoplc.models.modelfile import Model, Signal
 from thermoplc.models.reference import model_inputs, predict
+from thermoplc.fitting.envelope_fit import measure_envelope
 from thermoplc.fitting.start_fit import fit_start
 from thermoplc.fitting.leaks import refuse_leaks, refuse_non_temperatures
 from thermoplc.recordings.table import Table
@@ -315,8 +316,14 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
         time_column=time_column, sample_period_s=dt, coefficients=coefficients, settings=settings,
         training=training[0] if len(training) == 1 else {"batches": training}, fit=log,
     )
+    return with_evidence(model, tables, n_train)
+
+
+def with_evidence(model: Model, tables: list[Table], n_train: list[int]) -> Model:
+    """`model` (just fitted) with what its runs give besides the coefficients: the known start (training rows),
+    the envelope the default limits come from (every row) and the errors on the training and held-out rows."""
     model = replace(model, start=fit_start(model, tables, n_train))
-    return replace(model, metrics=evaluate(model, tables, n_train))
+    return replace(model, envelope=measure_envelope(model, tables), metrics=evaluate(model, tables, n_train))
 
 
 def choose_sensors(tables: list[Table], request: FitRequest, n_train: list[int]) -> sensor_choice.Choice:

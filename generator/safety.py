@@ -21,7 +21,7 @@ from thermoplc.models.safety import Guard, Limits
 _CONSTANT_COMMENTS = {
     "c_TempMin": "lowest plausible temperature, degC (a broken PT100 reads -3276.8)",
     "c_TempMax": "highest plausible temperature, degC (an open PT100 reads 3276.7)",
-    "c_SpeedMin": "lowest plausible speed, rpm", "c_SpeedMax": "highest plausible speed, rpm",
+    "c_SpeedMin": "lowest plausible speed, rpm", "c_SpeedMax": "highest plausible speed, rpm (--max-speed-rpm)",
     "c_OtherMin": "lowest plausible value of other inputs", "c_OtherMax": "highest plausible value of other inputs",
     "c_JumpMax": "temperature change per call that marks a sensor faulty, K",
     "c_SettleCalls": "steady calls before a faulty sensor is trusted again", "c_OneCall": "one call",
@@ -31,6 +31,17 @@ _CONSTANT_COMMENTS = {
     "c_RealMax": "largest REAL as S7 documents it: a model value beyond it (Inf) or unordered (NaN) is not passed on",
     **HOLD_COMMENTS,
 }
+# the limits generate may take from the training data: constant, what it is, the option that sets it instead
+_FROM_DATA = {"max_output": ("c_OutMax", "output clamp", "--max-offset-um"),
+              "max_step": ("c_StepMax", "largest output change per call", "--max-step-um"),
+              "max_speed_rpm": ("c_SpeedMax", "highest plausible speed, rpm", "--max-speed-rpm")}
+
+
+def _limit_comments(limits: Limits) -> dict[str, str]:
+    """Each constant's comment; a limit taken from the training data says how."""
+    said = {name: f"{what}: {limits.origin(field)} ({option})" for field, (name, what, option) in _FROM_DATA.items()
+            if limits.origin(field)}
+    return {**_CONSTANT_COMMENTS, **said}
 
 
 def _guard_region(g: Guard, fault: str) -> Region:
@@ -148,7 +159,7 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
              *(Var(model_names[v.name], "REAL", f"{_MODEL_VALUE}{v.name}") for v in limited),
              Var("Delta", "REAL", "wanted output change"), *added.get("temps", ()), *added_hold["temps"])
     referenced = {e.name for e in walk_exprs(tuple(regions)) if isinstance(e, Ref)}
-    comments = {**_CONSTANT_COMMENTS, **PROBE_COMMENTS, **START_COMMENTS}
+    comments = {**_limit_comments(limits), **PROBE_COMMENTS, **START_COMMENTS}
     constants = (*core.constants, *(Const(name, value, comments[name], "INT" if isinstance(value, int) else "REAL")
                                     for name, value in {**limit_constants(limits), **(fusion.constants if fusion else {}),
                                                                  **(start.constants if start else {})}

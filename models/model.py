@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from thermoplc.base.binary32 import f32_hex, round_f32
 from thermoplc.base.errors import UserError
 from thermoplc.base.version import __version__
+from thermoplc.models.envelope import Envelope
 from thermoplc.models.probing import Fusion
 from thermoplc.models.start import Start
 from thermoplc.recordings.resample import Resampling
@@ -54,6 +55,7 @@ class Model:
     fit: dict = field(default_factory=dict)
     probe: Fusion | None = None  # the probe fusion's constants (models/probing.py); None: a static block
     start: Start | None = None  # the known start (models/start.py); None: the model's own first value
+    envelope: Envelope | None = None  # what the training rows spanned (models/envelope.py): the default limits
     resample: Resampling | None = None  # the rule that took raw logger data onto the cycle (recordings/resample.py)
 
     def signals(self, role: str) -> tuple[Signal, ...]:
@@ -73,7 +75,7 @@ class Model:
         """Hash of everything that decides the block's behaviour (not the metrics or fit log)."""
         doc = _document(self)
         essential = {k: doc[k] for k in ("kind", "inputs", "target", "sample_period_s", "coefficients", "settings",
-                                         "probe", "start") if k in doc}
+                                         "probe", "start", "envelope") if k in doc}
         return hashlib.sha256(json.dumps(essential, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -92,6 +94,7 @@ def _document(m: Model) -> dict:
         "settings": m.settings,
         **({"probe": m.probe.to_doc()} if m.probe is not None else {}),
         **({"start": m.start.to_doc()} if m.start is not None else {}),
+        **({"envelope": m.envelope.to_doc()} if m.envelope is not None else {}),
         **({"resample": m.resample.to_doc()} if m.resample is not None else {}),
         "training": m.training,
         "metrics": m.metrics,

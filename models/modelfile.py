@@ -13,6 +13,7 @@ from thermoplc.physics.effects import NAMES as EFFECT_NAMES
 from thermoplc.models.kinds import kind_of, registry
 from thermoplc.models.model import COMBINED_ROLE, FORMAT, ROLES, SCHEMA_VERSION, Coefficient, Model, Signal
 from thermoplc.models.probing import Fusion
+from thermoplc.models.envelope import Envelope
 from thermoplc.models.start import Start
 from thermoplc.recordings.resample import Resampling
 from thermoplc.base.binary32 import FLT_MAX, f32_hex, parse_f32_hex, ulp_distance
@@ -238,6 +239,7 @@ def _parse(doc, path: str) -> Model:
         fit=_field(doc, "fit", dict, path),
         probe=Fusion.from_doc(doc["probe"], path) if "probe" in doc else None,
         start=Start.from_doc(doc["start"], path) if "start" in doc else None,
+        envelope=Envelope.from_doc(doc["envelope"], path) if "envelope" in doc else None,
         resample=_resampling(doc, path, sample_period),
     )
 

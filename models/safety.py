@@ -18,6 +18,7 @@ import numpy as np
 from thermoplc.base.errors import UserError
 from thermoplc.base import compiled
 from thermoplc.models import fault_hold, kernels
+from thermoplc.models.envelope import data_limits
 from thermoplc.models.kind import fault_key
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
@@ -57,10 +58,13 @@ class Limits:
     fault_move: float | None = 2.0  # um: while a fault bit is set each output stays this near (models/fault_hold.py);
     # None: a block generated before the hold
     fault_fade: float = 0.995  # per call, the held value's factor towards no compensation (generate --fault-fade-s)
+    origins: tuple[tuple[str, str], ...] = ()  # (field, how it was chosen) for limits taken from the training data
 
     def __post_init__(self):
         for f in fields(self):
             value = getattr(self, f.name)
+            if f.name == "origins":
+                continue
             if value is None and f.name == "fault_move":
                 continue
             if f.name == "fault_fade":
@@ -89,6 +93,20 @@ class Limits:
                 "out_max": f(self.max_output), "out_min": f(-self.max_output), "k0_mm": f(K0_MM_PER_UM),
                 "real_max": f(REAL_TEXT_MAX), **({"fault_move": f(self.fault_move), "fault_fade": f(self.fault_fade), "fault_floor": f(fault_hold.FLOOR)}
                    if self.fault_move else {})}
+
+    @classmethod
+    def for_model(cls, model: Model, **given) -> "Limits":
+        """The limits `generate` uses for `model`: each one given (not None), else the clamp, rate limit and
+        speed guard from the model's training envelope (models/envelope.py), else the defaults above."""
+        chosen = data_limits(model.envelope) if model.envelope is not None else {}
+        taken = {name: chosen[name] for name in chosen if given.get(name) is None}
+        return cls(**{name: value for name, value in given.items() if value is not None},
+                   **{name: limit.value for name, limit in taken.items()},
+                   origins=tuple((name, limit.why) for name, limit in taken.items()))
+
+    def origin(self, name: str) -> str:
+        """How the limit `name` (a field) was chosen, '' when given or the default."""
+        return dict(self.origins).get(name, "")
 
     @classmethod
     def from_values(cls, given: dict) -> "Limits":

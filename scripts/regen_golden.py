@@ -3,6 +3,7 @@
     python scripts/regen_golden.py          # re-render every <model>.scl from the committed <model>.json
     python scripts/regen_golden.py --refit  # also refit the model files on the golden twin data first
     python scripts/regen_golden.py --refit lumped  # ... only these kinds
+    python scripts/regen_golden.py --envelope  # measure each committed model's training envelope anew
 """
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ from tests.golden_models import (  # noqa: E402
 from thermoplc.diagnosis.command import augmented_model  # noqa: E402
 from thermoplc.diagnosis.runs import DiagnoseRequest, series_of  # noqa: E402
 from thermoplc.physics import simulation  # noqa: E402
+from thermoplc.fitting.envelope_fit import measure_envelope  # noqa: E402
 from thermoplc.fitting.fit import FitRequest, fit, sample_period  # noqa: E402
 from thermoplc.models.modelfile import Model, load_model  # noqa: E402
 from thermoplc.models.probing import Fusion  # noqa: E402
@@ -66,6 +68,18 @@ def refit(folder: Path, kinds: tuple[str, ...]) -> None:
         (GOLDEN / f"{fused}.json").write_text(replace(model, probe=probe).to_json())
 
 
+def add_envelopes(folder: Path) -> None:
+    """Each committed model file with the envelope of the runs it was fitted with (models/envelope.py), its
+    coefficients untouched: a golden whose numbers were fitted by an older fit keeps them."""
+    tables = {Path(p).name: read_table(p) for p in (golden_twin_csv(folder), *batch_csvs(folder))}
+    for kind in (*KINDS, *FUSED):
+        path = GOLDEN / f"{kind}.json"
+        model = load_model(path)
+        record = model.training.get("batches", [model.training])
+        runs = [tables[run["file"]] for run in record]
+        path.write_text(replace(model, envelope=measure_envelope(model, runs)).to_json())
+
+
 def render_all() -> list[Path]:
     written = []
     for kind in (*KINDS, *FUSED):
@@ -80,11 +94,16 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--refit", nargs="*", metavar="KIND", choices=KINDS,
                         help="refit the golden model files first (all, or these kinds)")
+    parser.add_argument("--envelope", action="store_true",
+                        help="measure each model file's training envelope anew (the default limits)")
     args = parser.parse_args()
     GOLDEN.mkdir(parents=True, exist_ok=True)
     if args.refit is not None:
         with tempfile.TemporaryDirectory() as tmp:
             refit(Path(tmp), tuple(args.refit) or KINDS)
+    if args.envelope:
+        with tempfile.TemporaryDirectory() as tmp:
+            add_envelopes(Path(tmp))
     for path in render_all():
         print(f"wrote {path.relative_to(GOLDEN.parent.parent)}")
 

@@ -10,6 +10,7 @@ from tests.cli_runner import thermoplc
 from thermoplc.machines.campaign import plan, simulate_run
 from thermoplc.fitting.fit import FitRequest, fit
 from thermoplc.models.modelfile import load_model
+from thermoplc.models.safety import Limits
 from thermoplc.recordings.table import Table, read_table, write_table
 from thermoplc.verifier.replay import block_columns, load_block
 
@@ -61,9 +62,10 @@ def test_a_reset_replay_equals_a_fresh_block_per_run(tmp_path, kind):
     assert len(same), "the output never meets the fresh block's"
     meets = int(same[0])
     assert np.array_equal(after[meets:].view(np.uint32), fresh[meets:].view(np.uint32))
+    step = Limits.for_model(model).max_step  # the rate limit, from the recording (models/envelope.py)
     rate = float(np.max(np.abs(np.diff(fresh)))) or 1.0
-    assert meets <= math.ceil(abs(float(after[0]) - float(fresh[0])) / 2.0) + 2  # 2 um per call: the rate limit
-    assert rate < 2.0 + 1e-3
+    assert meets <= math.ceil(abs(float(after[0]) - float(fresh[0])) / step) + 2
+    assert rate < step + 1e-3
 
 
 def test_every_kind_fits_a_campaign_each_run_from_its_own_start():
@@ -144,7 +146,8 @@ def test_verify_replays_each_run_from_a_fresh_block_and_gives_one_verdict(campai
     thermoplc("generate", "d.json", "-o", "d.scl", "--accept-unvalidated", cwd=tmp_path)
     ok = thermoplc("verify", "d.scl", "--model", "d.json", "--runs", campaign / "runs.csv", cwd=tmp_path).stdout
     assert ok.count(" bit-exact ") == 6 and "bit-exact: every run reproduces the reference (6 runs" in ok
-    assert "safety limits read from the block: outputs within +-300" in ok  # what the reference was judged in
+    clamp = Limits.for_model(load_model(tmp_path / "d.json")).max_output  # from the campaign (models/envelope.py)
+    assert f"safety limits read from the block: outputs within +-{clamp:g}" in ok  # what the reference was judged in
     text = (tmp_path / "d.scl").read_text()
     edited = text.replace("c_beta0 : Real := ", "c_beta0 : Real := 1", 1)
     assert edited != text

@@ -110,12 +110,12 @@ def test_a_real_literal_that_rounds_two_ways_and_misplaced_underscores_are_refus
     st = (GOLDEN / "mlr.iec.st").read_text()
     (tmp_path / "long.st").write_text(st.replace("c_beta_1 : REAL := 10.538228;",
                                                  "c_beta_1 : REAL := 9.608996868133544921874999999999;", 1))
-    (tmp_path / "under.st").write_text(st.replace("c_OutMax : REAL := 300.0;", "c_OutMax : REAL := 300_.0_;", 1))
-    (tmp_path / "fine.st").write_text(st.replace("c_OutMax : REAL := 300.0;", "c_OutMax : REAL := 3_00.0;", 1))
+    (tmp_path / "under.st").write_text(st.replace("c_OutMax : REAL := 78.0;", "c_OutMax : REAL := 78_.0_;", 1))
+    (tmp_path / "fine.st").write_text(st.replace("c_OutMax : REAL := 78.0;", "c_OutMax : REAL := 7_8.0;", 1))
     long = thermoplc("diff", GOLDEN / "mlr.iec.st", "long.st", cwd=tmp_path, check=2)
     assert "long.st:55:24: REAL 9.608996868133544921874999999999 rounds to 9.608996391296387 straight to binary32 " \
            "but to 9.608997344970703 through a double" in long.stderr
-    assert "under.st:64:27: syntax error" in thermoplc("diff", GOLDEN / "mlr.iec.st", "under.st", cwd=tmp_path,
+    assert "under.st:64:26: syntax error" in thermoplc("diff", GOLDEN / "mlr.iec.st", "under.st", cwd=tmp_path,
                                                        check=2).stderr
     thermoplc("diff", GOLDEN / "mlr.iec.st", "fine.st", cwd=tmp_path, check=0)
 

@@ -64,7 +64,7 @@ def test_model_starts_only_when_every_input_is_in_range(golden_table):
     inputs = model_inputs(model, golden_table)
     inputs["T_motor"] = inputs["T_motor"].copy()
     inputs["T_motor"][:5] = [np.nan, 3276.7, -3276.8, np.nan, 200.0]
-    expected = named(block_outputs(model, inputs, "f32", Limits()), block_names(model))
+    expected = named(block_outputs(model, inputs, "f32", Limits.for_model(model)), block_names(model))
     produced = _run(render(lower(model)), inputs)
     _same_bits(produced, expected)
     assert not produced["Ready"][:5].any() and produced["Ready"][5:].all()

@@ -97,13 +97,17 @@ def _probe_fault(kind: FaultKind, value: np.ndarray, new: np.ndarray, first: int
 def _probe_clamp(model: Model, static: np.ndarray, value: np.ndarray, new: np.ndarray, sign: float
                  ) -> tuple[dict, int, int, np.ndarray]:
     """The probing inputs with a run of probings at `sign` times the limit, an edge every second call (or, with a
-    fitted schedule, as often as it lets a probing through: every `min_calls`), until the offset the reference learns from them has stood at that side's clamp for CLAMP_HOLD_CALLS calls (or the data
-    end), no probing after. The run starts where the static prediction leaves the offset the most room to that
-    side (in the first three quarters of the data: a clamp wider than the limit minus the prediction can never
-    be reached). Returns the inputs, the run's first and last rows, and per call whether the offset is there."""
+    fitted schedule, as often as it lets a probing through: every `min_calls`), until the offset the reference learns
+    from them has stood at that side's clamp for CLAMP_HOLD_CALLS calls (or the data end), then the schedule's own
+    probings again: an offset that went past its clamp comes back on other calls than one held there, even where
+    the output clamp hides the offset itself (an offset limit wider than the output clamp). The run starts where
+    the static prediction leaves the offset the most room to that side (in the first three quarters of the data:
+    a clamp wider than the limit minus the prediction can never be reached). Returns the inputs, the run's first
+    and last rows, and per call whether the offset is there."""
     from thermoplc.models.probing import fuse
     fusion = model.probe
     limit, clamp = np.float32(fusion.value("limit_um")), np.float32(fusion.value("offset_max_um"))
+    scheduled_value, scheduled_new = value, new
     value, new = np.array(value, np.float32), np.array(new, bool)
     rows = len(new)
     first = int(np.argmin(sign * static[:max(1, rows - rows // 4)].astype(np.float64)))
@@ -114,7 +118,8 @@ def _probe_clamp(model: Model, static: np.ndarray, value: np.ndarray, new: np.nd
     at_clamp = sign * offset >= np.float64(clamp) * (1 - 1e-6)
     reached = np.flatnonzero(at_clamp[first:])
     last = min(rows - 1, first + int(reached[0]) + CLAMP_HOLD_CALLS) if len(reached) else rows - 1
-    new[last + 1:] = False
+    value[last + 1:], new[last + 1:] = scheduled_value[last + 1:], scheduled_new[last + 1:]
+    new[last + 1:last + 2] = False  # the schedule's next probing is a rising edge of its own
     return {PROBE_VALUE_INPUT: value, PROBE_NEW_INPUT: new}, first, last, at_clamp
 
 

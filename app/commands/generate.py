@@ -30,10 +30,15 @@ def add_parser(sub) -> None:
                         "iec: IEC 61131-3 for CODESYS/TwinCAT/OpenPLC (default: %(default)s)")
     p.add_argument("--format", choices=("st", "plcopen"), default="st",
                    help="st: source text; plcopen: PLCopen TC6 XML of the iec block (default: %(default)s)")
-    p.add_argument("--max-offset-um", type=number(float, 1e-6, 1e12, "micrometres"), default=300.0,
-                   help="clamp every output to +-this (um; urad for angles) (default: %(default)s)")
-    p.add_argument("--max-step-um", type=number(float, 1e-6, 1e12, "micrometres"), default=2.0,
-                   help="largest change of an output per call (default: %(default)s)")
+    p.add_argument("--max-offset-um", type=number(float, 1e-6, 1e12, "micrometres"),
+                   help="clamp every output to +-this (um; urad for angles) (default: 1.5 x the largest drift of the "
+                        "training rows, measured or modelled, rounded up; 300 for a model file without them)")
+    p.add_argument("--max-step-um", type=number(float, 1e-6, 1e12, "micrometres"),
+                   help="largest change of an output per call (default: 1.5 x the training rows' fastest change per "
+                        "call, rounded up; 2 for a model file without them)")
+    p.add_argument("--max-speed-rpm", type=number(float, 1e-6, 1e12, "rpm"),
+                   help="a speed input beyond +-this is a sensor fault (default: 1.5 x the largest speed of the "
+                        "training rows, rounded up; 100000 for a model file without them)")
     p.add_argument("--temp-range", type=value_range, default=(-40.0, 150.0), metavar="LOW,HIGH",
                    help="plausible temperatures, degC; outside = sensor fault (default: -40,150)")
     p.add_argument("--max-jump-k", type=number(float, 1e-6, 1e6, "kelvin"), default=1.0,
@@ -97,9 +102,10 @@ def run(args: argparse.Namespace) -> int:
             raise UserError(f"--name {args.name!r} {problem}")
         model = replace(model, block_name=args.name)
     low, high = args.temp_range
-    limits = Limits(args.max_offset_um, args.max_step_um, low, high, max_jump_K=args.max_jump_k,
-                    settle_calls=args.settle_calls, fault_move=args.fault_move_um,
-                    fault_fade=math.exp(-model.sample_period_s / args.fault_fade_s))
+    limits = Limits.for_model(model, max_output=args.max_offset_um, max_step=args.max_step_um,
+                              max_speed_rpm=args.max_speed_rpm, temp_min_C=low, temp_max_C=high,
+                              max_jump_K=args.max_jump_k, settle_calls=args.settle_calls, fault_move=args.fault_move_um,
+                              fault_fade=math.exp(-model.sample_period_s / args.fault_fade_s))
     version, why = _version(args, model)
     identity = Identity(author=args.author, family=args.family, version=version, date=args.date or _today(),
                         name=args.header_name or "")
@@ -153,6 +159,10 @@ def _summary(say: Callable[[str], None], args: argparse.Namespace, model, limits
         name, cut = header_name(block.name, block.identity.name)
         say(f"  NAME {name}: " + (f"the block name cut to the {NAME_MAX} characters STEP 7 allows; --header-name sets it"
                                   if cut else "--header-name" if block.identity.name else "the block name"))
+    for field, option in (("max_output", "--max-offset-um"), ("max_step", "--max-step-um"),
+                          ("max_speed_rpm", "--max-speed-rpm")):
+        if limits.origin(field):
+            say(f"  {option} {getattr(limits, field):g}: {limits.origin(field)}")
     say(f"  outputs within +-{limits.max_output:g}, at most {limits.max_step:g} per call; temperatures "
         f"{limits.temp_min_C:g}..{limits.temp_max_C:g} degC, jump {limits.max_jump_K:g} K per call; while a fault "
         f"bit is set within {limits.fault_move:g} of the output before it, fading to none in {args.fault_fade_s:g} s")
