@@ -48,7 +48,7 @@ def main() -> None:
     kinds = QUICK if parser.parse_args().quick else KINDS
     print("um, um per call, rpm; envelope: measured/model; RMSE: fixed limits -> the recording's (change)")
     print(f"{'data':<12}{'kind':<11}{'drift':>13}{'step':>12}{'speed':>7}{'clamp':>7}{'rate':>6}{'guard':>8}"
-          f"{'held-out RMSE':>25}{'limited':>9}")
+          f"{'held-out RMSE':>26}{'limited':>9}")
     worst = 0.0
     for label, kind, table, model in fitted_kinds(Path(tempfile.mkdtemp(prefix="thermoplc-limits-")), kinds):
         if isinstance(model, str):
@@ -61,7 +61,7 @@ def main() -> None:
         speed = f"{e.speed_rpm:>7.0f}" if e.speed_rpm is not None else f"{'-':>7}"
         print(f"{label:<12}{kind:<11}{e.drift_um[0]:>6.1f}/{e.drift_um[1]:<6.1f}{e.step_um[0]:>5.2f}/{e.step_um[1]:<6.2f}"
               f"{speed}{limits.max_output:>7g}{limits.max_step:>6g}{limits.max_speed_rpm:>8g}"
-              f"{before:>9.3f} -> {after:<6.3f}({100 * (after / before - 1):+5.1f}%){100 * limited:>8.1f}%", flush=True)
+              f"{before:>9.3f} -> {after:<7.3f}({100 * (after / before - 1):+5.1f}%){100 * limited:>8.1f}%", flush=True)
     print(f"largest change of a held-out RMSE: {100 * worst:+.1f}%")
 
 
