@@ -14,6 +14,10 @@ from fractions import Fraction
 FLT_MAX = 3.4028234663852886e38
 INT_RANGES = {"INT": (-32768, 32767), "DINT": (-(2 ** 31), 2 ** 31 - 1)}  # the integer types blocks use
 FLT_MIN_NORMAL = 1.1754943508222875e-38
+# the largest REAL as the S7 manuals write it (+-3.402823E+38): FLT_MAX's own shortest text, 3.4028235E38, lies
+# beyond that, and a compiler that range-checks the literal text may refuse it
+REAL_TEXT_MAX = 3.402823e38
+FADE_FLOOR = 1e-6  # a state fading by a factor per call is set to 0 below this, before it becomes subnormal
 
 _cell = array.array("f", [0.0])
 _bits = struct.Struct("<f")

@@ -59,7 +59,8 @@ def main() -> None:
         after, limited = held_out(model, table, limits)
         worst = max(worst, after / before - 1)
         speed = f"{e.speed_rpm:>7.0f}" if e.speed_rpm is not None else f"{'-':>7}"
-        print(f"{label:<12}{kind:<11}{e.drift_um[0]:>6.1f}/{e.drift_um[1]:<6.1f}{e.step_um[0]:>5.2f}/{e.step_um[1]:<6.2f}"
+        print(f"{label:<12}{kind:<11}{e.drift_um[0]:>6.1f}/{e.drift_um[1]:<6.1f}"
+              f"{e.step_um[0]:>5.2f}/{e.step_um[1]:<6.2f}"
               f"{speed}{limits.max_output:>7g}{limits.max_step:>6g}{limits.max_speed_rpm:>8g}"
               f"{before:>9.3f} -> {after:<7.3f}({100 * (after / before - 1):+5.1f}%){100 * limited:>8.1f}%", flush=True)
     print(f"largest change of a held-out RMSE: {100 * worst:+.1f}%")

@@ -15,9 +15,8 @@ import numpy as np
 from thermoplc.base.errors import UserError
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
-from thermoplc.base.binary32 import round_f32
+from thermoplc.base.binary32 import FADE_FLOOR, round_f32
 from thermoplc.models.probing import COUNT_MAX, HELD_MAX, REJOIN, STUCK_COUNT, STUCK_SHARE
-from thermoplc.models.start import FLOOR_UM
 from thermoplc.models.safety import Limits, axis_outputs, guards
 
 CONSTANT_PREFIX = "c_"
@@ -111,7 +110,7 @@ START_NAMES = {"drift_um": "c_StartDrift", "decay": "c_StartDecay"}  # a constan
 def start_constants(model: Model) -> dict:
     """The known start's constants as the block declares them (name -> binary32 value)."""
     return {**{START_NAMES[key]: value for key, value in model.start.values().items()},
-            "c_StartFloor": round_f32(FLOOR_UM)}
+            "c_StartFloor": round_f32(FADE_FLOOR)}
 
 
 PROBE_NAMES = {"gain": "c_ProbeGain", "gate_um": "c_ProbeGate", "limit_um": "c_ProbeLimit",

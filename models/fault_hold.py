@@ -21,9 +21,8 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.base import compiled
+from thermoplc.base.binary32 import FADE_FLOOR, REAL_TEXT_MAX
 
-REAL_MAX = 3.402823e38
-FLOOR = 1e-6  # um: a faded anchor below this is 0, before it becomes subnormal
 
 
 def apply(values: np.ndarray, any_fault: np.ndarray, bound: float, fade: float, precision: str,
@@ -35,8 +34,8 @@ def apply(values: np.ndarray, any_fault: np.ndarray, bound: float, fade: float, 
     state = np.zeros(3, f) if state is None else state
     out = np.empty(len(values), f)
     loop = _apply if compiled.enabled(len(values)) else getattr(_apply, "py_func", _apply)
-    loop(values, np.ascontiguousarray(any_fault, np.bool_), f(bound), f(fade), f(REAL_MAX), f(FLOOR), f(0), state,
-         out)
+    loop(values, np.ascontiguousarray(any_fault, np.bool_), f(bound), f(fade), f(REAL_TEXT_MAX), f(FADE_FLOOR), f(0),
+         state, out)
     return out
 
 

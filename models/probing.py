@@ -32,9 +32,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from thermoplc.base.binary32 import f32_hex, parse_f32_hex, round_f32
+from thermoplc.base.binary32 import f32_hex, round_f32
 from thermoplc.base.errors import UserError
 from thermoplc.base import compiled
+from thermoplc.models.pair import constant_pair
 
 PROBE_VALUE, PROBE_NEW = "probe:value", "probe:new"  # the reference's keys of the block's probing inputs
 USED, REFUSED, REFUSALS = "status:probe_used", "status:probe_refused", "count:probe_refusals"
@@ -105,23 +106,6 @@ class Fusion:
         fusion = Fusion(**values)
         _check(fusion, path)
         return fusion
-
-
-def constant_pair(entry, path: str, where: str) -> tuple[float, float]:
-    """A constant of the model file as {"f64": number, "f32": "0x........"}, f32 the f64 rounded to binary32."""
-    if not isinstance(entry, dict) or not isinstance(entry.get("f64"), (int, float)) or isinstance(entry.get("f64"), bool) \
-            or not isinstance(entry.get("f32"), str):
-        raise UserError(f"{path}: field {where!r}: expected {{\"f64\": number, \"f32\": \"0x........\"}}")
-    if not np.isfinite(entry["f64"]):
-        raise UserError(f"{path}: field '{where}.f64': {entry['f64']!r}; expected a finite number")
-    try:
-        f32 = parse_f32_hex(entry["f32"])
-    except ValueError as exc:
-        raise UserError(f"{path}: field '{where}.f32': {exc}") from None
-    if f32 != round_f32(float(entry["f64"])):
-        raise UserError(f"{path}: field {where!r}: f32 {entry['f32']} is not f64 {entry['f64']!r} rounded to binary32; "
-                        f"edit f64 and let thermoplc write f32")
-    return float(entry["f64"]), f32
 
 
 def _check(fusion: Fusion, path: str) -> None:

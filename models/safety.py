@@ -15,6 +15,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from thermoplc.base.binary32 import FADE_FLOOR, REAL_TEXT_MAX
 from thermoplc.base.errors import UserError
 from thermoplc.base import compiled
 from thermoplc.models import fault_hold, kernels
@@ -25,9 +26,6 @@ from thermoplc.models.modelfile import Model
 from thermoplc.models.probing import fused_core
 
 LIMIT_MAX = 1.0e12  # far beyond any machine, far below FLT_MAX
-# the largest REAL as the S7 manuals write it (+-3.402823E+38): FLT_MAX's own shortest text, 3.4028235E38, lies
-# beyond that, and a compiler that range-checks the literal text may refuse it
-REAL_TEXT_MAX = 3.402823e38
 K0_MM_PER_UM = -0.001  # K0 opposes the predicted error: the NC moves the axis back by it
 
 
@@ -91,7 +89,7 @@ class Limits:
                 "jump_max": f(self.max_jump_K), "settle_calls": int(self.settle_calls), "one_call": 1,
                 "step_max": f(self.max_step), "step_min": f(-self.max_step),
                 "out_max": f(self.max_output), "out_min": f(-self.max_output), "k0_mm": f(K0_MM_PER_UM),
-                "real_max": f(REAL_TEXT_MAX), **({"fault_move": f(self.fault_move), "fault_fade": f(self.fault_fade), "fault_floor": f(fault_hold.FLOOR)}
+                "real_max": f(REAL_TEXT_MAX), **({"fault_move": f(self.fault_move), "fault_fade": f(self.fault_fade), "fault_floor": f(FADE_FLOOR)}
                    if self.fault_move else {})}
 
     @classmethod

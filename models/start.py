@@ -22,12 +22,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from thermoplc.base import compiled
-from thermoplc.base.binary32 import f32_hex, round_f32
+from thermoplc.base.binary32 import FADE_FLOOR, REAL_TEXT_MAX, f32_hex, round_f32
 from thermoplc.base.errors import UserError
-from thermoplc.models.probing import constant_pair
+from thermoplc.models.pair import constant_pair
 
-REAL_MAX = 3.402823e38  # models/safety.py's REAL_TEXT_MAX: a model value beyond it is not latched
-FLOOR_UM = 1e-6  # an offset below this is gone: it is set to 0 before decaying into binary32's subnormals
 MIN_DECAY = 1e-6  # a decay is 0 (the offset is gone after the first call) or at least this, so a product of
 # an offset at the floor and the decay stays a normal number
 FIELDS = ("drift_um", "decay")
@@ -84,8 +82,8 @@ def apply(start: Start, model_values: np.ndarray, precision: str, state: np.ndar
     state = np.zeros(2, f) if state is None else state
     out = np.empty(len(values), f)
     loop = _apply if compiled.enabled(len(values)) else getattr(_apply, "py_func", _apply)
-    loop(values, f(start.value("drift_um", precision)), f(start.value("decay", precision)), f(REAL_MAX), f(FLOOR_UM),
-         f(0), state, out)
+    loop(values, f(start.value("drift_um", precision)), f(start.value("decay", precision)), f(REAL_TEXT_MAX),
+         f(FADE_FLOOR), f(0), state, out)
     return out
 
 

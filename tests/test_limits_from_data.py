@@ -58,7 +58,8 @@ def test_a_limit_given_wins_and_a_model_without_an_envelope_keeps_the_fixed_defa
 
 def test_the_envelope_is_measured_per_call_over_every_row():
     drift = [0.0, 1.0, math.nan, math.nan, 4.0, -6.0]  # 3 um over 3 calls: 1 per call; then 10 in one
-    columns = {"time_s": np.arange(6) * 10.0, "T_a": 20 + 0.1 * np.arange(6), "n_rpm": np.array([0, 1e3, -3e3, 0, 0, 0]),
+    columns = {"time_s": np.arange(6) * 10.0, "T_a": 20 + 0.1 * np.arange(6),
+               "n_rpm": np.array([0, 1e3, -3e3, 0, 0, 0]),
                "E_um": np.array(drift)}
     model = load_model(GOLDEN / "kalman.json")
     model = replace(model, target=Signal("E_um", "E_um", "target", "um"),

@@ -7,6 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from thermoplc.base.binary32 import FADE_FLOOR
 from thermoplc.base.errors import UserError
 from thermoplc.demo import AMBIENT, SPEED, TARGET, TEMPS, recording
 from thermoplc.fitting.acceptance import problem
@@ -72,7 +73,7 @@ def test_the_compiled_and_the_python_loop_agree_bit_for_bit_and_nan_latches_noth
     compiled = apply(start, values, "f32")
     state, python = np.zeros(2, np.float32), np.empty(len(values), np.float32)
     f = np.float32
-    getattr(module._apply, "py_func", module._apply)(values, f(0.25), f(0.99), f(3.402823e38), f(module.FLOOR_UM), f(0),
+    getattr(module._apply, "py_func", module._apply)(values, f(0.25), f(0.99), f(3.402823e38), f(FADE_FLOOR), f(0),
                                                      state, python)
     assert compiled.view(np.uint32).tolist() == python.view(np.uint32).tolist()
     assert np.isnan(compiled[0]) and np.isinf(compiled[1])  # nothing latched: the limiter holds the output
