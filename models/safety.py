@@ -184,6 +184,18 @@ def _hold(x: np.ndarray, valid: np.ndarray, guard: Guard, ready_row: int, limits
     return held, faults
 
 
+def held_while_faulty(core: dict | None, names: list[str], flags: dict, start: int, limits: Limits, precision: str,
+                      states: dict | None = None) -> dict | None:
+    """The model values `names` of `core` (from call `start` on) held near their value before each fault while
+    any fault bit of `flags` is set (models/fault_hold.py); before the fusion, so probings still correct a held
+    model. `states`: each name's hold state carried from one chunk of calls to the next (models/streaming.py)."""
+    if core is None or limits.fault_move is None:
+        return core
+    any_fault = np.logical_or.reduce([np.asarray(v, bool) for v in flags.values()])[start:]
+    return {**core, **{name: fault_hold.apply(core[name], any_fault, limits.fault_move, limits.fault_fade, precision,
+                                              None if states is None else states[name]) for name in names}}
+
+
 def fault_flags(plan, valid: dict, faults: dict, core: dict | None, start: int) -> dict:
     """Each input's fault flag per call, under fault_key(input): the guard's flag, or for a fused input
     its range check before the model starts (call `start`) and the filter's verdict after."""
@@ -225,10 +237,7 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     core = core_predict(model, running, precision, fused_valid) if ready_row < rows else None
     names = limited_outputs(core) if core is not None else real_outputs_of(model, core_predict, precision)
     flags = fault_flags(plan, valid, faults, core, ready_row)
-    if core is not None and limits.fault_move is not None:  # before the fusion: probings still correct a held model
-        any_fault = np.logical_or.reduce([np.asarray(v, bool) for v in flags.values()])[ready_row:]
-        core = {**core, **{name: fault_hold.apply(core[name], any_fault, limits.fault_move, limits.fault_fade,
-                                                  precision) for name in names}}
+    core = held_while_faulty(core, names, flags, ready_row, limits, precision)
     probing = {}
     if model.probe is not None:
         core, probing = fused_core(model, core, inputs, ready_row, precision)

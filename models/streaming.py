@@ -15,12 +15,12 @@ import numpy as np
 
 from thermoplc.base import compiled
 
-from thermoplc.models import fault_hold, kernels
+from thermoplc.models import kernels
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import guarded_core, with_start
 from thermoplc.models.safety import (CLAMPED, ENABLED, INVALID, LIMITED, READY, Limits, axis_outputs, fault_flags,
-                                     guards, k0_key, real_outputs_of)
+                                     guards, held_while_faulty, k0_key, real_outputs_of)
 
 NOT_YET = np.iinfo(np.int64).max  # the ready row before any call had every input in range
 
@@ -99,11 +99,7 @@ class StreamingReference:
             fused_valid = {g.name: valid[g.name][local:] for g in self.plan if g.kind == "fused"}
             core = with_start(self.model, self.core(running, fused_valid), self.precision, self.start_state)
         flags = fault_flags(self.plan, valid, faults, core, local)
-        if core is not None and self.limits.fault_move is not None:
-            any_fault = np.logical_or.reduce([np.asarray(v, bool) for v in flags.values()])[local:]
-            core = {**core, **{name: fault_hold.apply(core[name], any_fault, self.limits.fault_move, self.limits.fault_fade,
-                                                      self.precision,
-                                                      self.hold_states[name]) for name in self.names}}
+        core = held_while_faulty(core, self.names, flags, local, self.limits, self.precision, self.hold_states)
         out = {}
         limited, clamped, invalid = (np.zeros(rows, bool) for _ in range(3))
         for name in self.names:
