@@ -72,7 +72,7 @@ def generate(model: Model, source: str = "model", limits: Limits | None = None, 
              instance_db: str | None = None, accept_unvalidated: bool = False, output: str = "block") -> Generated:
     """The block for `model` as text of `dialect` (PLCopen XML around the iec dialect with `plcopen`),
     or a UserError naming `source` (the model file) when any check refuses it; `output` names the
-    text in what the stress replay reports; `limits` None: Limits.for_model(model), from its training rows."""
+    text in what the stress replay reports; `limits` None: Limits.for_model(model), from its recording's envelope."""
     limits = Limits.for_model(model) if limits is None else limits
     if dialect not in DIALECTS:
         raise UserError(f"dialect {dialect!r}: expected one of {', '.join(DIALECTS)}")

@@ -3,7 +3,8 @@
 Every row, the held-out ones too: a limit bounds what the machine does, it is no parameter of the model. A fit on
 a 6 h warm-up (the golden twin: 26 um) does not span the 52 um the same recording reaches later, and a clamp
 from its training rows alone costs the lumped golden 31 % of its held-out RMSE. Taken from the whole recording
-the default limits never bind on it, so the held-out evidence stays the model's own.
+the clamp never binds on it, so the held-out evidence stays the model's own; the rate limit is the measured
+drift's and may act on a model that moves faster (benchmarks/limits.py counts the calls).
 """
 from __future__ import annotations
 

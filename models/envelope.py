@@ -27,6 +27,7 @@ from thermoplc.base.errors import UserError
 
 MARGIN = 1.5
 SIGNIFICANT_DIGITS = 2
+SMALLEST = 1e-3  # um, um per call or rpm: an extreme below this is no drift, no change or no speed (the default)
 FIELDS = ("rows", "drift_um", "step_um", "speed_rpm")
 LARGEST = 1e6  # um, um per call or rpm: beyond any machine (a block constant must stay a finite REAL)
 
@@ -77,7 +78,7 @@ def _magnitude(value, path: str, name: str) -> float:
 
 
 def round_up(value: float) -> float:
-    """`value` rounded up to SIGNIFICANT_DIGITS significant digits (106.5 -> 110, 1.13 -> 1.2)."""
+    """`value` (SMALLEST or more) rounded up to SIGNIFICANT_DIGITS significant digits (106.5 -> 110, 1.13 -> 1.2)."""
     if value <= 0:
         return 0.0
     unit = 10.0 ** (math.floor(math.log10(value)) - SIGNIFICANT_DIGITS + 1)
@@ -94,21 +95,21 @@ class DataLimit:
 
 def data_limits(envelope: Envelope) -> dict[str, DataLimit]:
     """The default clamp ('max_output'), rate limit ('max_step') and speed guard ('max_speed_rpm'); a limit whose
-    extreme is 0 (no drift, no speed recorded) is left to the caller's default."""
+    extreme is below SMALLEST (no drift, no change, no speed recorded) is left to the caller's default."""
     chosen = {}
     measured, model = envelope.drift_um
-    if max(measured, model) > 0:
+    if max(measured, model) >= SMALLEST:
         source = "measured" if measured >= model else "the model's"
         chosen["max_output"] = DataLimit(round_up(MARGIN * max(measured, model)),
                                          f"{MARGIN:g} x the largest |drift| recorded, {max(measured, model):.4g} "
                                          f"({source}), rounded up")
     measured, model = envelope.step_um
-    if measured > 0 or model > 0:
-        fastest, source = (measured, "measured") if measured > 0 else (model, "the model's: none measured")
+    if max(measured, model) >= SMALLEST:
+        fastest, source = (measured, "measured") if measured >= SMALLEST else (model, "the model's: none measured")
         chosen["max_step"] = DataLimit(round_up(MARGIN * fastest),
                                        f"{MARGIN:g} x the drift's fastest change per call recorded, "
                                        f"{fastest:.4g} ({source}), rounded up")
-    if envelope.speed_rpm:
+    if envelope.speed_rpm is not None and envelope.speed_rpm >= SMALLEST:
         chosen["max_speed_rpm"] = DataLimit(round_up(MARGIN * envelope.speed_rpm),
                                             f"{MARGIN:g} x the largest |speed| recorded, "
                                             f"{envelope.speed_rpm:.6g} rpm, rounded up")

@@ -55,7 +55,7 @@ class Model:
     fit: dict = field(default_factory=dict)
     probe: Fusion | None = None  # the probe fusion's constants (models/probing.py); None: a static block
     start: Start | None = None  # the known start (models/start.py); None: the model's own first value
-    envelope: Envelope | None = None  # what the training rows spanned (models/envelope.py): the default limits
+    envelope: Envelope | None = None  # what the recorded runs spanned (models/envelope.py): the default limits
     resample: Resampling | None = None  # the rule that took raw logger data onto the cycle (recordings/resample.py)
 
     def signals(self, role: str) -> tuple[Signal, ...]:

@@ -70,8 +70,8 @@ class Limits:
                     raise UserError(f"safety limit fault_fade must be a factor per call above 0 and at most 1, got "
                                     f"{value}")
                 continue
-            if not np.isfinite(value) or value <= 0 and f.name not in ("temp_min_C",):
-                raise UserError(f"safety limit {f.name} must be a positive finite number, got {value}")
+            if not np.isfinite(value) or np.float32(value) <= 0 and f.name not in ("temp_min_C",):
+                raise UserError(f"safety limit {f.name} must be a positive finite number (as a REAL), got {value}")
             if abs(value) > LIMIT_MAX:  # a block constant: must stay a finite REAL, with room for the arithmetic
                 raise UserError(f"safety limit {f.name} must be within +-{LIMIT_MAX:g}, got {value}")
         if self.temp_min_C >= self.temp_max_C:
@@ -97,6 +97,11 @@ class Limits:
         """The limits `generate` uses for `model`: each one given (not None), else the clamp, rate limit and
         speed guard from the model's training envelope (models/envelope.py), else the defaults above."""
         chosen = data_limits(model.envelope) if model.envelope is not None else {}
+        if not model.signals("speed"):  # no speed guard in the block: nothing to take or to give
+            chosen.pop("max_speed_rpm", None)
+            if given.get("max_speed_rpm") is not None:
+                raise UserError(f"--max-speed-rpm {given['max_speed_rpm']:g}: the model reads no speed input, so the "
+                                f"block has no speed guard; leave the option out")
         taken = {name: chosen[name] for name in chosen if given.get(name) is None}
         return cls(**{name: value for name, value in given.items() if value is not None},
                    **{name: limit.value for name, limit in taken.items()},

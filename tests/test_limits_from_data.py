@@ -133,3 +133,31 @@ def test_an_old_model_file_without_an_envelope_gets_the_fixed_limits_and_says_no
     (tmp_path / "m.json").write_text(json.dumps(doc))
     result = thermoplc("generate", "m.json", "-o", "m.scl", cwd=tmp_path)
     assert "outputs within +-300, at most 2 per call" in result.stdout and "recorded" not in result.stdout
+
+
+@pytest.mark.parametrize("tiny", [5e-324, 1e-300, 1e-9])
+def test_an_envelope_of_no_drift_leaves_the_fixed_limits_and_never_a_zero_clamp(tmp_path, tiny):
+    doc = json.loads((GOLDEN / "mlr.json").read_text())
+    doc["envelope"]["drift_um"] = {"measured": tiny, "model": tiny}
+    doc["envelope"]["step_um"] = {"measured": tiny, "model": 0.0}
+    (tmp_path / "m.json").write_text(json.dumps(doc))
+    result = thermoplc("generate", "m.json", "-o", "m.scl", cwd=tmp_path)
+    assert "outputs within +-300, at most 2 per call" in result.stdout and "Traceback" not in result.stderr
+
+
+def test_a_model_without_a_speed_input_has_no_speed_guard_to_take_or_give(tmp_path):
+    doc = json.loads((GOLDEN / "mlr.json").read_text())
+    doc["envelope"]["speed_rpm"] = 1e6  # hand-edited: the model reads no speed
+    (tmp_path / "m.json").write_text(json.dumps(doc))
+    result = thermoplc("generate", "m.json", "-o", "m.scl", cwd=tmp_path)
+    assert "--max-speed-rpm" not in result.stdout and "c_SpeedMax" not in (tmp_path / "m.scl").read_text()
+    refused = thermoplc("generate", "m.json", "-o", "n.scl", "--max-speed-rpm", "5", cwd=tmp_path, check=2)
+    assert refused.stderr == ("thermoplc: error: --max-speed-rpm 5: the model reads no speed input, so the block has "
+                              "no speed guard; leave the option out\n")
+    assert not (tmp_path / "n.scl").exists()
+
+
+def test_a_limit_that_is_zero_as_a_real_is_refused():
+    with pytest.raises(UserError, match="max_output must be a positive finite number"):
+        Limits(max_output=1e-300)
+

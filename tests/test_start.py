@@ -120,3 +120,12 @@ def test_fit_prints_the_start_error_beside_the_held_out_rmse(tmp_path):
     text = (tmp_path / "m.scl").read_text()
     assert "c_StartDrift : Real := 0.106198;" in text and "#StartOffset := #StartOffset * #c_StartDecay;" in text
     assert "c_StartFloor : Real := 1.0E-6;" in text
+
+
+def test_a_model_file_without_a_known_start_is_generated_and_says_so(tmp_path):
+    doc = json.loads((GOLDEN / "mlr.json").read_text())
+    del doc["start"]
+    (tmp_path / "m.json").write_text(json.dumps(doc))
+    result = thermoplc("generate", "m.json", "-o", "m.scl", cwd=tmp_path)
+    assert "  no known start in the model file (written before thermoplc fitted one)" in result.stdout
+    assert "StartOffset" not in (tmp_path / "m.scl").read_text()

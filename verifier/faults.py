@@ -103,8 +103,7 @@ def _probe_clamp(model: Model, static: np.ndarray, value: np.ndarray, new: np.nd
     the output clamp hides the offset itself (an offset limit wider than the output clamp). The run starts where
     the static prediction leaves the offset the most room to that side (in the first three quarters of the data:
     a clamp wider than the limit minus the prediction can never be reached). Returns the inputs, the run's first
-    and last rows, and per call whether the offset is there."""
-    from thermoplc.models.probing import fuse
+    and last rows, and per call whether the offset is there (on the inputs returned)."""
     fusion = model.probe
     limit, clamp = np.float32(fusion.value("limit_um")), np.float32(fusion.value("offset_max_um"))
     scheduled_value, scheduled_new = value, new
@@ -114,13 +113,22 @@ def _probe_clamp(model: Model, static: np.ndarray, value: np.ndarray, new: np.nd
     value[first:] = np.float32(sign) * limit
     spacing = max(2, int(fusion.min_calls[0])) if fusion.min_calls is not None else 2
     new[first:] = (np.arange(first, rows) - first) % spacing == 0
-    offset = fuse(fusion, static, value, new, "f32")["fused"].astype(np.float64) - static.astype(np.float64)
-    at_clamp = sign * offset >= np.float64(clamp) * (1 - 1e-6)
-    reached = np.flatnonzero(at_clamp[first:])
+    reached = np.flatnonzero(_at_clamp(fusion, static, value, new, sign, clamp)[first:])
     last = min(rows - 1, first + int(reached[0]) + CLAMP_HOLD_CALLS) if len(reached) else rows - 1
     value[last + 1:], new[last + 1:] = scheduled_value[last + 1:], scheduled_new[last + 1:]
-    new[last + 1:last + 2] = False  # the schedule's next probing is a rising edge of its own
-    return {PROBE_VALUE_INPUT: value, PROBE_NEW_INPUT: new}, first, last, at_clamp
+    after = last + 1  # a scheduled probing already under way, or one that would join the run's last edge, is left
+    while after < rows and new[after]:  # out: the schedule's next probing is a rising edge of its own
+        new[after] = False
+        after += 1
+    return ({PROBE_VALUE_INPUT: value, PROBE_NEW_INPUT: new}, first, last,
+            _at_clamp(fusion, static, value, new, sign, clamp))
+
+
+def _at_clamp(fusion, static: np.ndarray, value: np.ndarray, new: np.ndarray, sign: float, clamp) -> np.ndarray:
+    """Per call, whether the offset the reference learns from these probings stands at `sign`'s clamp."""
+    from thermoplc.models.probing import fuse
+    offset = fuse(fusion, static, value, new, "f32")["fused"].astype(np.float64) - static.astype(np.float64)
+    return sign * offset >= np.float64(clamp) * (1 - 1e-6)
 
 
 def _pulses(rows: int, first: int, *offsets: int) -> np.ndarray:

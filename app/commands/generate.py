@@ -31,14 +31,15 @@ def add_parser(sub) -> None:
     p.add_argument("--format", choices=("st", "plcopen"), default="st",
                    help="st: source text; plcopen: PLCopen TC6 XML of the iec block (default: %(default)s)")
     p.add_argument("--max-offset-um", type=number(float, 1e-6, 1e12, "micrometres"),
-                   help="clamp every output to +-this (um; urad for angles) (default: 1.5 x the largest drift of the "
-                        "training rows, measured or modelled, rounded up; 300 for a model file without them)")
+                   help="clamp every output to +-this (um; urad for angles) (default: 1.5 x the largest drift the "
+                        "model file's recording reached, measured or modelled, rounded up; 300 for a model file "
+                        "without an envelope)")
     p.add_argument("--max-step-um", type=number(float, 1e-6, 1e12, "micrometres"),
-                   help="largest change of an output per call (default: 1.5 x the training rows' fastest change per "
-                        "call, rounded up; 2 for a model file without them)")
+                   help="largest change of an output per call (default: 1.5 x the fastest measured change per call of "
+                        "the model file's recording, rounded up; 2 for a model file without an envelope)")
     p.add_argument("--max-speed-rpm", type=number(float, 1e-6, 1e12, "rpm"),
-                   help="a speed input beyond +-this is a sensor fault (default: 1.5 x the largest speed of the "
-                        "training rows, rounded up; 100000 for a model file without them)")
+                   help="a speed input beyond +-this is a sensor fault (default: 1.5 x the largest speed of the model "
+                        "file's recording, rounded up; 100000 for a model file without an envelope)")
     p.add_argument("--temp-range", type=value_range, default=(-40.0, 150.0), metavar="LOW,HIGH",
                    help="plausible temperatures, degC; outside = sensor fault (default: -40,150)")
     p.add_argument("--max-jump-k", type=number(float, 1e-6, 1e6, "kelvin"), default=1.0,
@@ -163,6 +164,9 @@ def _summary(say: Callable[[str], None], args: argparse.Namespace, model, limits
                           ("max_speed_rpm", "--max-speed-rpm")):
         if limits.origin(field):
             say(f"  {option} {getattr(limits, field):g}: {limits.origin(field)}")
+    if model.start is None:
+        say("  no known start in the model file (written before thermoplc fitted one): after power-on or Reset the "
+            "block starts at the model's own first value; refit to get one")
     say(f"  outputs within +-{limits.max_output:g}, at most {limits.max_step:g} per call; temperatures "
         f"{limits.temp_min_C:g}..{limits.temp_max_C:g} degC, jump {limits.max_jump_K:g} K per call; while a fault "
         f"bit is set within {limits.fault_move:g} of the output before it, fading to none in {args.fault_fade_s:g} s")
