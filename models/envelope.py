@@ -24,6 +24,7 @@ import math
 from dataclasses import dataclass
 
 from thermoplc.base.errors import UserError
+from thermoplc.models.pair import check_section
 
 MARGIN = 1.5
 SIGNIFICANT_DIGITS = 2
@@ -48,15 +49,7 @@ class Envelope:
     @staticmethod
     def from_doc(doc, path: str) -> "Envelope":
         """The model file's `envelope` section; every problem named by its field."""
-        if not isinstance(doc, dict):
-            raise UserError(f"{path}: field 'envelope': expected an object with {', '.join(FIELDS)}")
-        unknown = sorted(set(doc) - set(FIELDS))
-        if unknown:
-            raise UserError(f"{path}: field 'envelope.{unknown[0]}': not part of the envelope; it has "
-                            f"{', '.join(FIELDS)}")
-        missing = [name for name in FIELDS if name not in doc]
-        if missing:
-            raise UserError(f"{path}: field 'envelope.{missing[0]}' is missing")
+        check_section(doc, path, "envelope", FIELDS, "part of the envelope")
         rows = doc["rows"]
         if isinstance(rows, bool) or not isinstance(rows, int) or rows < 1:
             raise UserError(f"{path}: field 'envelope.rows': {rows!r}; expected the number of rows measured, 1 or more")

@@ -1,5 +1,5 @@
-"""A fitted constant as the model file writes it: the float64 the fit found and the binary32 the block holds.
-The probe fusion and the known start read theirs alike."""
+"""The model file's small sections (the known start, the envelope): their fields checked alike, and a fitted
+constant as the file writes it — the float64 the fit found and the binary32 the block holds."""
 from __future__ import annotations
 
 import numpy as np
@@ -23,3 +23,17 @@ def constant_pair(entry, path: str, where: str) -> tuple[float, float]:
         raise UserError(f"{path}: field {where!r}: f32 {entry['f32']} is not f64 {entry['f64']!r} rounded to binary32; "
                         f"edit f64 and let thermoplc write f32")
     return float(entry["f64"]), f32
+
+
+def check_section(doc, path: str, section: str, fields: tuple[str, ...], what: str) -> dict:
+    """`doc` as the section `section` with exactly `fields`, or a UserError naming the field; `what` says what a
+    field of it is ('a constant of the start')."""
+    if not isinstance(doc, dict):
+        raise UserError(f"{path}: field '{section}': expected an object with {', '.join(fields)}")
+    unknown = sorted(set(doc) - set(fields))
+    if unknown:
+        raise UserError(f"{path}: field '{section}.{unknown[0]}': not {what}; it has {', '.join(fields)}")
+    missing = [name for name in fields if name not in doc]
+    if missing:
+        raise UserError(f"{path}: field '{section}.{missing[0]}' is missing")
+    return doc

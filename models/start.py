@@ -24,7 +24,7 @@ import numpy as np
 from thermoplc.base import compiled
 from thermoplc.base.binary32 import FADE_FLOOR, REAL_TEXT_MAX, f32_hex, round_f32
 from thermoplc.base.errors import UserError
-from thermoplc.models.pair import constant_pair
+from thermoplc.models.pair import check_section, constant_pair
 
 MIN_DECAY = 1e-6  # a decay is 0 (the offset is gone after the first call) or at least this, so a product of
 # an offset at the floor and the decay stays a normal number
@@ -55,15 +55,7 @@ class Start:
     @staticmethod
     def from_doc(doc, path: str) -> "Start":
         """The model file's `start` section; every problem named by its field."""
-        if not isinstance(doc, dict):
-            raise UserError(f"{path}: field 'start': expected an object with {' and '.join(FIELDS)}")
-        unknown = sorted(set(doc) - set(FIELDS))
-        if unknown:
-            raise UserError(f"{path}: field 'start.{unknown[0]}': not a constant of the start; it has "
-                            f"{', '.join(FIELDS)}")
-        for name in FIELDS:
-            if name not in doc:
-                raise UserError(f"{path}: field 'start.{name}' is missing")
+        check_section(doc, path, "start", FIELDS, "a constant of the start")
         start = Start(*(constant_pair(doc[name], path, f"start.{name}") for name in FIELDS))
         if not (start.decay[1] == 0.0 or round_f32(MIN_DECAY) <= start.decay[1] < 1.0):
             raise UserError(f"{path}: field 'start.decay': {start.decay[0]!r}; expected a factor per call from "
