@@ -22,17 +22,15 @@ def measure_envelope(model: Model, tables: list[Table]) -> Envelope | None:
     rows."""
     drift, step, speed, rows = [0.0, 0.0], [0.0, 0.0], 0.0, 0
     for table in tables:
-        n = table.rows
-        rows += n
-        inputs = model_inputs(model, table)
-        outputs = [np.asarray(v, np.float64) for v in predict(model, inputs, "f64").values()
+        rows += table.rows
+        outputs = [np.asarray(v, np.float64) for v in predict(model, model_inputs(model, table), "f64").values()
                    if np.asarray(v).dtype.kind == "f"]
-        for k, series in enumerate(([np.asarray(table.columns[model.target.column][:n], np.float64)], outputs)):
+        for k, series in enumerate(([np.asarray(table.columns[model.target.column], np.float64)], outputs)):
             for values in series:
                 extent, fastest = _extremes(values)
                 drift[k], step[k] = max(drift[k], extent), max(step[k], fastest)
         for signal in model.signals("speed"):
-            values = np.abs(np.asarray(table.columns[signal.column][:n], np.float64))
+            values = np.abs(np.asarray(table.columns[signal.column], np.float64))
             if np.isfinite(values).any():
                 speed = max(speed, float(np.nanmax(values)))
     if not rows:

@@ -320,10 +320,17 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
 
 
 def with_evidence(model: Model, tables: list[Table], n_train: list[int]) -> Model:
-    """`model` (just fitted) with what its runs give besides the coefficients: the known start (training rows),
-    the envelope the default limits come from (every row) and the errors on the training and held-out rows."""
+    """`model` (just fitted) with what its runs give besides the coefficients: its start and envelope
+    (`restarted`) and the errors on the training and held-out rows."""
+    model = restarted(model, tables, n_train)
+    return replace(model, metrics=evaluate(model, tables, n_train))
+
+
+def restarted(model: Model, tables: list[Table], n_train: list[int]) -> Model:
+    """`model` with the known start fitted for its coefficients (training rows) and the envelope the default
+    limits come from (every row): a model whose coefficients change needs both anew."""
     model = replace(model, start=fit_start(model, tables, n_train))
-    return replace(model, envelope=measure_envelope(model, tables), metrics=evaluate(model, tables, n_train))
+    return replace(model, envelope=measure_envelope(model, tables))
 
 
 def choose_sensors(tables: list[Table], request: FitRequest, n_train: list[int]) -> sensor_choice.Choice:

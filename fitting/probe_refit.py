@@ -158,18 +158,9 @@ def _with(model, kind, parts: list[Part], every: int | None):
 
 def _evaluated(model, tables: list, calls: list[int]):
     from dataclasses import replace
-    from thermoplc.fitting.fit import evaluate
-    model = _restarted(model, tables, calls)
+    from thermoplc.fitting.fit import evaluate, restarted
+    model = restarted(model, tables, calls)  # the static fit's start and envelope are stale for the new slopes
     return replace(model, metrics={**model.metrics, **evaluate(model, tables, calls)})
-
-
-def _restarted(model, tables: list, calls: list[int]):
-    """A refitted `model` with the known start and the envelope of its new slopes (the static fit's are stale)."""
-    from dataclasses import replace
-    from thermoplc.fitting.envelope_fit import measure_envelope
-    from thermoplc.fitting.start_fit import fit_start
-    model = replace(model, start=fit_start(model, tables, calls))
-    return replace(model, envelope=measure_envelope(model, tables))
 
 
 def _cross_validated(final, kind, tables: list, every: int | None) -> Refitted | None:
@@ -178,8 +169,8 @@ def _cross_validated(final, kind, tables: list, every: int | None) -> Refitted |
     from dataclasses import replace
     from thermoplc.recordings.campaign import run_labels
     from thermoplc.fitting.crossval import judge_fold, pooled
-    from thermoplc.fitting.fit import evaluate
-    final = _restarted(final, tables, [t.rows for t in tables])
+    from thermoplc.fitting.fit import evaluate, restarted
+    final = restarted(final, tables, [t.rows for t in tables])
     labels = run_labels([t.path for t in tables])
     folds: dict[str, list[int]] = {}
     for entry in final.metrics["runs"]:

@@ -43,8 +43,8 @@ def lower_model(model: Model) -> Block:
 def lower(model: Model, limits: Limits | None = None, identity: Identity | None = None, retain: bool = False) -> Block:
     """The block for `model`, inside the input guards and output limits every block carries (`limits` None:
     the model's own, Limits.for_model), with Enable/ENO and Reset; `identity` defaults to a new block's
-    (VERSION 0.1, no date): the command
-    line counts the version on from the block it replaces (generator/identity.py)."""
+    (VERSION 0.1, no date): the command line counts the version on from the block it replaces
+    (generator/identity.py)."""
     limits = Limits.for_model(model) if limits is None else limits
     core = lower_model(model)
     _refuse_unread_inputs(model, core)

@@ -31,14 +31,14 @@ _CONSTANT_COMMENTS = {
     "c_RealMax": "largest REAL as S7 documents it: a model value beyond it (Inf) or unordered (NaN) is not passed on",
     **HOLD_COMMENTS,
 }
-# the limits generate may take from the training data: constant, what it is, the option that sets it instead
+# the limits generate may take from the recording: constant, what it is, the option that sets it instead
 _FROM_DATA = {"max_output": ("c_OutMax", "output clamp", "--max-offset-um"),
               "max_step": ("c_StepMax", "largest output change per call", "--max-step-um"),
               "max_speed_rpm": ("c_SpeedMax", "highest plausible speed, rpm", "--max-speed-rpm")}
 
 
 def _limit_comments(limits: Limits) -> dict[str, str]:
-    """Each constant's comment; a limit taken from the training data says how."""
+    """Each constant's comment; a limit taken from the recording says how."""
     said = {name: f"{what}: {limits.origin(field)} ({option})" for field, (name, what, option) in _FROM_DATA.items()
             if limits.origin(field)}
     return {**_CONSTANT_COMMENTS, **said}

@@ -56,7 +56,7 @@ class Limits:
     fault_move: float | None = 2.0  # um: while a fault bit is set each output stays this near (models/fault_hold.py);
     # None: a block generated before the hold
     fault_fade: float = 0.995  # per call, the held value's factor towards no compensation (generate --fault-fade-s)
-    origins: tuple[tuple[str, str], ...] = ()  # (field, how it was chosen) for limits taken from the training data
+    origins: tuple[tuple[str, str], ...] = ()  # (field, how it was chosen) for limits taken from the recording
 
     def __post_init__(self):
         for f in fields(self):
@@ -95,7 +95,7 @@ class Limits:
     @classmethod
     def for_model(cls, model: Model, **given) -> "Limits":
         """The limits `generate` uses for `model`: each one given (not None), else the clamp, rate limit and
-        speed guard from the model's training envelope (models/envelope.py), else the defaults above."""
+        speed guard from the model's envelope of its recording (models/envelope.py), else the defaults above."""
         chosen = data_limits(model.envelope) if model.envelope is not None else {}
         if not model.signals("speed"):  # no speed guard in the block: nothing to take or to give
             chosen.pop("max_speed_rpm", None)
