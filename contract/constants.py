@@ -23,7 +23,8 @@ CONSTANT_PREFIX = "c_"
 TABLE_PREFIX = "tab_"
 LIMIT_NAMES = {"temp_min": "c_TempMin", "temp_max": "c_TempMax", "speed_min": "c_SpeedMin", "speed_max": "c_SpeedMax",
                "other_min": "c_OtherMin", "other_max": "c_OtherMax", "jump_max": "c_JumpMax",
-               "settle_calls": "c_SettleCalls", "one_call": "c_OneCall", "step_max": "c_StepMax",
+               "settle_calls": "c_SettleCalls", "stuck_calls": "c_StuckCalls", "one_call": "c_OneCall",
+               "step_max": "c_StepMax",
                "step_min": "c_StepMin", "out_max": "c_OutMax", "out_min": "c_OutMin", "k0_mm": "c_K0_mm",
                "real_max": "c_RealMax", "fault_move": "c_FaultMove",
                "fault_fade": "c_FaultFade", "fault_floor": "c_FaultFloor"}  # a value of the safety logic -> its constant
@@ -80,7 +81,7 @@ def required(model: Model) -> set[str]:
     for guard in guards(model):
         keys |= {guard.low, guard.high}
         if guard.kind == "temperature":
-            keys |= {"jump_max", "one_call", "settle_calls"}
+            keys |= {"jump_max", "one_call", "settle_calls", "stuck_calls"}
     if axis_outputs(model, [model.target.name, *(t["name"] for t in model.settings.get("targets", ()))]):
         keys.add("k0_mm")
     return set(structure(model)) | {limit_name(key) for key in keys}

@@ -13,17 +13,22 @@ import numpy as np
 from thermoplc.models.envelope import Envelope
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import model_inputs, predict
+from thermoplc.models.safety import stuck_checked
 from thermoplc.recordings.table import Table
 
 
 def measure_envelope(model: Model, tables: list[Table]) -> Envelope | None:
     """The largest |drift| and fastest change per call of the measured target and of every output of `model`
-    (float64, its known start included), and the largest |speed|, over every row of `tables`; None without
-    rows."""
-    drift, step, speed, rows = [0.0, 0.0], [0.0, 0.0], 0.0, 0
+    (float64, its known start included), the largest |speed| and the longest run of calls a temperature input the
+    block checks for a stuck sensor repeated its reading (as the REAL the block reads), over every row of `tables`;
+    None without rows."""
+    drift, step, speed, rows, same = [0.0, 0.0], [0.0, 0.0], 0.0, 0, 0
+    checked = stuck_checked(model)
     for table in tables:
         rows += table.rows
-        outputs = [np.asarray(v, np.float64) for v in predict(model, model_inputs(model, table), "f64").values()
+        inputs = model_inputs(model, table)
+        same = max([same, *(longest_repeat(inputs[name]) for name in checked)])
+        outputs = [np.asarray(v, np.float64) for v in predict(model, inputs, "f64").values()
                    if np.asarray(v).dtype.kind == "f"]
         for k, series in enumerate(([np.asarray(table.columns[model.target.column], np.float64)], outputs)):
             for values in series:
@@ -35,7 +40,17 @@ def measure_envelope(model: Model, tables: list[Table]) -> Envelope | None:
                 speed = max(speed, float(np.nanmax(values)))
     if not rows:
         return None
-    return Envelope(rows, (drift[0], drift[1]), (step[0], step[1]), speed if model.signals("speed") else None)
+    return Envelope(rows, (drift[0], drift[1]), (step[0], step[1]), speed if model.signals("speed") else None,
+                    same if checked else None)
+
+
+def longest_repeat(values: np.ndarray) -> int:
+    """The most calls in a row whose reading equals the one before (NaN equals nothing)."""
+    repeated = np.r_[False, values[1:] == values[:-1]]
+    if not repeated.any():
+        return 0
+    edges = np.diff(np.r_[0, repeated.astype(np.int8), 0])
+    return int((np.flatnonzero(edges == -1) - np.flatnonzero(edges == 1)).max())
 
 
 def _extremes(values: np.ndarray) -> tuple[float, float]:

@@ -25,6 +25,7 @@ _CONSTANT_COMMENTS = {
     "c_OtherMin": "lowest plausible value of other inputs", "c_OtherMax": "highest plausible value of other inputs",
     "c_JumpMax": "temperature change per call that marks a sensor faulty, K",
     "c_SettleCalls": "steady calls before a faulty sensor is trusted again", "c_OneCall": "one call",
+    "c_StuckCalls": "calls in a row a temperature may repeat its reading; more is a stuck sensor (--stuck-calls)",
     "c_StepMax": "largest output change per call (--max-step-um)", "c_StepMin": "largest output change per call, downwards",
     "c_OutMax": "output clamp (--max-offset-um)", "c_OutMin": "output clamp, negative side",
     "c_K0_mm": "K0 in mm per um of error: the NC moves the axis back by the error",
@@ -34,7 +35,8 @@ _CONSTANT_COMMENTS = {
 # the limits generate may take from the recording: constant, what it is, the option that sets it instead
 _FROM_DATA = {"max_output": ("c_OutMax", "output clamp", "--max-offset-um"),
               "max_step": ("c_StepMax", "largest output change per call", "--max-step-um"),
-              "max_speed_rpm": ("c_SpeedMax", "highest plausible speed, rpm", "--max-speed-rpm")}
+              "max_speed_rpm": ("c_SpeedMax", "highest plausible speed, rpm", "--max-speed-rpm"),
+              "stuck_calls": ("c_StuckCalls", "calls in a row a temperature may repeat its reading", "--stuck-calls")}
 
 
 def _limit_comments(limits: Limits) -> dict[str, str]:
@@ -44,7 +46,7 @@ def _limit_comments(limits: Limits) -> dict[str, str]:
     return {**_CONSTANT_COMMENTS, **said}
 
 
-def _guard_region(g: Guard, fault: str) -> Region:
+def _guard_region(g: Guard, fault: str, stuck: bool) -> Region:
     x, ok = Ref(g.name), Ref(f"InOk_{g.index}")
     low, high = Ref(limit_name(g.low)), Ref(limit_name(g.high))
     in_range = Assign(ok.name, BinOp("AND", BinOp(">=", x, low), BinOp("<=", x, high)))
@@ -55,8 +57,11 @@ def _guard_region(g: Guard, fault: str) -> Region:
     if g.kind == "range":
         return Region(f"Input {g.index} {g.name}: range check, hold the last good value", (
             in_range, Assign(fault, Unary("NOT", ok)), hold))
-    settle, last = f"Settle_{g.index}", f"LastIn_{g.index}"
+    settle, last, same = f"Settle_{g.index}", f"LastIn_{g.index}", f"Same_{g.index}"
     reset = (Assign(fault, BoolConst(True)), Assign(settle, IntConst(0)))
+    one_more = If(((BinOp("<", Ref(same), Ref("c_StuckCalls")), (Assign(same, BinOp("+", Ref(same), Ref("c_OneCall"))),)),))
+    repeated = If(((BinOp("=", x, Ref(last)), (one_more,)),), orelse=(Assign(same, IntConst(0)),))
+    repeats = (If(((ok, (repeated,)),)),) if stuck else ()
     steady = BinOp("<=", Call("ABS", (BinOp("-", x, Ref(last)),)), Ref("c_JumpMax"))
     count = (Assign(settle, BinOp("+", Ref(settle), Ref("c_OneCall"))),
              If(((BinOp(">=", Ref(settle), Ref("c_SettleCalls")), (Assign(fault, BoolConst(False)), Assign(settle, IntConst(0)))),)))
@@ -64,10 +69,11 @@ def _guard_region(g: Guard, fault: str) -> Region:
         (Unary("NOT", Ref(READY_OUTPUT)), (Assign(fault, Unary("NOT", ok)), Assign(settle, IntConst(0)))),
         (Unary("NOT", ok), reset),
         (Unary("NOT", steady), reset),
+        *(((BinOp(">=", Ref(same), Ref("c_StuckCalls")), reset),) if stuck else ()),
         (Ref(fault), count),
     ))
-    return Region(f"Input {g.index} {g.name}: range and jump check, hold the last good value", (
-        in_range, decide, If(((ok, (Assign(last, x),)),)), hold))
+    return Region(f"Input {g.index} {g.name}: range, jump{' and stuck' if stuck else ''} check, hold the last good "
+                  f"value", (in_range, *repeats, decide, If(((ok, (Assign(last, x),)),)), hold))
 
 
 def _limit(name: str, model_value: str) -> tuple:
@@ -113,7 +119,7 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
     gated = lambda title, stmts: Region(title, (If(((Ref(READY_OUTPUT), tuple(stmts)),)),))
     fault_hold = hold_region([faults[g.name] for g in plan], [model_names[v.name] for v in limited])
     regions = [
-        *(_guard_region(g, faults[g.name]) for g in plan),
+        *(_guard_region(g, faults[g.name], limits.stuck_calls is not None) for g in plan),
         Region("Start the model at the first call with every input in range", (
             If(((Unary("NOT", Ref(READY_OUTPUT)), (Assign(READY_OUTPUT, ready),)),)),)),
         *(gated(r.title, r.body) for r in body),
@@ -152,7 +158,9 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
     for g in plan:
         if g.kind == "temperature":
             statics += [Var(f"LastIn_{g.index}", "REAL", f"{g.name}: last reading in range"),
-                        Var(f"Settle_{g.index}", "INT", f"{g.name}: steady calls while faulty")]
+                        Var(f"Settle_{g.index}", "INT", f"{g.name}: steady calls while faulty"),
+                        *((Var(f"Same_{g.index}", "INT", f"{g.name}: calls in a row repeating the last reading"),)
+                          if limits.stuck_calls is not None else ())]
         if g.kind != "fused":
             statics.append(Var(f"Good_{g.index}", "REAL", f"{g.name}: last good value"))
     temps = (*core.temps, *(Var(f"InOk_{g.index}", "BOOL", f"{g.name} reads in range") for g in plan),

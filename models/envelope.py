@@ -9,19 +9,26 @@ and `generate` takes its default limits from it:
     clamp      = round_up(MARGIN * max(measured, model) largest |drift|)
     rate limit = round_up(MARGIN * measured fastest change per call)   (the model's when none was measured)
     speed      = round_up(MARGIN * largest |speed|)
+    stuck      = max(round_up(MARGIN * longest run of equal readings), calls in STUCK_FLOOR_S), at most STUCK_MAX
+
+The last: a temperature input that repeats its reading for `stuck` calls in a row is stuck (a frozen analogue
+card or bus value) and sets its fault bit. A sensor read as a float moves in its last digit every call
+(FL_THERMAL: never the same reading twice in a row), so the floor of 10 min decides; one read in 0.1 K steps
+holds a value as long as the machine is steady (FL_THERMAL rounded to 0.1 K: up to 600 calls, 2.5 h), and the
+recording, taken from the same readings, says how long that is.
 
 rounded up to two significant digits, so the header shows a number an engineer can check by eye. The clamp
 takes the model's own values too, so that it never cuts what the model did on the recording it was accepted
 on; the measured ones so that a model too timid there is not clamped below the machine's drift. The rate
 limit is the machine's alone: heat moves a spindle by at most so much per call, and a model that moves faster
 (FL_THERMAL's mlr: 3.9 um per call against 0.75 measured, its large coefficients amplifying the sensors'
-noise) is passing noise or a failing sensor on. `generate --max-offset-um`, `--max-step-um` and
-`--max-speed-rpm` still set each one.
+noise) is passing noise or a failing sensor on. `generate --max-offset-um`, `--max-step-um`,
+`--max-speed-rpm` and `--stuck-calls` still set each one.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from thermoplc.base.errors import UserError
 from thermoplc.models.pair import check_section
@@ -30,6 +37,9 @@ MARGIN = 1.5
 SIGNIFICANT_DIGITS = 2
 SMALLEST = 1e-3  # um, um per call or rpm: an extreme below this is no drift, no change or no speed (the default)
 FIELDS = ("rows", "drift_um", "step_um", "speed_rpm")
+OPTIONAL = ("same_calls",)  # a model file written before the stuck check has no same_calls
+STUCK_FLOOR_S = 600.0  # a reading repeated this long is stuck however steady the recording was
+STUCK_MAX = 10000  # calls: the block counts them in an INT
 LARGEST = 1e6  # um, um per call or rpm: beyond any machine (a block constant must stay a finite REAL)
 
 
@@ -40,22 +50,29 @@ class Envelope:
     drift_um: tuple[float, float]
     step_um: tuple[float, float]
     speed_rpm: float | None  # None: the model reads no speed
+    same_calls: int | None = field(default=None)  # longest run of calls a temperature input repeated its reading
+    # (as a REAL); None: no temperature input, or a model file from before the stuck check
 
     def to_doc(self) -> dict:
         pair = lambda p: {"measured": p[0], "model": p[1]}
         return {"rows": self.rows, "drift_um": pair(self.drift_um), "step_um": pair(self.step_um),
-                "speed_rpm": self.speed_rpm}
+                "speed_rpm": self.speed_rpm, **({"same_calls": self.same_calls} if self.same_calls is not None else {})}
 
     @staticmethod
     def from_doc(doc, path: str) -> "Envelope":
         """The model file's `envelope` section; every problem named by its field."""
-        check_section(doc, path, "envelope", FIELDS, "part of the envelope")
+        check_section({k: v for k, v in doc.items() if k not in OPTIONAL} if isinstance(doc, dict) else doc, path,
+                      "envelope", FIELDS, "part of the envelope")
         rows = doc["rows"]
         if isinstance(rows, bool) or not isinstance(rows, int) or rows < 1:
             raise UserError(f"{path}: field 'envelope.rows': {rows!r}; expected the number of rows measured, 1 or more")
+        same = doc.get("same_calls")
+        if same is not None and (isinstance(same, bool) or not isinstance(same, int) or not 0 <= same < rows):
+            raise UserError(f"{path}: field 'envelope.same_calls': {same!r}; expected the longest run of repeated "
+                            f"readings, a whole number from 0 to rows - 1 ({rows - 1})")
         speed = doc["speed_rpm"]
         return Envelope(rows, _pair(doc["drift_um"], path, "drift_um"), _pair(doc["step_um"], path, "step_um"),
-                        None if speed is None else _magnitude(speed, path, "speed_rpm"))
+                        None if speed is None else _magnitude(speed, path, "speed_rpm"), same)
 
 
 def _pair(doc, path: str, name: str) -> tuple[float, float]:
@@ -86,9 +103,10 @@ class DataLimit:
     why: str
 
 
-def data_limits(envelope: Envelope) -> dict[str, DataLimit]:
-    """The default clamp ('max_output'), rate limit ('max_step') and speed guard ('max_speed_rpm'); a limit whose
-    extreme is below SMALLEST (no drift, no change, no speed recorded) is left to the caller's default."""
+def data_limits(envelope: Envelope, sample_period_s: float) -> dict[str, DataLimit]:
+    """The default clamp ('max_output'), rate limit ('max_step'), speed guard ('max_speed_rpm') and stuck-sensor
+    time ('stuck_calls', calls of `sample_period_s`); a limit whose extreme is below SMALLEST (no drift, no change,
+    no speed recorded) or was not recorded is left to the caller's default."""
     chosen = {}
     measured, model = envelope.drift_um
     if max(measured, model) >= SMALLEST:
@@ -106,4 +124,13 @@ def data_limits(envelope: Envelope) -> dict[str, DataLimit]:
         chosen["max_speed_rpm"] = DataLimit(round_up(MARGIN * envelope.speed_rpm),
                                             f"{MARGIN:g} x the largest |speed| recorded, "
                                             f"{envelope.speed_rpm:.6g} rpm, rounded up")
+    if envelope.same_calls is not None:
+        floor = math.ceil(STUCK_FLOOR_S / sample_period_s - 1e-9)
+        recorded = int(round_up(MARGIN * envelope.same_calls)) if envelope.same_calls else 0
+        calls = min(STUCK_MAX, max(recorded, floor, envelope.same_calls + 1))
+        repeated = (f"no reading repeated more than {envelope.same_calls} call{'s' * (envelope.same_calls > 1)} in "
+                    f"a row" if envelope.same_calls else "no reading repeated")
+        why = (f"{MARGIN:g} x the longest run of repeated readings recorded, {envelope.same_calls} calls, rounded up"
+               if recorded >= floor else f"{STUCK_FLOOR_S / 60:g} min of calls: {repeated} in the recording")
+        chosen["stuck_calls"] = DataLimit(calls, why + (f", at most {STUCK_MAX}" if calls == STUCK_MAX else ""))
     return chosen

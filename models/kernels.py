@@ -25,17 +25,24 @@ import numpy as np
 from thermoplc.base.compiled import jit
 
 # ---------------------------------------------------------------------------------------------
-# Input guard (models/safety.py::_hold). state_f = last, good; state_i = fault, count.
+# Input guard (models/safety.py::_hold). state_f = last, good; state_i = fault, count, same.
 
 @jit
-def _hold(x, valid, is_range, ready_row, offset, settle, jump, state_f, state_i, held, faults):
+def _hold(x, valid, is_range, ready_row, offset, settle, jump, stuck, state_f, state_i, held, faults):
     fault = state_i[0] != 0
     count = state_i[1]
+    same = state_i[2]
     last = state_f[0]
     good = state_f[1]
     for jj in range(x.shape[0]):
         j = jj + offset
         ok = valid[jj]
+        if ok and stuck > 0 and not is_range:
+            if x[jj] == last:
+                if same < stuck:
+                    same += 1
+            else:
+                same = 0
         if is_range:
             fault = not ok
         elif j <= ready_row:
@@ -45,6 +52,9 @@ def _hold(x, valid, is_range, ready_row, offset, settle, jump, state_f, state_i,
             fault = True
             count = 0
         elif not abs(x[jj] - last) <= jump:
+            fault = True
+            count = 0
+        elif stuck > 0 and same >= stuck:
             fault = True
             count = 0
         elif fault:
@@ -60,6 +70,7 @@ def _hold(x, valid, is_range, ready_row, offset, settle, jump, state_f, state_i,
         faults[jj] = fault
     state_i[0] = 1 if fault else 0
     state_i[1] = count
+    state_i[2] = same
     state_f[0] = last
     state_f[1] = good
 
@@ -67,18 +78,19 @@ def _hold(x, valid, is_range, ready_row, offset, settle, jump, state_f, state_i,
 class HoldState:
     def __init__(self, f):
         self.values = np.zeros(2, f)  # last, good: f(0) at the first call
-        self.flags = np.zeros(2, np.int64)  # fault, count
+        self.flags = np.zeros(3, np.int64)  # fault, count, same
 
 
 def hold(x, valid, is_range: bool, ready_row: int, settle: int, jump, f, state: HoldState | None = None,
-         offset: int = 0):
-    """(held, faults) as safety._hold; offset is the row number of x[0] in the whole recording."""
+         offset: int = 0, stuck: int = 0):
+    """(held, faults) as safety._hold; offset is the row number of x[0] in the whole recording; stuck: the
+    repeats that make a reading stuck, 0 for none."""
     state = state or HoldState(f)
     rows = len(x)
     held = np.zeros(rows, f)
     faults = np.zeros(rows, np.bool_)
     _hold(np.ascontiguousarray(x, f), np.ascontiguousarray(valid, np.bool_), bool(is_range), np.int64(ready_row),
-          np.int64(offset), np.int64(settle), f(jump), state.values, state.flags, held, faults)
+          np.int64(offset), np.int64(settle), f(jump), np.int64(stuck), state.values, state.flags, held, faults)
     return held, faults
 
 

@@ -1,7 +1,8 @@
 """What every block does around its model so that it is safe on a machine (docs/reliability.md).
 
 Input guards: a reading that is NaN or outside its range (a broken PT100 reads 3276.7 or -3276.8)
-or, for temperatures, jumps by more than a limit in one call marks its sensor faulty; the block
+or, for temperatures, jumps by more than a limit in one call or repeats its reading for `stuck_calls` calls
+in a row (a frozen card: models/envelope.py says how long is too long) marks its sensor faulty; the block
 then holds the last good value (the Kalman filter instead sets that sensor's gain to 0) and takes
 the sensor back after it has read steadily for a number of calls. The model starts at the first
 call on which every input is in range. Output limits: each output moves at most `max_step` per
@@ -53,6 +54,8 @@ class Limits:
     max_other: float = 1.0e6  # feed, tool length and other non-temperature inputs
     max_jump_K: float = 1.0  # temperature change per call that marks a sensor faulty
     settle_calls: int = 30  # steady calls after which a held sensor is trusted again
+    stuck_calls: int | None = 240  # a temperature repeating its reading this many calls in a row is stuck; None: a
+    # block generated before the stuck check (the default: 1 h at 15 s, for a model file without an envelope)
     fault_move: float | None = 2.0  # um: while a fault bit is set each output stays this near (models/fault_hold.py);
     # None: a block generated before the hold
     fault_fade: float = 0.995  # per call, the held value's factor towards no compensation (generate --fault-fade-s)
@@ -63,7 +66,7 @@ class Limits:
             value = getattr(self, f.name)
             if f.name == "origins":
                 continue
-            if value is None and f.name == "fault_move":
+            if value is None and f.name in ("fault_move", "stuck_calls"):
                 continue
             if f.name == "fault_fade":
                 if not (np.isfinite(value) and 0 < value <= 1 and float(np.float32(value)) >= 1e-6):
@@ -78,6 +81,8 @@ class Limits:
             raise UserError(f"temperature range {self.temp_min_C}..{self.temp_max_C} degC is empty")
         if not 1 <= self.settle_calls <= 10000:
             raise UserError(f"settle calls must be 1..10000, got {self.settle_calls}")
+        if self.stuck_calls is not None and not (isinstance(self.stuck_calls, int) and 2 <= self.stuck_calls <= 10000):
+            raise UserError(f"stuck calls must be a whole number 2..10000, got {self.stuck_calls}")
 
     def values(self) -> dict:
         """The values the safety logic computes with (key -> binary32 value or INT); the block holds
@@ -87,6 +92,7 @@ class Limits:
                 "speed_min": f(-self.max_speed_rpm), "speed_max": f(self.max_speed_rpm),
                 "other_min": f(-self.max_other), "other_max": f(self.max_other),
                 "jump_max": f(self.max_jump_K), "settle_calls": int(self.settle_calls), "one_call": 1,
+                **({"stuck_calls": int(self.stuck_calls)} if self.stuck_calls is not None else {}),
                 "step_max": f(self.max_step), "step_min": f(-self.max_step),
                 "out_max": f(self.max_output), "out_min": f(-self.max_output), "k0_mm": f(K0_MM_PER_UM),
                 "real_max": f(REAL_TEXT_MAX), **({"fault_move": f(self.fault_move), "fault_fade": f(self.fault_fade), "fault_floor": f(FADE_FLOOR)}
@@ -96,12 +102,17 @@ class Limits:
     def for_model(cls, model: Model, **given) -> "Limits":
         """The limits `generate` uses for `model`: each one given (not None), else the clamp, rate limit and
         speed guard from the model's envelope of its recording (models/envelope.py), else the defaults above."""
-        chosen = data_limits(model.envelope) if model.envelope is not None else {}
+        chosen = data_limits(model.envelope, model.sample_period_s) if model.envelope is not None else {}
         if not model.signals("speed"):  # no speed guard in the block: nothing to take or to give
             chosen.pop("max_speed_rpm", None)
             if given.get("max_speed_rpm") is not None:
                 raise UserError(f"--max-speed-rpm {given['max_speed_rpm']:g}: the model reads no speed input, so the "
                                 f"block has no speed guard; leave the option out")
+        if not stuck_checked(model):  # every temperature judged by the model's own filter, or none
+            chosen.pop("stuck_calls", None)
+            if given.get("stuck_calls") is not None:
+                raise UserError(f"--stuck-calls {given['stuck_calls']}: the block checks no temperature for a stuck "
+                                f"reading (none, or its filter judges them); leave the option out")
         taken = {name: chosen[name] for name in chosen if given.get(name) is None}
         return cls(**{name: value for name, value in given.items() if value is not None},
                    **{name: limit.value for name, limit in taken.items()},
@@ -116,9 +127,11 @@ class Limits:
         """The limits whose `values()` these are (a key not given keeps its default)."""
         fields_of = {"temp_min": "temp_min_C", "temp_max": "temp_max_C", "speed_max": "max_speed_rpm",
                      "other_max": "max_other", "jump_max": "max_jump_K", "settle_calls": "settle_calls",
+                     "stuck_calls": "stuck_calls",
                      "step_max": "max_step", "out_max": "max_output", "fault_move": "fault_move",
                      "fault_fade": "fault_fade"}
-        return cls(**{"fault_move": None, **{field: given[key] for key, field in fields_of.items() if key in given}})
+        return cls(**{"fault_move": None, "stuck_calls": None,
+                      **{field: given[key] for key, field in fields_of.items() if key in given}})
 
 
 @dataclass(frozen=True)
@@ -146,6 +159,12 @@ def guards(model: Model) -> tuple[Guard, ...]:
     return tuple(out)
 
 
+def stuck_checked(model: Model) -> list[str]:
+    """The inputs the block checks for a stuck reading: every temperature it guards itself (a Kalman filter
+    judges its own)."""
+    return [g.name for g in guards(model) if g.kind == "temperature"]
+
+
 def limited_outputs(core: dict) -> list[str]:
     """The model outputs the limiter acts on: every REAL one, in the model's order."""
     return [name for name, values in core.items() if np.asarray(values).dtype.kind == "f"]
@@ -160,15 +179,23 @@ def axis_outputs(model: Model, names: list[str]) -> list[str]:
 
 def _hold(x: np.ndarray, valid: np.ndarray, guard: Guard, ready_row: int, limits: Limits, f):
     """Last good value and fault flag per call, as the guard region computes them."""
+    stuck = limits.stuck_calls or 0  # 0: no stuck check (a block generated before it)
     if compiled.enabled(len(x)):  # the same loop, compiled (models/kernels.py)
-        return kernels.hold(x, valid, guard.kind == "range", ready_row, limits.settle_calls, limits.max_jump_K, f)
+        return kernels.hold(x, valid, guard.kind == "range", ready_row, limits.settle_calls, limits.max_jump_K, f,
+                            stuck=stuck)
     rows = len(x)
     held = np.zeros(rows, f)
     faults = np.zeros(rows, bool)
-    fault, count, last, good = False, 0, f(0), f(0)
+    fault, count, last, good, same = False, 0, f(0), f(0), 0
     jump = f(limits.max_jump_K)
     for j in range(rows):
         ok = bool(valid[j])
+        if ok and stuck and guard.kind != "range":  # repeats of the last reading in range
+            if x[j] == last:
+                if same < stuck:
+                    same += 1
+            else:
+                same = 0
         if guard.kind == "range":
             fault = not ok
         elif j <= ready_row:
@@ -176,6 +203,8 @@ def _hold(x: np.ndarray, valid: np.ndarray, guard: Guard, ready_row: int, limits
         elif not ok:
             fault, count = True, 0
         elif not abs(x[j] - last) <= jump:
+            fault, count = True, 0
+        elif stuck and same >= stuck:
             fault, count = True, 0
         elif fault:
             count += 1

@@ -92,7 +92,7 @@ class StreamingReference:
             else:
                 core_inputs[g.name], faults[g.name] = kernels.hold(
                     raw[g.name], valid[g.name], g.kind == "range", self.ready, self.limits.settle_calls,
-                    self.limits.max_jump_K, f, self.holds[g.name], offset)
+                    self.limits.max_jump_K, f, self.holds[g.name], offset, self.limits.stuck_calls or 0)
         core = None
         if local < rows:
             running = {name: values[local:] for name, values in core_inputs.items()}

@@ -50,6 +50,7 @@ FAULT_KINDS = (
     FaultKind("short", "short circuit, PT100 code -3276.8", False, _constant(-3276.8)),
     FaultKind("jump", "jumps by +5 K", False, lambda x, t: x + np.float32(5.0)),
     FaultKind("dead", "dies: NaN to the end", True, _constant(np.nan)),
+    FaultKind("stuck", "frozen: its reading to the end", True, lambda x, t: np.full_like(x, x[0])),
     FaultKind("sine", "paper 000 eq. 18: +2 sin(t/350) degC", True, lambda x, t: x + 2.0 * np.sin(t / 350.0)),
     FaultKind("offset", "paper 000 eq. 19: -2 degC", True, lambda x, t: x - np.float32(2.0)),
 )

@@ -46,6 +46,10 @@ def add_parser(sub) -> None:
                    help="temperature change per call that marks a sensor faulty, K (default: %(default)s)")
     p.add_argument("--settle-calls", type=number(int, 1, 10000, "calls"), default=30,
                    help="steady calls before a faulty sensor is trusted again (default: %(default)s)")
+    p.add_argument("--stuck-calls", type=number(int, 2, 10000, "calls"),
+                   help="a temperature repeating its reading this many calls in a row is a stuck sensor (default: "
+                        "1.5 x the longest run of repeated readings in the model file's recording, at least 10 min "
+                        "of calls; 240 for a model file without one)")
     p.add_argument("--fault-move-um", type=number(float, 1e-6, 1e12, "micrometres"), default=2.0,
                    help="while an input's fault bit is set, each output stays within this of its value before the "
                         "fault (default: %(default)s)")
@@ -105,7 +109,8 @@ def run(args: argparse.Namespace) -> int:
     low, high = args.temp_range
     limits = Limits.for_model(model, max_output=args.max_offset_um, max_step=args.max_step_um,
                               max_speed_rpm=args.max_speed_rpm, temp_min_C=low, temp_max_C=high,
-                              max_jump_K=args.max_jump_k, settle_calls=args.settle_calls, fault_move=args.fault_move_um,
+                              max_jump_K=args.max_jump_k, settle_calls=args.settle_calls, stuck_calls=args.stuck_calls,
+                              fault_move=args.fault_move_um,
                               fault_fade=math.exp(-model.sample_period_s / args.fault_fade_s))
     version, why = _version(args, model)
     identity = Identity(author=args.author, family=args.family, version=version, date=args.date or _today(),
@@ -150,6 +155,7 @@ def _summary(say: Callable[[str], None], args: argparse.Namespace, model, limits
     from thermoplc.generator.identity import NAME_MAX, header_name, show
     from thermoplc.generator.lower import lower_model
     from thermoplc.fitting.acceptance import evidence, fused_summary
+    from thermoplc.models.safety import stuck_checked
     block, proof, stressed = generated.block, generated.proof, generated.stressed
     say(f"wrote {'standard output' if args.output == '-' else args.output}: {model.kind} block {model.block_name!r}, "
         f"dialect {args.dialect}{', PLCopen XML' if args.format == 'plcopen' else ''}, model fingerprint "
@@ -161,14 +167,16 @@ def _summary(say: Callable[[str], None], args: argparse.Namespace, model, limits
         say(f"  NAME {name}: " + (f"the block name cut to the {NAME_MAX} characters STEP 7 allows; --header-name sets it"
                                   if cut else "--header-name" if block.identity.name else "the block name"))
     for field, option in (("max_output", "--max-offset-um"), ("max_step", "--max-step-um"),
-                          ("max_speed_rpm", "--max-speed-rpm")):
+                          ("max_speed_rpm", "--max-speed-rpm"), ("stuck_calls", "--stuck-calls")):
         if limits.origin(field):
             say(f"  {option} {getattr(limits, field):g}: {limits.origin(field)}")
     if model.start is None:
         say("  no known start in the model file (written before thermoplc fitted one): after power-on or Reset the "
             "block starts at the model's own first value; refit to get one")
     say(f"  outputs within +-{limits.max_output:g}, at most {limits.max_step:g} per call; temperatures "
-        f"{limits.temp_min_C:g}..{limits.temp_max_C:g} degC, jump {limits.max_jump_K:g} K per call; while a fault "
+        f"{limits.temp_min_C:g}..{limits.temp_max_C:g} degC, jump {limits.max_jump_K:g} K per call"
+        + (f", stuck after {limits.stuck_calls} calls of the same reading" if stuck_checked(model) else "")
+        + f"; while a fault "
         f"bit is set within {limits.fault_move:g} of the output before it, fading to none in {args.fault_fade_s:g} s")
     say("  " + (f"NOT VALIDATED (--accept-unvalidated): {generated.unvalidated}" if generated.unvalidated
                 else f"accepted on {evidence(model).summary()}"))
