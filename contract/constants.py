@@ -75,13 +75,15 @@ def table_coefficients(model: Model, table: str) -> tuple[str, ...] | None:
 
 def required(model: Model) -> set[str]:
     """The constants every block of this model declares whatever its coefficients: the structure,
-    each guard's range, the jump and settle rule of a held temperature, the output limiter and the
+    each guard's range, the jump and settle rule of a held temperature, every temperature's stuck rule, the output limiter and the
     K0 factor of an output in um. A block without one of them computes with something else."""
     keys = {"step_max", "step_min", "out_max", "out_min", "real_max", "fault_move", "fault_fade", "fault_floor"}
     for guard in guards(model):
         keys |= {guard.low, guard.high}
         if guard.kind == "temperature":
-            keys |= {"jump_max", "one_call", "settle_calls", "stuck_calls"}
+            keys |= {"jump_max", "one_call", "settle_calls"}
+        if guard.kind in ("temperature", "fused"):
+            keys |= {"one_call", "stuck_calls"}
     if axis_outputs(model, [model.target.name, *(t["name"] for t in model.settings.get("targets", ()))]):
         keys.add("k0_mm")
     return set(structure(model)) | {limit_name(key) for key in keys}

@@ -46,22 +46,34 @@ def _limit_comments(limits: Limits) -> dict[str, str]:
     return {**_CONSTANT_COMMENTS, **said}
 
 
+def _repeats(g: Guard, remember: bool) -> If:
+    """Count the calls in a row the reading repeats the last one in range (models/safety.py::stuck_readings);
+    `remember`: keep this reading as the last one here (a held temperature does it after its jump check)."""
+    x, same, last = Ref(g.name), f"Same_{g.index}", f"LastIn_{g.index}"
+    one_more = If(((BinOp("<", Ref(same), Ref("c_StuckCalls")), (Assign(same, BinOp("+", Ref(same), Ref("c_OneCall"))),)),))
+    return If(((Ref(f"InOk_{g.index}"), (If(((BinOp("=", x, Ref(last)), (one_more,)),),
+                                            orelse=(Assign(same, IntConst(0)),)),
+                                         *((Assign(last, x),) if remember else ()))),))
+
+
 def _guard_region(g: Guard, fault: str, stuck: bool) -> Region:
     x, ok = Ref(g.name), Ref(f"InOk_{g.index}")
     low, high = Ref(limit_name(g.low)), Ref(limit_name(g.high))
     in_range = Assign(ok.name, BinOp("AND", BinOp(">=", x, low), BinOp("<=", x, high)))
-    if g.kind == "fused":
-        return Region(f"Input {g.index} {g.name}: range check (the filter decides the fault)", (
-            in_range, If(((Unary("NOT", Ref(READY_OUTPUT)), (Assign(fault, Unary("NOT", ok)),)),))))
+    last = f"LastIn_{g.index}"
+    if g.kind == "fused":  # a stuck reading is no reading for the filter
+        repeats = (_repeats(g, remember=True),
+                   Assign(ok.name, BinOp("AND", ok, BinOp("<", Ref(f"Same_{g.index}"), Ref("c_StuckCalls"))))
+                   ) if stuck else ()
+        return Region(f"Input {g.index} {g.name}: range{' and stuck' if stuck else ''} check (the filter decides the "
+                      f"fault)", (in_range, *repeats, If(((Unary("NOT", Ref(READY_OUTPUT)),
+                                                           (Assign(fault, Unary("NOT", ok)),)),))))
     hold = If(((Unary("NOT", Ref(fault)), (Assign(f"Good_{g.index}", x),)),))
     if g.kind == "range":
         return Region(f"Input {g.index} {g.name}: range check, hold the last good value", (
             in_range, Assign(fault, Unary("NOT", ok)), hold))
-    settle, last, same = f"Settle_{g.index}", f"LastIn_{g.index}", f"Same_{g.index}"
+    settle = f"Settle_{g.index}"
     reset = (Assign(fault, BoolConst(True)), Assign(settle, IntConst(0)))
-    one_more = If(((BinOp("<", Ref(same), Ref("c_StuckCalls")), (Assign(same, BinOp("+", Ref(same), Ref("c_OneCall"))),)),))
-    repeated = If(((BinOp("=", x, Ref(last)), (one_more,)),), orelse=(Assign(same, IntConst(0)),))
-    repeats = (If(((ok, (repeated,)),)),) if stuck else ()
     steady = BinOp("<=", Call("ABS", (BinOp("-", x, Ref(last)),)), Ref("c_JumpMax"))
     count = (Assign(settle, BinOp("+", Ref(settle), Ref("c_OneCall"))),
              If(((BinOp(">=", Ref(settle), Ref("c_SettleCalls")), (Assign(fault, BoolConst(False)), Assign(settle, IntConst(0)))),)))
@@ -69,11 +81,11 @@ def _guard_region(g: Guard, fault: str, stuck: bool) -> Region:
         (Unary("NOT", Ref(READY_OUTPUT)), (Assign(fault, Unary("NOT", ok)), Assign(settle, IntConst(0)))),
         (Unary("NOT", ok), reset),
         (Unary("NOT", steady), reset),
-        *(((BinOp(">=", Ref(same), Ref("c_StuckCalls")), reset),) if stuck else ()),
+        *(((BinOp(">=", Ref(f"Same_{g.index}"), Ref("c_StuckCalls")), reset),) if stuck else ()),
         (Ref(fault), count),
     ))
     return Region(f"Input {g.index} {g.name}: range, jump{' and stuck' if stuck else ''} check, hold the last good "
-                  f"value", (in_range, *repeats, decide, If(((ok, (Assign(last, x),)),)), hold))
+                  f"value", (in_range, *((_repeats(g, remember=False),) if stuck else ()), decide, If(((ok, (Assign(last, x),)),)), hold))
 
 
 def _limit(name: str, model_value: str) -> tuple:
@@ -155,12 +167,14 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
                               "it); give --fault-move-um")
     added_hold = hold_declarations(len(limited))
     statics = [*core.statics, *(START_STATICS if start else ()), *added.get("statics", ()), *added_hold["statics"]]
+    stuck = limits.stuck_calls is not None
     for g in plan:
+        if g.kind == "temperature" or g.kind == "fused" and stuck:
+            statics.append(Var(f"LastIn_{g.index}", "REAL", f"{g.name}: last reading in range"))
         if g.kind == "temperature":
-            statics += [Var(f"LastIn_{g.index}", "REAL", f"{g.name}: last reading in range"),
-                        Var(f"Settle_{g.index}", "INT", f"{g.name}: steady calls while faulty"),
-                        *((Var(f"Same_{g.index}", "INT", f"{g.name}: calls in a row repeating the last reading"),)
-                          if limits.stuck_calls is not None else ())]
+            statics.append(Var(f"Settle_{g.index}", "INT", f"{g.name}: steady calls while faulty"))
+        if g.kind in ("temperature", "fused") and stuck:
+            statics.append(Var(f"Same_{g.index}", "INT", f"{g.name}: calls in a row repeating the last reading"))
         if g.kind != "fused":
             statics.append(Var(f"Good_{g.index}", "REAL", f"{g.name}: last good value"))
     temps = (*core.temps, *(Var(f"InOk_{g.index}", "BOOL", f"{g.name} reads in range") for g in plan),

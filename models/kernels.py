@@ -25,24 +25,55 @@ import numpy as np
 from thermoplc.base.compiled import jit
 
 # ---------------------------------------------------------------------------------------------
-# Input guard (models/safety.py::_hold). state_f = last, good; state_i = fault, count, same.
+# Stuck reading: per call, whether a temperature has repeated its last reading in range `stuck` calls in a
+# row (models/safety.py::stuck_readings). state_f = last reading in range; state_i = repeats.
 
 @jit
-def _hold(x, valid, is_range, ready_row, offset, settle, jump, stuck, state_f, state_i, held, faults):
+def _repeats(x, valid, stuck, state_f, state_i, out):
+    last = state_f[0]
+    same = state_i[0]
+    for j in range(x.shape[0]):
+        if valid[j]:
+            if x[j] == last:
+                if same < stuck:
+                    same += 1
+            else:
+                same = 0
+            last = x[j]
+        out[j] = same >= stuck
+    state_f[0] = last
+    state_i[0] = same
+
+
+class RepeatState:
+    def __init__(self, f):
+        self.values = np.zeros(1, f)  # the last reading in range: f(0) at the first call
+        self.flags = np.zeros(1, np.int64)  # repeats of it
+
+
+def repeats(x, valid, stuck: int, f, compiled_loop: bool, state: RepeatState | None = None):
+    """Per call, whether the reading is stuck (`stuck` repeats of the last in-range reading); `compiled_loop`
+    False runs the same loop as Python (the oracle)."""
+    state = state or RepeatState(f)
+    out = np.zeros(len(x), np.bool_)
+    loop = _repeats if compiled_loop else getattr(_repeats, "py_func", _repeats)
+    loop(np.ascontiguousarray(x, f), np.ascontiguousarray(valid, np.bool_), np.int64(stuck), state.values,
+         state.flags, out)
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Input guard (models/safety.py::_hold). state_f = last, good; state_i = fault, count.
+
+@jit
+def _hold(x, valid, stuck, is_range, ready_row, offset, settle, jump, state_f, state_i, held, faults):
     fault = state_i[0] != 0
     count = state_i[1]
-    same = state_i[2]
     last = state_f[0]
     good = state_f[1]
     for jj in range(x.shape[0]):
         j = jj + offset
         ok = valid[jj]
-        if ok and stuck > 0 and not is_range:
-            if x[jj] == last:
-                if same < stuck:
-                    same += 1
-            else:
-                same = 0
         if is_range:
             fault = not ok
         elif j <= ready_row:
@@ -54,7 +85,7 @@ def _hold(x, valid, is_range, ready_row, offset, settle, jump, stuck, state_f, s
         elif not abs(x[jj] - last) <= jump:
             fault = True
             count = 0
-        elif stuck > 0 and same >= stuck:
+        elif stuck[jj]:
             fault = True
             count = 0
         elif fault:
@@ -70,7 +101,6 @@ def _hold(x, valid, is_range, ready_row, offset, settle, jump, stuck, state_f, s
         faults[jj] = fault
     state_i[0] = 1 if fault else 0
     state_i[1] = count
-    state_i[2] = same
     state_f[0] = last
     state_f[1] = good
 
@@ -78,19 +108,20 @@ def _hold(x, valid, is_range, ready_row, offset, settle, jump, stuck, state_f, s
 class HoldState:
     def __init__(self, f):
         self.values = np.zeros(2, f)  # last, good: f(0) at the first call
-        self.flags = np.zeros(3, np.int64)  # fault, count, same
+        self.flags = np.zeros(2, np.int64)  # fault, count
 
 
-def hold(x, valid, is_range: bool, ready_row: int, settle: int, jump, f, state: HoldState | None = None,
-         offset: int = 0, stuck: int = 0):
-    """(held, faults) as safety._hold; offset is the row number of x[0] in the whole recording; stuck: the
-    repeats that make a reading stuck, 0 for none."""
+def hold(x, valid, stuck, is_range: bool, ready_row: int, settle: int, jump, f, state: HoldState | None = None,
+         offset: int = 0):
+    """(held, faults) as safety._hold; stuck: per call, the reading is stuck (`repeats`); offset is the row number
+    of x[0] in the whole recording."""
     state = state or HoldState(f)
     rows = len(x)
     held = np.zeros(rows, f)
     faults = np.zeros(rows, np.bool_)
-    _hold(np.ascontiguousarray(x, f), np.ascontiguousarray(valid, np.bool_), bool(is_range), np.int64(ready_row),
-          np.int64(offset), np.int64(settle), f(jump), np.int64(stuck), state.values, state.flags, held, faults)
+    _hold(np.ascontiguousarray(x, f), np.ascontiguousarray(valid, np.bool_), np.ascontiguousarray(stuck, np.bool_),
+          bool(is_range), np.int64(ready_row),
+          np.int64(offset), np.int64(settle), f(jump), state.values, state.flags, held, faults)
     return held, faults
 
 

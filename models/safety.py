@@ -108,11 +108,11 @@ class Limits:
             if given.get("max_speed_rpm") is not None:
                 raise UserError(f"--max-speed-rpm {given['max_speed_rpm']:g}: the model reads no speed input, so the "
                                 f"block has no speed guard; leave the option out")
-        if not stuck_checked(model):  # every temperature judged by the model's own filter, or none
+        if not stuck_checked(model):  # no temperature input: nothing to take or to give
             chosen.pop("stuck_calls", None)
             if given.get("stuck_calls") is not None:
-                raise UserError(f"--stuck-calls {given['stuck_calls']}: the block checks no temperature for a stuck "
-                                f"reading (none, or its filter judges them); leave the option out")
+                raise UserError(f"--stuck-calls {given['stuck_calls']}: the model reads no temperature input, so the "
+                                f"block has no stuck check; leave the option out")
         taken = {name: chosen[name] for name in chosen if given.get(name) is None}
         return cls(**{name: value for name, value in given.items() if value is not None},
                    **{name: limit.value for name, limit in taken.items()},
@@ -160,9 +160,16 @@ def guards(model: Model) -> tuple[Guard, ...]:
 
 
 def stuck_checked(model: Model) -> list[str]:
-    """The inputs the block checks for a stuck reading: every temperature it guards itself (a Kalman filter
-    judges its own)."""
-    return [g.name for g in guards(model) if g.kind == "temperature"]
+    """The inputs the block checks for a stuck reading: every temperature."""
+    return [g.name for g in guards(model) if g.kind in ("temperature", "fused")]
+
+
+def stuck_readings(x: np.ndarray, valid: np.ndarray, limits: Limits, f, state=None) -> np.ndarray:
+    """Per call, whether a temperature has repeated its last reading in range `limits.stuck_calls` times in a row
+    (never, for a block generated before the check); `state` carries the count from one chunk to the next."""
+    if limits.stuck_calls is None:
+        return np.zeros(len(x), bool)
+    return kernels.repeats(x, valid, limits.stuck_calls, f, compiled.enabled(len(x)), state)
 
 
 def limited_outputs(core: dict) -> list[str]:
@@ -177,25 +184,19 @@ def axis_outputs(model: Model, names: list[str]) -> list[str]:
     return [n for n in names if units.get(n, "um") == "um"]
 
 
-def _hold(x: np.ndarray, valid: np.ndarray, guard: Guard, ready_row: int, limits: Limits, f):
-    """Last good value and fault flag per call, as the guard region computes them."""
-    stuck = limits.stuck_calls or 0  # 0: no stuck check (a block generated before it)
+def _hold(x: np.ndarray, valid: np.ndarray, stuck: np.ndarray, guard: Guard, ready_row: int, limits: Limits, f):
+    """Last good value and fault flag per call, as the guard region computes them; `stuck`: per call, whether the
+    reading is stuck (stuck_readings)."""
     if compiled.enabled(len(x)):  # the same loop, compiled (models/kernels.py)
-        return kernels.hold(x, valid, guard.kind == "range", ready_row, limits.settle_calls, limits.max_jump_K, f,
-                            stuck=stuck)
+        return kernels.hold(x, valid, stuck, guard.kind == "range", ready_row, limits.settle_calls,
+                            limits.max_jump_K, f)
     rows = len(x)
     held = np.zeros(rows, f)
     faults = np.zeros(rows, bool)
-    fault, count, last, good, same = False, 0, f(0), f(0), 0
+    fault, count, last, good = False, 0, f(0), f(0)
     jump = f(limits.max_jump_K)
     for j in range(rows):
         ok = bool(valid[j])
-        if ok and stuck and guard.kind != "range":  # repeats of the last reading in range
-            if x[j] == last:
-                if same < stuck:
-                    same += 1
-            else:
-                same = 0
         if guard.kind == "range":
             fault = not ok
         elif j <= ready_row:
@@ -204,7 +205,7 @@ def _hold(x: np.ndarray, valid: np.ndarray, guard: Guard, ready_row: int, limits
             fault, count = True, 0
         elif not abs(x[j] - last) <= jump:
             fault, count = True, 0
-        elif stuck and same >= stuck:
+        elif stuck[j]:
             fault, count = True, 0
         elif fault:
             count += 1
@@ -258,14 +259,20 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     raw = {g.name: np.asarray(inputs[g.name], f) for g in plan}
     with np.errstate(invalid="ignore"):
         valid = {g.name: (raw[g.name] >= f(constants[g.low])) & (raw[g.name] <= f(constants[g.high])) for g in plan}
+    stuck = {g.name: stuck_readings(raw[g.name], valid[g.name], limits, f) for g in plan if g.low == "temp_min"}
+    for g in plan:
+        if g.kind == "fused":  # a stuck reading is no reading for the model's own filter
+            valid[g.name] = valid[g.name] & ~stuck[g.name]
     all_valid = np.logical_and.reduce([valid[g.name] for g in plan])
     ready_row = int(np.argmax(all_valid)) if all_valid.any() else rows
     core_inputs, faults = {}, {}
+    never = np.zeros(rows, bool)
     for g in plan:
         if g.kind == "fused":
             core_inputs[g.name] = raw[g.name]
         else:
-            core_inputs[g.name], faults[g.name] = _hold(raw[g.name], valid[g.name], g, ready_row, limits, f)
+            core_inputs[g.name], faults[g.name] = _hold(raw[g.name], valid[g.name], stuck.get(g.name, never), g,
+                                                        ready_row, limits, f)
     running = {name: values[ready_row:] for name, values in core_inputs.items()}
     fused_valid = {g.name: valid[g.name][ready_row:] for g in plan if g.kind == "fused"}
     core = core_predict(model, running, precision, fused_valid) if ready_row < rows else None

@@ -20,7 +20,7 @@ from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import guarded_core, with_start
 from thermoplc.models.safety import (CLAMPED, ENABLED, INVALID, LIMITED, READY, Limits, axis_outputs, fault_flags,
-                                     guards, held_while_faulty, k0_key, real_outputs_of)
+                                     guards, held_while_faulty, k0_key, real_outputs_of, stuck_readings)
 
 NOT_YET = np.iinfo(np.int64).max  # the ready row before any call had every input in range
 
@@ -63,6 +63,7 @@ class StreamingReference:
         self.names = real_outputs_of(model, guarded_core, precision)  # what the limiter acts on, in order
         self.axes = axis_outputs(model, self.names)
         self.holds = {g.name: kernels.HoldState(f) for g in self.plan if g.kind != "fused"}
+        self.repeats = {g.name: kernels.RepeatState(f) for g in self.plan if g.low == "temp_min"}
         self.y = {name: np.zeros(1, f) for name in self.names}
         self.start_state = np.zeros(2, f)  # the known start's offset and latch (models/start.py)
         self.hold_states = {name: np.zeros(3, f) for name in self.names}  # models/fault_hold.py, per output
@@ -80,6 +81,11 @@ class StreamingReference:
         raw = {g.name: np.asarray(inputs[g.name], f) for g in self.plan}
         valid = {g.name: (raw[g.name] >= f(constants[g.low])) & (raw[g.name] <= f(constants[g.high]))
                  for g in self.plan}
+        stuck = {name: stuck_readings(raw[name], valid[name], self.limits, f, state)
+                 for name, state in self.repeats.items()}
+        for g in self.plan:
+            if g.kind == "fused":  # a stuck reading is no reading for the model's own filter
+                valid[g.name] = valid[g.name] & ~stuck[g.name]
         if self.ready == NOT_YET:
             all_valid = np.logical_and.reduce([valid[g.name] for g in self.plan])
             if all_valid.any():
@@ -91,8 +97,8 @@ class StreamingReference:
                 core_inputs[g.name] = raw[g.name]
             else:
                 core_inputs[g.name], faults[g.name] = kernels.hold(
-                    raw[g.name], valid[g.name], g.kind == "range", self.ready, self.limits.settle_calls,
-                    self.limits.max_jump_K, f, self.holds[g.name], offset, self.limits.stuck_calls or 0)
+                    raw[g.name], valid[g.name], stuck.get(g.name, np.zeros(rows, bool)), g.kind == "range",
+                    self.ready, self.limits.settle_calls, self.limits.max_jump_K, f, self.holds[g.name], offset)
         core = None
         if local < rows:
             running = {name: values[local:] for name, values in core_inputs.items()}

@@ -110,13 +110,14 @@ def test_compiled_loops_contract_nothing():
     f = np.float32
     kalman.kalman_loop(np.ones(3, f), np.ones(3, f), [np.ones(3, f)], [np.ones(3, bool)],
                    np.ones((1, 10), f), np.ones(1, f), f(0), f)
-    kernels.hold(np.ones(3, f), np.ones(3, bool), False, 0, 3, 1.0, f)
+    kernels.hold(np.ones(3, f), np.ones(3, bool), np.zeros(3, bool), False, 0, 3, 1.0, f)
+    kernels.repeats(np.ones(3, f), np.ones(3, bool), 2, f, True)
     grey.gm0n_loop([np.ones(3, f)], 1.0, [1.0], f)
     grey.gm1n_loop([np.ones(3, f)], 1.0, 1.0, 1.0, [1.0], f)
     kernels.limit(np.ones(3, f), 0, np.zeros(1, f), np.zeros(3, f), np.zeros(3, bool), np.zeros(3, bool),
                   np.zeros(3, bool), Limits().values(), f)
     lumped_model.lumped_loop([np.ones(3, f)], np.ones(3, f), np.ones(3, f), None, (True,) * 6 + (False, True, True), {}, [(1.0, 1.0, 1.0)], 0, f)
-    for fn in (kalman._kalman, kernels._hold, kernels._limit, grey._gm0n, grey._gm1n, lumped_model._lumped):
+    for fn in (kalman._kalman, kernels._hold, kernels._repeats, kernels._limit, grey._gm0n, grey._gm1n, lumped_model._lumped):
         fresh = compiled.numba.njit(**{**compiled.JIT_OPTIONS, "cache": False})(fn.py_func)  # cached code has no IR
         for signature in fn.signatures:
             fresh.compile(signature)

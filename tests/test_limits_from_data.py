@@ -36,14 +36,14 @@ def test_rounding_keeps_round_numbers_and_takes_the_next_step_otherwise():
 
 def test_the_limits_are_one_and_a_half_the_recorded_extremes_the_rate_the_machines_own():
     envelope = Envelope(1000, (68.7, 63.5), (0.753, 3.87), 5000.0)
-    chosen = data_limits(envelope)
+    chosen = data_limits(envelope, 15.0)
     assert (chosen["max_output"].value, chosen["max_step"].value, chosen["max_speed_rpm"].value) == (110.0, 1.2, 7500.0)
     assert "68.7 (measured)" in chosen["max_output"].why and "0.753 (measured)" in chosen["max_step"].why
-    timid = data_limits(Envelope(10, (2.0, 30.0), (0.0, 0.4), None))
+    timid = data_limits(Envelope(10, (2.0, 30.0), (0.0, 0.4), None), 15.0)
     assert timid["max_output"].value == 45.0 and "the model's" in timid["max_output"].why
     assert timid["max_step"].value == 0.6 and "none measured" in timid["max_step"].why
     assert "max_speed_rpm" not in timid
-    assert data_limits(Envelope(1, (0.0, 0.0), (0.0, 0.0), 0.0)) == {}
+    assert data_limits(Envelope(1, (0.0, 0.0), (0.0, 0.0), 0.0), 15.0) == {}
 
 
 def test_a_limit_given_wins_and_a_model_without_an_envelope_keeps_the_fixed_defaults():
@@ -90,7 +90,7 @@ def test_a_golden_blocks_limits_never_clamp_the_recording_they_came_from(kind, g
 def test_generate_states_each_limit_it_took_from_the_recording_and_the_option_that_sets_it(tmp_path):
     result = thermoplc("generate", GOLDEN / "kalman.json", "-o", tmp_path / "k.scl", cwd=tmp_path)
     model = load_model(GOLDEN / "kalman.json")
-    chosen = data_limits(model.envelope)
+    chosen = data_limits(model.envelope, model.sample_period_s)
     clamp, rate, speed = (chosen[f].value for f in ("max_output", "max_step", "max_speed_rpm"))
     assert f"  --max-offset-um {clamp:g}: 1.5 x the largest |drift| recorded" in result.stdout
     assert f"  --max-step-um {rate:g}: 1.5 x the drift's fastest change per call recorded" in result.stdout

@@ -90,7 +90,7 @@ def test_verify_faults_from_the_command_line(tmp_path):
     thermoplc("generate", GOLDEN / "mlr.json", "--dialect", "iec", "-o", "b.st", cwd=tmp_path)
     data = golden_twin_csv(tmp_path)
     out = thermoplc("verify", "b.st", "--data", data, "--model", GOLDEN / "mlr.json", "--faults", cwd=tmp_path).stdout
-    assert "18 cases" in out and "all cases bit-exact, finite, inside the clamp and the rate limit" in out
+    assert "20 cases" in out and "all cases bit-exact, finite, inside the clamp and the rate limit" in out
     assert "offset: paper 000 eq. 19: -2 degC" in out
 
 
@@ -111,7 +111,7 @@ def test_verify_faults_checks_the_declared_constants_as_plain_verify_does(tmp_pa
                     check=1).stdout
     assert out.startswith("NOT bit-exact: b.scl holds constants that differ from the model")
     assert "all cases bit-exact, finite, inside the clamp and the rate limit" in out  # the replay alone passes
-    assert "constants and tables: 97 values checked against the model, 1 differs" in out
+    assert "constants and tables: 98 values checked against the model, 1 differs" in out
     assert "tab_Pred[5]: block 99.5 (0x42C70000), model 15.5 (0x41780000)" in out
 
 
