@@ -13,7 +13,6 @@ from thermoplc.contract.outputs import (PROBE_INPUT_START, PROBE_NEW_INPUT, PROB
 
 OFFSET, RATE, SEEN, INNOVATION, MISSED, ANCHORED = ("ProbeOffset", "ProbeRate", "ProbeSeen", "ProbeInnov",
                                                     "ProbeMissed", "ProbeAnchored")
-MISSED_INNOVATION = "ProbeMissedInnov"
 LAST, SAME, STUCK_REF, HELD, SINCE, ANY = ("ProbeLast", "ProbeSame", "ProbeStuckRef", "ProbeHeld", "ProbeSince",
                                            "ProbeAny")
 COMMENTS = {
@@ -25,8 +24,7 @@ COMMENTS = {
     "c_ProbeOffsetMax": "offset clamp, um", "c_ProbeOffsetMin": "offset clamp, negative side, um",
     "c_ProbeRateMax": "drift rate clamp, um per call", "c_ProbeRateMin": "drift rate clamp, negative side",
     "c_ProbeCountMax": "the refusal counter stops here", "c_ProbeOne": "one refusal",
-    "c_ProbeRejoin": "after this many probings in a row beyond the gate the next is taken if it agrees with the last "
-                     "(the drift moved)",
+    "c_ProbeRejoin": "after this many probings in a row beyond the gate the next is taken (the drift moved)",
     "c_ProbeStuckCount": "a probing equal to the last this many, the prediction moved since: frozen",
     "c_ProbeStuckMove": "the prediction's move that makes equal probings frozen: a quarter of the gate, um",
     "c_ProbeHeldMax": "calls ProbeNew may stay TRUE; longer is a stuck bit (ProbeSuspect)",
@@ -68,9 +66,7 @@ def fusion_region(fusion: Fusion, model_value: str) -> Region:
         update.append(Assign(RATE, BinOp("+", Ref(RATE), BinOp("*", Ref("c_ProbeRateGain"), Ref(INNOVATION)))))
     update += [Assign(PROBE_USED_OUTPUT, BoolConst(True)), Assign(MISSED, IntConst(0)),
                Assign(ANCHORED, BoolConst(True))]
-    missed = (_count(MISSED), Assign(MISSED_INNOVATION, Ref(INNOVATION)))
-    rejoin = BinOp("AND", BinOp(">=", Ref(MISSED), Ref("c_ProbeRejoin")),
-                   BinOp("<=", Call("ABS", (BinOp("-", Ref(INNOVATION), Ref(MISSED_INNOVATION)),)), Ref("c_ProbeGate")))
+    missed = (Assign(MISSED, BinOp("+", Ref(MISSED), Ref("c_ProbeOne"))),)
     innovation = Assign(INNOVATION, BinOp("-", Ref(PROBE_VALUE_INPUT), BinOp("+", Ref(model_value), Ref(OFFSET))))
     frozen = BinOp("AND", BinOp(">=", Ref(SAME), Ref("c_ProbeStuckCount")),
                    BinOp(">", Call("ABS", (BinOp("-", Ref(model_value), Ref(STUCK_REF)),)), Ref("c_ProbeStuckMove")))
@@ -88,7 +84,7 @@ def fusion_region(fusion: Fusion, model_value: str) -> Region:
         innovation,
         If(((BinOp("OR", BinOp("OR", BinOp("<=", Call("ABS", (Ref(INNOVATION),)), Ref("c_ProbeGate")),
                                   Unary("NOT", Ref(ANCHORED))),
-                      rejoin), tuple(update)),), orelse=missed),
+                      BinOp(">=", Ref(MISSED), Ref("c_ProbeRejoin"))), tuple(update)),), orelse=missed),
     )),))
     refused = If(((Unary("NOT", Ref(PROBE_USED_OUTPUT)), (
         Assign(PROBE_REFUSED_OUTPUT, BoolConst(True)),
@@ -129,8 +125,6 @@ def declarations(fusion: Fusion) -> dict:
                     *((Var(RATE, "REAL", "drift rate the probings have taught, um per call"),) if fusion.rate else ()),
                     Var(SEEN, "BOOL", "ProbeNew in the last call (its rising edge is a new probing)"),
                     Var(MISSED, "INT", "probings in a row refused by the gate"),
-                    Var(MISSED_INNOVATION, "REAL", "the innovation of the last probing the gate refused, um: the next "
-                                                   "is taken only if it agrees"),
                     Var(ANCHORED, "BOOL", "a probing was taken since the start: the gate judges the next ones"),
                     Var(LAST, "REAL", "the last probing's value, um"),
                     Var(SAME, "INT", "probings in a row equal to the one before"),

@@ -15,9 +15,8 @@ prediction plus the offset. Per call, in this order (generator/probing.py emits 
             prediction moved further than STUCK_SHARE of the gate since the first of them (a frozen probe); Since := 0. A suspect
             probing is refused; else it is judged: a probing whose |value| <= Limit gives Innov := value - (static + Offset); with |Innov| <= Gate, or
             as the first probing taken since the start (nothing learnt yet for the gate to judge by), or after
-            REJOIN probings in a row beyond the gate when it agrees with the last of them (|Innov - Missed| <= Gate:
-            the drift really moved and stayed), Offset := Offset + Gain * Innov (Rate := Rate + RateGain *
-            Innov), Used; else Refused, counted, and a probing refused by the gate is remembered (Missed := Innov)
+            REJOIN probings in a row beyond the gate, Offset := Offset + Gain * Innov (Rate := Rate + RateGain *
+            Innov), Used; else Refused, counted
     held:   ProbeNew TRUE for more than HELD_MAX calls in a row (a stuck bit) sets Suspect too; the next probing
             that is not suspect clears it
     clamp:  Offset within +-OffsetMax, Rate within +-RateMax
@@ -42,10 +41,8 @@ PROBE_VALUE, PROBE_NEW = "probe:value", "probe:new"  # the reference's keys of t
 USED, REFUSED, REFUSALS = "status:probe_used", "status:probe_refused", "count:probe_refusals"
 SUSPECT = "status:probe_suspect"
 COUNT_MAX = 32767  # the refusal counter is an INT: it stops there
-REJOIN = 1  # after this many probings in a row refused by the gate alone, the next is taken when it agrees with the
-# last refused one within the gate: the drift really moved (a run whose static error starts beyond the gate, a shift
-# after a crash) and the offset must follow it. Two that disagree (a model driven by a sensor drifting back and
-# forth: FL_THERMAL's fused mlr with t1_C +2 sin(t/350) took them and ended 77 um from the drift) are both refused
+REJOIN = 1  # after this many probings in a row refused by the gate alone, the next is taken: the drift really moved
+# (a run whose static error starts beyond the gate, a shift after a crash) and the offset must follow it
 STUCK_COUNT = 2  # a probing equal to the last this many is frozen when the prediction moved since by more than
 STUCK_SHARE = 0.25  # this share of the gate (the gate is 4 x the innovations' RMS: about one typical innovation)
 HELD_MAX = 20  # calls ProbeNew may stay TRUE (a PLC's pulse lasts a few): longer is a stuck bit
@@ -149,7 +146,7 @@ def fuse(fusion: Fusion, static: np.ndarray, value: np.ndarray, new: np.ndarray,
 def _fuse(static, value, new, state, gain, rate_gain, decay, gate, limit, offset_max, rate_max, has_rate, has_decay,
           min_calls, stuck_move, out, before, used, refused, suspected, count):
     offset, rate = state[0], state[1]
-    last, stuck_ref, missed_innovation = offset * 0, offset * 0, offset * 0
+    last, stuck_ref = offset * 0, offset * 0
     seen = False
     refusals = 0
     missed = 0
@@ -186,8 +183,7 @@ def _fuse(static, value, new, state, gain, rate_gain, decay, gate, limit, offset
             accepted = False
             if not suspect and abs(value[j]) <= limit:
                 innovation = value[j] - (static[j] + offset)
-                if abs(innovation) <= gate or not anchored or (missed >= REJOIN
-                                                               and abs(innovation - missed_innovation) <= gate):
+                if abs(innovation) <= gate or not anchored or missed >= REJOIN:
                     offset = offset + gain * innovation
                     if has_rate:
                         rate = rate + rate_gain * innovation
@@ -195,9 +191,7 @@ def _fuse(static, value, new, state, gain, rate_gain, decay, gate, limit, offset
                     missed = 0
                     anchored = True
                 else:
-                    if missed < COUNT_MAX:
-                        missed += 1
-                    missed_innovation = innovation
+                    missed += 1
             if accepted:
                 used[j] = True
             else:

@@ -554,6 +554,7 @@ def _option_cases() -> list[Case]:
             ("--temp-range 150,-40", ("--temp-range", "150,-40"), "argument --temp-range: expected LOW,HIGH with LOW below"),
             ("--max-offset-um 1e39", ("--max-offset-um", "1e39"), "argument --max-offset-um: expected micrometres"),
             ("--settle-calls 0", ("--settle-calls", "0"), "argument --settle-calls: expected calls from 1"),
+            ("--stuck-calls 1", ("--stuck-calls", "1"), "argument --stuck-calls: expected calls from 2"),
             ("--max-step-um inf", ("--max-step-um", "inf"), "argument --max-step-um: expected micrometres")):
         cases.append(Case("option", fault, "generate", (*generate, *extra), lambda f: None, "error", message))
     select = ("select-sensors", "--data", "good.csv", "--target", "E_z_um", "--candidates", "T_motor,T_bearing")

@@ -322,7 +322,8 @@ def compare_constants(program: Program, model: Model, limits: Limits) -> tuple[i
     for name in sorted(required(model)):
         section = sections.get(name.upper())
         if section is None:
-            errors.append(f"{name}: missing from the block (every block of this model declares it)")
+            errors.append(f"{name}: missing from the block (every block this thermoplc writes for this model declares "
+                          f"it: regenerate a block written by an older version)")
         elif section != "constant":
             errors.append(f"{name}: declared as {section}, but it is a constant of every block of this model")
         elif name.upper() not in read:  # a literal in its place computes with another value, or only seems to
