@@ -16,6 +16,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
 from thermoplc.base.binary32 import FADE_FLOOR, round_f32
+from thermoplc.models.plausibility import quiet_K
 from thermoplc.models.probing import COUNT_MAX, HELD_MAX, REJOIN, STUCK_COUNT, STUCK_SHARE
 from thermoplc.models.safety import Limits, axis_outputs, guards
 
@@ -86,7 +87,7 @@ def required(model: Model) -> set[str]:
             keys |= {"one_call", "stuck_calls"}
     if axis_outputs(model, [model.target.name, *(t["name"] for t in model.settings.get("targets", ()))]):
         keys.add("k0_mm")
-    return set(structure(model)) | {limit_name(key) for key in keys}
+    return set(structure(model)) | {limit_name(key) for key in keys}  # structure: the check's constants too
 
 
 def structure_name(key: str) -> str:
@@ -104,6 +105,31 @@ def structure(model: Model) -> dict:
         out.update(probe_constants(model))
     if model.start is not None:
         out.update(start_constants(model))
+    if model.plausibility is not None:
+        out.update(plausibility_constants(model))
+    return out
+
+
+def plausibility_names(model: Model) -> dict:
+    """Per checked input: (intercept constant, {other input: slope constant}, gate constant, quiet constant), each
+    named by the inputs' positions among the block inputs (c_PlausA_1, c_PlausB_1_2, c_PlausGate_1,
+    c_PlausQuiet_1)."""
+    index = {g.name: g.index for g in guards(model)}
+    return {r.sensor: (f"c_PlausA_{index[r.sensor]}",
+                       {name: f"c_PlausB_{index[r.sensor]}_{index[name]}" for name, _ in r.slopes},
+                       f"c_PlausGate_{index[r.sensor]}", f"c_PlausQuiet_{index[r.sensor]}")
+            for r in model.plausibility.relations}
+
+
+def plausibility_constants(model: Model) -> dict:
+    """The cross-sensor check's constants as the block declares them (name -> binary32 value)."""
+    names, out = plausibility_names(model), {}
+    for r in model.plausibility.relations:
+        intercept, slopes, gate, quiet = names[r.sensor]
+        out[intercept] = r.intercept[1]
+        out.update({slopes[name]: slope[1] for name, slope in r.slopes})
+        out[gate] = r.gate_K[1]
+        out[quiet] = quiet_K(r)
     return out
 
 

@@ -1,8 +1,8 @@
 """The block's names for what the models key otherwise: each sensor's fault bit, the status flags,
 the K0 outputs and the commissioning inputs.
 
-The status flags, K0 and Enable/Reset have fixed names: Ready, Limited, Clamped, Invalid, ENO (the
-dialect's enable output), K0_<k> for the k-th output in um, Enable and Reset.
+The status flags, K0 and Enable/Reset have fixed names: Ready, Limited, Clamped, Invalid, SensorsDisagree,
+ENO (the dialect's enable output), K0_<k> for the k-th output in um, Enable and Reset.
 
 The models key an input's per-call fault flags by `models.kind.fault_key(input)`, no ST name. The
 block declares them as `Fault_<input>` (`Fault_T_motor`) when that is an identifier within the
@@ -22,6 +22,7 @@ from typing import Iterable
 from thermoplc.base.identifiers import identifier_problem
 from thermoplc.models.kind import fault_key
 from thermoplc.models.modelfile import Model
+from thermoplc.models.plausibility import DISAGREE
 from thermoplc.models.probing import PROBE_NEW, PROBE_VALUE, REFUSALS, REFUSED, SUSPECT, USED
 from thermoplc.models.safety import (CLAMPED, CONTROL_START, ENABLE, ENABLED, INVALID, LIMITED, READY, RESET,
                                      guards, k0_key)
@@ -30,9 +31,11 @@ FAULT_PREFIX = "Fault_"
 ENO, READY_OUTPUT, LIMITED_OUTPUT, CLAMPED_OUTPUT, INVALID_OUTPUT = "ENO", "Ready", "Limited", "Clamped", "Invalid"
 PROBE_USED_OUTPUT, PROBE_REFUSED_OUTPUT, PROBE_REFUSALS_OUTPUT = "ProbeUsed", "ProbeRefused", "ProbeRefusals"
 PROBE_SUSPECT_OUTPUT = "ProbeSuspect"
+DISAGREE_OUTPUT = "SensorsDisagree"
 STATUS_OUTPUTS = {READY: READY_OUTPUT, LIMITED: LIMITED_OUTPUT, CLAMPED: CLAMPED_OUTPUT, INVALID: INVALID_OUTPUT,
                   ENABLED: ENO, USED: PROBE_USED_OUTPUT, REFUSED: PROBE_REFUSED_OUTPUT,
-                  REFUSALS: PROBE_REFUSALS_OUTPUT, SUSPECT: PROBE_SUSPECT_OUTPUT}  # reference key -> block output
+                  REFUSALS: PROBE_REFUSALS_OUTPUT, SUSPECT: PROBE_SUSPECT_OUTPUT,
+                  DISAGREE: DISAGREE_OUTPUT}  # reference key -> block output
 # a fused block's probing inputs (models/probing.py): the value, um, and the BOOL whose rising edge is a new probing
 PROBE_VALUE_INPUT, PROBE_NEW_INPUT = "ProbeValue", "ProbeNew"
 PROBE_INPUTS = {PROBE_VALUE: PROBE_VALUE_INPUT, PROBE_NEW: PROBE_NEW_INPUT}  # reference key -> block input

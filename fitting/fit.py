@@ -17,6 +17,7 @@ from thermoplc.models.kinds import kind_of, options, registry
 from thermoplc.models.modelfile import Model, Signal
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.fitting.envelope_fit import measure_envelope
+from thermoplc.fitting.plausibility_fit import fit_plausibility
 from thermoplc.fitting.start_fit import fit_start
 from thermoplc.fitting.leaks import refuse_leaks, refuse_non_temperatures
 from thermoplc.recordings.table import Table
@@ -327,10 +328,12 @@ def with_evidence(model: Model, tables: list[Table], n_train: list[int]) -> Mode
 
 
 def restarted(model: Model, tables: list[Table], n_train: list[int]) -> Model:
-    """`model` with the known start fitted for its coefficients (training rows) and the envelope the default
-    limits come from (every row): a model whose coefficients change needs both anew."""
+    """`model` with the known start fitted for its coefficients (training rows), the envelope the default
+    limits come from (every row) and its temperatures' plausibility: a model whose coefficients change needs them
+    anew."""
     model = replace(model, start=fit_start(model, tables, n_train))
-    return replace(model, envelope=measure_envelope(model, tables))
+    return replace(model, envelope=measure_envelope(model, tables),
+                   plausibility=fit_plausibility(model, tables, n_train))
 
 
 def choose_sensors(tables: list[Table], request: FitRequest, n_train: list[int]) -> sensor_choice.Choice:

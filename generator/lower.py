@@ -14,7 +14,10 @@ from thermoplc.generator.start import KnownStart
 from thermoplc.generator.ranges import RangeProof, prove_ranges
 from thermoplc.generator.safety import with_safety
 from thermoplc.models.modelfile import Model
-from thermoplc.contract.constants import probe_constants, start_constants
+from thermoplc.contract.constants import (plausibility_constants, plausibility_names, probe_constants,
+                                         start_constants)
+from thermoplc.generator.plausibility import Check, Relation as PlausibleRelation
+from thermoplc.models.plausibility import GATE_FLOOR_K, MARGIN
 from thermoplc.contract.outputs import ENABLE_INPUT, PROBE_VALUE_INPUT, READY_OUTPUT, fault_outputs
 from thermoplc.models.safety import Limits, axis_outputs, guards
 
@@ -51,7 +54,7 @@ def lower(model: Model, limits: Limits | None = None, identity: Identity | None 
     axes = axis_outputs(model, [v.name for v in core.outputs if v.type == "REAL"])
     start = KnownStart(model.target.name, start_constants(model)) if model.start is not None else None
     block = with_commissioning(with_safety(core, guards(model), axes, limits, fault_outputs(model), _fusion(model),
-                                           start))
+                                           start, _check(model)))
     return replace(block, identity=identity or Identity(), retain=retain)
 
 
@@ -61,6 +64,30 @@ def _fusion(model: Model) -> Fusion | None:
         return None
     return Fusion(model.target.name, probe_constants(model), model.probe.has_rate, model.probe.decay is not None,
                   model.probe.min_calls is not None)
+
+
+def _check(model: Model) -> Check | None:
+    """The cross-sensor check of a model fitted with one (models/plausibility.py), on the inputs' held values."""
+    if model.plausibility is None:
+        return None
+    held = {g.name: f"Good_{g.index}" for g in guards(model)}
+    names = plausibility_names(model)
+    relations, comments = [], {}
+    for r in model.plausibility.relations:
+        intercept, slopes, gate, quiet = names[r.sensor]
+        others = ", ".join(name for name, _ in r.slopes)
+        relations.append(PlausibleRelation(held[r.sensor], intercept, tuple((held[name], slopes[name])
+                                                                            for name, _ in r.slopes), gate, quiet))
+        comments[quiet] = (f"{r.sensor} inside this (half the gate) counts as agreeing again, K; SensorsDisagree "
+                           f"clears after c_SettleCalls such calls")
+        comments[intercept] = f"{r.sensor} as the others say it should read: this, K"
+        comments.update({slopes[name]: f"... plus this times {name}, K per K" for name, _ in r.slopes})
+        recorded = f"{MARGIN:g} x the largest difference recorded, {r.largest_K:.3g} K, rounded up"
+        comments[gate] = (f"{r.sensor} further than this from what {others} {'says' if len(r.slopes) == 1 else 'say'} "
+                          f"sets SensorsDisagree, K: "
+                          + (recorded if r.gate_K[0] > GATE_FLOOR_K else f"at least {GATE_FLOOR_K:g} K ({recorded} "
+                                                                         f"is less)"))
+    return Check(tuple(relations), plausibility_constants(model), comments)
 
 
 def _refuse_unread_inputs(model: Model, core: Block) -> None:

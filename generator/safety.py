@@ -12,8 +12,10 @@ from thermoplc.generator.ir import (
     GenerationError, Assign, BinOp, Block, BoolConst, Call, Const, If, IntConst, Ref, Region, Unary, Var, rename, walk_exprs,
 )
 from thermoplc.contract.constants import limit_constants, limit_name
-from thermoplc.contract.outputs import CLAMPED_OUTPUT, INVALID_OUTPUT, LIMITED_OUTPUT, READY_OUTPUT, k0_output
+from thermoplc.contract.outputs import (CLAMPED_OUTPUT, DISAGREE_OUTPUT, INVALID_OUTPUT, LIMITED_OUTPUT, READY_OUTPUT,
+                                        k0_output)
 from thermoplc.generator.fault_hold import COMMENTS as HOLD_COMMENTS, declarations as hold_declarations, hold_region
+from thermoplc.generator.plausibility import Check, check_region, declarations as check_declarations
 from thermoplc.generator.probing import COMMENTS as PROBE_COMMENTS, Fusion, declarations, fusion_region
 from thermoplc.generator.start import CONSTANTS as START_COMMENTS, STATICS as START_STATICS, KnownStart, start_region
 from thermoplc.models.safety import Guard, Limits
@@ -117,11 +119,13 @@ def model_values(block: Block) -> dict:
 
 
 def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], limits: Limits,
-                faults: dict[str, str], fusion: Fusion | None = None, start: KnownStart | None = None) -> Block:
+                faults: dict[str, str], fusion: Fusion | None = None, start: KnownStart | None = None,
+                check: Check | None = None) -> Block:
     """The block `core` computes, made safe: guarded inputs, a start gate and limited outputs;
     `faults` names each input's fault bit (contract/outputs.py), which a fused core declares itself;
     `fusion` moves the target by the probings' offset before it is limited (generator/probing.py);
-    `start` moves the target to the drift at the runs' start first (generator/start.py)."""
+    `start` moves the target to the drift at the runs' start first (generator/start.py); `check` sets
+    SensorsDisagree, which holds the outputs as a fault bit does (generator/plausibility.py)."""
     limited = [v for v in core.outputs if v.type == "REAL"]
     model_names = {v.name: f"Model_{j}" for j, v in enumerate(limited, start=1)}
     held = {g.name: f"Good_{g.index}" for g in plan if g.kind != "fused"}
@@ -129,11 +133,13 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
     ready = reduce(lambda a, b: BinOp("AND", a, b), [Ref(f"InOk_{g.index}") for g in plan])
     # every model region runs only once the block is Ready; REGIONs stay at the top level (TIA)
     gated = lambda title, stmts: Region(title, (If(((Ref(READY_OUTPUT), tuple(stmts)),)),))
-    fault_hold = hold_region([faults[g.name] for g in plan], [model_names[v.name] for v in limited])
+    fault_hold = hold_region([faults[g.name] for g in plan] + ([DISAGREE_OUTPUT] if check else []),
+                             [model_names[v.name] for v in limited])
     regions = [
         *(_guard_region(g, faults[g.name], limits.stuck_calls is not None) for g in plan),
         Region("Start the model at the first call with every input in range", (
             If(((Unary("NOT", Ref(READY_OUTPUT)), (Assign(READY_OUTPUT, ready),)),)),)),
+        *((check_region(check),) if check else ()),
         *(gated(r.title, r.body) for r in body),
         *(gated(r.title, r.body) for r in ([start_region(model_names[start.target])] if start else [])),
         gated(fault_hold.title, fault_hold.body),
@@ -155,9 +161,10 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
         name = faults[g.name]
         fault_bits.append(core_flags.pop(name, None) or Var(name, "BOOL", f"{g.name} faulty: holding its last good value"))
     added = declarations(fusion) if fusion else {}
+    checked = check_declarations() if check else {}
     outputs = (*limited,
                *(Var(k0[v.name], "REAL", f"K0 of {v.name} for SD43900, mm") for v in limited if v.name in k0),
-               *core_flags.values(), *fault_bits, *added.get("outputs", ()),
+               *core_flags.values(), *fault_bits, *checked.get("outputs", ()), *added.get("outputs", ()),
                Var(READY_OUTPUT, "BOOL", "TRUE once every input was in range: the model runs"),
                Var(LIMITED_OUTPUT, "BOOL", "an output was rate-limited in this call"),
                Var(CLAMPED_OUTPUT, "BOOL", "an output was clamped in this call"),
@@ -166,7 +173,8 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
         raise GenerationError("the safety limits have no fault hold (fault_move None: a block read back from before "
                               "it); give --fault-move-um")
     added_hold = hold_declarations(len(limited))
-    statics = [*core.statics, *(START_STATICS if start else ()), *added.get("statics", ()), *added_hold["statics"]]
+    statics = [*core.statics, *(START_STATICS if start else ()), *added.get("statics", ()), *added_hold["statics"],
+               *checked.get("statics", ())]
     stuck = limits.stuck_calls is not None
     for g in plan:
         if g.kind == "temperature" or g.kind == "fused" and stuck:
@@ -179,12 +187,14 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
             statics.append(Var(f"Good_{g.index}", "REAL", f"{g.name}: last good value"))
     temps = (*core.temps, *(Var(f"InOk_{g.index}", "BOOL", f"{g.name} reads in range") for g in plan),
              *(Var(model_names[v.name], "REAL", f"{_MODEL_VALUE}{v.name}") for v in limited),
-             Var("Delta", "REAL", "wanted output change"), *added.get("temps", ()), *added_hold["temps"])
+             Var("Delta", "REAL", "wanted output change"), *checked.get("temps", ()), *added.get("temps", ()),
+             *added_hold["temps"])
     referenced = {e.name for e in walk_exprs(tuple(regions)) if isinstance(e, Ref)}
-    comments = {**_limit_comments(limits), **PROBE_COMMENTS, **START_COMMENTS}
+    comments = {**_limit_comments(limits), **PROBE_COMMENTS, **START_COMMENTS, **(check.comments if check else {})}
     constants = (*core.constants, *(Const(name, value, comments[name], "INT" if isinstance(value, int) else "REAL")
                                     for name, value in {**limit_constants(limits), **(fusion.constants if fusion else {}),
-                                                                 **(start.constants if start else {})}
+                                                                 **(start.constants if start else {}),
+                                                                 **(check.constants if check else {})}
                                     .items() if name in referenced))
     return replace(core, inputs=(*core.inputs, *added.get("inputs", ())), outputs=outputs, statics=tuple(statics),
                    temps=temps, constants=constants, regions=tuple(regions))

@@ -75,6 +75,15 @@ Fitter = Callable[[list[Part], Any, list[str], float, Any], tuple[dict, dict, di
 Predictor = Callable[..., dict]
 
 
+def guard_kind(role: str, fused_guards: bool) -> str:
+    """How the block guards an input of `role`: 'fused' (a temperature the kind's own filter judges), 'temperature'
+    (range, jump and stuck check, held at its last good value) or 'range' (models/safety.py::Guard)."""
+    roles = set(role.split(","))
+    if roles & {"temperature", "ambient"}:
+        return "fused" if fused_guards and "temperature" in roles else "temperature"
+    return "range"
+
+
 def fault_key(input_name: str) -> str:
     """The key of an input's per-call fault flags among a reference's outputs: no ST name (the block
     names the output, contract/outputs.py), so the models know nothing of the block's naming."""

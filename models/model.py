@@ -6,6 +6,7 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from thermoplc.base.binary32 import f32_hex, round_f32
 from thermoplc.base.errors import UserError
@@ -14,6 +15,9 @@ from thermoplc.models.envelope import Envelope
 from thermoplc.models.probing import Fusion
 from thermoplc.models.start import Start
 from thermoplc.recordings.resample import Resampling
+
+if TYPE_CHECKING:  # the check reads the kinds' guards; the model only carries it
+    from thermoplc.models.plausibility import Plausibility
 
 FORMAT = "thermoplc-model"
 SCHEMA_VERSION = 1
@@ -57,6 +61,8 @@ class Model:
     start: Start | None = None  # the known start (models/start.py); None: the model's own first value
     envelope: Envelope | None = None  # what the recorded runs spanned (models/envelope.py): the default limits
     resample: Resampling | None = None  # the rule that took raw logger data onto the cycle (recordings/resample.py)
+    plausibility: "Plausibility | None" = None  # what each temperature should read from the others
+    # (models/plausibility.py); None: fewer than two checked temperatures, or a file written before the check
 
     def signals(self, role: str) -> tuple[Signal, ...]:
         """Inputs with this role; one input may hold several roles ('temperature,ambient')."""
@@ -75,7 +81,7 @@ class Model:
         """Hash of everything that decides the block's behaviour (not the metrics or fit log)."""
         doc = _document(self)
         essential = {k: doc[k] for k in ("kind", "inputs", "target", "sample_period_s", "coefficients", "settings",
-                                         "probe", "start", "envelope") if k in doc}
+                                         "probe", "start", "envelope", "plausibility") if k in doc}
         return hashlib.sha256(json.dumps(essential, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -96,6 +102,7 @@ def _document(m: Model) -> dict:
         **({"start": m.start.to_doc()} if m.start is not None else {}),
         **({"envelope": m.envelope.to_doc()} if m.envelope is not None else {}),
         **({"resample": m.resample.to_doc()} if m.resample is not None else {}),
+        **({"plausibility": m.plausibility.to_doc()} if m.plausibility is not None else {}),
         "training": m.training,
         "metrics": m.metrics,
         "fit": m.fit,

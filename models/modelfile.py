@@ -3,6 +3,7 @@ counts and coefficients; the record itself (Model, Signal, Coefficient) is model
 from __future__ import annotations
 
 import functools
+from dataclasses import replace
 import json
 import math
 from importlib import resources
@@ -14,6 +15,7 @@ from thermoplc.models.kinds import kind_of, registry
 from thermoplc.models.model import COMBINED_ROLE, FORMAT, ROLES, SCHEMA_VERSION, Coefficient, Model, Signal
 from thermoplc.models.probing import Fusion
 from thermoplc.models.envelope import Envelope
+from thermoplc.models.plausibility import Plausibility, checked
 from thermoplc.models.start import Start
 from thermoplc.recordings.resample import Resampling
 from thermoplc.base.binary32 import FLT_MAX, f32_hex, parse_f32_hex, ulp_distance
@@ -225,7 +227,7 @@ def _parse(doc, path: str) -> Model:
     settings = _field(doc, "settings", dict, path)
     _check_effects(settings, path)
     sample_period = _field(doc, "sample_period_s", float, path)
-    return Model(
+    model = Model(
         kind=kind,
         block_name=_identifier(_field(doc, "block_name", str, path), path, "block_name"),
         inputs=inputs,
@@ -242,6 +244,9 @@ def _parse(doc, path: str) -> Model:
         envelope=Envelope.from_doc(doc["envelope"], path) if "envelope" in doc else None,
         resample=_resampling(doc, path, sample_period),
     )
+    if "plausibility" in doc:
+        return replace(model, plausibility=Plausibility.from_doc(doc["plausibility"], path, checked(model)))
+    return model
 
 
 def _resampling(doc: dict, path: str, sample_period: float) -> Resampling | None:

@@ -21,9 +21,10 @@ from thermoplc.base.errors import UserError
 from thermoplc.base import compiled
 from thermoplc.models import fault_hold, kernels
 from thermoplc.models.envelope import data_limits
-from thermoplc.models.kind import fault_key
+from thermoplc.models.kind import fault_key, guard_kind
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
+from thermoplc.models.plausibility import DISAGREE, disagree
 from thermoplc.models.probing import fused_core
 
 LIMIT_MAX = 1.0e12  # far beyond any machine, far below FLT_MAX
@@ -148,11 +149,10 @@ class Guard:
 def guards(model: Model) -> tuple[Guard, ...]:
     out = []
     for k, s in enumerate(model.inputs, start=1):
-        roles = set(s.role.split(","))
-        if roles & {"temperature", "ambient"}:
-            kind = "fused" if kind_of(model.kind).fused_guards and "temperature" in roles else "temperature"
+        kind = guard_kind(s.role, kind_of(model.kind).fused_guards)
+        if kind != "range":
             out.append(Guard(s.name, k, kind, "temp_min", "temp_max"))
-        elif "speed" in roles:
+        elif "speed" in s.role.split(","):
             out.append(Guard(s.name, k, "range", "speed_min", "speed_max"))
         else:
             out.append(Guard(s.name, k, "range", "other_min", "other_max"))
@@ -231,6 +231,21 @@ def held_while_faulty(core: dict | None, names: list[str], flags: dict, start: i
                                               None if states is None else states[name]) for name in names}}
 
 
+def sensors_disagree(model: Model, held: dict, start: int, limits: Limits, precision: str,
+                     state: np.ndarray | None = None) -> dict:
+    """The plausibility check's status bit per call under DISAGREE (none for a model without the check): the held
+    readings compared from call `start` on, the block's first running call (models/plausibility.py); `state`
+    carries it from one chunk of calls to the next."""
+    if model.plausibility is None:
+        return {}
+    rows = len(next(iter(held.values())))
+    flag = np.zeros(rows, bool)
+    if start < rows:
+        flag[start:] = disagree(model.plausibility, {name: held[name][start:] for name in model.plausibility.sensors()},
+                                limits.settle_calls, precision, state)
+    return {DISAGREE: flag}
+
+
 def fault_flags(plan, valid: dict, faults: dict, core: dict | None, start: int) -> dict:
     """Each input's fault flag per call, under fault_key(input): the guard's flag, or for a fused input
     its range check before the model starts (call `start`) and the filter's verdict after."""
@@ -278,7 +293,8 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     core = core_predict(model, running, precision, fused_valid) if ready_row < rows else None
     names = limited_outputs(core) if core is not None else real_outputs_of(model, core_predict, precision)
     flags = fault_flags(plan, valid, faults, core, ready_row)
-    core = held_while_faulty(core, names, flags, ready_row, limits, precision)
+    status = sensors_disagree(model, core_inputs, ready_row, limits, precision)
+    core = held_while_faulty(core, names, {**flags, **status}, ready_row, limits, precision)
     probing = {}
     if model.probe is not None:
         core, probing = fused_core(model, core, inputs, ready_row, precision)
@@ -320,6 +336,7 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
         k0[ready_row:] = out[name][ready_row:] * f(constants["k0_mm"])
         out[k0_key(k)] = k0
     out.update(flags)
+    out.update(status)
     out.update(probing)
     out[READY] = np.arange(rows) >= ready_row
     out[LIMITED] = limited

@@ -20,7 +20,8 @@ from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import guarded_core, with_start
 from thermoplc.models.safety import (CLAMPED, ENABLED, INVALID, LIMITED, READY, Limits, axis_outputs, fault_flags,
-                                     guards, held_while_faulty, k0_key, real_outputs_of, stuck_readings)
+                                     guards, held_while_faulty, k0_key, real_outputs_of, sensors_disagree,
+                                     stuck_readings)
 
 NOT_YET = np.iinfo(np.int64).max  # the ready row before any call had every input in range
 
@@ -67,6 +68,7 @@ class StreamingReference:
         self.y = {name: np.zeros(1, f) for name in self.names}
         self.start_state = np.zeros(2, f)  # the known start's offset and latch (models/start.py)
         self.hold_states = {name: np.zeros(3, f) for name in self.names}  # models/fault_hold.py, per output
+        self.disagree_state = np.zeros(2, np.int64)  # models/plausibility.py: the bit and its quiet calls
         self.ready = NOT_YET
         self.calls = 0
 
@@ -105,7 +107,9 @@ class StreamingReference:
             fused_valid = {g.name: valid[g.name][local:] for g in self.plan if g.kind == "fused"}
             core = with_start(self.model, self.core(running, fused_valid), self.precision, self.start_state)
         flags = fault_flags(self.plan, valid, faults, core, local)
-        core = held_while_faulty(core, self.names, flags, local, self.limits, self.precision, self.hold_states)
+        status = sensors_disagree(self.model, core_inputs, local, self.limits, self.precision, self.disagree_state)
+        core = held_while_faulty(core, self.names, {**flags, **status}, local, self.limits, self.precision,
+                                 self.hold_states)
         out = {}
         limited, clamped, invalid = (np.zeros(rows, bool) for _ in range(3))
         for name in self.names:
@@ -118,6 +122,7 @@ class StreamingReference:
             k0[local:] = out[name][local:] * f(constants["k0_mm"])
             out[k0_key(k)] = k0
         out.update(flags)
+        out.update(status)
         out[READY] = np.arange(offset, offset + rows) >= self.ready
         out[LIMITED] = limited
         out[CLAMPED] = clamped

@@ -3,7 +3,7 @@
     python scripts/regen_golden.py          # re-render every <model>.scl from the committed <model>.json
     python scripts/regen_golden.py --refit  # also refit the model files on the golden twin data first
     python scripts/regen_golden.py --refit lumped  # ... only these kinds
-    python scripts/regen_golden.py --envelope  # measure each committed model's training envelope anew
+    python scripts/regen_golden.py --envelope  # measure each committed model's envelope and plausibility anew
 """
 from __future__ import annotations
 
@@ -24,6 +24,7 @@ from thermoplc.diagnosis.command import augmented_model  # noqa: E402
 from thermoplc.diagnosis.runs import DiagnoseRequest, series_of  # noqa: E402
 from thermoplc.physics import simulation  # noqa: E402
 from thermoplc.fitting.envelope_fit import measure_envelope  # noqa: E402
+from thermoplc.fitting.plausibility_fit import fit_plausibility  # noqa: E402
 from thermoplc.fitting.fit import FitRequest, fit, sample_period  # noqa: E402
 from thermoplc.models.modelfile import Model, load_model  # noqa: E402
 from thermoplc.models.probing import Fusion  # noqa: E402
@@ -69,15 +70,18 @@ def refit(folder: Path, kinds: tuple[str, ...]) -> None:
 
 
 def add_envelopes(folder: Path) -> None:
-    """Each committed model file with the envelope of the runs it was fitted with (models/envelope.py), its
-    coefficients untouched: a golden whose numbers were fitted by an older fit keeps them."""
+    """Each committed model file with the envelope of the runs it was fitted with (models/envelope.py) and the
+    plausibility of its temperatures (models/plausibility.py), its coefficients untouched: a golden whose numbers
+    were fitted by an older fit keeps them."""
     tables = {Path(p).name: read_table(p) for p in (golden_twin_csv(folder), *batch_csvs(folder))}
     for kind in (*KINDS, *FUSED):
         path = GOLDEN / f"{kind}.json"
         model = load_model(path)
         record = model.training.get("batches", [model.training])
         runs = [tables[run["file"]] for run in record]
-        path.write_text(replace(model, envelope=measure_envelope(model, runs)).to_json())
+        trained = [int(run.get("rows", tables[run["file"]].rows)) for run in record]
+        path.write_text(replace(model, envelope=measure_envelope(model, runs),
+                                plausibility=fit_plausibility(model, runs, trained)).to_json())
 
 
 def render_all() -> list[Path]:

@@ -5,8 +5,8 @@ then the PLC program's side: Reset pulses, Reset held, Enable off for a while (w
 For every case the block must still match the float32 reference bit for bit, keep every REAL
 output finite, inside the clamp and within the rate limit, and - where the data measure the target -
 stay no further from the measured drift than no compensation, unless a status bit says so (the
-sensor's fault bit, ProbeRefused, Ready/ENO): no single fault may move the axis further than no
-compensation would, unannounced (issue 61). The table also says whether the fault bit was clear
+sensor's fault bit or SensorsDisagree, ProbeRefused, Ready/ENO): no single fault may move the axis further than
+no compensation would, unannounced (issue 61). The table also says whether the fault bit was clear
 again at the end and how far the fault moved the output compared with the run without it.
 """
 from __future__ import annotations
@@ -16,7 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from thermoplc.models.modelfile import Model
-from thermoplc.contract.outputs import (ENABLE_INPUT, ENO, K0_PREFIX, PROBE_NEW_INPUT, PROBE_REFUSED_OUTPUT,
+from thermoplc.contract.outputs import (DISAGREE_OUTPUT, ENABLE_INPUT, ENO, K0_PREFIX, PROBE_NEW_INPUT,
+                                       PROBE_REFUSED_OUTPUT,
                                        PROBE_SUSPECT_OUTPUT,
                                        PROBE_VALUE_INPUT, READY_OUTPUT, RESET_INPUT, block_names, control_of, named)
 from thermoplc.models.kind import fault_key
@@ -308,7 +309,8 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
             expected = named(_reference(model, inputs, limits), names)
             report = replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
             cases.append(_case(kind, g.name, first, last, expected, report, machine, limits, model, baseline, measured,
-                               np.asarray(expected[names[fault_key(g.name)]], bool)))
+                               np.asarray(expected[names[fault_key(g.name)]], bool)
+                               | np.asarray(expected.get(DISAGREE_OUTPUT, False), bool)))
     declared = {d.name for d in machine.inputs}
     for kind, action, length in CONTROL_KINDS:
         control = action(table.rows, first)
@@ -383,8 +385,8 @@ def format_cases(cases: list[FaultCase], block: str, rows: int) -> str:
                  "|output - measured drift| and none no compensation's (the largest |drift|) over the case's calls "
                  "(from the fault on, as long as the output differs from the fault-free block's); a case whose error "
                  "exceeds none fails unless flagged ('-': not judged: the data do not measure the target, a drive to "
-                 "the clamp, or an Enable/Reset action the PLC program commands); for Enable/Reset, "
-                 "flagged means Ready or ENO went FALSE" + ("; for a probing, that ProbeRefused or ProbeSuspect came up; for "
+                 "the clamp, or an Enable/Reset action the PLC program commands); for a sensor, flagged means its "
+                 "fault bit or SensorsDisagree came up; for Enable/Reset, Ready or ENO went FALSE" + ("; for a probing, that ProbeRefused or ProbeSuspect came up; for "
                                                             "probe-clamp+/-, that the offset reached that clamp"
                                                             if probed else ""))
     lines += [f"{c.kind.name}: the offset never reached its clamp from call {c.first_row} on (the limit minus the "
