@@ -17,8 +17,8 @@ must read steadily (`generate --settle-calls`): a drift that swings back through
 set, where a bit that followed each crossing let the block run free in between (FL_THERMAL's fused mlr with the
 sine on `t8_C`: flagged, and still 120 um from the drift where no compensation is 71).
 
-fitted by least squares on the training rows (fitting/plausibility_fit.py); the gate is MARGIN times the largest
-|difference| over every row of the recording, rounded up to two significant digits, at least GATE_FLOOR_K. The
+fitted by least squares on the training rows (fitting/plausibility_fit.py); the gate is MARGIN (2) times the
+largest |difference| over every row of the recording, rounded up to two significant digits, at least GATE_FLOOR_K. The
 inputs are the held values of the temperatures the block guards itself (a Kalman filter judges its own), after
 the guards, from the block's first running call; Reset clears the bit like every state. While the bit is set
 the fault hold keeps every output near its value before, fading to no compensation (models/fault_hold.py).
@@ -39,7 +39,9 @@ from thermoplc.models.kind import guard_kind
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.pair import constant_pair
 
-MARGIN = 1.5
+MARGIN = 2.0  # chosen on the twin (seed 3: 1.5 x its first day's largest difference flagged 14 % of its second
+# day, 2 x none) and judged on data it was not chosen on: no false alarm on twin seed 7 or on FL_THERMAL's held-out
+# day (benchmarks/plausibility.py); the largest held-out difference there was 1.57 x the training day's
 GATE_FLOOR_K = 0.5  # a probe's repeatability and a card's step: a gate below it would flag noise
 DISAGREE = "status:disagree"  # the reference's key of the status bit (contract/outputs.py names it)
 
