@@ -274,7 +274,7 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     raw = {g.name: np.asarray(inputs[g.name], f) for g in plan}
     with np.errstate(invalid="ignore"):
         valid = {g.name: (raw[g.name] >= f(constants[g.low])) & (raw[g.name] <= f(constants[g.high])) for g in plan}
-    stuck = {g.name: stuck_readings(raw[g.name], valid[g.name], limits, f) for g in plan if g.low == "temp_min"}
+    stuck = {g.name: stuck_readings(raw[g.name], valid[g.name], limits, f) for g in plan if g.kind != "range"}
     for g in plan:
         if g.kind == "fused":  # a stuck reading is no reading for the model's own filter
             valid[g.name] = valid[g.name] & ~stuck[g.name]

@@ -64,7 +64,7 @@ class StreamingReference:
         self.names = real_outputs_of(model, guarded_core, precision)  # what the limiter acts on, in order
         self.axes = axis_outputs(model, self.names)
         self.holds = {g.name: kernels.HoldState(f) for g in self.plan if g.kind != "fused"}
-        self.repeats = {g.name: kernels.RepeatState(f) for g in self.plan if g.low == "temp_min"}
+        self.repeats = {g.name: kernels.RepeatState(f) for g in self.plan if g.kind != "range"}
         self.y = {name: np.zeros(1, f) for name in self.names}
         self.start_state = np.zeros(2, f)  # the known start's offset and latch (models/start.py)
         self.hold_states = {name: np.zeros(3, f) for name in self.names}  # models/fault_hold.py, per output

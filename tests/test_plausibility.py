@@ -1,0 +1,145 @@
+"""Issue 61, item 4: a temperature that drifts away from what the others say it should read sets SensorsDisagree
+(models/plausibility.py), and the block holds its outputs as for a fault bit."""
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from thermoplc.base import compiled
+from thermoplc.base.errors import UserError
+from thermoplc.models.modelfile import load_model
+from thermoplc.models.plausibility import DISAGREE, Plausibility, disagree
+from thermoplc.models.reference import block_outputs, model_inputs
+from thermoplc.models.safety import Limits
+from thermoplc.models.streaming import StreamingReference
+from thermoplc.recordings.table import read_table
+from tests.cli_runner import thermoplc
+from tests.golden_models import GOLDEN, golden_twin_csv
+
+# x2 should read 1 + 0.5 * x1 within 2 K (quiet inside 1 K); x1 should read -2 + 2 * x2 within 4 K
+CHECK = Plausibility.of([("x1", -2.0, [("x2", 2.0)], 4.0, 1.0), ("x2", 1.0, [("x1", 0.5)], 2.0, 0.5)])
+
+
+@pytest.mark.parametrize("reference", ["slow", "fast"])
+def test_the_bit_latches_until_the_sensors_agree_for_the_settle_calls(reference):
+    x1 = np.full(20, 10.0, np.float32)
+    x2 = np.full(20, 6.0, np.float32)  # 1 + 0.5 * 10: agrees
+    x2[5] = 8.5  # 2.5 K off: beyond the gate
+    x2[6:9] = 7.5  # 1.5 K off: inside the gate, not quiet
+    with compiled.reference(reference):
+        flag = disagree(CHECK, {"x1": x1, "x2": x2}, 3, "f32")
+    assert np.flatnonzero(flag).tolist() == list(range(5, 11))  # quiet from call 9; the third quiet call (11) clears
+
+
+def test_a_nan_reading_is_never_quiet_and_never_beyond():
+    x1, x2 = np.full(6, 10.0, np.float32), np.full(6, 6.0, np.float32)
+    x2[1], x2[2:] = 9.0, np.nan
+    assert disagree(CHECK, {"x1": x1, "x2": x2}, 2, "f32").tolist() == [False, True, True, True, True, True]
+
+
+def test_the_state_carries_from_one_chunk_to_the_next():
+    rng = np.random.default_rng(5)
+    x1 = (20 + rng.normal(0, 1, 300)).astype(np.float32)
+    x2 = (1 + 0.5 * x1 + rng.normal(0, 1.2, 300)).astype(np.float32)
+    whole = disagree(CHECK, {"x1": x1, "x2": x2}, 4, "f32")
+    state = np.zeros(2, np.int64)
+    pieces = [disagree(CHECK, {"x1": x1[a:a + 7], "x2": x2[a:a + 7]}, 4, "f32", state) for a in range(0, 300, 7)]
+    assert whole.any() and np.array_equal(np.concatenate(pieces), whole)
+
+
+def test_the_golden_block_never_flags_its_own_recording_and_a_drifting_sensor_holds_it(tmp_path):
+    model = load_model(GOLDEN / "mlr.json")
+    table = read_table(golden_twin_csv(tmp_path))
+    inputs = model_inputs(model, table)
+    limits = Limits.for_model(model)
+    clean = block_outputs(model, inputs, "f32", limits)
+    assert not clean[DISAGREE].any()
+    drifting = dict(inputs)
+    drifting["T_bearing"] = inputs["T_bearing"] + np.linspace(0, 6, table.rows, dtype=np.float32)  # 6 K in 12 h
+    out = block_outputs(model, drifting, "f32", limits)
+    first = int(np.argmax(out[DISAGREE]))
+    assert out[DISAGREE][first:].all() and first > 0
+    assert not any(np.asarray(out[f"fault:{s.name}"], bool).any() for s in model.inputs)  # no other bit sees it
+    held = out["E_z_um"][first:].astype(np.float64)
+    assert np.abs(held[-1]) < np.abs(clean["E_z_um"][-1]) / 2  # faded towards no compensation
+
+
+def test_streamed_reference_carries_the_bit(tmp_path):
+    model = load_model(GOLDEN / "mlr.json")
+    table = read_table(golden_twin_csv(tmp_path))
+    inputs = model_inputs(model, table)
+    inputs["T_motor"] = inputs["T_motor"] + np.where(np.arange(table.rows) > 2000, np.float32(3), np.float32(0))
+    limits = Limits.for_model(model)
+    whole = block_outputs(model, inputs, "f32", limits)
+    stream = StreamingReference(model, limits, "f32")
+    pieces = [stream.step({k: v[a:a + 1000] for k, v in inputs.items()}) for a in range(0, table.rows, 1000)]
+    assert whole[DISAGREE].any()
+    for name, values in whole.items():
+        assert np.concatenate([p[name] for p in pieces]).tobytes() == np.asarray(values).tobytes(), name
+
+
+def test_verify_faults_counts_the_bit_and_fails_a_block_without_the_check(tmp_path):
+    data = golden_twin_csv(tmp_path)
+    thermoplc("generate", GOLDEN / "mlr.json", "-o", "m.scl", cwd=tmp_path)
+    text = (tmp_path / "m.scl").read_text()
+    assert "SensorsDisagree : Bool;" in text and "#FaultAny := #Fault_T_motor OR #Fault_T_bearing OR #SensorsDisagree;" in text
+    faults = thermoplc("verify", "m.scl", "--model", GOLDEN / "mlr.json", "--data", data, "--faults", "--json", "-",
+                       cwd=tmp_path)
+    cases = {(c["sensor"], c["fault"]): c for c in json.loads(faults.stdout)["cases"]}
+    assert cases[("T_bearing", "sine")]["flagged"] and cases[("T_bearing", "offset")]["flagged"]
+    planted = text.replace("#SensorsDisagree := TRUE;", "#PlausQuiet := 0;")
+    assert planted != text
+    (tmp_path / "p.scl").write_text(planted)
+    plain = thermoplc("verify", "p.scl", "--model", GOLDEN / "mlr.json", "--data", data, cwd=tmp_path)
+    assert plain.returncode == 0  # the clean recording never sets the bit: only the fault cases tell
+    failed = thermoplc("verify", "p.scl", "--model", GOLDEN / "mlr.json", "--data", data, "--faults", cwd=tmp_path,
+                       check=1)
+    assert "NOT bit-exact" in failed.stdout or "case(s) FAILED" in failed.stdout
+
+
+def test_a_model_file_without_the_check_has_no_bit_and_its_block_verifies(tmp_path):
+    doc = json.loads((GOLDEN / "mlr.json").read_text())
+    del doc["plausibility"]
+    (tmp_path / "m.json").write_text(json.dumps(doc))
+    thermoplc("generate", "m.json", "-o", "m.scl", cwd=tmp_path)
+    assert "SensorsDisagree" not in (tmp_path / "m.scl").read_text()
+    thermoplc("verify", "m.scl", "--model", "m.json", "--data", golden_twin_csv(tmp_path), cwd=tmp_path)
+
+
+def test_an_input_named_like_the_status_bit_is_refused(tmp_path):
+    table = (tmp_path / "d.csv")
+    source = golden_twin_csv(tmp_path).read_text().splitlines()
+    table.write_text("\n".join([source[0].replace("T_bearing", "SensorsDisagree"), *source[1:]]) + "\n")
+    result = thermoplc("fit", "--data", "d.csv", "--model", "mlr", "--target", "E_z_um", "--temps",
+                       "T_motor,SensorsDisagree", "--train-until", "21600", "-o", "m.json", cwd=tmp_path, check=2)
+    assert "'SensorsDisagree' and 'SensorsDisagree' are the same identifier" in result.stderr
+    assert not (tmp_path / "m.json").exists()
+
+
+@pytest.mark.parametrize("edit, expected", [
+    (lambda p: p.pop(), "field 'plausibility': expected a list of two or more relations"),
+    (lambda p: p[0].update(sensor="T_env"), "field 'plausibility[0].sensor': 'T_env'; expected one of"),
+    (lambda p: p[0].update(slopes={}), "field 'plausibility[0].slopes': expected one slope for each of T_bearing"),
+    (lambda p: p[1]["gate_K"].update(f64=0.1, f32="0x3DCCCCCD"), "field 'plausibility[1].gate_K': 0.1; expected 0.5"),
+    (lambda p: p[0].update(largest_K=99.0), "field 'plausibility[0].largest_K': 99.0; expected the largest"),
+    (lambda p: p[0]["intercept"].update(f64=1e7, f32="0x4B189680"), "field 'plausibility[0].intercept': 10000000.0"),
+    (lambda p: p[0].pop("gate_K"), "field 'plausibility[0]': expected an object with sensor, intercept, slopes"),
+])
+def test_a_bad_plausibility_section_is_named_by_its_field(tmp_path, edit, expected):
+    doc = json.loads((GOLDEN / "mlr.json").read_text())
+    edit(doc["plausibility"])
+    (tmp_path / "m.json").write_text(json.dumps(doc))
+    with pytest.raises(UserError) as caught:
+        load_model(tmp_path / "m.json")
+    assert expected in str(caught.value)
+
+
+def test_fit_writes_the_relations_of_the_guarded_temperatures_only(tmp_path):
+    kalman = load_model(GOLDEN / "kalman.json")  # its filter judges T_motor and T_bearing; only T_env is held
+    assert kalman.plausibility is None
+    lumped = load_model(GOLDEN / "lumped.json")
+    assert lumped.plausibility.sensors() == ["T_motor", "T_bearing", "T_env"]
+    assert replace(lumped, plausibility=None).fingerprint() != lumped.fingerprint()
