@@ -56,8 +56,9 @@ def check_region(check: Check) -> Region:
 def declarations() -> dict:
     """The output, static and temporaries the check adds."""
     return {"outputs": (Var(DISAGREE_OUTPUT, "BOOL", "a temperature differs from what the others say by more than "
-                                                     "the recording ever showed: one of them is failing (the outputs "
-                                                     "are held as for a fault bit); wire it to a message"),),
+                                                     "its gate (twice the recording's largest difference): one of them "
+                                                     "is failing (the outputs are held as for a fault bit); wire it to "
+                                                     "a message"),),
             "statics": (Var(QUIET, "INT", "calls in a row every temperature agreed with the others again"),),
             "temps": (Var(RESIDUAL, "REAL", "|a temperature minus what the others say it should read|, K"),
                       Var(FAR, "BOOL", "some temperature is beyond its gate in this call"),

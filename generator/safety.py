@@ -27,7 +27,7 @@ _CONSTANT_COMMENTS = {
     "c_OtherMin": "lowest plausible value of other inputs", "c_OtherMax": "highest plausible value of other inputs",
     "c_JumpMax": "temperature change per call that marks a sensor faulty, K",
     "c_SettleCalls": "steady calls before a faulty sensor is trusted again", "c_OneCall": "one call",
-    "c_StuckCalls": "calls in a row a temperature may repeat its reading; more is a stuck sensor (--stuck-calls)",
+    "c_StuckCalls": "a temperature that repeats its reading this many times in a row is stuck (--stuck-calls)",
     "c_StepMax": "largest output change per call (--max-step-um)", "c_StepMin": "largest output change per call, downwards",
     "c_OutMax": "output clamp (--max-offset-um)", "c_OutMin": "output clamp, negative side",
     "c_K0_mm": "K0 in mm per um of error: the NC moves the axis back by the error",
@@ -38,7 +38,8 @@ _CONSTANT_COMMENTS = {
 _FROM_DATA = {"max_output": ("c_OutMax", "output clamp", "--max-offset-um"),
               "max_step": ("c_StepMax", "largest output change per call", "--max-step-um"),
               "max_speed_rpm": ("c_SpeedMax", "highest plausible speed, rpm", "--max-speed-rpm"),
-              "stuck_calls": ("c_StuckCalls", "calls in a row a temperature may repeat its reading", "--stuck-calls")}
+              "stuck_calls": ("c_StuckCalls", "a temperature that repeats its reading this many times in a row is "
+                                              "stuck", "--stuck-calls")}
 
 
 def _limit_comments(limits: Limits) -> dict[str, str]:

@@ -9,7 +9,8 @@ and `generate` takes its default limits from it:
     clamp      = round_up(MARGIN * max(measured, model) largest |drift|)
     rate limit = round_up(MARGIN * measured fastest change per call)   (the model's when none was measured)
     speed      = round_up(MARGIN * largest |speed|)
-    stuck      = max(round_up(MARGIN * longest run of equal readings), calls in STUCK_FLOOR_S), at most STUCK_MAX
+    stuck      = max(round_up(MARGIN * longest run of repeated readings), calls in STUCK_FLOOR_S, that run + 1, 2),
+                 at most STUCK_MAX; an hour of calls for a model file that does not record the run
 
 The last: a temperature input that repeats its reading for `stuck` calls in a row is stuck (a frozen analogue
 card or bus value) and sets its fault bit. A sensor read as a float moves in its last digit every call
@@ -39,7 +40,8 @@ SMALLEST = 1e-3  # um, um per call or rpm: an extreme below this is no drift, no
 FIELDS = ("rows", "drift_um", "step_um", "speed_rpm")
 OPTIONAL = ("same_calls",)  # a model file written before the stuck check has no same_calls
 STUCK_FLOOR_S = 600.0  # a reading repeated this long is stuck however steady the recording was
-STUCK_MAX = 10000  # calls: the block counts them in an INT
+STUCK_MAX = 32767  # calls: the block counts them in an INT
+UNRECORDED_S = 3600.0  # the stuck time for a model file written before the envelope recorded repeated readings
 LARGEST = 1e6  # um, um per call or rpm: beyond any machine (a block constant must stay a finite REAL)
 
 
@@ -61,6 +63,9 @@ class Envelope:
     @staticmethod
     def from_doc(doc, path: str) -> "Envelope":
         """The model file's `envelope` section; every problem named by its field."""
+        if isinstance(doc, dict) and (unknown := sorted(set(doc) - set(FIELDS) - set(OPTIONAL))):
+            raise UserError(f"{path}: field 'envelope.{unknown[0]}': not part of the envelope; it has "
+                            f"{', '.join((*FIELDS, *OPTIONAL))}")
         check_section({k: v for k, v in doc.items() if k not in OPTIONAL} if isinstance(doc, dict) else doc, path,
                       "envelope", FIELDS, "part of the envelope")
         rows = doc["rows"]
@@ -106,7 +111,7 @@ class DataLimit:
 def data_limits(envelope: Envelope, sample_period_s: float) -> dict[str, DataLimit]:
     """The default clamp ('max_output'), rate limit ('max_step'), speed guard ('max_speed_rpm') and stuck-sensor
     time ('stuck_calls', calls of `sample_period_s`); a limit whose extreme is below SMALLEST (no drift, no change,
-    no speed recorded) or was not recorded is left to the caller's default."""
+    no speed recorded) is left to the caller's default."""
     chosen = {}
     measured, model = envelope.drift_um
     if max(measured, model) >= SMALLEST:
@@ -124,13 +129,28 @@ def data_limits(envelope: Envelope, sample_period_s: float) -> dict[str, DataLim
         chosen["max_speed_rpm"] = DataLimit(round_up(MARGIN * envelope.speed_rpm),
                                             f"{MARGIN:g} x the largest |speed| recorded, "
                                             f"{envelope.speed_rpm:.6g} rpm, rounded up")
-    if envelope.same_calls is not None:
-        floor = math.ceil(STUCK_FLOOR_S / sample_period_s - 1e-9)
-        recorded = int(round_up(MARGIN * envelope.same_calls)) if envelope.same_calls else 0
-        calls = min(STUCK_MAX, max(recorded, floor, envelope.same_calls + 1))
-        repeated = (f"no reading repeated more than {envelope.same_calls} call{'s' * (envelope.same_calls > 1)} in "
-                    f"a row" if envelope.same_calls else "no reading repeated")
-        why = (f"{MARGIN:g} x the longest run of repeated readings recorded, {envelope.same_calls} calls, rounded up"
-               if recorded >= floor else f"{STUCK_FLOOR_S / 60:g} min of calls: {repeated} in the recording")
-        chosen["stuck_calls"] = DataLimit(calls, why + (f", at most {STUCK_MAX}" if calls == STUCK_MAX else ""))
+    chosen["stuck_calls"] = stuck_limit(envelope.same_calls, sample_period_s)
     return chosen
+
+
+def stuck_limit(same_calls: int | None, sample_period_s: float) -> DataLimit:
+    """The stuck time from the longest run of repeated readings; for a model file that does not record it (or has no
+    envelope), an hour of calls (what a steady machine read in 0.1 K steps can hold: FL_THERMAL, up to 2.5 h)."""
+    calls_in = lambda seconds: math.ceil(seconds / sample_period_s - 1e-9)
+    if same_calls is None:
+        candidates = [(calls_in(UNRECORDED_S), f"{UNRECORDED_S / 3600:g} h of calls: the model file records no "
+                                               f"repeated readings (refit to take the time from the recording)")]
+    else:
+        repeated = (f"no reading repeated more than {same_calls} time{'s' * (same_calls > 1)} in a row" if same_calls
+                    else "no reading repeated")
+        candidates = [(int(round_up(MARGIN * same_calls)) if same_calls else 0,
+                       f"{MARGIN:g} x the longest run of repeated readings recorded, {same_calls}, rounded up"),
+                      (calls_in(STUCK_FLOOR_S), f"{STUCK_FLOOR_S / 60:g} min of calls: {repeated} in the recording"),
+                      (same_calls + 1, f"one more than the longest run of repeated readings recorded, {same_calls}")]
+    calls, why = max([*candidates, (2, "the fewest repeats the check takes")], key=lambda c: c[0])
+    if calls > STUCK_MAX:
+        calls, why = STUCK_MAX, (f"at most {STUCK_MAX} (an INT), " + (
+            f"above the longest run of repeated readings recorded, {same_calls}" if same_calls < STUCK_MAX else
+            f"but the recording repeats a reading {same_calls} times in a row, so the block will flag it there; "
+            f"record finer readings or give --stuck-calls"))
+    return DataLimit(calls, why)

@@ -48,7 +48,7 @@ def _repeats(x, valid, stuck, state_f, state_i, out):
 class RepeatState:
     def __init__(self, f):
         self.values = np.zeros(1, f)  # the last reading in range: f(0) at the first call
-        self.flags = np.zeros(1, np.int64)  # repeats of it
+        self.counts = np.zeros(1, np.int64)  # repeats of it
 
 
 def repeats(x, valid, stuck: int, f, compiled_loop: bool, state: RepeatState | None = None):
@@ -58,7 +58,7 @@ def repeats(x, valid, stuck: int, f, compiled_loop: bool, state: RepeatState | N
     out = np.zeros(len(x), np.bool_)
     loop = _repeats if compiled_loop else getattr(_repeats, "py_func", _repeats)
     loop(np.ascontiguousarray(x, f), np.ascontiguousarray(valid, np.bool_), np.int64(stuck), state.values,
-         state.flags, out)
+         state.counts, out)
     return out
 
 

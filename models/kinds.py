@@ -8,7 +8,7 @@ import importlib
 import pkgutil
 
 from thermoplc.base.errors import UserError
-from thermoplc.models.kind import Kind, KindOption
+from thermoplc.models.kind import Kind, KindOption, guard_kind
 
 
 @functools.cache
@@ -51,3 +51,10 @@ def kind_of(name: str) -> Kind:
     if name not in registry():
         raise UserError(f"no model kind {name!r}; the kinds are {', '.join(registry())}")
     return registry()[name]
+
+
+def held_temperatures(model) -> list[str]:
+    """The temperatures the block guards and holds itself, in block order (a kind whose filter judges its own,
+    the Kalman filter, holds only its ambient): what the cross-sensor check reads (models/plausibility.py)."""
+    fused = kind_of(model.kind).fused_guards
+    return [s.name for s in model.inputs if guard_kind(s.role, fused) == "temperature"]

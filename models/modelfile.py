@@ -11,11 +11,11 @@ from pathlib import Path
 
 from thermoplc.base.identifiers import identifier_problem
 from thermoplc.physics.effects import NAMES as EFFECT_NAMES
-from thermoplc.models.kinds import kind_of, registry
+from thermoplc.models.kinds import held_temperatures, kind_of, registry
 from thermoplc.models.model import COMBINED_ROLE, FORMAT, ROLES, SCHEMA_VERSION, Coefficient, Model, Signal
 from thermoplc.models.probing import Fusion
 from thermoplc.models.envelope import Envelope
-from thermoplc.models.plausibility import Plausibility, checked
+from thermoplc.models.plausibility import Plausibility
 from thermoplc.models.start import Start
 from thermoplc.recordings.resample import Resampling
 from thermoplc.base.binary32 import FLT_MAX, f32_hex, parse_f32_hex, ulp_distance
@@ -245,7 +245,8 @@ def _parse(doc, path: str) -> Model:
         resample=_resampling(doc, path, sample_period),
     )
     if "plausibility" in doc:
-        return replace(model, plausibility=Plausibility.from_doc(doc["plausibility"], path, checked(model)))
+        return replace(model, plausibility=Plausibility.from_doc(doc["plausibility"], path,
+                                                                 held_temperatures(model)))
     return model
 
 

@@ -35,8 +35,6 @@ import numpy as np
 from thermoplc.base import compiled
 from thermoplc.base.binary32 import f32_hex, round_f32
 from thermoplc.base.errors import UserError
-from thermoplc.models.kind import guard_kind
-from thermoplc.models.kinds import kind_of
 from thermoplc.models.pair import constant_pair
 
 MARGIN = 2.0  # chosen on the twin (seed 3: 1.5 x its first day's largest difference flagged 14 % of its second
@@ -44,12 +42,6 @@ MARGIN = 2.0  # chosen on the twin (seed 3: 1.5 x its first day's largest differ
 # day (benchmarks/plausibility.py); the largest held-out difference there was 1.57 x the training day's
 GATE_FLOOR_K = 0.5  # a probe's repeatability and a card's step: a gate below it would flag noise
 DISAGREE = "status:disagree"  # the reference's key of the status bit (contract/outputs.py names it)
-
-
-def checked(model) -> list[str]:
-    """The inputs the check reads, in block order: every temperature the block guards and holds itself."""
-    fused = kind_of(model.kind).fused_guards
-    return [s.name for s in model.inputs if guard_kind(s.role, fused) == "temperature"]
 
 
 @dataclass(frozen=True)
@@ -118,6 +110,9 @@ class Plausibility:
             relations.append(Relation(sensor, _bounded(entry["intercept"], path, f"{where}.intercept"),
                                       tuple((name, _bounded(slopes[name], path, f"{where}.slopes.{name}"))
                                             for name in others), gate, float(largest)))
+        if [r.sensor for r in relations] != temperatures:
+            raise UserError(f"{path}: field 'plausibility': expected one relation for each of {', '.join(temperatures)}, "
+                            f"in that order; it has {', '.join(r.sensor for r in relations)}")
         return Plausibility(tuple(relations))
 
 

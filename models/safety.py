@@ -20,7 +20,7 @@ from thermoplc.base.binary32 import FADE_FLOOR, REAL_TEXT_MAX
 from thermoplc.base.errors import UserError
 from thermoplc.base import compiled
 from thermoplc.models import fault_hold, kernels
-from thermoplc.models.envelope import data_limits
+from thermoplc.models.envelope import data_limits, stuck_limit
 from thermoplc.models.kind import fault_key, guard_kind
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
@@ -82,8 +82,8 @@ class Limits:
             raise UserError(f"temperature range {self.temp_min_C}..{self.temp_max_C} degC is empty")
         if not 1 <= self.settle_calls <= 10000:
             raise UserError(f"settle calls must be 1..10000, got {self.settle_calls}")
-        if self.stuck_calls is not None and not (isinstance(self.stuck_calls, int) and 2 <= self.stuck_calls <= 10000):
-            raise UserError(f"stuck calls must be a whole number 2..10000, got {self.stuck_calls}")
+        if self.stuck_calls is not None and not (isinstance(self.stuck_calls, int) and 2 <= self.stuck_calls <= 32767):
+            raise UserError(f"stuck calls must be a whole number 2..32767, got {self.stuck_calls}")
 
     def values(self) -> dict:
         """The values the safety logic computes with (key -> binary32 value or INT); the block holds
@@ -101,9 +101,10 @@ class Limits:
 
     @classmethod
     def for_model(cls, model: Model, **given) -> "Limits":
-        """The limits `generate` uses for `model`: each one given (not None), else the clamp, rate limit and
-        speed guard from the model's envelope of its recording (models/envelope.py), else the defaults above."""
-        chosen = data_limits(model.envelope, model.sample_period_s) if model.envelope is not None else {}
+        """The limits `generate` uses for `model`: each one given (not None), else the clamp, rate limit, speed guard
+        and stuck time from the model's envelope of its recording (models/envelope.py), else the defaults above."""
+        chosen = (data_limits(model.envelope, model.sample_period_s) if model.envelope is not None
+                  else {"stuck_calls": stuck_limit(None, model.sample_period_s)})
         if not model.signals("speed"):  # no speed guard in the block: nothing to take or to give
             chosen.pop("max_speed_rpm", None)
             if given.get("max_speed_rpm") is not None:

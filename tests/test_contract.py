@@ -187,20 +187,21 @@ def test_the_models_name_no_status_output_or_commissioning_input_of_the_block():
     from thermoplc.contract.outputs import CONTROL_INPUTS, STATUS_OUTPUTS, named
     from thermoplc.models.safety import CONTROL_START, commissioned_predict, k0_key
     roots = [Path(__file__).resolve().parents[1] / folder for folder in ("recordings", "physics", "models", "fitting")]
-    block_names_ = "|".join(["Enable", "Reset", "ENO", "Ready", "Limited", "Clamped", "Invalid", "K0_", "Probe[A-Z]"])
+    block_names_ = "|".join(["Enable", "Reset", "ENO", "Ready", "Limited", "Clamped", "Invalid", "K0_", "Probe[A-Z]",
+                             "SensorsDisagree"])
     named_in_models = [f"{path.name}:{i}" for root in roots for path in sorted(root.rglob("*.py"))
                        for i, line in enumerate(path.read_text("utf-8").splitlines(), 1)
                        if re.search(rf"[\"']({block_names_})", line)]
     assert named_in_models == []
     assert set(CONTROL_INPUTS) == set(CONTROL_START)
     assert set(STATUS_OUTPUTS.values()) == {"ENO", "Ready", "Limited", "Clamped", "Invalid", "ProbeUsed", "ProbeRefused",
-                                            "ProbeRefusals", "ProbeSuspect"}
+                                            "ProbeRefusals", "ProbeSuspect", "SensorsDisagree"}
     from thermoplc.contract.outputs import ENO
     from thermoplc.generator import ir
     assert ir.ENO == ENO
     assert list(named({k0_key(2): 1, "E_z_um": 2, **dict.fromkeys(STATUS_OUTPUTS, 3)}, {})) == \
         ["K0_2", "E_z_um", "Ready", "Limited", "Clamped", "Invalid", "ENO", "ProbeUsed", "ProbeRefused", "ProbeRefusals",
-         "ProbeSuspect"]
+         "ProbeSuspect", "SensorsDisagree"]
     model = load_model(GOLDEN / "mlr.json")
     inputs = {s.name: np.full(4, 20.0, np.float32) for s in model.inputs}
     with pytest.raises(ValueError, match="control keys"):

@@ -45,6 +45,9 @@ def _renamed(folder, name: str, names: dict) -> str:
     doc = json.loads((GOLDEN / "mlr.json").read_text())
     for item in doc["inputs"]:
         item["name"] = names.get(item["name"], item["name"])
+    for relation in doc["plausibility"]:
+        relation["sensor"] = names.get(relation["sensor"], relation["sensor"])
+        relation["slopes"] = {names.get(k, k): v for k, v in relation["slopes"].items()}
     (folder / name).write_text(json.dumps(doc))
     return name
 

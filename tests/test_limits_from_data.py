@@ -43,7 +43,7 @@ def test_the_limits_are_one_and_a_half_the_recorded_extremes_the_rate_the_machin
     assert timid["max_output"].value == 45.0 and "the model's" in timid["max_output"].why
     assert timid["max_step"].value == 0.6 and "none measured" in timid["max_step"].why
     assert "max_speed_rpm" not in timid
-    assert data_limits(Envelope(1, (0.0, 0.0), (0.0, 0.0), 0.0), 15.0) == {}
+    assert list(data_limits(Envelope(1, (0.0, 0.0), (0.0, 0.0), 0.0), 15.0)) == ["stuck_calls"]
 
 
 def test_a_limit_given_wins_and_a_model_without_an_envelope_keeps_the_fixed_defaults():
@@ -53,7 +53,8 @@ def test_a_limit_given_wins_and_a_model_without_an_envelope_keeps_the_fixed_defa
     assert given.max_step == round_up(1.5 * model.envelope.step_um[0]) and given.origin("max_step")
     assert given.max_speed_rpm == round_up(1.5 * model.envelope.speed_rpm)
     bare = Limits.for_model(replace(model, envelope=None))
-    assert (bare.max_output, bare.max_step, bare.max_speed_rpm, bare.origins) == (300.0, 2.0, 100000.0, ())
+    assert (bare.max_output, bare.max_step, bare.max_speed_rpm) == (300.0, 2.0, 100000.0)
+    assert [name for name, _ in bare.origins] == ["stuck_calls"]  # an hour of calls, said so
 
 
 def test_the_envelope_is_measured_per_call_over_every_row():

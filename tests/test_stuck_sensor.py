@@ -63,13 +63,20 @@ def test_the_longest_repeat_counts_calls_equal_to_the_one_before():
 
 def test_the_stuck_time_is_one_and_a_half_the_longest_repeat_and_never_under_ten_minutes():
     quantised = data_limits(Envelope(10000, (1.0, 1.0), (0.1, 0.1), None, 600), 15.0)["stuck_calls"]
-    assert quantised.value == 900 and "longest run of repeated readings recorded, 600 calls" in quantised.why
+    assert quantised.value == 900 and "longest run of repeated readings recorded, 600, rounded up" in quantised.why
     floating = data_limits(Envelope(10000, (1.0, 1.0), (0.1, 0.1), None, 1), 15.0)["stuck_calls"]
-    assert floating.value == 40 and floating.why == ("10 min of calls: no reading repeated more than 1 call in a row "
+    assert floating.value == 40 and floating.why == ("10 min of calls: no reading repeated more than 1 time in a row "
                                                      "in the recording")
     assert data_limits(Envelope(10000, (1.0, 1.0), (0.1, 0.1), None, 0), 10.0)["stuck_calls"].value == 60
-    assert data_limits(Envelope(90000, (1.0, 1.0), (0.1, 0.1), None, 80000), 1.0)["stuck_calls"].value == STUCK_MAX
-    assert "stuck_calls" not in data_limits(Envelope(10, (1.0, 1.0), (0.1, 0.1), None), 15.0)  # an old model file
+    capped = data_limits(Envelope(90000, (1.0, 1.0), (0.1, 0.1), None, 40000), 1.0)["stuck_calls"]
+    assert capped.value == STUCK_MAX and "the block will flag it there" in capped.why
+    old = data_limits(Envelope(10, (1.0, 1.0), (0.1, 0.1), None), 15.0)["stuck_calls"]  # a file before the check
+    assert old.value == 240 and old.why.startswith("1 h of calls: the model file records no repeated readings")
+    assert data_limits(Envelope(10, (1.0, 1.0), (0.1, 0.1), None, 0), 900.0)["stuck_calls"].value == 2  # 15 min
+    assert data_limits(Envelope(90, (1.0, 1.0), (0.1, 0.1), None, 1), 600.0)["stuck_calls"].why == (
+        "one more than the longest run of repeated readings recorded, 1")
+    assert data_limits(Envelope(90000, (1.0, 1.0), (0.1, 0.1), None, 30000), 1.0)["stuck_calls"].why == (
+        "at most 32767 (an INT), above the longest run of repeated readings recorded, 30000")
 
 
 def test_a_recording_read_in_coarse_steps_never_trips_its_own_block(tmp_path):
@@ -97,7 +104,7 @@ def test_verify_faults_flags_a_frozen_sensor_and_fails_a_block_that_ignores_it(t
     data = golden_twin_csv(tmp_path)
     result = thermoplc("generate", GOLDEN / "mlr.json", "-o", "m.scl", cwd=tmp_path)
     assert "  --stuck-calls 60: 10 min of calls: no reading repeated in the recording" in result.stdout
-    assert "stuck after 60 calls of the same reading" in result.stdout
+    assert "stuck after 60 repeats of a reading" in result.stdout
     faults = thermoplc("verify", "m.scl", "--model", GOLDEN / "mlr.json", "--data", data, "--faults", "--json", "-",
                        cwd=tmp_path)
     cases = {(c["sensor"], c["fault"]): c for c in json.loads(faults.stdout)["cases"]}
@@ -113,8 +120,8 @@ def test_verify_faults_flags_a_frozen_sensor_and_fails_a_block_that_ignores_it(t
 
 def test_generate_takes_stuck_calls_and_refuses_it_where_no_temperature_is_checked(tmp_path):
     thermoplc("generate", GOLDEN / "mlr.json", "-o", "m.scl", "--stuck-calls", "500", cwd=tmp_path)
-    assert ("c_StuckCalls : Int := 500;   // calls in a row a temperature may repeat its reading; more is a stuck "
-            "sensor (--stuck-calls)") in (tmp_path / "m.scl").read_text()
+    assert ("c_StuckCalls : Int := 500;   // a temperature that repeats its reading this many times in a row is "
+            "stuck (--stuck-calls)") in (tmp_path / "m.scl").read_text()
     refused = thermoplc("generate", GOLDEN / "mlr.json", "-o", "n.scl", "--stuck-calls", "1", cwd=tmp_path, check=2)
     assert "--stuck-calls" in refused.stderr and not (tmp_path / "n.scl").exists()
     model = load_model(GOLDEN / "mlr.json")

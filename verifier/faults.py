@@ -21,6 +21,7 @@ from thermoplc.contract.outputs import (DISAGREE_OUTPUT, ENABLE_INPUT, ENO, K0_P
                                        PROBE_SUSPECT_OUTPUT,
                                        PROBE_VALUE_INPUT, READY_OUTPUT, RESET_INPUT, block_names, control_of, named)
 from thermoplc.models.kind import fault_key
+from thermoplc.models.plausibility import DISAGREE
 from thermoplc.models.probing import rising
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits, guards
@@ -294,7 +295,9 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
     clean = {**model_inputs(model, table, overrides), **probing}
     check_interface(machine, block, clean, "the model inputs")
     times = table.columns[model.time_column] if model.time_column in table.columns else np.arange(table.rows) * 1.0
-    baseline = _reference(model, clean, limits)[model.target.name]
+    fault_free = _reference(model, clean, limits)
+    baseline = fault_free[model.target.name]
+    already = np.asarray(fault_free.get(DISAGREE, False), bool)  # a disagreement the fault did not cause says nothing
     measured = (np.asarray(table.columns[model.target.column], np.float64)
                 if model.target.column in table.columns else None)
     first = table.rows // 3
@@ -310,7 +313,7 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
             report = replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
             cases.append(_case(kind, g.name, first, last, expected, report, machine, limits, model, baseline, measured,
                                np.asarray(expected[names[fault_key(g.name)]], bool)
-                               | np.asarray(expected.get(DISAGREE_OUTPUT, False), bool)))
+                               | np.asarray(expected.get(DISAGREE_OUTPUT, False), bool) & ~already))
     declared = {d.name for d in machine.inputs}
     for kind, action, length in CONTROL_KINDS:
         control = action(table.rows, first)

@@ -108,7 +108,7 @@ class Report:
             lines.append(f"  safety limits read from the block: outputs within +-{lim.max_output:g}, at most "
                          f"{lim.max_step:g} per call; temperatures {lim.temp_min_C:g}..{lim.temp_max_C:g} degC, "
                          f"jump {lim.max_jump_K:g} K"
-                         + (f", stuck after {lim.stuck_calls} calls of the same reading" if lim.stuck_calls else "")
+                         + (f", stuck after {lim.stuck_calls} repeats of a reading" if lim.stuck_calls else "")
                          + f", trusted again after {lim.settle_calls} steady calls; "
                          + (f"while a fault bit is set within {lim.fault_move:g} of the output before it, fading by "
                             f"{lim.fault_fade:.9g} per call"

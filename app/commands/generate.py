@@ -46,10 +46,10 @@ def add_parser(sub) -> None:
                    help="temperature change per call that marks a sensor faulty, K (default: %(default)s)")
     p.add_argument("--settle-calls", type=number(int, 1, 10000, "calls"), default=30,
                    help="steady calls before a faulty sensor is trusted again (default: %(default)s)")
-    p.add_argument("--stuck-calls", type=number(int, 2, 10000, "calls"),
-                   help="a temperature repeating its reading this many calls in a row is a stuck sensor (default: "
-                        "1.5 x the longest run of repeated readings in the model file's recording, at least 10 min "
-                        "of calls; 240 for a model file without one)")
+    p.add_argument("--stuck-calls", type=number(int, 2, 32767, "calls"),
+                   help="a temperature that repeats its reading this many times in a row is a stuck sensor "
+                        "(default: 1.5 x the longest run of repeated readings in the model file's recording, at least "
+                        "10 min of calls; 1 h of calls for a model file that does not record it)")
     p.add_argument("--fault-move-um", type=number(float, 1e-6, 1e12, "micrometres"), default=2.0,
                    help="while an input's fault bit is set, each output stays within this of its value before the "
                         "fault (default: %(default)s)")
@@ -175,7 +175,7 @@ def _summary(say: Callable[[str], None], args: argparse.Namespace, model, limits
             "block starts at the model's own first value; refit to get one")
     say(f"  outputs within +-{limits.max_output:g}, at most {limits.max_step:g} per call; temperatures "
         f"{limits.temp_min_C:g}..{limits.temp_max_C:g} degC, jump {limits.max_jump_K:g} K per call"
-        + (f", stuck after {limits.stuck_calls} calls of the same reading" if stuck_checked(model) else "")
+        + (f", stuck after {limits.stuck_calls} repeats of a reading" if stuck_checked(model) else "")
         + f"; while a fault "
         f"bit is set within {limits.fault_move:g} of the output before it, fading to none in {args.fault_fade_s:g} s")
     say("  " + (f"NOT VALIDATED (--accept-unvalidated): {generated.unvalidated}" if generated.unvalidated
