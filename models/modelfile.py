@@ -59,6 +59,8 @@ def load_model(path: str | Path) -> Model:
     model = _parse(doc, path)  # the fields every kind has, with messages tuned for hand edits
     _check_schema(doc, path)
     _check_shape(model, path)
+    if "plausibility" in doc:  # after the inputs are known good: it names them
+        model = replace(model, plausibility=Plausibility.from_doc(doc["plausibility"], path, held_temperatures(model)))
     return model
 
 
@@ -244,9 +246,6 @@ def _parse(doc, path: str) -> Model:
         envelope=Envelope.from_doc(doc["envelope"], path) if "envelope" in doc else None,
         resample=_resampling(doc, path, sample_period),
     )
-    if "plausibility" in doc:
-        return replace(model, plausibility=Plausibility.from_doc(doc["plausibility"], path,
-                                                                 held_temperatures(model)))
     return model
 
 
