@@ -28,6 +28,7 @@ import numpy as np
 from thermoplc.base.cluster import Cluster, Lost
 from thermoplc.base.errors import ClusterError, UserError
 from thermoplc.recordings.campaign import CampaignSource, run_labels
+from thermoplc.fitting.broken_runs import Screening, screen_runs
 from thermoplc.fitting.copies import refuse_copies
 from thermoplc.fitting.fit import FitRequest, evaluate, fit, runs_named
 from thermoplc.models.modelfile import Model
@@ -80,11 +81,16 @@ def fold_of(label: str, train_rows: int, held: dict) -> Fold:
                 held["zero_max_abs_um"])
 
 
-def run_folds(tables: list[Table], folds: int | None, groups: dict[str, list[int]] | None) -> list[tuple[str, list[int]]]:
+def run_folds(tables: list[Table], folds: int | None, groups: dict[str, list[int]] | None,
+              left_out: tuple[int, ...] = ()) -> list[tuple[str, list[int]]]:
     """The held-out runs of each fold of a campaign, labelled: one group of the runs table per fold
     (`groups`), or `folds` contiguous sets of runs in their order (as many folds as runs: leave one run
-    out, the default)."""
+    out, the default); the runs `left_out` (refused for training, fitting/broken_runs.py) in none, and a
+    leave-one-run-out over the others where `folds` asked for one fold per run."""
+    kept = [k for k in range(len(tables)) if k not in left_out]
     if groups is not None:
+        groups = {value: [k for k in members if k not in left_out] for value, members in groups.items()}
+        groups = {value: members for value, members in groups.items() if members}
         if len(groups) < 2:
             raise UserError(f"--group-by: every run is in the one group {next(iter(groups))!r}; a group predicted by a "
                             f"fit on the others needs at least two groups")
@@ -94,8 +100,10 @@ def run_folds(tables: list[Table], folds: int | None, groups: dict[str, list[int
         raise UserError(f"--folds {folds}: with {len(tables)} runs expected {MIN_FOLDS} to {len(tables)} folds "
                         f"(each fold holds whole runs; {len(tables)} leaves one run out)")
     labels = run_labels([t.path for t in tables])
-    return [((labels[members[0]] if len(members) == 1 else f"runs {members[0] + 1}..{members[-1] + 1}"), members)
-            for members in contiguous(list(range(len(tables))), folds)]
+    named = lambda members: (labels[members[0]] if len(members) == 1 else
+                             f"runs {members[0] + 1}..{members[-1] + 1}" if len(members) == members[-1] - members[0] + 1
+                             else f"{len(members)} runs {members[0] + 1}..{members[-1] + 1}")
+    return [(named(members), members) for members in contiguous(kept, min(folds, len(kept)))]
 
 
 def contiguous(indices: list[int], count: int) -> list[list[int]]:
@@ -123,6 +131,7 @@ class FoldTask:
     stop: int = 0
     predictions: bool = False
     source: CampaignSource | None = None  # set for a task run elsewhere
+    left_out: tuple[int, ...] = ()  # runs refused for training (fitting/broken_runs.py): in no fold's fit
 
 
 @dataclass(frozen=True)
@@ -142,7 +151,7 @@ def run_fold(task: FoldTask, tables: list[Table] | None = None) -> FoldResult:
         return _with_choice(FoldResult(fold_of(f"rows {task.start + 1}..{task.stop}", task.start,
                                                model.metrics["held_out"])), model)
     held = [tables[k] for k in task.members]
-    others = [t for k, t in enumerate(tables) if k not in task.members]
+    others = [t for k, t in enumerate(tables) if k not in task.members and k not in task.left_out]
     model = _guarded(lambda: fit(others, replace(task.request, train_until=math.inf, train_rows=None),
                                  task.time_column),
                      f"fold {task.label} (fitted without {runs_named(held)})")
@@ -198,10 +207,10 @@ def read_columns(request: FitRequest) -> tuple[str, ...]:
 
 
 def _run_tasks(tables: list[Table], request: FitRequest, time_column: str, folds: int | None,
-               groups: dict[str, list[int]] | None, predictions: bool) -> list[FoldTask]:
+               groups: dict[str, list[int]] | None, predictions: bool, left_out: tuple[int, ...] = ()) -> list[FoldTask]:
     refuse_copies(tables, "a fold predicted by a fit on its own copy is not held out", read_columns(request))
-    return [FoldTask(request, time_column, label, tuple(members), predictions=predictions)
-            for label, members in run_folds(tables, folds, groups)]
+    return [FoldTask(request, time_column, label, tuple(members), predictions=predictions, left_out=left_out)
+            for label, members in run_folds(tables, folds, groups, left_out)]
 
 
 def _block_tasks(table: Table, request: FitRequest, time_column: str, folds: int | None) -> list[FoldTask]:
@@ -211,10 +220,10 @@ def _block_tasks(table: Table, request: FitRequest, time_column: str, folds: int
 
 
 def _fold_tasks(tables: list[Table], request: FitRequest, time_column: str, folds: int | None,
-                groups: dict[str, list[int]] | None, predictions: bool) -> list[FoldTask]:
+                groups: dict[str, list[int]] | None, predictions: bool, left_out: tuple[int, ...] = ()) -> list[FoldTask]:
     """Whole runs held out (several runs or groups), or blocks of one recording."""
     if len(tables) > 1 or groups is not None:
-        return _run_tasks(tables, request, time_column, folds, groups, predictions)
+        return _run_tasks(tables, request, time_column, folds, groups, predictions, left_out)
     return _block_tasks(tables[0], request, time_column, folds)
 
 
@@ -269,27 +278,57 @@ def fit_cross_validated(tables: list[Table], request: FitRequest, folds: int | N
     """Cross-validation, then the fit on every row of every run, carrying the folds' pooled errors as its
     held-out evidence, each fold's (and with several runs each run's) beside them. With `remote` the folds
     run on the cluster while this process fits on every row; the results are the same bits."""
+    screening = screened(tables, request, groups)
+    left_out = screening.refused_indices
     try:  # the folds go out first, so the cluster works while the fit on every row runs here
-        tasks, refused = _fold_tasks(tables, request, time_column, folds, groups, predictions is not None), None
+        tasks, refused = _fold_tasks(tables, request, time_column, folds, groups, predictions is not None,
+                                     left_out), None
     except UserError as exc:
         tasks, refused = [], exc
     running = _start_folds(tables, tasks, remote)
     # the fit on every row first: a run's bad data is named as such, not as a fold's that left it out
-    model = fit(tables, replace(request, train_until=math.inf, train_rows=None), time_column, progress)
+    kept = [t for k, t in enumerate(tables) if k not in left_out]
+    model = fit(kept, replace(request, train_until=math.inf, train_rows=None), time_column, progress)
     if refused is not None:
         raise refused
     found, per_run = _collect(running, predictions)
     if groups is not None:
-        protocol = f"leave-one-group-out cross-validation over {len(groups)} groups of {len(tables)} runs"
+        protocol = f"leave-one-group-out cross-validation over {len(found)} groups of {len(kept)} runs"
     elif len(tables) > 1:
-        protocol = (f"leave-one-run-out cross-validation over {len(tables)} runs" if len(found) == len(tables)
-                    else f"cross-validation over {len(found)} folds of whole runs ({len(tables)} runs)")
+        protocol = (f"leave-one-run-out cross-validation over {len(kept)} runs" if len(found) == len(kept)
+                    else f"cross-validation over {len(found)} folds of whole runs ({len(kept)} runs)")
     else:
         protocol = f"forward cross-validation over {folds} blocks"
     held_out = {**pooled(found), "protocol": protocol}
     extra = {"runs": per_run} if per_run else {}
+    if screening.refused or screening.named:
+        extra["run_screening"] = screening.log()
+    if left_out:
+        apart = judge_fold(model, tables, left_out, "refused for training", model.metrics["train"]["rows"],
+                           predictions is not None)
+        if predictions is not None:
+            predictions.update(apart.predictions)
+        held_out["protocol"] += f"; {len(left_out)} run{'s' if len(left_out) > 1 else ''} refused for training"
+        with_them = pooled([*found, apart.fold])
+        held_out["with_refused_runs"] = {k: with_them[k] for k in ("rows", "rmse_um", "max_abs_um", "zero_rmse_um")}
+        extra["refused_runs"] = [{**judged.as_dict(), **{k: run[k] for k in ("rmse", "max_abs", "zero_rmse", "rows")}}
+                                 for judged, run in zip(screening.refused, _in_order(apart.per_run, screening))]
     return Model(**{**model.__dict__, "metrics": {**model.metrics, "held_out": held_out,
                                                    "cross_validation": [f.as_dict() for f in found], **extra}})
+
+
+def screened(tables: list[Table], request: FitRequest, groups: dict | None) -> Screening:
+    """The runs of a campaign refused for training and those named (fitting/broken_runs.py), on the request's
+    temperatures and ambient; nothing for one recording or with `keep_every_run`."""
+    if len(tables) < 2 or request.keep_every_run:
+        return Screening()
+    return screen_runs(tables, (*request.temps, *([request.ambient] if request.ambient else [])), request.target)
+
+
+def _in_order(per_run: tuple[dict, ...], screening: Screening) -> list[dict]:
+    """The refused runs' held-out figures in the order the screening refused them."""
+    by_run = {run["run"]: run for run in per_run}
+    return [by_run[judged.run] for judged in screening.refused]
 
 
 def fit_held_out(tables: list[Table], request: FitRequest, folds: int | None, time_column: str = "time_s",

@@ -58,6 +58,7 @@ class FitRequest:
     # held as sorted (field, value) pairs of the options given other than their defaults: a request stays
     # hashable, and equal whether a default is spelled out or not
     settings: Mapping[str, Any] | tuple[tuple[str, Any], ...] = ()
+    keep_every_run: bool = False  # train on every run of a campaign, broken or not (fitting/broken_runs.py)
 
     def __post_init__(self, options_, *legacy) -> None:
         for name in ("temps", "extra_targets"):  # a list is taken as the tuple it means (a request is hashable)

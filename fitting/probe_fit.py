@@ -241,8 +241,9 @@ def probe_runs(model, tables: list, predictions: dict) -> tuple[list[ProbeRun], 
     column = model.target.column
     if predictions:
         labels = run_labels([t.path for t in tables])
+        refused = {run["run"] for run in model.metrics.get("refused_runs", [])}  # not what the block will see
         return [ProbeRun(label, np.asarray(predictions[t.path], float), t.column(column), np.ones(t.rows, bool))
-                for label, t in zip(labels, tables)], None
+                for label, t in zip(labels, tables) if label not in refused], None
     if len(tables) != 1:
         raise UserError("--probe on a campaign chooses the fusion on runs held out: give --folds K or --group-by")
     table = tables[0]

@@ -69,6 +69,10 @@ def add_parser(sub) -> None:
                       help="fit on every row, with held-out evidence from leave-one-group-out cross-validation over "
                            "the groups of this column of the --runs table (fit on the cool days, predict the warm "
                            "ones)")
+    evaluation.add_argument("--keep-every-run", action="store_true",
+                            help="train on every run of a campaign: a run whose sensors disagree with the other runs' "
+                                 "and that a fit on the others predicts far worse than them is otherwise refused for "
+                                 "training, named, and reported apart (docs/campaigns.md)")
     data.add_argument("--held-target", action="store_true",
                       help="the target holds its last probing between probings: only the first row and the rows where "
                            "it changes are measurements (an empty target cell is always a row without a measurement)")
@@ -192,7 +196,8 @@ def run(args: argparse.Namespace) -> int:
     request = FitRequest(kind=args.model, target=args.target[0], temps=args.temps, speed=args.speed,
                          ambient=args.ambient, train_until=args.train_until, train_rows=args.train_rows,
                          block_name=args.name, extra_targets=args.target[1:], choose_sensors=args.choose_sensors,
-                         settings={field: getattr(args, field) for field in options()})
+                         settings={field: getattr(args, field) for field in options()},
+                         keep_every_run=args.keep_every_run)
     if args.choose_sensors and args.model == "auto":
         raise UserError("--choose-sensors is for one kind: --model auto chooses its sensor sets itself")
     if args.scheduler and not (args.folds or args.group_by):
@@ -203,6 +208,9 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--probe-gate-um sets the gate of a fused block; give --probe")
     refuse_options_not_read(args, request)
     runs = run_list(args.data, args.runs)
+    if args.keep_every_run and not (len(runs.paths) > 1 and (args.folds or args.group_by)):
+        raise UserError("--keep-every-run keeps a campaign's runs that disagree with the others in its cross-validation; "
+                        "give several runs with --folds K or --group-by")
     if args.probe and len(runs.paths) == 1 and (args.folds or args.group_by):
         raise UserError("--probe on one recording chooses the fusion on its held-out part: give --train-until or "
                         "--train-rows instead of --folds (or a campaign of runs with --folds)")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from thermoplc.base.identifiers import renaming_note
 from thermoplc.fitting.acceptance import refusal
+from thermoplc.fitting.broken_runs import RATIO
 from thermoplc.fitting.probe_fit import REFITTED
 from thermoplc.models.plausibility import GATE_FLOOR_K, MARGIN
 
@@ -50,6 +51,7 @@ def format_fit(model, campaign=None) -> str:
         lines += _format_folds(m)
     if m.get("runs") and len(m["runs"]) != len(m["cross_validation"]):
         lines += _format_runs(m, campaign)
+    lines += format_screening(m)
     if "probing" in m:
         lines += format_probing(m["probing"])
     lines.append(f"  float32 block vs float64 model: max {m['float32_vs_float64_max_um']:.3g} um")
@@ -136,6 +138,31 @@ def _format_runs(m: dict, campaign) -> list[str]:
     lines = [f"  {'run (fold)':<34}{'rows':>8}{'RMSE um':>10}{'max um':>9}{'none RMSE um':>14}{'none max um':>13}"]
     lines += [f"  {r['run'] + ' (' + r['fold'] + ')':<34}{r['rows']:>8}{r['rmse']:>10.3f}{r['max_abs']:>9.3f}"
               f"{r['zero_rmse']:>14.3f}{r['zero_max_abs']:>13.3f}" for r in m["runs"]]
+    return lines
+
+
+def format_screening(m: dict) -> list[str]:
+    """The runs refused for training (fitting/broken_runs.py), each with why and its error by the model written, the
+    held-out figure with them; the runs a rule named but kept."""
+    screening = m.get("run_screening")
+    if screening is None:
+        return []
+    lines = []
+    for run in m.get("refused_runs", []):
+        lines.append(f"  REFUSED for training: {run['run']}: {run['sensor']} {run['difference_K']:.3g} K from what the "
+                     f"other temperatures say (gate {run['gate_K']:.3g} K from the other runs), a ridge on the other "
+                     f"runs {run['ratio']:.2g} x their median error; the model written predicts it {run['rmse']:.3f} "
+                     f"um RMSE (none {run['zero_rmse']:.3f})")
+    if "with_refused_runs" in m["held_out"]:
+        with_them = m["held_out"]["with_refused_runs"]
+        lines.append(f"  held out with the refused runs: {with_them['rmse_um']:.3f} um RMSE, max {with_them['max_abs_um']:.3f} "
+                     f"um over {with_them['rows']} rows (without: {m['held_out']['rmse_um']:.3f}); "
+                     f"--keep-every-run trains on them")
+    for run in screening["named"]:
+        why = [*([f"{run['sensor']} {run['difference_K']:.3g} K from what the other temperatures say (gate "
+                  f"{run['gate_K']:.3g} K)"] if run["difference_K"] > run["gate_K"] else []),
+               *([f"a ridge on the other runs {run['ratio']:.2g} x their median error"] if run["ratio"] >= RATIO else [])]
+        lines.append(f"  kept for training, named: {run['run']}: {'; '.join(why)}")
     return lines
 
 
