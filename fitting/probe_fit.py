@@ -163,14 +163,17 @@ def _innovations(choice: Choice, runs: list[ProbeRun], every, interval, dt) -> n
 
 
 def choose(runs: list[ProbeRun], minutes: float | None, dt: float, limit: float,
-           held_out: ProbeRun | None = None, gate_um: float | None = None) -> tuple[Fusion, dict]:
+           held_out: ProbeRun | None = None, gate_um: float | None = None, plain_only: bool = False
+           ) -> tuple[Fusion, dict]:
     """The fusion for `minutes` between probings (None: the target's own probings), chosen on every run, and
     the nested evidence: each run replayed with the fusion chosen on the other runs (with `held_out`, the one
     recording's part the choice never saw, replayed with the fusion chosen on `runs`, its training part). The
-    gate is `gate_um` when given, else gate_of the innovations on the runs the fusion is chosen on."""
+    gate is `gate_um` when given, else gate_of the innovations on the runs the fusion is chosen on. `plain_only`:
+    the plain offset reset, only its gate chosen."""
     every, interval = _schedule(runs, minutes, dt)
     full_rate = every is not None
-    candidates = [Choice(g, r, h) for g, r, h in product(GAINS, (False, True), HALF_LIVES_H)]
+    candidates = [Choice(g, r, h) for g, r, h in product(GAINS, (False, True), HALF_LIVES_H)
+                  if not plain_only or (g, r, h) == PLAIN]
     table = _table(runs, candidates, every, interval, dt)
     everyone = list(range(len(runs)))
 
@@ -285,8 +288,14 @@ def fit_probe(model, tables: list, predictions: dict, every: int | None, held: b
         raise UserError(f"--probe-gate-um {gate_um:g}: wider than the limit {limit:.4g} um (twice the largest drift "
                         f"measured), where every probing beyond is refused anyway; give at most {limit:.4g}")
     chosen, evidence = _fused(model, tables, plain, every, dt, limit, full_rate, gate_um)
+    replaced = _worse_than_reset(evidence, full_rate) if evidence["nested"] else None  # one recording: its held-out
+    # part is the evidence, not a choice
+    if replaced:  # the fused block's nested evidence lost to the plain reset it holds as a candidate: the reset
+        fusion, evidence = choose(runs, every * dt / 60 if every else None, dt, limit, held_out, gate_um, True)
+        chosen = Variant(model, runs, held_out, fusion, evidence)
     probing = {**summarise(evidence), "held": held,
-               "chosen": {**_described(chosen.fusion, dt), "gate_rule": evidence["gate_rule"]},
+               "chosen": {**_described(chosen.fusion, dt), "gate_rule": evidence["gate_rule"],
+                          **({"replaced_by_reset": replaced} if replaced else {})},
                "static": REFITTED if chosen.model is not model else "as fitted"}
     if full_rate:  # the model's own schedule is among them more often than not: its evidence is not computed again
         calls = {minutes: max(int(round(minutes * 60 / dt)), 1) for minutes in SCHEDULES_MIN}
@@ -298,6 +307,18 @@ def fit_probe(model, tables: list, predictions: dict, every: int | None, held: b
     fusion = replace(chosen.fusion, min_calls=(float(m := min_calls(runs, held_out, every)), round_f32(m)))
     probing["chosen"]["flood_calls"] = m
     return replace(chosen.model, probe=fusion, metrics={**chosen.model.metrics, "probing": probing})
+
+
+def _worse_than_reset(evidence: dict, full_rate: bool) -> str | None:
+    """Why the chosen fusion gives way to the plain offset reset: its nested error over the runs (each run
+    replayed with the fusion chosen on the others) above the reset's on the same runs; None when it is not."""
+    fused = _objective(sum((run["fused"] for run in evidence["runs"]), Errors(0, 0, 0, 0)), full_rate)
+    reset = _objective(sum((run["reset"] for run in evidence["runs"]), Errors(0, 0, 0, 0)), full_rate)
+    if fused <= reset:
+        return None
+    where = "over every measured call" if full_rate else "just before each probing"
+    return (f"the fusion chosen was {math.sqrt(fused / reset):.3g} x the plain offset reset's error {where} on "
+            f"the held-out runs: the plain reset written")
 
 
 def min_calls(runs: list[ProbeRun], held_out: ProbeRun | None, every: int | None) -> int:

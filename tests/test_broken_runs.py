@@ -101,3 +101,16 @@ def test_groups_leave_the_refused_run_out(campaigns):
     assert "leave-one-group-out cross-validation over 2 groups of 7 runs; 1 run refused for training" in out
     runs = load_model(str(campaigns / "grouped.json")).metrics["runs"]
     assert [r["run"] for r in runs] == [f"run{k}.csv" for k in (1, 2, 3, 5, 6, 7, 8)]
+
+
+def test_a_fusion_that_loses_to_its_reset_on_the_held_out_runs_gives_way_to_it():
+    from thermoplc.fitting.probe_fit import Errors, PLAIN, ProbeRun, _worse_than_reset, choose
+    run = lambda fused, reset: {"fused": Errors(fused, 10, fused, 2), "reset": Errors(reset, 10, reset, 2)}
+    assert _worse_than_reset({"runs": [run(4.0, 1.0), run(1.0, 1.0)]}, True).startswith("the fusion chosen was 1.58 x")
+    assert _worse_than_reset({"runs": [run(1.0, 1.0), run(0.5, 1.0)]}, True) is None
+    rng = np.random.default_rng(3)
+    target = np.cumsum(rng.normal(0, 0.2, 400))
+    runs = [ProbeRun(f"r{k}", target * (1 + 0.1 * k), target, np.ones(400, bool)) for k in range(3)]
+    fusion, evidence = choose(runs, 10.0, 60.0, 100.0, plain_only=True)
+    assert (fusion.value("gain", "f64"), fusion.has_rate, fusion.decay) == (PLAIN[0], False, None)
+    assert evidence["nested"] and fusion.value("gate_um", "f64") < 100.0
