@@ -13,7 +13,9 @@ the run's temperatures x (the model's, and its ambient), per campaign of MIN_RUN
    leaving runs out) fitted on the other runs predicts it, against the median of the other runs' errors, each
    predicted the same way in the campaign without the run. At least RATIO times: the model cannot carry it.
 
-A run that fails both is refused: the fit and every fold train without it, and its prediction by the written
+A run that fails both is refused: its temperatures do not relate as in the other runs (a broken sensor, or an
+effect the other runs did not have: the block fitted without it flags such a run and holds), the fit and every
+fold train without it, and its prediction by the written
 model (which never saw it) is reported apart, and pooled into a held-out figure "with" it. A run that fails
 only one is named and kept: a sensor may differ where the target does not mind, and a run may be hard to predict
 with sound sensors (another programme, a cold hall). Worst first, one at a time, the others judged again without
@@ -134,7 +136,8 @@ def _sensor_judgement(readings: list[np.ndarray], q: int, names: tuple[str, ...]
     named = max(every, key=share)
     if culprit and share(named) > 1.0 and len(names) > 2:
         left = lambda i: max(d / g for d, g in _relation_shares(others, own, [j for j in every if j != i]).values())
-        named = min(every, key=left)
+        suspect = min(every, key=left)
+        named = suspect if share(suspect) > 1.0 else named  # the sensor named is itself beyond its gate
     return (names[named], *shares[named])
 
 

@@ -92,8 +92,10 @@ def run_folds(tables: list[Table], folds: int | None, groups: dict[str, list[int
         groups = {value: [k for k in members if k not in left_out] for value, members in groups.items()}
         groups = {value: members for value, members in groups.items() if members}
         if len(groups) < 2:
-            raise UserError(f"--group-by: every run is in the one group {next(iter(groups))!r}; a group predicted by a "
-                            f"fit on the others needs at least two groups")
+            refused = (f" once the runs {', '.join(run_labels([tables[k].path for k in left_out]))} are refused for "
+                       f"training (fit --keep-every-run keeps them)" if left_out else "")
+            raise UserError(f"--group-by: every run is in the one group {next(iter(groups))!r}{refused}; a group "
+                            f"predicted by a fit on the others needs at least two groups")
         return [(str(value), members) for value, members in groups.items()]
     folds = folds or len(tables)
     if not MIN_FOLDS <= folds <= len(tables):

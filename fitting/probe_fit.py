@@ -244,9 +244,8 @@ def probe_runs(model, tables: list, predictions: dict) -> tuple[list[ProbeRun], 
     column = model.target.column
     if predictions:
         labels = run_labels([t.path for t in tables])
-        refused = {run["run"] for run in model.metrics.get("refused_runs", [])}  # not what the block will see
         return [ProbeRun(label, np.asarray(predictions[t.path], float), t.column(column), np.ones(t.rows, bool))
-                for label, t in zip(labels, tables) if label not in refused], None
+                for label, t in zip(labels, tables)], None
     if len(tables) != 1:
         raise UserError("--probe on a campaign chooses the fusion on runs held out: give --folds K or --group-by")
     table = tables[0]
@@ -269,6 +268,9 @@ def fit_probe(model, tables: list, predictions: dict, every: int | None, held: b
     refitted static part alone still passes the acceptance gate (a block whose probings stop is a static block)."""
     from dataclasses import replace
     from thermoplc.models.probing import needs_schedule
+    from thermoplc.recordings.campaign import run_labels
+    refused = {run["run"] for run in model.metrics.get("refused_runs", [])}  # fitting/broken_runs.py
+    tables = [t for t, label in zip(tables, run_labels([t.path for t in tables])) if label not in refused]
     runs, held_out = probe_runs(model, tables, predictions)
     full_rate = all(needs_schedule(r.target) for r in runs)
     if full_rate and every is None:
@@ -306,7 +308,8 @@ def fit_probe(model, tables: list, predictions: dict, every: int | None, held: b
         probing["schedules"] = [{"minutes": m, **summarise(found[calls[m]])["pooled"]} for m in SCHEDULES_MIN]
     fusion = replace(chosen.fusion, min_calls=(float(m := min_calls(runs, held_out, every)), round_f32(m)))
     probing["chosen"]["flood_calls"] = m
-    return replace(chosen.model, probe=fusion, metrics={**chosen.model.metrics, "probing": probing})
+    screening = {k: model.metrics[k] for k in ("refused_runs", "run_screening") if k in model.metrics}
+    return replace(chosen.model, probe=fusion, metrics={**chosen.model.metrics, **screening, "probing": probing})
 
 
 def _worse_than_reset(evidence: dict, full_rate: bool) -> str | None:

@@ -114,3 +114,9 @@ def test_a_fusion_that_loses_to_its_reset_on_the_held_out_runs_gives_way_to_it()
     fusion, evidence = choose(runs, 10.0, 60.0, 100.0, plain_only=True)
     assert (fusion.value("gain", "f64"), fusion.has_rate, fusion.decay) == (PLAIN[0], False, None)
     assert evidence["nested"] and fusion.value("gate_um", "f64") < 100.0
+
+
+def test_keep_every_run_without_a_campaign_is_refused(campaigns):
+    alone = thermoplc(*FIT[:-2], "--train-until", 10000, "--data", "broken/run1.csv", "--keep-every-run", "-o",
+                      "one.json", cwd=campaigns, check=2)
+    assert "--keep-every-run keeps a campaign's runs" in alone.stderr and not (campaigns / "one.json").exists()

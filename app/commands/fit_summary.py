@@ -151,9 +151,10 @@ def format_screening(m: dict) -> list[str]:
     lines = []
     for run in m.get("refused_runs", []):
         lines.append(f"  REFUSED for training: {run['run']}: {run['sensor']} {run['difference_K']:.3g} K from what the "
-                     f"other temperatures say (gate {run['gate_K']:.3g} K from the other runs), a ridge on the other "
-                     f"runs {run['ratio']:.2g} x their median error; the model written predicts it {run['rmse']:.3f} "
-                     f"um RMSE (none {run['zero_rmse']:.3f})")
+                     f"other temperatures say (gate {run['gate_K']:.3g} K from the other runs: a broken sensor, or an "
+                     f"effect the other runs did not have), a ridge on the other runs {run['ratio']:.2g} x their "
+                     f"median error; the model written predicts it {run['rmse']:.3f} um RMSE (none "
+                     f"{run['zero_rmse']:.3f}), where the block would flag SensorsDisagree")
     if "with_refused_runs" in m["held_out"]:
         with_them = m["held_out"]["with_refused_runs"]
         lines.append(f"  held out with the refused runs: {with_them['rmse_um']:.3f} um RMSE, max {with_them['max_abs_um']:.3f} "
