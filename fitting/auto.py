@@ -155,10 +155,18 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
                                      for t, n in zip(tables, rows)]), list(request.temps))
     except UserError as exc:
         raise UserError(f"{runs_named(tables)}: --temps {exc}") from None
+    def shrunk(found: list[Candidate]) -> list[Candidate]:
+        """Each linear kind on every sensor, ridge-shrunk (base/ridge.py), where not tried yet: steady where a
+        subset chosen fold by fold is luck (issue 62: 0 of 8 folds of a lathe campaign chose the same set)."""
+        return [_candidate(tables, request, folds, time_column, kind.name, candidates_of(kind, request), say, groups,
+                           remote, probing) for kind in kinds if kind.increments is not None
+                and not any(f.kind == kind.name and not f.model.fit.get("sensor_choice") and
+                            set(f.sensors) == set(candidates_of(kind, request)) for f in found if f.model)]
+
     if _chooses_in_folds(tables, folds, groups):  # each kind chooses its sensors inside every fold
         found = [_candidate(tables, replace(request, choose_sensors=kind.auto_sensors), folds, time_column, kind.name,
                             candidates_of(kind, request), say, groups, remote, probing) for kind in kinds]
-        return sorted(found, key=Candidate.order)
+        return sorted(found + shrunk(found), key=Candidate.order)
     if say:
         say("auto: forward selection of sensors")
     sets = forward_selection(tables, request, folds, time_column, max_sensors, remote=remote)
@@ -169,7 +177,7 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
     best_set = min(found, key=Candidate.order).sensors
     found += [_candidate(tables, request, folds, time_column, kind.name, best_set, say, groups, remote, probing)
               for kind in kinds if kind.auto == "iterative"]
-    return sorted(found, key=Candidate.order)
+    return sorted(found + shrunk(found), key=Candidate.order)
 
 
 def _chooses_in_folds(tables: list[Table], folds: int | None, groups: dict | None) -> bool:

@@ -31,6 +31,7 @@ from thermoplc.recordings.campaign import CampaignSource, run_labels
 from thermoplc.fitting.broken_runs import Screening, screen_runs
 from thermoplc.fitting.copies import refuse_copies
 from thermoplc.fitting.fit import FitRequest, evaluate, fit, runs_named
+from thermoplc.fitting.ridge_floor import ridge_floor
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.recordings.table import Table
@@ -302,6 +303,10 @@ def fit_cross_validated(tables: list[Table], request: FitRequest, folds: int | N
     else:
         protocol = f"forward cross-validation over {folds} blocks"
     held_out = {**pooled(found), "protocol": protocol}
+    floor = ridge_floor(tables, request.temps, request.ambient, request.target,
+                        [(t.members, t.start, t.stop) for t in tasks], left_out)
+    if floor is not None:
+        held_out["ridge_rmse_um"] = floor
     extra = {"runs": per_run} if per_run else {}
     if screening.refused or screening.named:
         extra["run_screening"] = screening.log()

@@ -30,9 +30,12 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
           + (f" (no compensation {none:.3f} um)" if none is not None else "")
           + (f", {fitted[0].model.metrics['held_out']['protocol']}" if campaign else ""))
     if chose:
-        most = ", ".join(f"{c.kind} {kind_of(c.kind).auto_sensors}" for c in ranked)
+        choosing = lambda c: c.model is None or "sensor_choice" in c.model.fit
+        most = ", ".join(f"{c.kind} {kind_of(c.kind).auto_sensors}" for c in ranked if choosing(c))
+        every = " and ".join(c.kind for c in ranked if not choosing(c))
         print(f"  each kind chose its sensors among --temps itself, again inside every fold (at most: {most}): the "
-              f"error ranked is the written model's held-out evidence (the sensors shown: chosen on every run)")
+              f"error ranked is the written model's held-out evidence (the sensors shown: chosen on every run)"
+              + (f"; {every} also on every sensor, ridge-shrunk" if every else ""))
     print(f"  {'rank':<6}{'kind':<8}{'sensors':<32}{'RMSE um':>9}{'max um':>9}{'ops/call':>10}"
           + (f"{'fused um':>10}" if probing else ""))
     for k, c in enumerate(ranked, start=1):
@@ -48,8 +51,8 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
                    (c.not_accepted is None) == (best.not_accepted is None)), key=lambda c: cost[id(c)])
     if cheaper is not best:
         kind = kind_of(cheaper.kind)
-        again = (f"--temps {','.join(candidates_of(kind, request))} --choose-sensors {kind.auto_sensors}" if chose else
-                 f"--temps {','.join(cheaper.sensors)}") + (" --probe" if probing else "") \
+        again = (f"--temps {','.join(candidates_of(kind, request))} --choose-sensors {kind.auto_sensors}"
+                 if "sensor_choice" in cheaper.model.fit else f"--temps {','.join(cheaper.sensors)}") + (" --probe" if probing else "") \
             + (f" --probe-every {probing.every}" if probing and probing.every else "")
         print(f"  cheapest within {AUTO_TOLERANCE:.0%} of the best: {cheaper.kind} on {','.join(cheaper.sensors)}, "
               f"{cheaper.rmse:.3f} um, {cost[id(cheaper)]} operations per call (fit it with --model {cheaper.kind} "

@@ -131,6 +131,9 @@ def _format_folds(m: dict) -> list[str]:
     lines.append(f"  {pooled:<26}{'':>12}{held['rmse_um']:>10.3f}{held['max_abs_um']:>9.3f}"
                  f"{held['zero_rmse_um']:>14.3f}{held['zero_max_abs_um']:>13.3f}")
     lines.append(f"  spread: fold RMSE {low:.3f} to {high:.3f} um")
+    if held.get("ridge_rmse_um"):
+        lines.append(f"  a ridge on the same temperatures' rises, held out alike: {held['ridge_rmse_um']:.3f} um; this "
+                     f"model {held['rmse_um'] / held['ridge_rmse_um']:.2f} x that (fitting/ridge_floor.py)")
     return lines
 
 
