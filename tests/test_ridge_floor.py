@@ -1,0 +1,51 @@
+"""The ridge floor beside every cross-validated fit and the shrunk linear kinds in auto's ranking (issue 62, items 1
+and 4): the floor is a ridge on the same temperatures' rises held out alike, so mlr (that very ridge) sits on it."""
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from benchmarks.campaign import FL_THERMAL, fl_thermal_runs
+from tests.cli_runner import thermoplc
+from thermoplc.fitting.crossval import fit_held_out
+from thermoplc.fitting.fit import FitRequest
+from thermoplc.recordings.table import read_table, write_table
+
+TEMPS = ("t8_C", "t4_C", "t5_C", "t11_C")
+
+
+@pytest.mark.parametrize("kind", ["mlr", "gm1n"])
+def test_the_floor_of_a_campaign_is_the_ridge_mlr_fits(kind):
+    runs = fl_thermal_runs("ch5_um", 6.0, 0)
+    held = fit_held_out(runs, FitRequest(kind=kind, target="ch5_um", temps=TEMPS, train_until=math.inf), len(runs)
+                        ).metrics["held_out"]
+    if kind == "mlr":  # the same ridge; only the block's start offset differs
+        assert held["rmse_um"] == pytest.approx(held["ridge_rmse_um"], rel=0.02)
+    else:
+        assert held["rmse_um"] > held["ridge_rmse_um"]
+
+
+def test_one_recording_floor_uses_the_rows_before_each_block(tmp_path):
+    out = thermoplc("fit", "--data", FL_THERMAL, "--model", "mlr", "--target", "ch3_um", "--temps", "t5_C,t4_C",
+                    "--folds", 4, "-o", "m.json", cwd=tmp_path).stdout
+    held = json.loads((tmp_path / "m.json").read_text())["metrics"]["held_out"]
+    assert held["rmse_um"] == pytest.approx(held["ridge_rmse_um"], rel=0.02)
+    assert (f"a ridge on the same temperatures' rises, held out alike: {held['ridge_rmse_um']:.3f} um; this model "
+            f"{held['rmse_um'] / held['ridge_rmse_um']:.2f} x that") in out
+    assert read_table(FL_THERMAL).rows > held["rows"]
+
+
+@pytest.mark.slow
+def test_auto_ranks_mlr_and_dlag_on_every_sensor_beside_the_chosen_ones(tmp_path):
+    (tmp_path / "runs").mkdir()
+    for k, table in enumerate(fl_thermal_runs("ch5_um", 6.0, 0)[:5], start=1):
+        (tmp_path / "runs" / f"run{k}.csv").write_text(write_table(dict(table.columns)))
+    every = "t1_C,t3_C,t4_C,t5_C,t8_C,t11_C"
+    out = thermoplc("fit", "--data", "runs", "--model", "auto", "--target", "ch5_um", "--temps", every, "--folds", 5,
+                    "-o", "auto.json", cwd=tmp_path).stdout
+    ranking = json.loads((tmp_path / "auto.json").read_text())["metrics"]["auto_ranking"]
+    shrunk = [r for r in ranking if r["sensors"] == every.split(",")]
+    assert sorted(r["kind"] for r in shrunk) == ["dlag", "mlr"]
+    assert "mlr and dlag also on every sensor, ridge-shrunk" in out or "dlag and mlr also on every sensor" in out
