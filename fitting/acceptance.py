@@ -122,8 +122,12 @@ def _worse_fold(model: Model) -> str | None:
 
 
 def problem(model: Model) -> str | None:
-    """Why the model has not earned a block, with the numbers; None when it has."""
+    """Why the model has not earned a block, with the numbers; None when it has. An offset-only block
+    (fitting/offset_only.py) predicts 0 between its probings: only its fused evidence is judged."""
+    from thermoplc.fitting.offset_only import is_offset_only
     found = evidence(model)
+    if found is not None and is_offset_only(model):
+        return _fused_problem(model)
     if found is None:
         return ("the model file carries no held-out evidence (fit with --train-until, --train-rows or --folds so rows "
                 "are left to predict, and with a thermoplc that records the error of no compensation)")
@@ -169,8 +173,11 @@ def fused_summary(model: Model) -> str | None:
     rule = _section(_section(model.metrics, "probing"), "chosen").get("gate_rule")
     gate = f"; a probing further than {model.probe.value('gate_um', 'f64'):.4g} {u} from the prediction is refused " \
            f"({rule})" if rule and model.probe is not None else ""
-    return (f"with its probings ({probings} held out), RMSE {values['fused']:.4g} {u} {where}; static block fitted "
-            f"without --probe {values['static']:.4g} {u}, no compensation {values['none']:.4g} {u}{gate}")
+    from thermoplc.fitting.offset_only import is_offset_only
+    static = ("offset-only: 0 between probings" if is_offset_only(model) else
+              f"static block fitted without --probe {values['static']:.4g} {u}")
+    return (f"with its probings ({probings} held out), RMSE {values['fused']:.4g} {u} {where}; {static}, "
+            f"no compensation {values['none']:.4g} {u}{gate}")
 
 
 def _fused_problem(model: Model) -> str | None:

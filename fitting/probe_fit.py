@@ -309,7 +309,37 @@ def fit_probe(model, tables: list, predictions: dict, every: int | None, held: b
     fusion = replace(chosen.fusion, min_calls=(float(m := min_calls(runs, held_out, every)), round_f32(m)))
     probing["chosen"]["flood_calls"] = m
     screening = {k: model.metrics[k] for k in ("refused_runs", "run_screening") if k in model.metrics}
-    return replace(chosen.model, probe=fusion, metrics={**chosen.model.metrics, **screening, "probing": probing})
+    fused = replace(chosen.model, probe=fusion, metrics={**chosen.model.metrics, **screening, "probing": probing})
+    return _offset_only(model, fused, tables, runs, held_out, every, dt, limit, gate_um, held) or fused
+
+
+def _offset_only(model, fused, tables: list, runs: list[ProbeRun], held_out: ProbeRun | None, every: int | None,
+                 dt: float, limit: float, gate_um: float | None, held: bool):
+    """The offset-only block (fitting/offset_only.py) where the static part as fitted fails generate's rule and the
+    fusion over 0 passes it; None otherwise."""
+    from dataclasses import replace
+    from thermoplc.fitting.acceptance import problem
+    from thermoplc.fitting.fit import evaluate
+    from thermoplc.fitting.offset_only import as_none, zero_static, zeroed
+    from thermoplc.models.kinds import kind_of
+    static_problem = problem(model)
+    if static_problem is None or kind_of(model.kind).increments is None:
+        return None
+    fusion, evidence = choose([zero_static(r) for r in runs], every * dt / 60 if every else None, dt, limit,
+                              zero_static(held_out), gate_um)
+    fusion = replace(fusion, min_calls=fused.probe.min_calls)
+    probing = {**summarise(evidence), "held": held,
+               "chosen": {**_described(fusion, dt), "gate_rule": evidence["gate_rule"],
+                          "flood_calls": fused.metrics["probing"]["chosen"]["flood_calls"],
+                          "offset_only": f"the static part fails generate's rule ({static_problem}): the block "
+                                         f"predicts 0 and learns only from its probings"},
+               "static": "0 (offset-only)"}
+    zero = zeroed(model)
+    batches = model.training.get("batches", [model.training])
+    train = evaluate(zero, tables, [b["rows"] for b in batches])["train"] if len(batches) == len(tables) else {}
+    metrics = {**as_none(fused.metrics), **({"train": train} if train else {}), "probing": probing}
+    candidate = replace(zero, probe=fusion, metrics=metrics)
+    return candidate if problem(candidate) is None else None
 
 
 def _worse_than_reset(evidence: dict, full_rate: bool) -> str | None:

@@ -120,3 +120,35 @@ def test_keep_every_run_without_a_campaign_is_refused(campaigns):
     alone = thermoplc(*FIT[:-2], "--train-until", 10000, "--data", "broken/run1.csv", "--keep-every-run", "-o",
                       "one.json", cwd=campaigns, check=2)
     assert "--keep-every-run keeps a campaign's runs" in alone.stderr and not (campaigns / "one.json").exists()
+
+
+@pytest.fixture(scope="module")
+def unrelated(tmp_path_factory):
+    """FL_THERMAL's temperatures in 6 h runs under a drift they say nothing of (a smoothed random walk per run)."""
+    root = tmp_path_factory.mktemp("unrelated")
+    rng = np.random.default_rng(7)
+    runs = []
+    for table in fl_thermal_runs("ch5_um", 6.0, 0):
+        walk = np.convolve(np.cumsum(rng.normal(0, 1, table.rows)), np.ones(60) / 60, mode="same")
+        runs.append(type(table)(table.path, {**table.columns, "ch5_um": np.round(0.8 * (walk - walk[0]), 3)},
+                                table.sha256, table.lines))
+    _write(root / "runs", runs)
+    return root
+
+
+def test_a_static_part_that_fails_gives_an_offset_only_block_that_passes_and_verifies(unrelated):
+    from thermoplc.fitting.acceptance import refusal
+    from thermoplc.fitting.offset_only import is_offset_only
+    out = thermoplc(*FIT, "--data", "runs", "--probe", "--probe-every", 45, "-o", "off.json", cwd=unrelated).stdout
+    assert "OFFSET-ONLY: the static part fails generate's rule" in out
+    model = load_model(str(unrelated / "off.json"))
+    assert is_offset_only(model) and refusal(model) is None
+    pooled = model.metrics["probing"]["pooled"]
+    assert pooled["fused_rmse_um"] < 0.2 * pooled["none_rmse_um"] and pooled["static_rmse_um"] == pooled["none_rmse_um"]
+    static = thermoplc(*FIT, "--data", "runs", "-o", "static.json", cwd=unrelated).stderr
+    assert "generate will refuse this model" in static
+    generated = thermoplc("generate", "off.json", "-o", "Off.scl", cwd=unrelated).stdout
+    assert "offset-only: 0 between probings" in generated
+    verified = thermoplc("verify", "Off.scl", "--model", "off.json", "--data", "runs", "--probe-every", 45,
+                         cwd=unrelated).stdout
+    assert "bit-exact: every run reproduces the reference (8 runs" in verified

@@ -103,6 +103,7 @@ def format_probing(p: dict) -> list[str]:
     head = "".join(f"  {title:^30}" for _, title in groups)
     lines = [f"  probe fusion ({state}), {schedule}: {how}",
              *([f"  REPLACED: {c['replaced_by_reset']}"] if c.get("replaced_by_reset") else []),
+             *([f"  OFFSET-ONLY: {c['offset_only']}"] if c.get("offset_only") else []),
              *([f"  static part refitted for the change since the last probing (it lowered the fused error where the fusion was chosen); "
                 f"'static' and 'reset' are the block as fitted without --probe"] if p.get("static") == REFITTED else []),
              f"  {'run':<26}{'probings':>9}{head}".rstrip(),
