@@ -33,7 +33,9 @@ from thermoplc.fitting.copies import refuse_copies
 from thermoplc.fitting.fit import FitRequest, evaluate, fit, runs_named
 from thermoplc.fitting.ridge_floor import ridge_floor
 from thermoplc.models.modelfile import Model
-from thermoplc.models.reference import model_inputs, predict
+from thermoplc.models.reference import block_outputs, model_inputs, predict
+from thermoplc.models.plausibility import DISAGREE
+from thermoplc.models.safety import Limits
 from thermoplc.recordings.table import Table
 
 MIN_FOLDS, MAX_FOLDS = 2, 20
@@ -318,10 +320,29 @@ def fit_cross_validated(tables: list[Table], request: FitRequest, folds: int | N
         held_out["protocol"] += f"; {len(left_out)} run{'s' if len(left_out) > 1 else ''} refused for training"
         with_them = pooled([*found, apart.fold])
         held_out["with_refused_runs"] = {k: with_them[k] for k in ("rows", "rmse_um", "max_abs_um", "zero_rmse_um")}
-        extra["refused_runs"] = [{**judged.as_dict(), **{k: run[k] for k in ("rmse", "max_abs", "zero_rmse", "rows")}}
+        extra["refused_runs"] = [{**judged.as_dict(), **{k: run[k] for k in ("rmse", "max_abs", "zero_rmse", "rows")},
+                                  **guarded_errors(model, tables[judged.index])}
                                  for judged, run in zip(screening.refused, _in_order(apart.per_run, screening))]
+        if all(r["block_rmse"] is not None for r in extra["refused_runs"]):
+            squares = held_out["rmse_um"] ** 2 * held_out["rows"] + sum(r["block_rmse"] ** 2 * r["rows"]
+                                                                        for r in extra["refused_runs"])
+            held_out["with_refused_runs"]["block_rmse_um"] = math.sqrt(squares / held_out["with_refused_runs"]["rows"])
     return Model(**{**model.__dict__, "metrics": {**model.metrics, "held_out": held_out,
                                                    "cross_validation": [f.as_dict() for f in found], **extra}})
+
+
+def guarded_errors(model: Model, table: Table) -> dict:
+    """The errors of `model`'s block on `table` as the PLC runs it: inside the guards, the fault hold, the plausibility
+    check and the output limits `generate` takes by default (models/reference.block_outputs, binary32)."""
+    outputs = block_outputs(model, model_inputs(model, table), "f32", Limits.for_model(model))
+    measured = np.asarray(table.columns[model.target.column], float)
+    taken = np.isfinite(measured)
+    error = (np.asarray(outputs[model.target.name], float) - measured)[taken]
+    bits = [np.asarray(outputs[name], bool) for name in outputs if name.startswith("fault:") or name == DISAGREE]
+    raised = np.flatnonzero(np.any(bits, axis=0)) if bits else np.zeros(0, int)
+    return {"block_rmse": float(np.sqrt(np.mean(error ** 2))) if len(error) else None,
+            "block_max_abs": float(np.max(np.abs(error))) if len(error) else None,
+            "block_flagged_from_call": int(raised[0]) + 1 if len(raised) else None}
 
 
 def screened(tables: list[Table], request: FitRequest, groups: dict | None) -> Screening:

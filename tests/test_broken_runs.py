@@ -76,6 +76,10 @@ def test_fit_refuses_the_run_and_writes_the_model_of_the_campaign_without_it(cam
                         + refused[0]["rmse"] ** 2 * refused[0]["rows"]) / rows)
     assert with_them["rmse_um"] == pytest.approx(pooled, rel=1e-9)
     assert f"held out with the refused runs: {with_them['rmse_um']:.3f} um" in out
+    # the PLC's block on the broken run: its guards hold it, so it stays nearer the drift than no compensation
+    assert refused[0]["block_rmse"] < refused[0]["zero_rmse"] < refused[0]["rmse"]
+    assert refused[0]["block_flagged_from_call"] is not None
+    assert f"its block, guards acting, {refused[0]['block_rmse']:.3f} um" in out
     assert "run4.csv" not in [b["file"] for b in screened.training["batches"]]
 
 

@@ -158,11 +158,13 @@ def format_screening(m: dict) -> list[str]:
                      f"other temperatures say (gate {run['gate_K']:.3g} K from the other runs: a broken sensor, or an "
                      f"effect the other runs did not have), a ridge on the other runs {run['ratio']:.2g} x their "
                      f"median error; the model written predicts it {run['rmse']:.3f} um RMSE (none "
-                     f"{run['zero_rmse']:.3f}), where the block would flag SensorsDisagree")
+                     f"{run['zero_rmse']:.3f}){_as_the_block_runs(run)}")
     if "with_refused_runs" in m["held_out"]:
         with_them = m["held_out"]["with_refused_runs"]
+        guarded = (f"; their blocks' guards acting: {with_them['block_rmse_um']:.3f} um"
+                   if with_them.get("block_rmse_um") is not None else "")
         lines.append(f"  held out with the refused runs: {with_them['rmse_um']:.3f} um RMSE, max {with_them['max_abs_um']:.3f} "
-                     f"um over {with_them['rows']} rows (without: {m['held_out']['rmse_um']:.3f}); "
+                     f"um over {with_them['rows']} rows (without: {m['held_out']['rmse_um']:.3f}{guarded}); "
                      f"--keep-every-run trains on them")
     for run in screening["named"]:
         why = [*([f"{run['sensor']} {run['difference_K']:.3g} K from what the other temperatures say (gate "
@@ -170,6 +172,15 @@ def format_screening(m: dict) -> list[str]:
                *([f"a ridge on the other runs {run['ratio']:.2g} x their median error"] if run["ratio"] >= RATIO else [])]
         lines.append(f"  kept for training, named: {run['run']}: {'; '.join(why)}")
     return lines
+
+
+def _as_the_block_runs(run: dict) -> str:
+    """A refused run's errors with the block's guards acting (fitting/crossval.guarded_errors)."""
+    if run.get("block_rmse") is None:
+        return ""
+    raised = (f"a fault bit or SensorsDisagree from call {run['block_flagged_from_call']}"
+              if run.get("block_flagged_from_call") else "no fault bit raised")
+    return f"; its block, guards acting, {run['block_rmse']:.3f} um ({raised})"
 
 
 def fit_document(model, path: str) -> dict:
