@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from thermoplc.base.identifiers import renaming_note
 from thermoplc.fitting.acceptance import refusal
-from thermoplc.fitting.broken_runs import RATIO
 from thermoplc.fitting.probe_fit import REFITTED
 from thermoplc.models.plausibility import GATE_FLOOR_K, MARGIN
 
@@ -148,17 +147,15 @@ def _format_runs(m: dict, campaign) -> list[str]:
 
 def format_screening(m: dict) -> list[str]:
     """The runs refused for training (fitting/broken_runs.py), each with why and its error by the model written, the
-    held-out figure with them; the runs a rule named but kept."""
+    held-out figure with them; the runs whose sensors disagree but were kept."""
     screening = m.get("run_screening")
     if screening is None:
         return []
     lines = []
     for run in m.get("refused_runs", []):
-        lines.append(f"  REFUSED for training: {run['run']}: {run['sensor']} {run['difference_K']:.3g} K from what the "
-                     f"other temperatures say (gate {run['gate_K']:.3g} K from the other runs: a broken sensor, or an "
-                     f"effect the other runs did not have), a ridge on the other runs {run['ratio']:.2g} x their "
-                     f"median error; the model written predicts it {run['rmse']:.3f} um RMSE (none "
-                     f"{run['zero_rmse']:.3f}){_as_the_block_runs(run)}")
+        lines.append(f"  REFUSED for training: {run['run']}: {_disagreement(run)}: a broken sensor, or an effect the "
+                     f"other runs did not have; {_target(run)}; the model written predicts it {run['rmse']:.3f} um "
+                     f"RMSE (none {run['zero_rmse']:.3f}){_as_the_block_runs(run)}")
     if "with_refused_runs" in m["held_out"]:
         with_them = m["held_out"]["with_refused_runs"]
         guarded = (f"; their blocks' guards acting: {with_them['block_rmse_um']:.3f} um"
@@ -167,11 +164,18 @@ def format_screening(m: dict) -> list[str]:
                      f"um over {with_them['rows']} rows (without: {m['held_out']['rmse_um']:.3f}{guarded}); "
                      f"--keep-every-run trains on them")
     for run in screening["named"]:
-        why = [*([f"{run['sensor']} {run['difference_K']:.3g} K from what the other temperatures say (gate "
-                  f"{run['gate_K']:.3g} K)"] if run["difference_K"] > run["gate_K"] else []),
-               *([f"a ridge on the other runs {run['ratio']:.2g} x their median error"] if run["ratio"] >= RATIO else [])]
-        lines.append(f"  kept for training, named: {run['run']}: {'; '.join(why)}")
+        lines.append(f"  kept for training: {run['run']}: {_disagreement(run)}, but {_target(run)}")
     return lines
+
+
+def _disagreement(run: dict) -> str:
+    return (f"{run['sensor']} {run['difference_K']:.3g} K from what the other temperatures say (gate "
+            f"{run['gate_K']:.3g} K from the other runs)")
+
+
+def _target(run: dict) -> str:
+    return (f"a ridge on the other runs predicts it {run['ratio']:.2g} x their median error, and they are "
+            f"{run.get('influence', 1.0):.2g} x worse with it among them")
 
 
 def _as_the_block_runs(run: dict) -> str:
