@@ -126,7 +126,7 @@ def problem(model: Model) -> str | None:
     (fitting/offset_only.py) predicts 0 between its probings: only its fused evidence is judged."""
     from thermoplc.fitting.offset_only import is_offset_only
     found = evidence(model)
-    if found is not None and is_offset_only(model):
+    if found is not None and found.rows >= MIN_HELD_OUT_ROWS and is_offset_only(model):
         return _fused_problem(model)
     if found is None:
         return ("the model file carries no held-out evidence (fit with --train-until, --train-rows or --folds so rows "
@@ -147,6 +147,20 @@ def problem(model: Model) -> str | None:
     if worse:
         return f"{found.summary()}, but in {worse}: worse than no compensation in part of the recording"
     return _fused_problem(model)
+
+
+def fails_to_compensate(model: Model) -> str | None:
+    """Why the model's held-out evidence says it does not compensate (not clearly better than none, or worse in too
+    many folds or runs), or None: no evidence, too few rows, or a model that compensates (fitting/offset_only.py
+    offers its block for this failure only)."""
+    found = evidence(model)
+    if found is None or found.rows < MIN_HELD_OUT_ROWS:
+        return None
+    if not found.rmse <= CLEAR_SHARE * found.zero_rmse:
+        return (f"{found.summary()}: not clearly better than no compensation (at most {CLEAR_SHARE:.0%} of it is "
+                f"required)")
+    worse = _worse_fold(model)
+    return f"{found.summary()}, but in {worse}: worse than no compensation" if worse else None
 
 
 def fused_figures(model: Model) -> tuple[dict, str] | None:

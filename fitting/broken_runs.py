@@ -96,7 +96,8 @@ class Screening:
     def log(self) -> dict:
         return {"rule": f"refused when a temperature is beyond the gate the other runs give ({MARGIN:g} x their largest "
                         f"difference, at least {GATE_FLOOR_K:g} K) and a ridge fitted on the other runs predicts it "
-                        f"at least {RATIO:g} x their median error (fitting/broken_runs.py)",
+                        f"at least {RATIO:g} x their median error, or they are at least {INFLUENCE:g} x worse with it "
+                        f"among them (fitting/broken_runs.py)",
                 "refused": [r.as_dict() for r in self.refused], "named": [r.as_dict() for r in self.named]}
 
 

@@ -18,15 +18,24 @@ from thermoplc.models.kinds import kind_of
 from thermoplc.models.model import Coefficient
 
 
+OFFSET_ONLY = "0 (offset-only)"  # metrics.probing.static of the block
+
+
 def zeroed(model):
     """`model` with every coefficient 0: its static part predicts 0 at every call (a linear kind)."""
     return replace(model, coefficients={name: Coefficient(0.0, 0.0) for name in model.coefficients})
 
 
 def is_offset_only(model) -> bool:
-    """A fused linear block whose every coefficient is 0: it compensates only what its probings measured."""
+    """A fused linear block whose every coefficient is 0, with the evidence of one: its probing figures were measured
+    over a static part of 0 (the static column is no compensation's). A fitted model whose coefficients were zeroed by
+    hand keeps its own evidence, and is judged as any other block."""
+    probing = (model.metrics or {}).get("probing") or {}
+    pooled = probing.get("pooled") or {} if isinstance(probing, dict) else {}
     return (model.probe is not None and kind_of(model.kind).increments is not None
-            and all(c.f32 == 0.0 and c.f64 == 0.0 for c in model.coefficients.values()))
+            and all(c.f32 == 0.0 and c.f64 == 0.0 for c in model.coefficients.values())
+            and isinstance(probing, dict) and probing.get("static") == OFFSET_ONLY
+            and isinstance(pooled, dict) and pooled.get("static_before_um") == pooled.get("none_before_um"))
 
 
 def as_none(metrics: dict) -> dict:
@@ -36,6 +45,7 @@ def as_none(metrics: dict) -> dict:
     runs = [{**r, "rmse": r["zero_rmse"], "max_abs": r["zero_max_abs"]} for r in metrics.get("runs", [])]
     folds = [{**f, "rmse": f["zero_rmse"], "max_abs": f["zero_max_abs"]} for f in metrics.get("cross_validation", [])]
     out = {**metrics, "held_out": {**held, **swapped}, "float32_vs_float64_max_um": 0.0}
+    out["held_out"].pop("ridge_rmse_um", None)  # the floor of a static part: this block has none
     out.pop("start", None)
     if folds:
         out["cross_validation"] = folds

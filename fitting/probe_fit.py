@@ -318,11 +318,11 @@ def _offset_only(model, fused, tables: list, runs: list[ProbeRun], held_out: Pro
     """The offset-only block (fitting/offset_only.py) where the static part as fitted fails generate's rule and the
     fusion over 0 passes it; None otherwise."""
     from dataclasses import replace
-    from thermoplc.fitting.acceptance import problem
+    from thermoplc.fitting.acceptance import fails_to_compensate, problem
     from thermoplc.fitting.fit import evaluate
-    from thermoplc.fitting.offset_only import as_none, zero_static, zeroed
+    from thermoplc.fitting.offset_only import OFFSET_ONLY, as_none, zero_static, zeroed
     from thermoplc.models.kinds import kind_of
-    static_problem = problem(model)
+    static_problem = fails_to_compensate(model)
     if static_problem is None or kind_of(model.kind).increments is None:
         return None
     fusion, evidence = choose([zero_static(r) for r in runs], every * dt / 60 if every else None, dt, limit,
@@ -333,7 +333,7 @@ def _offset_only(model, fused, tables: list, runs: list[ProbeRun], held_out: Pro
                           "flood_calls": fused.metrics["probing"]["chosen"]["flood_calls"],
                           "offset_only": f"the static part fails generate's rule ({static_problem}): the block "
                                          f"predicts 0 and learns only from its probings"},
-               "static": "0 (offset-only)"}
+               "static": OFFSET_ONLY}
     zero = zeroed(model)
     batches = model.training.get("batches", [model.training])
     train = evaluate(zero, tables, [b["rows"] for b in batches])["train"] if len(batches) == len(tables) else {}

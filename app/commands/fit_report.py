@@ -125,8 +125,11 @@ def _page(model, campaign, pngs: list[str], scores: list, command: str) -> str:
     inputs = ", ".join(f"{s.column} ({s.role})" for s in model.inputs)
     files = "".join(f"<li>{html.escape(run.table.path)} <small>sha256 {run.table.sha256[:16]}</small></li>"
                     for run in campaign.runs)
-    parts = [f"<h1>thermoplc fit: {html.escape(model.kind)} on {len(campaign.runs)} run"
-             f"{'s' if len(campaign.runs) != 1 else ''}</h1>",
+    refused = len(m.get("refused_runs", []))
+    fitted = f"{len(campaign.runs) - refused} of " if refused else ""
+    parts = [f"<h1>thermoplc fit: {html.escape(model.kind)} on {fitted}{len(campaign.runs)} run"
+             f"{'s' if len(campaign.runs) != 1 else ''}" + (f" ({refused} refused for training)" if refused else "")
+             + "</h1>",
              "<table class='what'>" + "".join(
                  f"<tr><th>{html.escape(k)}</th><td>{v}</td></tr>" for k, v in (
                      ("command", f"<code>{html.escape(command)}</code>"),
@@ -174,9 +177,11 @@ def _version() -> str:
 def report_files(folder: str, model, campaign, held_out: dict, command: str) -> list[tuple[Path, str | bytes]]:
     """The report's files, its manifest last, for the command to write with its other outputs (all or none)."""
     from thermoplc.models.reference import model_inputs, predict
+    from dataclasses import replace
     files, pngs, scores = [], [], []
     trained = int(model.training.get("rows", 0)) if "batches" not in model.training else 0
-    for k, run in enumerate(campaign.runs):
+    refused = {r["run"] for r in model.metrics.get("refused_runs", [])}  # fitting/broken_runs.py
+    for k, (run, label) in enumerate(zip(campaign.runs, campaign.labels)):
         written = predict(model, model_inputs(model, run.table), "f64")[model.target.name]
         fold = held_out.get(run.table.path)
         first = 0 if fold is not None else trained
@@ -184,6 +189,8 @@ def report_files(folder: str, model, campaign, held_out: dict, command: str) -> 
         output = fold if fold is not None else written
         fused = _fused(model, measured, output)
         score = _scored(measured, fused[0] if fused is not None else output, first, fold is not None)
+        if score is not None and label in refused:
+            score = replace(score, rows="refused for training: the model written, which never saw it")
         png = _png_name(k, run.table.path)
         files.append((Path(folder) / png, _plot(run, model, fold, written, fused, first, score)))
         pngs.append(png)
