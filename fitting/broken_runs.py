@@ -78,16 +78,11 @@ class JudgedRun:
                 "others_median_um": round(self.others_median_um, 4), "ratio": round(self.ratio, 3),
                 "influence": round(self.influence, 3)}
 
-    def words(self) -> str:
-        return (f"{self.run}: {self.sensor} {self.difference_K:.3g} K from what the other temperatures say "
-                f"(gate {self.gate_K:.3g} K from the other runs), predicted {self.error_um:.3g} um off by a ridge "
-                f"fitted on the other runs ({self.ratio:.2g} x their median {self.others_median_um:.3g} um)")
-
 
 @dataclass(frozen=True)
 class Screening:
     refused: tuple[JudgedRun, ...] = ()
-    named: tuple[JudgedRun, ...] = ()  # kept, but a rule failed: said
+    named: tuple[JudgedRun, ...] = ()  # kept: their sensors disagree, their target does not mind
 
     @property
     def refused_indices(self) -> tuple[int, ...]:
