@@ -37,7 +37,7 @@ def test_every_kind_option_of_the_command_line_comes_from_a_record():
 def test_the_generic_request_stores_no_kind_option_as_a_field():
     stored = {field.name for field in dataclasses.fields(FitRequest)}
     assert stored == {"kind", "target", "temps", "speed", "ambient", "train_until", "train_rows", "block_name",
-                      "extra_targets", "choose_sensors", "settings"}
+                      "extra_targets", "choose_sensors", "settings", "keep_every_run"}
 
 
 def test_a_request_reads_an_option_given_or_its_records_default():
