@@ -154,7 +154,7 @@ def _errors(measured: list[np.ndarray]) -> list[float]:
     return [ridge.run_errors(sums, columns, [weight], [k])[0] for k in range(len(measured))]
 
 
-def _judged(readings, measured, alive: list[int], labels: list[str], names, culprit: bool = False) -> list[JudgedRun]:
+def _judged(readings, measured, alive: list[int], labels: list[str], names) -> list[JudgedRun]:
     """Every run of `alive` judged against the others of `alive`."""
     within = _errors([measured[k] for k in alive])
     rows = [len(measured[k]) for k in alive]
@@ -166,13 +166,13 @@ def _judged(readings, measured, alive: list[int], labels: list[str], names, culp
         counts = [rows[j] for j in others]
         before = pooled(without, counts)
         influence = pooled([within[j] for j in others], counts) / before if before > 0 else 1.0
-        sensor, difference, gate = _sensor_judgement([readings[j] for j in alive], p, names, culprit)
+        sensor, difference, gate = _sensor_judgement([readings[j] for j in alive], p, names, False)
         judged.append(JudgedRun(k, labels[k], sensor, difference, gate, within[p], float(np.median(without)),
                                 influence))
     return judged
 
 
-def _named(readings, measured, alive: list[int], run: JudgedRun, names) -> JudgedRun:
+def _named(readings, alive: list[int], run: JudgedRun, names) -> JudgedRun:
     """`run` (judged among `alive`) with its culprit sensor named."""
     sensor, difference, gate = _sensor_judgement([readings[j] for j in alive], alive.index(run.index), names, True)
     return replace(run, sensor=sensor, difference_K=difference, gate_K=gate)
@@ -180,7 +180,7 @@ def _named(readings, measured, alive: list[int], run: JudgedRun, names) -> Judge
 
 def screen_runs(tables: list[Table], temperatures: tuple[str, ...], target: str) -> Screening:
     """The runs refused (both rules failed), worst first, each after the runs refused before it are taken out,
-    and the runs left that fail one rule (named)."""
+    and the runs left whose sensors disagree though their target does not mind (named)."""
     names = tuple(dict.fromkeys(temperatures))
     if len(tables) < MIN_RUNS or len(names) < 2:
         return Screening()
@@ -196,8 +196,7 @@ def screen_runs(tables: list[Table], temperatures: tuple[str, ...], target: str)
         if not failing:
             break
         worst = max(failing, key=lambda j: j.ratio)
-        refused.append(_named(readings, measured, alive, worst, names))
+        refused.append(_named(readings, alive, worst, names))
         alive.remove(worst.index)
         judged = _judged(readings, measured, alive, labels, names)
-    return Screening(tuple(refused), tuple(_named(readings, measured, alive, j, names) for j in judged
-                                           if j.sensors_disagree))
+    return Screening(tuple(refused), tuple(_named(readings, alive, j, names) for j in judged if j.sensors_disagree))

@@ -31,7 +31,7 @@ from thermoplc.recordings.campaign import CampaignSource, run_labels
 from thermoplc.fitting.broken_runs import Screening, screen_runs
 from thermoplc.fitting.copies import refuse_copies
 from thermoplc.fitting.fit import FitRequest, evaluate, fit, runs_named
-from thermoplc.fitting.ridge_floor import ridge_floor
+from thermoplc.fitting.ridge_floor import floor_temperatures, ridge_floor
 from thermoplc.models.modelfile import Model
 from thermoplc.models.reference import block_outputs, model_inputs, predict
 from thermoplc.models.plausibility import DISAGREE
@@ -350,7 +350,7 @@ def screened(tables: list[Table], request: FitRequest, groups: dict | None) -> S
     temperatures and ambient; nothing for one recording or with `keep_every_run`."""
     if len(tables) < 2 or request.keep_every_run:
         return Screening()
-    return screen_runs(tables, (*request.temps, *([request.ambient] if request.ambient else [])), request.target)
+    return screen_runs(tables, tuple(floor_temperatures(request.temps, request.ambient)), request.target)
 
 
 def _in_order(per_run: tuple[dict, ...], screening: Screening) -> list[dict]:

@@ -293,7 +293,7 @@ def fit_probe(model, tables: list, predictions: dict, every: int | None, held: b
     replaced = _worse_than_reset(evidence, full_rate) if evidence["nested"] else None  # one recording: its held-out
     # part is the evidence, not a choice
     if replaced:  # the fused block's nested evidence lost to the plain reset it holds as a candidate: the reset
-        fusion, evidence = choose(runs, every * dt / 60 if every else None, dt, limit, held_out, gate_um, True)
+        fusion, evidence = choose(runs, _minutes(every, dt), dt, limit, held_out, gate_um, True)
         chosen = Variant(model, runs, held_out, fusion, evidence)
     probing = {**summarise(evidence), "held": held,
                "chosen": {**_described(chosen.fusion, dt), "gate_rule": evidence["gate_rule"],
@@ -325,7 +325,7 @@ def _offset_only(model, fused, tables: list, runs: list[ProbeRun], held_out: Pro
     static_problem = fails_to_compensate(model)
     if static_problem is None or kind_of(model.kind).increments is None:
         return None
-    fusion, evidence = choose([zero_static(r) for r in runs], every * dt / 60 if every else None, dt, limit,
+    fusion, evidence = choose([zero_static(r) for r in runs], _minutes(every, dt), dt, limit,
                               zero_static(held_out), gate_um)
     fusion = replace(fusion, min_calls=fused.probe.min_calls)
     probing = {**summarise(evidence), "held": held,
@@ -340,6 +340,11 @@ def _offset_only(model, fused, tables: list, runs: list[ProbeRun], held_out: Pro
     metrics = {**as_none(fused.metrics), **({"train": train} if train else {}), "probing": probing}
     candidate = replace(zero, probe=fusion, metrics=metrics)
     return candidate if problem(candidate) is None else None
+
+
+def _minutes(every: int | None, dt: float) -> float | None:
+    """Minutes between probings of a probing every `every` calls; None for the target's own probings."""
+    return every * dt / 60 if every else None
 
 
 def _worse_than_reset(evidence: dict, full_rate: bool) -> str | None:
@@ -370,7 +375,7 @@ def _fused(model, tables: list, plain: tuple, every: int | None, dt: float, limi
     stop); the better of the two by the margin, with the nested evidence."""
     from thermoplc.fitting.acceptance import problem
     from thermoplc.fitting.probe_refit import refitted
-    minutes = every * dt / 60 if every else None
+    minutes = _minutes(every, dt)
     variants = [Variant(model, *plain, *choose(plain[0], minutes, dt, limit, plain[1], gate_um))]
     refit = refitted(model, tables, every)
     if refit is not None and problem(refit.model) is None:
