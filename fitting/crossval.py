@@ -174,7 +174,8 @@ def _with_choice(result: FoldResult, model: Model) -> FoldResult:
 
 def judge_fold(model, tables: list[Table], members, label: str, trained: int, predictions: bool) -> FoldResult:
     """The held-out errors of `model`, fitted on `trained` rows of the other runs, on the runs `members` of a
-    campaign: the fold's pooled, each run's, and with `predictions` each run's float64 prediction."""
+    campaign: the fold's pooled, each run's (by the model, and by its block inside the guards and limits it
+    gets from the training runs: `guarded_errors`), and with `predictions` each run's float64 prediction."""
     labels = run_labels([t.path for t in tables])
     per_run, predicted = [], []
     for k in members:
@@ -182,7 +183,7 @@ def judge_fold(model, tables: list[Table], members, label: str, trained: int, pr
         if predictions:
             predicted.append((tables[k].path, predict(model, model_inputs(model, tables[k]), "f64")[model.target.name]))
         per_run.append({"run": labels[k], "fold": label, **fold_of(label, trained, found).as_dict(),
-                        "rows_total": tables[k].rows})
+                        "rows_total": tables[k].rows, **guarded_errors(model, tables[k])})
     held = [tables[k] for k in members]
     return FoldResult(fold_of(label, trained, evaluate(model, held, [0] * len(held))["held_out"]),
                       tuple(per_run), tuple(predicted))
@@ -309,6 +310,7 @@ def fit_cross_validated(tables: list[Table], request: FitRequest, folds: int | N
                         [(t.members, t.start, t.stop) for t in tasks], left_out)
     if floor is not None:
         held_out["ridge_rmse_um"] = floor
+    held_out.update(as_the_block_runs(per_run))
     extra = {"runs": per_run} if per_run else {}
     if screening.refused or screening.named:
         extra["run_screening"] = screening.log()
@@ -320,13 +322,12 @@ def fit_cross_validated(tables: list[Table], request: FitRequest, folds: int | N
         held_out["protocol"] += f"; {len(left_out)} run{'s' if len(left_out) > 1 else ''} refused for training"
         with_them = pooled([*found, apart.fold])
         held_out["with_refused_runs"] = {k: with_them[k] for k in ("rows", "rmse_um", "max_abs_um", "zero_rmse_um")}
-        extra["refused_runs"] = [{**judged.as_dict(), **{k: run[k] for k in ("rmse", "max_abs", "zero_rmse", "rows")},
-                                  **guarded_errors(model, tables[judged.index])}
+        extra["refused_runs"] = [{**judged.as_dict(), **{k: run[k] for k in ("rmse", "max_abs", "zero_rmse", "rows",
+                                                                         *GUARDED)}}
                                  for judged, run in zip(screening.refused, _in_order(apart.per_run, screening))]
-        if all(r["block_rmse"] is not None for r in extra["refused_runs"]):
-            squares = held_out["rmse_um"] ** 2 * held_out["rows"] + sum(r["block_rmse"] ** 2 * r["rows"]
-                                                                        for r in extra["refused_runs"])
-            held_out["with_refused_runs"]["block_rmse_um"] = math.sqrt(squares / held_out["with_refused_runs"]["rows"])
+        guarded = as_the_block_runs([*per_run, *apart.per_run])
+        if "block_rmse_um" in guarded:
+            held_out["with_refused_runs"]["block_rmse_um"] = guarded["block_rmse_um"]
     return Model(**{**model.__dict__, "metrics": {**model.metrics, "held_out": held_out,
                                                    "cross_validation": [f.as_dict() for f in found], **extra}})
 
@@ -343,6 +344,21 @@ def guarded_errors(model: Model, table: Table) -> dict:
     return {"block_rmse": float(np.sqrt(np.mean(error ** 2))) if len(error) else None,
             "block_max_abs": float(np.max(np.abs(error))) if len(error) else None,
             "block_flagged_from_call": int(raised[0]) + 1 if len(raised) else None}
+
+
+GUARDED = ("block_rmse", "block_max_abs", "block_flagged_from_call")
+
+
+def as_the_block_runs(per_run: list[dict]) -> dict:
+    """The held-out runs pooled as their blocks ran them (`guarded_errors`), and the runs on which a block raised a
+    fault or its plausibility bit: an input outside what the training runs saw is a fault the block holds on, not a
+    value the model extrapolates to, and the model's own figure does not show it (issue 62)."""
+    if not per_run or any(run.get("block_rmse") is None for run in per_run):
+        return {}
+    rows = sum(run["rows"] for run in per_run)
+    return {"block_rmse_um": math.sqrt(sum(run["block_rmse"] ** 2 * run["rows"] for run in per_run) / rows),
+            "block_max_abs_um": max(run["block_max_abs"] for run in per_run),
+            "block_flagged_runs": [run["run"] for run in per_run if run["block_flagged_from_call"] is not None]}
 
 
 def screened(tables: list[Table], request: FitRequest, groups: dict | None) -> Screening:

@@ -134,6 +134,12 @@ def _format_folds(m: dict) -> list[str]:
     if held.get("ridge_rmse_um"):
         lines.append(f"  a ridge on the same temperatures' rises, held out alike: {held['ridge_rmse_um']:.3f} um; this "
                      f"model {held['rmse_um'] / held['ridge_rmse_um']:.2f} x that (fitting/ridge_floor.py)")
+    if "block_rmse_um" in held:
+        flagged = held["block_flagged_runs"]
+        faults = (f"; a fault or disagreement raised on {len(flagged)} of {len(m['runs'])} runs: {', '.join(flagged)}"
+                  if flagged else "; no fault raised")
+        lines.append(f"  as the PLC runs each fold's block (guards, fault hold and limits from its training runs): "
+                     f"{held['block_rmse_um']:.3f} um RMSE, max {held['block_max_abs_um']:.3f} um{faults}")
     return lines
 
 
