@@ -164,7 +164,7 @@ def format_screening(m: dict) -> list[str]:
                      f"RMSE (none {run['zero_rmse']:.3f}){_as_the_block_runs(run)}")
     if "with_refused_runs" in m["held_out"]:
         with_them = m["held_out"]["with_refused_runs"]
-        guarded = (f"; their blocks' guards acting: {with_them['block_rmse_um']:.3f} um"
+        guarded = (f"; every block's guards acting: {with_them['block_rmse_um']:.3f} um"
                    if with_them.get("block_rmse_um") is not None else "")
         lines.append(f"  held out with the refused runs: {with_them['rmse_um']:.3f} um RMSE, max {with_them['max_abs_um']:.3f} "
                      f"um over {with_them['rows']} rows (without: {m['held_out']['rmse_um']:.3f}{guarded}); "
