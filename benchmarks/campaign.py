@@ -6,7 +6,9 @@ Real data first: FL_THERMAL (46 h) cut into runs of 6 h, each a fresh block star
 drift taken from the run's start (as a probing campaign measures it), full rate and probed every 30
 minutes (held). Then twin campaigns of both machines over several seeds: leave one run out, grouped
 (fit on the cool days, predict the warm ones: the runs table's `hall`), and probed every 30 min.
-Seconds are per fit on this machine (2 cores, shared: noisy; compare within one run).
+Seconds are per fit on this machine (2 cores, shared: noisy; compare within one run). "as blocks": each held-out
+run replayed through its fold's block with the guards and limits from its training runs, pooled; "flagged": the runs
+on which such a block raised a fault or SensorsDisagree.
 
     python -m benchmarks.campaign            # the whole table (about 15 min on 2 cores)
     python -m benchmarks.campaign --quick    # the real data and one twin campaign
@@ -24,7 +26,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.machines.campaign import TARGET, plan, simulate_run
 from thermoplc.base import ridge
 from thermoplc.recordings.campaign import Campaign, Run, held_to_probed
-from thermoplc.fitting.crossval import cross_validate_runs, pooled
+from thermoplc.fitting.crossval import as_the_block_runs, cross_validate_runs, pooled
 from thermoplc.fitting.fit import FitRequest
 from thermoplc.models.kinds import kind_of
 from thermoplc.recordings.table import Table, read_table
@@ -86,12 +88,14 @@ def ridge_floor(tables: list[Table], target: str, temps: tuple[str, ...], groups
 def judge(tables: list[Table], request: FitRequest, groups=None) -> dict:
     started = time.perf_counter()
     try:
-        folds, _ = cross_validate_runs(tables, request, "time_s", None, groups)
+        folds, per_run = cross_validate_runs(tables, request, "time_s", None, groups)
     except UserError as exc:
         return {"kind": request.kind, "refused": str(exc)[:70]}
     seconds = (time.perf_counter() - started) / len(folds)
     held = pooled(folds)
+    blocks = as_the_block_runs(per_run)
     return {"kind": request.kind, "rmse": held["rmse_um"], "zero": held["zero_rmse_um"], "rows": held["rows"],
+            "block": blocks.get("block_rmse_um", math.nan), "flagged": len(blocks.get("block_flagged_runs", ())),
             "worst": max(f.rmse for f in folds), "median": float(np.median([f.rmse for f in folds])),
             "seconds_per_fit": seconds}
 
@@ -107,7 +111,8 @@ def table_rows(label: str, tables: list[Table], target: str, temps: tuple[str, .
     floor = ridge_floor(tables, target, every, groups)
     lines = [f"{label}: {len(tables)} runs, {floor['rows']} measured rows; no compensation {floor['zero']:.2f} um, "
              f"ridge on all {len(every)} sensors' rises {floor['rmse']:.2f} um",
-             f"  {'kind':<8}{'sensors':<22}{'RMSE um':>9}{'worst fold':>11}{'median':>8}{'/ridge':>8}  {'':<16}{'s/fit':>7}"]
+             f"  {'kind':<8}{'sensors':<22}{'RMSE um':>9}{'worst fold':>11}{'median':>8}{'/ridge':>8}  {'':<16}{'s/fit':>7}"
+             f"{'as blocks':>10}{'flagged':>8}"]
     for kind in kinds:
         choices = tuple(c for c in every if c != ambient) if kind_of(kind).ambient_apart else every
         for sensors, choose in ((temps, 0), (choices, CHOOSE)):
@@ -118,7 +123,8 @@ def table_rows(label: str, tables: list[Table], target: str, temps: tuple[str, .
                 continue
             verdict = "beats none" if found["rmse"] < found["zero"] else "WORSE than none"
             lines.append(f"  {kind:<8}{named[:21]:<22}{found['rmse']:>9.2f}{found['worst']:>11.2f}{found['median']:>8.2f}"
-                         f"{found['rmse'] / floor['rmse']:>8.2f}  {verdict:<16}{found['seconds_per_fit']:>7.2f}")
+                         f"{found['rmse'] / floor['rmse']:>8.2f}  {verdict:<16}{found['seconds_per_fit']:>7.2f}"
+                         f"{found['block']:>10.2f}{found['flagged']:>8}")
     return lines
 
 

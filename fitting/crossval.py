@@ -325,9 +325,7 @@ def fit_cross_validated(tables: list[Table], request: FitRequest, folds: int | N
         extra["refused_runs"] = [{**judged.as_dict(), **{k: run[k] for k in ("rmse", "max_abs", "zero_rmse", "rows",
                                                                          *GUARDED)}}
                                  for judged, run in zip(screening.refused, _in_order(apart.per_run, screening))]
-        guarded = as_the_block_runs([*per_run, *apart.per_run])
-        if "block_rmse_um" in guarded:
-            held_out["with_refused_runs"]["block_rmse_um"] = guarded["block_rmse_um"]
+        held_out["with_refused_runs"].update(as_the_block_runs([*per_run, *apart.per_run]))
     return Model(**{**model.__dict__, "metrics": {**model.metrics, "held_out": held_out,
                                                    "cross_validation": [f.as_dict() for f in found], **extra}})
 

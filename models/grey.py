@@ -28,6 +28,7 @@ import numpy as np
 from thermoplc.base.errors import UserError
 from thermoplc.base import ridge
 from thermoplc.base import compiled
+from thermoplc.models import grey_campaign
 from thermoplc.models.kind import Kind, Part
 from thermoplc.models.model import Coefficient, Model
 
@@ -49,11 +50,6 @@ def _gm1n_slopes_path(runs: list[tuple[np.ndarray, np.ndarray]], a: float, weigh
     for each of 16 a: one factorisation per a instead of one least-squares solve per pair)."""
     design = np.vstack([sums[1:] for sums, _ in runs])
     y = np.concatenate([target[1:] + a * _background(target) for _, target in runs])
-    return _ridge_path(design, y, weights)
-
-
-def _ridge_path(design: np.ndarray, y: np.ndarray, weights) -> list[np.ndarray]:
-    """Ridge slopes without intercept on the standardised columns for every weight (0: least squares) from one SVD."""
     spread = np.sqrt(np.mean(design ** 2, axis=0))
     spread[spread == 0.0] = 1.0
     u, singular, vt = np.linalg.svd(design / spread, full_matrices=False)
@@ -71,65 +67,41 @@ def fit_gm0n(parts: list[Part], names: list[str], rises: bool = False):
     """X1(k) = a + sum_i b_i*S_i(k) on k = 2..n of every run by least squares (paper 003), each run's sums
     from its own first row. On one recording, shrinking the b_i by a forward-validated ridge made the held-out
     error worse (FL_THERMAL ch3 7.1 -> 10.2 um, and on the twin), so only sums too collinear for binary32 get it.
-    On a campaign the b_i are those that predict each run best from a fit on the other runs (issue 62):
-    `_gm0n_leaving_runs_out`. A probed target is filled between its measurements for the running sums
-    (`Part.filled_target`); the validation scores the measured rows only."""
+    On a campaign the estimate is chosen leaving out each run (models/grey_campaign.py). A probed target is
+    filled between its measurements for the running sums (`Part.filled_target`); the validation scores the
+    measured rows only."""
     targets = [p.filled_target() for p in parts]
-    sums = np.vstack([accumulate(sequences(p, rises))[1:] for p in parts])
-    target_sums = np.concatenate([accumulate(t)[1:] for t in targets])
-    steps = np.vstack([sequences(p, rises)[1:] for p in parts])
-    errors = np.concatenate([p.target[1:] for p in parts])
-    measured = np.isfinite(errors)
-    runs = [len(p.target) - 1 for p in parts]
-    if len(parts) >= 2 and min(runs) >= 1:
-        fitted, estimated = _gm0n_leaving_runs_out(sums, target_sums, steps, errors, runs, names)
+    sums = [accumulate(sequences(p, rises))[1:] for p in parts]
+    target_sums = [accumulate(t)[1:] for t in targets]
+    steps = [sequences(p, rises)[1:] for p in parts]
+    errors = [p.target[1:] for p in parts]
+    if len(parts) >= 2:
+        ridge.refuse_flat(np.vstack(sums), names)
+        estimate, weight, rmse = grey_campaign.gm0n(sums, target_sums, steps, errors)
+        if estimate == "sums":
+            offset, slopes = ridge.ridge(np.vstack(sums), np.concatenate(target_sums), weight)
+        else:
+            measured = np.isfinite(np.concatenate(errors))
+            offset, slopes = 0.0, ridge.ridge(np.vstack(steps)[measured], np.concatenate(errors)[measured], weight,
+                                              intercept=False)[1]
+        fitted = ridge.LinearFit(offset, slopes, weight, rmse, len(parts))
+        method = (f"GM(0,N) (paper 003), {grey_campaign.label(GM0N_ESTIMATES[estimate], weight)}, chosen leaving "
+                  f"out each of {len(parts)} runs")
     else:
-        fitted = ridge.fit_linear(sums, target_sums, names, weights=(0.0,),
-                                  output_error=lambda offset, b, rows: (errors[rows] - steps[rows] @ b)[measured[rows]])
-        estimated = GM0N_ESTIMATES["sums"]
+        error, step = errors[0], steps[0]
+        measured = np.isfinite(error)
+        fitted = ridge.fit_linear(sums[0], target_sums[0], names, weights=(0.0,),
+                                  output_error=lambda offset, b, rows: (error[rows] - step[rows] @ b)[measured[rows]])
+        method = "least squares on 1-AGO sequences (paper 003, GM(0,N))"
     coefficients = {"X1": Coefficient.of(_first_error(targets)),
                     **{f"b_{i}": Coefficient.of(b) for i, b in enumerate(fitted.slopes, start=1)}}
     settings = {"a": fitted.intercept, **({"rises": True} if rises else {})}  # a: its difference drops it
-    return coefficients, settings, {"method": f"GM(0,N) (paper 003), {estimated}", **fitted.log()}
+    return coefficients, settings, {"method": method, **fitted.log()}
 
 
-GM0N_ESTIMATES = {"sums": "least squares on 1-AGO sequences (the paper's)",
-                  "steps": "ridge on the error itself, the form sum_i b_i*x_i(k) without intercept"}
-
-
-def _gm0n_leaving_runs_out(sums: np.ndarray, target_sums: np.ndarray, steps: np.ndarray, errors: np.ndarray,
-                           runs: list[int], names: list[str]) -> tuple[ridge.LinearFit, str]:
-    """The b_i whose output sum_i b_i*x_i(k) predicts each run best from the fit on the other runs (measured
-    rows pooled): fitted the paper's way on the running sums, or on the error itself (the block's output, no
-    intercept), each with a ridge weight (least squares among them). The paper's fit weights each row by how
-    far into its run it lies, and on sums of nearby sensors, as collinear as their readings, it extrapolated:
-    FL_THERMAL cut into 6 h runs, four sensors chosen in each fold, ch5 5.63 um held out against 4.32 this way
-    (ch3 4.95 -> 4.61; the ridge on every sensor: 3.91, 3.58)."""
-    ridge.refuse_flat(sums, names)
-    weights = ridge.WEIGHTS if ridge.condition(sums, True) <= ridge.CONDITION_LIMIT else ridge.WEIGHTS[1:]
-    measured = np.isfinite(errors)
-
-    def on_sums(rows: np.ndarray, weight: float) -> tuple[float, np.ndarray]:
-        return ridge.ridge(sums[rows], target_sums[rows], weight)
-
-    def on_steps(rows: np.ndarray, weight: float) -> tuple[float, np.ndarray]:
-        rows = rows[measured[rows]]
-        return 0.0, ridge.ridge(steps[rows], errors[rows], weight, intercept=False)[1]
-
-    fitters = {"sums": on_sums, "steps": on_steps}
-    bounds = np.cumsum([0, *runs])
-    squared = np.zeros((len(fitters), len(weights)))
-    for start, stop in zip(bounds[:-1], bounds[1:]):
-        others = np.r_[0:start, stop:len(errors)]
-        held = np.arange(start, stop)[measured[start:stop]]
-        for f, fitter in enumerate(fitters.values()):
-            for w, weight in enumerate(weights):
-                squared[f, w] += float(np.sum((errors[held] - steps[held] @ fitter(others, weight)[1]) ** 2))
-    f, w = np.unravel_index(int(np.argmin(squared)), squared.shape)
-    estimate = list(fitters)[f]
-    offset, slopes = fitters[estimate](np.arange(len(errors)), weights[w])
-    rmse = float(np.sqrt(squared[f, w] / max(int(measured.sum()), 1)))
-    return ridge.LinearFit(offset, slopes, float(weights[w]), rmse, len(runs)), GM0N_ESTIMATES[estimate]
+GM0N_ESTIMATES = {"sums": "the paper's fit on the 1-AGO sums", "steps": "fitted to the error itself (sum_i b_i*x_i(k))"}
+GM1N_ESTIMATES = {"paper": "the paper's least-squares a and b", "equation": "b fitted to the grey equation",
+                  "output": "b fitted to the error the block outputs"}
 
 
 def _first_error(targets: list[np.ndarray]) -> float:
@@ -195,7 +167,7 @@ def fit_gm1n(parts: list[Part], names: list[str], dt: float, rises: bool = False
     start; the validation fits on the first two thirds of each run and scores the rest of each, run
     forward from its start, on the measured rows (a probed target is filled between its measurements
     for the sums, `Part.filled_target`). On a campaign, a and the weight are chosen leaving out each run
-    (`_gm1n_leaving_runs_out`)."""
+    (models/grey_campaign.py)."""
     runs = [(accumulate(sequences(p, rises)), p.filled_target()) for p in parts]
     ridge.refuse_flat(np.vstack([p.temps for p in parts]), names)
     params = _gm1n_parameters(runs)
@@ -204,7 +176,7 @@ def fit_gm1n(parts: list[Part], names: list[str], dt: float, rises: bool = False
     span_s = max(rows) * dt
     resolvable = ridge.condition(np.vstack([sums[1:] for sums, _ in runs]), intercept=False) <= ridge.CONDITION_LIMIT
     if len(parts) >= 2:
-        a, b, weight, rmse, chosen = _gm1n_leaving_runs_out(parts, runs, dt, resolvable)
+        a, b, weight, rmse, chosen = _gm1n_on_a_campaign(parts, runs, dt, resolvable, span_s)
     elif 0 < paper_a < 2 and dt / paper_a <= span_s and resolvable:
         a, b, weight, rmse = paper_a, params[1:], 0.0, None
         chosen = "the paper's least-squares a and b"
@@ -245,54 +217,31 @@ def _output_pieces(sums: np.ndarray, first: float, a: float) -> tuple[np.ndarray
     return np.diff(np.vstack([np.zeros((1, filtered.shape[1])), filtered]), axis=0), np.diff(np.r_[first, start])
 
 
-def _gm1n_leaving_runs_out(parts: list[Part], runs: list[tuple[np.ndarray, np.ndarray]], dt: float,
-                           resolvable: bool) -> tuple[float, np.ndarray, float, float, str]:
-    """a, b, the ridge weight, their held-out error and how they were chosen, on a campaign: the estimate
-    whose block output predicts each run best from the fit on the other runs, run forward from the start the
-    block would have (the training runs' first errors on average), the measured rows pooled. The estimates:
-    the paper's least-squares a and b (where its a is in (0, 2) and the sums resolvable in binary32), and for
-    every a of the grid and every ridge weight, b fitted to the grey equation (the paper's) or to the error
-    the block outputs (the recursion is linear in b). Forward validation inside each run chose a from the
-    first two thirds of runs that heat in their first hours: on FL_THERMAL cut into 6 h runs (four sensors
-    chosen in each fold) it gave 8.03 um held out on ch3 where a ridge on every sensor gives 3.58."""
-    grid = [float(a) for a in development_candidates(dt, min(len(target) for _, target in runs))]
-    measured = [np.isfinite(p.target[1:]) for p in parts]
-    totals: dict[tuple[str, float, float], list[float]] = {}
+def _gm1n_on_a_campaign(parts: list[Part], runs: list[tuple[np.ndarray, np.ndarray]], dt: float, resolvable: bool,
+                        span_s: float) -> tuple[float, np.ndarray, float, float, str]:
+    """a, b, the ridge weight, the held-out error and how they were chosen, leaving out each run
+    (models/grey_campaign.py): the grid of a from the longest run, the paper's a where it settles within it."""
+    def paper(chosen: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray | None:
+        params = _gm1n_parameters(chosen)
+        return params if 0 < params[0] < 2 and dt / params[0] <= span_s and resolvable else None
 
-    def fitted(members: list[int], estimate: str, a: float) -> list[tuple[float, float, np.ndarray]]:
-        """(a, weight, b) of one estimate on the runs `members`."""
-        chosen = [runs[j] for j in members]
-        if estimate == "paper":
-            params = _gm1n_parameters(chosen)
-            return [(float(params[0]), 0.0, params[1:])] if 0 < params[0] < 2 and resolvable else []
-        if estimate == "equation":
-            return list(zip([a] * len(ridge.WEIGHTS), ridge.WEIGHTS, _gm1n_slopes_path(chosen, a, ridge.WEIGHTS)))
-        first = _first_error([target for _, target in chosen])
-        pieces = [_output_pieces(runs[j][0], first, a) for j in members]
-        design = np.vstack([d[measured[j]] for (d, _), j in zip(pieces, members)])
-        y = np.concatenate([(parts[j].target[1:] - offset)[measured[j]] for (_, offset), j in zip(pieces, members)])
-        return list(zip([a] * len(ridge.WEIGHTS), ridge.WEIGHTS, _ridge_path(design, y, ridge.WEIGHTS)))
-
-    candidates = [("paper", 0.0)] + [(estimate, a) for a in grid for estimate in ("equation", "output")]
-    for k in range(len(runs)):
-        others = [j for j in range(len(runs)) if j != k]
-        first = _first_error([runs[j][1] for j in others])
-        for estimate, grid_a in candidates:
-            for a, weight, slopes in fitted(others, estimate, grid_a):
-                design, offset = _output_pieces(runs[k][0], first, a)
-                residual = (parts[k].target[1:] - design @ slopes - offset)[measured[k]]
-                totals.setdefault((estimate, grid_a, weight), []).append(float(residual @ residual))
-    complete = {key: sum(errors) for key, errors in totals.items() if len(errors) == len(runs)}
-    (estimate, grid_a, weight), squared = min(complete.items(), key=lambda item: (item[1], item[0]))
-    rmse = float(np.sqrt(squared / max(sum(int(m.sum()) for m in measured), 1)))
-    a, weight, b = next((a, w, b) for a, w, b in fitted(list(range(len(runs))), estimate, grid_a) if w == weight)
-    return a, b, weight, rmse, GM1N_ESTIMATES[estimate].format(runs=len(runs))
-
-
-GM1N_ESTIMATES = {
-    "paper": "the paper's least-squares a and b, which predict each of {runs} runs from the others best",
-    "equation": "a and a ridge weight for b fitted to the grey equation, chosen leaving out each of {runs} runs",
-    "output": "a and a ridge weight for b fitted to the error the block outputs, chosen leaving out each of {runs} runs"}
+    grid = [float(a) for a in development_candidates(dt, max(len(target) for _, target in runs))]
+    estimate, a, weight, rmse = grey_campaign.gm1n(runs, [p.target for p in parts], grid, _output_pieces, paper,
+                                                   _background)
+    if estimate == "paper":
+        params = paper(runs)
+        a, b = float(params[0]), params[1:]
+    elif estimate == "equation":
+        b = _gm1n_slopes(runs, a, weight)
+    else:
+        first = _first_error([target for _, target in runs])
+        pieces = [_output_pieces(sums, first, a) for sums, _ in runs]
+        measured = [np.isfinite(p.target[1:]) for p in parts]
+        b = ridge.ridge(np.vstack([d[m] for (d, _), m in zip(pieces, measured)]),
+                        np.concatenate([(p.target[1:] - o)[m] for p, (_, o), m in zip(parts, pieces, measured)]),
+                        weight, intercept=False)[1]
+    return a, b, weight, rmse, (f"{grey_campaign.label(GM1N_ESTIMATES[estimate], weight)}, a and b chosen leaving "
+                                f"out each of {len(runs)} runs")
 
 
 def estimates(kind: str, coefficients: dict, settings: dict, part: Part) -> np.ndarray:

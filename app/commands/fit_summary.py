@@ -136,8 +136,9 @@ def _format_folds(m: dict) -> list[str]:
                      f"model {held['rmse_um'] / held['ridge_rmse_um']:.2f} x that (fitting/ridge_floor.py)")
     if "block_rmse_um" in held:
         flagged = held["block_flagged_runs"]
-        faults = (f"; a fault or disagreement raised on {len(flagged)} of {len(m['runs'])} runs: {', '.join(flagged)}"
-                  if flagged else "; no fault raised")
+        kept = f"the {len(m['runs'])} runs kept for training" if m.get("refused_runs") else f"{len(m['runs'])} runs"
+        faults = (f"; a fault or disagreement raised on {len(flagged)} of {kept}: {', '.join(flagged)}"
+                  if flagged else f"; no fault raised on {kept}")
         lines.append(f"  as the PLC runs each fold's block (guards, fault hold and limits from its training runs): "
                      f"{held['block_rmse_um']:.3f} um RMSE, max {held['block_max_abs_um']:.3f} um{faults}")
     return lines
