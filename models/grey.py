@@ -121,20 +121,11 @@ def _gm1n_parameters(runs: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
     return np.linalg.lstsq(design, np.concatenate([target[1:] for _, target in runs]), rcond=None)[0]
 
 
-def run_gm1n(sums: np.ndarray, first: float, a: float, b: np.ndarray) -> np.ndarray:
-    """The grey difference equation run forward in float64, as the block runs it: the error estimates."""
-    from scipy.signal import lfilter  # on first use: verify never fits, and importing scipy costs about 1 s
-    keep, gain = _keep_and_gain(a)
-    level = np.empty(len(sums))
-    level[0] = first
-    level[1:] = lfilter([gain], [1.0, -keep], sums[1:] @ b, zi=[keep * first])[0]
-    return np.diff(level, prepend=0.0)
-
-
 def _responses(sums: np.ndarray, first: float, a: float) -> tuple[np.ndarray, np.ndarray]:
-    """run_gm1n taken apart, as it is linear in b: each sensor's sums through the recursion, and the start's
-    decay, so that the level after the first call is filtered @ b + start for any b."""
-    from scipy.signal import lfilter
+    """The grey difference equation run forward in float64, as the block runs it, taken apart, as it is linear
+    in b: each sensor's sums through the recursion, and the start's decay, so that the level after the first
+    call is filtered @ b + start for any b."""
+    from scipy.signal import lfilter  # on first use: verify never fits, and importing scipy costs about 1 s
     keep, gain = _keep_and_gain(a)
     filtered = lfilter([gain], [1.0, -keep], sums[1:], axis=0)
     start = lfilter([gain], [1.0, -keep], np.zeros(len(sums) - 1), zi=[keep * first])[0]
@@ -242,16 +233,6 @@ def _gm1n_on_a_campaign(parts: list[Part], runs: list[tuple[np.ndarray, np.ndarr
                         weight, intercept=False)[1]
     return a, b, weight, rmse, (f"{grey_campaign.label(GM1N_ESTIMATES[estimate], weight)}, a and b chosen leaving "
                                 f"out each of {len(runs)} runs")
-
-
-def estimates(kind: str, coefficients: dict, settings: dict, part: Part) -> np.ndarray:
-    """The float64 error estimates of a fitted grey model on one run, from its first row."""
-    x = sequences(part, settings.get("rises", False))
-    b = np.array([coefficients[f"b_{i}"].f64 for i in range(1, x.shape[1] + 1)])
-    first = coefficients["X1"].f64
-    if kind == "gm0n":
-        return np.r_[first, x[1:] @ b]
-    return run_gm1n(accumulate(x), first, settings["a"], b)
 
 
 VALIDATION_RUNS = 3  # a campaign of at least this many runs chooses between readings and rises
