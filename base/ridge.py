@@ -144,6 +144,24 @@ def leave_one_run_out(design: np.ndarray, y: np.ndarray, runs: Sequence[int], we
     return run_errors(sums, list(range(design.shape[1])), weights)
 
 
+def from_sums(n: float, sx: np.ndarray, sy: float, sxx: np.ndarray, sxy: np.ndarray, weights: np.ndarray,
+              intercept: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Intercepts (weights,) and slopes (k, weights) of the ridge `ridge` fits, from the rows' count, column sums,
+    target sum, X'X and X'y alone (a run left out is the totals less its own): standardised columns, the intercept
+    not shrunk; weight 0 drops the directions binary32 cannot resolve."""
+    mx, my = (sx / n, sy / n) if intercept else (np.zeros(len(sxy)), 0.0)
+    centred = sxx - n * np.outer(mx, mx)
+    spread = np.sqrt(np.maximum(np.diag(centred), 0.0) / n)
+    spread[spread == 0.0] = 1.0
+    values, vectors = np.linalg.eigh(centred / np.outer(spread, spread))
+    projected = vectors.T @ ((sxy - n * mx * my) / spread)
+    kept = values > max(values.max(), 0.0) / CONDITION_LIMIT ** 2  # beyond it weight 0 is no candidate
+    denominator = values[:, None] + weights[None, :] * n
+    gain = np.where(kept[:, None] | (weights[None, :] > 0), 1.0 / np.where(denominator > 0, denominator, 1.0), 0.0)
+    slopes = (vectors @ (gain * projected[:, None])) / spread[:, None]
+    return my - mx @ slopes, slopes
+
+
 def run_errors(sums: RunSums, columns: Sequence[int], weights: Sequence[float],
                held: Sequence[int] | None = None) -> list[float]:
     """`leave_one_run_out` on `columns` of the sums, scoring the runs `held` (default: every run): a fold's fit
@@ -156,18 +174,8 @@ def run_errors(sums: RunSums, columns: Sequence[int], weights: Sequence[float],
     squares = np.zeros(len(weights))
     held = range(len(sums.rows)) if held is None else held
     for r in held:
-        n, sx, sy, sxx, sxy = (t - v for t, v in zip(total, (sums.rows[r], x[r], sums.y[r], xx[r], xy[r])))
-        mx, my = sx / n, sy / n
-        centred = sxx - n * np.outer(mx, mx)
-        spread = np.sqrt(np.maximum(np.diag(centred), 0.0) / n)
-        spread[spread == 0.0] = 1.0
-        values, vectors = np.linalg.eigh(centred / np.outer(spread, spread))
-        projected = vectors.T @ ((sxy - n * mx * my) / spread)
-        kept = values > max(values.max(), 0.0) / CONDITION_LIMIT ** 2  # beyond it weight 0 is no candidate
-        denominator = values[:, None] + weights[None, :] * n
-        gain = np.where(kept[:, None] | (weights[None, :] > 0), 1.0 / np.where(denominator > 0, denominator, 1.0), 0.0)
-        slopes = (vectors @ (gain * projected[:, None])) / spread[:, None]  # (k, weights)
-        offset = my - mx @ slopes
+        offset, slopes = from_sums(*(t - v for t, v in zip(total, (sums.rows[r], x[r], sums.y[r], xx[r], xy[r]))),
+                                   weights)
         squares += (sums.yy[r] - 2 * offset * sums.y[r] - 2 * xy[r] @ slopes + sums.rows[r] * offset ** 2
                     + 2 * offset * (x[r] @ slopes) + np.einsum("kw,kj,jw->w", slopes, xx[r], slopes))
     return [float(np.sqrt(max(v, 0.0) / sums.rows[list(held)].sum())) for v in squares]

@@ -44,22 +44,13 @@ class Grams:
                    np.array([d.T @ o for d, o in zip(designs, offsets)]))
 
     def slopes(self, members: np.ndarray, weights, intercept: bool, start: float = 0.0) -> list[tuple[float, np.ndarray]]:
-        """(intercept, slopes) of a ridge on the runs `members` for every weight, as base/ridge.ridge fits them
-        (standardised columns, the intercept not shrunk), the target moved by -start * offset."""
-        n = self.rows[members].sum()
-        xx, xy = self.xx[members].sum(axis=0), self.xy[members].sum(axis=0) - start * self.xo[members].sum(axis=0)
-        mean_x = self.x[members].sum(axis=0) / n if intercept else np.zeros(xx.shape[0])
-        mean_y = self.y[members].sum() / n if intercept else 0.0
-        if intercept:
-            xx, xy = xx - n * np.outer(mean_x, mean_x), xy - n * mean_x * mean_y
-        spread = np.sqrt(np.clip(np.diag(xx), 0.0, None) / n)
-        spread[spread == 0.0] = 1.0
-        z, zy = xx / np.outer(spread, spread), xy / spread
-        out = []
-        for weight in weights:
-            b = np.linalg.lstsq(z + weight * n * np.eye(len(zy)), zy, rcond=None)[0] / spread
-            out.append((mean_y - float(mean_x @ b), b))
-        return out
+        """(intercept, slopes) of a ridge on the runs `members` for every weight (base/ridge.from_sums), the target
+        moved by -start * offset."""
+        offsets, slopes = ridge.from_sums(self.rows[members].sum(), self.x[members].sum(axis=0), self.y[members].sum(),
+                                          self.xx[members].sum(axis=0),
+                                          self.xy[members].sum(axis=0) - start * self.xo[members].sum(axis=0),
+                                          np.asarray(weights, float), intercept)
+        return [(float(offsets[w]), slopes[:, w]) for w in range(len(weights))]
 
 
 def label(estimate: str, weight: float) -> str:
