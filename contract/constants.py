@@ -16,7 +16,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
 from thermoplc.base.binary32 import FADE_FLOOR, round_f32
-from thermoplc.models.plausibility import quiet_K
+from thermoplc.models.plausibility import quiet_K, swing_factors, swing_quiet_K
 from thermoplc.models.probing import COUNT_MAX, HELD_MAX, REJOIN, STUCK_COUNT, STUCK_SHARE
 from thermoplc.models.safety import Limits, axis_outputs, guards
 
@@ -110,14 +110,18 @@ def structure(model: Model) -> dict:
     return out
 
 
+SWING_KEEP, SWING_ALPHA = "c_PlausKeep", "c_PlausAlpha"  # the slow means' factors per call (swing_factors)
+
+
 def plausibility_names(model: Model) -> dict:
-    """Per checked input: (intercept constant, {other input: slope constant}, gate constant, quiet constant), each
-    named by the inputs' positions among the block inputs (c_PlausA_1, c_PlausB_1_2, c_PlausGate_1,
-    c_PlausQuiet_1)."""
+    """Per checked input: (intercept constant, {other input: slope constant}, gate constant, quiet constant, swing
+    gate constant, swing quiet constant), each named by the inputs' positions among the block inputs (c_PlausA_1,
+    c_PlausB_1_2, c_PlausGate_1, c_PlausQuiet_1, c_PlausSwing_1, c_PlausSwingQuiet_1)."""
     index = {g.name: g.index for g in guards(model)}
     return {r.sensor: (f"c_PlausA_{index[r.sensor]}",
                        {name: f"c_PlausB_{index[r.sensor]}_{index[name]}" for name, _ in r.slopes},
-                       f"c_PlausGate_{index[r.sensor]}", f"c_PlausQuiet_{index[r.sensor]}")
+                       f"c_PlausGate_{index[r.sensor]}", f"c_PlausQuiet_{index[r.sensor]}",
+                       f"c_PlausSwing_{index[r.sensor]}", f"c_PlausSwingQuiet_{index[r.sensor]}")
             for r in model.plausibility.relations}
 
 
@@ -125,11 +129,16 @@ def plausibility_constants(model: Model) -> dict:
     """The cross-sensor check's constants as the block declares them (name -> binary32 value)."""
     names, out = plausibility_names(model), {}
     for r in model.plausibility.relations:
-        intercept, slopes, gate, quiet = names[r.sensor]
+        intercept, slopes, gate, quiet, swing, swing_quiet = names[r.sensor]
         out[intercept] = r.intercept[1]
         out.update({slopes[name]: slope[1] for name, slope in r.slopes})
         out[gate] = r.gate_K[1]
         out[quiet] = quiet_K(r)
+        if model.plausibility.swings:
+            out[swing] = r.swing_K[1]
+            out[swing_quiet] = swing_quiet_K(r)
+    if model.plausibility.swings:
+        out[SWING_KEEP], out[SWING_ALPHA] = swing_factors(model.sample_period_s)
     return out
 
 

@@ -4,7 +4,9 @@ The relations on the training rows (least squares, float64, with an intercept: t
 check needs no start and no state); the gate over every row of the runs given to fit, as the envelope's limits
 are (fitting/envelope_fit.py says why): a gate bounds what the machine's sensors did, it is no parameter of the
 model. FL_THERMAL's `t1_C` differed by up to 3.2 K on its held-out day against 2.1 K on its training day: the gate
-from every row, with its margin of 2, leaves room for a day the recording did not have.
+from every row, with its margin of 2, leaves room for a day the recording did not have. The swing gate likewise:
+each run's differences followed by their slow mean from the run's first row, as the block starts its means at
+its first running call (rows with a missing reading left out).
 """
 from __future__ import annotations
 
@@ -13,7 +15,7 @@ import numpy as np
 from thermoplc.models.envelope import round_up
 from thermoplc.models.modelfile import Model
 from thermoplc.models.kinds import held_temperatures
-from thermoplc.models.plausibility import GATE_FLOOR_K, MARGIN, Plausibility
+from thermoplc.models.plausibility import GATE_FLOOR_K, MARGIN, Plausibility, deviations, swing_factors
 from thermoplc.models.reference import model_inputs
 from thermoplc.recordings.table import Table
 
@@ -25,19 +27,22 @@ def fit_plausibility(model: Model, tables: list[Table], n_train: list[int]) -> P
         return None
     readings = [np.column_stack([np.asarray(model_inputs(model, t)[name], np.float64) for name in names])
                 for t in tables]
-    train = np.vstack([r[:n] for r, n in zip(readings, n_train)])
-    every = np.vstack(readings)
-    train, every = train[np.isfinite(train).all(axis=1)], every[np.isfinite(every).all(axis=1)]
+    runs = [r[np.isfinite(r).all(axis=1)] for r in readings]
+    train = np.vstack([r[:n][np.isfinite(r[:n]).all(axis=1)] for r, n in zip(readings, n_train)])
+    every = np.vstack(runs)
     if len(train) < len(names) + 1:
         return None
+    keep, alpha = swing_factors(model.sample_period_s, "f64")
     relations = []
     for i, sensor in enumerate(names):
         others = [j for j in range(len(names)) if j != i]
         design = np.column_stack([np.ones(len(train)), train[:, others]])
         coefficients = np.linalg.lstsq(design, train[:, i], rcond=None)[0]
-        residual = every[:, i] - np.column_stack([np.ones(len(every)), every[:, others]]) @ coefficients
-        largest = float(np.max(np.abs(residual)))
-        gate = max(round_up(MARGIN * largest), GATE_FLOOR_K)
+        differences = [r[:, i] - np.column_stack([np.ones(len(r)), r[:, others]]) @ coefficients for r in runs]
+        largest = float(np.max(np.abs(np.concatenate(differences))))
+        swung = max(float(np.max(deviations(d, keep, alpha, False, np.zeros(1), compiled_loop=True), initial=0.0))
+                    for d in differences)
         relations.append((sensor, coefficients[0], [(names[j], b) for j, b in zip(others, coefficients[1:])],
-                          gate, largest))
+                          max(round_up(MARGIN * largest), GATE_FLOOR_K), largest,
+                          max(round_up(MARGIN * swung), GATE_FLOOR_K), swung))
     return Plausibility.of(relations)

@@ -14,10 +14,10 @@ from thermoplc.generator.start import KnownStart
 from thermoplc.generator.ranges import RangeProof, prove_ranges
 from thermoplc.generator.safety import with_safety
 from thermoplc.models.modelfile import Model
-from thermoplc.contract.constants import (plausibility_constants, plausibility_names, probe_constants,
+from thermoplc.contract.constants import (SWING_ALPHA, SWING_KEEP, plausibility_constants, plausibility_names, probe_constants,
                                          start_constants)
 from thermoplc.generator.plausibility import Check, Relation as PlausibleRelation
-from thermoplc.models.plausibility import GATE_FLOOR_K, MARGIN
+from thermoplc.models.plausibility import GATE_FLOOR_K, MARGIN, SWING_S
 from thermoplc.contract.outputs import ENABLE_INPUT, PROBE_VALUE_INPUT, READY_OUTPUT, fault_outputs
 from thermoplc.models.safety import Limits, axis_outputs, guards
 
@@ -70,14 +70,28 @@ def _check(model: Model) -> Check | None:
     """The cross-sensor check of a model fitted with one (models/plausibility.py), on the inputs' held values."""
     if model.plausibility is None:
         return None
-    held = {g.name: f"Good_{g.index}" for g in guards(model)}
+    index = {g.name: g.index for g in guards(model)}
+    held = {name: f"Good_{k}" for name, k in index.items()}
     names = plausibility_names(model)
     relations, comments = [], {}
     for r in model.plausibility.relations:
-        intercept, slopes, gate, quiet = names[r.sensor]
+        intercept, slopes, gate, quiet, swing, swing_quiet = names[r.sensor]
         others = ", ".join(name for name, _ in r.slopes)
+        swings = model.plausibility.swings
         relations.append(PlausibleRelation(held[r.sensor], intercept, tuple((held[name], slopes[name])
-                                                                            for name, _ in r.slopes), gate, quiet))
+                                                                            for name, _ in r.slopes), gate, quiet,
+                                           (swing, swing_quiet, f"PlausMean_{index[r.sensor]}")
+                                           if swings else None, r.sensor))
+        if swings:
+            comments[swing] = (f"{r.sensor}'s difference leaving its {SWING_S / 60:g}-min mean by more than this sets "
+                               f"SensorsDisagree, K: {MARGIN:g} x the largest swing recorded, {r.largest_swing_K:.3g} "
+                               f"K, rounded up" + (f", at least {GATE_FLOOR_K:g} K" if r.swing_K[0] <= GATE_FLOOR_K
+                                                   else ""))
+            comments[swing_quiet] = f"{r.sensor}'s swing inside this (half its gate) counts as steady again, K"
+            comments[SWING_KEEP] = (f"share of its slow mean each difference's mean keeps per call: "
+                                    f"exp(-{model.sample_period_s:g} s / {SWING_S:g} s)")
+            comments[SWING_ALPHA] = (f"share of each new difference the slow means take per call: "
+                                     f"1 - exp(-{model.sample_period_s:g} s / {SWING_S:g} s)")
         comments[quiet] = (f"{r.sensor} inside this (half the gate) counts as agreeing again, K; SensorsDisagree "
                            f"clears after c_SettleCalls such calls")
         comments[intercept] = f"{r.sensor} as the others say it should read: this, K"
@@ -87,7 +101,8 @@ def _check(model: Model) -> Check | None:
                           f"sets SensorsDisagree, K: "
                           + (recorded if r.gate_K[0] > GATE_FLOOR_K else f"at least {GATE_FLOOR_K:g} K ({recorded} "
                                                                          f"is less)"))
-    return Check(tuple(relations), plausibility_constants(model), comments)
+    return Check(tuple(relations), plausibility_constants(model), comments,
+                 (SWING_KEEP, SWING_ALPHA) if model.plausibility.swings else None)
 
 
 def _refuse_unread_inputs(model: Model, core: Block) -> None:

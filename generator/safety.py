@@ -162,7 +162,7 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
         name = faults[g.name]
         fault_bits.append(core_flags.pop(name, None) or Var(name, "BOOL", f"{g.name} faulty: holding its last good value"))
     added = declarations(fusion) if fusion else {}
-    checked = check_declarations() if check else {}
+    checked = check_declarations(check) if check else {}
     outputs = (*limited,
                *(Var(k0[v.name], "REAL", f"K0 of {v.name} for SD43900, mm") for v in limited if v.name in k0),
                *core_flags.values(), *fault_bits, *checked.get("outputs", ()), *added.get("outputs", ()),

@@ -24,7 +24,7 @@ from thermoplc.models.envelope import data_limits, stuck_limit
 from thermoplc.models.kind import fault_key, guard_kind
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
-from thermoplc.models.plausibility import DISAGREE, disagree
+from thermoplc.models.plausibility import DISAGREE, CheckState, disagree
 from thermoplc.models.probing import fused_core
 
 LIMIT_MAX = 1.0e12  # far beyond any machine, far below FLT_MAX
@@ -233,7 +233,7 @@ def held_while_faulty(core: dict | None, names: list[str], flags: dict, start: i
 
 
 def sensors_disagree(model: Model, held: dict, start: int, limits: Limits, precision: str,
-                     state: np.ndarray | None = None) -> dict:
+                     state: CheckState | None = None) -> dict:
     """The plausibility check's status bit per call under DISAGREE (none for a model without the check): the held
     readings compared from call `start` on, the block's first running call (models/plausibility.py); `state`
     carries it from one chunk of calls to the next."""
@@ -243,7 +243,7 @@ def sensors_disagree(model: Model, held: dict, start: int, limits: Limits, preci
     flag = np.zeros(rows, bool)
     if start < rows:
         flag[start:] = disagree(model.plausibility, {name: held[name][start:] for name in model.plausibility.sensors()},
-                                limits.settle_calls, precision, state)
+                                limits.settle_calls, model.sample_period_s, precision, state)
     return {DISAGREE: flag}
 
 

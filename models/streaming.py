@@ -18,6 +18,7 @@ from thermoplc.base import compiled
 from thermoplc.models import kernels
 from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
+from thermoplc.models.plausibility import CheckState
 from thermoplc.models.reference import guarded_core, with_start
 from thermoplc.models.safety import (CLAMPED, ENABLED, INVALID, LIMITED, READY, Limits, axis_outputs, fault_flags,
                                      guards, held_while_faulty, k0_key, real_outputs_of, sensors_disagree,
@@ -68,7 +69,8 @@ class StreamingReference:
         self.y = {name: np.zeros(1, f) for name in self.names}
         self.start_state = np.zeros(2, f)  # the known start's offset and latch (models/start.py)
         self.hold_states = {name: np.zeros(3, f) for name in self.names}  # models/fault_hold.py, per output
-        self.disagree_state = np.zeros(2, np.int64)  # models/plausibility.py: the bit and its quiet calls
+        self.disagree_state = (CheckState(f, len(model.plausibility.relations)) if model.plausibility is not None
+                               else None)  # models/plausibility.py
         self.ready = NOT_YET
         self.calls = 0
 

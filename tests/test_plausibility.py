@@ -11,7 +11,7 @@ import pytest
 from thermoplc.base import compiled
 from thermoplc.base.errors import UserError
 from thermoplc.models.modelfile import load_model
-from thermoplc.models.plausibility import DISAGREE, Plausibility, disagree
+from thermoplc.models.plausibility import DISAGREE, CheckState, Plausibility, disagree
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits
 from thermoplc.models.streaming import StreamingReference
@@ -21,6 +21,9 @@ from tests.golden_models import GOLDEN, golden_twin_csv
 
 # x2 should read 1 + 0.5 * x1 within 2 K (quiet inside 1 K); x1 should read -2 + 2 * x2 within 4 K
 CHECK = Plausibility.of([("x1", -2.0, [("x2", 2.0)], 4.0, 1.0), ("x2", 1.0, [("x1", 0.5)], 2.0, 0.5)])
+# the same relations with the swing test: each difference may leave its 10-min mean by 1 K (quiet inside 0.5 K)
+SWINGING = Plausibility.of([("x1", -2.0, [("x2", 2.0)], 4.0, 1.0, 1.0, 0.5), ("x2", 1.0, [("x1", 0.5)], 2.0, 0.5, 1.0, 0.5)])
+PERIOD_S = 15.0
 
 
 @pytest.mark.parametrize("reference", ["slow", "fast"])
@@ -30,24 +33,52 @@ def test_the_bit_latches_until_the_sensors_agree_for_the_settle_calls(reference)
     x2[5] = 8.5  # 2.5 K off: beyond the gate
     x2[6:9] = 7.5  # 1.5 K off: inside the gate, not quiet
     with compiled.reference(reference):
-        flag = disagree(CHECK, {"x1": x1, "x2": x2}, 3, "f32")
+        flag = disagree(CHECK, {"x1": x1, "x2": x2}, 3, PERIOD_S, "f32")
     assert np.flatnonzero(flag).tolist() == list(range(5, 11))  # quiet from call 9; the third quiet call (11) clears
 
 
 def test_a_nan_reading_is_never_quiet_and_never_beyond():
     x1, x2 = np.full(6, 10.0, np.float32), np.full(6, 6.0, np.float32)
     x2[1], x2[2:] = 9.0, np.nan
-    assert disagree(CHECK, {"x1": x1, "x2": x2}, 2, "f32").tolist() == [False, True, True, True, True, True]
+    assert disagree(CHECK, {"x1": x1, "x2": x2}, 2, PERIOD_S, "f32").tolist() == [False, True, True, True, True, True]
 
 
-def test_the_state_carries_from_one_chunk_to_the_next():
+@pytest.mark.parametrize("check", [CHECK, SWINGING], ids=["level", "swing"])
+def test_the_state_carries_from_one_chunk_to_the_next(check):
     rng = np.random.default_rng(5)
     x1 = (20 + rng.normal(0, 1, 300)).astype(np.float32)
     x2 = (1 + 0.5 * x1 + rng.normal(0, 1.2, 300)).astype(np.float32)
-    whole = disagree(CHECK, {"x1": x1, "x2": x2}, 4, "f32")
-    state = np.zeros(2, np.int64)
-    pieces = [disagree(CHECK, {"x1": x1[a:a + 7], "x2": x2[a:a + 7]}, 4, "f32", state) for a in range(0, 300, 7)]
+    whole = disagree(check, {"x1": x1, "x2": x2}, 4, PERIOD_S, "f32")
+    state = CheckState(np.float32, 2)
+    pieces = [disagree(check, {"x1": x1[a:a + 7], "x2": x2[a:a + 7]}, 4, PERIOD_S, "f32", state)
+              for a in range(0, 300, 7)]
     assert whole.any() and np.array_equal(np.concatenate(pieces), whole)
+
+
+def test_a_swing_inside_the_gate_sets_the_bit_and_a_slow_drift_of_the_same_size_does_not():
+    calls = np.arange(2000)
+    x1 = np.full(2000, 20.0, np.float32)
+    x2 = np.full(2000, 11.0, np.float32)  # agrees: 1 + 0.5 * 20
+    sine = (x2 + 1.5 * np.sin(calls * PERIOD_S / 350.0) * (calls >= 500)).astype(np.float32)  # 1.5 K: inside 2 K
+    ramp = (x2 + np.linspace(0, 1.5, 2000)).astype(np.float32)  # the same 1.5 K over 8 h
+    assert not disagree(CHECK, {"x1": x1, "x2": sine}, 30, PERIOD_S, "f32").any()  # the level test cannot see it
+    flag = disagree(SWINGING, {"x1": x1, "x2": sine}, 30, PERIOD_S, "f32")
+    assert not flag[:500].any() and flag[530:].all()  # seen within one eighth of the sine's period, and held
+    assert not disagree(SWINGING, {"x1": x1, "x2": ramp}, 30, PERIOD_S, "f32").any()
+
+
+@pytest.mark.parametrize("precision", ["f32", "f64"])
+def test_the_swing_loop_is_the_same_compiled_and_as_python(precision):
+    rng = np.random.default_rng(11)
+    f = np.float32 if precision == "f32" else np.float64
+    x1 = (25 + np.cumsum(rng.normal(0, 0.05, 3000))).astype(f)
+    x2 = (1 + 0.5 * x1 + np.cumsum(rng.normal(0, 0.04, 3000))).astype(f)
+    runs = {}
+    for reference in ("slow", "fast"):
+        with compiled.reference(reference):
+            runs[reference] = disagree(SWINGING, {"x1": x1, "x2": x2}, 30, PERIOD_S, precision)
+    assert runs["slow"].any() and not runs["slow"].all()
+    assert np.array_equal(runs["slow"], runs["fast"])
 
 
 def test_the_golden_block_never_flags_its_own_recording_and_a_drifting_sensor_holds_it(tmp_path):
@@ -100,6 +131,34 @@ def test_verify_faults_counts_the_bit_and_fails_a_block_without_the_check(tmp_pa
     assert "NOT bit-exact" in failed.stdout or "case(s) FAILED" in failed.stdout
 
 
+def test_a_block_without_the_swing_test_passes_verify_and_fails_verify_faults(tmp_path):
+    data = golden_twin_csv(tmp_path)
+    thermoplc("generate", GOLDEN / "mlr.json", "-o", "m.scl", cwd=tmp_path)
+    text = (tmp_path / "m.scl").read_text()
+    planted = text  # each swing gate widened by the level gate: every constant as the model has it
+    for k in (1, 2):
+        planted = planted.replace(f"#PlausResid > #c_PlausSwing_{k} THEN",
+                                  f"#PlausResid > #c_PlausSwing_{k} + #c_PlausGate_{k} THEN")
+    assert planted.count("+ #c_PlausGate_") == 2
+    (tmp_path / "p.scl").write_text(planted)
+    thermoplc("verify", "p.scl", "--model", GOLDEN / "mlr.json", "--data", data, cwd=tmp_path)
+    failed = thermoplc("verify", "p.scl", "--model", GOLDEN / "mlr.json", "--data", data, "--faults", cwd=tmp_path,
+                       check=1)
+    sine = next(line for line in failed.stdout.splitlines() if line.startswith("T_motor") and " sine: " in line)
+    assert sine.split("degC")[-1].split()[0] == "NO"  # the sine is not bit-exact: the model flags it, the block not
+
+
+def test_a_model_file_from_before_the_swing_test_generates_without_it_and_verifies(tmp_path):
+    doc = json.loads((GOLDEN / "mlr.json").read_text())
+    for relation in doc["plausibility"]:
+        del relation["swing_K"], relation["largest_swing_K"]
+    (tmp_path / "m.json").write_text(json.dumps(doc))
+    thermoplc("generate", "m.json", "-o", "m.scl", cwd=tmp_path)
+    text = (tmp_path / "m.scl").read_text()
+    assert "SensorsDisagree : Bool;" in text and "PlausMean" not in text and "c_PlausSwing" not in text
+    thermoplc("verify", "m.scl", "--model", "m.json", "--data", golden_twin_csv(tmp_path), "--faults", cwd=tmp_path)
+
+
 def test_a_model_file_without_the_check_has_no_bit_and_its_block_verifies(tmp_path):
     doc = json.loads((GOLDEN / "mlr.json").read_text())
     del doc["plausibility"]
@@ -126,7 +185,11 @@ def test_an_input_named_like_the_status_bit_is_refused(tmp_path):
     (lambda p: p[1]["gate_K"].update(f64=0.1, f32="0x3DCCCCCD"), "field 'plausibility[1].gate_K': 0.1; expected 0.5"),
     (lambda p: p[0].update(largest_K=99.0), "field 'plausibility[0].largest_K': 99.0; expected the largest"),
     (lambda p: p[0]["intercept"].update(f64=1e7, f32="0x4B189680"), "field 'plausibility[0].intercept': 10000000.0"),
-    (lambda p: p[0].pop("gate_K"), "field 'plausibility[0]': expected an object with sensor, intercept, slopes"),
+    (lambda p: p[0].pop("gate_K"), "field 'plausibility[0]': expected an object with gate_K, intercept, largest_K"),
+    (lambda p: p[1]["swing_K"].update(f64=0.2, f32="0x3E4CCCCD"), "field 'plausibility[1].swing_K': 0.2; expected 0.5"),
+    (lambda p: p[0].update(largest_swing_K=-1), "field 'plausibility[0].largest_swing_K': -1; expected the largest"),
+    (lambda p: p[1].pop("swing_K"), "field 'plausibility[1]': expected an object with gate_K, intercept, largest_K, "
+                                    "largest_swing_K, sensor, slopes, swing_K (every relation with the swing gate"),
 ])
 def test_a_bad_plausibility_section_is_named_by_its_field(tmp_path, edit, expected):
     doc = json.loads((GOLDEN / "mlr.json").read_text())

@@ -5,7 +5,7 @@ from __future__ import annotations
 from thermoplc.base.identifiers import renaming_note
 from thermoplc.fitting.acceptance import refusal
 from thermoplc.fitting.probe_fit import REFITTED
-from thermoplc.models.plausibility import GATE_FLOOR_K, MARGIN
+from thermoplc.models.plausibility import GATE_FLOOR_K, MARGIN, SWING_S
 
 
 def _runs_named(batches: list[dict]) -> str:
@@ -58,6 +58,10 @@ def format_fit(model, campaign=None) -> str:
         gates = ", ".join(f"{r.sensor} {r.gate_K[0]:g} K" for r in model.plausibility.relations)
         lines.append(f"  SensorsDisagree when a temperature is further from what the others say than: {gates} "
                      f"({MARGIN:g} x the largest difference recorded, at least {GATE_FLOOR_K:g} K)")
+        if model.plausibility.swings:
+            swings = ", ".join(f"{r.sensor} {r.swing_K[0]:g} K" for r in model.plausibility.relations)
+            lines.append(f"  ... or when that difference leaves its {SWING_S / 60:g}-min mean by more than: {swings} "
+                         f"({MARGIN:g} x the largest swing recorded, at least {GATE_FLOOR_K:g} K)")
     lines += [f"  {note}" for s in (*model.inputs, model.target) if (note := renaming_note(s.column, s.name))]
     if "one_step_rmse_K" in model.fit:  # an identified model: how far its temperatures are from the readings
         names = [s.name for s in model.signals("temperature")]
