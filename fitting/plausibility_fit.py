@@ -14,7 +14,7 @@ import numpy as np
 
 from thermoplc.models.envelope import round_up
 from thermoplc.models.modelfile import Model
-from thermoplc.models.kinds import held_temperatures
+from thermoplc.models.kinds import checked_temperatures
 from thermoplc.models.plausibility import GATE_FLOOR_K, MARGIN, Plausibility, deviations, swing_factors
 from thermoplc.models.reference import model_inputs
 from thermoplc.recordings.table import Table
@@ -22,7 +22,7 @@ from thermoplc.recordings.table import Table
 
 def fit_plausibility(model: Model, tables: list[Table], n_train: list[int]) -> Plausibility | None:
     """The relations of `model`'s checked temperatures, None with fewer than two or without usable rows."""
-    names = held_temperatures(model)
+    names = checked_temperatures(model)
     if len(names) < 2:
         return None
     readings = [np.column_stack([np.asarray(model_inputs(model, t)[name], np.float64) for name in names])

@@ -71,7 +71,7 @@ def _check(model: Model) -> Check | None:
     if model.plausibility is None:
         return None
     index = {g.name: g.index for g in guards(model)}
-    held = {name: f"Good_{k}" for name, k in index.items()}
+    held = {g.name: f"{'LastIn' if g.kind == 'fused' else 'Good'}_{g.index}" for g in guards(model)}
     names = plausibility_names(model)
     relations, comments = [], {}
     for r in model.plausibility.relations:

@@ -64,10 +64,10 @@ def _guard_region(g: Guard, fault: str, stuck: bool) -> Region:
     low, high = Ref(limit_name(g.low)), Ref(limit_name(g.high))
     in_range = Assign(ok.name, BinOp("AND", BinOp(">=", x, low), BinOp("<=", x, high)))
     last = f"LastIn_{g.index}"
-    if g.kind == "fused":  # a stuck reading is no reading for the filter
+    if g.kind == "fused":  # a stuck reading is no reading for the filter; LastIn_i is what the cross-sensor check reads
         repeats = (_repeats(g, remember=True),
                    Assign(ok.name, BinOp("AND", ok, BinOp("<", Ref(f"Same_{g.index}"), Ref("c_StuckCalls"))))
-                   ) if stuck else ()
+                   ) if stuck else (If(((ok, (Assign(last, x),)),)),)
         return Region(f"Input {g.index} {g.name}: range{' and stuck' if stuck else ''} check (the filter decides the "
                       f"fault)", (in_range, *repeats, If(((Unary("NOT", Ref(READY_OUTPUT)),
                                                            (Assign(fault, Unary("NOT", ok)),)),))))
@@ -178,7 +178,7 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
                *checked.get("statics", ())]
     stuck = limits.stuck_calls is not None
     for g in plan:
-        if g.kind == "temperature" or g.kind == "fused" and stuck:
+        if g.kind in ("temperature", "fused"):
             statics.append(Var(f"LastIn_{g.index}", "REAL", f"{g.name}: last reading in range"))
         if g.kind == "temperature":
             statics.append(Var(f"Settle_{g.index}", "INT", f"{g.name}: steady calls while faulty"))

@@ -26,10 +26,10 @@ from thermoplc.base.compiled import jit
 
 # ---------------------------------------------------------------------------------------------
 # Stuck reading: per call, whether a temperature has repeated its last reading in range `stuck` calls in a
-# row (models/safety.py::stuck_readings). state_f = last reading in range; state_i = repeats.
+# row, and that last reading (models/safety.py::stuck_readings). state_f = last reading in range; state_i = repeats.
 
 @jit
-def _repeats(x, valid, stuck, state_f, state_i, out):
+def _repeats(x, valid, stuck, state_f, state_i, out, lasts):
     last = state_f[0]
     same = state_i[0]
     for j in range(x.shape[0]):
@@ -41,6 +41,7 @@ def _repeats(x, valid, stuck, state_f, state_i, out):
                 same = 0
             last = x[j]
         out[j] = same >= stuck
+        lasts[j] = last
     state_f[0] = last
     state_i[0] = same
 
@@ -52,14 +53,15 @@ class RepeatState:
 
 
 def repeats(x, valid, stuck: int, f, compiled_loop: bool, state: RepeatState | None = None):
-    """Per call, whether the reading is stuck (`stuck` repeats of the last in-range reading); `compiled_loop`
-    False runs the same loop as Python (the oracle)."""
+    """Per call, whether the reading is stuck (`stuck` repeats of the last in-range reading) and that last
+    in-range reading (the block's LastIn_i); `compiled_loop` False runs the same loop as Python (the oracle)."""
     state = state or RepeatState(f)
     out = np.zeros(len(x), np.bool_)
+    lasts = np.zeros(len(x), f)
     loop = _repeats if compiled_loop else getattr(_repeats, "py_func", _repeats)
     loop(np.ascontiguousarray(x, f), np.ascontiguousarray(valid, np.bool_), np.int64(stuck), state.values,
-         state.counts, out)
-    return out
+         state.counts, out, lasts)
+    return out, lasts
 
 
 # ---------------------------------------------------------------------------------------------

@@ -53,8 +53,8 @@ def kind_of(name: str) -> Kind:
     return registry()[name]
 
 
-def held_temperatures(model) -> list[str]:
-    """The temperatures the block guards and holds itself, in block order (a kind whose filter judges its own,
-    the Kalman filter, holds only its ambient): what the cross-sensor check reads (models/plausibility.py)."""
+def checked_temperatures(model) -> list[str]:
+    """The temperatures the cross-sensor check reads (models/plausibility.py), in block order: every temperature
+    input, as the block holds it or, where a filter judges its own (the Kalman filter), as last read in range."""
     fused = kind_of(model.kind).fused_guards
-    return [s.name for s in model.inputs if guard_kind(s.role, fused) == "temperature"]
+    return [s.name for s in model.inputs if guard_kind(s.role, fused) in ("temperature", "fused")]

@@ -165,12 +165,15 @@ def stuck_checked(model: Model) -> list[str]:
     return [g.name for g in guards(model) if g.kind in ("temperature", "fused")]
 
 
-def stuck_readings(x: np.ndarray, valid: np.ndarray, limits: Limits, f, state=None) -> np.ndarray:
+NEVER_STUCK = 2 ** 62  # repeats counted for a block generated before the stuck check: none is ever enough
+
+
+def stuck_readings(x: np.ndarray, valid: np.ndarray, limits: Limits, f, state=None) -> tuple[np.ndarray, np.ndarray]:
     """Per call, whether a temperature has repeated its last reading in range `limits.stuck_calls` times in a row
-    (never, for a block generated before the check); `state` carries the count from one chunk to the next."""
-    if limits.stuck_calls is None:
-        return np.zeros(len(x), bool)
-    return kernels.repeats(x, valid, limits.stuck_calls, f, compiled.enabled(len(x)), state)
+    (never, for a block generated before the check), and that last reading in range (what the cross-sensor check
+    reads of a temperature a filter judges itself); `state` carries both from one chunk to the next."""
+    stuck = NEVER_STUCK if limits.stuck_calls is None else limits.stuck_calls
+    return kernels.repeats(x, valid, stuck, f, compiled.enabled(len(x)), state)
 
 
 def limited_outputs(core: dict) -> list[str]:
@@ -247,6 +250,13 @@ def sensors_disagree(model: Model, held: dict, start: int, limits: Limits, preci
     return {DISAGREE: flag}
 
 
+def checked_values(plan, core_inputs: dict, repeated: dict) -> dict:
+    """Per temperature, the value the cross-sensor check reads: the block's held value (Good_i), or for one a filter
+    judges itself its last reading in range (LastIn_i; `repeated`: stuck_readings' pair per temperature)."""
+    return {g.name: repeated[g.name][1] if g.kind == "fused" else core_inputs[g.name]
+            for g in plan if g.kind != "range"}
+
+
 def fault_flags(plan, valid: dict, faults: dict, core: dict | None, start: int) -> dict:
     """Each input's fault flag per call, under fault_key(input): the guard's flag, or for a fused input
     its range check before the model starts (call `start`) and the filter's verdict after."""
@@ -275,7 +285,8 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     raw = {g.name: np.asarray(inputs[g.name], f) for g in plan}
     with np.errstate(invalid="ignore"):
         valid = {g.name: (raw[g.name] >= f(constants[g.low])) & (raw[g.name] <= f(constants[g.high])) for g in plan}
-    stuck = {g.name: stuck_readings(raw[g.name], valid[g.name], limits, f) for g in plan if g.kind != "range"}
+    repeated = {g.name: stuck_readings(raw[g.name], valid[g.name], limits, f) for g in plan if g.kind != "range"}
+    stuck = {name: flags for name, (flags, _) in repeated.items()}
     for g in plan:
         if g.kind == "fused":  # a stuck reading is no reading for the model's own filter
             valid[g.name] = valid[g.name] & ~stuck[g.name]
@@ -294,7 +305,7 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     core = core_predict(model, running, precision, fused_valid) if ready_row < rows else None
     names = limited_outputs(core) if core is not None else real_outputs_of(model, core_predict, precision)
     flags = fault_flags(plan, valid, faults, core, ready_row)
-    status = sensors_disagree(model, core_inputs, ready_row, limits, precision)
+    status = sensors_disagree(model, checked_values(plan, core_inputs, repeated), ready_row, limits, precision)
     core = held_while_faulty(core, names, {**flags, **status}, ready_row, limits, precision)
     probing = {}
     if model.probe is not None:

@@ -20,9 +20,9 @@ from thermoplc.models.kinds import kind_of
 from thermoplc.models.modelfile import Model
 from thermoplc.models.plausibility import CheckState
 from thermoplc.models.reference import guarded_core, with_start
-from thermoplc.models.safety import (CLAMPED, ENABLED, INVALID, LIMITED, READY, Limits, axis_outputs, fault_flags,
-                                     guards, held_while_faulty, k0_key, real_outputs_of, sensors_disagree,
-                                     stuck_readings)
+from thermoplc.models.safety import (CLAMPED, ENABLED, INVALID, LIMITED, READY, Limits, axis_outputs, checked_values,
+                                     fault_flags, guards, held_while_faulty, k0_key, real_outputs_of,
+                                     sensors_disagree, stuck_readings)
 
 NOT_YET = np.iinfo(np.int64).max  # the ready row before any call had every input in range
 
@@ -85,8 +85,9 @@ class StreamingReference:
         raw = {g.name: np.asarray(inputs[g.name], f) for g in self.plan}
         valid = {g.name: (raw[g.name] >= f(constants[g.low])) & (raw[g.name] <= f(constants[g.high]))
                  for g in self.plan}
-        stuck = {name: stuck_readings(raw[name], valid[name], self.limits, f, state)
-                 for name, state in self.repeats.items()}
+        repeated = {name: stuck_readings(raw[name], valid[name], self.limits, f, state)
+                    for name, state in self.repeats.items()}
+        stuck = {name: flags for name, (flags, _) in repeated.items()}
         for g in self.plan:
             if g.kind == "fused":  # a stuck reading is no reading for the model's own filter
                 valid[g.name] = valid[g.name] & ~stuck[g.name]
@@ -109,7 +110,8 @@ class StreamingReference:
             fused_valid = {g.name: valid[g.name][local:] for g in self.plan if g.kind == "fused"}
             core = with_start(self.model, self.core(running, fused_valid), self.precision, self.start_state)
         flags = fault_flags(self.plan, valid, faults, core, local)
-        status = sensors_disagree(self.model, core_inputs, local, self.limits, self.precision, self.disagree_state)
+        status = sensors_disagree(self.model, checked_values(self.plan, core_inputs, repeated), local, self.limits,
+                                  self.precision, self.disagree_state)
         core = held_while_faulty(core, self.names, {**flags, **status}, local, self.limits, self.precision,
                                  self.hold_states)
         out = {}

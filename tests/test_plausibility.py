@@ -81,8 +81,9 @@ def test_the_swing_loop_is_the_same_compiled_and_as_python(precision):
     assert np.array_equal(runs["slow"], runs["fast"])
 
 
-def test_the_golden_block_never_flags_its_own_recording_and_a_drifting_sensor_holds_it(tmp_path):
-    model = load_model(GOLDEN / "mlr.json")
+@pytest.mark.parametrize("kind", ["mlr", "kalman"])
+def test_the_golden_block_never_flags_its_own_recording_and_a_drifting_sensor_holds_it(tmp_path, kind):
+    model = load_model(GOLDEN / f"{kind}.json")
     table = read_table(golden_twin_csv(tmp_path))
     inputs = model_inputs(model, table)
     limits = Limits.for_model(model)
@@ -200,9 +201,9 @@ def test_a_bad_plausibility_section_is_named_by_its_field(tmp_path, edit, expect
     assert expected in str(caught.value)
 
 
-def test_fit_writes_the_relations_of_the_guarded_temperatures_only(tmp_path):
-    kalman = load_model(GOLDEN / "kalman.json")  # its filter judges T_motor and T_bearing; only T_env is held
-    assert kalman.plausibility is None
+def test_fit_writes_the_relations_of_every_temperature(tmp_path):
+    kalman = load_model(GOLDEN / "kalman.json")  # its filter judges T_motor and T_bearing: read as last in range
+    assert kalman.plausibility.sensors() == ["T_motor", "T_bearing", "T_env"]
     lumped = load_model(GOLDEN / "lumped.json")
     assert lumped.plausibility.sensors() == ["T_motor", "T_bearing", "T_env"]
     assert replace(lumped, plausibility=None).fingerprint() != lumped.fingerprint()

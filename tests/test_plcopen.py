@@ -655,7 +655,7 @@ def test_generate_stress_replays_the_xml_it_writes_not_the_iec_text_beside_it(mo
     rendered = pipeline.render_plcopen
     monkeypatch.setattr(pipeline, "render_plcopen", lambda block, version: rendered(block, version).replace(
         "Model_1 := c_beta0 +", "Model_1 := 1.0E38 * 1.0E38 * c_beta0 +"))
-    with pytest.raises(UserError, match=r"mlr\.json: .*\(stress replay\): ThermalComp\.xml:495:20: Inf \('\*' gives \+Inf\)"):
+    with pytest.raises(UserError, match=r"mlr\.json: .*\(stress replay\): ThermalComp\.xml:575:20: Inf \('\*' gives \+Inf\)"):
         pipeline.generate(load_model(str(GOLDEN / "mlr.json")), "mlr.json", dialect="iec", plcopen=True,
                           output="ThermalComp.xml")
 
