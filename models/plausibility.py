@@ -33,10 +33,11 @@ must read steadily (`generate --settle-calls`): a drift that swings back through
 set, where a bit that followed each crossing let the block run free in between (FL_THERMAL's fused mlr with the
 sine on `t8_C`: flagged, and still 120 um from the drift where no compensation is 71).
 
-fitted by least squares on the training rows (fitting/plausibility_fit.py); the gate is MARGIN (2) times the
+Fitted by least squares on the training rows (fitting/plausibility_fit.py); the gate is MARGIN (2) times the
 largest |difference| over every row of the recording, rounded up to two significant digits, at least GATE_FLOOR_K. The
-inputs are the held values of the temperatures the block guards itself (a Kalman filter judges its own), after
-the guards, from the block's first running call; Reset clears the bit like every state. While the bit is set
+inputs are every temperature's value after the guards, from the block's first running call: its held value,
+or for a temperature a Kalman filter judges itself its last reading in range (the filter smooths a slow drift
+into its estimate, so only the reading shows it); Reset clears the bit like every state. While the bit is set
 the fault hold keeps every output near its value before, fading to no compensation (models/fault_hold.py).
 
 Where a sensor cannot be told from the others the gate says so by its width: on FL_THERMAL `t8_C` and `t11_C`
