@@ -36,9 +36,13 @@ SETTLE_CALLS = 30  # generate's default
 DRIFTS = [k for k in FAULT_KINDS if k.name in ("sine", "offset")]
 
 
+AMBIENT = ("t6_C", "T_env")  # the hall air of FL_THERMAL and of the twin: no slope of any relation
+
+
 def probe_model(sensors: tuple[str, ...]) -> Model:
     """A model that reads these temperatures (the check needs no more of it)."""
-    return Model(kind="mlr", block_name="Check", inputs=tuple(Signal(n, n, "temperature", "degC") for n in sensors),
+    role = lambda name: "ambient" if name in AMBIENT else "temperature"
+    return Model(kind="mlr", block_name="Check", inputs=tuple(Signal(n, n, role(n), "degC") for n in sensors),
                  target=Signal("d", "d", "target", "um"), time_column="time_s", sample_period_s=15.0, coefficients={})
 
 
@@ -57,7 +61,8 @@ def judge(label: str, sensors: tuple[str, ...], fit_on: Table, train_rows: int, 
     every = fit_plausibility(model, [fit_on], [train_rows])
     trained = fit_plausibility(model, [Table(fit_on.path, {k: v[:train_rows] for k, v in fit_on.columns.items()},
                                              fit_on.sha256, fit_on.lines[:train_rows])], [train_rows])
-    gates = ", ".join(f"{r.sensor} {r.gate_K[0]:g}/{r.swing_K[0]:g} ({t.gate_K[0]:g}/{t.swing_K[0]:g})"
+    level = lambda r: f"{r.gate_K[0]:g}" if r.gate_K is not None else "-"
+    gates = ", ".join(f"{r.sensor} {level(r)}/{r.swing_K[0]:g} ({level(t)}/{t.swing_K[0]:g})"
                       for r, t in zip(every.relations, trained.relations))
     print(f"{label}: gates K, level/swing, every row (training rows): {gates}")
     for name, table, first in judged:

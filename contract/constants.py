@@ -132,8 +132,9 @@ def plausibility_constants(model: Model) -> dict:
         intercept, slopes, gate, quiet, swing, swing_quiet = names[r.sensor]
         out[intercept] = r.intercept[1]
         out.update({slopes[name]: slope[1] for name, slope in r.slopes})
-        out[gate] = r.gate_K[1]
-        out[quiet] = quiet_K(r)
+        if r.gate_K is not None:
+            out[gate] = r.gate_K[1]
+            out[quiet] = quiet_K(r)
         if model.plausibility.swings:
             out[swing] = r.swing_K[1]
             out[swing_quiet] = swing_quiet_K(r)

@@ -73,36 +73,47 @@ def _check(model: Model) -> Check | None:
     index = {g.name: g.index for g in guards(model)}
     held = {g.name: f"{'LastIn' if g.kind == 'fused' else 'Good'}_{g.index}" for g in guards(model)}
     names = plausibility_names(model)
+    swings = model.plausibility.swings
     relations, comments = [], {}
     for r in model.plausibility.relations:
         intercept, slopes, gate, quiet, swing, swing_quiet = names[r.sensor]
-        others = ", ".join(name for name, _ in r.slopes)
-        swings = model.plausibility.swings
+        level = r.gate_K is not None
         relations.append(PlausibleRelation(held[r.sensor], intercept, tuple((held[name], slopes[name])
-                                                                            for name, _ in r.slopes), gate, quiet,
+                                                                            for name, _ in r.slopes),
+                                           gate if level else None, quiet if level else None,
                                            (swing, swing_quiet, f"PlausMean_{index[r.sensor]}")
                                            if swings else None, r.sensor))
-        if swings:
-            comments[swing] = (f"{r.sensor}'s difference leaving its {SWING_S / 60:g}-min mean by more than this sets "
-                               f"SensorsDisagree, K: {MARGIN:g} x the largest swing recorded, {r.largest_swing_K:.3g} "
-                               f"K, rounded up" + (f", at least {GATE_FLOOR_K:g} K" if r.swing_K[0] <= GATE_FLOOR_K
-                                                   else ""))
-            comments[swing_quiet] = f"{r.sensor}'s swing inside this (half its gate) counts as steady again, K"
-            comments[SWING_KEEP] = (f"share of its slow mean each difference's mean keeps per call: "
-                                    f"exp(-{model.sample_period_s:g} s / {SWING_S:g} s)")
-            comments[SWING_ALPHA] = (f"share of each new difference the slow means take per call: "
-                                     f"1 - exp(-{model.sample_period_s:g} s / {SWING_S:g} s)")
-        comments[quiet] = (f"{r.sensor} inside this (half the gate) counts as agreeing again, K; SensorsDisagree "
-                           f"clears after c_SettleCalls such calls")
-        comments[intercept] = f"{r.sensor} as the others say it should read: this, K"
-        comments.update({slopes[name]: f"... plus this times {name}, K per K" for name, _ in r.slopes})
+        comments.update(_check_comments(model, r, names[r.sensor]))
+    return Check(tuple(relations), plausibility_constants(model), comments,
+                 (SWING_KEEP, SWING_ALPHA) if swings else None)
+
+
+def _check_comments(model: Model, r, names: tuple) -> dict:
+    """What each constant of one relation of the cross-sensor check is, and how it was chosen."""
+    intercept, slopes, gate, quiet, swing, swing_quiet = names
+    others = ", ".join(name for name, _ in r.slopes)
+    comments = {intercept: (f"{r.sensor} as the others say it should read: this, K" if r.slopes else
+                            f"{r.sensor}'s mean reading recorded, K: the others do not tell it, only its swing is checked"),
+                **{slopes[name]: f"... plus this times {name}, K per K" for name, _ in r.slopes}}
+    if r.gate_K is not None:
         recorded = f"{MARGIN:g} x the largest difference recorded, {r.largest_K:.3g} K, rounded up"
         comments[gate] = (f"{r.sensor} further than this from what {others} {'says' if len(r.slopes) == 1 else 'say'} "
                           f"sets SensorsDisagree, K: "
                           + (recorded if r.gate_K[0] > GATE_FLOOR_K else f"at least {GATE_FLOOR_K:g} K ({recorded} "
                                                                          f"is less)"))
-    return Check(tuple(relations), plausibility_constants(model), comments,
-                 (SWING_KEEP, SWING_ALPHA) if model.plausibility.swings else None)
+        comments[quiet] = (f"{r.sensor} inside this (half the gate) counts as agreeing again, K; SensorsDisagree "
+                           f"clears after c_SettleCalls such calls")
+    if r.swing_K is not None:
+        comments[swing] = (f"{r.sensor}'s difference leaving its {SWING_S / 60:g}-min mean by more than this sets "
+                           f"SensorsDisagree, K: {MARGIN:g} x the largest swing recorded, {r.largest_swing_K:.3g} "
+                           f"K, rounded up" + (f", at least {GATE_FLOOR_K:g} K" if r.swing_K[0] <= GATE_FLOOR_K
+                                               else ""))
+        comments[swing_quiet] = f"{r.sensor}'s swing inside this (half its gate) counts as steady again, K"
+        comments[SWING_KEEP] = (f"share of its slow mean each difference's mean keeps per call: "
+                                f"exp(-{model.sample_period_s:g} s / {SWING_S:g} s)")
+        comments[SWING_ALPHA] = (f"share of each new difference the slow means take per call: "
+                                 f"1 - exp(-{model.sample_period_s:g} s / {SWING_S:g} s)")
+    return comments
 
 
 def _refuse_unread_inputs(model: Model, core: Block) -> None:

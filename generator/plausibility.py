@@ -23,8 +23,8 @@ class Relation:
     held: str
     intercept: str
     slopes: tuple[tuple[str, str], ...]  # (held value of the other input, slope constant)
-    gate: str
-    quiet: str
+    gate: str | None  # None: no level test (a relation without slopes)
+    quiet: str | None
     swing: tuple[str, str, str] | None  # the swing gate's and swing quiet's constants, the slow mean's static
     label: str = ""  # the input's name, for the comments
 
@@ -44,7 +44,8 @@ def check_region(check: Check) -> Region:
     for r in check.relations:
         expected = reduce(lambda total, term: BinOp("+", total, BinOp("*", Ref(term[1]), Ref(term[0]))), r.slopes,
                           Ref(r.intercept))
-        tests += [Assign(DIFFERENCE, BinOp("-", Ref(r.held), expected)), *_beyond(DIFFERENCE, r.gate, r.quiet)]
+        tests += [Assign(DIFFERENCE, BinOp("-", Ref(r.held), expected)),
+                  *(_beyond(DIFFERENCE, r.gate, r.quiet) if r.gate else ())]
         if r.swing:
             gate, quiet, mean = r.swing
             keep, alpha = check.factors

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from thermoplc.base.identifiers import identifier_problem
 from thermoplc.physics.effects import NAMES as EFFECT_NAMES
-from thermoplc.models.kinds import checked_temperatures, kind_of, registry
+from thermoplc.models.kinds import checked_temperatures, driving_temperatures, kind_of, registry
 from thermoplc.models.model import COMBINED_ROLE, FORMAT, ROLES, SCHEMA_VERSION, Coefficient, Model, Signal
 from thermoplc.models.probing import Fusion
 from thermoplc.models.envelope import Envelope
@@ -61,7 +61,8 @@ def load_model(path: str | Path) -> Model:
     _check_shape(model, path)
     if "plausibility" in doc:  # after the inputs are known good: it names them
         model = replace(model, plausibility=Plausibility.from_doc(doc["plausibility"], path,
-                                                                  checked_temperatures(model)))
+                                                                  checked_temperatures(model),
+                                                                  driving_temperatures(model)))
     return model
 
 

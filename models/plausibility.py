@@ -72,8 +72,8 @@ class Relation:
     sensor: str
     intercept: tuple[float, float]
     slopes: tuple[tuple[str, tuple[float, float]], ...]
-    gate_K: tuple[float, float]
-    largest_K: float
+    gate_K: tuple[float, float] | None  # None: no level test (a relation without slopes)
+    largest_K: float | None
     swing_K: tuple[float, float] | None = None
     largest_swing_K: float | None = None
 
@@ -82,8 +82,8 @@ class Relation:
         swing = ({"swing_K": pair(self.swing_K), "largest_swing_K": self.largest_swing_K}
                  if self.swing_K is not None else {})
         return {"sensor": self.sensor, "intercept": pair(self.intercept),
-                "slopes": {name: pair(p) for name, p in self.slopes}, "gate_K": pair(self.gate_K),
-                "largest_K": self.largest_K, **swing}
+                "slopes": {name: pair(p) for name, p in self.slopes},
+                "gate_K": pair(self.gate_K) if self.gate_K is not None else None, "largest_K": self.largest_K, **swing}
 
 
 @dataclass(frozen=True)
@@ -93,10 +93,13 @@ class Plausibility:
     @staticmethod
     def of(relations: list[tuple]) -> "Plausibility":
         """From (sensor, intercept, [(other, slope)], gate, largest[, swing gate, largest swing]) in float64: without
-        the last two, a check without the swing test (as a model file from before it)."""
+        the last two, a check without the swing test (as a model file from before it); gate and largest None for a
+        relation without slopes (no level test)."""
         pair = lambda v: (float(v), round_f32(float(v)))
-        return Plausibility(tuple(Relation(sensor, pair(a), tuple((name, pair(b)) for name, b in slopes), pair(gate),
-                                           float(largest), *((pair(swing[0]), float(swing[1])) if swing else ()))
+        return Plausibility(tuple(Relation(sensor, pair(a), tuple((name, pair(b)) for name, b in slopes),
+                                           pair(gate) if gate is not None else None,
+                                           float(largest) if largest is not None else None,
+                                           *((pair(swing[0]), float(swing[1])) if swing else ()))
                                   for sensor, a, slopes, gate, largest, *swing in relations))
 
     def sensors(self) -> list[str]:
@@ -111,16 +114,19 @@ class Plausibility:
         return [r.to_doc() for r in self.relations]
 
     @staticmethod
-    def from_doc(doc, path: str, temperatures: list[str]) -> "Plausibility":
+    def from_doc(doc, path: str, temperatures: list[str], drivers: list[str]) -> "Plausibility":
         """The model file's `plausibility` section; each relation must name checked temperatures of the model
-        (`temperatures`, in block order) and take every other one as a slope."""
+        (`temperatures`, in block order) and take every other one as a slope; with the swing test, `drivers` (the
+        ambient: it drives the machine, it does not follow it) take no slope and have no level gate (null)."""
         if not isinstance(doc, list) or len(doc) < 2:
             raise UserError(f"{path}: field 'plausibility': expected a list of two or more relations, one per "
                             f"checked temperature")
         relations = []
         keys = {"sensor", "intercept", "slopes", "gate_K", "largest_K"}
-        if isinstance(doc[0], dict) and "swing_K" in doc[0]:  # fitted with the swing test: every relation has it
+        swings = isinstance(doc[0], dict) and "swing_K" in doc[0]  # fitted with the swing test: every relation has it
+        if swings:
             keys |= {"swing_K", "largest_swing_K"}
+        followers = [name for name in temperatures if not (swings and name in drivers)]
         for k, entry in enumerate(doc):
             where = f"plausibility[{k}]"
             if not isinstance(entry, dict) or set(entry) != keys:
@@ -130,26 +136,43 @@ class Plausibility:
             if sensor not in temperatures or sensor in [r.sensor for r in relations]:
                 raise UserError(f"{path}: field '{where}.sensor': {sensor!r}; expected one of the temperatures the "
                                 f"block checks ({', '.join(temperatures)}), each once")
-            others = [name for name in temperatures if name != sensor]
+            others = [name for name in followers if name != sensor] if sensor in followers else []
             slopes = entry["slopes"]
             if not isinstance(slopes, dict) or list(slopes) != others:
                 raise UserError(f"{path}: field '{where}.slopes': expected one slope for each of {', '.join(others)}, "
-                                f"in that order")
-            gate = constant_pair(entry["gate_K"], path, f"{where}.gate_K")
-            largest = entry["largest_K"]
-            if not GATE_FLOOR_K <= gate[1] <= 1e3:
-                raise UserError(f"{path}: field '{where}.gate_K': {gate[0]!r}; expected {GATE_FLOOR_K:g} to 1000 K")
-            if isinstance(largest, bool) or not isinstance(largest, (int, float)) or not 0 <= largest <= gate[0]:
-                raise UserError(f"{path}: field '{where}.largest_K': {largest!r}; expected the largest difference "
-                                f"recorded, 0 to the gate")
+                                f"in that order" if others else
+                                f"{path}: field '{where}.slopes': expected none ({{}}): no other temperature the "
+                                f"block checks follows {sensor} as a machine's sensors follow each other")
+            level = _level(entry, path, where) if others else _no_level(entry, path, where)
             relations.append(Relation(sensor, _bounded(entry["intercept"], path, f"{where}.intercept"),
                                       tuple((name, _bounded(slopes[name], path, f"{where}.slopes.{name}"))
-                                            for name in others), gate, float(largest),
-                                      *(_swing(entry, path, where) if "swing_K" in keys else ())))
+                                            for name in others), *level,
+                                      *(_swing(entry, path, where) if swings else ())))
         if [r.sensor for r in relations] != temperatures:
             raise UserError(f"{path}: field 'plausibility': expected one relation for each of {', '.join(temperatures)}, "
                             f"in that order; it has {', '.join(r.sensor for r in relations)}")
         return Plausibility(tuple(relations))
+
+
+def _level(entry: dict, path: str, where: str) -> tuple[tuple[float, float], float]:
+    """A relation's level gate and the largest difference recorded."""
+    gate = constant_pair(entry["gate_K"], path, f"{where}.gate_K")
+    largest = entry["largest_K"]
+    if not GATE_FLOOR_K <= gate[1] <= 1e3:
+        raise UserError(f"{path}: field '{where}.gate_K': {gate[0]!r}; expected {GATE_FLOOR_K:g} to 1000 K")
+    if isinstance(largest, bool) or not isinstance(largest, (int, float)) or not 0 <= largest <= gate[0]:
+        raise UserError(f"{path}: field '{where}.largest_K': {largest!r}; expected the largest difference "
+                        f"recorded, 0 to the gate")
+    return gate, float(largest)
+
+
+def _no_level(entry: dict, path: str, where: str) -> tuple[None, None]:
+    """A relation without slopes has no level test: a gate on a reading alone would be a range check."""
+    for field in ("gate_K", "largest_K"):
+        if entry[field] is not None:
+            raise UserError(f"{path}: field '{where}.{field}': {entry[field]!r}; expected null: a relation without "
+                            f"slopes has no level test")
+    return None, None
 
 
 def _swing(entry: dict, path: str, where: str) -> tuple[tuple[float, float], float]:
@@ -216,8 +239,9 @@ def disagree(plausibility: Plausibility, values: dict, settle_calls: int, sample
             expected = expected + pick(slope) * np.asarray(values[name], f)
         difference = np.asarray(values[relation.sensor], f) - expected
         with np.errstate(invalid="ignore"):
-            far |= np.abs(difference) > pick(relation.gate_K)
-            quiet &= np.abs(difference) <= f(quiet_K(relation, precision))
+            if relation.gate_K is not None:
+                far |= np.abs(difference) > pick(relation.gate_K)
+                quiet &= np.abs(difference) <= f(quiet_K(relation, precision))
             if plausibility.swings:
                 swing = deviations(difference, keep, alpha, state.flags[2] != 0, state.means[k:k + 1], compiled_loop)
                 far |= swing > pick(relation.swing_K)

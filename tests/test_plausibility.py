@@ -160,6 +160,21 @@ def test_a_model_file_from_before_the_swing_test_generates_without_it_and_verifi
     thermoplc("verify", "m.scl", "--model", "m.json", "--data", golden_twin_csv(tmp_path), "--faults", cwd=tmp_path)
 
 
+def test_a_model_file_from_before_the_swing_test_keeps_its_ambient_in_the_relations(tmp_path):
+    doc = json.loads((GOLDEN / "lumped.json").read_text())  # as fitted before: every other temperature a slope
+    zero, names = {"f64": 0.0, "f32": "0x00000000"}, ["T_motor", "T_bearing", "T_env"]
+    for relation in doc["plausibility"]:
+        del relation["swing_K"], relation["largest_swing_K"]
+        relation["slopes"] = {name: relation["slopes"].get(name, zero) for name in names if name != relation["sensor"]}
+        relation["gate_K"] = relation["gate_K"] or {"f64": 4.0, "f32": "0x40800000"}
+        relation["largest_K"] = relation["largest_K"] or 1.0
+    (tmp_path / "m.json").write_text(json.dumps(doc))
+    model = load_model(tmp_path / "m.json")
+    assert not model.plausibility.swings and len(model.plausibility.relations[2].slopes) == 2
+    thermoplc("generate", "m.json", "-o", "m.scl", cwd=tmp_path)
+    assert "c_PlausB_1_4" in (tmp_path / "m.scl").read_text()  # T_motor's relation takes T_env (input 4)
+
+
 def test_a_model_file_without_the_check_has_no_bit_and_its_block_verifies(tmp_path):
     doc = json.loads((GOLDEN / "mlr.json").read_text())
     del doc["plausibility"]
@@ -194,6 +209,30 @@ def test_an_input_named_like_the_status_bit_is_refused(tmp_path):
 ])
 def test_a_bad_plausibility_section_is_named_by_its_field(tmp_path, edit, expected):
     doc = json.loads((GOLDEN / "mlr.json").read_text())
+    edit(doc["plausibility"])
+    (tmp_path / "m.json").write_text(json.dumps(doc))
+    with pytest.raises(UserError) as caught:
+        load_model(tmp_path / "m.json")
+    assert expected in str(caught.value)
+
+
+def test_the_ambient_is_no_slope_and_has_the_swing_test_alone():
+    lumped = load_model(GOLDEN / "lumped.json")  # T_env is its ambient: it drives the machine through hours of lag
+    relations = {r.sensor: r for r in lumped.plausibility.relations}
+    assert [name for name, _ in relations["T_motor"].slopes] == ["T_bearing"]
+    assert relations["T_env"].slopes == () and relations["T_env"].gate_K is None and relations["T_env"].swing_K
+
+
+@pytest.mark.parametrize("edit, expected", [
+    (lambda p: p[2].update(slopes={"T_motor": {"f64": 1.0, "f32": "0x3F800000"}}),
+     "field 'plausibility[2].slopes': expected none ({}): no other temperature the block checks follows T_env"),
+    (lambda p: p[2].update(gate_K={"f64": 2.0, "f32": "0x40000000"}),
+     "field 'plausibility[2].gate_K': {'f64': 2.0, 'f32': '0x40000000'}; expected null: a relation without slopes"),
+    (lambda p: p[0]["slopes"].update(T_env={"f64": 1.0, "f32": "0x3F800000"}),
+     "field 'plausibility[0].slopes': expected one slope for each of T_bearing, in that order"),
+])
+def test_a_bad_ambient_relation_is_named_by_its_field(tmp_path, edit, expected):
+    doc = json.loads((GOLDEN / "lumped.json").read_text())
     edit(doc["plausibility"])
     (tmp_path / "m.json").write_text(json.dumps(doc))
     with pytest.raises(UserError) as caught:

@@ -55,13 +55,18 @@ def format_fit(model, campaign=None) -> str:
         lines += format_probing(m["probing"])
     lines.append(f"  float32 block vs float64 model: max {m['float32_vs_float64_max_um']:.3g} um")
     if model.plausibility is not None:
-        gates = ", ".join(f"{r.sensor} {r.gate_K[0]:g} K" for r in model.plausibility.relations)
-        lines.append(f"  SensorsDisagree when a temperature is further from what the others say than: {gates} "
-                     f"({MARGIN:g} x the largest difference recorded, at least {GATE_FLOOR_K:g} K)")
+        relations = model.plausibility.relations
+        if gates := ", ".join(f"{r.sensor} {r.gate_K[0]:g} K" for r in relations if r.gate_K is not None):
+            lines.append(f"  SensorsDisagree when a temperature is further from what the others say than: {gates} "
+                         f"({MARGIN:g} x the largest difference recorded, at least {GATE_FLOOR_K:g} K)")
         if model.plausibility.swings:
-            swings = ", ".join(f"{r.sensor} {r.swing_K[0]:g} K" for r in model.plausibility.relations)
-            lines.append(f"  ... or when that difference leaves its {SWING_S / 60:g}-min mean by more than: {swings} "
-                         f"({MARGIN:g} x the largest swing recorded, at least {GATE_FLOOR_K:g} K)")
+            swings = ", ".join(f"{r.sensor} {r.swing_K[0]:g} K" for r in relations)
+            alone = [r.sensor for r in relations if not r.slopes]
+            lines.append(f"  {'... or' if gates else 'SensorsDisagree'} when that difference leaves its "
+                         f"{SWING_S / 60:g}-min mean by more than: {swings} ({MARGIN:g} x the largest swing recorded, "
+                         f"at least {GATE_FLOOR_K:g} K)"
+                         + (f"; {', '.join(alone)}: its reading against its own mean (an ambient drives the machine "
+                            f"through hours of lag, so no other temperature tells it)" if alone else ""))
     lines += [f"  {note}" for s in (*model.inputs, model.target) if (note := renaming_note(s.column, s.name))]
     if "one_step_rmse_K" in model.fit:  # an identified model: how far its temperatures are from the readings
         names = [s.name for s in model.signals("temperature")]
