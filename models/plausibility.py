@@ -7,6 +7,12 @@ the others, a drift of it shows as a difference no recording had. Per checked in
 inputs j in block order:
 
     expected_i = a_i + sum_j b_ij * x_j          (a_i first, then each term in order, binary32)
+
+The inputs j are the machine's own temperatures: an ambient (the hall air) drives the machine through hours of
+lag rather than following it, so it is no slope of any relation, and its own relation is its mean with no level
+test (gate None), as is a machine's only temperature beside an ambient: a gate on a reading alone would be a range
+check that a cold morning fails. With the ambient among the slopes, FL_THERMAL's cold first 6 h, held out, left
+the relation the other runs taught by more than its gate on 80 % of its calls.
     far   = |x_i - expected_i| > gate_i      for any i
     quiet = |x_i - expected_i| <= quiet_i    for every i    (quiet_i = gate_i / 2, a constant of its own)
     if far: SensorsDisagree := TRUE, Quiet := 0
