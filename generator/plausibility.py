@@ -77,9 +77,10 @@ def declarations(check: Check) -> dict:
     """The output, statics and temporaries the check adds."""
     swings = [r for r in check.relations if r.swing]
     return {"outputs": (Var(DISAGREE_OUTPUT, "BOOL", "a temperature differs from what the others say by more than "
-                                                     "its gate (twice the recording's largest difference): one of them "
-                                                     "is failing (the outputs are held as for a fault bit); wire it to "
-                                                     "a message"),),
+                                                     "its gate (twice the recording's largest difference)"
+                                                     + (", or that difference swings faster than recorded" if swings
+                                                        else "") + ": one of them is failing (the outputs are held as "
+                                                     "for a fault bit); wire it to a message"),),
             "statics": (Var(QUIET, "INT", "calls in a row every temperature agreed with the others again"),
                         *((Var(STARTED, "BOOL", "the slow means have started (from the first running call)"),)
                           if swings else ()),

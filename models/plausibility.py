@@ -67,6 +67,7 @@ MARGIN = 2.0  # chosen on the twin (seed 3: 1.5 x its first day's largest differ
 GATE_FLOOR_K = 0.5  # a probe's repeatability and a card's step: a gate below it would flag noise
 SWING_S = 600.0  # s, the slow mean's time constant: 300 and 600 s told the sine alike on FL_THERMAL and the twins
 # (seeds 3 and 7) with no false alarm held out; the longer one is the less sensitive to a card's steps
+FORGETS_AT = 40.0  # time constants per call beyond which the mean keeps nothing (exp(-40) = 4e-18)
 DISAGREE = "status:disagree"  # the reference's key of the status bit (contract/outputs.py names it)
 
 
@@ -196,7 +197,9 @@ def _swing(entry: dict, path: str, where: str) -> tuple[tuple[float, float], flo
 def swing_factors(sample_period_s: float, precision: str = "f32") -> tuple[float, float]:
     """The slow mean's (keep, alpha) per call: the share of the mean it keeps and the share of the new difference
     it takes, each as the block's REAL constant (f32) or in float64."""
-    keep, alpha = math.exp(-sample_period_s / SWING_S), -math.expm1(-sample_period_s / SWING_S)
+    per_call = sample_period_s / SWING_S  # time constants per call
+    keep = math.exp(-per_call) if per_call < FORGETS_AT else 0.0  # never a subnormal constant: the mean forgets all
+    alpha = -math.expm1(-per_call)
     return (round_f32(keep), round_f32(alpha)) if precision == "f32" else (keep, alpha)
 
 
