@@ -198,8 +198,8 @@ def test_generate_stats_reports_cost(workdir):
     if not (workdir / "a.json").exists():
         thermoplc(*FIT_KALMAN, "-o", "a.json", cwd=workdir)
     out = thermoplc("generate", "a.json", "-o", "s.scl", "--stats", cwd=workdir).stdout
-    assert "cost per call (worst-case path): 64 REAL/INT arithmetic operations (model 44, input guards and output limits 20)" in out
-    assert "state: 92 bytes" in out
+    assert "cost per call (worst-case path): 89 REAL/INT arithmetic operations (model 44, input guards and output limits 45)" in out
+    assert "state: 108 bytes" in out
 
 
 def test_fit_and_diagnose_write_no_model_file_that_cannot_become_a_block(tmp_path):

@@ -62,11 +62,11 @@ def format_fit(model, campaign=None) -> str:
         if model.plausibility.swings:
             swings = ", ".join(f"{r.sensor} {r.swing_K[0]:g} K" for r in relations)
             alone = [r.sensor for r in relations if not r.slopes]
-            lines.append(f"  {'... or' if gates else 'SensorsDisagree'} when that difference leaves its "
+            lines.append(f"  {'... or when that difference' if gates else 'SensorsDisagree when a reading'} leaves its "
                          f"{SWING_S / 60:g}-min mean by more than: {swings} ({MARGIN:g} x the largest swing recorded, "
                          f"at least {GATE_FLOOR_K:g} K)"
-                         + (f"; {', '.join(alone)}: its reading against its own mean (an ambient drives the machine "
-                            f"through hours of lag, so no other temperature tells it)" if alone else ""))
+                         + (f"; {', '.join(alone)}: its reading against its own mean (no other machine temperature "
+                            f"to tell it by; an ambient drives the machine through hours of lag)" if alone else ""))
     lines += [f"  {note}" for s in (*model.inputs, model.target) if (note := renaming_note(s.column, s.name))]
     if "one_step_rmse_K" in model.fit:  # an identified model: how far its temperatures are from the readings
         names = [s.name for s in model.signals("temperature")]
