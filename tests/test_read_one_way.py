@@ -113,9 +113,9 @@ def test_a_real_literal_that_rounds_two_ways_and_misplaced_underscores_are_refus
     (tmp_path / "under.st").write_text(st.replace("c_OutMax : REAL := 78.0;", "c_OutMax : REAL := 78_.0_;", 1))
     (tmp_path / "fine.st").write_text(st.replace("c_OutMax : REAL := 78.0;", "c_OutMax : REAL := 7_8.0;", 1))
     long = thermoplc("diff", GOLDEN / "mlr.iec.st", "long.st", cwd=tmp_path, check=2)
-    assert "long.st:62:24: REAL 9.608996868133544921874999999999 rounds to 9.608996391296387 straight to binary32 " \
+    assert "long.st:67:24: REAL 9.608996868133544921874999999999 rounds to 9.608996391296387 straight to binary32 " \
            "but to 9.608997344970703 through a double" in long.stderr
-    assert "under.st:72:26: syntax error" in thermoplc("diff", GOLDEN / "mlr.iec.st", "under.st", cwd=tmp_path,
+    assert "under.st:77:26: syntax error" in thermoplc("diff", GOLDEN / "mlr.iec.st", "under.st", cwd=tmp_path,
                                                        check=2).stderr
     thermoplc("diff", GOLDEN / "mlr.iec.st", "fine.st", cwd=tmp_path, check=0)
 

@@ -390,7 +390,7 @@ def test_a_block_that_fails_at_run_time_is_not_its_model(folder):
     assert text.count("c_K_1 : Int := 8;") == 1
     (folder / "k.scl").write_text(text.replace("c_K_1 : Int := 8;", "c_K_1 : Int := 9;"))
     data = golden_twin_csv(folder)
-    index = "k.scl:329:22: index 69 outside tab_Pred[0..63] at cycle 388"
+    index = "k.scl:370:22: index 69 outside tab_Pred[0..63] at cycle 388"
     for extra in ((), ("--faults",), ("--engine", "interp")):
         result = thermoplc("verify", "k.scl", "--model", GOLDEN / "bayes.json", "--data", data, *extra, cwd=folder)
         assert result.returncode == 1 and index in result.stdout and not result.stderr, result.stdout + result.stderr
