@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -16,6 +17,7 @@ from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits
 from thermoplc.models.streaming import StreamingReference
 from thermoplc.recordings.table import read_table
+from thermoplc.verifier.restarts import reset_after_step, reset_rows
 from tests.cli_runner import thermoplc
 from tests.golden_models import GOLDEN, golden_twin_csv
 
@@ -147,6 +149,60 @@ def test_a_block_without_the_swing_test_passes_verify_and_fails_verify_faults(tm
                        check=1)
     sine = next(line for line in failed.stdout.splitlines() if line.startswith("T_motor") and " sine: " in line)
     assert sine.split("degC")[-1].split()[0] == "NO"  # the sine is not bit-exact: the model flags it, the block not
+
+
+def _started_too_late(text: str) -> str:
+    """PlausStarted set after the first relation: the other relations' means never start at their difference."""
+    text = text.replace("\n\t        #PlausStarted := TRUE;", "", 1)
+    first = "\n\t        #PlausDev := #PlausDiff - #PlausMean_1;"
+    return text.replace(first, "\n\t        #PlausStarted := TRUE;" + first, 1)
+
+
+# hand edits that start the slow means wrong: each agrees with the model wherever the recording starts the block
+STARTS_PLANTED = {
+    "reset-keeps-started": lambda text: text.replace("\n\t        #PlausStarted := FALSE;", "", 1),
+    "no-start-at-difference": lambda text: re.sub(r"\n\t *IF NOT #PlausStarted THEN\n\t *#PlausMean_\d+ := #PlausDiff;"
+                                                  r"\n\t *END_IF;", "", text),
+    "started-too-late": _started_too_late,
+    "reset-keeps-the-mean": lambda text: re.sub(r"\n\t *#PlausMean_\d+ := #c_Zero;", "",
+                                                text.replace("\n\t        #PlausStarted := FALSE;", "", 1)),
+}
+
+
+@pytest.mark.parametrize("plant", STARTS_PLANTED)
+def test_a_block_that_starts_its_slow_means_wrong_passes_verify_and_fails_verify_faults(tmp_path, plant):
+    data = golden_twin_csv(tmp_path)
+    thermoplc("generate", GOLDEN / "mlr.json", "-o", "m.scl", cwd=tmp_path)
+    text = (tmp_path / "m.scl").read_text()
+    planted = STARTS_PLANTED[plant](text)
+    assert planted != text and "PlausStarted" in planted
+    (tmp_path / "p.scl").write_text(planted)
+    thermoplc("verify", "p.scl", "--model", GOLDEN / "mlr.json", "--data", data, cwd=tmp_path)
+    failed = thermoplc("verify", "p.scl", "--model", GOLDEN / "mlr.json", "--data", data, "--faults", cwd=tmp_path,
+                       check=1)
+    verdict = next(line for line in failed.stdout.splitlines() if "case(s) FAILED" in line)
+    assert "/reset-after" in verdict  # the Reset where a temperature differs most from what the others say
+
+
+def test_the_restart_cases_step_reset_and_swap_where_the_difference_is_largest():
+    model = load_model(GOLDEN / "mlr.json")
+    rows = 400
+    x1 = np.linspace(20, 30, rows).astype(np.float32)
+    relation_1, relation_2 = model.plausibility.relations
+    inputs = {relation_1.sensor: x1, relation_2.sensor: x1.copy()}
+    at = reset_rows(model, inputs, [relation_1.sensor, relation_2.sensor], 50, 7)
+    for relation in (relation_1, relation_2):
+        row, swapped = at[relation.sensor]
+        assert 51 <= row < rows
+        stepped, reset, first = reset_after_step(inputs[relation.sensor], row, 50, 5.0, swapped)
+        assert first == row - 50 and np.flatnonzero(reset).tolist() == [row]
+        moved = stepped.astype(np.float64) - inputs[relation.sensor]
+        assert np.all(moved[:first] == 0) and np.allclose(moved[first:row], 5.0, atol=1e-5)
+        assert np.allclose(moved[row:], swapped, atol=1e-5)
+        difference = (stepped[row] - relation.intercept[0]
+                      - sum(b[0] * inputs[name][row] for name, b in relation.slopes))
+        # beyond the swing gate (a mean a Reset zeroes shows), inside the level gate (the level test hides nothing)
+        assert relation.swing_K[0] < abs(difference) <= relation.gate_K[0]
 
 
 def test_a_model_file_from_before_the_swing_test_generates_without_it_and_verifies(tmp_path):

@@ -29,14 +29,18 @@ def test_every_fault_on_every_golden_block_stays_exact_finite_and_limited(kind, 
     assert report.constants_checked and not report.constant_errors and not report.unsafe
     cases = report.cases
     temperatures = [s for s in model.inputs if {"temperature", "ambient"} & set(s.role.split(","))]
-    assert len(cases) == len(FAULT_KINDS) * len(temperatures) + len(CONTROL_KINDS)  # sensors, then Enable/Reset
+    starts = 1 if model.plausibility is not None and model.plausibility.swings else 0  # late-start
+    # sensors, then Enable/Reset, then a Reset after a step on each sensor
+    assert len(cases) == (len(FAULT_KINDS) + 1) * len(temperatures) + len(CONTROL_KINDS) + starts
     assert [(c.sensor, c.kind.name) for c in cases if not (c.bit_exact and c.finite and c.within_clamp
                                                            and c.within_rate)] == []
     # judged against no compensation: only a slowly drifting sensor, which no guard flags yet, may pull the axis
     # further than no compensation (issue 61 item 4); the verdict says so
     unsafe = [(c.sensor, c.kind.name) for c in cases if not c.safe]
     assert {kind for _, kind in unsafe} <= {"sine"}
-    assert report.ok == (not unsafe) and all((c.harm is None) == (c.sensor in ("Reset", "Enable", "Enable/Reset")) for c in cases)
+    assert report.ok == (not unsafe) and all((c.harm is None) == (not c.kind.judged) for c in cases)
+    assert {c.kind.name for c in cases if not c.kind.judged} == {
+        "reset", "reset-held", "disable", "disable+reset", "reset-after", *(("late-start",) if starts else ())}
     for c in cases:
         if c.kind.name in ("nan", "open", "short", "jump", "dead", "offset"):
             assert c.flagged, (c.sensor, c.kind.name)
@@ -90,7 +94,7 @@ def test_verify_faults_from_the_command_line(tmp_path):
     thermoplc("generate", GOLDEN / "mlr.json", "--dialect", "iec", "-o", "b.st", cwd=tmp_path)
     data = golden_twin_csv(tmp_path)
     out = thermoplc("verify", "b.st", "--data", data, "--model", GOLDEN / "mlr.json", "--faults", cwd=tmp_path).stdout
-    assert "20 cases" in out and "all cases bit-exact, finite, inside the clamp and the rate limit" in out
+    assert "23 cases" in out and "all cases bit-exact, finite, inside the clamp and the rate limit" in out
     assert "offset: paper 000 eq. 19: -2 degC" in out
 
 

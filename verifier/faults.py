@@ -27,6 +27,8 @@ from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits, guards
 from thermoplc.recordings.table import Table
 from thermoplc.verifier.probings import probing_inputs, reference_keys, start_value_errors
+from thermoplc.verifier.restarts import (enabled_from, late_start_row, reset_after_step, reset_rows, step_calls,
+                                         step_size_K)
 from thermoplc.verifier.replay import (check_interface, load_block, replay_and_compare, block_limits, check_model_inputs,
                                        compare_constants, constants_lines, subnormal_declarations)
 
@@ -44,6 +46,9 @@ class FaultKind:
     description: str
     lasting: bool  # True: from the start to the end of the data; False: TRANSIENT_CALLS calls
     apply: object  # (values, seconds since the fault began) -> faulty values
+    judged: bool = True  # False: not judged against no compensation: a drive to the clamp tests the clamp, no
+    # fault of a machine; Enable/Reset is the PLC program's command, and a Reset starts a run whose drift the
+    # recording does not measure
 
 
 FAULT_KINDS = (
@@ -71,8 +76,8 @@ PROBE_KINDS = (
 # probings at either limit, one every second call, until the taught offset stands at that side's clamp: a block
 # whose clamp (either branch) is missing or wrong differs from the reference there (the other cases never take
 # the offset that far)
-PROBE_CLAMPS = {1.0: FaultKind("probe-clamp+", "at +limit, as often as allowed", False, None),
-                -1.0: FaultKind("probe-clamp-", "at -limit, as often as allowed", False, None)}
+PROBE_CLAMPS = {1.0: FaultKind("probe-clamp+", "at +limit, as often as allowed", False, None, False),
+                -1.0: FaultKind("probe-clamp-", "at -limit, as often as allowed", False, None, False)}
 CLAMP_HOLD_CALLS = 50  # calls the run of probings goes on once the offset is at its clamp
 
 
@@ -148,13 +153,13 @@ def _window(rows: int, first: int, calls: int, value: bool) -> np.ndarray:
 
 # what a PLC program does with the block's Enable and Reset: (kind, inputs per call, last row of the action)
 CONTROL_KINDS = (
-    (FaultKind("reset", "TRUE 1 call, again 30 calls on", False, None),
+    (FaultKind("reset", "TRUE 1 call, again 30 calls on", False, None, False),
      lambda rows, first: {RESET_INPUT: _pulses(rows, first, 0, TRANSIENT_CALLS)}, TRANSIENT_CALLS),
-    (FaultKind("reset-held", "TRUE for 30 calls", False, None),
+    (FaultKind("reset-held", "TRUE for 30 calls", False, None, False),
      lambda rows, first: {RESET_INPUT: _window(rows, first, TRANSIENT_CALLS, True)}, TRANSIENT_CALLS - 1),
-    (FaultKind("disable", "Enable FALSE 300 calls", False, None),
+    (FaultKind("disable", "Enable FALSE 300 calls", False, None, False),
      lambda rows, first: {ENABLE_INPUT: _window(rows, first, 10 * TRANSIENT_CALLS, False)}, 10 * TRANSIENT_CALLS - 1),
-    (FaultKind("disable+reset", "off 300 calls, Reset in/after", False, None),
+    (FaultKind("disable+reset", "off 300 calls, Reset in/after", False, None, False),
      lambda rows, first: {ENABLE_INPUT: _window(rows, first, 10 * TRANSIENT_CALLS, False),
                           RESET_INPUT: _pulses(rows, first, 5, 10 * TRANSIENT_CALLS)}, 10 * TRANSIENT_CALLS),
 )
@@ -185,10 +190,6 @@ def harm_of(output: np.ndarray, baseline: np.ndarray, measured: np.ndarray | Non
     k = int(np.argmax(error))
     return Harm(float(error[k]), int(rows[k]), float(np.max(np.abs(measured[rows]))))
 
-
-# cases not judged against no compensation: a drive to the clamp is a test of the clamp, no fault of a machine; an
-# Enable/Reset action is the PLC program's command, and a Reset starts a run whose drift the recording does not measure
-UNJUDGED = (*PROBE_CLAMPS.values(), *(kind for kind, _, _ in CONTROL_KINDS))
 
 
 @dataclass(frozen=True)
@@ -303,17 +304,15 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
     first = table.rows // 3
     names = block_names(model, [d.name for d in machine.outputs])
     cases = []
-    for g in guards(model):
-        if g.low != "temp_min":
-            continue
+    temperatures = [g.name for g in guards(model) if g.low == "temp_min"]
+    for name in temperatures:
         for kind in FAULT_KINDS:
             inputs = dict(clean)
-            inputs[g.name], last = inject(clean[g.name], np.asarray(times), kind, first)
+            inputs[name], last = inject(clean[name], np.asarray(times), kind, first)
             expected = named(_reference(model, inputs, limits), names)
             report = replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
-            cases.append(_case(kind, g.name, first, last, expected, report, machine, limits, model, baseline, measured,
-                               np.asarray(expected[names[fault_key(g.name)]], bool)
-                               | np.asarray(expected.get(DISAGREE_OUTPUT, False), bool) & ~already))
+            cases.append(_case(kind, name, first, last, expected, report, machine, limits, model, baseline, measured,
+                               _sensor_flags(expected, names, name, already)))
     declared = {d.name for d in machine.inputs}
     for kind, action, length in CONTROL_KINDS:
         control = action(table.rows, first)
@@ -325,6 +324,8 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
         cases.append(_case(kind, "/".join(control), first, min(first + length, table.rows - 1), expected, report,
                            machine, limits, model, baseline, measured, ~np.asarray(expected[READY_OUTPUT], bool)
                            | ~np.asarray(expected[ENO], bool)))
+    cases += _restart_cases(machine, block, model, table, clean, temperatures, first, limits, names, baseline,
+                            measured, already)
     for kind in PROBE_KINDS if probing else ():
         faulty, last = _probe_fault(kind, probing[PROBE_VALUE_INPUT], probing[PROBE_NEW_INPUT], first)
         inputs = {**clean, **faulty}
@@ -346,6 +347,45 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
     return cases
 
 
+def _sensor_flags(expected: dict, names: dict, sensor: str, already: np.ndarray) -> np.ndarray:
+    """Per call, whether the sensor's fault bit or a SensorsDisagree the fault caused is set."""
+    return (np.asarray(expected[names[fault_key(sensor)]], bool)
+            | np.asarray(expected.get(DISAGREE_OUTPUT, False), bool) & ~already)
+
+
+def _restart_cases(machine, block: str, model: Model, table: Table, clean: dict, temperatures: list[str], first: int,
+                   limits: Limits, names: dict, baseline: np.ndarray, measured: np.ndarray | None,
+                   already: np.ndarray) -> list[FaultCase]:
+    """Where the block's state starts afresh after the data moved (verifier/restarts.py): a Reset as each
+    temperature reads right again after a step, and the first running call at the largest difference."""
+    declared = {d.name for d in machine.inputs}
+    runs = []  # (kind, what, first row, last row, inputs, control, flagged by)
+    if RESET_INPUT in declared:
+        size, calls = step_size_K(model), step_calls(model, limits.settle_calls)
+        kind = FaultKind("reset-after", f"+{size:.3g} K {calls} calls, Reset, swapped", False, None, False)
+        at = reset_rows(model, clean, temperatures, calls, min(first + calls, table.rows - 1))
+        for name in temperatures:
+            row, swapped = at[name]
+            stepped, reset, step_first = reset_after_step(clean[name], row, calls, size, swapped)
+            runs.append((kind, name, step_first, row, {**clean, name: stepped}, {RESET_INPUT: reset}, name))
+    start = late_start_row(model, clean) if ENABLE_INPUT in declared else None
+    if start is not None:
+        kind = FaultKind("late-start", f"first enabled at call {start}", False, None, False)
+        runs.append((kind, ENABLE_INPUT, start, min(start + TRANSIENT_CALLS, table.rows - 1), clean,
+                     {ENABLE_INPUT: enabled_from(table.rows, start)}, None))
+    cases = []
+    for kind, what, case_first, last, inputs, control, sensor in runs:
+        expected = named(_reference(model, inputs, limits, control_of(control)), names)
+        report = replay_and_compare(machine, block, "reference", table, model.time_column, {**inputs, **control},
+                                    expected, {})
+        flags = ~np.asarray(expected[READY_OUTPUT], bool) | ~np.asarray(expected[ENO], bool)
+        if sensor is not None:
+            flags = flags | _sensor_flags(expected, names, sensor, already)
+        cases.append(_case(kind, what, case_first, last, expected, report, machine, limits, model, baseline, measured,
+                           flags))
+    return cases
+
+
 def _case(kind: FaultKind, what: str, first: int, last: int, expected: dict, report, machine, limits: Limits,
           model: Model, baseline: np.ndarray, measured: np.ndarray | None, flags: np.ndarray) -> FaultCase:
     """A case's row of the table from the reference outputs and the replay's report."""
@@ -359,7 +399,7 @@ def _case(kind: FaultKind, what: str, first: int, last: int, expected: dict, rep
         all(_within_rate(v, limits.max_step) for v in limited),
         bool(flags[first:last + 1].any()), not bool(flags[-1]),
         float(np.max(np.abs(expected[model.target.name].astype(np.float64) - baseline.astype(np.float64)))),
-        report.failure, None if kind in UNJUDGED else harm_of(np.asarray(expected[model.target.name], np.float32), np.asarray(baseline, np.float32), measured,
+        report.failure, None if not kind.judged else harm_of(np.asarray(expected[model.target.name], np.float32), np.asarray(baseline, np.float32), measured,
                 first, last))
 
 
@@ -389,7 +429,10 @@ def format_cases(cases: list[FaultCase], block: str, rows: int) -> str:
                  "(from the fault on, as long as the output differs from the fault-free block's); a case whose error "
                  "exceeds none fails unless flagged ('-': not judged: the data do not measure the target, a drive to "
                  "the clamp, or an Enable/Reset action the PLC program commands); for a sensor, flagged means its "
-                 "fault bit or SensorsDisagree came up; for Enable/Reset, Ready or ENO went FALSE" + ("; for a probing, that ProbeRefused or ProbeSuspect came up; for "
+                 "fault bit or SensorsDisagree came up; for Enable/Reset, Ready or ENO went FALSE; reset-after: the temperature "
+                 "reads off by the step until the check's slow mean has followed it, right at a Reset where it differs "
+                 "most from what the others say, off again after it (a sensor swapped in a stop); late-start: the "
+                 "block's first running call is where a temperature differs most from what the others say" + ("; for a probing, that ProbeRefused or ProbeSuspect came up; for "
                                                             "probe-clamp+/-, that the offset reached that clamp"
                                                             if probed else ""))
     lines += [f"{c.kind.name}: the offset never reached its clamp from call {c.first_row} on (the limit minus the "
