@@ -17,7 +17,7 @@ from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits
 from thermoplc.models.streaming import StreamingReference
 from thermoplc.recordings.table import read_table
-from thermoplc.verifier.restarts import reset_after_step, reset_rows
+from thermoplc.verifier.restarts import restart_cases
 from tests.cli_runner import thermoplc
 from tests.golden_models import GOLDEN, golden_twin_csv
 
@@ -166,7 +166,13 @@ STARTS_PLANTED = {
     "started-too-late": _started_too_late,
     "reset-keeps-the-mean": lambda text: re.sub(r"\n\t *#PlausMean_\d+ := #c_Zero;", "",
                                                 text.replace("\n\t        #PlausStarted := FALSE;", "", 1)),
+    "no-restart-after-a-pause": lambda text: re.sub(r"\n\tREGION Paused.*?END_REGION\n", "", text, flags=re.S),
+    "check-runs-while-disabled": lambda text: text.replace(
+        "REGION Plausibility: each temperature against what the others say it should read\n\t    IF #Enable AND #Ready",
+        "REGION Plausibility: each temperature against what the others say it should read\n\t    IF #Ready"),
 }
+# the case that tells each: a restart where the data moved (verifier/restarts.py)
+STARTS_TOLD_BY = {"no-restart-after-a-pause": "/pause", "check-runs-while-disabled": "/pause-flagged"}
 
 
 @pytest.mark.parametrize("plant", STARTS_PLANTED)
@@ -181,28 +187,35 @@ def test_a_block_that_starts_its_slow_means_wrong_passes_verify_and_fails_verify
     failed = thermoplc("verify", "p.scl", "--model", GOLDEN / "mlr.json", "--data", data, "--faults", cwd=tmp_path,
                        check=1)
     verdict = next(line for line in failed.stdout.splitlines() if "case(s) FAILED" in line)
-    assert "/reset-after" in verdict  # the Reset where a temperature differs most from what the others say
+    assert STARTS_TOLD_BY.get(plant, "/reset-after") in verdict
 
 
-def test_the_restart_cases_step_reset_and_swap_where_the_difference_is_largest():
+def test_the_restart_cases_reset_where_the_difference_is_largest_and_every_input_in_range():
     model = load_model(GOLDEN / "mlr.json")
     rows = 400
-    x1 = np.linspace(20, 30, rows).astype(np.float32)
     relation_1, relation_2 = model.plausibility.relations
-    inputs = {relation_1.sensor: x1, relation_2.sensor: x1.copy()}
-    at = reset_rows(model, inputs, [relation_1.sensor, relation_2.sensor], 50, 7)
-    for relation in (relation_1, relation_2):
-        row, swapped = at[relation.sensor]
-        assert 51 <= row < rows
-        stepped, reset, first = reset_after_step(inputs[relation.sensor], row, 50, 5.0, swapped)
-        assert first == row - 50 and np.flatnonzero(reset).tolist() == [row]
-        moved = stepped.astype(np.float64) - inputs[relation.sensor]
-        assert np.all(moved[:first] == 0) and np.allclose(moved[first:row], 5.0, atol=1e-5)
-        assert np.allclose(moved[row:], swapped, atol=1e-5)
-        difference = (stepped[row] - relation.intercept[0]
-                      - sum(b[0] * inputs[name][row] for name, b in relation.slopes))
+    x1 = np.linspace(20, 30, rows).astype(np.float32)
+    x2 = x1.copy()
+    x2[300] = 3276.7  # an open circuit where the differences are largest: no restart may fall on it
+    inputs = {relation_1.sensor: x1, relation_2.sensor: x2}
+    limits = Limits.for_model(model)
+    cases = restart_cases(model, inputs, [relation_1.sensor, relation_2.sensor], {"Enable", "Reset"}, limits, 7)
+    assert [c.name for c in cases] == ["reset-after", "reset-after", "reset-far", "reset-stuck", "pause",
+                                       "pause-flagged", "late-start"]
+    for case, relation in zip(cases, (relation_1, relation_2)):
+        row = int(np.flatnonzero(case.control["Reset"])[0])
+        assert row > case.first and row != 300 and np.flatnonzero(case.control["Reset"]).tolist() == [row]
+        moved = case.columns[relation.sensor].astype(np.float64) - inputs[relation.sensor]
+        assert np.all(moved[:case.first] == 0) and np.allclose(moved[case.first:row], 5.0, atol=1e-5)
+        after = {name: values[row] for name, values in {**inputs, **case.columns}.items()}
+        difference = after[relation.sensor] - relation.intercept[0] - sum(b[0] * after[name] for name, b in relation.slopes)
         # beyond the swing gate (a mean a Reset zeroes shows), inside the level gate (the level test hides nothing)
         assert relation.swing_K[0] < abs(difference) <= relation.gate_K[0]
+    for case in cases:
+        assert case.first != 300 and all(np.flatnonzero(v).tolist() != [300] for v in case.control.values())
+    late = cases[-1]
+    assert np.isnan(late.columns[relation_1.sensor][late.first:late.first + 5]).all()
+    assert np.flatnonzero(late.control["Enable"])[0] == late.first
 
 
 def test_a_model_file_from_before_the_swing_test_generates_without_it_and_verifies(tmp_path):

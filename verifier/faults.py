@@ -27,8 +27,7 @@ from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits, guards
 from thermoplc.recordings.table import Table
 from thermoplc.verifier.probings import probing_inputs, reference_keys, start_value_errors
-from thermoplc.verifier.restarts import (enabled_from, late_start_row, reset_after_step, reset_rows, step_calls,
-                                         step_size_K)
+from thermoplc.verifier.restarts import restart_cases, step_calls
 from thermoplc.verifier.replay import (check_interface, load_block, replay_and_compare, block_limits, check_model_inputs,
                                        compare_constants, constants_lines, subnormal_declarations)
 
@@ -356,33 +355,20 @@ def _sensor_flags(expected: dict, names: dict, sensor: str, already: np.ndarray)
 def _restart_cases(machine, block: str, model: Model, table: Table, clean: dict, temperatures: list[str], first: int,
                    limits: Limits, names: dict, baseline: np.ndarray, measured: np.ndarray | None,
                    already: np.ndarray) -> list[FaultCase]:
-    """Where the block's state starts afresh after the data moved (verifier/restarts.py): a Reset as each
-    temperature reads right again after a step, and the first running call at the largest difference."""
-    declared = {d.name for d in machine.inputs}
-    runs = []  # (kind, what, first row, last row, inputs, control, flagged by)
-    if RESET_INPUT in declared:
-        size, calls = step_size_K(model), step_calls(model, limits.settle_calls)
-        kind = FaultKind("reset-after", f"+{size:.3g} K {calls} calls, Reset, swapped", False, None, False)
-        at = reset_rows(model, clean, temperatures, calls, min(first + calls, table.rows - 1))
-        for name in temperatures:
-            row, swapped = at[name]
-            stepped, reset, step_first = reset_after_step(clean[name], row, calls, size, swapped)
-            runs.append((kind, name, step_first, row, {**clean, name: stepped}, {RESET_INPUT: reset}, name))
-    start = late_start_row(model, clean) if ENABLE_INPUT in declared else None
-    if start is not None:
-        kind = FaultKind("late-start", f"first enabled at call {start}", False, None, False)
-        runs.append((kind, ENABLE_INPUT, start, min(start + TRANSIENT_CALLS, table.rows - 1), clean,
-                     {ENABLE_INPUT: enabled_from(table.rows, start)}, None))
+    """Where the block's state starts afresh after the data moved (verifier/restarts.py), each replayed."""
     cases = []
-    for kind, what, case_first, last, inputs, control, sensor in runs:
-        expected = named(_reference(model, inputs, limits, control_of(control)), names)
-        report = replay_and_compare(machine, block, "reference", table, model.time_column, {**inputs, **control},
+    declared = {d.name for d in machine.inputs}
+    default_row = min(first + step_calls(model, limits.settle_calls), table.rows - 1)
+    for r in restart_cases(model, clean, temperatures, declared, limits, default_row):
+        inputs = {**clean, **r.columns}
+        expected = named(_reference(model, inputs, limits, control_of(r.control)), names)
+        report = replay_and_compare(machine, block, "reference", table, model.time_column, {**inputs, **r.control},
                                     expected, {})
         flags = ~np.asarray(expected[READY_OUTPUT], bool) | ~np.asarray(expected[ENO], bool)
-        if sensor is not None:
-            flags = flags | _sensor_flags(expected, names, sensor, already)
-        cases.append(_case(kind, what, case_first, last, expected, report, machine, limits, model, baseline, measured,
-                           flags))
+        if r.sensor is not None:
+            flags = flags | _sensor_flags(expected, names, r.sensor, already)
+        cases.append(_case(FaultKind(r.name, r.description, False, None, False), r.what, r.first, r.last, expected,
+                           report, machine, limits, model, baseline, measured, flags))
     return cases
 
 
@@ -404,7 +390,7 @@ def _case(kind: FaultKind, what: str, first: int, last: int, expected: dict, rep
 
 
 def format_cases(cases: list[FaultCase], block: str, rows: int) -> str:
-    lines = [f"fault injection on {block}: {len(cases)} cases over {rows} calls each, faults start at call "
+    lines = [f"fault injection on {block}: {len(cases)} cases over {rows} calls each, sensor faults start at call "
              f"{cases[0].first_row if cases else 0}; transient faults last {TRANSIENT_CALLS} calls",
              f"{'sensor':<16}{'fault':<44}{'bit-exact':>10}{'finite':>8}{'clamp':>7}{'rate':>6}"
              f"{'flagged':>9}{'clear at end':>14}{'max change':>12}{'error':>9}{'none':>8}"]
@@ -430,9 +416,15 @@ def format_cases(cases: list[FaultCase], block: str, rows: int) -> str:
                  "exceeds none fails unless flagged ('-': not judged: the data do not measure the target, a drive to "
                  "the clamp, or an Enable/Reset action the PLC program commands); for a sensor, flagged means its "
                  "fault bit or SensorsDisagree came up; for Enable/Reset, Ready or ENO went FALSE; reset-after: the temperature "
-                 "reads off by the step until the check's slow mean has followed it, right at a Reset where it differs "
-                 "most from what the others say, off again after it (a sensor swapped in a stop); late-start: the "
-                 "block's first running call is where a temperature differs most from what the others say" + ("; for a probing, that ProbeRefused or ProbeSuspect came up; for "
+                 "reads off by the step until the check's slow mean has followed it, then comes a Reset where it differs "
+                 "most from what the others say, and from there off by what the row says (a sensor swapped in the stop); "
+                 "reset-far: a Reset after which a temperature reads beyond its level gate; pause: Enable FALSE "
+                 "across the largest move of a difference from its slow mean that no jump check flags; pause-flagged: a "
+                 "temperature ramped beyond its gate and back, then Enable FALSE while SensorsDisagree waits for its "
+                 "settle calls; reset-stuck: a "
+                 "temperature frozen until its stuck check fires, then a Reset; late-start: the block enabled a few "
+                 "calls before the call where a temperature differs most from what the others say, a temperature NaN "
+                 "until then; each restart case at calls where every input is in range" + ("; for a probing, that ProbeRefused or ProbeSuspect came up; for "
                                                             "probe-clamp+/-, that the offset reached that clamp"
                                                             if probed else ""))
     lines += [f"{c.kind.name}: the offset never reached its clamp from call {c.first_row} on (the limit minus the "

@@ -1,34 +1,86 @@
-"""verify --faults, the restarts: where a block's state starts afresh (its first running call, a Reset) and the data
-around that call are what the state would carry on wrongly.
+"""verify --faults, the restarts: where a block's state starts afresh (its first running call, a Reset, the first
+call after a pause) and the data around that call are what the state would carry on wrongly.
 
 A block that forgets to start a state at Reset, or starts it wrong at its first call, passes every replay in
 which the carried-on state and the fresh one agree: the recording's first call and the fault cases' Reset come
 where nothing has moved. The cross-sensor check's slow means are such a state (models/plausibility.py): at a Reset
-they restart at the current difference, and a block that carries them on agrees with one that restarts them
-unless the difference moved since. So two cases move it on purpose:
+and after a pause they restart at the current difference, and a block that carries them on agrees with one that
+restarts them unless the difference moved since. So these cases move it on purpose, each at a call where every
+input is inside its guard range (a block that is not Ready there starts nothing):
 
-- reset after a fault: a temperature reads off by a step until the slow mean has followed it (the check flags it,
+- reset-after, per temperature: it reads off by a step until the slow mean has followed it (the check flags it,
   the fault hold holds the outputs); the PLC program pulses Reset at the call where that temperature differs most
   from what the others say, and from there on it reads off by what puts that difference between its swing gate
-  and its level gate (a sensor swapped in the stop). A block that carries the mean on (the step in it) or leaves it
-  where the Reset zeroed it (the whole difference beyond the swing gate) flags there; the model restarts the mean
-  at that difference and does not.
-- late start: the block is first enabled at the call where a temperature differs most from what the others say
-  (relative to its swing gate). A block that starts the mean at zero rather than at that difference flags it.
+  and its level gate (a sensor swapped in the stop). A block that carries the mean on (the step in it) or leaves
+  it where the Reset zeroed it (the whole difference beyond the swing gate) flags there; the model does not.
+- reset-far: a Reset after which the first checked temperature reads 1.5 times its level gate off: the check
+  flags at once, so the fault hold starts from the state the Reset left.
+- pause: Enable FALSE across the data's largest move of a difference from its slow mean that no jump check flags
+  (the machine cooled while the block did not follow).
+- pause-flagged: a temperature ramped beyond its gate and back, then Enable FALSE while SensorsDisagree waits
+  for its settle calls: they count only on running calls.
+- reset-stuck: a temperature frozen until its stuck check fires, then a Reset: the repeat count starts again.
+- late-start: the block first Ready at the call where a temperature differs most from what the others say,
+  enabled a few calls before with a temperature NaN. A block that starts the mean at zero rather than at that
+  difference, or on a call that is not Ready, flags it.
 
 Knows the models' relations (what the check computes), never the generator (the proof stays independent).
 """
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.signal import lfilter
 
+from thermoplc.contract.outputs import ENABLE_INPUT, RESET_INPUT
 from thermoplc.models.modelfile import Model
-from thermoplc.models.plausibility import SWING_S
+from thermoplc.models.plausibility import SWING_S, swing_factors
+from thermoplc.models.safety import Limits, guards
 
 FOLLOWED_TIME_CONSTANTS = 3.0  # the slow mean has followed a step to within exp(-3) = 5 % of it
 STEP_K = 5.0  # the step of a sensor read wrong: beyond any card's noise, inside every temperature range
+FAR_GATES = 1.5  # reset-far's difference, in level gates
+PAUSE_S = 3600.0  # the longest pause searched
+UNREADY_CALLS = 5  # late-start's calls enabled before every input is in range
+TRANSIENT_PAUSE_CALLS = 30  # pause-flagged's pause beyond the settle calls
+PAUSE_WORK = 20_000_000  # calls x pause lengths searched for the largest pause (a few seconds of numpy)
+
+
+@dataclass(frozen=True)
+class Restart:
+    """One case: the columns it changes, the Enable/Reset inputs it drives, its calls, and the temperature whose
+    fault bit counts as flagging it (None: Ready/ENO only)."""
+    name: str
+    description: str
+    what: str
+    first: int
+    last: int
+    columns: dict = field(default_factory=dict)
+    control: dict = field(default_factory=dict)
+    sensor: str | None = None
+
+
+def restart_cases(model: Model, inputs: dict, temperatures: list[str], declared: set, limits: Limits,
+                  default_row: int) -> list[Restart]:
+    """The restart cases for a block with the inputs `declared` (Enable/Reset), on the fault-free `inputs`;
+    `default_row`: the Reset of a temperature the check does not follow."""
+    rows = len(next(iter(inputs.values())))
+    if rows < 3:
+        return []
+    valid = _all_valid(model, inputs, limits)
+    differences = _differences(model, inputs, valid)
+    cases = []
+    if RESET_INPUT in declared:
+        cases += _reset_after(model, inputs, temperatures, limits, differences, default_row)
+        cases += _reset_far(inputs, differences)
+        cases += _reset_stuck(inputs, temperatures, limits, default_row)
+    if ENABLE_INPUT in declared:
+        cases += _pause(model, inputs, limits, differences, valid)
+        cases += _pause_flagged(inputs, differences, limits, default_row)
+        cases += _late_start(inputs, differences)
+    return cases
 
 
 def step_size_K(model: Model) -> float:
@@ -43,64 +95,161 @@ def step_calls(model: Model, settle_calls: int) -> int:
     return int(settle_calls) + math.ceil(FOLLOWED_TIME_CONSTANTS * SWING_S / model.sample_period_s) + 1
 
 
-def reset_after_step(values: np.ndarray, reset_row: int, calls: int, size: float, swapped: float
-                     ) -> tuple[np.ndarray, np.ndarray, int]:
-    """The column stepped by `size` for the `calls` calls before `reset_row` (from call 1 at the earliest), Reset
-    pulsed at `reset_row`, and from there on off by `swapped`; returns the column, the Reset input and the step's
-    first call."""
-    first = max(1, reset_row - calls)
-    out = np.array(values, np.float64)
-    out[first:reset_row] += size
-    out[reset_row:] += swapped
-    reset = np.zeros(len(values), bool)
-    reset[reset_row] = True
-    return out.astype(np.float32), reset, first  # float32 -> float64 -> float32 leaves every other call as it was
-
-
-def reset_rows(model: Model, inputs: dict, temperatures: list[str], calls: int, default: int
-               ) -> dict[str, tuple[int, float]]:
-    """Per temperature, the call of its Reset and how far it reads off from there on (a sensor swapped in the
-    stop): the call where it differs most from what the others say (relative to its swing gate), after room for
-    its step, and the offset that takes that difference midway between its swing gate and its level gate (1.5 times
-    the swing gate without a level gate; none where the level gate is the narrower), so that a slow mean a Reset
-    zeroes and does not restart shows, and the level test does not hide it; (`default`, 0) for a block without the
-    swing test."""
+def _reset_after(model: Model, inputs: dict, temperatures: list[str], limits: Limits, differences: dict,
+                 default_row: int) -> list[Restart]:
     rows = len(next(iter(inputs.values())))
+    size, calls = step_size_K(model), step_calls(model, limits.settle_calls)
     earliest = min(calls + 1, rows - 1)
-    out = {name: (default, 0.0) for name in temperatures}
-    for relation, difference in _differences(model, inputs):
-        swing = relation.swing_K[0]
-        row = earliest + int(np.argmax(np.abs(difference[earliest:])))
-        target = (swing + relation.gate_K[0]) / 2 if relation.gate_K is not None else 1.5 * swing
-        d = float(difference[row])
-        out[relation.sensor] = (row, math.copysign(1.0, d) * (target - abs(d)) if target > swing else 0.0)
-    return out
+    cases = []
+    for name in temperatures:
+        row, swapped = min(default_row, rows - 1), 0.0
+        relation, difference = differences.get(name, (None, None))
+        if relation is not None and relation.swing_K is not None and np.isfinite(difference[earliest:]).any():
+            row = earliest + int(np.nanargmax(np.abs(difference[earliest:])))
+            swing = relation.swing_K[0]
+            target = (swing + relation.gate_K[0]) / 2 if relation.gate_K is not None else 1.5 * swing
+            d = float(difference[row])
+            swapped = math.copysign(1.0, d) * (target - abs(d)) if target > swing else 0.0
+        first = max(1, row - calls)
+        column = np.array(inputs[name], np.float64)
+        column[first:row] += size
+        column[row:] += swapped
+        cases.append(Restart("reset-after", f"+{size:.3g}K {row - first} calls, Reset" +
+                             (f", {swapped:+.2g}K on" if swapped else ""), name, first,
+                             rows - 1 if swapped else row, {name: column.astype(np.float32)},
+                             {RESET_INPUT: _at(rows, row)}, name))
+    return cases
 
 
-def late_start_row(model: Model, inputs: dict) -> int | None:
-    """The call (after the first) where some checked temperature differs most from what the others say, relative
-    to its swing gate; None for a block without the swing test or data too short."""
-    reaches = [np.abs(d) / r.swing_K[0] for r, d in _differences(model, inputs)]
+def _reset_far(inputs: dict, differences: dict) -> list[Restart]:
     rows = len(next(iter(inputs.values())))
-    if not reaches or rows < 2:
-        return None
-    return 1 + int(np.argmax(np.max(reaches, axis=0)[1:]))
-
-
-def _differences(model: Model, inputs: dict) -> list[tuple]:
-    """Per relation of a check with the swing test, the relation and its temperature's difference from what the
-    others say per call (float64; NaN and Inf as 0)."""
-    if model.plausibility is None or not model.plausibility.swings:
+    levelled = [(r, d) for r, d in differences.values() if r.gate_K is not None and np.isfinite(d[1:]).any()]
+    if not levelled:
         return []
-    out = []
+    relation, difference = levelled[0]
+    row = 1 + int(np.nanargmax(np.abs(difference[1:])))
+    d = float(difference[row])
+    offset = math.copysign(1.0, d) * (FAR_GATES * relation.gate_K[0] - abs(d))
+    column = np.array(inputs[relation.sensor], np.float64)
+    column[row:] += offset
+    return [Restart("reset-far", f"Reset, then {offset:+.2g}K (past its gate)", relation.sensor, row, rows - 1,
+                    {relation.sensor: column.astype(np.float32)}, {RESET_INPUT: _at(rows, row)}, relation.sensor)]
+
+
+def _pause(model: Model, inputs: dict, limits: Limits, differences: dict, valid: np.ndarray) -> list[Restart]:
+    """Enable FALSE from call a to b - 1 (at most PAUSE_S), where some checked temperature's difference at b is
+    furthest from its slow mean before the pause, relative to its swing gate, with every input valid at a - 1 and
+    b and no checked temperature moved further than the jump check allows (a larger move is a fault, and the held
+    value would hide the restart)."""
+    swinging = [(r, d) for r, d in differences.values() if r.swing_K is not None]
+    rows = len(valid)
+    if not swinging:
+        return []
+    keep, alpha = swing_factors(model.sample_period_s, "f64")
+    readings = np.array([np.asarray(inputs[r.sensor], np.float64) for r, _ in differences.values()])
+    longest = max(1, min(math.ceil(PAUSE_S / model.sample_period_s), rows // 4, PAUSE_WORK // rows))
+    best, where = -1.0, None
+    for relation, difference in swinging:
+        filled = np.nan_to_num(difference)
+        mean = lfilter([alpha], [1.0, -keep], filled, zi=[keep * filled[0]])[0]  # after each call
+        for g in range(2, min(longest + 2, rows)):  # the last call before the pause i, the next running call i + g
+            with np.errstate(invalid="ignore"):
+                reach = np.abs(difference[g:] - mean[:rows - g]) / relation.swing_K[0]
+                moved = np.max(np.abs(readings[:, g:] - readings[:, :rows - g]), axis=0)
+            reach[~((moved <= limits.max_jump_K) & valid[g:] & valid[:rows - g])] = -1.0
+            i = int(np.argmax(reach))
+            if reach[i] > best:
+                best, where = float(reach[i]), (i + 1, i + g)
+    if where is None or best < 0:
+        return []
+    a, b = where
+    return [Restart("pause", f"Enable FALSE calls {a}..{b - 1}", ENABLE_INPUT, a, b,
+                    control={ENABLE_INPUT: (np.arange(rows) < a) | (np.arange(rows) >= b)})]
+
+
+def _pause_flagged(inputs: dict, differences: dict, limits: Limits, first: int) -> list[Restart]:
+    """The first checked temperature with a level gate ramped (at half the jump limit per call) to twice its gate
+    beyond what the others say and back, then Enable FALSE for the settle calls and more while SensorsDisagree
+    waits for them: a block whose check runs while disabled counts them and clears the bit early."""
+    levelled = [(r, d) for r, d in differences.values() if r.gate_K is not None]
+    rows = len(next(iter(inputs.values())))
+    if not levelled or first < 1:
+        return []
+    relation, difference = levelled[0]
+    height = 2.0 * (relation.gate_K[0] + abs(float(np.nan_to_num(difference[first]))))
+    ramp = np.linspace(0.0, height, math.ceil(height / (0.5 * limits.max_jump_K)) + 1)
+    shape = np.concatenate([ramp, ramp[::-1]])
+    end = min(first + len(shape), rows - 1)
+    column = np.array(inputs[relation.sensor], np.float64)
+    column[first:end] += shape[:end - first]
+    back = min(end + int(limits.settle_calls) + TRANSIENT_PAUSE_CALLS, rows - 1)
+    return [Restart("pause-flagged", f"ramp {height:.2g}K, back, off {back - end} calls", relation.sensor, first,
+                    back, {relation.sensor: column.astype(np.float32)},
+                    {ENABLE_INPUT: (np.arange(rows) < end) | (np.arange(rows) >= back)}, relation.sensor)]
+
+
+def _late_start(inputs: dict, differences: dict) -> list[Restart]:
+    """Enabled UNREADY_CALLS calls before the call of the largest difference, the first checked temperature NaN on
+    those: the block runs but is not Ready, and starts at that call (a block that starts its means, or its model, on
+    a call that is not Ready, or reads no fault there, differs)."""
+    reaches = [np.abs(d) / r.swing_K[0] for r, d in differences.values() if r.swing_K is not None]
+    if not reaches:
+        return []
+    reach = np.fmax.reduce(reaches)
+    if not np.isfinite(reach[1:]).any():
+        return []
+    ready = 1 + int(np.nanargmax(reach[1:]))
+    start = max(1, ready - UNREADY_CALLS)
+    rows = len(reach)
+    sensor = next(iter(differences))
+    column = np.array(inputs[sensor], np.float32)
+    column[start:ready] = np.nan
+    return [Restart("late-start", f"on at {start}, {sensor} NaN {ready - start} calls", ENABLE_INPUT, start,
+                    min(ready + 30, rows - 1), {sensor: column}, {ENABLE_INPUT: np.arange(rows) >= start}, sensor)]
+
+
+def _reset_stuck(inputs: dict, temperatures: list[str], limits: Limits, default_row: int) -> list[Restart]:
+    """The first temperature frozen from `default_row` on, Reset when its stuck check has fired and the count
+    stands at its cap: the count starts again at the Reset (a block that keeps it flags at once)."""
+    rows = len(next(iter(inputs.values())))
+    if limits.stuck_calls is None or not temperatures:
+        return []
+    frozen_at = min(default_row, rows - 1)
+    row = min(frozen_at + 2 * int(limits.stuck_calls), rows - 1)
+    name = temperatures[0]
+    column = np.array(inputs[name], np.float32)
+    column[frozen_at:] = column[frozen_at]
+    return [Restart("reset-stuck", f"frozen from {frozen_at}, Reset at {row}", name, frozen_at, rows - 1,
+                    {name: column}, {RESET_INPUT: _at(rows, row)}, name)]
+
+
+def _all_valid(model: Model, inputs: dict, limits: Limits) -> np.ndarray:
+    """Per call, whether every input is inside its guard range (the block is Ready there)."""
+    constants = limits.values()
+    rows = len(next(iter(inputs.values())))
+    valid = np.ones(rows, bool)
+    with np.errstate(invalid="ignore"):
+        for g in guards(model):
+            x = np.asarray(inputs[g.name], np.float32)
+            valid &= (x >= np.float32(constants[g.low])) & (x <= np.float32(constants[g.high]))
+    return valid
+
+
+def _differences(model: Model, inputs: dict, valid: np.ndarray) -> dict:
+    """Per checked temperature, its relation and its difference from what the others say per call (float64; NaN
+    where some input is outside its guard range)."""
+    if model.plausibility is None:
+        return {}
+    out = {}
     with np.errstate(invalid="ignore", over="ignore"):
         for r in model.plausibility.relations:
             expected = r.intercept[0] + sum(slope[0] * np.asarray(inputs[name], np.float64) for name, slope in r.slopes)
             difference = np.asarray(inputs[r.sensor], np.float64) - expected
-            out.append((r, np.nan_to_num(difference, nan=0.0, posinf=0.0, neginf=0.0)))
+            out[r.sensor] = (r, np.where(valid & np.isfinite(difference), difference, np.nan))
     return out
 
 
-def enabled_from(rows: int, start: int) -> np.ndarray:
-    """Enable FALSE before call `start`, TRUE from it on: the block's first running call is `start`."""
-    return np.arange(rows) >= start
+def _at(rows: int, row: int) -> np.ndarray:
+    pulse = np.zeros(rows, bool)
+    pulse[row] = True
+    return pulse
