@@ -768,7 +768,7 @@ def _review_cases() -> list[Case]:
     golden = ("verify", "bad.scl", "--model", "bad.json", "--data", "golden_twin.csv")
     return [
         Case("ST file", "a table entry no fault case reaches, edited", "verify --faults", (*golden, "--faults"),
-             _golden_pair("bayes", lambda t: table_entry_edited(t, "tab_Pred", 5, "99.5")), "refused",
+             _golden_pair("bayes", lambda t: table_entry_edited(t, "tab_Pred", 6, "99.5")), "refused",
              "NOT bit-exact: bad.scl holds constants that differ from the model"),
         Case("ST file", "an index stride edited: c_K_1 sends the index outside tab_Pred", "verify", golden,
              _golden_pair("bayes", lambda t: t.replace("c_K_1 : Int := 8;", "c_K_1 : Int := 9;")), "refused",

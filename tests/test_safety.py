@@ -109,9 +109,9 @@ def test_generate_rejects_limits_that_make_no_sense(tmp_path):
 
 
 def test_verify_faults_checks_the_declared_constants_as_plain_verify_does(tmp_path):
-    """tab_Pred[5] of the Bayes block is an answer no fault case of the golden twin reaches: replay
-    alone passed the edited block; the constants check that plain verify makes fails it (exit 1)."""
-    edited = table_entry_edited(golden_block("bayes", "tia").read_text(), "tab_Pred", 5, "99.5")
+    """tab_Pred[6] of the Bayes block is an answer no fault case of the golden twin reaches: replay
+    alone passes the edited block; the constants check that plain verify makes fails it (exit 1)."""
+    edited = table_entry_edited(golden_block("bayes", "tia").read_text(), "tab_Pred", 6, "99.5")
     (tmp_path / "b.scl").write_text(edited)
     data = golden_twin_csv(tmp_path)
     out = thermoplc("verify", "b.scl", "--data", data, "--model", GOLDEN / "bayes.json", "--faults", cwd=tmp_path,
@@ -119,7 +119,7 @@ def test_verify_faults_checks_the_declared_constants_as_plain_verify_does(tmp_pa
     assert out.startswith("NOT bit-exact: b.scl holds constants that differ from the model")
     assert "all cases bit-exact, finite, inside the clamp and the rate limit" in out  # the replay alone passes
     assert "constants and tables: 112 values checked against the model, 1 differs" in out
-    assert "tab_Pred[5]: block 99.5 (0x42C70000), model 15.5 (0x41780000)" in out
+    assert "tab_Pred[6]: block 99.5 (0x42C70000), model 15.5 (0x41780000)" in out
 
 
 def test_the_fault_hold_keeps_a_short_fault_near_and_fades_a_dead_sensor_to_no_compensation():
