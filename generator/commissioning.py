@@ -1,19 +1,18 @@
 """What a PLC engineer needs around the model: an Enable input with the dialect's ENO, a Reset input.
 
 Enable FALSE skips the whole call, as a Siemens block called with EN = FALSE would be: the state
-does not advance, the outputs keep their values and ENO reads FALSE - but for what the block names
-as starting again after a pause (`Block.paused`, in a last region: the cross-sensor check's slow means,
-which a pause leaves stale). A call with Reset TRUE starts the block afresh, as a new instance would -
-every state variable and flag back to its start value, the references latched again once every input
-is in range - except the limited outputs, which the rate limiter then moves from where they are (the
-axis must not jump). Knows the IR, not the models; models/safety.py computes the same per call.
+does not advance, the outputs keep their values and ENO reads FALSE. A call with Reset TRUE starts
+the block afresh, as a new instance would - every state variable and flag back to its start value,
+the references latched again once every input is in range - except the limited outputs, which the
+rate limiter then moves from where they are (the axis must not jump). Knows the IR, not the models;
+models/safety.py computes the same per call.
 """
 from __future__ import annotations
 
 from dataclasses import replace
 
 from thermoplc.generator.ir import (
-    ENO, Assign, BinOp, Block, BoolConst, Const, For, GenerationError, If, IntConst, Ref, Region, Stmt, Unary, Var,
+    ENO, Assign, BinOp, Block, BoolConst, Const, For, GenerationError, If, IntConst, Ref, Region, Stmt, Var,
     assigned_names,
 )
 from thermoplc.contract.outputs import CONTROL_INPUT_START, ENABLE_INPUT, RESET_INPUT
@@ -66,14 +65,12 @@ def with_commissioning(block: Block) -> Block:
     if any(isinstance(s, For) for s in restart):
         temps = (*temps, Var(RESET_INDEX, "INT", "array index while the state is reset"))
     inputs = (*block.inputs,
-              Var(ENABLE_INPUT, "BOOL", "FALSE: the call is skipped (state frozen" + (" but what the last region restarts"
-                  if block.paused else "") + ", outputs held, ENO FALSE)", initial=CONTROL_INPUT_START[ENABLE_INPUT]),
+              Var(ENABLE_INPUT, "BOOL", "FALSE: the call is skipped (state frozen, outputs held, ENO FALSE)",
+                  initial=CONTROL_INPUT_START[ENABLE_INPUT]),
               Var(RESET_INPUT, "BOOL", "TRUE: restart as a new instance, latching the temperatures as the cold "
                   "reference - only with the machine at ambient; not a fault acknowledge",
                   initial=CONTROL_INPUT_START[RESET_INPUT]))
     outputs = (*block.outputs, Var(ENO, "BOOL", "Enable of this call"))
-    paused = (Region("Paused (Enable FALSE): what must start again at the next running call",
-                     (If(((Unary("NOT", Ref(ENABLE_INPUT)), block.paused),)),)),) if block.paused else ()
     return replace(block, inputs=inputs, outputs=outputs, temps=temps, constants=constants,
-                   regions=(commission, *(_gated(r) for r in block.regions), *paused), paused=())
+                   regions=(commission, *(_gated(r) for r in block.regions)))
 

@@ -135,7 +135,6 @@ class Block:
     regions: tuple[Region, ...]
     identity: Identity = Identity()
     retain: bool = False  # state (statics and outputs) kept over a power cycle
-    paused: tuple["Stmt", ...] = ()  # what a call with Enable FALSE restarts (generator/commissioning.py places it)
 
 
 PORTABLE_FUNCTIONS = frozenset({"ABS", "SQRT", "MIN", "MAX"})

@@ -66,12 +66,6 @@ def check_region(check: Check) -> Region:
                   (If(((Ref(READY_OUTPUT), tuple(tests)),)),))
 
 
-def paused(check: Check) -> tuple:
-    """What a call with Enable FALSE restarts: the slow means start again at the next running call's differences
-    (the differences move while the block does not follow them: after a pause the old means would read as a swing)."""
-    return (Assign(STARTED, BoolConst(False)),) if check.factors else ()
-
-
 def _beyond(value: str, gate: str, quiet: str) -> tuple:
     """FAR where |value| is beyond its gate; CALM cleared where it is not inside its quiet difference."""
     return (Assign(RESIDUAL, Call("ABS", (Ref(value),))),

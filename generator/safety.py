@@ -15,8 +15,7 @@ from thermoplc.contract.constants import limit_constants, limit_name
 from thermoplc.contract.outputs import (CLAMPED_OUTPUT, DISAGREE_OUTPUT, INVALID_OUTPUT, LIMITED_OUTPUT, READY_OUTPUT,
                                         k0_output)
 from thermoplc.generator.fault_hold import COMMENTS as HOLD_COMMENTS, declarations as hold_declarations, hold_region
-from thermoplc.generator.plausibility import (Check, check_region, declarations as check_declarations,
-                                             paused as check_paused)
+from thermoplc.generator.plausibility import Check, check_region, declarations as check_declarations
 from thermoplc.generator.probing import COMMENTS as PROBE_COMMENTS, Fusion, declarations, fusion_region
 from thermoplc.generator.start import CONSTANTS as START_COMMENTS, STATICS as START_STATICS, KnownStart, start_region
 from thermoplc.models.safety import Guard, Limits
@@ -199,5 +198,4 @@ def with_safety(core: Block, plan: tuple[Guard, ...], axis_outputs: list[str], l
                                                                  **(check.constants if check else {})}
                                     .items() if name in referenced))
     return replace(core, inputs=(*core.inputs, *added.get("inputs", ())), outputs=outputs, statics=tuple(statics),
-                   temps=temps, constants=constants, regions=tuple(regions),
-                   paused=(*core.paused, *(check_paused(check) if check else ())))
+                   temps=temps, constants=constants, regions=tuple(regions))

@@ -232,17 +232,15 @@ class CheckState:
 
 
 def disagree(plausibility: Plausibility, values: dict, settle_calls: int, sample_period_s: float, precision: str,
-             state: CheckState | None = None, restarts: np.ndarray | None = None) -> np.ndarray:
+             state: CheckState | None = None) -> np.ndarray:
     """Per call, SensorsDisagree; `values`: the held readings by input name (the block's Good_ values); `state`
-    carries it from one chunk of calls to the next (models/streaming.py); `restarts`: per call, whether the slow
-    means start again there (the first running call after a pause: Enable FALSE leaves them stale)."""
+    carries it from one chunk of calls to the next (models/streaming.py)."""
     f = np.float32 if precision == "f32" else np.float64
     pick = (lambda pair: f(pair[1])) if precision == "f32" else (lambda pair: f(pair[0]))
     rows = len(next(iter(values.values())))
     state = state or CheckState(f, len(plausibility.relations))
     compiled_loop = compiled.enabled(rows)
     keep, alpha = (f(v) for v in swing_factors(sample_period_s, precision))
-    restarts = np.zeros(rows, np.bool_) if restarts is None else np.asarray(restarts, np.bool_)
     far, quiet = np.zeros(rows, bool), np.ones(rows, bool)
     for k, relation in enumerate(plausibility.relations):
         expected = np.full(rows, pick(relation.intercept), f)
@@ -254,8 +252,7 @@ def disagree(plausibility: Plausibility, values: dict, settle_calls: int, sample
                 far |= np.abs(difference) > pick(relation.gate_K)
                 quiet &= np.abs(difference) <= f(quiet_K(relation, precision))
             if plausibility.swings:
-                swing = deviations(difference, keep, alpha, state.flags[2] != 0, state.means[k:k + 1], compiled_loop,
-                                   restarts)
+                swing = deviations(difference, keep, alpha, state.flags[2] != 0, state.means[k:k + 1], compiled_loop)
                 far |= swing > pick(relation.swing_K)
                 quiet &= swing <= f(swing_quiet_K(relation, precision))
     if rows:
@@ -266,22 +263,20 @@ def disagree(plausibility: Plausibility, values: dict, settle_calls: int, sample
     return out
 
 
-def deviations(difference: np.ndarray, keep, alpha, started: bool, mean: np.ndarray, compiled_loop: bool,
-               restarts: np.ndarray | None = None) -> np.ndarray:
+def deviations(difference: np.ndarray, keep, alpha, started: bool, mean: np.ndarray, compiled_loop: bool) -> np.ndarray:
     """Per call, |difference - its slow mean| with the mean before the call (started from the first difference
-    unless `started`, and again at each call `restarts` marks); `mean` (one value) carries the mean on."""
+    unless `started`); `mean` (one value) carries the mean on."""
     out = np.zeros(len(difference), difference.dtype)
-    restarts = np.zeros(len(difference), np.bool_) if restarts is None else np.ascontiguousarray(restarts, np.bool_)
     loop = _deviations if compiled_loop else getattr(_deviations, "py_func", _deviations)
-    loop(np.ascontiguousarray(difference), keep, alpha, started, mean, restarts, out)
+    loop(np.ascontiguousarray(difference), keep, alpha, started, mean, out)
     return out
 
 
 @compiled.jit
-def _deviations(difference, keep, alpha, started, mean, restarts, out):
+def _deviations(difference, keep, alpha, started, mean, out):
     m = mean[0]
     for j in range(difference.shape[0]):
-        if (not started and j == 0) or restarts[j]:
+        if not started and j == 0:
             m = difference[j]
         out[j] = abs(difference[j] - m)
         m = keep * m + alpha * difference[j]

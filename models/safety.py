@@ -236,18 +236,17 @@ def held_while_faulty(core: dict | None, names: list[str], flags: dict, start: i
 
 
 def sensors_disagree(model: Model, held: dict, start: int, limits: Limits, precision: str,
-                     state: CheckState | None = None, restarts: np.ndarray | None = None) -> dict:
+                     state: CheckState | None = None) -> dict:
     """The plausibility check's status bit per call under DISAGREE (none for a model without the check): the held
     readings compared from call `start` on, the block's first running call (models/plausibility.py); `state`
-    carries it from one chunk of calls to the next; `restarts`: per call, the first running call after a pause."""
+    carries it from one chunk of calls to the next."""
     if model.plausibility is None:
         return {}
     rows = len(next(iter(held.values())))
     flag = np.zeros(rows, bool)
     if start < rows:
         flag[start:] = disagree(model.plausibility, {name: held[name][start:] for name in model.plausibility.sensors()},
-                                limits.settle_calls, model.sample_period_s, precision, state,
-                                None if restarts is None else restarts[start:])
+                                limits.settle_calls, model.sample_period_s, precision, state)
     return {DISAGREE: flag}
 
 
@@ -274,10 +273,10 @@ def fault_flags(plan, valid: dict, faults: dict, core: dict | None, start: int) 
 
 
 def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, core_predict,
-                    held: dict | None = None, after_pause: np.ndarray | None = None) -> dict:
+                    held: dict | None = None) -> dict:
     """Every block output, given raw inputs: guards, the model from the first all-valid call, limiter.
     `held`: the REAL outputs (limited values and K0) the block holds when it starts - zero for a new
-    instance, the last values after a Reset; `after_pause`: per call, whether Enable was FALSE just before it."""
+    instance, the last values after a Reset."""
     held = held or {}
     f = np.float32 if precision == "f32" else np.float64
     constants = limits.values()
@@ -306,8 +305,7 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     core = core_predict(model, running, precision, fused_valid) if ready_row < rows else None
     names = limited_outputs(core) if core is not None else real_outputs_of(model, core_predict, precision)
     flags = fault_flags(plan, valid, faults, core, ready_row)
-    status = sensors_disagree(model, checked_values(plan, core_inputs, repeated), ready_row, limits, precision,
-                              restarts=after_pause)
+    status = sensors_disagree(model, checked_values(plan, core_inputs, repeated), ready_row, limits, precision)
     core = held_while_faulty(core, names, {**flags, **status}, ready_row, limits, precision)
     probing = {}
     if model.probe is not None:
@@ -368,9 +366,8 @@ def real_outputs_of(model: Model, core_predict, precision: str) -> list[str]:
 def commissioned_predict(model: Model, inputs: dict, precision: str, limits: Limits, core_predict,
                          control: dict | None = None) -> dict:
     """Every block output with its Enable and Reset inputs per call (`control`, bool arrays; unwired
-    ones keep their start values). A disabled call is skipped: the outputs hold and ENABLED is FALSE (the
-    cross-sensor check's slow means start again at the next running call). A reset call starts the guards
-    and the model afresh while the limited outputs hold their values."""
+    ones keep their start values). A disabled call is skipped: the outputs hold and ENABLED is FALSE. A
+    reset call starts the guards and the model afresh while the limited outputs hold their values."""
     rows = len(next(iter(inputs.values())))
     control = control or {}
     if unknown := set(control) - set(CONTROL_START):  # a block's input name here would be ignored silently
@@ -388,10 +385,9 @@ def commissioned_predict(model: Model, inputs: dict, precision: str, limits: Lim
     starts = [0, *(int(k) for k in np.flatnonzero(reset[run]) if k > 0), len(run)]
     pieces: list[dict] = []
     held: dict = {}
-    after_pause = np.diff(run, prepend=run[0]) > 1  # the first running call after Enable FALSE
     for a, b in zip(starts[:-1], starts[1:]):
         piece = guarded_predict(model, {k: np.asarray(v)[run[a:b]] for k, v in inputs.items()}, precision, limits,
-                                core_predict, held, after_pause[a:b])
+                                core_predict, held)
         held = {name: values[-1] for name, values in piece.items() if values.dtype.kind == "f"}
         pieces.append(piece)
     shown = np.cumsum(enable) - 1  # per call, the enabled call whose outputs it shows (-1: none yet)

@@ -166,13 +166,12 @@ STARTS_PLANTED = {
     "started-too-late": _started_too_late,
     "reset-keeps-the-mean": lambda text: re.sub(r"\n\t *#PlausMean_\d+ := #c_Zero;", "",
                                                 text.replace("\n\t        #PlausStarted := FALSE;", "", 1)),
-    "no-restart-after-a-pause": lambda text: re.sub(r"\n\tREGION Paused.*?END_REGION\n", "", text, flags=re.S),
     "check-runs-while-disabled": lambda text: text.replace(
         "REGION Plausibility: each temperature against what the others say it should read\n\t    IF #Enable AND #Ready",
         "REGION Plausibility: each temperature against what the others say it should read\n\t    IF #Ready"),
 }
 # the case that tells each: a restart where the data moved (verifier/restarts.py)
-STARTS_TOLD_BY = {"no-restart-after-a-pause": "/pause", "check-runs-while-disabled": "/pause-flagged"}
+STARTS_TOLD_BY = {"check-runs-while-disabled": "/pause-flagged"}
 
 
 @pytest.mark.parametrize("plant", STARTS_PLANTED)

@@ -1,11 +1,11 @@
-"""verify --faults, the restarts: where a block's state starts afresh (its first running call, a Reset, the first
-call after a pause) and the data around that call are what the state would carry on wrongly.
+"""verify --faults, the restarts: where a block's state starts afresh (its first running call, a Reset) or carries
+on over a pause, and the data around that call are what the state would carry on, or start, wrongly.
 
 A block that forgets to start a state at Reset, or starts it wrong at its first call, passes every replay in
 which the carried-on state and the fresh one agree: the recording's first call and the fault cases' Reset come
 where nothing has moved. The cross-sensor check's slow means are such a state (models/plausibility.py): at a Reset
-and after a pause they restart at the current difference, and a block that carries them on agrees with one that
-restarts them unless the difference moved since. So these cases move it on purpose, each at a call where every
+they restart at the current difference, over a pause they carry on, and a block that does the other agrees with
+the model unless the difference moved since. So these cases move it on purpose, each at a call where every
 input is inside its guard range (a block that is not Ready there starts nothing):
 
 - reset-after, per temperature: it reads off by a step until the slow mean has followed it (the check flags it,
@@ -16,7 +16,7 @@ input is inside its guard range (a block that is not Ready there starts nothing)
 - reset-far: a Reset after which the first checked temperature reads 1.5 times its level gate off: the check
   flags at once, so the fault hold starts from the state the Reset left.
 - pause: Enable FALSE across the data's largest move of a difference from its slow mean that no jump check flags
-  (the machine cooled while the block did not follow).
+  (the machine cooled while the block did not follow): a block that restarts its means there differs.
 - pause-flagged: a temperature ramped beyond its gate and back, then Enable FALSE while SensorsDisagree waits
   for its settle calls: they count only on running calls.
 - reset-stuck: a temperature frozen until its stuck check fires, then a Reset: the repeat count starts again.
