@@ -6,8 +6,7 @@ within 10.6 K, and an mlr held-out on that run was 326 um off; fitted with it, e
 the run's temperatures x (the model's, and its ambient), per campaign of MIN_RUNS runs or more:
 
 1. the sensors: per temperature, its least-squares relation on the others (absolute readings with intercept, as
-   the block's plausibility check has it, models/plausibility.py: the ambient neither judged nor a slope) fitted
-   on the other runs, and the gate the
+   the block's plausibility check has it, models/plausibility.py) fitted on the other runs, and the gate the
    block would get from them (MARGIN x their largest |difference|, at least GATE_FLOOR_K). A run whose
    difference exceeds that gate is one the block fitted without it would flag (`SensorsDisagree`).
 2. the target: the run's error when a ridge on every temperature's rise (base/ridge.py, its weight chosen
@@ -128,22 +127,18 @@ def _relation_shares(others: np.ndarray, own: np.ndarray, sensors: list[int]) ->
     return found
 
 
-def _sensor_judgement(readings: list[np.ndarray], q: int, names: tuple[str, ...], drivers: tuple[str, ...],
-                      culprit: bool) -> tuple[str, float, float]:
+def _sensor_judgement(readings: list[np.ndarray], q: int, names: tuple[str, ...], culprit: bool
+                      ) -> tuple[str, float, float]:
     """(sensor, its largest |difference| in run q, the gate from the other runs): the sensor closest to or furthest
     beyond its gate. With `culprit`, where some are beyond, the one without which the others agree best: one bad
-    channel pulls every relation that leans on it (FL_THERMAL: a jump planted on t8_C put t11_C furthest out).
-    The `drivers` (the ambient) are judged by no relation and take no slope, as in the block's check: the hall air
-    drives the machine through hours of lag (models/kinds.driving_temperatures); a hot hall is no broken sensor."""
-    every = [i for i, name in enumerate(names) if name not in drivers]
-    if len(every) < 2:
-        return names[0], 0.0, GATE_FLOOR_K  # nothing the machine's own sensors can tell
+    channel pulls every relation that leans on it (FL_THERMAL: a jump planted on t8_C put t11_C furthest out)."""
     others = np.vstack([r for k, r in enumerate(readings) if k != q])
     own = readings[q]
+    every = list(range(len(names)))
     shares = _relation_shares(others, own, every)
     share = lambda i: shares[i][0] / shares[i][1]
     named = max(every, key=share)
-    if culprit and share(named) > 1.0 and len(every) > 2:
+    if culprit and share(named) > 1.0 and len(names) > 2:
         left = lambda i: max(d / g for d, g in _relation_shares(others, own, [j for j in every if j != i]).values())
         suspect = min(every, key=left)
         named = suspect if share(suspect) > 1.0 else named  # the sensor named is itself beyond its gate
@@ -159,7 +154,7 @@ def _errors(measured: list[np.ndarray]) -> list[float]:
     return [ridge.run_errors(sums, columns, [weight], [k])[0] for k in range(len(measured))]
 
 
-def _judged(readings, measured, alive: list[int], labels: list[str], names, drivers) -> list[JudgedRun]:
+def _judged(readings, measured, alive: list[int], labels: list[str], names) -> list[JudgedRun]:
     """Every run of `alive` judged against the others of `alive`."""
     within = _errors([measured[k] for k in alive])
     rows = [len(measured[k]) for k in alive]
@@ -171,24 +166,21 @@ def _judged(readings, measured, alive: list[int], labels: list[str], names, driv
         counts = [rows[j] for j in others]
         before = pooled(without, counts)
         influence = pooled([within[j] for j in others], counts) / before if before > 0 else 1.0
-        sensor, difference, gate = _sensor_judgement([readings[j] for j in alive], p, names, drivers, False)
+        sensor, difference, gate = _sensor_judgement([readings[j] for j in alive], p, names, False)
         judged.append(JudgedRun(k, labels[k], sensor, difference, gate, within[p], float(np.median(without)),
                                 influence))
     return judged
 
 
-def _named(readings, alive: list[int], run: JudgedRun, names, drivers) -> JudgedRun:
+def _named(readings, alive: list[int], run: JudgedRun, names) -> JudgedRun:
     """`run` (judged among `alive`) with its culprit sensor named."""
-    sensor, difference, gate = _sensor_judgement([readings[j] for j in alive], alive.index(run.index), names, drivers,
-                                                 True)
+    sensor, difference, gate = _sensor_judgement([readings[j] for j in alive], alive.index(run.index), names, True)
     return replace(run, sensor=sensor, difference_K=difference, gate_K=gate)
 
 
-def screen_runs(tables: list[Table], temperatures: tuple[str, ...], target: str, drivers: tuple[str, ...] = ()
-                ) -> Screening:
+def screen_runs(tables: list[Table], temperatures: tuple[str, ...], target: str) -> Screening:
     """The runs refused (both rules failed), worst first, each after the runs refused before it are taken out,
-    and the runs left whose sensors disagree though their target does not mind (named); `drivers`: the
-    temperatures of `temperatures` that drive the machine (the ambient), in the target rule only."""
+    and the runs left whose sensors disagree though their target does not mind (named)."""
     names = tuple(dict.fromkeys(temperatures))
     if len(tables) < MIN_RUNS or len(names) < 2:
         return Screening()
@@ -198,14 +190,13 @@ def screen_runs(tables: list[Table], temperatures: tuple[str, ...], target: str,
     labels = run_labels([t.path for t in tables])
     alive = list(range(len(tables)))
     refused: list[JudgedRun] = []
-    judged = _judged(readings, measured, alive, labels, names, drivers)
+    judged = _judged(readings, measured, alive, labels, names)
     while len(refused) < int(MAX_SHARE * len(tables)) and len(alive) > MIN_RUNS - 1:
         failing = [j for j in judged if j.sensors_disagree and j.target_off]
         if not failing:
             break
         worst = max(failing, key=lambda j: j.ratio)
-        refused.append(_named(readings, alive, worst, names, drivers))
+        refused.append(_named(readings, alive, worst, names))
         alive.remove(worst.index)
-        judged = _judged(readings, measured, alive, labels, names, drivers)
-    return Screening(tuple(refused), tuple(_named(readings, alive, j, names, drivers) for j in judged
-                                           if j.sensors_disagree))
+        judged = _judged(readings, measured, alive, labels, names)
+    return Screening(tuple(refused), tuple(_named(readings, alive, j, names) for j in judged if j.sensors_disagree))

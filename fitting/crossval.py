@@ -364,8 +364,7 @@ def screened(tables: list[Table], request: FitRequest, groups: dict | None) -> S
     temperatures and ambient; nothing for one recording or with `keep_every_run`."""
     if len(tables) < 2 or request.keep_every_run:
         return Screening()
-    return screen_runs(tables, tuple(floor_temperatures(request.temps, request.ambient)), request.target,
-                       (request.ambient,) if request.ambient else ())
+    return screen_runs(tables, tuple(floor_temperatures(request.temps, request.ambient)), request.target)
 
 
 def _in_order(per_run: tuple[dict, ...], screening: Screening) -> list[dict]:

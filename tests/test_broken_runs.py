@@ -13,8 +13,7 @@ from tests.cli_runner import thermoplc
 from thermoplc.fitting.broken_runs import screen_runs
 from thermoplc.machines.campaign import TARGET
 from thermoplc.models.modelfile import load_model
-from thermoplc.machines.cascade import simulate
-from thermoplc.recordings.table import read_table, write_table
+from thermoplc.recordings.table import write_table
 
 TEMPS = ("t8_C", "t4_C", "t5_C", "t11_C")
 FIT = ("fit", "--model", "mlr", "--target", "ch5_um", "--temps", ",".join(TEMPS), "--folds", 8)
@@ -157,18 +156,3 @@ def test_a_static_part_that_fails_gives_an_offset_only_block_that_passes_and_ver
     verified = thermoplc("verify", "Off.scl", "--model", "off.json", "--data", "runs", "--probe-every", 45,
                          cwd=unrelated).stdout
     assert "bit-exact: every run reproduces the reference (8 runs" in verified
-
-
-def test_the_ambient_is_judged_by_no_relation_as_in_the_block(tmp_path):
-    """The hall air drives the machine through hours of lag: a run in a hot hall is never named for its ambient,
-    and the machine's sensors are judged on each other alone, as the block's check judges them."""
-    tables = []
-    for k, ambient in enumerate((18.0, 20.0, 22.0, 19.0, 21.0, 34.0)):
-        path = tmp_path / f"run{k + 1}.csv"
-        path.write_text(write_table(simulate(6, seed=40 + k, ambient_start=ambient)))
-        tables.append(read_table(str(path)))
-    temps = ("T_motor", "T_bearing", "T_struct", "T_env")
-    screening = screen_runs(tables, temps, TARGET, ("T_env",))
-    assert screening.refused == ()
-    assert all(r.sensor != "T_env" for r in screening.named)
-    assert [r.run for r in screening.named] == ["run6.csv"]  # the block fitted on the other runs flags the hot hall
