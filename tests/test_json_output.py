@@ -59,7 +59,7 @@ def test_verify_faults_json(folder):
     assert doc["cases"] and all(case["bit_exact"] for case in doc["cases"])
     assert doc["ok"] == all(case["safe"] for case in doc["cases"]) and result.returncode == (0 if doc["ok"] else 1)
     commanded = ("reset", "reset-held", "disable", "disable+reset", "reset-after", "reset-far", "reset-stuck", "pause",
-                 "pause-flagged", "late-start")  # Enable/Reset
+                 "pause-flagged", "pause-stuck", "probe-reset", "probe-pause", "late-start")  # Enable/Reset
     assert all((case["error"] is None) == (case["fault"] in commanded) for case in doc["cases"])
 
 

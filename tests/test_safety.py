@@ -32,8 +32,9 @@ def test_every_fault_on_every_golden_block_stays_exact_finite_and_limited(kind, 
     check = model.plausibility
     swings = 2 if check is not None and check.swings else 0  # pause, late-start
     levels = 2 if check is not None else 0  # reset-far, pause-flagged
-    # sensors, then Enable/Reset, then the restarts: a Reset after a step on each sensor, reset-stuck, ...
-    assert len(cases) == (len(FAULT_KINDS) + 1) * len(temperatures) + len(CONTROL_KINDS) + 1 + swings + levels
+    # sensors, then Enable/Reset, then the restarts: a Reset after a step on each sensor, reset-stuck, pause-stuck ...
+    assert len(cases) == (len(FAULT_KINDS) + 1) * len(temperatures) + len(CONTROL_KINDS) + 2 + swings + levels
+    assert report.not_run == ()
     assert [(c.sensor, c.kind.name) for c in cases if not (c.bit_exact and c.finite and c.within_clamp
                                                            and c.within_rate)] == []
     # judged against no compensation: only a slowly drifting sensor, which no guard flags yet, may pull the axis
@@ -42,7 +43,7 @@ def test_every_fault_on_every_golden_block_stays_exact_finite_and_limited(kind, 
     assert {kind for _, kind in unsafe} <= {"sine"}
     assert report.ok == (not unsafe) and all((c.harm is None) == (not c.kind.judged) for c in cases)
     assert {c.kind.name for c in cases if not c.kind.judged} == {
-        "reset", "reset-held", "disable", "disable+reset", "reset-after", "reset-stuck",
+        "reset", "reset-held", "disable", "disable+reset", "reset-after", "reset-stuck", "pause-stuck",
         *(("reset-far", "pause-flagged") if levels else ()), *(("pause", "late-start") if swings else ())}
     for c in cases:
         if c.kind.name in ("nan", "open", "short", "jump", "dead", "offset"):
@@ -97,7 +98,7 @@ def test_verify_faults_from_the_command_line(tmp_path):
     thermoplc("generate", GOLDEN / "mlr.json", "--dialect", "iec", "-o", "b.st", cwd=tmp_path)
     data = golden_twin_csv(tmp_path)
     out = thermoplc("verify", "b.st", "--data", data, "--model", GOLDEN / "mlr.json", "--faults", cwd=tmp_path).stdout
-    assert "27 cases" in out and "all cases bit-exact, finite, inside the clamp and the rate limit" in out
+    assert "28 cases" in out and "all cases bit-exact, finite, inside the clamp and the rate limit" in out
     assert "offset: paper 000 eq. 19: -2 degC" in out
 
 

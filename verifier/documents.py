@@ -78,6 +78,7 @@ def faults_document(report: FaultReport) -> dict:
                    "none_error": None if c.harm is None else c.harm.none} for c in report.cases],
         "constants": {"checked": report.constants_checked, "differ": list(report.constant_errors)},
         "unsafe": list(report.unsafe),
+        "not_run": list(report.not_run),
     }
 
 

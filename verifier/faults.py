@@ -244,6 +244,7 @@ class FaultReport:
     constants_checked: int
     constant_errors: tuple[str, ...]
     unsafe: tuple[str, ...]
+    not_run: tuple[str, ...] = ()  # restart cases the data are too short for, and why
 
     @property
     def ok(self) -> bool:
@@ -253,6 +254,7 @@ class FaultReport:
         verdict = [f"NOT bit-exact: {self.block} holds constants that differ from the model (listed after the "
                    f"fault cases)"] if self.constant_errors else []
         return "\n".join([*verdict, format_cases(list(self.cases), self.block, self.rows),
+                          *(f"not run (the data are too short): {why}" for why in self.not_run),
                           *self._failures(),
                           *constants_lines(self.constants_checked, self.constant_errors),
                           *(f"UNSAFE: {line}" for line in self.unsafe)])
@@ -274,11 +276,11 @@ def verify_faults(block: str, model: Model, table: Table, overrides: dict | None
     checked against the model's as plain verify checks them."""
     program, machine = load_block(block, engine)
     limits: Limits = block_limits(program, block)
-    cases = _cases(machine, block, model, table, overrides, limits, probe_every)
+    cases, not_run = _cases(machine, block, model, table, overrides, limits, probe_every)
     checked, errors = compare_constants(program, model, limits)
     errors = (*errors, *(start_value_errors(machine.inputs) if model.probe is not None else ()))
     return FaultReport(block, table.rows, tuple(cases), checked, errors,
-                       tuple(subnormal_declarations(program.decls, block)))
+                       tuple(subnormal_declarations(program.decls, block)), tuple(not_run))
 
 
 def _reference(model: Model, inputs: dict, limits: Limits, control: dict | None = None) -> dict:
@@ -287,9 +289,9 @@ def _reference(model: Model, inputs: dict, limits: Limits, control: dict | None 
 
 
 def _cases(machine, block: str, model: Model, table: Table, overrides: dict | None, limits: Limits,
-           probe_every: int | None) -> list[FaultCase]:
-    """Each fault on each temperature input in turn, then each Enable/Reset action, then (a fused block) each
-    probing fault, replayed and compared."""
+           probe_every: int | None) -> tuple[list[FaultCase], list[str]]:
+    """Each fault on each temperature input in turn, then each Enable/Reset action, the restarts, then (a fused
+    block) each probing fault, replayed and compared; and the restart cases not run, with why."""
     check_model_inputs(machine, block, model, "model file")  # the command line puts the file's name in
     probing = probing_inputs(model, table, overrides, probe_every)
     clean = {**model_inputs(model, table, overrides), **probing}
@@ -323,8 +325,9 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
         cases.append(_case(kind, "/".join(control), first, min(first + length, table.rows - 1), expected, report,
                            machine, limits, model, baseline, measured, ~np.asarray(expected[READY_OUTPUT], bool)
                            | ~np.asarray(expected[ENO], bool)))
-    cases += _restart_cases(machine, block, model, table, clean, temperatures, first, limits, names, baseline,
-                            measured, already)
+    restarted, not_run = _restart_cases(machine, block, model, table, clean, temperatures, first, limits, names,
+                                        baseline, measured, already, probing)
+    cases += restarted
     for kind in PROBE_KINDS if probing else ():
         faulty, last = _probe_fault(kind, probing[PROBE_VALUE_INPUT], probing[PROBE_NEW_INPUT], first)
         inputs = {**clean, **faulty}
@@ -343,7 +346,7 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
         report = replay_and_compare(machine, block, "reference", table, model.time_column, inputs, expected, {})
         cases.append(_case(kind, PROBE_VALUE_INPUT, start, last, expected, report, machine, limits, model, baseline, measured,
                            at_clamp))
-    return cases
+    return cases, not_run
 
 
 def _sensor_flags(expected: dict, names: dict, sensor: str, already: np.ndarray) -> np.ndarray:
@@ -354,12 +357,14 @@ def _sensor_flags(expected: dict, names: dict, sensor: str, already: np.ndarray)
 
 def _restart_cases(machine, block: str, model: Model, table: Table, clean: dict, temperatures: list[str], first: int,
                    limits: Limits, names: dict, baseline: np.ndarray, measured: np.ndarray | None,
-                   already: np.ndarray) -> list[FaultCase]:
-    """Where the block's state starts afresh after the data moved (verifier/restarts.py), each replayed."""
+                   already: np.ndarray, probing: dict) -> tuple[list[FaultCase], list[str]]:
+    """Where the block's state starts afresh, or carries on, after the data moved (verifier/restarts.py), each
+    replayed; and why a case the data are too short for was not run."""
     cases = []
     declared = {d.name for d in machine.inputs}
     default_row = min(first + step_calls(model, limits.settle_calls), table.rows - 1)
-    for r in restart_cases(model, clean, temperatures, declared, limits, default_row):
+    restarts, not_run = restart_cases(model, clean, temperatures, declared, limits, default_row, probing or None)
+    for r in restarts:
         inputs = {**clean, **r.columns}
         expected = named(_reference(model, inputs, limits, control_of(r.control)), names)
         report = replay_and_compare(machine, block, "reference", table, model.time_column, {**inputs, **r.control},
@@ -369,7 +374,7 @@ def _restart_cases(machine, block: str, model: Model, table: Table, clean: dict,
             flags = flags | _sensor_flags(expected, names, r.sensor, already)
         cases.append(_case(FaultKind(r.name, r.description, False, None, False), r.what, r.first, r.last, expected,
                            report, machine, limits, model, baseline, measured, flags))
-    return cases
+    return cases, not_run
 
 
 def _case(kind: FaultKind, what: str, first: int, last: int, expected: dict, report, machine, limits: Limits,

@@ -13,13 +13,17 @@ input is inside its guard range (a block that is not Ready there starts nothing)
   from what the others say, and from there on it reads off by what puts that difference between its swing gate
   and its level gate (a sensor swapped in the stop). A block that carries the mean on (the step in it) or leaves
   it where the Reset zeroed it (the whole difference beyond the swing gate) flags there; the model does not.
-- reset-far: a Reset after which the first checked temperature reads 1.5 times its level gate off: the check
-  flags at once, so the fault hold starts from the state the Reset left.
+- reset-far: a Reset after which the first checked temperature reads 1.5 times its level gate off, then comes
+  back: the check flags at once (the fault hold starts from the state the Reset left), and the slow means start
+  at the Reset, not once the reading is back.
 - pause: Enable FALSE across the data's largest move of a difference from its slow mean that no jump check flags
   (the machine cooled while the block did not follow): a block that restarts its means there differs.
 - pause-flagged: a temperature ramped beyond its gate and back, then Enable FALSE while SensorsDisagree waits
   for its settle calls: they count only on running calls.
-- reset-stuck: a temperature frozen until its stuck check fires, then a Reset: the repeat count starts again.
+- reset-stuck / pause-stuck: a temperature frozen until its stuck check fires, then a Reset (the repeat count
+  starts again), or frozen with Enable FALSE one call in fifty (the count goes on over a pause).
+- probe-reset / probe-pause (a fused block): a NaN probing and a held ProbeNew, then a Reset (the refusals and
+  the suspicion start again); Enable FALSE between two probings (their spacing counts running calls).
 - late-start: the block first Ready at the call where a temperature differs most from what the others say,
   enabled a few calls before with a temperature NaN. A block that starts the mean at zero rather than at that
   difference, or on a call that is not Ready, flags it.
@@ -34,7 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.signal import lfilter
 
-from thermoplc.contract.outputs import ENABLE_INPUT, RESET_INPUT
+from thermoplc.contract.outputs import ENABLE_INPUT, PROBE_NEW_INPUT, PROBE_VALUE_INPUT, RESET_INPUT
 from thermoplc.models.modelfile import Model
 from thermoplc.models.plausibility import SWING_S, swing_factors
 from thermoplc.models.safety import Limits, guards
@@ -44,6 +48,9 @@ STEP_K = 5.0  # the step of a sensor read wrong: beyond any card's noise, inside
 FAR_GATES = 1.5  # reset-far's difference, in level gates
 PAUSE_S = 3600.0  # the longest pause searched
 UNREADY_CALLS = 5  # late-start's calls enabled before every input is in range
+FAR_CALLS = 30  # reset-far's calls at its offset before it comes back
+STUCK_PAUSE_EVERY = 50  # pause-stuck: Enable FALSE one call in this many
+TRANSIENT_PROBE_CALLS = 30  # probe-reset: calls ProbeNew is held TRUE
 TRANSIENT_PAUSE_CALLS = 30  # pause-flagged's pause beyond the settle calls
 PAUSE_WORK = 20_000_000  # calls x pause lengths searched for the largest pause (a few seconds of numpy)
 
@@ -63,24 +70,28 @@ class Restart:
 
 
 def restart_cases(model: Model, inputs: dict, temperatures: list[str], declared: set, limits: Limits,
-                  default_row: int) -> list[Restart]:
-    """The restart cases for a block with the inputs `declared` (Enable/Reset), on the fault-free `inputs`;
-    `default_row`: the Reset of a temperature the check does not follow."""
+                  default_row: int, probing: dict | None = None) -> tuple[list[Restart], list[str]]:
+    """The restart cases for a block with the inputs `declared` (Enable/Reset), on the fault-free `inputs` (and the
+    scheduled `probing` of a fused block); `default_row`: where a case that needs no particular call begins. Returns
+    the cases and, for each case the data are too short for, why it was not run."""
     rows = len(next(iter(inputs.values())))
     if rows < 3:
-        return []
+        return [], [f"every restart case: {rows} calls"]
     valid = _all_valid(model, inputs, limits)
     differences = _differences(model, inputs, valid)
-    cases = []
+    cases: list[Restart | str] = []
     if RESET_INPUT in declared:
         cases += _reset_after(model, inputs, temperatures, limits, differences, default_row)
-        cases += _reset_far(inputs, differences)
-        cases += _reset_stuck(inputs, temperatures, limits, default_row)
+        cases += _reset_far(inputs, differences, limits)
+        cases += _stuck(inputs, temperatures, limits, default_row, RESET_INPUT)
+        cases += _probe_reset(probing, default_row) if probing else []
     if ENABLE_INPUT in declared:
         cases += _pause(model, inputs, limits, differences, valid)
         cases += _pause_flagged(inputs, differences, limits, default_row)
+        cases += _stuck(inputs, temperatures, limits, default_row, ENABLE_INPUT)
+        cases += _probe_pause(probing, default_row) if probing else []
         cases += _late_start(inputs, differences)
-    return cases
+    return [c for c in cases if isinstance(c, Restart)], [c for c in cases if isinstance(c, str)]
 
 
 def step_size_K(model: Model) -> float:
@@ -96,7 +107,7 @@ def step_calls(model: Model, settle_calls: int) -> int:
 
 
 def _reset_after(model: Model, inputs: dict, temperatures: list[str], limits: Limits, differences: dict,
-                 default_row: int) -> list[Restart]:
+                 default_row: int) -> list:
     rows = len(next(iter(inputs.values())))
     size, calls = step_size_K(model), step_calls(model, limits.settle_calls)
     earliest = min(calls + 1, rows - 1)
@@ -104,13 +115,17 @@ def _reset_after(model: Model, inputs: dict, temperatures: list[str], limits: Li
     for name in temperatures:
         row, swapped = min(default_row, rows - 1), 0.0
         relation, difference = differences.get(name, (None, None))
-        if relation is not None and relation.swing_K is not None and np.isfinite(difference[earliest:]).any():
-            row = earliest + int(np.nanargmax(np.abs(difference[earliest:])))
+        if relation is not None and relation.swing_K is not None and np.isfinite(difference[earliest:-1]).any():
+            row = earliest + int(np.nanargmax(np.abs(difference[earliest:-1])))  # a call after the Reset
             swing = relation.swing_K[0]
             target = (swing + relation.gate_K[0]) / 2 if relation.gate_K is not None else 1.5 * swing
             d = float(difference[row])
             swapped = math.copysign(1.0, d) * (target - abs(d)) if target > swing else 0.0
         first = max(1, row - calls)
+        if row - first < calls or row >= rows - 1:
+            cases.append(f"reset-after on {name}: a step of {calls} calls, a Reset and a call after it need "
+                         f"{calls + 3} calls")
+            continue
         column = np.array(inputs[name], np.float64)
         column[first:row] += size
         column[row:] += swapped
@@ -121,7 +136,10 @@ def _reset_after(model: Model, inputs: dict, temperatures: list[str], limits: Li
     return cases
 
 
-def _reset_far(inputs: dict, differences: dict) -> list[Restart]:
+def _reset_far(inputs: dict, differences: dict, limits: Limits) -> list[Restart]:
+    """A Reset after which the first checked temperature with a level gate reads FAR_GATES gates off for
+    FAR_CALLS calls, then comes back at half the jump limit per call: the check flags from the Reset on, the fault
+    hold starts from what the Reset left, and the slow means start at the Reset (not once the reading is back)."""
     rows = len(next(iter(inputs.values())))
     levelled = [(r, d) for r, d in differences.values() if r.gate_K is not None and np.isfinite(d[1:]).any()]
     if not levelled:
@@ -130,10 +148,13 @@ def _reset_far(inputs: dict, differences: dict) -> list[Restart]:
     row = 1 + int(np.nanargmax(np.abs(difference[1:])))
     d = float(difference[row])
     offset = math.copysign(1.0, d) * (FAR_GATES * relation.gate_K[0] - abs(d))
+    back = np.linspace(offset, 0.0, math.ceil(abs(offset) / (0.5 * limits.max_jump_K)) + 1)
+    shape = np.concatenate([np.full(FAR_CALLS, offset), back])[:rows - row]
     column = np.array(inputs[relation.sensor], np.float64)
-    column[row:] += offset
-    return [Restart("reset-far", f"Reset, then {offset:+.2g}K (past its gate)", relation.sensor, row, rows - 1,
-                    {relation.sensor: column.astype(np.float32)}, {RESET_INPUT: _at(rows, row)}, relation.sensor)]
+    column[row:row + len(shape)] += shape
+    return [Restart("reset-far", f"Reset, {offset:+.2g}K past gate, back", relation.sensor, row,
+                    min(row + len(shape), rows - 1), {relation.sensor: column.astype(np.float32)},
+                    {RESET_INPUT: _at(rows, row)}, relation.sensor)]
 
 
 def _pause(model: Model, inputs: dict, limits: Limits, differences: dict, valid: np.ndarray) -> list[Restart]:
@@ -167,7 +188,7 @@ def _pause(model: Model, inputs: dict, limits: Limits, differences: dict, valid:
                     control={ENABLE_INPUT: (np.arange(rows) < a) | (np.arange(rows) >= b)})]
 
 
-def _pause_flagged(inputs: dict, differences: dict, limits: Limits, first: int) -> list[Restart]:
+def _pause_flagged(inputs: dict, differences: dict, limits: Limits, first: int) -> list:
     """The first checked temperature with a level gate ramped (at half the jump limit per call) to twice its gate
     beyond what the others say and back, then Enable FALSE for the settle calls and more while SensorsDisagree
     waits for them: a block whose check runs while disabled counts them and clears the bit early."""
@@ -179,10 +200,14 @@ def _pause_flagged(inputs: dict, differences: dict, limits: Limits, first: int) 
     height = 2.0 * (relation.gate_K[0] + abs(float(np.nan_to_num(difference[first]))))
     ramp = np.linspace(0.0, height, math.ceil(height / (0.5 * limits.max_jump_K)) + 1)
     shape = np.concatenate([ramp, ramp[::-1]])
-    end = min(first + len(shape), rows - 1)
+    needed = len(shape) + int(limits.settle_calls) + TRANSIENT_PAUSE_CALLS + 2
+    first = min(first, rows - needed)
+    if first < 1:
+        return [f"pause-flagged on {relation.sensor}: a ramp, its settle calls and a pause need {needed + 1} calls"]
+    end = first + len(shape)
     column = np.array(inputs[relation.sensor], np.float64)
-    column[first:end] += shape[:end - first]
-    back = min(end + int(limits.settle_calls) + TRANSIENT_PAUSE_CALLS, rows - 1)
+    column[first:end] += shape
+    back = end + int(limits.settle_calls) + TRANSIENT_PAUSE_CALLS
     return [Restart("pause-flagged", f"ramp {height:.2g}K, back, off {back - end} calls", relation.sensor, first,
                     back, {relation.sensor: column.astype(np.float32)},
                     {ENABLE_INPUT: (np.arange(rows) < end) | (np.arange(rows) >= back)}, relation.sensor)]
@@ -208,19 +233,62 @@ def _late_start(inputs: dict, differences: dict) -> list[Restart]:
                     min(ready + 30, rows - 1), {sensor: column}, {ENABLE_INPUT: np.arange(rows) >= start}, sensor)]
 
 
-def _reset_stuck(inputs: dict, temperatures: list[str], limits: Limits, default_row: int) -> list[Restart]:
-    """The first temperature frozen from `default_row` on, Reset when its stuck check has fired and the count
-    stands at its cap: the count starts again at the Reset (a block that keeps it flags at once)."""
+def _stuck(inputs: dict, temperatures: list[str], limits: Limits, default_row: int, control: str) -> list:
+    """The first temperature frozen to the end. With Reset: a Reset once its stuck check has fired and the count
+    stands at its cap (the count starts again there). With Enable: Enable FALSE for one call in every
+    STUCK_PAUSE_EVERY (a PLC program that pauses the block now and then): the count goes on over a pause."""
     rows = len(next(iter(inputs.values())))
     if limits.stuck_calls is None or not temperatures:
         return []
-    frozen_at = min(default_row, rows - 1)
-    row = min(frozen_at + 2 * int(limits.stuck_calls), rows - 1)
-    name = temperatures[0]
+    name, calls = temperatures[0], int(limits.stuck_calls)
+    label = "reset-stuck" if control == RESET_INPUT else "pause-stuck"
+    frozen_at = min(default_row, rows - 2 * calls - 6)  # fired, reset, and room to fire again after the Reset
+    if frozen_at < 1:
+        return [f"{label} on {name}: a stuck check of {calls} calls needs {2 * calls + 7} calls"]
     column = np.array(inputs[name], np.float32)
     column[frozen_at:] = column[frozen_at]
-    return [Restart("reset-stuck", f"frozen from {frozen_at}, Reset at {row}", name, frozen_at, rows - 1,
-                    {name: column}, {RESET_INPUT: _at(rows, row)}, name)]
+    if control == RESET_INPUT:
+        row = frozen_at + calls + 2
+        return [Restart(label, f"frozen from {frozen_at}, Reset at {row}", name, frozen_at, rows - 1,
+                        {name: column}, {RESET_INPUT: _at(rows, row)}, name)]
+    calls_since = np.arange(rows) - frozen_at
+    enable = ~((calls_since > 0) & (calls_since % STUCK_PAUSE_EVERY == 0))
+    return [Restart(label, f"frozen from {frozen_at}, off 1 in {STUCK_PAUSE_EVERY}", name, frozen_at, rows - 1,
+                    {name: column}, {ENABLE_INPUT: enable}, name)]
+
+
+def _probe_reset(probing: dict, default_row: int) -> list:
+    """A fused block's probings: one NaN (refused, counted), the next with ProbeNew held TRUE for
+    TRANSIENT_PROBE_CALLS calls (ProbeSuspect), then a Reset: the count and the suspicion start again."""
+    edges = _edges(probing, default_row)
+    rows = len(probing[PROBE_NEW_INPUT])
+    if len(edges) < 3 or edges[1] + TRANSIENT_PROBE_CALLS + 1 >= rows:
+        return ["probe-reset: two probings and a Reset after them need more calls"]
+    value, new = np.array(probing[PROBE_VALUE_INPUT], np.float32), np.array(probing[PROBE_NEW_INPUT], bool)
+    value[edges[0]:edges[1]] = np.nan
+    held_to = edges[1] + TRANSIENT_PROBE_CALLS
+    new[edges[1]:held_to] = True
+    return [Restart("probe-reset", f"NaN at {edges[0]}, held at {edges[1]}, Reset", PROBE_VALUE_INPUT, edges[0],
+                    held_to, {PROBE_VALUE_INPUT: value, PROBE_NEW_INPUT: new}, {RESET_INPUT: _at(rows, held_to)})]
+
+
+def _probe_pause(probing: dict, default_row: int) -> list:
+    """Enable FALSE from just after one probing to just before the next: the probings' spacing counts running
+    calls only (a block that counts disabled calls takes as scheduled what the model refuses as too soon)."""
+    edges = _edges(probing, default_row)
+    rows = len(probing[PROBE_NEW_INPUT])
+    if len(edges) < 2 or edges[1] - edges[0] < 8:
+        return ["probe-pause: two probings more than 8 calls apart after the sensor faults' start"]
+    a, b = edges[0] + 3, edges[1] - 3
+    return [Restart("probe-pause", f"Enable FALSE calls {a}..{b - 1}", ENABLE_INPUT, a, edges[1],
+                    control={ENABLE_INPUT: (np.arange(rows) < a) | (np.arange(rows) >= b)})]
+
+
+def _edges(probing: dict, default_row: int) -> np.ndarray:
+    """The scheduled probings' rising edges from `default_row` on."""
+    new = np.asarray(probing[PROBE_NEW_INPUT], bool)
+    edges = np.flatnonzero(new & ~np.concatenate([[False], new[:-1]]))
+    return edges[edges >= default_row]
 
 
 def _all_valid(model: Model, inputs: dict, limits: Limits) -> np.ndarray:
