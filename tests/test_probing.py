@@ -221,7 +221,7 @@ def test_verify_faults_injects_hostile_probings_into_a_fused_block(folder):
                        "--faults", cwd=folder, check=None)
     rows = {line.split()[1]: line.split() for line in result.stdout.splitlines() if line.startswith("ProbeValue")}
     assert sorted(rows) == ["probe-clamp+:", "probe-clamp-:", "probe-flood:", "probe-held:", "probe-inf:",
-                            "probe-nan:", "probe-spike:", "probe-stuck:", "probe-wrong:"]
+                            "probe-nan:", "probe-reset:", "probe-spike:", "probe-stuck:", "probe-wrong:"]
     for name in ("probe-nan:", "probe-inf:", "probe-spike:", "probe-wrong:"):
         assert rows[name][-9:-5] == ["yes", "yes", "yes", "yes"] and rows[name][-5] == "yes"  # exact..rate; refused
     assert "yes" in (rows["probe-clamp+:"][-5], rows["probe-clamp-:"][-5])  # a run took the offset to a clamp
