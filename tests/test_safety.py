@@ -1,4 +1,6 @@
 """The safety logic every block carries: guards, start gate, clamp, rate limit, K0, fault injection."""
+import json
+
 import numpy as np
 import pytest
 
@@ -142,3 +144,16 @@ def test_the_fault_hold_keeps_a_short_fault_near_and_fades_a_dead_sensor_to_no_c
     chunked = np.concatenate([fault_hold.apply(model[:2500], faulty[:2500], 2.0, 0.995, "f32", state),
                               fault_hold.apply(model[2500:], faulty[2500:], 2.0, 0.995, "f32", state)])
     assert chunked.view(np.uint32).tolist() == fault_hold.apply(model, faulty, 2.0, 0.995, "f32").view(np.uint32).tolist()
+
+
+def test_a_restart_case_the_data_are_too_short_for_is_named_not_passed(tmp_path):
+    """150 calls of the twin: no room for a 211-call step and a Reset after it; the text and --json say so."""
+    full = golden_twin_csv(tmp_path).read_text().splitlines()
+    (tmp_path / "short.csv").write_text("\n".join(full[:151]) + "\n")
+    args = ("verify", GOLDEN / "mlr.iec.st", "--model", GOLDEN / "mlr.json", "--data", "short.csv", "--faults")
+    out = thermoplc(*args, cwd=tmp_path, check=None).stdout
+    assert ("not run (the data are too short): reset-after on T_motor: a step of 211 calls, a Reset and a call after "
+            "it need 214 calls") in out
+    assert "reset-after:" not in out and "reset-stuck:" in out
+    doc = json.loads(thermoplc(*args, "--json", "-", cwd=tmp_path, check=None).stdout)  # the text goes to stderr
+    assert [why.split(":")[0] for why in doc["not_run"]] == ["reset-after on T_motor", "reset-after on T_bearing"]
