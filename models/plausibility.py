@@ -243,10 +243,7 @@ def disagree(plausibility: Plausibility, values: dict, settle_calls: int, sample
     keep, alpha = (f(v) for v in swing_factors(sample_period_s, precision))
     far, quiet = np.zeros(rows, bool), np.ones(rows, bool)
     for k, relation in enumerate(plausibility.relations):
-        expected = np.full(rows, pick(relation.intercept), f)
-        for name, slope in relation.slopes:
-            expected = expected + pick(slope) * np.asarray(values[name], f)
-        difference = np.asarray(values[relation.sensor], f) - expected
+        difference = relation_difference(relation, values, precision)
         with np.errstate(invalid="ignore"):
             if relation.gate_K is not None:
                 far |= np.abs(difference) > pick(relation.gate_K)
@@ -261,6 +258,17 @@ def disagree(plausibility: Plausibility, values: dict, settle_calls: int, sample
     loop = _latch if compiled_loop else getattr(_latch, "py_func", _latch)
     loop(far, quiet, np.int64(settle_calls), state.flags, out)
     return out
+
+
+def relation_difference(relation: Relation, values: dict, precision: str) -> np.ndarray:
+    """Per call, the checked input minus what the others say it should read: a_i first, then each term in order,
+    in binary32 as the block computes it (f32) or in float64."""
+    f = np.float32 if precision == "f32" else np.float64
+    pick = (lambda pair: f(pair[1])) if precision == "f32" else (lambda pair: f(pair[0]))
+    expected = np.full(len(values[relation.sensor]), pick(relation.intercept), f)
+    for name, slope in relation.slopes:
+        expected = expected + pick(slope) * np.asarray(values[name], f)
+    return np.asarray(values[relation.sensor], f) - expected
 
 
 def deviations(difference: np.ndarray, keep, alpha, started: bool, mean: np.ndarray, compiled_loop: bool) -> np.ndarray:

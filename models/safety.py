@@ -272,6 +272,12 @@ def fault_flags(plan, valid: dict, faults: dict, core: dict | None, start: int) 
     return out
 
 
+def in_range(plan, raw: dict, constants: dict, f) -> dict:
+    """Per guarded input, per call, whether its reading is inside its guard's range (NaN is not), in `f`."""
+    with np.errstate(invalid="ignore"):
+        return {g.name: (raw[g.name] >= f(constants[g.low])) & (raw[g.name] <= f(constants[g.high])) for g in plan}
+
+
 def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, core_predict,
                     held: dict | None = None) -> dict:
     """Every block output, given raw inputs: guards, the model from the first all-valid call, limiter.
@@ -283,8 +289,7 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     plan = guards(model)
     rows = len(next(iter(inputs.values())))
     raw = {g.name: np.asarray(inputs[g.name], f) for g in plan}
-    with np.errstate(invalid="ignore"):
-        valid = {g.name: (raw[g.name] >= f(constants[g.low])) & (raw[g.name] <= f(constants[g.high])) for g in plan}
+    valid = in_range(plan, raw, constants, f)
     repeated = {g.name: stuck_readings(raw[g.name], valid[g.name], limits, f) for g in plan if g.kind != "range"}
     stuck = {name: flags for name, (flags, _) in repeated.items()}
     for g in plan:

@@ -21,7 +21,7 @@ from thermoplc.models.modelfile import Model
 from thermoplc.models.plausibility import CheckState
 from thermoplc.models.reference import guarded_core, with_start
 from thermoplc.models.safety import (CLAMPED, ENABLED, INVALID, LIMITED, READY, Limits, axis_outputs, checked_values,
-                                     fault_flags, guards, held_while_faulty, k0_key, real_outputs_of,
+                                     fault_flags, guards, held_while_faulty, in_range, k0_key, real_outputs_of,
                                      sensors_disagree, stuck_readings)
 
 NOT_YET = np.iinfo(np.int64).max  # the ready row before any call had every input in range
@@ -83,8 +83,7 @@ class StreamingReference:
         f, constants, offset = self.f, self.constants, self.calls
         rows = len(next(iter(inputs.values())))
         raw = {g.name: np.asarray(inputs[g.name], f) for g in self.plan}
-        valid = {g.name: (raw[g.name] >= f(constants[g.low])) & (raw[g.name] <= f(constants[g.high]))
-                 for g in self.plan}
+        valid = in_range(self.plan, raw, constants, f)
         repeated = {name: stuck_readings(raw[name], valid[name], self.limits, f, state)
                     for name, state in self.repeats.items()}
         stuck = {name: flags for name, (flags, _) in repeated.items()}

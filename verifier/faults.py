@@ -323,8 +323,7 @@ def _cases(machine, block: str, model: Model, table: Table, overrides: dict | No
         report = replay_and_compare(machine, block, "reference", table, model.time_column, {**clean, **control},
                                      expected, {})
         cases.append(_case(kind, "/".join(control), first, min(first + length, table.rows - 1), expected, report,
-                           machine, limits, model, baseline, measured, ~np.asarray(expected[READY_OUTPUT], bool)
-                           | ~np.asarray(expected[ENO], bool)))
+                           machine, limits, model, baseline, measured, _stopped(expected)))
     restarted, not_run = _restart_cases(machine, block, model, table, clean, temperatures, first, limits, names,
                                         baseline, measured, already, probing)
     cases += restarted
@@ -355,6 +354,11 @@ def _sensor_flags(expected: dict, names: dict, sensor: str, already: np.ndarray)
             | np.asarray(expected.get(DISAGREE_OUTPUT, False), bool) & ~already)
 
 
+def _stopped(expected: dict) -> np.ndarray:
+    """Per call, whether Ready or ENO is FALSE: the block says it does not compensate."""
+    return ~np.asarray(expected[READY_OUTPUT], bool) | ~np.asarray(expected[ENO], bool)
+
+
 def _restart_cases(machine, block: str, model: Model, table: Table, clean: dict, temperatures: list[str], first: int,
                    limits: Limits, names: dict, baseline: np.ndarray, measured: np.ndarray | None,
                    already: np.ndarray, probing: dict) -> tuple[list[FaultCase], list[str]]:
@@ -369,7 +373,7 @@ def _restart_cases(machine, block: str, model: Model, table: Table, clean: dict,
         expected = named(_reference(model, inputs, limits, control_of(r.control)), names)
         report = replay_and_compare(machine, block, "reference", table, model.time_column, {**inputs, **r.control},
                                     expected, {})
-        flags = ~np.asarray(expected[READY_OUTPUT], bool) | ~np.asarray(expected[ENO], bool)
+        flags = _stopped(expected)
         if r.sensor is not None:
             flags = flags | _sensor_flags(expected, names, r.sensor, already)
         cases.append(_case(FaultKind(r.name, r.description, False, None, False), r.what, r.first, r.last, expected,

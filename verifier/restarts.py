@@ -40,8 +40,9 @@ from scipy.signal import lfilter
 
 from thermoplc.contract.outputs import ENABLE_INPUT, PROBE_NEW_INPUT, PROBE_VALUE_INPUT, RESET_INPUT
 from thermoplc.models.modelfile import Model
-from thermoplc.models.plausibility import SWING_S, swing_factors
-from thermoplc.models.safety import Limits, guards
+from thermoplc.models.plausibility import SWING_S, relation_difference, swing_factors
+from thermoplc.models.probing import rising
+from thermoplc.models.safety import Limits, guards, in_range
 
 FOLLOWED_TIME_CONSTANTS = 3.0  # the slow mean has followed a step to within exp(-3) = 5 % of it
 STEP_K = 5.0  # the step of a sensor read wrong: beyond any card's noise, inside every temperature range
@@ -185,7 +186,7 @@ def _pause(model: Model, inputs: dict, limits: Limits, differences: dict, valid:
         return []
     a, b = where
     return [Restart("pause", f"Enable FALSE calls {a}..{b - 1}", ENABLE_INPUT, a, b,
-                    control={ENABLE_INPUT: (np.arange(rows) < a) | (np.arange(rows) >= b)})]
+                    control={ENABLE_INPUT: _enabled_but(rows, a, b)})]
 
 
 def _pause_flagged(inputs: dict, differences: dict, limits: Limits, first: int) -> list:
@@ -210,7 +211,7 @@ def _pause_flagged(inputs: dict, differences: dict, limits: Limits, first: int) 
     back = end + int(limits.settle_calls) + TRANSIENT_PAUSE_CALLS
     return [Restart("pause-flagged", f"ramp {height:.2g}K, back, off {back - end} calls", relation.sensor, first,
                     back, {relation.sensor: column.astype(np.float32)},
-                    {ENABLE_INPUT: (np.arange(rows) < end) | (np.arange(rows) >= back)}, relation.sensor)]
+                    {ENABLE_INPUT: _enabled_but(rows, end, back)}, relation.sensor)]
 
 
 def _late_start(inputs: dict, differences: dict) -> list[Restart]:
@@ -281,25 +282,22 @@ def _probe_pause(probing: dict, default_row: int) -> list:
         return ["probe-pause: two probings more than 8 calls apart after the sensor faults' start"]
     a, b = edges[0] + 3, edges[1] - 3
     return [Restart("probe-pause", f"Enable FALSE calls {a}..{b - 1}", ENABLE_INPUT, a, edges[1],
-                    control={ENABLE_INPUT: (np.arange(rows) < a) | (np.arange(rows) >= b)})]
+                    control={ENABLE_INPUT: _enabled_but(rows, a, b)})]
 
 
 def _edges(probing: dict, default_row: int) -> np.ndarray:
     """The scheduled probings' rising edges from `default_row` on."""
-    new = np.asarray(probing[PROBE_NEW_INPUT], bool)
-    edges = np.flatnonzero(new & ~np.concatenate([[False], new[:-1]]))
+    edges = np.flatnonzero(rising(probing[PROBE_NEW_INPUT]))
     return edges[edges >= default_row]
 
 
 def _all_valid(model: Model, inputs: dict, limits: Limits) -> np.ndarray:
     """Per call, whether every input is inside its guard range (the block is Ready there)."""
-    constants = limits.values()
-    rows = len(next(iter(inputs.values())))
-    valid = np.ones(rows, bool)
-    with np.errstate(invalid="ignore"):
-        for g in guards(model):
-            x = np.asarray(inputs[g.name], np.float32)
-            valid &= (x >= np.float32(constants[g.low])) & (x <= np.float32(constants[g.high]))
+    plan = guards(model)
+    valid = np.ones(len(next(iter(inputs.values()))), bool)
+    for flags in in_range(plan, {g.name: np.asarray(inputs[g.name], np.float32) for g in plan}, limits.values(),
+                          np.float32).values():
+        valid &= flags
     return valid
 
 
@@ -311,10 +309,15 @@ def _differences(model: Model, inputs: dict, valid: np.ndarray) -> dict:
     out = {}
     with np.errstate(invalid="ignore", over="ignore"):
         for r in model.plausibility.relations:
-            expected = r.intercept[0] + sum(slope[0] * np.asarray(inputs[name], np.float64) for name, slope in r.slopes)
-            difference = np.asarray(inputs[r.sensor], np.float64) - expected
+            difference = relation_difference(r, inputs, "f64")
             out[r.sensor] = (r, np.where(valid & np.isfinite(difference), difference, np.nan))
     return out
+
+
+def _enabled_but(rows: int, first: int, end: int) -> np.ndarray:
+    """Enable per call: FALSE from call `first` to `end` - 1."""
+    calls = np.arange(rows)
+    return (calls < first) | (calls >= end)
 
 
 def _at(rows: int, row: int) -> np.ndarray:
