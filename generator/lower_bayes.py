@@ -6,7 +6,7 @@ from thermoplc.generator.ir import Assign, BinOp, Block, Const, If, Index, IntCo
 from thermoplc.models.bayes import edges_of
 from thermoplc.models.modelfile import Model
 from thermoplc.generator.lower_shared import (
-    INIT, const, error_output, first_call, header, inputs_of, reference_vars, references,
+    INIT, const, error_output, first_call, header, inputs_of, reference_vars, references, sum_of,
 )
 
 
@@ -16,7 +16,14 @@ def lower_bayes(model: Model) -> Block:
     timed = bool(model.settings.get("time_parent"))
     clock, regions, statics, constants = [], [], [], []
     # each parent: its label, the value its interval is found for, the unit of its edges
-    parents = [(f"the rise of {s.name}", BinOp("-", Ref(s.name), Ref(f"T0_{i}")), "K") for i, s in enumerate(temps, start=1)]
+    rises = [BinOp("-", Ref(s.name), Ref(f"T0_{i}")) for i, s in enumerate(temps, start=1)]
+    if model.settings.get("parents") == "ridge":
+        parents = [("the ridge prediction", sum_of([BinOp("*", const(f"w_{i}"), rise)
+                                                    for i, rise in enumerate(rises, start=1)]), "um")]
+        constants += [Const(f"c_w_{i}", model.coef(f"w_{i}"), f"um per K of {s.name} in the ridge prediction")
+                      for i, s in enumerate(temps, start=1)]
+    else:
+        parents = [(f"the rise of {s.name}", rise, "K") for s, rise in zip(temps, rises)]
     if timed:
         parents.append(("the time since the first call", Ref("Elapsed"), "s"))
         clock.append(Region("Time since the first call (a parent of the network), before Init is set", (

@@ -10,6 +10,12 @@ answers (fewest interval steps over all sensors; ties to the one seen most often
 index), with `unseen="frequent"` the interval most frequent overall (the network's own answer:
 all its intervals tie). The block holds no probabilities: it finds
 each interval by comparisons and reads the prediction from a table indexed by the configuration.
+
+With `parents="ridge"` the network has one temperature parent instead: the ridge fit's prediction from
+every temperature's rise (base/ridge.py, its weight chosen leaving out each run), in intervals as wide as
+the error's. A network on many sensors needs more configurations than a block can hold and more than
+training can fill (FL_THERMAL in 6 h runs, four sensors of 8 intervals: 2.6-3.2 x a ridge on every
+sensor); the shrunk map carries the sensors, the network the mode of the error around it (issue 62).
 """
 from __future__ import annotations
 
@@ -17,9 +23,10 @@ import math
 
 import numpy as np
 
+from thermoplc.base import ridge
 from thermoplc.base.binary32 import round_f32
 from thermoplc.base.errors import UserError
-from thermoplc.models.kind import Kind, KindOption
+from thermoplc.models.kind import Kind, KindOption, Part, measured_counts, measured_rows
 from thermoplc.models.model import Coefficient, Model
 
 MAX_CONFIGURATIONS = 4096  # table entries in the block
@@ -43,6 +50,7 @@ def configuration(indices: list[np.ndarray], counts: list[int]) -> np.ndarray:
 
 
 UNSEEN_RULES = ("nearest", "frequent")
+PARENTS = ("temperatures", "ridge")  # each temperature's rise (paper 004), or one: the ridge prediction from all
 
 
 def _nearest_seen(rows_per_configuration: np.ndarray, counts: list[int]) -> np.ndarray:
@@ -81,6 +89,41 @@ def fit_bayes(runs: list[tuple[np.ndarray, np.ndarray]], bins: int, precision_um
                                             np.concatenate([t[m] for (_, t), m in zip(runs, measured)]),
                                             bins_per_parent, precision_um, unseen)
     settings["time_parent"] = bool(time_bins)
+    return coefficients, settings, log
+
+
+def proxy(temps: np.ndarray, weights, f=np.float64) -> np.ndarray:
+    """The ridge parent as the block computes it: ((w_1*(T_1 - T0_1)) + w_2*(T_2 - T0_2)) + ..., in `f`."""
+    temps = np.asarray(temps, f)
+    rises = temps - temps[0]
+    total = f(weights[0]) * rises[:, 0]
+    for i in range(1, rises.shape[1]):
+        total = total + f(weights[i]) * rises[:, i]
+    return total
+
+
+def fit_ridge_parent(parts: list[Part], names: list[str], precision_um: float, unseen: str = "nearest",
+                     time_bins: int = 0, dt: float = 1.0):
+    """The network on one temperature parent, the ridge prediction from every temperature's rise: its
+    weights fitted as mlr fits its slopes, the parent in binary32 as the block computes it, in
+    intervals `precision_um` wide (at most as many as the block's table holds)."""
+    if precision_um <= 0 or time_bins < 0:
+        raise UserError("--time-bins must be at least 0 and --precision-um positive")
+    fitted = ridge.fit_linear(*measured_rows(parts, lambda part: part.rises), names, runs=measured_counts(parts))
+    weights = [round_f32(w) for w in fitted.slopes]
+    values = [proxy(part.temps, weights, np.float32).astype(float) for part in parts]
+    if time_bins:
+        values = [np.column_stack([v, elapsed_s(len(v), dt)]) for v in values]
+    values = np.vstack([np.reshape(v, (len(v), -1))[p.measured] for v, p in zip(values, parts)])
+    span = float(values[:, 0].max() - values[:, 0].min())
+    intervals = int(min(max(1, math.ceil(span / precision_um)), MAX_CONFIGURATIONS // max(1, time_bins)))
+    coefficients, settings, log = fit_rises(values, np.concatenate([p.target[p.measured] for p in parts]),
+                                            [intervals] + ([time_bins] if time_bins else []), precision_um, unseen)
+    coefficients.update({f"w_{i}": Coefficient.of(w) for i, w in enumerate(weights, start=1)})
+    settings.update(parents="ridge", time_parent=bool(time_bins))
+    by = fitted.log().get("ridge_weight_by", "forward validation")
+    log = {**fitted.log(), "method": f"one parent, the ridge prediction from every temperature's rise (weight by {by}), "
+                                     f"in {intervals} intervals; {log['method']}"}
     return coefficients, settings, log
 
 
@@ -149,7 +192,11 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     that entry of the prediction table; returns {target name: error per row}."""
     f = np.float32 if precision == "f32" else np.float64
     temps = model.signals("temperature")
-    rises = [np.asarray(inputs[s.name], f) - np.asarray(inputs[s.name], f)[0] for s in temps]
+    if model.settings.get("parents") == "ridge":
+        weights = [model.coef(f"w_{i}", precision) for i in range(1, len(temps) + 1)]
+        rises = [proxy(np.column_stack([np.asarray(inputs[s.name], f) for s in temps]), weights, f)]
+    else:
+        rises = [np.asarray(inputs[s.name], f) - np.asarray(inputs[s.name], f)[0] for s in temps]
     if model.settings.get("time_parent"):
         rises.append(elapsed_s(len(rises[0]), model.sample_period_s, f))
     indices = [interval(r, [f(e) for e in edges_of(model, i, precision)]) for i, r in enumerate(rises, start=1)]
@@ -159,18 +206,31 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
 
 
 def _fit(parts, request, names, dt, progress):
+    if request.option("parents") == "ridge":
+        if "bins" in dict(request.settings):
+            raise UserError("--bins sets each temperature's intervals; with --parents ridge the one parent's "
+                            "intervals are --precision-um wide")
+        return fit_ridge_parent(parts, names, request.option("precision_um"), request.option("unseen"),
+                                request.option("time_bins"), dt)
     return fit_bayes([(p.temps, p.target) for p in parts], request.option("bins"), request.option("precision_um"),
                      request.option("unseen"), request.option("time_bins"), dt)
 
 
 def check_settings(model: Model, path: str) -> None:
-    """One interval count per parent, whose product is the number of configurations."""
+    """One interval count per parent, whose product is the number of configurations; a ridge parent's
+    weight for every temperature."""
     s = model.settings
-    parents = len(model.signals("temperature")) + (1 if s.get("time_parent") else 0)
+    temps = len(model.signals("temperature"))
+    ridge_parent = s.get("parents") == "ridge"
+    parents = (1 if ridge_parent else temps) + (1 if s.get("time_parent") else 0)
     if len(s["intervals"]) != parents or math.prod(s["intervals"]) != s["configurations"]:
         raise UserError(f"{path}: field 'settings': intervals {s['intervals']} and configurations "
                         f"{s['configurations']} do not fit {parents} parents (the product of the intervals is "
                         f"the number of configurations)")
+    missing = [f"w_{i}" for i in range(1, temps + 1) if ridge_parent and f"w_{i}" not in model.coefficients]
+    if missing:
+        raise UserError(f"{path}: field 'coefficients': the ridge parent has no weight {', '.join(missing)} "
+                        f"(one per temperature)")
 
 
 SETTINGS_SCHEMA = {
@@ -184,6 +244,7 @@ SETTINGS_SCHEMA = {
                    "error_width_um": {"type": "number", "exclusiveMinimum": 0},
                    "error_classes": {"type": "integer", "minimum": 1},
                    "unseen": {"enum": list(UNSEEN_RULES)},
+                   "parents": {"enum": list(PARENTS)},
                    "time_parent": {"type": "boolean"}}}
 
 OPTIONS = (
@@ -196,6 +257,9 @@ OPTIONS = (
     KindOption("time_bins", "--time-bins", 0, "the time since the first call is a parent too, in N intervals (paper "
                "004's repeated runs: give one --data file per run; default: %(default)s, no time parent)",
                number=(int, 0, 4096, "intervals"), metavar="N", owned="--time-bins is"),
+    KindOption("parents", "--parents", PARENTS[0], "the network's temperature parents: each temperature's rise "
+               "(paper 004), or one, the ridge prediction from every temperature's rise in intervals --precision-um "
+               "wide (many sensors; default: %(default)s)", choices=PARENTS, owned="--parents is"),
 )
 def structure(model: Model) -> dict:
     """The interval counts the configuration index multiplies by, and the seconds per call of a time parent."""
