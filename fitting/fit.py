@@ -198,7 +198,7 @@ def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
     signals = [Signal(block_identifier(c, "temperature"), c, "temperature", "degC") for c in request.temps]
     for owner in registry().values():
         owned = [*((getattr(request, name), text) for name, text in owner.owns_options),
-                 *((request.option(option.field), option.owned) for option in owner.options if option.owned)]
+                 *((option.field in dict(request.settings), option.owned) for option in owner.options if option.owned)]
         for given, text in owned:
             if given and owner.name != request.kind:
                 raise UserError(f"{text} for --model {owner.name} only")

@@ -146,3 +146,17 @@ def test_a_ridge_parent_model_without_its_weights_is_refused_by_name(twin_table,
     import pytest
     with pytest.raises(UserError, match="no weight w_2"):
         load_model(tmp_path / "m.json")
+
+
+def test_a_kind_given_another_kinds_option_at_its_default_fits():
+    """An option owned by one kind is refused for the others only when given other than its default."""
+    import math
+    from thermoplc.fitting.fit import FitRequest, fit
+    from thermoplc.machines.cascade import simulate
+    from thermoplc.recordings.table import Table
+    columns = simulate(4, seed=3)
+    table = Table("twin.csv", columns, "twin", np.arange(2, len(columns["time_s"]) + 2))
+    request = FitRequest(kind="mlr", target="E_z_um", temps=("T_motor", "T_bearing"), train_until=3 * 3600.0,
+                         settings={"parents": "temperatures"})
+    assert fit([table], request).kind == "mlr"
+    assert not math.isnan(fit([table], request).metrics["held_out"]["rmse_um"])
