@@ -28,7 +28,7 @@ def test_every_kind_option_of_the_command_line_comes_from_a_record():
     declared = {option.flag for option in kinds.options().values()}
     assert set().union(*groups.values()) == declared
     assert groups["kalman and bpnn only (refused for any other kind)"] == {"--seed", "--generations", "--population"}
-    assert groups["bayes only (refused for any other kind)"] == {"--bins", "--precision-um", "--unseen", "--time-bins"}
+    assert groups["bayes only (refused for any other kind)"] == {"--bins", "--precision-um", "--unseen", "--time-bins", "--parents"}
     defaults = parser.parse_args(["--model", "mlr", "--target", "E", "--temps", "a", "--train-rows", "20", "-o", "m"])
     assert {field: getattr(defaults, field) for field in kinds.options()} == {
         field: option.default for field, option in kinds.options().items()}
