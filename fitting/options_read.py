@@ -27,6 +27,8 @@ def refuse_options_not_read(request: FitRequest, given: dict[str, str]) -> None:
             if not kind_of(request.kind).reads(field):
                 raise UserError(f"{option} is read by {_readers_text(names)} only; --model {request.kind} does not "
                                 f"read it, leave it out")
+            if why := kind_of(request.kind).conflict(request.option, field):
+                raise UserError(why)
             continue
         from thermoplc.fitting.auto import tried
         if not set(names) & {k.name for k in tried(request)}:

@@ -17,13 +17,23 @@ def lower_bayes(model: Model) -> Block:
     clock, regions, statics, constants = [], [], [], []
     # each parent: its label, the value its interval is found for, the unit of its edges
     rises = [BinOp("-", Ref(s.name), Ref(f"T0_{i}")) for i, s in enumerate(temps, start=1)]
-    if model.settings.get("parents") == "ridge":
-        parents = [("the ridge prediction", sum_of([BinOp("*", const(f"w_{i}"), rise)
-                                                    for i, rise in enumerate(rises, start=1)]), "um")]
+    ridge_parent = model.settings.get("parents") == "ridge"
+    lookup = Index("tab_Pred", Ref("Config"))
+    if ridge_parent:  # the prediction, its interval a parent, plus the residual's entry
+        parents = [("the ridge prediction", Ref("Ridge"), "um")]
+        regions.append(Region("Ridge prediction from every temperature's rise (the parent of the network)", (
+            Assign("Ridge", sum_of([const("w_0")] + [BinOp("*", const(f"w_{i}"), rise)
+                                                     for i, rise in enumerate(rises, start=1)])),)))
+        constants += [Const("c_w_0", model.coef("w_0"), "intercept of the ridge prediction, um")]
         constants += [Const(f"c_w_{i}", model.coef(f"w_{i}"), f"um per K of {s.name} in the ridge prediction")
                       for i, s in enumerate(temps, start=1)]
+        lookup = BinOp("+", Ref("Ridge"), lookup)
+        ridge_vars = (Var("Ridge", "REAL", "the ridge prediction, um"),)
+        entries = "midpoint of the most probable interval of what the ridge prediction leaves, per configuration, um"
     else:
         parents = [(f"the rise of {s.name}", rise, "K") for s, rise in zip(temps, rises)]
+        ridge_vars = ()
+        entries = "midpoint of the most probable error interval per configuration, um"
     if timed:
         parents.append(("the time since the first call", Ref("Elapsed"), "s"))
         clock.append(Region("Time since the first call (a parent of the network), before Init is set", (
@@ -54,9 +64,8 @@ def lower_bayes(model: Model) -> Block:
         inputs=inputs_of(temps),
         outputs=(error_output(model),),
         statics=(INIT, *reference_vars(temps), *statics,
-                 Var("tab_Pred", "REAL", "midpoint of the most probable error interval per configuration, um "
-                     "(table, read only)", length=len(table), initial=table)),
-        temps=(Var("Rise", "REAL", "value of the parent whose interval is sought"),
+                 Var("tab_Pred", "REAL", f"{entries} (table, read only)", length=len(table), initial=table)),
+        temps=(*ridge_vars, Var("Rise", "REAL", "value of the parent whose interval is sought"),
                *(Var(f"J_{i}", "INT", f"interval of {label}") for i, (label, _, _) in enumerate(parents, start=1)),
                Var("Config", "INT", "configuration of all intervals")),
         constants=tuple(constants),
@@ -64,7 +73,7 @@ def lower_bayes(model: Model) -> Block:
                  first_call("First call: latch reference temperatures", references(temps)),
                  *regions,
                  Region("Look up the prediction of the configuration, eq. 7",
-                        (Assign("Config", config), Assign(model.target.name, Index("tab_Pred", Ref("Config")))))),
+                        (Assign("Config", config), Assign(model.target.name, lookup)))),
     )
 
 

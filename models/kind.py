@@ -98,6 +98,10 @@ def _no_structure(model: "Model") -> dict:
     return {}
 
 
+def _no_conflict(option: Callable[[str], Any], field: str) -> str | None:
+    return None
+
+
 def _no_settings_check(model: "Model", path: str) -> None:
     """Kinds whose settings the JSON schema describes completely."""
 
@@ -163,6 +167,8 @@ class Kind:
     stream_core: type | None = None
     streamable: Callable[["Model"], bool] = _always
     increments: Increments | None = None  # a linear kind: its slopes may be refitted for a fused block
+    # why an option it reads is refused beside the others given: (read an option by field, field) -> reason or None
+    conflict: Callable[[Callable[[str], Any], str], str | None] = _no_conflict
     # what its settings fix that its block counts with (a ring buffer's length, an interval count), keyed by
     # what it is ("len", "lag_2", "k_1"); the contract names each in the block (contract/constants.py)
     structure: Callable[["Model"], dict] = _no_structure

@@ -107,7 +107,7 @@ def test_the_ridge_parent_block_is_bit_exact_and_every_weight_and_entry_is_check
     (tmp_path / "bayes.scl").write_text(text)
     assert verify_against_model(str(tmp_path / "bayes.scl"), model, str(model_path), twin_table).ok
     mutants = [*table_mutants(text), *_constant_mutants(text, "w")]
-    assert sum(1 for name, _ in mutants if name.startswith("c_w_")) == len(model.signals("temperature"))
+    assert sum(1 for name, _ in mutants if name.startswith("c_w_")) == len(model.signals("temperature")) + 1
     for entry, mutant in mutants:
         (tmp_path / "mutant.scl").write_text(mutant)
         report = verify_against_model(str(tmp_path / "mutant.scl"), model, str(model_path), twin_table)
@@ -129,8 +129,10 @@ def test_ridge_parent_from_the_command_line_and_its_refusals(tmp_path):
     assert cli("generate", "b.json", "-o", "b.scl").returncode == 0
     verified = cli("verify", "b.scl", "--model", "b.json", "--data", "runs/run4.csv", "--faults")
     assert verified.returncode == 0 and "bit-exact" in verified.stdout, verified.stdout + verified.stderr
-    bins = cli("fit", *common, "--model", "bayes", "--parents", "ridge", "--bins", "4", "-o", "x.json")
-    assert bins.returncode == 2 and "--precision-um wide" in bins.stderr and not (tmp_path / "x.json").exists()
+    for given in ("4", "8"):  # given at its default too: refused before any file is read
+        bins = cli("fit", *common[:1], "nowhere", *common[2:], "--model", "bayes", "--parents", "ridge", "--bins", given,
+                   "-o", "x.json")
+        assert bins.returncode == 2 and "leave --bins out" in bins.stderr and not (tmp_path / "x.json").exists()
     other = cli("fit", *common, "--model", "mlr", "--parents", "ridge", "-o", "x.json")
     assert other.returncode == 2 and "--parents" in other.stderr and "Traceback" not in other.stderr, other.stderr
 
@@ -160,3 +162,28 @@ def test_a_kind_given_another_kinds_option_at_its_default_fits():
                          settings={"parents": "temperatures"})
     assert fit([table], request).kind == "mlr"
     assert not math.isnan(fit([table], request).metrics["held_out"]["rmse_um"])
+
+
+def test_the_ridge_parent_goes_on_past_the_training_range_where_a_table_of_errors_stops():
+    """The block outputs the ridge prediction plus the residual's entry: a run warmer than any in training
+    is predicted along the ridge (3 um/K to 10 K), where temperature parents stop at their outer interval."""
+    import math
+    from thermoplc.fitting.fit import FitRequest, fit
+    from thermoplc.models.bayes import predict
+    from thermoplc.recordings.table import Table
+    rng = np.random.default_rng(5)
+    tables = []
+    for k, top in enumerate((4.0, 5.0, 4.5, 5.0)):
+        rise = np.linspace(0.0, top, 400)
+        columns = {"time_s": np.arange(400) * 10.0, "T_a": 20.0 + rise, "T_b": 20.0 + 0.5 * rise + rng.normal(0, 0.05, 400),
+                   "E_um": 3.0 * rise + rng.normal(0, 0.2, 400)}
+        tables.append(Table(f"run{k}.csv", columns, f"run{k}", np.arange(2, 402)))
+    hot = np.linspace(0.0, 10.0, 50)
+    inputs = {"T_a": 20.0 + hot, "T_b": 20.0 + 0.5 * hot}
+    ends = {}
+    for parents in ("ridge", "temperatures"):
+        model = fit(tables, FitRequest(kind="bayes", target="E_um", temps=("T_a", "T_b"), train_until=math.inf,
+                                       settings={"parents": parents}))
+        ends[parents] = float(predict(model, inputs, "f32")["E_um"][-1])
+    assert abs(ends["ridge"] - 30.0) < 1.0, ends
+    assert ends["temperatures"] < 16.0, ends
