@@ -25,7 +25,7 @@ files of their kinds.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -35,7 +35,7 @@ from thermoplc.fitting import acceptance, crossval
 from thermoplc.fitting.copies import refuse_copies
 from thermoplc.fitting.fit import FitRequest, check_inputs, runs_named, training_rows
 from thermoplc.models.kind import Kind
-from thermoplc.models.kinds import registry
+from thermoplc.models.kinds import kind_of, options, registry
 from thermoplc.models.modelfile import Model
 from thermoplc.fitting.selection import select_sensors
 from thermoplc.recordings.table import Table
@@ -58,6 +58,17 @@ class Candidate:
     model: Model | None
     refused: str | None = None  # why the kind could not be fitted
     not_accepted: str | None = None  # why generate would refuse the fitted model's block
+    options: tuple[tuple[str, Any], ...] = ()  # (flag, value) it was fitted with beside the request's: --parents ridge
+
+    @property
+    def given(self) -> str:
+        """The options of its shrunk form as the command line spells them (" --parents ridge"), or ""."""
+        return "".join(f" {flag} {value}" for flag, value in self.options)
+
+    @property
+    def label(self) -> str:
+        """Its sensors as the ranking shows them, with the options of its shrunk form."""
+        return ",".join(self.sensors) + self.given
 
     @property
     def rmse(self) -> float:
@@ -156,12 +167,15 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
     except UserError as exc:
         raise UserError(f"{runs_named(tables)}: --temps {exc}") from None
     def shrunk(found: list[Candidate]) -> list[Candidate]:
-        """Each linear kind on every sensor, ridge-shrunk (base/ridge.py), where not tried yet: steady where a
-        subset chosen fold by fold is luck (issue 62: 0 of 8 folds of a lathe campaign chose the same set)."""
-        return [_candidate(tables, request, folds, time_column, kind.name, candidates_of(kind, request), say, groups,
-                           remote, probing) for kind in kinds if kind.increments is not None
+        """Each kind that shrinks on every sensor, through one ridge (base/ridge.py; bayes by its ridge parent),
+        where not tried yet: steady where a subset chosen fold by fold is luck (issue 62: 0 of 8 folds of a lathe
+        campaign chose the same set)."""
+        return [_candidate(tables, replace(request, settings={**dict(request.settings), **dict(kind.shrunk)}), folds,
+                           time_column, kind.name, candidates_of(kind, request), say, groups, remote, probing)
+                for kind in kinds if kind.shrunk is not None
                 and not any(f.kind == kind.name and not f.model.fit.get("sensor_choice") and
-                            set(f.sensors) == set(candidates_of(kind, request)) for f in found if f.model)]
+                            set(f.sensors) == set(candidates_of(kind, request)) and
+                            all(f.model.settings.get(k) == v for k, v in kind.shrunk) for f in found if f.model)]
 
     if _chooses_in_folds(tables, folds, groups):  # each kind chooses its sensors inside every fold
         found = [_candidate(tables, replace(request, choose_sensors=kind.auto_sensors), folds, time_column, kind.name,
@@ -212,9 +226,15 @@ def _candidate(tables, request, folds, time_column, kind, sensors, say, groups=N
     except ClusterError:
         raise
     except UserError as exc:
-        return Candidate(kind, sensors, None, _without_paths(str(exc), tables))
+        return Candidate(kind, sensors, None, _without_paths(str(exc), tables), options=_shrunk_options(wanted))
     chosen = model.fit.get("sensor_choice", {}).get("chosen", sensors)
-    return Candidate(kind, tuple(chosen), model, not_accepted=acceptance.refusal(model))
+    return Candidate(kind, tuple(chosen), model, not_accepted=acceptance.refusal(model), options=_shrunk_options(wanted))
+
+
+def _shrunk_options(request: FitRequest) -> tuple[tuple[str, Any], ...]:
+    """The options a candidate was given for its shrunk form (`--parents ridge`), as the command line spells them."""
+    shrunk = kind_of(request.kind).shrunk or ()
+    return tuple((options()[field].flag, value) for field, value in shrunk if request.option(field) == value)
 
 
 def _without_paths(text: str, tables: list[Table]) -> str:

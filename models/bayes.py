@@ -300,6 +300,6 @@ def structure(model: Model) -> dict:
 
 
 KIND = Kind("bayes", 7, "004", _fit, predict, options=OPTIONS, structure=structure,
-            auto="closed-form", conflict=conflict,
+            auto="closed-form", conflict=conflict, shrunk=(("parents", "ridge"),),
             settings_schema=SETTINGS_SCHEMA, check_settings=check_settings,
             streamable=lambda model: not model.settings.get("time_parent"))

@@ -132,4 +132,5 @@ def structure(model: Model) -> dict:
 
 KIND = Kind("dlag", 4, "001", _fit, predict, options=OPTIONS, structure=structure, auto="closed-form",
             auto_sensors=8,
-            settings_schema=SETTINGS_SCHEMA, stream_core=StreamCore, increments=INCREMENTS)
+            settings_schema=SETTINGS_SCHEMA, stream_core=StreamCore, increments=INCREMENTS,
+            shrunk=())

@@ -167,6 +167,9 @@ class Kind:
     stream_core: type | None = None
     streamable: Callable[["Model"], bool] = _always
     increments: Increments | None = None  # a linear kind: its slopes may be refitted for a fused block
+    # the options under which it fits every sensor given through one ridge (base/ridge.py), ranked so by `auto`
+    # beside the chosen-sensor candidates: () where it always does (mlr, dlag), None where it cannot
+    shrunk: tuple[tuple[str, Any], ...] | None = None
     # why an option it reads is refused beside the others given: (read an option by field, field) -> reason or None
     conflict: Callable[[Callable[[str], Any], str], str | None] = _no_conflict
     # what its settings fix that its block counts with (a ring buffer's length, an interval count), keyed by

@@ -72,4 +72,5 @@ class StreamCore:
 
 INCREMENTS = Increments(lambda part, settings: part.rises,
                         lambda settings, sensors: [f"beta_{i}" for i in range(1, sensors + 1)])
-KIND = Kind("mlr", 1, "000", _fit, predict, auto="closed-form", auto_sensors=8, stream_core=StreamCore, increments=INCREMENTS)
+KIND = Kind("mlr", 1, "000", _fit, predict, auto="closed-form", auto_sensors=8, stream_core=StreamCore, increments=INCREMENTS,
+            shrunk=())

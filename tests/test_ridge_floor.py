@@ -46,5 +46,7 @@ def test_auto_ranks_mlr_and_dlag_on_every_sensor_beside_the_chosen_ones(tmp_path
                     "-o", "auto.json", cwd=tmp_path).stdout
     ranking = json.loads((tmp_path / "auto.json").read_text())["metrics"]["auto_ranking"]
     shrunk = [r for r in ranking if r["sensors"] == every.split(",")]
-    assert sorted(r["kind"] for r in shrunk) == ["dlag", "mlr"]
-    assert "mlr and dlag also on every sensor, ridge-shrunk" in out or "dlag and mlr also on every sensor" in out
+    assert sorted((r["kind"], r.get("options")) for r in shrunk) == [
+        ("bayes", {"--parents": "ridge"}), ("dlag", None), ("mlr", None)]
+    assert "also on every sensor, ridge-shrunk" in out and "bayes --parents ridge" in out
+    assert f"bayes   {every} --parents ridge" in out  # the ranking row says which bayes it is

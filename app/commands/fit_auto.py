@@ -32,7 +32,7 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
     if chose:
         choosing = lambda c: c.model is None or "sensor_choice" in c.model.fit
         most = ", ".join(f"{c.kind} {kind_of(c.kind).auto_sensors}" for c in ranked if choosing(c))
-        every = " and ".join(c.kind for c in ranked if not choosing(c))
+        every = " and ".join(c.kind + c.given for c in ranked if not choosing(c))
         print(f"  each kind chose its sensors among --temps itself, again inside every fold (at most: {most}): the "
               f"error ranked is the written model's held-out evidence (the sensors shown: chosen on every run)"
               + (f"; {every} also on every sensor, ridge-shrunk" if every else ""))
@@ -40,10 +40,10 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
           + (f"{'fused um':>10}" if probing else ""))
     for k, c in enumerate(ranked, start=1):
         if c.model is None:
-            print(f"  {'-':<6}{c.kind:<8}{','.join(c.sensors):<32}  refused: {c.refused}")
+            print(f"  {'-':<6}{c.kind:<8}{c.label:<32}  refused: {c.refused}")
             continue
         held = c.model.metrics["held_out"]
-        print(f"  {k:<6}{c.kind:<8}{','.join(c.sensors):<32}{held['rmse_um']:>9.3f}{held['max_abs_um']:>9.3f}"
+        print(f"  {k:<6}{c.kind:<8}{c.label:<32}{held['rmse_um']:>9.3f}{held['max_abs_um']:>9.3f}"
               f"{cost[id(c)]:>10}" + (f"{c.rmse:>10.3f}" if probing else "")
               + (f"  generate refuses: {c.not_accepted}" if c.not_accepted else ""))
     best = fitted[0]
@@ -52,17 +52,22 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
     if cheaper is not best:
         kind = kind_of(cheaper.kind)
         again = (f"--temps {','.join(candidates_of(kind, request))} --choose-sensors {kind.auto_sensors}"
-                 if "sensor_choice" in cheaper.model.fit else f"--temps {','.join(cheaper.sensors)}") + (" --probe" if probing else "") \
+                 if "sensor_choice" in cheaper.model.fit else f"--temps {cheaper.label}") + (" --probe" if probing else "") \
             + (f" --probe-every {probing.every}" if probing and probing.every else "")
-        print(f"  cheapest within {AUTO_TOLERANCE:.0%} of the best: {cheaper.kind} on {','.join(cheaper.sensors)}, "
+        print(f"  cheapest within {AUTO_TOLERANCE:.0%} of the best: {cheaper.kind} on {cheaper.label}, "
               f"{cheaper.rmse:.3f} um, {cost[id(cheaper)]} operations per call (fit it with --model {cheaper.kind} "
               f"{again})")
-    print(f"  writing the best: {best.kind} on {','.join(best.sensors)}")
+    print(f"  writing the best: {best.kind} on {best.label}")
     from thermoplc.models.modelfile import Model
-    ranking = [{"kind": c.kind, "sensors": list(c.sensors), "refused": c.refused} if c.model is None else
-               {"kind": c.kind, "sensors": list(c.sensors), "rmse_um": c.model.metrics["held_out"]["rmse_um"],
+    ranking = [{"kind": c.kind, "sensors": list(c.sensors), **_options(c), "refused": c.refused} if c.model is None else
+               {"kind": c.kind, "sensors": list(c.sensors), **_options(c), "rmse_um": c.model.metrics["held_out"]["rmse_um"],
                 "max_abs_um": c.model.metrics["held_out"]["max_abs_um"], "operations_per_call": cost[id(c)],
                 "generate_refuses": c.not_accepted, **({"fused_rmse_um": c.rmse} if probing else {})} for c in ranked]
     model = best.model
     return Model(**{**model.__dict__, "metrics": {**model.metrics, "auto_ranking": ranking}})
 
+
+
+def _options(candidate) -> dict:
+    """A ranking entry's options beside the request's (`--parents ridge`), where it has any."""
+    return {"options": {flag: value for flag, value in candidate.options}} if candidate.options else {}
