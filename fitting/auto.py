@@ -33,7 +33,7 @@ from thermoplc.base.errors import ClusterError, UserError
 from thermoplc.base import ridge
 from thermoplc.fitting import acceptance, crossval
 from thermoplc.fitting.copies import refuse_copies
-from thermoplc.fitting.fit import FitRequest, check_inputs, runs_named, training_rows
+from thermoplc.fitting.fit import LEGACY_OPTIONS, FitRequest, check_inputs, runs_named, training_rows
 from thermoplc.models.kind import Kind
 from thermoplc.models.kinds import kind_of, options, registry
 from thermoplc.models.modelfile import Model
@@ -170,7 +170,7 @@ def rank(tables: list[Table], request: FitRequest, folds: int | None, time_colum
         """Each kind that shrinks on every sensor, through one ridge (base/ridge.py; bayes by its ridge parent),
         where not tried yet: steady where a subset chosen fold by fold is luck (issue 62: 0 of 8 folds of a lathe
         campaign chose the same set)."""
-        return [_candidate(tables, replace(request, settings={**dict(request.settings), **dict(kind.shrunk)}), folds,
+        return [_candidate(tables, shrunk_request(request, kind), folds,
                            time_column, kind.name, candidates_of(kind, request), say, groups, remote, probing)
                 for kind in kinds if kind.shrunk is not None
                 and not any(f.kind == kind.name and not f.model.fit.get("sensor_choice") and
@@ -229,6 +229,16 @@ def _candidate(tables, request, folds, time_column, kind, sensors, say, groups=N
         return Candidate(kind, sensors, None, _without_paths(str(exc), tables), options=_shrunk_options(wanted))
     chosen = model.fit.get("sensor_choice", {}).get("chosen", sensors)
     return Candidate(kind, tuple(chosen), model, not_accepted=acceptance.refusal(model), options=_shrunk_options(wanted))
+
+
+def shrunk_request(request: FitRequest, kind: Kind) -> FitRequest:
+    """The request in a kind's shrunk form: its options set, and the options given that it does not read in that
+    form left out (`--bins` for bayes's ridge parent: it shapes the other bayes candidates)."""
+    shrunk = dict(kind.shrunk)
+    read = lambda field: shrunk.get(field, request.option(field))
+    given = {field: value for field, value in request.settings if not kind.conflict(read, field)}
+    # the old keywords (InitVars) would carry a dropped option back in through `replace`: each given as None
+    return replace(request, settings={**given, **shrunk}, options=None, **dict.fromkeys(LEGACY_OPTIONS))
 
 
 def _shrunk_options(request: FitRequest) -> tuple[tuple[str, Any], ...]:

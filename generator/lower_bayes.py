@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from thermoplc.base.binary32 import round_f32
 from thermoplc.generator.ir import Assign, BinOp, Block, Const, If, Index, IntConst, Ref, Region, Var
-from thermoplc.models.bayes import edges_of
+from thermoplc.models.bayes import counted, edges_of
 from thermoplc.models.modelfile import Model
 from thermoplc.generator.lower_shared import (
     INIT, const, error_output, first_call, header, inputs_of, reference_vars, references, sum_of,
@@ -50,7 +50,7 @@ def lower_bayes(model: Model) -> Block:
             choose = If(chain, orelse=(Assign(f"J_{i}", IntConst(len(edges))),))
         else:
             choose = Assign(f"J_{i}", IntConst(0))
-        regions.append(Region(f"Interval of {label} ({counts[i - 1]} intervals)", (Assign("Rise", value), choose)))
+        regions.append(Region(f"Interval of {label} ({counted(counts[i - 1], 'interval')})", (Assign("Rise", value), choose)))
         if i < len(parents):  # the last parent's count does not enter the configuration index
             constants.append(Const(f"c_K_{i}", counts[i - 1], f"intervals of {label}", type="INT"))
     config = Ref(f"J_{len(parents)}")

@@ -127,19 +127,27 @@ def fit_ridge_parent(parts: list[Part], names: list[str], precision_um: float, u
     values = np.vstack([np.reshape(v, (len(v), -1))[p.measured] for v, p in zip(values, parts)])
     span = float(values[:, 0].max() - values[:, 0].min())
     asked = max(1, math.ceil(span / precision_um))
-    intervals = int(min(asked, max(1, len(values) // ROWS_PER_INTERVAL), MAX_CONFIGURATIONS // max(1, time_bins)))
+    bounds = {f"{len(values)} training rows, at least {ROWS_PER_INTERVAL} an interval": len(values) // ROWS_PER_INTERVAL,
+              f"{MAX_CONFIGURATIONS} configurations at most" + (f" with --time-bins {time_bins}" if time_bins else ""):
+              MAX_CONFIGURATIONS // max(1, time_bins)}
+    intervals = int(max(1, min(asked, *bounds.values())))
     coefficients, settings, log = fit_rises(values, residual, [intervals] + ([time_bins] if time_bins else []),
                                             precision_um, unseen, centred=True, advice="use a larger --precision-um")
     coefficients.update({f"w_{i}": Coefficient.of(w) for i, w in enumerate(weights)})
     settings.update(parents="ridge", time_parent=bool(time_bins))
     by = fitted.log().get("ridge_weight_by", "forward validation")
     log = {**fitted.log(), "method": f"one parent, the ridge prediction from every temperature's rise (weight by {by}), "
-                                     f"in {intervals} intervals of {span / intervals:.4g} um"
-                                     + (f" (--precision-um asked for {asked}: {len(values)} training rows, at least "
-                                        f"{ROWS_PER_INTERVAL} an interval, and {MAX_CONFIGURATIONS} configurations "
-                                        f"at most)" if intervals < asked else "")
+                                     f"in {counted(intervals, 'interval')} of {span / intervals:.4g} um"
+                                     + (f" (--precision-um asked for {asked}; "
+                                        + ", ".join(why for why, most in bounds.items() if most < asked) + ")"
+                                        if intervals < asked else "")
                                      + f", plus what it leaves; {log['method']}"}
     return coefficients, settings, log
+
+
+def counted(n: int, noun: str) -> str:
+    """'1 interval', '8 intervals'."""
+    return f"{n} {noun}" + ("" if n == 1 else "s")
 
 
 def fit_rises(rises: np.ndarray, target: np.ndarray, bins: int | list[int], precision_um: float,

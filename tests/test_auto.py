@@ -82,3 +82,15 @@ def test_auto_refuses_what_every_kind_refuses_before_it_fits_anything(twin_two_h
                            cwd=twin_two_hours, check=2)
         assert message in result.stderr and result.stdout == "", (kind, result.stderr)
         assert len(result.stderr.strip().splitlines()) == 1 and not (twin_two_hours / f"{kind}.json").exists()
+
+
+def test_auto_fits_bayes_ridge_parent_without_the_bins_given_for_the_other_bayes(tmp_path):
+    """`--bins` reaches the temperature-parent bayes candidate; the ridge-parent one does not read it and is
+    fitted without it, not refused (and the option is not carried back in by the request's old keywords)."""
+    thermoplc("twin", "--hours", 6, "--seed", 8, "-o", "t.csv", cwd=tmp_path)
+    result = thermoplc("fit", "--data", "t.csv", "--model", "auto", "--target", "E_z_um", "--temps",
+                       "T_motor,T_bearing", "--train-until", 14400, "--bins", 12, "-o", "a.json", cwd=tmp_path)
+    assert re.search(r"^  \d+\s+bayes\s+T_motor,T_bearing --parents ridge\s+[\d.]+", result.stdout, re.M), result.stdout
+    assert "refused" not in result.stdout
+    ranking = json.loads((tmp_path / "a.json").read_text())["metrics"]["auto_ranking"]
+    assert [r["options"] for r in ranking if "options" in r] == [{"--parents": "ridge"}]

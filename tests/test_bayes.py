@@ -187,3 +187,12 @@ def test_the_ridge_parent_goes_on_past_the_training_range_where_a_table_of_error
         ends[parents] = float(predict(model, inputs, "f32")["E_um"][-1])
     assert abs(ends["ridge"] - 30.0) < 1.0, ends
     assert ends["temperatures"] < 16.0, ends
+
+
+def test_the_fit_method_says_how_many_intervals_and_what_bound_them(twin_table):
+    fitted = fit_small(twin_table, "bayes", parents="ridge", time_bins=2000)  # 4096 // 2000: 2 intervals
+    method = fitted.fit["method"]
+    assert f"in {fitted.settings['intervals'][0]} intervals of" in method
+    assert "4096 configurations at most with --time-bins 2000" in method and "training rows" not in method, method
+    single = fit_small(twin_table, "bayes", parents="ridge", precision_um=1e5)
+    assert "in 1 interval of" in single.fit["method"] and "asked for" not in single.fit["method"]

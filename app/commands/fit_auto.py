@@ -30,7 +30,7 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
           + (f" (no compensation {none:.3f} um)" if none is not None else "")
           + (f", {fitted[0].model.metrics['held_out']['protocol']}" if campaign else ""))
     if chose:
-        choosing = lambda c: c.model is None or "sensor_choice" in c.model.fit
+        choosing = lambda c: not c.options and (c.model is None or "sensor_choice" in c.model.fit)
         most = ", ".join(f"{c.kind} {kind_of(c.kind).auto_sensors}" for c in ranked if choosing(c))
         every = " and ".join(c.kind + c.given for c in ranked if not choosing(c))
         print(f"  each kind chose its sensors among --temps itself, again inside every fold (at most: {most}): the "
