@@ -114,8 +114,8 @@ def fit_ridge_parent(parts: list[Part], names: list[str], precision_um: float, u
                      time_bins: int = 0, dt: float = 1.0):
     """The network on one temperature parent, the ridge prediction from every temperature's rise, and one
     child, what that prediction leaves of the error: the weights fitted as mlr fits its intercept and
-    slopes, the parent in binary32 as the block computes it, in intervals `precision_um` wide (at most as
-    many as the block's table holds)."""
+    slopes, the parent in binary32 as the block computes it, in intervals `precision_um` wide (fewer where
+    the training rows would leave fewer than ROWS_PER_INTERVAL an interval, or the block's table is full)."""
     if precision_um <= 0 or time_bins < 0:
         raise UserError("--time-bins must be at least 0 and --precision-um positive")
     fitted = ridge.fit_linear(*measured_rows(parts, lambda part: part.rises), names, runs=measured_counts(parts))

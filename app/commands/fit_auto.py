@@ -67,7 +67,6 @@ def fit_auto(tables: list, request, folds: int | None, time_column: str,
     return Model(**{**model.__dict__, "metrics": {**model.metrics, "auto_ranking": ranking}})
 
 
-
 def _options(candidate) -> dict:
     """A ranking entry's options beside the request's (`--parents ridge`), where it has any."""
     return {"options": {flag: value for flag, value in candidate.options}} if candidate.options else {}
