@@ -207,6 +207,9 @@ def _signals(tables: list[Table], request: FitRequest) -> list[Signal]:
             role, unit = option.column
             signals.append(Signal(block_identifier(column, role.replace("_", " ")), column, role, unit))
     kind = kind_of(request.kind)
+    for field, _ in request.settings:  # an option the kind reads, but not beside the others given
+        if why := kind.conflict(request.option, field):
+            raise UserError(why)
     for role in kind.roles:
         column = getattr(request, role)
         if column is None:

@@ -6,7 +6,7 @@ from thermoplc.generator.ir import Assign, BinOp, Block, Const, If, Index, IntCo
 from thermoplc.models.bayes import counted, edges_of
 from thermoplc.models.modelfile import Model
 from thermoplc.generator.lower_shared import (
-    INIT, const, error_output, first_call, header, inputs_of, reference_vars, references, sum_of,
+    INIT, const, error_output, first_call, header, inputs_of, reference_vars, references, weighted_rises,
 )
 
 
@@ -16,14 +16,12 @@ def lower_bayes(model: Model) -> Block:
     timed = bool(model.settings.get("time_parent"))
     clock, regions, statics, constants = [], [], [], []
     # each parent: its label, the value its interval is found for, the unit of its edges
-    rises = [BinOp("-", Ref(s.name), Ref(f"T0_{i}")) for i, s in enumerate(temps, start=1)]
     ridge_parent = model.settings.get("parents") == "ridge"
     lookup = Index("tab_Pred", Ref("Config"))
     if ridge_parent:  # the prediction, its interval a parent, plus the residual's entry
         parents = [("the ridge prediction", Ref("Ridge"), "um")]
         regions.append(Region("Ridge prediction from every temperature's rise (the parent of the network)", (
-            Assign("Ridge", sum_of([const("w_0")] + [BinOp("*", const(f"w_{i}"), rise)
-                                                     for i, rise in enumerate(rises, start=1)])),)))
+            Assign("Ridge", weighted_rises("w_0", "w", temps)),)))
         constants += [Const("c_w_0", model.coef("w_0"), "intercept of the ridge prediction, um")]
         constants += [Const(f"c_w_{i}", model.coef(f"w_{i}"), f"um per K of {s.name} in the ridge prediction")
                       for i, s in enumerate(temps, start=1)]
@@ -31,7 +29,8 @@ def lower_bayes(model: Model) -> Block:
         ridge_vars = (Var("Ridge", "REAL", "the ridge prediction, um"),)
         entries = "midpoint of the most probable interval of what the ridge prediction leaves, per configuration, um"
     else:
-        parents = [(f"the rise of {s.name}", rise, "K") for s, rise in zip(temps, rises)]
+        parents = [(f"the rise of {s.name}", BinOp("-", Ref(s.name), Ref(f"T0_{i}")), "K")
+                   for i, s in enumerate(temps, start=1)]
         ridge_vars = ()
         entries = "midpoint of the most probable error interval per configuration, um"
     if timed:

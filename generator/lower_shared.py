@@ -38,10 +38,15 @@ def header(model: Model) -> tuple[str, ...]:
 
 def regression(model: Model, measured) -> Region:
     """E = beta0 + beta_1*(X_1 - T0_1) + ... with X the measured (mlr) or fused (kalman) temperature."""
-    temps = model.signals("temperature")
-    terms = [const("beta0")] + [BinOp("*", const(f"beta_{i}"), BinOp("-", measured(i, s), Ref(f"T0_{i}")))
-                          for i, s in enumerate(temps, start=1)]
-    return Region("Regression on temperature rises, eq. 10", (Assign(model.target.name, sum_of(terms)),))
+    on_rises = weighted_rises("beta0", "beta", model.signals("temperature"), measured)
+    return Region("Regression on temperature rises, eq. 10", (Assign(model.target.name, on_rises),))
+
+
+def weighted_rises(intercept: str, slope: str, temps, measured=lambda i, s: Ref(s.name)):
+    """c_<intercept> + c_<slope>_1*(X_1 - T0_1) + c_<slope>_2*(X_2 - T0_2) + ..., summed left to right: the
+    order models/mlr.on_rises rounds in (mlr's output, bayes's ridge parent)."""
+    return sum_of([const(intercept)] + [BinOp("*", const(f"{slope}_{i}"), BinOp("-", measured(i, s), Ref(f"T0_{i}")))
+                                        for i, s in enumerate(temps, start=1)])
 
 
 def regression_constants(model: Model) -> list[Const]:

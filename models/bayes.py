@@ -27,10 +27,10 @@ from typing import Any, Callable
 
 import numpy as np
 
-from thermoplc.base import ridge
 from thermoplc.base.binary32 import round_f32
 from thermoplc.base.errors import UserError
 from thermoplc.models.kind import Kind, KindOption, Part, measured_counts, measured_rows
+from thermoplc.models.mlr import least_squares, on_rises, weight_by
 from thermoplc.models.model import Coefficient, Model
 
 MAX_CONFIGURATIONS = 4096  # table entries in the block
@@ -100,16 +100,6 @@ def fit_bayes(runs: list[tuple[np.ndarray, np.ndarray]], bins: int, precision_um
     return coefficients, settings, log
 
 
-def proxy(temps: np.ndarray, weights, f=np.float64) -> np.ndarray:
-    """The ridge parent as the block computes it: ((w_0 + w_1*(T_1 - T0_1)) + w_2*(T_2 - T0_2)) + ..., in `f`."""
-    temps = np.asarray(temps, f)
-    rises = temps - temps[0]
-    total = np.full(len(rises), f(weights[0]), f)
-    for i in range(rises.shape[1]):
-        total = total + f(weights[i + 1]) * rises[:, i]
-    return total
-
-
 def fit_ridge_parent(parts: list[Part], names: list[str], precision_um: float, unseen: str = "nearest",
                      time_bins: int = 0, dt: float = 1.0):
     """The network on one temperature parent, the ridge prediction from every temperature's rise, and one
@@ -118,9 +108,9 @@ def fit_ridge_parent(parts: list[Part], names: list[str], precision_um: float, u
     the training rows would leave fewer than ROWS_PER_INTERVAL an interval, or the block's table is full)."""
     if precision_um <= 0 or time_bins < 0:
         raise UserError("--time-bins must be at least 0 and --precision-um positive")
-    fitted = ridge.fit_linear(*measured_rows(parts, lambda part: part.rises), names, runs=measured_counts(parts))
-    weights = [round_f32(w) for w in (fitted.intercept, *fitted.slopes)]
-    values = [proxy(part.temps, weights, np.float32).astype(float) for part in parts]
+    beta, ridge_log = least_squares(*measured_rows(parts, lambda part: part.rises), names, measured_counts(parts))
+    weights = [round_f32(w) for w in beta]
+    values = [on_rises(list(part.temps.T), weights, np.float32).astype(float) for part in parts]
     residual = np.concatenate([p.target[p.measured] - v[p.measured] for v, p in zip(values, parts)])
     if time_bins:
         values = [np.column_stack([v, elapsed_s(len(v), dt)]) for v in values]
@@ -135,13 +125,11 @@ def fit_ridge_parent(parts: list[Part], names: list[str], precision_um: float, u
                                             precision_um, unseen, centred=True, advice="use a larger --precision-um")
     coefficients.update({f"w_{i}": Coefficient.of(w) for i, w in enumerate(weights)})
     settings.update(parents="ridge", time_parent=bool(time_bins))
-    by = fitted.log().get("ridge_weight_by", "forward validation")
-    log = {**fitted.log(), "method": f"one parent, the ridge prediction from every temperature's rise (weight by {by}), "
-                                     f"in {counted(intervals, 'interval')} of {span / intervals:.4g} um"
-                                     + (f" (--precision-um asked for {asked}; "
-                                        + ", ".join(why for why, most in bounds.items() if most < asked) + ")"
-                                        if intervals < asked else "")
-                                     + f", plus what it leaves; {log['method']}"}
+    bound = (f" (--precision-um asked for {asked}; " + ", ".join(why for why, most in bounds.items() if most < asked)
+             + ")") if intervals < asked else ""
+    log = {**ridge_log, "method": f"one parent, the ridge prediction from every temperature's rise (weight by "
+                                  f"{weight_by(ridge_log)}), in {counted(intervals, 'interval')} of "
+                                  f"{span / intervals:.4g} um{bound}, plus what it leaves; {log['method']}"}
     return coefficients, settings, log
 
 
@@ -222,7 +210,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     ridge_parent = model.settings.get("parents") == "ridge"
     if ridge_parent:
         weights = [model.coef(f"w_{i}", precision) for i in range(len(temps) + 1)]
-        rises = [proxy(np.column_stack([np.asarray(inputs[s.name], f) for s in temps]), weights, f)]
+        rises = [on_rises([inputs[s.name] for s in temps], weights, f)]
     else:
         rises = [np.asarray(inputs[s.name], f) - np.asarray(inputs[s.name], f)[0] for s in temps]
     if model.settings.get("time_parent"):
@@ -243,8 +231,6 @@ def conflict(option: Callable[[str], Any], field: str) -> str | None:
 
 def _fit(parts, request, names, dt, progress):
     if request.option("parents") == "ridge":
-        if "bins" in dict(request.settings):
-            raise UserError(conflict(request.option, "bins"))
         return fit_ridge_parent(parts, names, request.option("precision_um"), request.option("unseen"),
                                 request.option("time_bins"), dt)
     return fit_bayes([(p.temps, p.target) for p in parts], request.option("bins"), request.option("precision_um"),

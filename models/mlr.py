@@ -29,12 +29,18 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     """
     dtype = np.float32 if precision == "f32" else np.float64
     temps = model.signals("temperature")
-    rows = len(inputs[temps[0].name])
-    out = np.full(rows, model.coef("beta0", precision), dtype)
-    for i, s in enumerate(temps, start=1):
-        x = np.asarray(inputs[s.name], dtype)
-        out = out + dtype(model.coef(f"beta_{i}", precision)) * (x - x[0])
-    return {model.target.name: out}
+    betas = [model.coef("beta0", precision)] + [model.coef(f"beta_{i}", precision) for i in range(1, len(temps) + 1)]
+    return {model.target.name: on_rises([inputs[s.name] for s in temps], betas, dtype)}
+
+
+def on_rises(columns: list, coefficients: list, f) -> np.ndarray:
+    """((c_0 + c_1*(x_1 - x_1[0])) + c_2*(x_2 - x_2[0])) + ... in `f`, each step rounded as the block rounds it:
+    eq. 10 on each column's rise since the first call (mlr's output, bayes's ridge parent)."""
+    out = np.full(len(columns[0]), f(coefficients[0]), f)
+    for c, column in zip(coefficients[1:], columns):
+        x = np.asarray(column, f)
+        out = out + f(c) * (x - x[0])
+    return out
 
 
 def _fit(parts, request, names, dt, progress):
