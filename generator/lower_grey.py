@@ -32,9 +32,21 @@ def _sequence(model: Model):
     return (lambda i, s: BinOp("-", Ref(s.name), Ref(f"T0_{i}"))) if _rises(model) else (lambda i, s: Ref(s.name))
 
 
-def _weighted(model: Model, term) -> BinOp:
-    """((b_1*term(1) + b_2*term(2)) + ...), in the references' order."""
-    return sum_of([BinOp("*", const(f"b_{i}"), term(i, s)) for i, s in enumerate(model.signals("temperature"), 1)])
+def _weighted(model: Model, term, unit=const("b_0")) -> BinOp:
+    """((b_1*term(1) + b_2*term(2)) + ...), in the references' order; with a unit sequence (b_0) its term
+    `unit` first."""
+    terms = [BinOp("*", const(f"b_{i}"), term(i, s)) for i, s in enumerate(model.signals("temperature"), 1)]
+    return sum_of([unit, *terms] if _unit(model) else terms)
+
+
+def _unit(model: Model) -> bool:
+    """Whether the fit drove the model with a unit sequence (a campaign's offset), whose coefficient is b_0."""
+    return "b_0" in model.coefficients
+
+
+def _unit_constant(model: Model, kind: str) -> list[Const]:
+    return [Const("c_b_0", model.coef("b_0"), f"{kind} coefficient of the unit sequence (offset), um")] \
+        if _unit(model) else []
 
 
 def lower_gm0n(model: Model) -> Block:
@@ -46,6 +58,7 @@ def lower_gm0n(model: Model) -> Block:
         model, "Thermal compensation: grey model GM(0,N) (paper 003)",
         statics=[INIT, *first], temps_=[],
         constants=[Const("c_X1", model.coef("X1"), "error at the first sample of the fit, um")]
+        + _unit_constant(model, "GM(0,N)")
         + [Const(f"c_b_{i}", model.coef(f"b_{i}"), f"GM(0,N) coefficient of {s.name}")
            for i, s in enumerate(temps, start=1)],
         regions=[Region("GM(0,N): first difference of a + sum b_i*S_i(k), i.e. sum b_i*x_i(k); X1 at the first call",
@@ -62,7 +75,7 @@ def lower_gm1n(model: Model) -> Block:
     first, keep_first = _first(model)
     start = (*keep_first, Assign("X", const("X1")), Assign("Init", BoolConst(True)), Assign("Second", BoolConst(True)))
     at_start = _sequence(model) if _rises(model) else (lambda i, s: BinOp("+", Ref(f"T0_{i}"), Ref(s.name)))
-    second = (Assign("F", _weighted(model, at_start)),
+    second = (Assign("F", _weighted(model, at_start, BinOp("+", const("b_0"), const("b_0")))),  # the unit's sum: 2
               Assign("X", BinOp("-", BinOp("+", BinOp("*", const("Keep"), Ref("Xprev")), BinOp("*", const("In"), Ref("F"))),
                                 const("X1"))),
               Assign("Second", BoolConst(False)))
@@ -76,6 +89,7 @@ def lower_gm1n(model: Model) -> Block:
         constants=[Const("c_X1", model.coef("X1"), "error at the first sample of the fit, um"),
                    Const("c_Keep", model.coef("Keep"), "(1 - a/2)/(1 + a/2), grey difference equation"),
                    Const("c_In", model.coef("In"), "1/(1 + a/2), grey difference equation")]
+        + _unit_constant(model, "GM(1,N)")
         + [Const(f"c_b_{i}", model.coef(f"b_{i}"), f"GM(1,N) coefficient of {s.name}") for i, s in enumerate(temps, start=1)],
         regions=[Region("GM(1,N) grey difference equation x1(k) + a*(X1(k) + X1(k-1))/2 = sum b_i*S_i(k), differenced "
                         "once: x1(k) = Keep*x1(k-1) + In*sum b_i*x_i(k)",

@@ -20,6 +20,10 @@ With S_i(k) = x_i(1) + ... + x_i(k) the running sums of the temperatures:
   (The whitened time response, which treats sum_i b_i*S_i as constant, does not fit even the
   training data when the sums grow and a is small; this recursion needs no exp either.)
 GM(1,1), the paper's baseline, is GM(1,N) without temperatures (a time trend only).
+On a campaign (two runs or more) a unit sequence x_0 = 1 drives the model beside the temperatures, as GM(1,1)'s
+grey input b: its coefficient b_0 is the model's offset, which the block adds first (b_0 + sum_i b_i*x_i(k); at
+GM(1,N)'s second call 2*b_0, the unit's running sum). Without it the grey kinds had no intercept where the ridge
+floor has one: on FL_THERMAL's 6 h runs (every sensor) GM(0,N) was 1.19-1.63 x the floor, with it 0.99-1.07 x.
 """
 from __future__ import annotations
 
@@ -40,9 +44,17 @@ def accumulate(x: np.ndarray) -> np.ndarray:
     return np.cumsum(x, axis=0)
 
 
-def sequences(part: Part, rises: bool) -> np.ndarray:
-    """A run's temperature sequences x_i: the readings (the paper's), or their rises since the run's start."""
-    return part.rises if rises else part.temps
+def sequences(part: Part, rises: bool, constant: bool = False) -> np.ndarray:
+    """A run's driving sequences x_i: the temperatures' readings (the paper's), or their rises since the run's
+    start; with `constant` a unit sequence x_0 = 1 first (a grey input, as GM(1,1)'s b: the model's offset)."""
+    x = part.rises if rises else part.temps
+    return np.column_stack([np.ones(len(x)), x]) if constant else x
+
+
+def _split(constant: bool, b: np.ndarray) -> dict:
+    """The coefficients b_0 (with the unit sequence) and b_1..b_N of the temperatures."""
+    first = 0 if constant else 1
+    return {f"b_{i}": Coefficient.of(bi) for i, bi in enumerate(b, start=first)}
 
 
 def _gm1n_slopes_path(runs: list[tuple[np.ndarray, np.ndarray]], a: float, weights) -> list[np.ndarray]:
@@ -71,13 +83,15 @@ def fit_gm0n(parts: list[Part], names: list[str], rises: bool = False):
     filled between its measurements for the running sums (`Part.filled_target`); the validation scores the
     measured rows only."""
     targets = [p.filled_target() for p in parts]
-    sums = [accumulate(sequences(p, rises))[1:] for p in parts]
+    constant = len(parts) >= 2
+    sums = [accumulate(sequences(p, rises, constant))[1:] for p in parts]
     target_sums = [accumulate(t)[1:] for t in targets]
-    steps = [sequences(p, rises)[1:] for p in parts]
+    steps = [sequences(p, rises, constant)[1:] for p in parts]
     errors = [p.target[1:] for p in parts]
-    if len(parts) >= 2:
-        ridge.refuse_flat(np.vstack(sums), names)
-        estimate, weight, rmse = grey_campaign.gm0n(sums, target_sums, steps, errors)
+    if constant:
+        ridge.refuse_flat(np.vstack(sums), ["the unit sequence", *names])
+        estimate, weight, per_run = grey_campaign.gm0n(sums, target_sums, steps, errors)
+        rmse = grey_campaign.rmse(per_run, sum(int(np.isfinite(e).sum()) for e in errors))
         if estimate == "sums":
             offset, slopes = ridge.ridge(np.vstack(sums), np.concatenate(target_sums), weight)
         else:
@@ -93,13 +107,12 @@ def fit_gm0n(parts: list[Part], names: list[str], rises: bool = False):
         fitted = ridge.fit_linear(sums[0], target_sums[0], names, weights=(0.0,),
                                   output_error=lambda offset, b, rows: (error[rows] - step[rows] @ b)[measured[rows]])
         method = "least squares on 1-AGO sequences (paper 003, GM(0,N))"
-    coefficients = {"X1": Coefficient.of(_first_error(targets)),
-                    **{f"b_{i}": Coefficient.of(b) for i, b in enumerate(fitted.slopes, start=1)}}
+    coefficients = {"X1": Coefficient.of(_first_error(targets)), **_split(constant, fitted.slopes)}
     settings = {"a": fitted.intercept, **({"rises": True} if rises else {})}  # a: its difference drops it
     return coefficients, settings, {"method": method, **fitted.log()}
 
 
-GM0N_ESTIMATES = {"sums": "the paper's fit on the 1-AGO sums", "steps": "fitted to the error itself (sum_i b_i*x_i(k))"}
+GM0N_ESTIMATES = {"sums": "the paper's fit on the 1-AGO sums", "steps": "fitted to the error itself (b_0 + sum_i b_i*x_i(k))"}
 GM1N_ESTIMATES = {"paper": "the paper's least-squares a and b", "equation": "b fitted to the grey equation",
                   "output": "b fitted to the error the block outputs"}
 
@@ -159,7 +172,8 @@ def fit_gm1n(parts: list[Part], names: list[str], dt: float, rises: bool = False
     forward from its start, on the measured rows (a probed target is filled between its measurements
     for the sums, `Part.filled_target`). On a campaign, a and the weight are chosen leaving out each run
     (models/grey_campaign.py)."""
-    runs = [(accumulate(sequences(p, rises)), p.filled_target()) for p in parts]
+    constant = len(parts) >= 2
+    runs = [(accumulate(sequences(p, rises, constant)), p.filled_target()) for p in parts]
     ridge.refuse_flat(np.vstack([p.temps for p in parts]), names)
     params = _gm1n_parameters(runs)
     paper_a = float(params[0])
@@ -167,7 +181,8 @@ def fit_gm1n(parts: list[Part], names: list[str], dt: float, rises: bool = False
     span_s = max(rows) * dt
     resolvable = ridge.condition(np.vstack([sums[1:] for sums, _ in runs]), intercept=False) <= ridge.CONDITION_LIMIT
     if len(parts) >= 2:
-        a, b, weight, rmse, chosen = _gm1n_on_a_campaign(parts, runs, dt, resolvable, span_s)
+        a, b, weight, per_run, chosen = _gm1n_on_a_campaign(parts, runs, dt, resolvable, span_s)
+        rmse = grey_campaign.rmse(per_run, sum(int(np.isfinite(p.target[1:]).sum()) for p in parts))
     elif 0 < paper_a < 2 and dt / paper_a <= span_s and resolvable:
         a, b, weight, rmse = paper_a, params[1:], 0.0, None
         chosen = "the paper's least-squares a and b"
@@ -194,8 +209,9 @@ def fit_gm1n(parts: list[Part], names: list[str], dt: float, rises: bool = False
                   f"a ridge weight for b were chosen by forward validation")
     keep, gain = _keep_and_gain(a)
     coefficients = {"X1": Coefficient.of(_first_error([target for _, target in runs])), "Keep": Coefficient.of(keep),
-                    "In": Coefficient.of(gain), **{f"b_{i}": Coefficient.of(bi) for i, bi in enumerate(b, start=1)}}
-    settings = {"a": a, "b": [float(x) for x in b], "time_constant_s": dt / a, **({"rises": True} if rises else {})}
+                    "In": Coefficient.of(gain), **_split(constant, b)}
+    settings = {"a": a, "b": [float(x) for x in b[int(constant):]], "time_constant_s": dt / a,
+                **({"rises": True} if rises else {})}
     return coefficients, settings, {
         "method": f"grey difference equation on 1-AGO sequences (paper 003, GM(1,N)), {chosen}",
         "least_squares_a": paper_a, "ridge_weight": weight, "ridge_validation_rmse": rmse}
@@ -209,16 +225,16 @@ def _output_pieces(sums: np.ndarray, first: float, a: float) -> tuple[np.ndarray
 
 
 def _gm1n_on_a_campaign(parts: list[Part], runs: list[tuple[np.ndarray, np.ndarray]], dt: float, resolvable: bool,
-                        span_s: float) -> tuple[float, np.ndarray, float, float, str]:
-    """a, b, the ridge weight, the held-out error and how they were chosen, leaving out each run
+                        span_s: float) -> tuple[float, np.ndarray, float, list[float], str]:
+    """a, b, the ridge weight, the squared error on each run left out and how they were chosen, leaving out each run
     (models/grey_campaign.py): the grid of a from the longest run, the paper's a where it settles within it."""
     def paper(chosen: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray | None:
         params = _gm1n_parameters(chosen)
         return params if 0 < params[0] < 2 and dt / params[0] <= span_s and resolvable else None
 
-    grid = [float(a) for a in development_candidates(dt, max(len(target) for _, target in runs))]
-    estimate, a, weight, rmse = grey_campaign.gm1n(runs, [p.target for p in parts], grid, _output_pieces, paper,
-                                                   _background)
+    grid = [*(float(a) for a in development_candidates(dt, max(len(target) for _, target in runs))), NO_MEMORY]
+    estimate, a, weight, per_run = grey_campaign.gm1n(runs, [p.target for p in parts], grid, _output_pieces, paper,
+                                                   _background, NO_MEMORY)
     if estimate == "paper":
         params = paper(runs)
         a, b = float(params[0]), params[1:]
@@ -231,36 +247,23 @@ def _gm1n_on_a_campaign(parts: list[Part], runs: list[tuple[np.ndarray, np.ndarr
         b = ridge.ridge(np.vstack([d[m] for (d, _), m in zip(pieces, measured)]),
                         np.concatenate([(p.target[1:] - o)[m] for p, (_, o), m in zip(parts, pieces, measured)]),
                         weight, intercept=False)[1]
-    return a, b, weight, rmse, (f"{grey_campaign.label(GM1N_ESTIMATES[estimate], weight)}, a and b chosen leaving "
+    return a, b, weight, per_run, (f"{grey_campaign.label(GM1N_ESTIMATES[estimate], weight)}, a and b chosen leaving "
                                 f"out each of {len(runs)} runs")
 
 
-VALIDATION_RUNS = 3  # a campaign of at least this many runs chooses between readings and rises
+NO_MEMORY = 2.0  # a = 2: Keep = 0, x1(k) = sum_i b_i*x_i(k)/2, the shrunk linear fit (a ridge on the sequences)
+CAMPAIGN_RUNS = 3  # a campaign of at least this many runs is fitted on the rises
 
 
-def fit_choosing(kind: str, parts: list[Part], names: list[str], fitter) -> tuple[dict, dict, dict]:
-    """The paper's readings on one or two runs. On a campaign the sequences are chosen: readings, or their
-    rises since each run's start (the drift of a campaign is often zeroed at each run's start, and the
-    hall air moves from run to run: readings then give each run an offset no coefficient removes),
-    whichever fit predicts each run better from the other runs (the error each fitter chose its estimate by).
-    The choice was once made on one split (the first two thirds of the runs fitted, the last third scored):
-    on FL_THERMAL ch3 cut into 6 h runs it took the readings in some folds, and GM(1,N) on four chosen sensors
-    was 6.87 um held out where rises in every fold give 4.77."""
-    if len(parts) < VALIDATION_RUNS:
-        return fitter(parts, names, rises=False)
-    fits = []
-    for rises in (False, True):
-        try:
-            fits.append((fitter(parts, names, rises=rises), rises))
-        except UserError:
-            continue
-    if not fits:
-        return fitter(parts, names, rises=True)  # refuses with the fitter's own reason
-    (coefficients, settings, log), rises = min(fits, key=lambda fit: (fit[0][2]["ridge_validation_rmse"], fit[1]))
-    log["sequences"] = {"chosen": "rises since each run's start" if rises else "readings (the paper's)",
-                        "validation_rmse_um": {("rises" if r else "readings"): f[2]["ridge_validation_rmse"]
-                                               for f, r in fits}}
-    return coefficients, settings, log
+def fit_on_sequences(parts: list[Part], names: list[str], fitter) -> tuple[dict, dict, dict]:
+    """The paper's readings on one or two runs; on a campaign of three or more, the temperatures' rises since
+    each run's start. A campaign's drift is zeroed at each run's start and the hall air moves from run to run:
+    readings give each run an offset no coefficient removes. The choice between them was once made leaving out
+    each run: on FL_THERMAL ch3 cut into 6 h runs (every sensor) the readings won on the seven runs of one fold
+    by a third, each of the seven runs better, and missed the eighth by 12.6 um where the rises miss it by 1.7
+    (GM(1,N): 5.69 um held out against 3.51 with the rises in every fold); on the twin campaigns (cascade and
+    portal, seeds 1 and 2) the readings never won by more than a standard error."""
+    return fitter(parts, names, rises=len(parts) >= CAMPAIGN_RUNS)
 
 
 def _unsettled(a: float, dt: float, resolvable: bool) -> str:
@@ -282,25 +285,32 @@ def predict_gm0n(model: Model, inputs: dict, precision: str) -> dict:
     """Reference in binary32 ('f32') or float64, in the block's operation order: {target name: error
     estimate per row}. X1 at the first call, then the first difference of a + sum_i b_i*S_i(k), which is
     sum_i b_i*x_i(k) exactly: no running sums, so nothing grows on a PLC that runs for weeks (x_i the
-    readings, or with settings.rises their rises since the first call)."""
+    readings, or with settings.rises their rises since the first call; with b_0 the unit sequence's term
+    b_0*1 first)."""
     f = np.float32 if precision == "f32" else np.float64
     temps = [np.asarray(inputs[s.name], f) for s in model.signals("temperature")]
     x1 = f(model.coef("X1", precision))
     b = [f(model.coef(f"b_{i}", precision)) for i in range(1, len(temps) + 1)]
+    b0 = unit_coefficient(model, precision, f)
     rises = bool(model.settings.get("rises"))
     if compiled.enabled(len(temps[0]) if temps else 0):  # the same loop, compiled (below)
-        return {model.target.name: gm0n_loop(temps, x1, b, f, rises=rises)}
+        return {model.target.name: gm0n_loop(temps, x1, b, f, rises=rises, b0=b0)}
     xs = [x - x[0] for x in temps] if rises else temps
     out = np.empty(len(temps[0]), f)
     for k in range(len(out)):
         if k == 0:
             out[k] = x1
             continue
-        level = b[0] * xs[0][k]
+        level = b[0] * xs[0][k] if b0 is None else b0 + b[0] * xs[0][k]
         for i in range(1, len(xs)):
             level = level + b[i] * xs[i][k]
         out[k] = level
     return {model.target.name: out}
+
+
+def unit_coefficient(model: Model, precision: str, f):
+    """b_0, the unit sequence's coefficient, where the fit drove the model with one (a campaign); else None."""
+    return f(model.coef("b_0", precision)) if "b_0" in model.coefficients else None
 
 
 def predict_gm1n(model: Model, inputs: dict, precision: str) -> dict:
@@ -309,15 +319,17 @@ def predict_gm1n(model: Model, inputs: dict, precision: str) -> dict:
     once: x1(k) = Keep*x1(k-1) + In*sum_i b_i*x_i(k) from the third call, the same estimates without
     running sums (bounded however long the block runs); the first call gives X1 and the second
     (Keep*X1 + In*sum_i b_i*(x_i(1) + x_i(2))) - X1, the equation's own start (x_i the readings, or with
-    settings.rises their rises since the first call, 0 at the first)."""
+    settings.rises their rises since the first call, 0 at the first; with b_0 the unit sequence's term first:
+    b_0*1, and (b_0 + b_0) at the second call, its running sum there being 2)."""
     f = np.float32 if precision == "f32" else np.float64
     temps = [np.asarray(inputs[s.name], f) for s in model.signals("temperature")]
     c = lambda name: f(model.coef(name, precision))
     b = [c(f"b_{i}") for i in range(1, len(temps) + 1)]
     x1, keep, gain = c("X1"), c("Keep"), c("In")
+    b0 = unit_coefficient(model, precision, f)
     rises = bool(model.settings.get("rises"))
     if compiled.enabled(len(temps[0]) if temps else 0):  # the same loop, compiled (below)
-        return {model.target.name: gm1n_loop(temps, x1, keep, gain, b, f, rises=rises)}
+        return {model.target.name: gm1n_loop(temps, x1, keep, gain, b, f, rises=rises, b0=b0)}
     xs = [x - x[0] for x in temps] if rises else temps
     out = np.empty(len(temps[0]), f)
     previous = f(0.0)
@@ -326,12 +338,12 @@ def predict_gm1n(model: Model, inputs: dict, precision: str) -> dict:
             level = x1
         elif k == 1:  # the rises are 0 at the first call: x_i(1) + x_i(2) is x_i(2) itself
             start = (lambda i: xs[i][1]) if rises else (lambda i: xs[i][0] + xs[i][1])
-            forced = b[0] * start(0)
+            forced = b[0] * start(0) if b0 is None else (b0 + b0) + b[0] * start(0)  # the unit sequence's sum is 2
             for i in range(1, len(xs)):
                 forced = forced + b[i] * start(i)
             level = (keep * previous + gain * forced) - x1
         else:
-            forced = b[0] * xs[0][k]
+            forced = b[0] * xs[0][k] if b0 is None else b0 + b[0] * xs[0][k]
             for i in range(1, len(xs)):
                 forced = forced + b[i] * xs[i][k]
             level = keep * previous + gain * forced
@@ -351,13 +363,14 @@ class StreamCore:
         self.scalars = (c("X1"),) if model.kind == "gm0n" else (c("X1"), c("Keep"), c("In"))
         self.state = GreyState(len(self.temps), f)
         self.rises = bool(model.settings.get("rises"))
+        self.b0 = unit_coefficient(model, precision, f)
 
     def __call__(self, running: dict, fused_valid: dict) -> dict:
         temps = [np.asarray(running[s.name], self.f) for s in self.temps]
         if self.kind == "gm0n":
-            out = gm0n_loop(temps, *self.scalars, self.b, self.f, self.state, self.rises)
+            out = gm0n_loop(temps, *self.scalars, self.b, self.f, self.state, self.rises, self.b0)
         else:
-            out = gm1n_loop(temps, *self.scalars, self.b, self.f, self.state, self.rises)
+            out = gm1n_loop(temps, *self.scalars, self.b, self.f, self.state, self.rises, self.b0)
         return {self.target: out}
 
 
@@ -365,7 +378,7 @@ class StreamCore:
 # Grey models (models/grey.py::predict_gm0n, predict_gm1n). temps: (k, rows).
 
 @compiled.jit
-def _gm0n(temps, x1, b, rises, first, started, out):
+def _gm0n(temps, x1, b, b0, unit, rises, first, started, out):
     k = temps.shape[0]
     for j in range(out.shape[0]):
         if started[0] == 0:
@@ -375,13 +388,15 @@ def _gm0n(temps, x1, b, rises, first, started, out):
             started[0] = 1
             continue
         level = b[0] * (temps[0, j] - first[0] if rises else temps[0, j])
+        if unit:
+            level = b0 + level
         for i in range(1, k):
             level = level + b[i] * (temps[i, j] - first[i] if rises else temps[i, j])
         out[j] = level
 
 
 @compiled.jit
-def _gm1n(temps, x1, keep, gain, b, rises, first, prev, started, out):
+def _gm1n(temps, x1, keep, gain, b, b0, unit, rises, first, prev, started, out):
     k = temps.shape[0]
     previous = prev[0]
     for j in range(out.shape[0]):
@@ -392,12 +407,16 @@ def _gm1n(temps, x1, keep, gain, b, rises, first, prev, started, out):
             started[0] = 1
         elif started[0] == 1:
             forced = b[0] * (temps[0, j] - first[0] if rises else first[0] + temps[0, j])
+            if unit:
+                forced = (b0 + b0) + forced
             for i in range(1, k):
                 forced = forced + b[i] * (temps[i, j] - first[i] if rises else first[i] + temps[i, j])
             level = (keep * previous + gain * forced) - x1
             started[0] = 2
         else:
             forced = b[0] * (temps[0, j] - first[0] if rises else temps[0, j])
+            if unit:
+                forced = b0 + forced
             for i in range(1, k):
                 forced = forced + b[i] * (temps[i, j] - first[i] if rises else temps[i, j])
             level = keep * previous + gain * forced
@@ -415,32 +434,35 @@ class GreyState:
         self.started = np.zeros(1, np.int64)
 
 
-def gm0n_loop(temps: list, x1, b: list, f, state: GreyState | None = None, rises: bool = False) -> np.ndarray:
+def gm0n_loop(temps: list, x1, b: list, f, state: GreyState | None = None, rises: bool = False,
+              b0=None) -> np.ndarray:
     """GM(0,N) error estimates of `temps` (one array per sensor) by the compiled loop, bit for bit
     those of grey.predict_gm0n; `state` carries the first temperatures from chunk to chunk."""
     state = state or GreyState(len(temps), f)
     stacked = np.array(temps, f).reshape(len(temps), -1)
     out = np.empty(stacked.shape[1], f)
-    _gm0n(stacked, f(x1), np.array(b, f), rises, state.first, state.started, out)
+    _gm0n(stacked, f(x1), np.array(b, f), f(b0 or 0.0), b0 is not None, rises, state.first, state.started, out)
     return out
 
 
-def gm1n_loop(temps: list, x1, keep, gain, b: list, f, state: GreyState | None = None, rises: bool = False) -> np.ndarray:
+def gm1n_loop(temps: list, x1, keep, gain, b: list, f, state: GreyState | None = None, rises: bool = False,
+              b0=None) -> np.ndarray:
     """GM(1,N) error estimates of `temps` (one array per sensor) by the compiled loop, bit for bit
     those of grey.predict_gm1n; `state` carries the first temperatures and the last estimate."""
     state = state or GreyState(len(temps), f)
     stacked = np.array(temps, f).reshape(len(temps), -1)
     out = np.empty(stacked.shape[1], f)
-    _gm1n(stacked, f(x1), f(keep), f(gain), np.array(b, f), rises, state.first, state.prev, state.started, out)
+    _gm1n(stacked, f(x1), f(keep), f(gain), np.array(b, f), f(b0 or 0.0), b0 is not None, rises, state.first,
+          state.prev, state.started, out)
     return out
 
 
-GM0N = Kind("gm0n", 5, "003", lambda parts, request, names, dt, progress: fit_choosing("gm0n", parts, names, fit_gm0n),
+GM0N = Kind("gm0n", 5, "003", lambda parts, request, names, dt, progress: fit_on_sequences(parts, names, fit_gm0n),
             predict_gm0n, auto="closed-form",
             settings_schema={"type": "object", "properties": {"a": {"type": "number"}, "rises": {"type": "boolean"}}},
             stream_core=StreamCore)
-GM1N = Kind("gm1n", 6, "003", lambda parts, request, names, dt, progress: fit_choosing(
-                "gm1n", parts, names, lambda runs, labels, rises: fit_gm1n(runs, labels, dt, rises)),
+GM1N = Kind("gm1n", 6, "003", lambda parts, request, names, dt, progress: fit_on_sequences(
+                parts, names, lambda runs, labels, rises: fit_gm1n(runs, labels, dt, rises)),
             predict_gm1n, auto="closed-form",
             settings_schema={"type": "object", "properties": {"a": {"type": "number"},
                                                               "b": {"type": "array", "items": {"type": "number"}},
