@@ -2,7 +2,8 @@
 
 The ridge on every sensor's rise is the floor any compensation tool must beat. Each kind runs on
 sensors named by hand and with `--choose-sensors 4` (chosen again inside every fold); the kinds that shrink take
-every sensor in a third row (mlr, dlag and the grey kinds by their ridge weight, bayes by `--parents ridge`).
+every sensor in a third row (mlr, dlag and the grey kinds by their ridge weight, bayes by `--parents ridge`, bpnn
+by `--skip ridge`).
 Real data first: FL_THERMAL (46 h) cut into runs of 6 h, each a fresh block start with its
 drift taken from the run's start (as a probing campaign measures it), full rate and probed every 30
 minutes (held). Then twin campaigns of both machines over several seeds: leave one run out, grouped
@@ -39,7 +40,8 @@ QUICK_GA = {"population": 20, "generations": 15}  # kalman's GA held short so th
 FL_RUN_HOURS = 6.0
 CHOOSE = 4  # each kind's second row: at most this many sensors chosen from every sensor, inside each fold
 # each kind's third row, where it has one: every sensor through a ridge weight chosen leaving out each run (issue 62)
-EVERY_SENSOR = {"mlr": {}, "dlag": {}, "gm0n": {}, "gm1n": {}, "bayes": {"parents": "ridge"}}
+EVERY_SENSOR = {"mlr": {}, "dlag": {}, "gm0n": {}, "gm1n": {}, "bayes": {"parents": "ridge"},
+                "bpnn": {"skip": "ridge"}}
 
 
 def fl_thermal_runs(target: str, hours: float, probe_minutes: float) -> list[Table]:

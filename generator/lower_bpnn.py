@@ -5,7 +5,7 @@ from thermoplc.generator.ir import Assign, BinOp, Block, Const, If, Ref, Region,
 from thermoplc.models.bpnn import has_compensation, output_names
 from thermoplc.models.modelfile import Model
 from thermoplc.generator.lower_shared import (
-    INIT, const, first_call, header, inputs_of, reference_vars, references, sum_of,
+    INIT, const, first_call, header, inputs_of, reference_vars, references, sum_of, weighted_rises,
 )
 
 
@@ -22,6 +22,7 @@ def lower_bpnn(model: Model) -> Block:
     m, hidden, q = model.settings["inputs"], model.settings["hidden"], model.settings["outputs"]
     names = output_names(model)
     units = [t["unit"] for t in model.settings["targets"]]
+    skip = model.settings.get("skip") == "ridge"
     scaled = tuple(Assign(f"X_{i}", BinOp("+", BinOp("*", BinOp("-", Ref(s.name), Ref(f"T0_{i}")), const(f"in_scale_{i}")),
                                           const(f"in_shift_{i}"))) for i, s in enumerate(temps, start=1))
     layer = []
@@ -36,12 +37,15 @@ def lower_bpnn(model: Model) -> Block:
     outputs = []
     for k in range(1, q + 1):
         y = sum_of([const(f"b2_{k}")] + [BinOp("*", const(f"w2_{k}_{j}"), Ref(f"H_{j}")) for j in range(1, hidden + 1)])
-        outputs += [Assign("Y", y),
-                    Assign(names[k - 1], BinOp("+", BinOp("*", Ref("Y"), const(f"out_scale_{k}")), const(f"out_shift_{k}")))]
+        scaled_back = BinOp("+", BinOp("*", Ref("Y"), const(f"out_scale_{k}")), const(f"out_shift_{k}"))
+        outputs += [Assign("Y", y)] + ([Assign("Ridge", weighted_rises(f"w{k}_0", f"w{k}", temps)),
+                                         Assign(names[k - 1], BinOp("+", Ref("Ridge"), scaled_back))]
+                                        if skip else [Assign(names[k - 1], scaled_back)])
     regions = [first_call("First call: latch reference temperatures", references(temps)),
                Region("Input layer: temperature rises scaled to [-1, 1]", scaled),
                Region("Hidden layer: act(x) = Pade(7,6) tanh of clip(x, +-4.97)", tuple(layer)),
-               Region("Output layer, scaled back to units", tuple(outputs))]
+               Region("Output layer, scaled back to units" + (", plus the ridge on every rise" if skip else ""),
+                      tuple(outputs))]
     out_vars = [Var(n, "REAL", f"predicted {n}, {u}") for n, u in zip(names, units)]
     inputs = list(inputs_of(temps))
     if has_compensation(model):
@@ -62,7 +66,8 @@ def lower_bpnn(model: Model) -> Block:
         temps=(*(Var(f"X_{i}", "REAL", f"scaled rise of {s.name}") for i, s in enumerate(temps, start=1)),
                *(Var(f"H_{j}", "REAL", f"hidden neuron {j}") for j in range(1, hidden + 1)),
                Var("Z", "REAL", "neuron input"), Var("Zsq", "REAL", "neuron input squared"),
-               Var("Y", "REAL", "scaled output")),
+               Var("Y", "REAL", "scaled output"),
+               *((Var("Ridge", "REAL", "the ridge on every rise, um"),) if skip else ())),
         constants=tuple(Const(f"c_{name}", model.coef(name), "") for name in model.coefficients),
         regions=tuple(regions),
     )
