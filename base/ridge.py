@@ -181,6 +181,14 @@ def run_errors(sums: RunSums, columns: Sequence[int], weights: Sequence[float],
     return [float(np.sqrt(max(v, 0.0) / sums.rows[list(held)].sum())) for v in squares]
 
 
+def beats(errors: Sequence[float], plain: Sequence[float]) -> bool:
+    """Whether per-run squared errors `errors` are lower than `plain`'s by more than one standard error of their
+    paired difference over the runs (the one-standard-error rule: a candidate chosen among many on a few runs
+    is partly chance, so the shrunk or plain one is kept unless the runs say clearly otherwise)."""
+    difference = np.subtract(errors, plain)
+    return len(difference) > 1 and difference.sum() + np.sqrt(len(difference)) * difference.std(ddof=1) < 0
+
+
 def validation_cut(rows: int) -> int | None:
     """First row of the forward-validation part, or None when either part would be too short."""
     cut = int(round(FIT_SHARE * rows))

@@ -35,8 +35,19 @@ def fit_dlag(parts: list[Part], names: list[str], lags: int, lag_step_s: float, 
                         f"use fewer or shorter lags")
     sensors = parts[0].temps.shape[1]
     labels = [f"{names[i]}(t-{lag * step * dt:g}s)" for i in range(sensors) for lag in range(lags + 1)]
-    beta, log = least_squares(*measured_rows(parts, lambda part: _columns(part, lags, step)), labels,
-                              measured_counts(parts))
+    design, target = measured_rows(parts, lambda part: _columns(part, lags, step))
+    runs = measured_counts(parts)
+    beta, log = least_squares(design, target, labels, runs)
+    method = "least squares on current and lagged temperature rises"
+    if len(runs) >= 2:  # the current rises alone (the lags' coefficients 0) where they predict the runs left out better
+        now = [i * (lags + 1) for i in range(sensors)]  # the lag-0 columns
+        current, current_log = least_squares(design[:, now], target, [labels[c] for c in now], runs)
+        if current_log["ridge_validation_rmse"] <= log["ridge_validation_rmse"]:
+            beta = np.zeros(design.shape[1] + 1)
+            beta[[0, *(c + 1 for c in now)]] = current
+            log = current_log
+            method += (" (the current rises alone predicted each run left out better than with their lags: the "
+                       "lags' coefficients are 0)")
     coefficients = {"beta0": Coefficient.of(beta[0])}
     k = 1
     for i in range(sensors):
@@ -44,8 +55,7 @@ def fit_dlag(parts: list[Part], names: list[str], lags: int, lag_step_s: float, 
             coefficients[f"beta_{i + 1}_{lag}"] = Coefficient.of(beta[k])
             k += 1
     settings = {"lags": lags, "lag_step_samples": step, "lag_step_s": step * dt}
-    return coefficients, settings, {"method": "least squares on current and lagged temperature rises, ridge weight by "
-                                              f"{weight_by(log)}", **log}
+    return coefficients, settings, {"method": f"{method}, ridge weight by {weight_by(log)}", **log}
 
 
 def _columns(part: Part, lags: int, step: int) -> np.ndarray:

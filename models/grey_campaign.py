@@ -72,15 +72,8 @@ def choose(totals: dict[tuple, list[float]], runs: int, acceptable, plain) -> tu
     admitted = [(squared, key) for squared, key in complete if acceptable(key)]
     best = admitted[0]  # the ridge candidates are always acceptable
     shrunk = next((candidate for candidate in admitted if plain(candidate[1])), best)
-    key = best[1] if beats(totals[best[1]], totals[shrunk[1]]) else shrunk[1]
+    key = best[1] if ridge.beats(totals[best[1]], totals[shrunk[1]]) else shrunk[1]
     return key, totals[key]
-
-
-def beats(errors: list[float], plain: list[float]) -> bool:
-    """Whether the per-run squared errors `errors` are lower than `plain`'s by more than one standard error of
-    their paired difference over the runs."""
-    difference = np.subtract(errors, plain)
-    return len(difference) > 1 and difference.sum() + np.sqrt(len(difference)) * difference.std(ddof=1) < 0
 
 
 def gm0n(sums: list[np.ndarray], target_sums: list[np.ndarray], steps: list[np.ndarray], errors: list[np.ndarray]
