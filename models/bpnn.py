@@ -167,6 +167,7 @@ def fit_bpnn(rises: np.ndarray, targets: np.ndarray, names: list[str], seed: int
     With `from_zero` (what a ridge leaves, `--skip ridge`) back-propagation starts from the GA's hidden layer
     with the output layer at 0 um and stops early (`_early_stopped`); the paper's comparison is not run."""
     rng = np.random.default_rng(seed)
+    steps = 3 if from_zero else 4  # the steps progress counts
     in_scale, in_shift = _scale(rises)
     x = rises * in_scale + in_shift
     out_scale, out_shift = _scale(targets)
@@ -195,7 +196,7 @@ def fit_bpnn(rises: np.ndarray, targets: np.ndarray, names: list[str], seed: int
     hidden_ga = genetic_minimize(hidden_fitness, np.array([HIDDEN_RANGE[0]]), np.array([HIDDEN_RANGE[1] + 0.999]),
                                  rng, population=max(6, population // 4), generations=hidden_generations,
                                  p_mutation=MUTATION[operators], operators=operators,
-                                 progress=step_reporter("bpnn 1/4 hidden size", hidden_generations, progress,
+                                 progress=step_reporter(f"bpnn 1/{steps} hidden size", hidden_generations, progress,
                                                         cost="best error"))
     hidden = int(hidden_ga.x[0])
     length = hidden * m + hidden + q * hidden + q
@@ -209,8 +210,8 @@ def fit_bpnn(rises: np.ndarray, targets: np.ndarray, names: list[str], seed: int
 
     weight_ga = genetic_minimize(weight_fitness, -np.ones(length), np.ones(length), rng, population, generations,
                                  p_mutation=MUTATION[operators], operators=operators,
-                                 progress=step_reporter(f"bpnn 2/4 weights of {hidden} hidden neurons", generations,
-                                                        progress, cost="best SSE"))
+                                 progress=step_reporter(f"bpnn 2/{steps} weights of {hidden} hidden neurons",
+                                                        generations, progress, cost="best SSE"))
     if from_zero:
         start = _unpack(weight_ga.x, m, hidden, q)
         start = Network(start.w1, start.b1, np.zeros_like(start.w2), out_shift.copy())  # 0 um out
