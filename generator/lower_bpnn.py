@@ -38,7 +38,7 @@ def lower_bpnn(model: Model) -> Block:
     for k in range(1, q + 1):
         y = sum_of([const(f"b2_{k}")] + [BinOp("*", const(f"w2_{k}_{j}"), Ref(f"H_{j}")) for j in range(1, hidden + 1)])
         scaled_back = BinOp("+", BinOp("*", Ref("Y"), const(f"out_scale_{k}")), const(f"out_shift_{k}"))
-        outputs += [Assign("Y", y)] + ([Assign("Ridge", weighted_rises(f"w{k}_0", f"w{k}", temps)),
+        outputs += [Assign("Y", y)] + ([Assign("Ridge", weighted_rises(f"ridge{k}_0", f"ridge{k}", temps)),
                                          Assign(names[k - 1], BinOp("+", Ref("Ridge"), scaled_back))]
                                         if skip else [Assign(names[k - 1], scaled_back)])
     regions = [first_call("First call: latch reference temperatures", references(temps)),

@@ -127,34 +127,29 @@ def _scale(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return 2.0 / span, -1.0 - 2.0 * low / span
 
 
+def _coefficient_names(m: int, hidden: int, q: int) -> list[str]:
+    """The network's coefficient names in block order (`_coefficients`)."""
+    names = [f"in_{what}_{i}" for i in range(1, m + 1) for what in ("scale", "shift")]
+    for j in range(1, hidden + 1):
+        names += [f"b1_{j}", *(f"w1_{j}_{i}" for i in range(1, m + 1))]
+    for k in range(1, q + 1):
+        names += [f"b2_{k}", *(f"w2_{k}_{j}" for j in range(1, hidden + 1)), f"out_scale_{k}", f"out_shift_{k}"]
+    return names + ["act_p1", "act_p2", "act_p3", "act_q1", "act_q2", "act_q3", "act_one", "act_clip", "act_nclip"]
+
+
 def _coefficients(net, scaled_in: tuple, scaled_out: tuple) -> dict[str, Coefficient]:
-    """The model file's coefficients in block order: input scaling, hidden layer, output layer with the
-    scaling back to um, then the activation's Pade constants and clip."""
+    """The model file's coefficients in block order (`_coefficient_names`): input scaling, hidden layer, output
+    layer with the scaling back to um, then the activation's Pade constants and clip."""
     (in_scale, in_shift), (out_scale, out_shift) = scaled_in, scaled_out
     hidden, m = net.w1.shape
     q = net.w2.shape[0]
-    coefficients = {}
-    for i in range(m):
-        coefficients[f"in_scale_{i + 1}"] = Coefficient.of(in_scale[i])
-        coefficients[f"in_shift_{i + 1}"] = Coefficient.of(in_shift[i])
+    values = [v for i in range(m) for v in (in_scale[i], in_shift[i])]
     for j in range(hidden):
-        coefficients[f"b1_{j + 1}"] = Coefficient.of(net.b1[j])
-        for i in range(m):
-            coefficients[f"w1_{j + 1}_{i + 1}"] = Coefficient.of(net.w1[j, i])
+        values += [net.b1[j], *net.w1[j]]
     for k in range(q):
-        coefficients[f"b2_{k + 1}"] = Coefficient.of(net.b2[k])
-        for j in range(hidden):
-            coefficients[f"w2_{k + 1}_{j + 1}"] = Coefficient.of(net.w2[k, j])
-        coefficients[f"out_scale_{k + 1}"] = Coefficient.of(1.0 / out_scale[k])
-        coefficients[f"out_shift_{k + 1}"] = Coefficient.of(-out_shift[k] / out_scale[k])
-    for n, value in enumerate(PADE_P[1:], start=1):
-        coefficients[f"act_p{n}"] = Coefficient.of(value)
-    for n, value in enumerate(PADE_Q[1:], start=1):
-        coefficients[f"act_q{n}"] = Coefficient.of(value)
-    coefficients["act_one"] = Coefficient.of(1.0)
-    coefficients["act_clip"] = Coefficient.of(CLIP)
-    coefficients["act_nclip"] = Coefficient.of(-CLIP)
-    return coefficients
+        values += [net.b2[k], *net.w2[k], 1.0 / out_scale[k], -out_shift[k] / out_scale[k]]
+    values += [*PADE_P[1:], *PADE_Q[1:], 1.0, CLIP, -CLIP]
+    return {name: Coefficient.of(v) for name, v in zip(_coefficient_names(m, hidden, q), values, strict=True)}
 
 
 def fit_bpnn(rises: np.ndarray, targets: np.ndarray, names: list[str], seed: int, population: int,
@@ -162,7 +157,7 @@ def fit_bpnn(rises: np.ndarray, targets: np.ndarray, names: list[str], seed: int
              operators: str = "paper002", progress: Callable[[str], None] | None = None,
              runs: list[int] | None = None, from_zero: bool = False) -> tuple[dict, dict, dict]:
     """rises (rows, sensors) since each run's first row, targets (rows, outputs): the measured training
-    rows of every run (`runs` rows each), in run order. `progress` hears each of the four steps with an
+    rows of every run (`runs` rows each), in run order. `progress` hears each of its steps with an
     estimate of its time left (the weight GA is the long one: population x generations forward passes).
     With `from_zero` (what a ridge leaves, `--skip ridge`) back-propagation starts from the GA's hidden layer
     with the output layer at 0 um and stops early (`_early_stopped`); the paper's comparison is not run."""
@@ -256,9 +251,10 @@ TRAINING_ROWS = 2000  # back-propagation's rows, thinned evenly: thermal data is
 def _early_stopped(start: Network, x: np.ndarray, y: np.ndarray, runs: list[int], epochs: int, out_scale: np.ndarray,
                    progress) -> tuple[Network, dict]:
     """Back-propagation from `start` for the epochs (a multiple of STOPPING_EPOCHS, 0 included: the start)
-    that predict rows it did not train on best, then again from `start` on every row for that many. Rows not
-    trained on: on a campaign each of up to STOPPING_FOLDS groups of whole runs in turn, the squared errors
-    summed; on one recording its last fifth. On FL_THERMAL's 6 h runs (ch3, every sensor) one group (the last
+    that predict rows it did not train on best, then again from `start` on every row (thinned to about
+    TRAINING_ROWS) for that many. Rows not trained on: on a campaign each of up to STOPPING_FOLDS groups of whole
+    runs in turn, the squared errors summed; on one recording its last fifth (the input and output scaling and
+    the GA's hidden layer come from every row). On FL_THERMAL's 6 h runs (ch3, every sensor) one group (the last
     quarter of the runs) took epochs the first run did not confirm: 1.36 x the ridge held out."""
     run_of_row = np.repeat(np.arange(len(runs)), runs)
     groups = np.array_split(np.arange(len(runs)), stopping_folds(runs)) if len(runs) >= 2 else []
@@ -337,7 +333,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
             y = y + c(f"w2_{k}_{j}") * h[j - 1]
         out[names[k - 1]] = y * c(f"out_scale_{k}") + c(f"out_shift_{k}")
         if model.settings.get("skip") == "ridge":  # Ridge + network, the ridge as mlr's output
-            ridge = on_rises([inputs[s.name] for s in temps], [model.coef(f"w{k}_{i}", precision)
+            ridge = on_rises([inputs[s.name] for s in temps], [model.coef(f"ridge{k}_{i}", precision)
                                                                for i in range(len(temps) + 1)], f)
             out[names[k - 1]] = ridge + out[names[k - 1]]
     if has_compensation(model):
@@ -363,7 +359,7 @@ def _fit(parts, request, names, dt, progress):
                                            request.option("generations"), operators=request.option("ga_operators"),
                                            progress=progress, runs=measured_counts(parts), from_zero=skip)
     if skip:
-        coefficients.update({f"w{k}_{i}": Coefficient.of(w) for k, beta in enumerate(weights, start=1)
+        coefficients.update({f"ridge{k}_{i}": Coefficient.of(w) for k, beta in enumerate(weights, start=1)
                              for i, w in enumerate(beta)})
         settings["skip"] = "ridge"
         log = {**ridge_log, **log, "method": f"a ridge on every temperature's rise (weight by {weight_by(ridge_log)})"
@@ -379,7 +375,8 @@ def _fit(parts, request, names, dt, progress):
 
 def _skip_paths(parts, rises: np.ndarray, targets: np.ndarray, names: list[str]):
     """`--skip ridge`: per target the weights w_0..w_n of a ridge on the rises (mlr's fit, binary32), its
-    prediction on the measured rows as the block computes it (rows, targets), and the first target's ridge log."""
+    prediction on the measured rows as the block computes it (rows, targets), and the first target's ridge log
+    (with every target's weight where there are several)."""
     weights, predictions, logs = [], [], []
     for k in range(targets.shape[1]):
         beta, log = least_squares(rises, targets[:, k], names, measured_counts(parts))
@@ -387,7 +384,8 @@ def _skip_paths(parts, rises: np.ndarray, targets: np.ndarray, names: list[str])
         predictions.append(np.concatenate([on_rises(list(p.temps.T), weights[-1], np.float32)[p.measured]
                                            for p in parts]).astype(float))
         logs.append(log)
-    return weights, np.column_stack(predictions), logs[0]
+    per_target = {"ridge_weight_per_target": [log["ridge_weight"] for log in logs]} if len(logs) > 1 else {}
+    return weights, np.column_stack(predictions), {**logs[0], **per_target}
 
 
 def check_settings(model: Model, path: str) -> None:
@@ -396,11 +394,18 @@ def check_settings(model: Model, path: str) -> None:
     if s["inputs"] != temps or s["outputs"] != len(s["targets"]):
         raise UserError(f"{path}: field 'settings': inputs {s['inputs']} and outputs {s['outputs']} must be the "
                         f"{temps} temperature inputs and the {len(s['targets'])} targets")
-    missing = [f"w{k}_{i}" for k in range(1, s["outputs"] + 1) for i in range(temps + 1)
-               if s.get("skip") == "ridge" and f"w{k}_{i}" not in model.coefficients]
+    ridges = [f"ridge{k}_{i}" for k in range(1, s["outputs"] + 1) for i in range(temps + 1)]
+    missing = [name for name in ridges if s.get("skip") == "ridge" and name not in model.coefficients]
     if missing:
         raise UserError(f"{path}: field 'coefficients': the ridge skip path has no weight {', '.join(missing)} "
-                        f"(per target k: wk_0, the intercept, and one per temperature)")
+                        f"(per target k: ridgek_0, the intercept, and one per temperature)")
+    known = set(_coefficient_names(temps, s["hidden"], s["outputs"]))
+    known |= set(ridges if s.get("skip") == "ridge" else ()) | ({"um_per_mm_urad"} if has_compensation(model) else set())
+    unused = [name for name in model.coefficients if name not in known]
+    if unused:
+        raise UserError(f"{path}: field 'coefficients': {', '.join(unused)} not used by this bpnn model (a "
+                        f"{temps}-{s['hidden']}-{s['outputs']} network"
+                        f"{', with its ridge skip path' if s.get('skip') == 'ridge' else ', without a skip path'})")
 
 
 SKIPS = ("none", "ridge")

@@ -174,7 +174,7 @@ def fit_gm1n(parts: list[Part], names: list[str], dt: float, rises: bool = False
     (models/grey_campaign.py)."""
     constant = len(parts) >= 2
     runs = [(accumulate(sequences(p, rises, constant)), p.filled_target()) for p in parts]
-    ridge.refuse_flat(np.vstack([p.temps for p in parts]), names)
+    ridge.refuse_flat(np.vstack([sequences(p, rises) for p in parts]), names)  # a rise that never moves: no slope
     params = _gm1n_parameters(runs)
     paper_a = float(params[0])
     rows = [len(p.target) for p in parts]
@@ -441,7 +441,7 @@ def gm0n_loop(temps: list, x1, b: list, f, state: GreyState | None = None, rises
     state = state or GreyState(len(temps), f)
     stacked = np.array(temps, f).reshape(len(temps), -1)
     out = np.empty(stacked.shape[1], f)
-    _gm0n(stacked, f(x1), np.array(b, f), f(b0 or 0.0), b0 is not None, rises, state.first, state.started, out)
+    _gm0n(stacked, f(x1), np.array(b, f), f(0.0 if b0 is None else b0), b0 is not None, rises, state.first, state.started, out)
     return out
 
 
@@ -452,7 +452,7 @@ def gm1n_loop(temps: list, x1, keep, gain, b: list, f, state: GreyState | None =
     state = state or GreyState(len(temps), f)
     stacked = np.array(temps, f).reshape(len(temps), -1)
     out = np.empty(stacked.shape[1], f)
-    _gm1n(stacked, f(x1), f(keep), f(gain), np.array(b, f), f(b0 or 0.0), b0 is not None, rises, state.first,
+    _gm1n(stacked, f(x1), f(keep), f(gain), np.array(b, f), f(0.0 if b0 is None else b0), b0 is not None, rises, state.first,
           state.prev, state.started, out)
     return out
 

@@ -41,8 +41,8 @@ def test_the_skip_block_is_bit_exact_and_every_weight_is_checked(twin_table, tmp
     (tmp_path / "bpnn.scl").write_text(text)
     assert "Ridge := " in text
     assert verify_against_model(str(tmp_path / "bpnn.scl"), model, str(model_path), twin_table).ok
-    mutants = list(_constant_mutants(text, "w1"))
-    assert [name for name, _ in mutants] == [f"c_w1_{i}" for i in range(len(model.signals("temperature")) + 1)]
+    mutants = list(_constant_mutants(text, "ridge1"))
+    assert [name for name, _ in mutants] == [f"c_ridge1_{i}" for i in range(len(model.signals("temperature")) + 1)]
     for name, mutant in mutants:
         (tmp_path / "mutant.scl").write_text(mutant)
         report = verify_against_model(str(tmp_path / "mutant.scl"), model, str(model_path), twin_table)
@@ -85,7 +85,12 @@ def test_skip_on_the_command_line_fits_generates_and_verifies_a_campaign(tmp_pat
     refused = thermoplc("fit", "--data", "runs", "--model", "mlr", "--skip", "ridge", "--target", "ch3_um", "--temps",
                         ",".join(FOUR), "--folds", 4, "-o", "x.json", cwd=tmp_path, check=2)
     assert "--skip is" in refused.stderr and not (tmp_path / "x.json").exists()
-    del model["coefficients"]["w1_2"]
+    model["settings"]["skip"] = "none"  # weights without their path: refused, not declared and left unused
+    (tmp_path / "stray.json").write_text(json.dumps(model))
+    refused = thermoplc("generate", "stray.json", "-o", "s.scl", cwd=tmp_path, check=2)
+    assert "ridge1_0" in refused.stderr and "without a skip path" in refused.stderr
+    model["settings"]["skip"] = "ridge"
+    del model["coefficients"]["ridge1_2"]
     (tmp_path / "broken.json").write_text(json.dumps(model))
     refused = thermoplc("generate", "broken.json", "-o", "b.scl", cwd=tmp_path, check=2)
-    assert "w1_2" in refused.stderr and "broken.json" in refused.stderr and not (tmp_path / "b.scl").exists()
+    assert "ridge1_2" in refused.stderr and "broken.json" in refused.stderr and not (tmp_path / "b.scl").exists()

@@ -108,6 +108,20 @@ def test_on_a_real_campaign_the_grey_kinds_stay_near_a_ridge_on_their_own_sensor
 
 
 @pytest.mark.parametrize("kind", ["gm0n", "gm1n"])
+def test_a_sensor_that_never_rises_within_a_run_is_refused_by_name_on_a_campaign(kind):
+    """Its readings differ from run to run but its rises, the sequences a campaign is fitted on, are all 0
+    (found by a review: GM(1,N) checked the readings and fitted b = 0 where GM(0,N) refused)."""
+    import math
+    from thermoplc.base.errors import UserError
+    from thermoplc.recordings.table import Table
+    from benchmarks.campaign import fl_thermal_runs
+    runs = [Table(r.path, {**r.columns, "t1_C": np.full(len(r.columns["t1_C"]), 20.0 + k)}, r.sha256, r.lines)
+            for k, r in enumerate(fl_thermal_runs("ch5_um", 6.0, 0)[:3])]
+    with pytest.raises(UserError, match="t1_C"):
+        fit(runs, FitRequest(kind=kind, target="ch5_um", temps=("t8_C", "t1_C"), train_until=math.inf), "time_s")
+
+
+@pytest.mark.parametrize("kind", ["gm0n", "gm1n"])
 def test_a_campaign_block_with_its_unit_sequence_is_bit_exact_and_every_coefficient_is_checked(kind, tmp_path):
     """The unit sequence's coefficient b_0 enters the block first (and twice at GM(1,N)'s second call, where its
     running sum is 2): the block reproduces the reference, and b_0 or any b_i moved one ULP fails verify by name."""
