@@ -400,7 +400,8 @@ def check_settings(model: Model, path: str) -> None:
         raise UserError(f"{path}: field 'coefficients': the ridge skip path has no weight {', '.join(missing)} "
                         f"(per target k: ridgek_0, the intercept, and one per temperature)")
     known = set(_coefficient_names(temps, s["hidden"], s["outputs"]))
-    known |= set(ridges if s.get("skip") == "ridge" else ()) | ({"um_per_mm_urad"} if has_compensation(model) else set())
+    known |= set(ridges if s.get("skip") == "ridge" else ())
+    known |= {"um_per_mm_urad"} if has_compensation(model) else set()
     unused = [name for name in model.coefficients if name not in known]
     if unused:
         raise UserError(f"{path}: field 'coefficients': {', '.join(unused)} not used by this bpnn model (a "

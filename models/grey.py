@@ -112,7 +112,8 @@ def fit_gm0n(parts: list[Part], names: list[str], rises: bool = False):
     return coefficients, settings, {"method": method, **fitted.log()}
 
 
-GM0N_ESTIMATES = {"sums": "the paper's fit on the 1-AGO sums", "steps": "fitted to the error itself (b_0 + sum_i b_i*x_i(k))"}
+GM0N_ESTIMATES = {"sums": "the paper's fit on the 1-AGO sums",
+                  "steps": "fitted to the error itself (b_0 + sum_i b_i*x_i(k))"}
 GM1N_ESTIMATES = {"paper": "the paper's least-squares a and b", "equation": "b fitted to the grey equation",
                   "output": "b fitted to the error the block outputs"}
 
@@ -226,8 +227,8 @@ def _output_pieces(sums: np.ndarray, first: float, a: float) -> tuple[np.ndarray
 
 def _gm1n_on_a_campaign(parts: list[Part], runs: list[tuple[np.ndarray, np.ndarray]], dt: float, resolvable: bool,
                         span_s: float) -> tuple[float, np.ndarray, float, list[float], str]:
-    """a, b, the ridge weight, the squared error on each run left out and how they were chosen, leaving out each run
-    (models/grey_campaign.py): the grid of a from the longest run, the paper's a where it settles within it."""
+    """a, b, the ridge weight, the squared error on each run left out and how they were chosen, leaving out each
+    run (models/grey_campaign.py): the grid of a from the longest run, the paper's a where it settles within it."""
     def paper(chosen: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray | None:
         params = _gm1n_parameters(chosen)
         return params if 0 < params[0] < 2 and dt / params[0] <= span_s and resolvable else None
@@ -247,8 +248,8 @@ def _gm1n_on_a_campaign(parts: list[Part], runs: list[tuple[np.ndarray, np.ndarr
         b = ridge.ridge(np.vstack([d[m] for (d, _), m in zip(pieces, measured)]),
                         np.concatenate([(p.target[1:] - o)[m] for p, (_, o), m in zip(parts, pieces, measured)]),
                         weight, intercept=False)[1]
-    return a, b, weight, per_run, (f"{grey_campaign.label(GM1N_ESTIMATES[estimate], weight)}, a and b chosen leaving "
-                                f"out each of {len(runs)} runs")
+    return a, b, weight, per_run, (f"{grey_campaign.label(GM1N_ESTIMATES[estimate], weight)}, a and b chosen "
+                                   f"leaving out each of {len(runs)} runs")
 
 
 NO_MEMORY = 2.0  # a = 2: Keep = 0, x1(k) = sum_i b_i*x_i(k)/2, the shrunk linear fit (a ridge on the sequences)

@@ -78,7 +78,8 @@ def test_skip_on_the_command_line_fits_generates_and_verifies_a_campaign(tmp_pat
               ",".join(FOUR), "--population", 8, "--generations", 3, "--folds", 4, "-o", "m.json",
               cwd=tmp_path)
     model = json.loads((tmp_path / "m.json").read_text())
-    assert model["settings"]["skip"] == "ridge" and model["fit"]["early_stopping"]["validation"].endswith(" runs, each left out in turn")
+    assert model["settings"]["skip"] == "ridge"
+    assert model["fit"]["early_stopping"]["validation"].endswith(" runs, each left out in turn")
     thermoplc("generate", "m.json", "-o", "m.scl", "--accept-unvalidated", cwd=tmp_path)
     out = thermoplc("verify", "m.scl", "--model", "m.json", "--data", "runs", cwd=tmp_path).stdout
     assert "bit-exact: every run reproduces the reference (4 runs" in out
