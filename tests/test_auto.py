@@ -34,8 +34,8 @@ def test_auto_picks_the_lumped_model_on_a_machine_made_of_lumped_masses(tmp_path
                        cwd=tmp_path)
     ranked = _ranked(result.stdout)
     # two sensor sets (forward selection's first sensor, both): 5 closed-form kinds on each, 3 iterative on the best,
-    # and bayes's ridge parent on both sensors (mlr and dlag on both were among the sets)
-    assert len(ranked) + result.stdout.count("refused:") == 14
+    # and bayes's ridge parent and bpnn's ridge skip path on both sensors (mlr and dlag on both were among the sets)
+    assert len(ranked) + result.stdout.count("refused:") == 15
     assert ranked[0][0] == "lumped" and ranked[0][1] < 0.5 * ranked[1][1]
     assert json.loads((tmp_path / "a.json").read_text())["kind"] == "lumped"
     thermoplc("generate", "a.json", "-o", "a.scl", cwd=tmp_path)  # the best passes the acceptance rule
