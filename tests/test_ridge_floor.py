@@ -47,7 +47,7 @@ def test_auto_ranks_mlr_and_dlag_on_every_sensor_beside_the_chosen_ones(tmp_path
     ranking = json.loads((tmp_path / "auto.json").read_text())["metrics"]["auto_ranking"]
     shrunk = [r for r in ranking if r["sensors"] == every.split(",")]
     assert sorted((r["kind"], r.get("options")) for r in shrunk) == [
-        ("bayes", {"--parents": "ridge"}), ("dlag", None), ("mlr", None)]
+        ("bayes", {"--parents": "ridge"}), ("bpnn", {"--skip": "ridge"}), ("dlag", None), ("mlr", None)]
     assert "also on every sensor, ridge-shrunk" in out and "bayes --parents ridge" in out
     assert f"bayes   {every} --parents ridge" in out  # the ranking row says which bayes it is
 
