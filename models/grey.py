@@ -90,8 +90,7 @@ def fit_gm0n(parts: list[Part], names: list[str], rises: bool = False):
     errors = [p.target[1:] for p in parts]
     if constant:
         ridge.refuse_flat(np.vstack(sums), ["the unit sequence", *names])
-        estimate, weight, per_run = grey_campaign.gm0n(sums, target_sums, steps, errors)
-        rmse = grey_campaign.rmse(per_run, sum(int(np.isfinite(e).sum()) for e in errors))
+        estimate, weight, rmse = grey_campaign.gm0n(sums, target_sums, steps, errors)
         if estimate == "sums":
             offset, slopes = ridge.ridge(np.vstack(sums), np.concatenate(target_sums), weight)
         else:
@@ -182,8 +181,7 @@ def fit_gm1n(parts: list[Part], names: list[str], dt: float, rises: bool = False
     span_s = max(rows) * dt
     resolvable = ridge.condition(np.vstack([sums[1:] for sums, _ in runs]), intercept=False) <= ridge.CONDITION_LIMIT
     if len(parts) >= 2:
-        a, b, weight, per_run, chosen = _gm1n_on_a_campaign(parts, runs, dt, resolvable, span_s)
-        rmse = grey_campaign.rmse(per_run, sum(int(np.isfinite(p.target[1:]).sum()) for p in parts))
+        a, b, weight, rmse, chosen = _gm1n_on_a_campaign(parts, runs, dt, resolvable, span_s)
     elif 0 < paper_a < 2 and dt / paper_a <= span_s and resolvable:
         a, b, weight, rmse = paper_a, params[1:], 0.0, None
         chosen = "the paper's least-squares a and b"
@@ -226,15 +224,15 @@ def _output_pieces(sums: np.ndarray, first: float, a: float) -> tuple[np.ndarray
 
 
 def _gm1n_on_a_campaign(parts: list[Part], runs: list[tuple[np.ndarray, np.ndarray]], dt: float, resolvable: bool,
-                        span_s: float) -> tuple[float, np.ndarray, float, list[float], str]:
-    """a, b, the ridge weight, the squared error on each run left out and how they were chosen, leaving out each
-    run (models/grey_campaign.py): the grid of a from the longest run, the paper's a where it settles within it."""
+                        span_s: float) -> tuple[float, np.ndarray, float, float, str]:
+    """a, b, the ridge weight, the held-out error and how they were chosen, leaving out each run
+    (models/grey_campaign.py): the grid of a from the longest run, the paper's a where it settles within it."""
     def paper(chosen: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray | None:
         params = _gm1n_parameters(chosen)
         return params if 0 < params[0] < 2 and dt / params[0] <= span_s and resolvable else None
 
     grid = [*(float(a) for a in development_candidates(dt, max(len(target) for _, target in runs))), NO_MEMORY]
-    estimate, a, weight, per_run = grey_campaign.gm1n(runs, [p.target for p in parts], grid, _output_pieces, paper,
+    estimate, a, weight, rmse = grey_campaign.gm1n(runs, [p.target for p in parts], grid, _output_pieces, paper,
                                                    _background, NO_MEMORY)
     if estimate == "paper":
         params = paper(runs)
@@ -248,8 +246,8 @@ def _gm1n_on_a_campaign(parts: list[Part], runs: list[tuple[np.ndarray, np.ndarr
         b = ridge.ridge(np.vstack([d[m] for (d, _), m in zip(pieces, measured)]),
                         np.concatenate([(p.target[1:] - o)[m] for p, (_, o), m in zip(parts, pieces, measured)]),
                         weight, intercept=False)[1]
-    return a, b, weight, per_run, (f"{grey_campaign.label(GM1N_ESTIMATES[estimate], weight)}, a and b chosen "
-                                   f"leaving out each of {len(runs)} runs")
+    return a, b, weight, rmse, (f"{grey_campaign.label(GM1N_ESTIMATES[estimate], weight)}, a and b chosen "
+                                f"leaving out each of {len(runs)} runs")
 
 
 NO_MEMORY = 2.0  # a = 2: Keep = 0, x1(k) = sum_i b_i*x_i(k)/2, the shrunk linear fit (a ridge on the sequences)

@@ -63,9 +63,9 @@ def label(estimate: str, weight: float) -> str:
     return f"{estimate}, {'least squares' if weight == 0.0 else f'ridge weight {weight:g}'}"
 
 
-def choose(totals: dict[tuple, list[float]], runs: int, acceptable, plain) -> tuple[tuple, list[float]]:
+def choose(totals: dict[tuple, list[float]], runs: int, acceptable, plain) -> tuple[tuple, float]:
     """The candidate with the least squared error over every left-out run that `acceptable` (its fit on every
-    run) admits, and its squared error on each run; but the best `plain` one (the shrunk linear fit) unless the
+    run) admits, and that error; but the best `plain` one (the shrunk linear fit) unless the
     other beats it by more than one standard error of their paired difference over the runs (the one-standard-
     error rule: among hundreds of candidates scored on a few runs, the best is partly chance)."""
     complete = sorted((sum(errors), key) for key, errors in totals.items() if len(errors) == runs)
@@ -73,13 +73,12 @@ def choose(totals: dict[tuple, list[float]], runs: int, acceptable, plain) -> tu
     best = admitted[0]  # the ridge candidates are always acceptable
     shrunk = next((candidate for candidate in admitted if plain(candidate[1])), best)
     key = best[1] if ridge.beats(totals[best[1]], totals[shrunk[1]]) else shrunk[1]
-    return key, totals[key]
+    return key, sum(totals[key])
 
 
 def gm0n(sums: list[np.ndarray], target_sums: list[np.ndarray], steps: list[np.ndarray], errors: list[np.ndarray]
-         ) -> tuple[str, float, list[float]]:
-    """GM(0,N)'s estimate ('sums' or 'steps'), its ridge weight and squared error on each run left out, from each
-    run's running sums and their target, its steps and its errors (rows 2..n, NaN where not measured)."""
+         ) -> tuple[str, float, float]:
+    """GM(0,N)'s estimate ('sums' or 'steps'), its ridge weight and held-out RMSE, from each run's running sums and their target, its steps and its errors (rows 2..n, NaN where not measured)."""
     measured = [np.isfinite(e) for e in errors]
     on_sums = Grams.of(sums, target_sums)
     on_steps = Grams.of([s[m] for s, m in zip(steps, measured)], [e[m] for e, m in zip(errors, measured)])
@@ -91,14 +90,13 @@ def gm0n(sums: list[np.ndarray], target_sums: list[np.ndarray], steps: list[np.n
             for weight, (_, b) in zip(weights, grams.slopes(others, weights, intercept)):
                 residual = (errors[k] - steps[k] @ b)[measured[k]]
                 totals.setdefault((estimate, weight), []).append(float(residual @ residual))
-    (estimate, weight), per_run = choose(totals, len(sums), lambda key: True, lambda key: key[0] == "steps")
-    return estimate, weight, per_run
+    (estimate, weight), squared = choose(totals, len(sums), lambda key: True, lambda key: key[0] == "steps")
+    return estimate, weight, float(np.sqrt(squared / max(sum(int(m.sum()) for m in measured), 1)))
 
 
 def gm1n(runs: list[tuple[np.ndarray, np.ndarray]], targets: list[np.ndarray], grid: list[float], pieces, paper,
-         background, shrunk: float) -> tuple[str, float, float, list[float]]:
-    """GM(1,N)'s estimate ('paper', 'equation' or 'output'), its a, ridge weight and squared error on each run
-    left out; the output fitted with a = `shrunk` (no memory: the shrunk linear fit) is the plain candidate.
+         background, shrunk: float) -> tuple[str, float, float, float]:
+    """GM(1,N)'s estimate ('paper', 'equation' or 'output'), its a, ridge weight and held-out RMSE; the output fitted with a = `shrunk` (no memory: the shrunk linear fit) is the plain candidate.
     `runs`: each run's running sums and filled target; `targets`: the measured target (NaN elsewhere);
     `pieces(sums, first, a)`: the block's output after its first call as design @ b + offset; `paper(runs)`:
     the paper's [a, b...] on some runs, or None where not admissible; `background(target)`: z1(k)."""
@@ -132,11 +130,7 @@ def gm1n(runs: list[tuple[np.ndarray, np.ndarray]], targets: list[np.ndarray], g
                 score(("equation", a, weight), k, a, b, zero[k], starts[k] * unit[k][1])
             for weight, (_, b) in zip(ridge.WEIGHTS, output.slopes(others, ridge.WEIGHTS, False, starts[k])):
                 score(("output", a, weight), k, a, b, zero[k], starts[k] * unit[k][1])
-    (estimate, a, weight), per_run = choose(totals, count, lambda key: key[0] != "paper" or paper(runs) is not None,
+    (estimate, a, weight), squared = choose(totals, count, lambda key: key[0] != "paper" or paper(runs) is not None,
                                             lambda key: key[0] == "output" and key[1] == shrunk)
-    return estimate, a, weight, per_run
+    return estimate, a, weight, float(np.sqrt(squared / max(sum(int(m.sum()) for m in measured), 1)))
 
-
-def rmse(per_run: list[float], rows: int) -> float:
-    """The pooled RMSE of per-run squared errors over `rows` measured rows."""
-    return float(np.sqrt(sum(per_run) / max(rows, 1)))
