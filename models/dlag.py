@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from thermoplc.base import ridge
 from thermoplc.base.binary32 import INT_RANGES
 from thermoplc.base.errors import UserError
 from thermoplc.models.kind import Increments, Kind, KindOption, Part, measured_counts, measured_rows
@@ -39,15 +40,16 @@ def fit_dlag(parts: list[Part], names: list[str], lags: int, lag_step_s: float, 
     runs = measured_counts(parts)
     beta, log = least_squares(design, target, labels, runs)
     method = "least squares on current and lagged temperature rises"
-    if len(runs) >= 2:  # the current rises alone (the lags' coefficients 0) where they predict the runs left out better
+    if len(runs) >= 2:  # the current rises alone (the lags' coefficients 0) unless the lags clearly do better
         now = [i * (lags + 1) for i in range(sensors)]  # the lag-0 columns
         current, current_log = least_squares(design[:, now], target, [labels[c] for c in now], runs)
-        if current_log["ridge_validation_rmse"] <= log["ridge_validation_rmse"]:
+        sums = ridge.RunSums.of(design, target, runs)
+        if not ridge.beats(ridge.nested_run_errors(sums, range(design.shape[1])), ridge.nested_run_errors(sums, now)):
             beta = np.zeros(design.shape[1] + 1)
             beta[[0, *(c + 1 for c in now)]] = current
             log = current_log
-            method += (" (the current rises alone predicted each run left out better than with their lags: the "
-                       "lags' coefficients are 0)")
+            method += (" (the lagged rises did not beat the current ones by a standard error over the runs left out,"
+                       " each run's weight chosen without it: the lags' coefficients are 0)")
     coefficients = {"beta0": Coefficient.of(beta[0])}
     k = 1
     for i in range(sensors):

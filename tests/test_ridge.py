@@ -99,3 +99,24 @@ def test_gm1n_too_short_to_validate_still_refuses_a_coefficient_that_does_not_se
     error = 0.8 * (temps[:, 0] - 20.0) + 0.01 * np.arange(30) ** 2  # a convex rise: a = -0.04
     with pytest.raises(UserError, match="too few to choose another a"):
         grey.fit_gm1n([Part(temps, error, np.empty((len(error), 0)), None, None)], ["T_0", "T_1"], 10.0)
+
+
+def test_nested_run_errors_score_each_run_by_a_fit_whose_weight_never_saw_it():
+    """Brute force: for each run, the weight best leaving out each of the other runs, the ridge on those others
+    with it, and the run's squared error; the sums path must give the same figures."""
+    rng = np.random.default_rng(7)
+    runs = [40, 55, 35, 60]
+    x = rng.normal(size=(sum(runs), 3))
+    y = x @ [1.0, -2.0, 0.5] + rng.normal(scale=0.5, size=len(x))
+    bounds = np.cumsum([0, *runs])
+    pieces = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:])]
+    expected = []
+    for r, held in enumerate(pieces):
+        others = [k for k in range(len(runs)) if k != r]
+        xo, yo = np.vstack([x[pieces[k]] for k in others]), np.concatenate([y[pieces[k]] for k in others])
+        scored = ridge.leave_one_run_out(xo, yo, [runs[k] for k in others], ridge.WEIGHTS)
+        offset, slopes = ridge.ridge(xo, yo, ridge.WEIGHTS[int(np.argmin(scored))])
+        expected.append(float(np.sum((y[held] - offset - x[held] @ slopes) ** 2)))
+    found = ridge.nested_run_errors(ridge.RunSums.of(x, y, runs), [0, 1, 2])
+    np.testing.assert_allclose(found, expected, rtol=1e-9)
+    assert not ridge.beats(found, found) and ridge.beats(np.multiply(found, 0.5), found)

@@ -52,11 +52,12 @@ def test_auto_ranks_mlr_and_dlag_on_every_sensor_beside_the_chosen_ones(tmp_path
     assert f"bayes   {every} --parents ridge" in out  # the ranking row says which bayes it is
 
 
-@pytest.mark.parametrize("target, lags_kept, ratio", [("ch3_um", False, 1.15), ("ch5_um", True, 0.85)])
-def test_dlag_keeps_its_lags_only_where_they_predict_the_runs_left_out_better(target, lags_kept, ratio):
-    """FL_THERMAL in 6 h runs, every sensor (ambient t6 apart): on ch3 the lagged rises (3 x 600 s) were 1.27 x
-    the floor held out, the current rises alone 1.00 x; on ch5 the lags are worth 0.80 x. Each fit compares its
-    lagged ridge with the current rises alone, each leaving out each run, and keeps the better."""
+@pytest.mark.parametrize("target, lags_kept, ratio", [("ch3_um", False, 1.05), ("ch5_um", True, 1.0)])
+def test_dlag_keeps_its_lags_only_where_they_beat_the_current_rises_on_the_runs_left_out(target, lags_kept, ratio):
+    """FL_THERMAL in 6 h runs, every sensor (ambient t6 apart): the lagged rises (3 x 600 s) alone are 1.27 x the
+    floor held out on ch3. Each fit compares its lagged ridge with the current rises alone, each run predicted
+    by the others with the weight chosen without it, and keeps the lags only where they win by a standard error:
+    ch3 1.02 x (1.12 x when the best weight's own error compared them), ch5 0.96 x with the lags kept."""
     every = tuple(f"t{i}_C" for i in range(1, 17) if i != 6)
     runs = fl_thermal_runs(target, 6.0, 0)
     model = fit_held_out(runs, FitRequest(kind="dlag", target=target, temps=every, train_until=math.inf), len(runs))
