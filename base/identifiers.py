@@ -75,9 +75,14 @@ def header_attribute_problem(text: str) -> str | None:
     return f"{text!r} {problem}" if problem else None
 
 
+_UNIT_LETTERS = str.maketrans({"µ": "u", "μ": "u", "℃": "C", "Ω": "Ohm"})  # micro sign and Greek mu
+
+
 def identifier_from_column(column: str) -> str:
-    """The block identifier for a CSV column: the column name itself when it is a valid identifier."""
-    cleaned = re.sub(r"[^A-Za-z0-9]+", "_", column).strip("_")
+    """The block identifier for a CSV column: the column name itself when it is a valid identifier; a unit keeps
+    its meaning (`E_z [µm]` is `E_z_um`, not `E_z_m`, which reads as metres)."""
+    spelled = column.translate(_UNIT_LETTERS)
+    cleaned = re.sub(r"[^A-Za-z0-9]+", "_", spelled).strip("_")
     return cleaned
 
 

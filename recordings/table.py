@@ -7,6 +7,7 @@ import hashlib
 import io
 import os
 import re
+import shlex
 import sys
 import unicodedata
 import zipfile
@@ -18,6 +19,8 @@ import numpy as np
 from thermoplc.base.binary32 import FLT_MAX, f32_from_bits
 from thermoplc.base.errors import UserError, unreadable
 from thermoplc.base.locations import name as location_name, open_binary
+from thermoplc.recordings.timestamps import looks_dated, seconds_since_first
+from thermoplc.recordings.units import conversion as unit_conversion, is_units_row as units_row, unit_key
 
 
 CHUNK_ROWS = 65536  # rows parsed at once: bounds the memory of the text being parsed
@@ -39,6 +42,7 @@ class Table:
     columns: dict  # name -> float64 array
     sha256: str
     lines: np.ndarray  # line number in the file of each row (for .npz: the row number)
+    read_notes: tuple[str, ...] = ()  # what the reader converted (date-times, a units row), for the user to see
 
     @property
     def rows(self) -> int:
@@ -121,6 +125,10 @@ NUMBER = re.compile(r"\s*[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\s*$|\s*[+-]?(nan|
 BINARY32_BITS = re.compile(r"\s*(?:(?:DW#)?16#|0x)([0-9A-F]{4})_?([0-9A-F]{4})\s*$", re.ASCII | re.IGNORECASE)
 
 
+GAP_HINT = " (a missing value: thermoplc fills no gaps; remove the row or fill the cell in the export)"
+MISSING = frozenset(("", "#n/a", "n/a", "#nv", "na", "nan", "null", "none", "---", "--", "-", "#value!", "#div/0!"))
+
+
 def _cell_value(cell: str) -> float | None:
     """A cell's number: decimal, or the binary32 value of 8 hexadecimal digits; None if neither."""
     if NUMBER.match(cell):
@@ -163,7 +171,7 @@ def _parse_cells(path: str, header: list[str], text_lines: list[str], numbers: l
         r, c = bad[0]
         cell = csv_fields(path, numbers[r], written[r], delimiter)[c]
         raise UserError(f"{path}:{numbers[r]}:{c + 1}: column {header[c]!r}: expected a finite number, "
-                        f"found {cell.strip()!r}")
+                        f"found {cell.strip()!r}{GAP_HINT if cell.strip().lower() in MISSING else ''}")
     return block
 
 
@@ -201,7 +209,8 @@ def _parse_cells_one_by_one(path: str, header: list[str], text_lines: list[str],
                 shown = cell.strip(" \t") if len(cell) <= 40 else cell.strip(" \t")[:30] + f"... ({len(cell)} characters)"
                 hint = " (a REAL's 32 bits are 8 hexadecimal digits: 16#3F800000 or 0x3F800000)" \
                     if cell.strip().lower().startswith(("0x", "16#", "dw#")) else \
-                    " (a runs table? give it as --runs TABLE)" if header[c] == "file" else ""
+                    " (a runs table? give it as --runs TABLE)" if header[c] == "file" else \
+                    GAP_HINT if cell.strip().lower() in MISSING else ""
                 raise UserError(f"{path}:{line}:{c + 1}: column {header[c]!r}: expected a number, found "
                                 f"{shown!r}{hint}")
             block[r, c] = value
@@ -251,16 +260,28 @@ def _read_npz(path: str, time_column: str | None, sparse: frozenset = frozenset(
     return table
 
 
-def _check_time(table: Table, time_column: str | None, header: list[str]) -> None:
+def _refuse_no_time(path: str, time_column: str, header: list[str]) -> None:
+    """A missing time column named before any row is read, with the header's one time-like column suggested."""
+    if time_column not in header:
+        timed = [name for name in header if re.search(r"time|zeit|date|datum|stamp", name, re.IGNORECASE)]
+        hint = f": --time {shlex.quote(timed[0])}" if len(timed) == 1 else ""
+        raise UserError(f"{path}: no time column {time_column!r} (set it with --time{hint}); "
+                        f"the header has {', '.join(header)}")
+
+
+def _check_time(table: Table, time_column: str | None, header: list[str], dated: bool = False) -> None:
     if time_column is None:
         return
-    if time_column not in table.columns:
-        raise UserError(f"{table.path}: no time column {time_column!r} (set it with --time); "
-                        f"the header has {', '.join(header)}")
+    _refuse_no_time(table.path, time_column, header)
     t = table.columns[time_column]
     bad = np.nonzero(np.diff(t) <= 0)[0]
     if len(bad):
         line = int(table.lines[bad[0] + 1])
+        if dated:
+            raise UserError(f"{table.path}:{line}: column {time_column!r}: the clock goes back "
+                            f"{t[bad[0]] - t[bad[0] + 1]:g} s here (a daylight-saving change or a logger reset); "
+                            f"expected times that increase: export them with their UTC offset "
+                            f"(2024-10-27T02:30:00+01:00) or in UTC")
         raise UserError(f"{table.path}:{line}: column {time_column!r}: time must increase strictly, "
                         f"found {t[bad[0] + 1]:g} after {t[bad[0]]:g}")
 
@@ -322,6 +343,7 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
     blocks, numbers_all = [], []
     text_lines, numbers = [], []
     line = 0
+    layout = None  # the file's form, known at its first data line
 
     def flush() -> None:
         blocks.append(_parse_cells(path, header, text_lines, numbers, delimiter, comma_decimal, frozenset(sparse)))
@@ -336,11 +358,21 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
                     raise UserError(f"{path}:1: the first line is blank; expected the header (the column names) there")
                 raise UserError(f"{path}: file is empty; expected a header line and data rows")
             delimiter, comma_decimal, header = _header(path, first, decimal)
+            if time_column is not None:
+                _refuse_no_time(path, time_column, header)
             total = 0
             for text in handle:
                 line += 1
                 if not text.strip().strip(delimiter).strip():
                     continue
+                if layout is None:
+                    layout = _Layout(path, header, delimiter, comma_decimal, time_column)
+                    if layout.units_in(line, text):
+                        continue
+                if not layout.checked:
+                    layout.dated, layout.checked = layout.dated_column(line, text), True
+                if layout.dated is not None:
+                    text = layout.take_time(line, text)
                 text_lines.append(text)
                 numbers.append(line)
                 if len(text_lines) == CHUNK_ROWS:
@@ -359,9 +391,69 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
     blocks.clear()  # frees the chunks before the columns are copied out
     columns = {name: np.ascontiguousarray(values[:, i]) for i, name in enumerate(header)}
     del values
-    table = Table(path, columns, digest.hexdigest(), np.concatenate(numbers_all))
-    _check_time(table, time_column, header)
+    notes = layout.convert(columns)
+    table = Table(path, columns, digest.hexdigest(), np.concatenate(numbers_all), notes)
+    _check_time(table, time_column, header, dated=layout.dated is not None)
     return table
+
+
+class _Layout:
+    """What the first data lines say about the file: a units row (its cells) and whether the time column holds
+    date-times (their cells and lines are gathered here, the parsed time column set from them at the end)."""
+
+    def __init__(self, path: str, header: list[str], delimiter: str, comma_decimal: bool, time_column: str | None):
+        self.path, self.header, self.delimiter, self.time_column = path, header, delimiter, time_column
+        self.numeric = lambda cell: _cell_value(cell.replace(",", ".") if comma_decimal else cell) is not None
+        self.units: list[str] | None = None
+        self.dated: int | None = None  # the time column's index when it holds date-times
+        self.checked = False  # whether the first row's time cell was looked at
+        self.cells: list[str] = []
+        self.lines: list[int] = []
+
+    def units_in(self, line: int, text: str) -> bool:
+        """Whether the first data line is a units row (kept)."""
+        fields = csv_fields(self.path, line, text, self.delimiter)
+        if len(fields) == len(self.header) and units_row(fields, self.numeric):
+            self.units = fields
+        return self.units is not None
+
+    def dated_column(self, line: int, text: str) -> int | None:
+        """The time column's index when the first row's time is a date-time, not a number."""
+        if self.time_column not in self.header:
+            return None
+        fields = csv_fields(self.path, line, text, self.delimiter)
+        k = self.header.index(self.time_column)
+        cell = fields[k] if len(fields) == len(self.header) else ""
+        return k if not self.numeric(cell) and looks_dated(cell) else None
+
+    def take_time(self, line: int, text: str) -> str:
+        """The line with its date-time cell kept aside and a 0 in its place (the time is set at the end)."""
+        fields = csv_fields(self.path, line, text, self.delimiter)
+        if len(fields) != len(self.header):
+            return text  # the field count is refused with the rest
+        self.cells.append(fields[self.dated])
+        self.lines.append(line)
+        fields[self.dated] = "0"
+        return self.delimiter.join(fields) + "\n"
+
+    def convert(self, columns: dict) -> tuple[str, ...]:
+        """Date-times to seconds since the first row, each column to thermoplc's unit; what was done, said."""
+        notes, header = [], self.header
+        if self.dated is not None:
+            name = header[self.dated]
+            seconds, first = seconds_since_first(self.cells, self.lines, self.path, name)
+            columns[name] = np.asarray(seconds, np.float64)
+            notes.append(f"{name}: date-times read as seconds since {first.isoformat(sep=' ')} (the first row)")
+        converted = []
+        for k, name in enumerate(header):
+            scale = unit_conversion(self.units[k]) if self.units is not None and k != self.dated else None
+            if scale is not None:
+                columns[name] = columns[name] * scale[0] + scale[1]
+                converted.append(f"{name} [{self.units[k].strip()}]")
+        if self.units is not None:
+            notes.append("units row read" + (f"; converted to s, degC, um, rpm: {', '.join(converted)}"
+                                             if converted else ""))
+        return tuple(notes)
 
 
 def write_table(columns: dict) -> str:
@@ -432,3 +524,9 @@ def _read_parquet(path: str, time_column: str | None, sparse: frozenset = frozen
     result = Table(path, columns, sha256_of(path), np.arange(1, table.num_rows + 1))
     _check_time(result, time_column, list(columns))
     return result
+
+
+def reading_notes(tables, shown: int = 3) -> list[str]:
+    """What the reader converted, a line per recording (the first `shown`, then a count), for the console."""
+    lines = [f"read {location_name(table.path)}: {note}" for table in tables for note in table.read_notes]
+    return lines[:shown] + ([f"... and {len(lines) - shown} more such lines"] if len(lines) > shown else [])

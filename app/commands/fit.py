@@ -191,6 +191,7 @@ def run(args: argparse.Namespace) -> int:
     from thermoplc.fitting.fit import FitRequest
     from thermoplc.models.kinds import options
     from thermoplc.recordings.campaign import read_campaign, run_list
+    from thermoplc.recordings.table import reading_notes
     from thermoplc.pipeline import becomes_block
     from thermoplc.commands.fit_report import INDEX, is_report_file, report_files, report_names
     request = FitRequest(kind=args.model, target=args.target[0], temps=args.temps, speed=args.speed,
@@ -222,6 +223,8 @@ def run(args: argparse.Namespace) -> int:
                              resampling=resampling_of(args))
     groups = campaign.groups(args.group_by) if args.group_by else None
     tables = campaign.tables
+    for note in reading_notes(tables):
+        print(note, file=sys.stderr)
     refuse_columns_not_read(args, request, tables)
     if len(tables) == 1 and not (args.folds or args.group_by):
         _refuse_nothing_held_out(args, tables[0])

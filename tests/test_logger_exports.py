@@ -1,0 +1,147 @@
+"""Issue 63 item 1: FL_THERMAL written as data loggers export it (date-times, a units row, dotted dates with
+decimal commas, slashed dates, a daylight-saving change) fits, generates and verifies to the model of the
+seconds file, bit for bit where the times are the same, or is refused naming the line and what to do."""
+import json
+from datetime import datetime, timedelta, timezone
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from tests.cli_runner import thermoplc
+from thermoplc.base.errors import UserError
+from thermoplc.base.identifiers import block_identifier
+from thermoplc.recordings.table import read_table
+from thermoplc.recordings.timestamps import seconds_since_first
+from thermoplc import api
+
+FL_THERMAL = Path(api.__file__).parent / "data" / "fl_thermal" / "fl_thermal.csv"  # the copy the package ships
+ROWS = 1500  # 6 h 15 min at 15 s
+START = datetime(2024, 3, 1, 8, 0, 0)
+
+
+@pytest.fixture(scope="module")
+def fl():
+    lines = FL_THERMAL.read_text().splitlines()
+    header = lines[0].split(",")
+    rows = [line.split(",") for line in lines[1:ROWS + 1]]
+    return header, rows
+
+
+def _export(path, header, rows, stamp, units=None, sep=",", comma=False, rename=lambda h: h):
+    out = [sep.join(["timestamp", *map(rename, header[1:])])]
+    if units is not None:
+        out.append(sep.join(units))
+    for r in rows:
+        cells = [c.replace(".", ",") if comma else c for c in r[1:]]
+        out.append(sep.join([stamp(float(r[0])), *cells]))
+    path.write_text("\n".join(out) + "\n", encoding="utf-8")
+    return path
+
+
+def _fit(tmp_path, data, out, target="ch3_um", temps="t5_C,t4_C", time=("--time", "timestamp")):
+    result = thermoplc("fit", "--data", data, *time, "--model", "mlr", "--target", target, "--temps", temps,
+                       "--train-until", 15000, "-o", out, cwd=tmp_path)
+    return json.loads((tmp_path / out).read_text()), result
+
+
+def _bits(model):
+    return {k: v["f32"] for k, v in model["coefficients"].items()}
+
+
+def test_iso_dotted_and_units_row_exports_fit_generate_and_verify_to_the_seconds_files_model(tmp_path, fl):
+    header, rows = fl
+    (tmp_path / "seconds.csv").write_text("\n".join([",".join(header), *map(",".join, rows)]) + "\n")
+    plain, _ = _fit(tmp_path, "seconds.csv", "seconds.json", time=())
+    iso = _export(tmp_path / "iso.csv", header, rows, lambda s: (START + timedelta(seconds=s)).isoformat(sep=" "),
+                  rename=lambda h: h.replace("_um", " [µm]").replace("_C", " [°C]"))
+    model, result = _fit(tmp_path, iso.name, "iso.json", target="ch3 [µm]", temps="t5 [°C],t4 [°C]")
+    assert _bits(model) == _bits(plain)
+    assert [s["name"] for s in model["inputs"]] == [s["name"] for s in plain["inputs"]]  # t5_C, t4_C: units kept
+    assert model["target"]["name"] == "ch3_um"
+    assert "timestamp: date-times read as seconds since 2024-03-01 08:00:00" in result.stderr
+    units = ["", "rpm", *("µm" if h.endswith("_um") else "°C" for h in header[2:])]
+    dotted = _export(tmp_path / "dotted.csv", header, rows,
+                     lambda s: (START + timedelta(seconds=s)).strftime("%d.%m.%Y %H:%M:%S"), units, ";", True)
+    model, result = _fit(tmp_path, dotted.name, "dotted.json")
+    assert _bits(model) == _bits(plain) and "units row read" in result.stderr
+    thermoplc("generate", "dotted.json", "-o", "block.scl", "--accept-unvalidated", cwd=tmp_path)  # 4 h of training
+    verdict = thermoplc("verify", "block.scl", "--model", "dotted.json", "--data", "dotted.csv", cwd=tmp_path).stdout
+    assert verdict.startswith("bit-exact: block.scl reproduces the float32 reference of dotted.json")
+
+
+def test_a_units_row_converts_millimetres_kelvin_and_minutes(tmp_path):
+    path = tmp_path / "units.csv"
+    path.write_text("time,T [K],E [mm]\nmin,K,mm\n0,293.15,0.0015\n0.5,294.15,0.0025\n")
+    table = read_table(path, "time")
+    np.testing.assert_array_equal(table.columns["time"], [0.0, 30.0])
+    np.testing.assert_allclose(table.columns["T [K]"], [20.0, 21.0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(table.columns["E [mm]"], [1.5, 2.5], rtol=1e-15)
+    assert table.lines.tolist() == [3, 4]
+
+
+def test_times_with_their_utc_offset_cross_a_daylight_saving_change_and_without_it_are_refused(tmp_path):
+    zone = lambda hours: timezone(timedelta(hours=hours))
+    moments = [datetime(2024, 10, 27, 0, 59, 50, tzinfo=timezone.utc) + timedelta(seconds=10 * k) for k in range(4)]
+    written = [m.astimezone(zone(2 if m.hour < 1 else 1)).isoformat() for m in moments]  # CEST -> CET at 01:00 UTC
+    assert written[1].endswith("+01:00") and written[0].endswith("+02:00")
+    path = tmp_path / "dst.csv"
+    path.write_text("stamp,T1\n" + "".join(f"{w},{k}\n" for k, w in enumerate(written)))
+    np.testing.assert_array_equal(read_table(path, "stamp").columns["stamp"], [0.0, 10.0, 20.0, 30.0])
+    local = tmp_path / "local.csv"
+    local.write_text("stamp,T1\n" + "".join(f"{w[:19]},{k}\n" for k, w in enumerate(written)))
+    with pytest.raises(UserError, match=r"local.csv:3: column 'stamp': the clock goes back 3590 s .*UTC offset"):
+        read_table(local, "stamp")
+
+
+def test_slashed_dates_are_read_in_the_order_the_file_shows_and_refused_when_it_shows_none(tmp_path):
+    path = tmp_path / "us.csv"
+    path.write_text("time,T1\n03/12/2024 11:59:50 PM,1\n03/13/2024 12:00:00 AM,2\n")
+    np.testing.assert_array_equal(read_table(path, "time").columns["time"], [0.0, 10.0])
+    both = tmp_path / "both.csv"
+    both.write_text("time,T1\n03/01/2024 08:00:00,1\n03/01/2024 08:00:10,2\n")
+    with pytest.raises(UserError, match=r"both.csv:2: column 'time': '03/01/2024 08:00:00' reads as day first and "
+                                         r"as month first .* ISO 8601"):
+        read_table(both, "time")
+    mixed = tmp_path / "mixed.csv"
+    mixed.write_text("time,T1\n13/01/2024 08:00:00,1\n01/13/2024 08:00:10,2\n")
+    with pytest.raises(UserError, match=r"mixed.csv:3: .*day first at line 2 and month first at line 3"):
+        read_table(mixed, "time")
+
+
+@pytest.mark.parametrize("cell", ["#N/A", "", "NaN", "---"])
+def test_a_missing_cell_is_refused_by_line_and_column_saying_what_to_do(tmp_path, cell):
+    path = tmp_path / "gap.csv"
+    path.write_text(f"time_s,T1,T2\n0,1,2\n15,{cell},2\n")
+    with pytest.raises(UserError, match=r"gap.csv:3:2: column 'T1': .*a missing value: .*remove the row or fill"):
+        read_table(path)
+
+
+def test_a_date_time_column_not_named_time_s_is_suggested_and_a_date_after_numbers_named(tmp_path):
+    path = tmp_path / "log.csv"
+    path.write_text("Timestamp,T1\n2024-03-01 08:00:00,1\n2024-03-01 08:00:15,2\n")
+    with pytest.raises(UserError, match=r"no time column 'time_s' \(set it with --time: --time Timestamp\)"):
+        read_table(path)
+    broken = tmp_path / "broken.csv"
+    broken.write_text("t,T1\n2024-03-01 08:00:00,1\n15,2\n")
+    with pytest.raises(UserError, match=r"broken.csv:3: column 't': expected a date-time written as the first row's"):
+        read_table(broken, "t")
+
+
+def test_units_in_column_names_keep_their_meaning_in_block_names():
+    assert block_identifier("E_z [µm]", "target") == "E_z_um"  # not E_z_m, which reads as metres
+    assert block_identifier("E_z [μm]", "target") == "E_z_um"  # Greek mu as well as the micro sign
+    assert block_identifier("T_motor [°C]", "temperature") == "T_motor_C"
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.integers(0, 10 ** 10), min_size=1, max_size=20, unique=True),
+       st.sampled_from(["%Y-%m-%d %H:%M:%S.%f", "%Y-%m-%dT%H:%M:%S.%f", "%d.%m.%Y %H:%M:%S.%f"]))
+def test_written_date_times_read_back_as_the_seconds_they_were_written_from(milliseconds, form):
+    offsets = sorted(milliseconds)
+    cells = [(START + timedelta(milliseconds=m)).strftime(form) for m in offsets]
+    seconds, first = seconds_since_first(cells, list(range(2, len(cells) + 2)), "x.csv", "t")
+    expected = [(m - offsets[0]) / 1000 for m in offsets]
+    assert np.asarray(seconds).view(np.uint64).tolist() == np.asarray(expected).view(np.uint64).tolist()
+    assert first == START + timedelta(milliseconds=offsets[0])
