@@ -189,14 +189,14 @@ def test_fit_report_shows_every_run_and_the_folds(campaign, tmp_path):
                     "-o", "m.json", "--report", "rep", cwd=tmp_path).stdout
     assert "wrote rep/index.html" in out
     page = (tmp_path / "rep" / "index.html").read_text()
-    assert page.count("<img") == 6 and "Folds" in page and "hall_air_C" in page
-    pngs = sorted(p.name for p in (tmp_path / "rep").glob("*.png"))
+    assert page.count("<img") == 7 and "Folds" in page and "hall_air_C" in page  # 6 runs and the summary
+    pngs = sorted(p.name for p in (tmp_path / "rep").glob("run_*.png"))
     runs = sorted(p.name for p in campaign.glob("run_*.csv"))
-    assert pngs == [f"run_{k:03d}_{Path(r).stem}.png" for k, r in enumerate(runs, start=1)]
+    assert pngs == [f"{Path(r).stem}.png" for r in runs]  # run_001.csv is run_001.png: its number once
     assert all((tmp_path / "rep" / name).read_bytes()[:4] == b"\x89PNG" for name in pngs)
     for k, name in enumerate(pngs, start=1):  # in table order, each with its number and the block's error beside none
         assert f'<h3>{k}. ' in page and f'src="{name}"' in page
-    assert "<code>thermoplc fit --data" in page and "E_z_um (um)" in page and "no compensation" in page
+    assert "<code>thermoplc fit --data" in page and "E_z_um (µm)" in page and "no compensation" in page
     (tmp_path / "mine").mkdir()
     (tmp_path / "mine" / "notes.txt").write_text("mine")
     refused = thermoplc("fit", "--data", campaign, "--model", "mlr", *COMMON, "--held-target", "--folds", 6,

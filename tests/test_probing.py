@@ -160,8 +160,7 @@ def test_a_campaigns_fusion_is_fitted_on_held_out_runs_and_beats_its_static_bloc
                        "T_motor,T_bearing,T_struct", "--folds", "4", "--probe", "--probe-every", "30", "-o", "m.json",
                        "--json", "fit.json", "--report", "rep", cwd=tmp_path)
     assert sorted(p.name for p in (tmp_path / "rep").iterdir()) == [
-        ".thermoplc-report", "index.html", "run_001_run_001.png", "run_002_run_002.png", "run_003_run_003.png",
-        "run_004_run_004.png"]
+        ".thermoplc-report", "index.html", "run_001.png", "run_002.png", "run_003.png", "run_004.png", "summary.png"]
     assert "probe fusion (" in fitted.stdout and "each run replayed with the fusion chosen on the other runs" in fitted.stdout
     probing = json.loads((tmp_path / "fit.json").read_text())["metrics"]["probing"]
     pooled = probing["pooled"]

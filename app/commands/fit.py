@@ -248,14 +248,15 @@ def run(args: argparse.Namespace) -> int:
     becomes_block(model, args.output)
     document = fit_document(model, args.output)
     command = " ".join(shlex.quote(a) for a in ("thermoplc", *sys.argv[1:]))
-    outputs = [*(report_files(args.report, model, campaign, predictions, command) if args.report is not None else []),
+    refused = refusal(model)
+    outputs = [*(report_files(args.report, model, campaign, predictions, command, refused)
+                 if args.report is not None else []),
                (args.output, model.to_json()),
                *([(json_output.file(args), json_output.encoded(document))] if json_output.file(args) else [])]
     write_outputs(outputs, remove=[Path(args.report) / name for name in stale])  # all of them, or none
     report = Path(args.report) / INDEX if args.report is not None else None
     text = f"{format_fit(model, campaign)}\nwrote {args.output}" + (f"\nwrote {report}" if report else "")
     json_output.emit(args, text, document, written=True)
-    refused = refusal(model)
     if refused:
         print(f"thermoplc: WARNING: generate will refuse this model: {refused}", file=sys.stderr)
     return 0
