@@ -36,12 +36,41 @@ class _Parser(argparse.ArgumentParser):
     """Command-line mistakes in one line, like every other error (the usage is one --help away)."""
 
     def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)  # --temp is no --temps: a prefix is refused with a suggestion
         super().__init__(*args, **kwargs)
         self.register("action", None, _StoreOnce)
         self.register("action", "store", _StoreOnce)
 
     def error(self, message: str):
         self.exit(2, f"thermoplc: error: {message} (see {self.prog} --help)\n")
+
+    def parse_args(self, args=None, namespace=None):
+        """As argparse, but an option the command does not have is named with the one it most likely meant, before
+        any other complaint (a misspelled --temps is no missing --temps)."""
+        args = list(sys.argv[1:] if args is None else args)
+        commands = next((a.choices for a in self._actions if isinstance(a, argparse._SubParsersAction)), {})
+        at = next((k for k, word in enumerate(args) if word in commands), None)
+        if at is not None and "--help" not in args and "-h" not in args:
+            command = commands[args[at]]
+            unknown = [w for w in args[at + 1:] if w.startswith("--") and w != "--"
+                       and w.split("=", 1)[0] not in command._option_string_actions]
+            if unknown:
+                hints = "; ".join(h for h in (_suggestion(w, command) for w in unknown) if h)
+                command.error(f"unrecognized arguments: {' '.join(unknown)}" + (f" ({hints})" if hints else ""))
+        found, extras = self.parse_known_args(args, namespace)
+        if extras:
+            command = self._subcommand(found)
+            hints = [_suggestion(word, command) for word in extras if word.startswith("-")]
+            said = "; ".join(h for h in hints if h)
+            (command or self).error(f"unrecognized arguments: {' '.join(extras)}" + (f" ({said})" if said else ""))
+        return found
+
+    def _subcommand(self, found) -> argparse.ArgumentParser | None:
+        chosen = getattr(found, "command", None)
+        for action in self._actions:
+            if isinstance(action, argparse._SubParsersAction) and chosen in action.choices:
+                return action.choices[chosen]
+        return None
 
     def parse_known_args(self, args=None, namespace=None):
         """A value that starts with '-' but is a number or a list of numbers (`--temp-range -40,150`, as --help
@@ -57,6 +86,23 @@ class _Parser(argparse.ArgumentParser):
             glued.append(args[k])
             k += 1
         return super().parse_known_args(glued, namespace)
+
+
+# options users reach for that a command spells otherwise: (the word typed, the option the command has)
+RELATED = (("--temps", "--candidates"), ("--candidates", "--temps"), ("--input", "--data"), ("--csv", "--data"),
+           ("--output", "-o"), ("--out", "-o"), ("--probe-minutes", "--probe-every"), ("--kind", "--model"))
+
+
+def _suggestion(word: str, parser: argparse.ArgumentParser | None) -> str:
+    """'did you mean --X?' for an option `word` the command lacks: a related spelling, else the closest."""
+    if parser is None:
+        return ""
+    import difflib
+    name = word.split("=", 1)[0]
+    options = [o for o in parser._option_string_actions if o.startswith("--")]
+    related = [option for typed, option in RELATED if typed == name and option in parser._option_string_actions]
+    close = related or difflib.get_close_matches(name, options, n=1, cutoff=0.6)
+    return f"{name}: did you mean {close[0]}?" if close else ""
 
 
 def build_parser() -> argparse.ArgumentParser:

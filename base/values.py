@@ -4,9 +4,13 @@ these; the API's request records ask them of what a caller passed, so both refus
 from __future__ import annotations
 
 import math
+import re
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+from thermoplc.base.errors import UserError
 
 UNIX_SECONDS = 1e12  # a time limit in seconds: wide enough for a logger's Unix time stamps (2026: 1.8e9 s)
 
@@ -52,3 +56,48 @@ def names_problem(value: Any) -> str | None:
         return f"expected a tuple of column names, found {value!r}"
     bad = [v for v in value if name_problem(v)]
     return f"expected a tuple of column names, found {bad[0]!r} in it" if bad else None
+
+
+@dataclass(frozen=True)
+class Every:
+    """A probing schedule as the user wrote it: N calls (a bare number) or a duration (30min, 1800s, 0.5h)."""
+    text: str
+    calls: int | None = None
+    seconds: float | None = None
+
+    def __str__(self) -> str:
+        return self.text
+
+    def calls_at(self, period_s: float) -> int:
+        """The schedule in calls of a block running every `period_s`; a duration that is no whole number of calls
+        (within 1 %) is refused with the two nearest."""
+        if self.calls is not None:
+            return self.calls
+        exact = self.seconds / period_s
+        calls = max(int(round(exact)), 1)
+        if abs(exact - calls) > 0.01 * calls:
+            raise UserError(f"--probe-every {self.text}: {exact:g} calls of {period_s:g} s, not a whole number; give "
+                            f"{math.floor(exact) * period_s:g}s or {math.ceil(exact) * period_s:g}s (or a number of "
+                            f"calls)")
+        return calls
+
+
+DURATION_UNITS = {"ms": 1e-3, "s": 1.0, "min": 60.0, "h": 3600.0}
+_DURATION = re.compile(r"\s*(\d+(?:\.\d*)?|\.\d+)\s*(ms|s|min|h)\s*\Z", re.IGNORECASE)
+
+
+def every_problem(text: str) -> tuple[Every | None, str | None]:
+    """`text` as a probing schedule (N calls, or a duration such as 30min, 1800s, 0.5h), or why it is none."""
+    text = text.strip()
+    if text.isdigit():
+        calls = int(text)
+        return (Every(text, calls=calls), None) if 1 <= calls <= 10 ** 9 else \
+            (None, f"expected a number of calls from 1 to 1,000,000,000 or a duration (30min), found {text!r}")
+    found = _DURATION.match(text)
+    if not found:
+        return None, (f"expected a number of calls (120) or a duration with its unit (30min, 1800s, 0.5h), "
+                      f"found {text!r}")
+    seconds = float(found.group(1)) * DURATION_UNITS[found.group(2).lower()]
+    if not 1e-3 <= seconds <= 366 * 86400:
+        return None, f"expected a duration from 1ms to 366 days, found {text!r}"
+    return Every(text, seconds=seconds), None

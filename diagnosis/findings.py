@@ -101,9 +101,10 @@ def document(d: Diagnosis, source: dict, model_path: str | None) -> dict:
 
 
 def summary(d: Diagnosis) -> str:
-    """The verdict as one sentence for people: what was named, how many disagreement windows are left, and why."""
+    """The verdict as one short sentence for people: what was named and how many disagreement windows are left (why
+    is the document's `reason`, said on its own line)."""
     if d.verdict == "insufficient_data":
-        return f"the data cannot decide: {d.insufficient}"
+        return "the data cannot decide"
     if d.verdict == "no_missing_effect":
         return "no significant missing effect: simulation and measurement agree within the noise on every channel"
     names = ", ".join(e["name"] for e in d.named)
@@ -112,10 +113,9 @@ def summary(d: Diagnosis) -> str:
         return f"explained by {names}; no disagreement beyond the noise is left"
     if d.ambiguous:
         return (f"{left} disagreement window(s) left; " + " or ".join(d.ambiguous) + " would fit, but the data cannot "
-                f"tell which ({d.reason})")
+                f"tell which")
     found = f"found {names}, but " if names else ""
-    because = f" ({d.reason})" if d.reason else ""
-    return f"{found}{left} disagreement window(s) not explained by any known effect{because}"
+    return f"{found}{left} disagreement window(s) not explained by any known effect"
 
 
 def _um(value: float | None) -> str:
@@ -140,10 +140,16 @@ def display(value, braces: bool = True) -> str:
     return "" if value is None else str(value)
 
 
+VERDICT_WIDTH = 200  # the verdict line reads at a glance; the details follow, each once
+
+
 def text(doc: dict) -> str:
     """The console report of findings document `doc`: verdict, each named effect with its evidence, the channels'
     held-out errors before and after, and the commands to run next."""
-    lines = [f"verdict: {doc['verdict']} - {doc['summary']}"]
+    head = f"verdict: {doc['verdict']} - {doc['summary']}"
+    lines = [head if len(head) <= VERDICT_WIDTH else head[:VERDICT_WIDTH - 4].rsplit(" ", 1)[0] + " ..."]
+    if doc.get("reason"):
+        lines.append(f"  why: {doc['reason']}")
     for k, e in enumerate(doc["effects"], start=1):
         ev = e["evidence"]
         lines.append(f"  {k}. {e['name']}: {display(e['parameters'])}")

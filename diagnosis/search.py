@@ -130,10 +130,7 @@ class Diagnosis:
                             "disagreements are still left: they may stand in for what is missing, so none is named")
         if self.ambiguous:
             notes.insert(0, "the data cannot tell " + " from ".join(self.ambiguous) + f" ({self.ambiguity})")
-        untested = {k: v for k, v in self.not_tested.items() if k not in self.doubtful}  # the ambiguity says why
-        if untested:
-            notes.append("not testable on this data: " + "; ".join(f"{k} ({v})" for k, v in untested.items()))
-        return "; ".join(notes) or None
+        return "; ".join(notes) or None  # what could not be tested is said once, under not_tested
 
 
 def window_rms(parts: Parts, w: Window, residual: dict) -> float:

@@ -49,6 +49,10 @@ def load_model(path: str | Path) -> Model:
     try:
         doc = json.loads(text, object_pairs_hook=_refuse_duplicate_keys)
     except json.JSONDecodeError as exc:
+        first = text.lstrip("\ufeff").split("\n", 1)[0]
+        if exc.pos == 0 and ("," in first or ";" in first) and not first.lstrip().startswith(("{", "[")):
+            raise UserError(f"{path}: a recording (CSV), not a thermoplc model; fit a model on it first (thermoplc fit "
+                            f"--data {path} ... -o model.json) and give that model file") from None
         raise UserError(f"{path}:{exc.lineno}:{exc.colno}: malformed JSON: {exc.msg}") from None
     except RecursionError:
         raise UserError(f"{path}: JSON nested thousands of levels deep; not a thermoplc model file") from None

@@ -217,6 +217,16 @@ def _parse_cells_one_by_one(path: str, header: list[str], text_lines: list[str],
     return block, empty
 
 
+def bundled_hint(path: str) -> str:
+    """Where thermoplc's own copy of a recording it ships is, when the one asked for is not where the user stands (the
+    docs' bare fl_thermal.csv)."""
+    import importlib.resources
+    shipped = importlib.resources.files("thermoplc") / "data" / "fl_thermal" / "fl_thermal.csv"
+    if Path(str(path)).name != shipped.name or Path(str(path)).exists():
+        return ""
+    return f" (thermoplc ships a copy: {shipped}; copy it here with its LICENSE, or give that path)"
+
+
 def _read_npz(path: str, time_column: str | None, sparse: frozenset = frozenset()) -> Table:
     """Columns stored with numpy.savez: the fast way in for very long recordings."""
     try:
@@ -337,7 +347,7 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
     try:
         raw = sys.stdin.buffer if path == "-" else open_binary(path)  # `--data -`: the CSV on standard input
     except OSError as exc:
-        raise unreadable(path, exc) from None
+        raise UserError(f"{unreadable(path, exc)}{bundled_hint(path)}") from None
     path = "<stdin>" if path == "-" else path
     handle = io.TextIOWrapper(io.BufferedReader(_Hashing(raw, digest)), encoding="utf-8-sig", newline=None)
     blocks, numbers_all = [], []

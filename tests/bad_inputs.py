@@ -105,6 +105,27 @@ def _time_step(text: str, row: int, delta: float) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _dated(text: str, form: str, back_at: int | None = None) -> str:
+    """The time column written as date-times from 2024-03-01 08:00 (`form`, strftime), as loggers export it; from
+    row `back_at` on the clock an hour back (a daylight-saving change written without its UTC offset)."""
+    from datetime import datetime, timedelta
+    lines = text.splitlines()
+    start = datetime(2024, 3, 1, 8, 0, 0)
+    for k in range(1, len(lines)):
+        time, rest = lines[k].split(",", 1)
+        back = timedelta(hours=1) if back_at is not None and k >= back_at else timedelta(0)
+        lines[k] = f"{(start + timedelta(seconds=float(time)) - back).strftime(form)},{rest}"
+    return "\n".join(lines) + "\n"
+
+
+def _units_row(text: str) -> str:
+    """A units row under the header, as a logger exports it: s, rpm, °C, µm."""
+    head, rest = text.split("\n", 1)
+    unit = lambda name: ("s" if name == "time_s" else "rpm" if name.endswith("rpm") else "µm" if name.endswith("_um")
+                         else "°C" if name.startswith("T_") else "")
+    return head + "\n" + ",".join(unit(name) for name in head.split(",")) + "\n" + rest
+
+
 def _model_edit(edit: Callable[[dict], None], raw: Callable[[str], str] | None = None):
     def prepare(folder: Path) -> None:
         doc = json.loads((folder / "mlr.json").read_text())
@@ -178,6 +199,15 @@ def _csv_cases() -> list[Case]:
         ("one data row", lambda t: "\n".join(t.splitlines()[:2]) + "\n", "error", "bad.csv: 1 data row; a fit needs at least 10"),
         ("a cell of 1e308 (beyond REAL)", lambda t: _cell(t, 100, "T_motor", "1e308"), "error",
          "line 101, column 'T_motor': 1e+308 cannot be a temperature input of type REAL"),
+        ("#N/A cell (a logger's gap)", lambda t: _cell(t, 5, "T_motor", "#N/A"), "error",
+         "bad.csv:6:5: column 'T_motor': expected a number, found '#N/A' (a missing value: thermoplc fills no gaps; "
+         "remove the row or fill the cell in the export)"),
+        ("date-times as slashed dates that read both ways", lambda t: _dated(t, "%m/%d/%Y %H:%M:%S"), "error",
+         "bad.csv:2: column 'time_s': '03/01/2024 08:00:00' reads as day first and as month first in every row"),
+        ("date-times whose clock goes back an hour (DST)", lambda t: _dated(t, "%Y-%m-%d %H:%M:%S", 300), "error",
+         "bad.csv:301: column 'time_s': the clock goes back 3590 s here (a daylight-saving change or a logger reset)"),
+        ("ISO 8601 date-times in the time column", lambda t: _dated(t, "%Y-%m-%dT%H:%M:%S"), "accepted", ""),
+        ("a units row under the header", _units_row, "accepted", ""),
         ("UTF-8 byte order mark", lambda t: "\ufeff" + t, "accepted", ""),
         ("Windows line endings", lambda t: t.replace("\n", "\r\n"), "accepted", ""),
         ("';' and decimal commas (German Excel)", _german, "accepted", ""),
@@ -939,7 +969,7 @@ def _campaign_cases() -> list[Case]:
              "--ambient-start and --ambient-swing: not with --runs"),
         Case("campaign", "twin --probe-minutes without --runs", "twin",
              ("twin", "--hours", "1", "--probe-minutes", "30", "-o", "t.csv"), lambda f: None, "error",
-             "--probe-minutes and --effect-runs describe a campaign"),
+             "--probe-every (--probe-minutes) and --effect-runs describe a campaign"),
     ]
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError, unreadable
 from thermoplc.base.locations import is_url
+from thermoplc.base.values import Every
 from thermoplc.verifier.pair import Outcome, Pair, verify_pair
 
 
@@ -30,7 +31,7 @@ def _mapping(text: str, manifest: str, line: int, field: str) -> dict | None:
     return mapping
 
 
-def read_manifest(path: str, decimal: str = "auto", probe_every: int | None = None,
+def read_manifest(path: str, decimal: str = "auto", probe_every: int | Every | None = None,
                   resample_s: float | None = None) -> list[Pair]:
     try:
         with open(path, encoding="utf-8-sig", newline="") as f:

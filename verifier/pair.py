@@ -6,6 +6,7 @@ import time
 from dataclasses import dataclass
 
 from thermoplc.base.errors import UserError
+from thermoplc.base.values import Every
 
 
 @dataclass(frozen=True)
@@ -18,7 +19,7 @@ class Pair:
     inputs: dict | None
     sha256: tuple[tuple[str, str], ...] = ()  # (file, digest) of each file a task run elsewhere must find
     decimal: str = "auto"  # the data's decimal separator (--decimal)
-    probe_every: int | None = None  # a fused block on a full-rate target: a probing every N calls (--probe-every)
+    probe_every: int | Every | None = None  # a fused block on a full-rate target: a probing every N calls or a duration
     resample_s: float | None = None  # raw data taken onto the block's cycle (--resample; a model's own rule applies anyway)
 
 

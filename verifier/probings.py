@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.base.errors import UserError
+from thermoplc.base.values import Every
 from thermoplc.contract.outputs import PROBE_INPUTS, PROBE_NEW_INPUT, PROBE_VALUE_INPUT
 from thermoplc.recordings.campaign import held_to_probed
 from thermoplc.models.modelfile import Model
@@ -14,8 +15,11 @@ from thermoplc.recordings.table import Table
 from thermoplc.verifier.typed import cells_as
 
 
-def probing_inputs(model: Model, table: Table, overrides: dict | None = None, every: int | None = None) -> dict:
-    """ProbeValue and ProbeNew per call by block input name; empty for a static model."""
+def probing_inputs(model: Model, table: Table, overrides: dict | None = None, every: int | Every | None = None) -> dict:
+    """ProbeValue and ProbeNew per call by block input name; empty for a static model. `every` (calls, or a
+    duration in the block's cycles) defaults to the schedule the model was fitted with (metrics.probing)."""
+    if isinstance(every, Every):
+        every = every.calls_at(model.sample_period_s)
     if model.probe is None:
         if every is not None:
             raise UserError(f"--probe-every {every}: the model has no probe fusion (fit it with --probe)")
@@ -29,18 +33,22 @@ def probing_inputs(model: Model, table: Table, overrides: dict | None = None, ev
                             f"(found {', '.join(columns[n] for n in given)}); give both, without --probe-every")
         return {name: cells_as(table, column, "REAL" if name == PROBE_VALUE_INPUT else "BOOL",
                                f"input {name}") for name, column in columns.items()}
-    return from_target(table, model.target.column, every, bool(model.metrics.get("probing", {}).get("held")))
+    probing = model.metrics.get("probing", {})
+    return from_target(table, model.target.column, every, bool(probing.get("held")), probing.get("every_calls"))
 
 
-def from_target(table: Table, column: str, every: int | None, held: bool) -> dict:
+def from_target(table: Table, column: str, every: int | None, held: bool, recorded: int | None = None) -> dict:
     """ProbeValue and ProbeNew per call from the target `column`: its measured rows (probed, or `held` between
-    probings), or a probing every `every` calls of a target measured at every call."""
+    probings), or a probing every `every` calls of a target measured at every call (by default every `recorded`
+    calls, the schedule the model was fitted with)."""
     if column not in table.columns:
         raise UserError(f"{table.path}: no column {column!r} (the target) nor {PROBE_VALUE_INPUT} and "
                         f"{PROBE_NEW_INPUT} to replay the probings from")
     if held:
         table = held_to_probed(table, column)
     target = table.column(column)
+    if every is None and needs_schedule(target) and recorded:
+        every = int(recorded)
     if every is None and needs_schedule(target):
         raise UserError(f"{table.path}: column {column!r} is measured at every call, so which calls are "
                         f"probings is not in the data; give --probe-every N (a probing every N calls) or columns "

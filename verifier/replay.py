@@ -1,6 +1,7 @@
 """Replay recorded rows through a parsed block and compare every output bit for bit."""
 from __future__ import annotations
 
+import re
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -65,13 +66,14 @@ class Report:
     failure: str | None = None  # the block's run-time error (an index outside its array...): it is not the model
     # what the block output at each call, as replayed (verify --outputs writes it); empty from the streamed route
     produced: dict = field(default_factory=dict, repr=False, compare=False)
+    origin: str = ""  # the block's header names another model than the one it is compared with (said first)
 
     @property
     def ok(self) -> bool:
         return self.mismatch is None and not self.constant_errors and not self.unsafe and self.failure is None
 
     def text(self) -> str:
-        lines = []
+        lines = [f"NOTE: {self.origin}"] if self.origin and not self.ok else []
         if self.ok:
             lines.append(f"bit-exact: {self.block} reproduces {self.against} on {self.data}")
             lines.append(f"  {self.cycles} cycles, {self.cycles * len(self.outputs)} outputs compared "
@@ -411,6 +413,21 @@ def verify_against_model(block: str, model: Model, model_path: str, table: Table
     errors = (*errors, *(start_value_errors(machine.inputs) if model.probe is not None else ()))
     said = [line for line in (control_summary(control, table.rows), probing_summary(probing)) if line]
     return replace(report, constants_checked=checked, constant_errors=errors, limits=limits, control="; ".join(said))
+
+
+def other_model(block: str, model: Model, model_path: str) -> str:
+    """Said first when the block's header names another model than `model` (its fingerprint line, as generate
+    writes it): the likeliest cause of every difference that follows; empty when it names this one or none."""
+    try:
+        head = Path(block).read_text("utf-8", errors="replace")[:4000]
+    except OSError:
+        return ""
+    stated = re.search(r"^// Model \S+, fingerprint ([0-9a-f]{16})\b", head, re.MULTILINE)
+    if stated is None or stated.group(1) == model.fingerprint():
+        return ""
+    return (f"{Path(block).name} was generated from another model (fingerprint {stated.group(1)} in its header) "
+            f"than {Path(model_path).name} (fingerprint {model.fingerprint()}): verify it against the model file it "
+            f"was generated from, or generate it again from this one")
 
 
 def _numbered_fault(output: str, column: str, declared: list[str]) -> str:

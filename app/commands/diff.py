@@ -5,7 +5,7 @@ import argparse
 
 from thermoplc.commands import json_output
 from thermoplc.base.errors import UserError
-from thermoplc.commands.options import DECIMAL, READ_FILE, examples, mapping, named, number
+from thermoplc.commands.options import DECIMAL, EVERY_HELP, READ_FILE, every, examples, mapping, named, number
 from thermoplc.commands.reads import files_read
 
 
@@ -23,8 +23,7 @@ def add_parser(sub) -> None:
     p.add_argument("--probe-target", metavar="COLUMN", type=named("--probe-target"),
                    help="fused blocks (fit --probe): replay the probings from this target column (its measured rows, "
                         "or with --probe-every a probing every N calls of a target measured at every call)")
-    p.add_argument("--probe-every", type=number(int, 1, 10 ** 9, "calls"), metavar="N",
-                   help="with --probe-target: a probing every N calls")
+    p.add_argument("--probe-every", type=every, metavar="WHEN", help=f"with --probe-target: a probing every {EVERY_HELP}")
     p.add_argument("--held-target", action="store_true",
                    help="with --probe-target: the target holds its last probing between probings")
     p.add_argument("--time", default="time_s", help="time column (default: %(default)s)")
@@ -46,7 +45,9 @@ def run(args: argparse.Namespace) -> int:
                         else ()) if args.data else None)
     if args.probe_target:
         from thermoplc.verifier.probings import with_probings
-        table = with_probings(table, args.probe_target, args.probe_every, args.held_target)
+        from thermoplc.fitting.fit import sample_period
+        every = args.probe_every.calls_at(sample_period(table, args.time)) if args.probe_every else None
+        table = with_probings(table, args.probe_target, every, args.held_target)
     result = diff_blocks(args.old, args.new, table, args.inputs, args.time)
     json_output.emit(args, format_diff(result), diff_document(result, table is not None) if args.json else None)
     if table is not None and not result.behaviour_equal:

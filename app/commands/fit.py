@@ -11,8 +11,8 @@ from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_outputs, write_outputs
 from thermoplc.commands import json_output
 from thermoplc.commands.fit_options import Given, refuse_columns_not_read, refuse_options_not_read
-from thermoplc.commands.options import (DECIMAL, FORCE_HELP, OUTPUT, RESAMPLE, campaign_arguments, columns, examples,
-                                        named, number, scheduler_address, training_part)
+from thermoplc.commands.options import (DECIMAL, EVERY_HELP, FORCE_HELP, OUTPUT, RESAMPLE, campaign_arguments, columns,
+                                        every, examples, named, number, scheduler_address, training_part)
 from thermoplc.commands.reads import Writes, files_read
 from thermoplc.commands.terminal import end_progress, progress
 
@@ -84,9 +84,9 @@ def add_parser(sub) -> None:
                          help="with --probe: refuse a probing further than UM from the prediction (one in a row; the "
                               "second beyond it is taken: the drift moved). Default: 4 x the RMS of the held-out "
                               "innovations, at least 2 x the largest of them, at least 0.5 um (docs/probing.md)")
-    probing.add_argument("--probe-every", type=number(int, 1, 10 ** 9, "calls"), metavar="N",
-                         help="with --probe on a target measured at every call: simulate a probing every N calls (a probed "
-                              "target's own measured rows are its probings)")
+    probing.add_argument("--probe-every", type=every, metavar="WHEN",
+                         help=f"with --probe on a target measured at every call: simulate a probing every {EVERY_HELP} "
+                              "(a probed target's own measured rows are its probings)")
     output.add_argument("--report", metavar="DIR", type=Writes(named("a folder for the report")),
                         help="also write a report folder: per run measured, predicted and no compensation, the residual, "
                              "the fold and group tables, one PNG per run and an index.html")
@@ -188,7 +188,7 @@ def run(args: argparse.Namespace) -> int:
     from thermoplc.commands.fit_summary import fit_document, format_fit
     from thermoplc.fitting.acceptance import refusal
     from thermoplc.fitting.crossval import fit_held_out
-    from thermoplc.fitting.fit import FitRequest
+    from thermoplc.fitting.fit import FitRequest, common_sample_period
     from thermoplc.models.kinds import options
     from thermoplc.recordings.campaign import read_campaign, run_list
     from thermoplc.recordings.table import reading_notes
@@ -225,6 +225,7 @@ def run(args: argparse.Namespace) -> int:
     tables = campaign.tables
     for note in reading_notes(tables):
         print(note, file=sys.stderr)
+    every = args.probe_every.calls_at(common_sample_period(tables, args.time)) if args.probe_every else None
     refuse_columns_not_read(args, request, tables)
     if len(tables) == 1 and not (args.folds or args.group_by):
         _refuse_nothing_held_out(args, tables[0])
@@ -232,7 +233,7 @@ def run(args: argparse.Namespace) -> int:
     remote = _remote(args, campaign, runs)
     try:
         if args.model == "auto":
-            probing = Probing(args.probe_every, args.held_target, args.probe_gate_um) if args.probe else None
+            probing = Probing(every, args.held_target, args.probe_gate_um) if args.probe else None
             model = fit_auto(tables, request, args.folds, args.time, progress(), groups, remote, probing)
         else:
             model = fit_held_out(tables, request, args.folds, args.time, progress(), groups, predictions, remote)
@@ -242,7 +243,7 @@ def run(args: argparse.Namespace) -> int:
     end_progress()
     if args.probe and args.model != "auto":  # auto fused every candidate it ranked
         from thermoplc.fitting.probe_fit import fit_probe
-        model = fit_probe(model, tables, predictions, args.probe_every, args.held_target, args.probe_gate_um)
+        model = fit_probe(model, tables, predictions, every, args.held_target, args.probe_gate_um)
     if args.resample:
         model = replace(model, resample=resampling_of(args))
     becomes_block(model, args.output)

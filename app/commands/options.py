@@ -83,6 +83,18 @@ def number(kind: type, low: float, high: float, what: str = "") -> Callable[[str
     return parse
 
 
+def every(text: str):
+    """--probe-every: a probing every N calls (a bare number) or every duration (30min, 1800s, 0.5h)."""
+    from thermoplc.base.values import every_problem
+    found, problem = every_problem(text)
+    if problem:
+        raise argparse.ArgumentTypeError(problem)
+    return found
+
+
+EVERY_HELP = "N calls (a bare number) or a duration: 30min, 1800s, 0.5h"
+
+
 def cycle(text: str) -> float:
     """--resample PERIOD: the block's cycle in seconds, more than 0 and at most a day, a whole number of
     milliseconds (a PLC cycle is set in ms)."""

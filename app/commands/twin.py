@@ -5,7 +5,7 @@ import argparse
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_output, write_atomic
-from thermoplc.commands.options import FORCE_HELP, OUTPUT, SEED, examples, number
+from thermoplc.commands.options import EVERY_HELP, FORCE_HELP, OUTPUT, SEED, every, examples, number
 
 MAX_TWIN_ROWS = 50_000_000  # about 1.6 years at 1 s, over all runs; beyond it the files alone take several GB
 
@@ -43,6 +43,9 @@ def add_parser(sub) -> None:
     p.add_argument("--probe-minutes", type=number(float, 0.0, 1e6, "minutes"), default=0.0, metavar="M",
                    help="with --runs: the drift E_z_um probed every M minutes and held between probings, relative "
                         "to the run's first probing (E_z_true_um beside it); 0: every call (default: %(default)s)")
+    p.add_argument("--probe-every", type=every, metavar="WHEN",
+                   help=f"with --runs: --probe-minutes in the spelling of fit, verify and diff: every {EVERY_HELP} "
+                        f"(calls of --dt)")
     p.add_argument("--effect-runs", type=_run_numbers, metavar="K,K,...",
                    help="with --runs: hide the --effect only in these runs (numbered from 1; default: every run)")
     p.add_argument("--logger", action="store_true",
@@ -79,9 +82,13 @@ def run(args: argparse.Namespace) -> int:
     names = [e.name for e in effects]
     if len(set(names)) != len(names):
         raise UserError("--effect: each effect can be switched on once")
+    if args.probe_every is not None:
+        if args.probe_minutes:
+            raise UserError("--probe-every and --probe-minutes say the same; give one of them")
+        args.probe_minutes = args.probe_every.calls_at(args.dt) * args.dt / 60
     if args.runs is None:
         if args.probe_minutes or args.effect_runs:
-            raise UserError("--probe-minutes and --effect-runs describe a campaign: give --runs N")
+            raise UserError("--probe-every (--probe-minutes) and --effect-runs describe a campaign: give --runs N")
     else:
         if faults:
             raise UserError("--sensor-fault: not with --runs (a campaign's runs are clean of sensor faults)")

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.commands import json_output
-from thermoplc.commands.options import (DECIMAL, READ_FILE, RECORDING, RESAMPLE, RUNS_TABLE, columns, examples, mapping,
-                                        named, number, scheduler_address)
+from thermoplc.commands.options import (DECIMAL, EVERY_HELP, READ_FILE, RECORDING, RESAMPLE, RUNS_TABLE, columns, every,
+                                        examples, mapping, named, number, scheduler_address)
 from thermoplc.commands.reads import Reads, Writes, files_read
 from thermoplc.commands.terminal import progress
 
@@ -62,10 +63,10 @@ def add_parser(sub) -> None:
                              " and offset), Enable/Reset actions and, fused, probing faults; check exactness, "
                              "finiteness, clamp and rate limit, and fail a case further from the measured drift "
                              "than no compensation that no status bit flags")
-    replay.add_argument("--probe-every", type=number(int, 1, 10 ** 9, "calls"), metavar="N",
-                        help="a fused block (fit --probe) on a target measured at every call: replay a probing "
-                             "every N calls (a probed target's own measured rows, or columns ProbeValue and "
-                             "ProbeNew, need none)")
+    replay.add_argument("--probe-every", type=every, metavar="WHEN",
+                        help=f"a fused block (fit --probe) on a target measured at every call: replay a probing "
+                             f"every {EVERY_HELP}; default: the schedule the model file records (a probed target's "
+                             f"own measured rows, or columns ProbeValue and ProbeNew, need none)")
     against.add_argument("--time", default="time_s", help="time column for --expect traces (default: %(default)s)")
     json_output.add_arguments(output)
     p.set_defaults(func=run)
@@ -198,20 +199,25 @@ def _against_model(args: argparse.Namespace) -> int:
     from thermoplc.verifier.documents import verify_document
     from thermoplc.recordings.resample import RULE
     from thermoplc.verifier.recording import read_recording, resampling_for
-    from thermoplc.verifier.replay import verify_against_model
+    from thermoplc.verifier.replay import other_model, verify_against_model
     model = load_model(args.model)
     rule = resampling_for(model, args.resample)
     report, table = None, None
-    if not args.faults and args.outputs is None and rule is None:
-        from thermoplc.verifier.stream import verify_streaming
-        report = verify_streaming(args.block, model, args.model, args.data, args.inputs, args.engine,
-                                  args.decimal, progress())
-    if report is None:
-        table = read_recording(args.data, model, progress(), args.decimal, args.resample, args.inputs, args.model)
-        if args.faults:
-            return _faults(args, model, table)
-        report = verify_against_model(args.block, model, args.model, table, args.inputs, args.engine,
-                                      args.probe_every)
+    origin = other_model(args.block, model, args.model)
+    try:
+        if not args.faults and args.outputs is None and rule is None:
+            from thermoplc.verifier.stream import verify_streaming
+            report = verify_streaming(args.block, model, args.model, args.data, args.inputs, args.engine,
+                                      args.decimal, progress())
+        if report is None:
+            table = read_recording(args.data, model, progress(), args.decimal, args.resample, args.inputs, args.model)
+            if args.faults:
+                return _faults(args, model, table)
+            report = verify_against_model(args.block, model, args.model, table, args.inputs, args.engine,
+                                          args.probe_every)
+    except UserError as exc:  # the other model first: it explains the refusal
+        raise UserError(f"{origin}; {exc}" if origin else str(exc)) from None
+    report = replace(report, origin=origin)
     said = (f"\n  {args.data} taken onto the block's cycle of {rule.period_s:g} s first ("
             f"{'the model file' if model.resample else '--resample'}: {RULE})" if rule else "")
     said += _written_outputs(args, report, table, model.time_column)
