@@ -19,8 +19,7 @@ import numpy as np
 from thermoplc.base.binary32 import FLT_MAX, f32_from_bits
 from thermoplc.base.errors import UserError, unreadable
 from thermoplc.base.locations import name as location_name, open_binary
-from thermoplc.recordings.timestamps import looks_dated, seconds_since_first
-from thermoplc.recordings.units import conversion as unit_conversion, is_units_row as units_row, unit_key
+from thermoplc.recordings.layout import Layout
 
 
 CHUNK_ROWS = 65536  # rows parsed at once: bounds the memory of the text being parsed
@@ -272,6 +271,9 @@ def _read_npz(path: str, time_column: str | None, sparse: frozenset = frozenset(
 
 def _refuse_no_time(path: str, time_column: str, header: list[str]) -> None:
     """A missing time column named before any row is read, with the header's one time-like column suggested."""
+    if time_column not in header and "file" in header:
+        raise UserError(f"{path}: no time column {time_column!r}, and a column 'file': a runs table? give it as "
+                        f"--runs TABLE")
     if time_column not in header:
         timed = [name for name in header if re.search(r"time|zeit|date|datum|stamp", name, re.IGNORECASE)]
         hint = f": --time {shlex.quote(timed[0])}" if len(timed) == 1 else ""
@@ -376,7 +378,9 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
                 if not text.strip().strip(delimiter).strip():
                     continue
                 if layout is None:
-                    layout = _Layout(path, header, delimiter, comma_decimal, time_column)
+                    layout = Layout(path, header, delimiter, time_column,
+                                    lambda cell: _cell_value(cell.replace(",", ".") if comma_decimal else cell) is not None,
+                                    lambda at, written: csv_fields(path, at, written, delimiter))
                     if layout.units_in(line, text):
                         continue
                 if not layout.checked:
@@ -405,65 +409,6 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
     table = Table(path, columns, digest.hexdigest(), np.concatenate(numbers_all), notes)
     _check_time(table, time_column, header, dated=layout.dated is not None)
     return table
-
-
-class _Layout:
-    """What the first data lines say about the file: a units row (its cells) and whether the time column holds
-    date-times (their cells and lines are gathered here, the parsed time column set from them at the end)."""
-
-    def __init__(self, path: str, header: list[str], delimiter: str, comma_decimal: bool, time_column: str | None):
-        self.path, self.header, self.delimiter, self.time_column = path, header, delimiter, time_column
-        self.numeric = lambda cell: _cell_value(cell.replace(",", ".") if comma_decimal else cell) is not None
-        self.units: list[str] | None = None
-        self.dated: int | None = None  # the time column's index when it holds date-times
-        self.checked = False  # whether the first row's time cell was looked at
-        self.cells: list[str] = []
-        self.lines: list[int] = []
-
-    def units_in(self, line: int, text: str) -> bool:
-        """Whether the first data line is a units row (kept)."""
-        fields = csv_fields(self.path, line, text, self.delimiter)
-        if len(fields) == len(self.header) and units_row(fields, self.numeric):
-            self.units = fields
-        return self.units is not None
-
-    def dated_column(self, line: int, text: str) -> int | None:
-        """The time column's index when the first row's time is a date-time, not a number."""
-        if self.time_column not in self.header:
-            return None
-        fields = csv_fields(self.path, line, text, self.delimiter)
-        k = self.header.index(self.time_column)
-        cell = fields[k] if len(fields) == len(self.header) else ""
-        return k if not self.numeric(cell) and looks_dated(cell) else None
-
-    def take_time(self, line: int, text: str) -> str:
-        """The line with its date-time cell kept aside and a 0 in its place (the time is set at the end)."""
-        fields = csv_fields(self.path, line, text, self.delimiter)
-        if len(fields) != len(self.header):
-            return text  # the field count is refused with the rest
-        self.cells.append(fields[self.dated])
-        self.lines.append(line)
-        fields[self.dated] = "0"
-        return self.delimiter.join(fields) + "\n"
-
-    def convert(self, columns: dict) -> tuple[str, ...]:
-        """Date-times to seconds since the first row, each column to thermoplc's unit; what was done, said."""
-        notes, header = [], self.header
-        if self.dated is not None:
-            name = header[self.dated]
-            seconds, first = seconds_since_first(self.cells, self.lines, self.path, name)
-            columns[name] = np.asarray(seconds, np.float64)
-            notes.append(f"{name}: date-times read as seconds since {first.isoformat(sep=' ')} (the first row)")
-        converted = []
-        for k, name in enumerate(header):
-            scale = unit_conversion(self.units[k]) if self.units is not None and k != self.dated else None
-            if scale is not None:
-                columns[name] = columns[name] * scale[0] + scale[1]
-                converted.append(f"{name} [{self.units[k].strip()}]")
-        if self.units is not None:
-            notes.append("units row read" + (f"; converted to s, degC, um, rpm: {', '.join(converted)}"
-                                             if converted else ""))
-        return tuple(notes)
 
 
 def write_table(columns: dict) -> str:

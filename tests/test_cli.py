@@ -172,7 +172,7 @@ def test_a_trace_of_real_bit_patterns_verifies_and_one_bit_off_does_not(workdir)
       "-o", "x.json"), "twin.csv: no column 'T_nope'"),
     (("fit", "--data", "missing.csv", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor", "--train-rows", 100,
       "-o", "x.json"), "missing.csv: cannot read"),
-    (("generate", "twin.csv", "-o", "x.scl"), "twin.csv:1:1: malformed JSON"),
+    (("generate", "twin.csv", "-o", "x.scl"), "twin.csv: a recording (CSV), not a thermoplc model; fit a model on it first"),
     (("verify", "twin.csv", "--model", "mlr.json", "--data", "twin.csv"), "twin.csv:1:1: syntax error"),
 ])
 def test_bad_input_is_one_clear_line_and_exit_2(workdir, args, message):

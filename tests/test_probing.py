@@ -192,8 +192,14 @@ def test_probe_options_refused_where_they_mean_nothing(tmp_path):
         else:
             assert result.returncode == 2 and message in result.stderr
     thermoplc("generate", "m.json", "--accept-unvalidated", "-o", "m.scl", cwd=tmp_path)
-    refused = thermoplc("verify", "m.scl", "--model", "m.json", "--data", "t.csv", cwd=tmp_path, check=None)
-    assert refused.returncode == 2 and "give --probe-every N" in refused.stderr
+    recorded = thermoplc("verify", "m.scl", "--model", "m.json", "--data", "t.csv", cwd=tmp_path)  # the model's
+    assert recorded.stdout.startswith("bit-exact") and "probings replayed: 12 " in recorded.stdout  # every 30 calls
+    again = thermoplc("verify", "m.scl", "--model", "m.json", "--data", "t.csv", "--probe-every", "30min", cwd=tmp_path)
+    assert "probings replayed: 12 " in again.stdout  # 30 min of 60 s calls: the same schedule, spelled as a duration
+    refused = thermoplc("verify", "m.scl", "--model", "m.json", "--data", "t.csv", "--probe-every", "7.5min",
+                        cwd=tmp_path, check=None)
+    assert refused.returncode == 2
+    assert "--probe-every 7.5min: 7.5 calls of 60 s, not a whole number; give 420s or 480s" in refused.stderr
 
 
 def test_a_block_that_takes_a_level_for_an_edge_or_starts_probenew_true_is_not_bit_exact(folder):

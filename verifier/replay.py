@@ -73,7 +73,7 @@ class Report:
         return self.mismatch is None and not self.constant_errors and not self.unsafe and self.failure is None
 
     def text(self) -> str:
-        lines = [f"NOTE: {self.origin}"] if self.origin and not self.ok else []
+        lines = []
         if self.ok:
             lines.append(f"bit-exact: {self.block} reproduces {self.against} on {self.data}")
             lines.append(f"  {self.cycles} cycles, {self.cycles * len(self.outputs)} outputs compared "
@@ -131,6 +131,8 @@ class Report:
         lines.append(f"  replay: {self.seconds:.2f} s, {rate:,.0f} cycles/s, {engine}")
         if self.engine_note:
             lines.append(f"  note: {self.engine_note}")
+        if self.origin and not self.ok:  # the likeliest cause of every difference above: said beneath the verdict
+            lines.insert(1, f"  NOTE: {self.origin}")
         return "\n".join(lines)
 
 

@@ -1,0 +1,70 @@
+"""What the first data lines of a logger export say about its layout: a units row under the header, and a time
+column written as date-times rather than seconds (recordings/table.py reads the numbers; this module converts)."""
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from thermoplc.recordings.timestamps import looks_dated, seconds_since_first
+from thermoplc.recordings.units import conversion as unit_conversion, is_units_row as units_row
+
+
+class Layout:
+    """What the first data lines say about the file: a units row (its cells) and whether the time column holds
+    date-times (their cells and lines are gathered here, the parsed time column set from them at the end)."""
+
+    def __init__(self, path: str, header: list[str], delimiter: str, time_column: str | None,
+                 numeric: Callable[[str], bool], split: Callable[[int, str], list[str]]):
+        self.path, self.header, self.delimiter, self.time_column = path, header, delimiter, time_column
+        self.numeric, self.split = numeric, split  # whether a cell is a number; a line's fields (the reader's rules)
+        self.units: list[str] | None = None
+        self.dated: int | None = None  # the time column's index when it holds date-times
+        self.checked = False  # whether the first row's time cell was looked at
+        self.cells: list[str] = []
+        self.lines: list[int] = []
+
+    def units_in(self, line: int, text: str) -> bool:
+        """Whether the first data line is a units row (kept)."""
+        fields = self.split(line, text)
+        if len(fields) == len(self.header) and units_row(fields, self.numeric):
+            self.units = fields
+        return self.units is not None
+
+    def dated_column(self, line: int, text: str) -> int | None:
+        """The time column's index when the first row's time is a date-time, not a number."""
+        if self.time_column not in self.header:
+            return None
+        fields = self.split(line, text)
+        k = self.header.index(self.time_column)
+        cell = fields[k] if len(fields) == len(self.header) else ""
+        return k if not self.numeric(cell) and looks_dated(cell) else None
+
+    def take_time(self, line: int, text: str) -> str:
+        """The line with its date-time cell kept aside and a 0 in its place (the time is set at the end)."""
+        fields = self.split(line, text)
+        if len(fields) != len(self.header):
+            return text  # the field count is refused with the rest
+        self.cells.append(fields[self.dated])
+        self.lines.append(line)
+        fields[self.dated] = "0"
+        return self.delimiter.join(fields) + "\n"
+
+    def convert(self, columns: dict) -> tuple[str, ...]:
+        """Date-times to seconds since the first row, each column to thermoplc's unit; what was done, said."""
+        notes, header = [], self.header
+        if self.dated is not None:
+            name = header[self.dated]
+            seconds, first = seconds_since_first(self.cells, self.lines, self.path, name)
+            columns[name] = np.asarray(seconds, np.float64)
+            notes.append(f"{name}: date-times read as seconds since {first.isoformat(sep=' ')} (the first row)")
+        converted = []
+        for k, name in enumerate(header):
+            scale = unit_conversion(self.units[k]) if self.units is not None and k != self.dated else None
+            if scale is not None:
+                columns[name] = columns[name] * scale[0] + scale[1]
+                converted.append(f"{name} [{self.units[k].strip()}]")
+        if self.units is not None:
+            notes.append("units row read" + (f"; converted to s, degC, um, rpm: {', '.join(converted)}"
+                                             if converted else ""))
+        return tuple(notes)
