@@ -378,8 +378,8 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
                 if not text.strip().strip(delimiter).strip():
                     continue
                 if layout is None:
-                    layout = Layout(path, header, delimiter, time_column,
-                                    lambda cell: _cell_value(cell.replace(",", ".") if comma_decimal else cell) is not None,
+                    numeric = lambda cell: _cell_value(cell.replace(",", ".") if comma_decimal else cell) is not None
+                    layout = Layout(path, header, delimiter, time_column, numeric,
                                     lambda at, written: csv_fields(path, at, written, delimiter))
                     if layout.units_in(line, text):
                         continue

@@ -96,7 +96,8 @@ def _slashed_order(cells: Sequence[str], lines: Sequence[int], path: str, column
     for cell, line in zip(cells, lines):
         found = _SLASHED.match(cell.strip())
         if not found:
-            raise _refuse(path, line, column, cell.strip(), "a date-time written as the first row's (D/M/YYYY or M/D/YYYY)")
+            raise _refuse(path, line, column, cell.strip(),
+                          "a date-time written as the first row's (D/M/YYYY or M/D/YYYY)")
         firsts.append((int(found.group(1)), line))
         seconds.append((int(found.group(2)), line))
     day_first = next((line for value, line in firsts if value > 12), None)

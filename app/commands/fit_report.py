@@ -65,12 +65,17 @@ def _scored(measured: np.ndarray, predicted: np.ndarray, first: int, campaign: b
     return Scored(rms(measured - predicted), rms(measured), "fit without this run" if campaign else "held out")
 
 
+def _probing_row(probing: dict, label: str) -> dict | None:
+    """A run's line of the fit's probing evidence (one recording: its held-out part, the evidence)."""
+    rows = {r["run"]: r for r in probing.get("runs", ())}
+    return rows.get(label) or rows.get(f"{label} (held out)")
+
+
 def _fused_scored(probing: dict, label: str) -> Scored | None:
     """A fused run's figures from the fit's probing evidence (metrics.probing, what the console prints): the error
     just before each probing, the worst moment for a part, and beside it the static block, the plain reset and,
     where the target is measured at every call, the fused error over every call."""
-    rows = {r["run"]: r for r in probing.get("runs", ())}
-    row = rows.get(label) or rows.get(f"{label} (held out)")  # one recording: its held-out part is the evidence
+    row = _probing_row(probing, label)
     if row is None or row.get("fused_before_um") is None:
         return None
     every = (f", over every call {row['fused_rmse_um']:.3f}" if row.get("fused_rmse_um") is not None else "")
@@ -139,10 +144,9 @@ def _summary(labels: list[str], scores: list, model) -> bytes:
     import matplotlib.pyplot as plt
     shown = [(label, score) for label, score in zip(labels, scores) if score is not None]
     fused = model.probe is not None
-    probing = {r["run"]: r for r in model.metrics.get("probing", {}).get("runs", ())}
     series = [("no compensation", [s.none for _, s in shown], "0.6")]
     if fused:
-        row = lambda label: probing.get(label) or probing.get(f"{label} (held out)") or {}
+        row = lambda label: _probing_row(model.metrics.get("probing", {}), label) or {}
         series += [("static block", [row(label).get("static_before_um") or np.nan for label, _ in shown], "tab:red"),
                    ("plain reset", [row(label).get("reset_before_um") or np.nan for label, _ in shown], "tab:orange")]
     series.append(("fused block" if fused else f"{model.kind} block", [s.rmse for _, s in shown], "tab:green"))
