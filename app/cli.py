@@ -52,8 +52,9 @@ class _Parser(argparse.ArgumentParser):
         at = next((k for k, word in enumerate(args) if word in commands), None)
         if at is not None and "--help" not in args and "-h" not in args:
             command = commands[args[at]]
-            unknown = [w for w in args[at + 1:] if w.startswith("--") and w != "--"
-                       and w.split("=", 1)[0] not in command._option_string_actions]
+            words = args[at + 1:]
+            words = words[:words.index("--")] if "--" in words else words  # after '--' every word is a value
+            unknown = [w for w in words if w.startswith("--") and w.split("=", 1)[0] not in command._option_string_actions]
             if unknown:
                 hints = "; ".join(h for h in (_suggestion(w, command) for w in unknown) if h)
                 command.error(f"unrecognized arguments: {' '.join(unknown)}" + (f" ({hints})" if hints else ""))

@@ -76,9 +76,9 @@ class Every:
         exact = self.seconds / period_s
         calls = max(int(round(exact)), 1)
         if abs(exact - calls) > 0.01 * calls:
+            nearest = [f"{n * period_s:g}s" for n in (math.floor(exact), math.ceil(exact)) if n >= 1]
             raise UserError(f"--probe-every {self.text}: {exact:g} calls of {period_s:g} s, not a whole number; give "
-                            f"{math.floor(exact) * period_s:g}s or {math.ceil(exact) * period_s:g}s (or a number of "
-                            f"calls)")
+                            f"{' or '.join(nearest)} (or a number of calls)")
         return calls
 
 
@@ -89,7 +89,7 @@ _DURATION = re.compile(r"\s*(\d+(?:\.\d*)?|\.\d+)\s*(ms|s|min|h)\s*\Z", re.IGNOR
 def every_problem(text: str) -> tuple[Every | None, str | None]:
     """`text` as a probing schedule (N calls, or a duration such as 30min, 1800s, 0.5h), or why it is none."""
     text = text.strip()
-    if text.isdigit():
+    if text.isascii() and text.isdigit():
         calls = int(text)
         return (Every(text, calls=calls), None) if 1 <= calls <= 10 ** 9 else \
             (None, f"expected a number of calls from 1 to 1,000,000,000 or a duration (30min), found {text!r}")

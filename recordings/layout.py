@@ -7,7 +7,9 @@ from typing import Callable
 import numpy as np
 
 from thermoplc.recordings.timestamps import looks_dated, seconds_since_first
-from thermoplc.recordings.units import conversion as unit_conversion, is_units_row as units_row
+from thermoplc.base.errors import UserError
+from thermoplc.recordings.units import (conversion as unit_conversion, is_units_row as units_row, named_unit,
+                                        time_unit_problem, unit_key)
 
 
 class Layout:
@@ -19,8 +21,10 @@ class Layout:
         self.path, self.header, self.delimiter, self.time_column = path, header, delimiter, time_column
         self.numeric, self.split = numeric, split  # whether a cell is a number; a line's fields (the reader's rules)
         self.units: list[str] | None = None
+        self.units_line = 0
         self.dated: int | None = None  # the time column's index when it holds date-times
         self.checked = False  # whether the first row's time cell was looked at
+        self.zoned = False  # whether the date-times carry their UTC offset
         self.cells: list[str] = []
         self.lines: list[int] = []
 
@@ -28,7 +32,7 @@ class Layout:
         """Whether the first data line is a units row (kept)."""
         fields = self.split(line, text)
         if len(fields) == len(self.header) and units_row(fields, self.numeric):
-            self.units = fields
+            self.units, self.units_line = fields, line
         return self.units is not None
 
     def dated_column(self, line: int, text: str) -> int | None:
@@ -56,14 +60,28 @@ class Layout:
         if self.dated is not None:
             name = header[self.dated]
             seconds, first = seconds_since_first(self.cells, self.lines, self.path, name)
+            self.zoned = first.tzinfo is not None
             columns[name] = np.asarray(seconds, np.float64)
             notes.append(f"{name}: date-times read as seconds since {first.isoformat(sep=' ')} (the first row)")
         converted = []
         for k, name in enumerate(header):
-            scale = unit_conversion(self.units[k]) if self.units is not None and k != self.dated else None
-            if scale is not None:
-                columns[name] = columns[name] * scale[0] + scale[1]
-                converted.append(f"{name} [{self.units[k].strip()}]")
+            if self.units is None or k == self.dated:
+                continue
+            time = name == self.time_column
+            problem = time_unit_problem(self.units[k]) if time else None
+            if problem:
+                raise UserError(f"{self.path}:{self.units_line}:{k + 1}: the units row says {self.units[k].strip()!r} for "
+                                f"the time column {name!r}: {problem}")
+            scale = unit_conversion(self.units[k], time)
+            if scale is None:
+                continue
+            if named_unit(name) == unit_key(self.units[k]):
+                raise UserError(f"{self.path}:{self.units_line}:{k + 1}: column {name!r} is converted from "
+                                f"{self.units[k].strip()} by the units row, but its name says {self.units[k].strip()}: "
+                                f"the block's input or output named after it would too; rename the column without its "
+                                f"unit (thermoplc computes in s, degC, um and rpm)")
+            columns[name] = columns[name] * scale[0] + scale[1]
+            converted.append(f"{name} (from {self.units[k].strip()})")
         if self.units is not None:
             notes.append("units row read" + (f"; converted to s, degC, um, rpm: {', '.join(converted)}"
                                              if converted else ""))

@@ -20,6 +20,7 @@ from thermoplc.base.binary32 import FLT_MAX, f32_from_bits
 from thermoplc.base.errors import UserError, unreadable
 from thermoplc.base.locations import name as location_name, open_binary
 from thermoplc.recordings.layout import Layout
+from thermoplc.recordings.timestamps import looks_dated
 
 
 CHUNK_ROWS = 65536  # rows parsed at once: bounds the memory of the text being parsed
@@ -124,6 +125,8 @@ NUMBER = re.compile(r"\s*[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\s*$|\s*[+-]?(nan|
 BINARY32_BITS = re.compile(r"\s*(?:(?:DW#)?16#|0x)([0-9A-F]{4})_?([0-9A-F]{4})\s*$", re.ASCII | re.IGNORECASE)
 
 
+DATE_HINT = (" (a date or a clock time: give the time column as --time COLUMN; a date and a time in two columns "
+             "are not read yet: join them into one column in the export)")
 GAP_HINT = " (a missing value: thermoplc fills no gaps; remove the row or fill the cell in the export)"
 MISSING = frozenset(("", "#n/a", "n/a", "#nv", "na", "nan", "null", "none", "---", "--", "-", "#value!", "#div/0!"))
 
@@ -181,6 +184,9 @@ def _refuse_points(path: str, header: list[str], text_lines: list[str], numbers:
         if "." in text:
             fields = csv_fields(path, line, text, delimiter)
             for column, cell in enumerate(fields if len(fields) == len(header) else ()):  # else: the count is named
+                if "." in cell and looks_dated(cell):
+                    raise UserError(f"{path}:{line}:{column + 1}: column {header[column]!r}: expected a number, found "
+                                    f"{cell.strip()!r}{DATE_HINT}")
                 if "." in cell:
                     raise UserError(f"{path}:{line}:{column + 1}: column {header[column]!r}: {cell.strip()!r} has a "
                                     f"'.' in a file read with decimal commas (';' between the columns); expected "
@@ -209,7 +215,8 @@ def _parse_cells_one_by_one(path: str, header: list[str], text_lines: list[str],
                 hint = " (a REAL's 32 bits are 8 hexadecimal digits: 16#3F800000 or 0x3F800000)" \
                     if cell.strip().lower().startswith(("0x", "16#", "dw#")) else \
                     " (a runs table? give it as --runs TABLE)" if header[c] == "file" else \
-                    GAP_HINT if cell.strip().lower() in MISSING else ""
+                    GAP_HINT if cell.strip().lower() in MISSING else \
+                    DATE_HINT if looks_dated(cell) or re.fullmatch(r"\s*\d{1,2}:\d{2}(:\d{2}([.,]\d+)?)?\s*", cell) else ""
                 raise UserError(f"{path}:{line}:{c + 1}: column {header[c]!r}: expected a number, found "
                                 f"{shown!r}{hint}")
             block[r, c] = value
@@ -281,7 +288,8 @@ def _refuse_no_time(path: str, time_column: str, header: list[str]) -> None:
                         f"the header has {', '.join(header)}")
 
 
-def _check_time(table: Table, time_column: str | None, header: list[str], dated: bool = False) -> None:
+def _check_time(table: Table, time_column: str | None, header: list[str], dated: bool | None = None) -> None:
+    """Time strictly increasing; `dated`: the column was date-times, with their UTC offsets (True) or without."""
     if time_column is None:
         return
     _refuse_no_time(table.path, time_column, header)
@@ -289,11 +297,15 @@ def _check_time(table: Table, time_column: str | None, header: list[str], dated:
     bad = np.nonzero(np.diff(t) <= 0)[0]
     if len(bad):
         line = int(table.lines[bad[0] + 1])
-        if dated:
+        if dated is not None and t[bad[0] + 1] == t[bad[0]]:
+            raise UserError(f"{table.path}:{line}: column {time_column!r}: the same time as the row before; expected "
+                            f"times that increase (export the times with fractions of a second, or one row per time)")
+        if dated is not None:
+            why = ("a logger reset or rows out of order" if dated else
+                   "a daylight-saving change written without its UTC offset, or a logger reset")
+            advice = "" if dated else ": export the times with their UTC offset (2024-10-27T02:30:00+01:00) or in UTC"
             raise UserError(f"{table.path}:{line}: column {time_column!r}: the clock goes back "
-                            f"{t[bad[0]] - t[bad[0] + 1]:g} s here (a daylight-saving change or a logger reset); "
-                            f"expected times that increase: export them with their UTC offset "
-                            f"(2024-10-27T02:30:00+01:00) or in UTC")
+                            f"{t[bad[0]] - t[bad[0] + 1]:g} s here ({why}); expected times that increase{advice}")
         raise UserError(f"{table.path}:{line}: column {time_column!r}: time must increase strictly, "
                         f"found {t[bad[0] + 1]:g} after {t[bad[0]]:g}")
 
@@ -407,7 +419,7 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
     del values
     notes = layout.convert(columns)
     table = Table(path, columns, digest.hexdigest(), np.concatenate(numbers_all), notes)
-    _check_time(table, time_column, header, dated=layout.dated is not None)
+    _check_time(table, time_column, header, dated=None if layout.dated is None else layout.zoned)
     return table
 
 

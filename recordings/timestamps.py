@@ -63,8 +63,9 @@ def _refuse(path: str, line: int, column: str, text: str, expected: str) -> User
 def _iso(text: str, line: int, path: str, column: str) -> datetime:
     if not _ISO.match(text):
         raise _refuse(path, line, column, text, f"a date-time written as the first row's ({ISO_EXAMPLE})")
+    written = re.sub(r"([T ])(\d):", r"\g<1>0\2:", text.replace(",", "."))  # 8:00 is 08:00 (Excel writes it so)
     try:
-        moment = datetime.fromisoformat(text.replace(",", ".") if "," in text else text)
+        moment = datetime.fromisoformat(written)
     except ValueError:
         raise _refuse(path, line, column, text, f"a date-time that exists ({ISO_EXAMPLE})") from None
     return moment.astimezone(timezone.utc) if moment.tzinfo is not None else moment

@@ -205,7 +205,8 @@ def _csv_cases() -> list[Case]:
         ("date-times as slashed dates that read both ways", lambda t: _dated(t, "%m/%d/%Y %H:%M:%S"), "error",
          "bad.csv:2: column 'time_s': '03/01/2024 08:00:00' reads as day first and as month first in every row"),
         ("date-times whose clock goes back an hour (DST)", lambda t: _dated(t, "%Y-%m-%d %H:%M:%S", 300), "error",
-         "bad.csv:301: column 'time_s': the clock goes back 3590 s here (a daylight-saving change or a logger reset)"),
+         "bad.csv:301: column 'time_s': the clock goes back 3590 s here (a daylight-saving change written without "
+         "its UTC offset, or a logger reset)"),
         ("ISO 8601 date-times in the time column", lambda t: _dated(t, "%Y-%m-%dT%H:%M:%S"), "accepted", ""),
         ("a units row under the header", _units_row, "accepted", ""),
         ("UTF-8 byte order mark", lambda t: "\ufeff" + t, "accepted", ""),

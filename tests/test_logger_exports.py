@@ -73,11 +73,11 @@ def test_iso_dotted_and_units_row_exports_fit_generate_and_verify_to_the_seconds
 
 def test_a_units_row_converts_millimetres_kelvin_and_minutes(tmp_path):
     path = tmp_path / "units.csv"
-    path.write_text("time,T [K],E [mm]\nmin,K,mm\n0,293.15,0.0015\n0.5,294.15,0.0025\n")
+    path.write_text("time,T,E\nmin,K,mm\n0,293.15,0.0015\n0.5,294.15,0.0025\n")
     table = read_table(path, "time")
     np.testing.assert_array_equal(table.columns["time"], [0.0, 30.0])
-    np.testing.assert_allclose(table.columns["T [K]"], [20.0, 21.0], rtol=0, atol=1e-12)
-    np.testing.assert_allclose(table.columns["E [mm]"], [1.5, 2.5], rtol=1e-15)
+    np.testing.assert_allclose(table.columns["T"], [20.0, 21.0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(table.columns["E"], [1.5, 2.5], rtol=1e-15)
     assert table.lines.tolist() == [3, 4]
 
 
@@ -145,3 +145,41 @@ def test_written_date_times_read_back_as_the_seconds_they_were_written_from(mill
     expected = [(m - offsets[0]) / 1000 for m in offsets]
     assert np.asarray(seconds).view(np.uint64).tolist() == np.asarray(expected).view(np.uint64).tolist()
     assert first == START + timedelta(milliseconds=offsets[0])
+
+
+def test_units_are_converted_by_dimension_and_a_name_that_keeps_the_old_unit_is_refused(tmp_path):
+    path = tmp_path / "dims.csv"
+    path.write_text("time,F,count,E\ns,F,C,um\n0,1.5,3,0.5\n10,2.5,4,0.75\n")
+    table = read_table(path, "time")  # F (a force?) and C (a count?) are not guessed to be temperatures
+    assert table.columns["F"].tolist() == [1.5, 2.5] and table.columns["count"].tolist() == [3.0, 4.0]
+    minutes = tmp_path / "m.csv"
+    minutes.write_text("time,T1\nm,°C\n0,20\n1,21\n")
+    with pytest.raises(UserError, match=r"m.csv:2:1: the units row says 'm' for the time column 'time': its unit 'm' "
+                                         r"is not a time; expected s, ms, min, h or d"):
+        read_table(minutes, "time")
+    named = tmp_path / "named.csv"
+    named.write_text("time,ch3 [mm],t8_K\ns,mm,K\n0,0.001,293.15\n10,0.002,294.15\n")
+    with pytest.raises(UserError, match=r"named.csv:2:2: column 'ch3 \[mm\]' is converted from mm by the units row, "
+                                         r"but its name says mm"):
+        read_table(named, "time")
+
+
+def test_edge_date_times_read_or_refused_with_the_reason(tmp_path):
+    path = tmp_path / "hour.csv"
+    path.write_text("t,T1\n2024-03-01 8:59:50,1\n2024-03-01 9:00:00,2\n")  # one-digit hours, as Excel writes them
+    np.testing.assert_array_equal(read_table(path, "t").columns["t"], [0.0, 10.0])
+    same = tmp_path / "same.csv"
+    same.write_text("t,T1\n2024-03-01T08:00:00Z,1\n2024-03-01T08:00:00Z,2\n")
+    with pytest.raises(UserError, match=r"same.csv:3: column 't': the same time as the row before"):
+        read_table(same, "t")
+    back = tmp_path / "back.csv"
+    back.write_text("t,T1\n2024-03-01T08:00:00Z,1\n2024-03-01T07:00:00Z,2\n")
+    with pytest.raises(UserError, match=r"back.csv:3: .*goes back 3600 s here \(a logger reset or rows out of order\); "
+                                         r"expected times that increase$"):
+        read_table(back, "t")
+    split = tmp_path / "split.csv"
+    split.write_text("Datum;Uhrzeit;T1\n01.03.2024;08:00:00;20,5\n01.03.2024;08:00:10;20,6\n")
+    with pytest.raises(UserError, match=r"split.csv:2:1: column 'Datum': expected a number, found '01.03.2024' \(a date "
+                                         r"or a clock time: give the time column as --time COLUMN; a date and a time in "
+                                         r"two columns are not read yet"):
+        read_table(split, "Uhrzeit")

@@ -18,12 +18,12 @@ from thermoplc.verifier.typed import cells_as
 def probing_inputs(model: Model, table: Table, overrides: dict | None = None, every: int | Every | None = None) -> dict:
     """ProbeValue and ProbeNew per call by block input name; empty for a static model. `every` (calls, or a
     duration in the block's cycles) defaults to the schedule the model was fitted with (metrics.probing)."""
-    if isinstance(every, Every):
-        every = every.calls_at(model.sample_period_s)
     if model.probe is None:
         if every is not None:
             raise UserError(f"--probe-every {every}: the model has no probe fusion (fit it with --probe)")
         return {}
+    if isinstance(every, Every):
+        every = every.calls_at(model.sample_period_s)
     overrides = overrides or {}
     columns = {name: overrides.get(name, name) for name in PROBE_INPUTS.values()}
     given = [name for name, column in columns.items() if column in table.columns]

@@ -421,10 +421,10 @@ def other_model(block: str, model: Model, model_path: str) -> str:
     """Said first when the block's header names another model than `model` (its fingerprint line, as generate
     writes it): the likeliest cause of every difference that follows; empty when it names this one or none."""
     try:
-        head = Path(block).read_text("utf-8", errors="replace")[:4000]
+        text = Path(block).read_text("utf-8", errors="replace")
     except OSError:
         return ""
-    stated = re.search(r"^// Model \S+, fingerprint ([0-9a-f]{16})\b", head, re.MULTILINE)
+    stated = re.search(r"\bModel \S+, fingerprint ([0-9a-f]{16})\b", text)  # '//', '(*' or PLCopen XML's text
     if stated is None or stated.group(1) == model.fingerprint():
         return ""
     return (f"{Path(block).name} was generated from another model (fingerprint {stated.group(1)} in its header) "

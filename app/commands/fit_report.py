@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from thermoplc.base.fileio import REPORT_MANIFEST, report_manifest
+from thermoplc.fitting.probe_fit import REFITTED
 
 INDEX = "index.html"
 SUMMARY = "summary.png"
@@ -116,8 +117,11 @@ def _plot(run, model, held_out: np.ndarray | None, written: np.ndarray, fused: t
             top.plot(hours[probed], measured[probed], "v", color="tab:green", ms=5, ls="none", label="probings")
             bottom.plot(hours[probed], (measured - before)[probed], "o", color="tab:green", ms=4,
                         label="fused error just before each probing (the model written)")
+        refitted = model.metrics.get("probing", {}).get("static") == REFITTED and held_out is None
         bottom.plot(hours[taken], (measured - predicted)[taken], color="tab:red", lw=1.0,
-                    **({k: v for k, v in style.items() if k != "lw"}), label="static block's error")
+                    **({k: v for k, v in style.items() if k != "lw"}),
+                    label="error of the model written's static part (refitted for the fusion)" if refitted else
+                    "static block's error")
         top.set_ylabel(f"{model.target.column}, µm")
         top.legend(loc="best")
         bottom.axhline(0.0, color="grey", lw=0.8)
@@ -254,7 +258,8 @@ def _page(model, campaign, pngs: list[str], scores: list, command: str, refusal:
              "verdict"],
             [[r["run"], r["fold"], *(attributes.get(r["run"], {}).get(a, "") for a in campaign.attributes), r["rows"],
               r["rmse"], r["max_abs"], r["zero_rmse"], r["zero_max_abs"],
-              "WORSE than no compensation" if r["rmse"] > r["zero_rmse"] else "better"] for r in m["runs"]])]
+              "WORSE than no compensation" if r["rmse"] > r["zero_rmse"] else
+              "no better than no compensation" if r["rmse"] == r["zero_rmse"] else "better"] for r in m["runs"]])]
     if m.get("probing"):
         parts += [_probing_table(m["probing"])]
     if m.get("auto_ranking"):

@@ -67,7 +67,9 @@ def add_parser(sub) -> None:
                         help=f"a fused block (fit --probe) on a target measured at every call: replay a probing "
                              f"every {EVERY_HELP}; default: the schedule the model file records (a probed target's "
                              f"own measured rows, or columns ProbeValue and ProbeNew, need none)")
-    against.add_argument("--time", default="time_s", help="time column for --expect traces (default: %(default)s)")
+    against.add_argument("--time", help="time column: of --expect traces (default: time_s), or, with --model, of data "
+                                        "whose time column is named otherwise than the model's (a seconds file for a "
+                                        "model fitted on a date-time export)")
     json_output.add_arguments(output)
     p.set_defaults(func=run)
 
@@ -201,6 +203,8 @@ def _against_model(args: argparse.Namespace) -> int:
     from thermoplc.verifier.recording import read_recording, resampling_for
     from thermoplc.verifier.replay import other_model, verify_against_model
     model = load_model(args.model)
+    if args.time is not None:  # the data's time column, where the model's was named otherwise
+        model = replace(model, time_column=args.time)
     rule = resampling_for(model, args.resample)
     report, table = None, None
     origin = other_model(args.block, model, args.model)
@@ -244,7 +248,7 @@ def _against_trace(args: argparse.Namespace) -> int:
     if args.resample:
         raise UserError("--resample takes raw data onto a model's cycle (--model); a PLC trace (--expect) is recorded "
                         "on the block's cycle already")
-    table = read_table(args.data, args.time, decimal=args.decimal)
+    table = read_table(args.data, args.time or "time_s", decimal=args.decimal)
     expect = {}
     for item in args.expect:
         output, sep, column = item.partition("=")
@@ -252,8 +256,8 @@ def _against_trace(args: argparse.Namespace) -> int:
         if output.upper() in {k.upper() for k in expect}:
             raise UserError(f"--expect names output {output!r} twice; give each output one column")
         expect[output] = column if sep else item
-    report = verify_against_trace(args.block, table, expect, args.inputs, args.time, args.engine)
-    said = _written_outputs(args, report, table, args.time)
+    report = verify_against_trace(args.block, table, expect, args.inputs, args.time or "time_s", args.engine)
+    said = _written_outputs(args, report, table, args.time or "time_s")
     return _result(args, report.text() + said, report.ok, lambda: {**verify_document(report), **_outputs_named(args)})
 
 
