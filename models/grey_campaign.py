@@ -63,22 +63,23 @@ def label(estimate: str, weight: float) -> str:
     return f"{estimate}, {'least squares' if weight == 0.0 else f'ridge weight {weight:g}'}"
 
 
-def choose(totals: dict[tuple, list[float]], runs: int, acceptable, plain) -> tuple[tuple, float]:
+def choose(totals: dict[tuple, list[float]], runs: int, rows: int, acceptable, plain) -> tuple[tuple, float]:
     """The candidate with the least squared error over every left-out run that `acceptable` (its fit on every
-    run) admits, and that error; but the best `plain` one (the shrunk linear fit) unless the
-    other beats it by more than one standard error of their paired difference over the runs (the one-standard-
-    error rule: among hundreds of candidates scored on a few runs, the best is partly chance)."""
+    run) admits, and its held-out RMSE over the `rows` measured rows; but the best `plain` one (the shrunk linear
+    fit) unless the other beats it by more than one standard error of their paired difference over the runs (the
+    one-standard-error rule: among hundreds of candidates scored on a few runs, the best is partly chance)."""
     complete = sorted((sum(errors), key) for key, errors in totals.items() if len(errors) == runs)
     admitted = [(squared, key) for squared, key in complete if acceptable(key)]
     best = admitted[0]  # the ridge candidates are always acceptable
     shrunk = next((candidate for candidate in admitted if plain(candidate[1])), best)
     key = best[1] if ridge.beats(totals[best[1]], totals[shrunk[1]]) else shrunk[1]
-    return key, sum(totals[key])
+    return key, float(np.sqrt(sum(totals[key]) / max(rows, 1)))
 
 
 def gm0n(sums: list[np.ndarray], target_sums: list[np.ndarray], steps: list[np.ndarray], errors: list[np.ndarray]
          ) -> tuple[str, float, float]:
-    """GM(0,N)'s estimate ('sums' or 'steps'), its ridge weight and held-out RMSE, from each run's running sums and their target, its steps and its errors (rows 2..n, NaN where not measured)."""
+    """GM(0,N)'s estimate ('sums' or 'steps'), its ridge weight and held-out RMSE, from each run's running sums and
+    their target, its steps and its errors (rows 2..n, NaN where not measured)."""
     measured = [np.isfinite(e) for e in errors]
     on_sums = Grams.of(sums, target_sums)
     on_steps = Grams.of([s[m] for s, m in zip(steps, measured)], [e[m] for e, m in zip(errors, measured)])
@@ -90,13 +91,15 @@ def gm0n(sums: list[np.ndarray], target_sums: list[np.ndarray], steps: list[np.n
             for weight, (_, b) in zip(weights, grams.slopes(others, weights, intercept)):
                 residual = (errors[k] - steps[k] @ b)[measured[k]]
                 totals.setdefault((estimate, weight), []).append(float(residual @ residual))
-    (estimate, weight), squared = choose(totals, len(sums), lambda key: True, lambda key: key[0] == "steps")
-    return estimate, weight, float(np.sqrt(squared / max(sum(int(m.sum()) for m in measured), 1)))
+    (estimate, weight), rmse = choose(totals, len(sums), sum(int(m.sum()) for m in measured), lambda key: True,
+                                      lambda key: key[0] == "steps")
+    return estimate, weight, rmse
 
 
 def gm1n(runs: list[tuple[np.ndarray, np.ndarray]], targets: list[np.ndarray], grid: list[float], pieces, paper,
          background, shrunk: float) -> tuple[str, float, float, float]:
-    """GM(1,N)'s estimate ('paper', 'equation' or 'output'), its a, ridge weight and held-out RMSE; the output fitted with a = `shrunk` (no memory: the shrunk linear fit) is the plain candidate.
+    """GM(1,N)'s estimate ('paper', 'equation' or 'output'), its a, ridge weight and held-out RMSE; the output
+    fitted with a = `shrunk` (no memory: the shrunk linear fit) is the plain candidate.
     `runs`: each run's running sums and filled target; `targets`: the measured target (NaN elsewhere);
     `pieces(sums, first, a)`: the block's output after its first call as design @ b + offset; `paper(runs)`:
     the paper's [a, b...] on some runs, or None where not admissible; `background(target)`: z1(k)."""
@@ -130,7 +133,8 @@ def gm1n(runs: list[tuple[np.ndarray, np.ndarray]], targets: list[np.ndarray], g
                 score(("equation", a, weight), k, a, b, zero[k], starts[k] * unit[k][1])
             for weight, (_, b) in zip(ridge.WEIGHTS, output.slopes(others, ridge.WEIGHTS, False, starts[k])):
                 score(("output", a, weight), k, a, b, zero[k], starts[k] * unit[k][1])
-    (estimate, a, weight), squared = choose(totals, count, lambda key: key[0] != "paper" or paper(runs) is not None,
-                                            lambda key: key[0] == "output" and key[1] == shrunk)
-    return estimate, a, weight, float(np.sqrt(squared / max(sum(int(m.sum()) for m in measured), 1)))
+    (estimate, a, weight), rmse = choose(totals, count, sum(int(m.sum()) for m in measured),
+                                         lambda key: key[0] != "paper" or paper(runs) is not None,
+                                         lambda key: key[0] == "output" and key[1] == shrunk)
+    return estimate, a, weight, rmse
 
