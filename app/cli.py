@@ -48,30 +48,20 @@ class _Parser(argparse.ArgumentParser):
         """As argparse, but an option the command does not have is named with the one it most likely meant, before
         any other complaint (a misspelled --temps is no missing --temps)."""
         args = list(sys.argv[1:] if args is None else args)
-        commands = next((a.choices for a in self._actions if isinstance(a, argparse._SubParsersAction)), {})
-        at = next((k for k, word in enumerate(args) if word in commands), None)
+        at = next((k for k, word in enumerate(args) if word in self._commands()), None)
         if at is not None and "--help" not in args and "-h" not in args:
-            command = commands[args[at]]
+            command = self._commands()[args[at]]
             words = args[at + 1:]
             words = words[:words.index("--")] if "--" in words else words  # after '--' every word is a value
-            unknown = [w for w in words if w.startswith("--") and w.split("=", 1)[0] not in command._option_string_actions]
-            if unknown:
-                hints = "; ".join(h for h in (_suggestion(w, command) for w in unknown) if h)
-                command.error(f"unrecognized arguments: {' '.join(unknown)}" + (f" ({hints})" if hints else ""))
+            _refuse_unknown(command, [w for w in words if w.startswith("--")
+                                      and w.split("=", 1)[0] not in command._option_string_actions])
         found, extras = self.parse_known_args(args, namespace)
-        if extras:
-            command = self._subcommand(found)
-            hints = [_suggestion(word, command) for word in extras if word.startswith("-")]
-            said = "; ".join(h for h in hints if h)
-            (command or self).error(f"unrecognized arguments: {' '.join(extras)}" + (f" ({said})" if said else ""))
+        _refuse_unknown(self._commands().get(getattr(found, "command", None), self), extras)
         return found
 
-    def _subcommand(self, found) -> argparse.ArgumentParser | None:
-        chosen = getattr(found, "command", None)
-        for action in self._actions:
-            if isinstance(action, argparse._SubParsersAction) and chosen in action.choices:
-                return action.choices[chosen]
-        return None
+    def _commands(self) -> dict:
+        """The subcommands' parsers by name (none for a subcommand's own parser)."""
+        return next((a.choices for a in self._actions if isinstance(a, argparse._SubParsersAction)), {})
 
     def parse_known_args(self, args=None, namespace=None):
         """A value that starts with '-' but is a number or a list of numbers (`--temp-range -40,150`, as --help
@@ -94,10 +84,15 @@ RELATED = (("--temps", "--candidates"), ("--candidates", "--temps"), ("--input",
            ("--output", "-o"), ("--out", "-o"), ("--probe-minutes", "--probe-every"), ("--kind", "--model"))
 
 
-def _suggestion(word: str, parser: argparse.ArgumentParser | None) -> str:
+def _refuse_unknown(parser: argparse.ArgumentParser, words: list[str]) -> None:
+    """The words `parser` has no use for, refused in one line with the options they most likely meant."""
+    if words:
+        hints = "; ".join(h for h in (_suggestion(w, parser) for w in words if w.startswith("-")) if h)
+        parser.error(f"unrecognized arguments: {' '.join(words)}" + (f" ({hints})" if hints else ""))
+
+
+def _suggestion(word: str, parser: argparse.ArgumentParser) -> str:
     """'did you mean --X?' for an option `word` the command lacks: a related spelling, else the closest."""
-    if parser is None:
-        return ""
     import difflib
     name = word.split("=", 1)[0]
     options = [o for o in parser._option_string_actions if o.startswith("--")]
