@@ -248,7 +248,8 @@ def _against_trace(args: argparse.Namespace) -> int:
     if args.resample:
         raise UserError("--resample takes raw data onto a model's cycle (--model); a PLC trace (--expect) is recorded "
                         "on the block's cycle already")
-    table = read_table(args.data, args.time or "time_s", decimal=args.decimal)
+    time_column = args.time or "time_s"
+    table = read_table(args.data, time_column, decimal=args.decimal)
     expect = {}
     for item in args.expect:
         output, sep, column = item.partition("=")
@@ -256,8 +257,8 @@ def _against_trace(args: argparse.Namespace) -> int:
         if output.upper() in {k.upper() for k in expect}:
             raise UserError(f"--expect names output {output!r} twice; give each output one column")
         expect[output] = column if sep else item
-    report = verify_against_trace(args.block, table, expect, args.inputs, args.time or "time_s", args.engine)
-    said = _written_outputs(args, report, table, args.time or "time_s")
+    report = verify_against_trace(args.block, table, expect, args.inputs, time_column, args.engine)
+    said = _written_outputs(args, report, table, time_column)
     return _result(args, report.text() + said, report.ok, lambda: {**verify_document(report), **_outputs_named(args)})
 
 
