@@ -6,8 +6,8 @@ from typing import Callable
 
 import numpy as np
 
-from thermoplc.recordings.timestamps import looks_dated, seconds_since_first
 from thermoplc.base.errors import UserError
+from thermoplc.recordings.timestamps import looks_dated, seconds_since_first
 from thermoplc.recordings.units import (conversion as unit_conversion, is_units_row as units_row, named_unit,
                                         time_unit_problem, unit_key)
 
@@ -23,10 +23,20 @@ class Layout:
         self.units: list[str] | None = None
         self.units_line = 0
         self.dated: int | None = None  # the time column's index when it holds date-times
-        self.checked = False  # whether the first row's time cell was looked at
+        self.rows = 0  # data lines seen, the units row included
         self.zoned = False  # whether the date-times carry their UTC offset
         self.cells: list[str] = []
         self.lines: list[int] = []
+
+    def row(self, line: int, text: str) -> str | None:
+        """A data line as the number parser is to read it (a date-time cell set aside, 0 in its place); None for the
+        units row. The first line may be the units row; the first row of numbers says whether the time is dated."""
+        self.rows += 1
+        if self.rows == 1 and self.units_in(line, text):
+            return None
+        if self.rows == (2 if self.units is not None else 1):
+            self.dated = self.dated_column(line, text)
+        return self.take_time(line, text) if self.dated is not None else text
 
     def units_in(self, line: int, text: str) -> bool:
         """Whether the first data line is a units row (kept)."""

@@ -393,12 +393,9 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
                     numeric = lambda cell: _cell_value(cell.replace(",", ".") if comma_decimal else cell) is not None
                     layout = Layout(path, header, delimiter, time_column, numeric,
                                     lambda at, written: csv_fields(path, at, written, delimiter))
-                    if layout.units_in(line, text):
-                        continue
-                if not layout.checked:
-                    layout.dated, layout.checked = layout.dated_column(line, text), True
-                if layout.dated is not None:
-                    text = layout.take_time(line, text)
+                text = layout.row(line, text)
+                if text is None:  # the units row
+                    continue
                 text_lines.append(text)
                 numbers.append(line)
                 if len(text_lines) == CHUNK_ROWS:
