@@ -50,6 +50,13 @@ def _bits(model):
     return {k: v["f32"] for k, v in model["coefficients"].items()}
 
 
+def _refused(folder, name: str, text: str, time: str, message: str) -> None:
+    """A file of `text` read with time column `time` is refused with `message` (a regular expression)."""
+    (folder / name).write_text(text)
+    with pytest.raises(UserError, match=message):
+        read_table(folder / name, time)
+
+
 def test_iso_dotted_and_units_row_exports_fit_generate_and_verify_to_the_seconds_files_model(tmp_path, fl):
     header, rows = fl
     (tmp_path / "seconds.csv").write_text("\n".join([",".join(header), *map(",".join, rows)]) + "\n")
@@ -99,15 +106,11 @@ def test_slashed_dates_are_read_in_the_order_the_file_shows_and_refused_when_it_
     path = tmp_path / "us.csv"
     path.write_text("time,T1\n03/12/2024 11:59:50 PM,1\n03/13/2024 12:00:00 AM,2\n")
     np.testing.assert_array_equal(read_table(path, "time").columns["time"], [0.0, 10.0])
-    both = tmp_path / "both.csv"
-    both.write_text("time,T1\n03/01/2024 08:00:00,1\n03/01/2024 08:00:10,2\n")
-    with pytest.raises(UserError, match=r"both.csv:2: column 'time': '03/01/2024 08:00:00' reads as day first and "
-                                         r"as month first .* ISO 8601"):
-        read_table(both, "time")
-    mixed = tmp_path / "mixed.csv"
-    mixed.write_text("time,T1\n13/01/2024 08:00:00,1\n01/13/2024 08:00:10,2\n")
-    with pytest.raises(UserError, match=r"mixed.csv:3: .*day first at line 2 and month first at line 3"):
-        read_table(mixed, "time")
+    _refused(tmp_path, "both.csv", "time,T1\n03/01/2024 08:00:00,1\n03/01/2024 08:00:10,2\n", "time",
+             r"both.csv:2: column 'time': '03/01/2024 08:00:00' reads as day first and "
+             r"as month first .* ISO 8601")
+    _refused(tmp_path, "mixed.csv", "time,T1\n13/01/2024 08:00:00,1\n01/13/2024 08:00:10,2\n", "time",
+             r"mixed.csv:3: .*day first at line 2 and month first at line 3")
 
 
 @pytest.mark.parametrize("cell", ["#N/A", "", "NaN", "---"])
@@ -123,10 +126,8 @@ def test_a_date_time_column_not_named_time_s_is_suggested_and_a_date_after_numbe
     path.write_text("Timestamp,T1\n2024-03-01 08:00:00,1\n2024-03-01 08:00:15,2\n")
     with pytest.raises(UserError, match=r"no time column 'time_s' \(set it with --time: --time Timestamp\)"):
         read_table(path)
-    broken = tmp_path / "broken.csv"
-    broken.write_text("t,T1\n2024-03-01 08:00:00,1\n15,2\n")
-    with pytest.raises(UserError, match=r"broken.csv:3: column 't': expected a date-time written as the first row's"):
-        read_table(broken, "t")
+    _refused(tmp_path, "broken.csv", "t,T1\n2024-03-01 08:00:00,1\n15,2\n", "t",
+             r"broken.csv:3: column 't': expected a date-time written as the first row's")
 
 
 def test_units_in_column_names_keep_their_meaning_in_block_names():
@@ -152,34 +153,24 @@ def test_units_are_converted_by_dimension_and_a_name_that_keeps_the_old_unit_is_
     path.write_text("time,F,count,E\ns,F,C,um\n0,1.5,3,0.5\n10,2.5,4,0.75\n")
     table = read_table(path, "time")  # F (a force?) and C (a count?) are not guessed to be temperatures
     assert table.columns["F"].tolist() == [1.5, 2.5] and table.columns["count"].tolist() == [3.0, 4.0]
-    minutes = tmp_path / "m.csv"
-    minutes.write_text("time,T1\nm,°C\n0,20\n1,21\n")
-    with pytest.raises(UserError, match=r"m.csv:2:1: the units row says 'm' for the time column 'time': its unit 'm' "
-                                         r"is not a time; expected s, ms, min, h or d"):
-        read_table(minutes, "time")
-    named = tmp_path / "named.csv"
-    named.write_text("time,ch3 [mm],t8_K\ns,mm,K\n0,0.001,293.15\n10,0.002,294.15\n")
-    with pytest.raises(UserError, match=r"named.csv:2:2: column 'ch3 \[mm\]' is converted from mm by the units row, "
-                                         r"but its name says mm"):
-        read_table(named, "time")
+    _refused(tmp_path, "m.csv", "time,T1\nm,°C\n0,20\n1,21\n", "time",
+             r"m.csv:2:1: the units row says 'm' for the time column 'time': its unit 'm' "
+             r"is not a time; expected s, ms, min, h or d")
+    _refused(tmp_path, "named.csv", "time,ch3 [mm],t8_K\ns,mm,K\n0,0.001,293.15\n10,0.002,294.15\n", "time",
+             r"named.csv:2:2: column 'ch3 \[mm\]' is converted from mm by the units row, "
+             r"but its name says mm")
 
 
 def test_edge_date_times_read_or_refused_with_the_reason(tmp_path):
     path = tmp_path / "hour.csv"
     path.write_text("t,T1\n2024-03-01 8:59:50,1\n2024-03-01 9:00:00,2\n")  # one-digit hours, as Excel writes them
     np.testing.assert_array_equal(read_table(path, "t").columns["t"], [0.0, 10.0])
-    same = tmp_path / "same.csv"
-    same.write_text("t,T1\n2024-03-01T08:00:00Z,1\n2024-03-01T08:00:00Z,2\n")
-    with pytest.raises(UserError, match=r"same.csv:3: column 't': the same time as the row before"):
-        read_table(same, "t")
-    back = tmp_path / "back.csv"
-    back.write_text("t,T1\n2024-03-01T08:00:00Z,1\n2024-03-01T07:00:00Z,2\n")
-    with pytest.raises(UserError, match=r"back.csv:3: .*goes back 3600 s here \(a logger reset or rows out of order\); "
-                                         r"expected times that increase$"):
-        read_table(back, "t")
-    split = tmp_path / "split.csv"
-    split.write_text("Datum;Uhrzeit;T1\n01.03.2024;08:00:00;20,5\n01.03.2024;08:00:10;20,6\n")
-    with pytest.raises(UserError, match=r"split.csv:2:1: column 'Datum': expected a number, found '01.03.2024' \(a date "
-                                         r"or a clock time: give the time column as --time COLUMN; a date and a time in "
-                                         r"two columns are not read yet"):
-        read_table(split, "Uhrzeit")
+    _refused(tmp_path, "same.csv", "t,T1\n2024-03-01T08:00:00Z,1\n2024-03-01T08:00:00Z,2\n", "t",
+             r"same.csv:3: column 't': the same time as the row before")
+    _refused(tmp_path, "back.csv", "t,T1\n2024-03-01T08:00:00Z,1\n2024-03-01T07:00:00Z,2\n", "t",
+             r"back.csv:3: .*goes back 3600 s here \(a logger reset or rows out of order\); "
+             r"expected times that increase$")
+    _refused(tmp_path, "split.csv", "Datum;Uhrzeit;T1\n01.03.2024;08:00:00;20,5\n01.03.2024;08:00:10;20,6\n", "Uhrzeit",
+             r"split.csv:2:1: column 'Datum': expected a number, found '01.03.2024' \(a date "
+             r"or a clock time: give the time column as --time COLUMN; a date and a time in "
+             r"two columns are not read yet")
