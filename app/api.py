@@ -10,6 +10,8 @@ objects. Everything else in the package is internal and may change.
     report = verify("ThermalComp.scl", model, table)
     assert report.ok                            # bit-exact on every call of the recording
 
+`read_table(path, "Zeit", reading=Reading(gaps="drop", time_format="day-first"))` reads a logger export as
+`fit --time Zeit --gaps drop --time-format day-first` does (a model fitted on it records how).
 `diff(old, new, table)` compares two blocks (a table adds their behaviour on it); `diagnose(request,
 "diagnosed.json")` names the physical effects a lumped simulation misses (diagnosis/command.py).
 A refusal is a `thermoplc.base.errors.UserError` whose text names the file and what was expected.
@@ -28,13 +30,14 @@ from thermoplc.generator.ir import Identity
 from thermoplc.fitting.options_read import refuse_roles_not_read, refuse_settings_not_read
 from thermoplc.models.modelfile import Model, load_model
 from thermoplc.models.safety import Limits
+from thermoplc.recordings.reading import Reading
 from thermoplc.recordings.table import Table, read_table
 from thermoplc.pipeline import Generated, generate as _generate
 from thermoplc.verifier.diff import BlockDiff, diff_blocks
 from thermoplc.verifier.replay import Report, verify_against_model
 
 __all__ = ["FitRequest", "fit", "generate", "verify", "diff", "diagnose", "DiagnoseRequest", "Generated",
-           "Limits", "Model", "load_model", "read_table", "Table", "Report", "BlockDiff"]
+           "Limits", "Model", "load_model", "read_table", "Reading", "Table", "Report", "BlockDiff"]
 
 
 def _expect(value, types: type | tuple[type, ...], argument: str, what: str) -> None:

@@ -116,14 +116,14 @@ def run(request: DiagnoseRequest, model_path: str, json_path: str | None, report
     runs = run_list(list(request.data) if request.data is not None else None, request.runs_table)
     inputs = [*runs.paths, *([runs.table] if runs.table else []), *([request.baseline] if request.baseline else [])]
     check_outputs({"model_path": model_path, "json_path": json_path}, True, inputs)  # never onto an input
-    campaign = read_campaign(runs, request.time_column, request.decimal, probed=(request.target,),
+    campaign = read_campaign(runs, request.time_column, request.reading, probed=(request.target,),
                              held=request.held_target, resampling=request.resampling)
     parts, dt = parts_of(campaign, request)
     tries = None
     if scheduler:
         from thermoplc.base.cluster import connect
         from thermoplc.diagnosis.remote import OnCluster
-        read_again = source_of(campaign, runs, request.time_column, request.decimal, (request.target,),
+        read_again = source_of(campaign, runs, request.time_column, request.reading, (request.target,),
                                request.held_target, request.resampling)
         tries = OnCluster(connect(scheduler), read_again, request)
     try:

@@ -16,6 +16,7 @@ from thermoplc.fitting.fit import common_sample_period, runs_named
 from thermoplc.fitting.leaks import refuse_leaks, refuse_non_temperatures
 from thermoplc.physics.primitives import Series
 from thermoplc.recordings.campaign import Campaign
+from thermoplc.recordings.reading import Reading
 from thermoplc.recordings.resample import Resampling
 from thermoplc.recordings.table import Table
 
@@ -39,7 +40,7 @@ class DiagnoseRequest:
     train_rows: int | None = None
     time_column: str = "time_s"
     block_name: str = "ThermalComp"
-    decimal: str = "auto"
+    reading: Reading = Reading()  # --decimal, --gaps, --time-format
     structure_lag: bool = True
     runs_table: str | None = None  # --runs TABLE
     train_runs: int | None = None  # a campaign: its first N runs train, the others are held out
@@ -88,8 +89,8 @@ def request_problem(request: DiagnoseRequest) -> str | None:
         return "--train-until and --train-rows: give one of the two"
     if request.data is not None and not request.data:
         return "--data: an empty tuple; expected the recordings or folders of the runs"
-    if request.decimal not in ("auto", ".", ","):
-        return f"--decimal: expected one of auto, ., ',', found {request.decimal!r}"
+    if not isinstance(request.reading, Reading):
+        return f"reading: expected a thermoplc.recordings.reading.Reading, found {request.reading!r:.60}"
     naming = identifier_problem(request.block_name) if isinstance(request.block_name, str) else "is no text"
     if naming:
         return f"--name: block name {request.block_name!r} {naming}"

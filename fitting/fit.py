@@ -155,9 +155,12 @@ def sample_period(table: Table, time_column: str, cycle: str = "SECONDS") -> flo
     dt = float(np.median(steps))
     bad = np.nonzero(np.abs(steps - dt) > SAMPLING_TOLERANCE * dt)[0]
     if len(bad):
-        raise UserError(f"{table.path}:{table.lines[bad[0] + 1]}: column {time_column!r}: step {steps[bad[0]]:g} s, expected "
-                        f"{dt:g} s ±{SAMPLING_TOLERANCE:.0%}; the block runs on a fixed cycle: give --resample {cycle} "
-                        f"(the block's cycle) to take the data onto it")
+        at = bad[0]
+        dropped = (" (--gaps drop dropped the rows between)" if table.reading.gaps == "drop"
+                   and table.lines[at + 1] - table.lines[at] > 1 else "")
+        raise UserError(f"{table.path}:{table.lines[at + 1]}: column {time_column!r}: step {steps[at]:g} s{dropped}, "
+                        f"expected {dt:g} s ±{SAMPLING_TOLERANCE:.0%}; the block runs on a fixed cycle: give --resample "
+                        f"{cycle} (the block's cycle) to take the data onto it")
     return dt
 
 
@@ -319,7 +322,7 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
     model = Model(
         kind=request.kind, block_name=request.block_name, inputs=tuple(signals), target=target,
         time_column=time_column, sample_period_s=dt, coefficients=coefficients, settings=settings,
-        training=training[0] if len(training) == 1 else {"batches": training}, fit=log,
+        training=training[0] if len(training) == 1 else {"batches": training}, fit=log, reading=tables[0].reading,
     )
     return with_evidence(model, tables, n_train)
 

@@ -14,6 +14,7 @@ from thermoplc.base.version import __version__
 from thermoplc.models.envelope import Envelope
 from thermoplc.models.probing import Fusion
 from thermoplc.models.start import Start
+from thermoplc.recordings.reading import Reading
 from thermoplc.recordings.resample import Resampling
 
 if TYPE_CHECKING:  # the check reads the kinds' guards; the model only carries it
@@ -63,6 +64,7 @@ class Model:
     resample: Resampling | None = None  # the rule that took raw logger data onto the cycle (recordings/resample.py)
     plausibility: "Plausibility | None" = None  # what each temperature should read from the others
     # (models/plausibility.py); None: fewer than two checked temperatures, or a file written before the check
+    reading: Reading = Reading()  # how the recordings' text was read (--decimal, --gaps, --time-format): verify's default
 
     def signals(self, role: str) -> tuple[Signal, ...]:
         """Inputs with this role; one input may hold several roles ('temperature,ambient')."""
@@ -103,6 +105,7 @@ def _document(m: Model) -> dict:
         **({"envelope": m.envelope.to_doc()} if m.envelope is not None else {}),
         **({"resample": m.resample.to_doc()} if m.resample is not None else {}),
         **({"plausibility": m.plausibility.to_doc()} if m.plausibility is not None else {}),
+        **({"reading": m.reading.to_doc()} if m.reading.to_doc() else {}),
         "training": m.training,
         "metrics": m.metrics,
         "fit": m.fit,

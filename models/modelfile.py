@@ -17,6 +17,7 @@ from thermoplc.models.probing import Fusion
 from thermoplc.models.envelope import Envelope
 from thermoplc.models.plausibility import Plausibility
 from thermoplc.models.start import Start
+from thermoplc.recordings.reading import Reading, reading_problem
 from thermoplc.recordings.resample import Resampling
 from thermoplc.base.binary32 import FLT_MAX, f32_hex, parse_f32_hex, ulp_distance
 from thermoplc.base.errors import UserError, unreadable
@@ -251,8 +252,21 @@ def _parse(doc, path: str) -> Model:
         start=Start.from_doc(doc["start"], path) if "start" in doc else None,
         envelope=Envelope.from_doc(doc["envelope"], path) if "envelope" in doc else None,
         resample=_resampling(doc, path, sample_period),
+        reading=_reading(doc, path),
     )
     return model
+
+
+def _reading(doc: dict, path: str) -> Reading:
+    """How the model's data were read (fit --decimal, --gaps, --time-format), checked as the options are."""
+    found = doc.get("reading", {})
+    if not isinstance(found, dict) or set(found) - {"decimal", "gaps", "time_format"}:
+        raise UserError(f"{path}: field 'reading': expected an object of decimal, gaps and time_format, found {found!r}")
+    reading, problem = reading_problem(found.get("decimal", "auto"), found.get("gaps", "refuse"),
+                                       found.get("time_format", "auto"))
+    if problem:
+        raise UserError(f"{path}: field 'reading': {problem.split(': ', 1)[1]}")
+    return reading
 
 
 def _resampling(doc: dict, path: str, sample_period: float) -> Resampling | None:

@@ -20,6 +20,7 @@ import numpy as np
 
 from thermoplc.base.errors import ClusterError, UserError, unreadable
 from thermoplc.base.locations import is_url, listing, name as name_of, open_binary
+from thermoplc.recordings.reading import Reading
 from thermoplc.recordings.resample import Resampling, resample
 from thermoplc.recordings.table import Table, read_table
 
@@ -224,7 +225,7 @@ def held_to_probed(table: Table, column: str) -> Table:
     return replace(table, columns={**table.columns, column: np.where(measured, values, np.nan)})
 
 
-def read_campaign(runs: RunList, time_column: str, decimal: str = "auto", probed: tuple[str, ...] = (),
+def read_campaign(runs: RunList, time_column: str, reading: Reading = Reading(), probed: tuple[str, ...] = (),
                   held: bool = False, progress=None, resampling: Resampling | None = None) -> Campaign:
     """Every run read once; the `probed` columns may be empty between measurements (or, `held`, repeat the
     last measurement: only changes count); with `resampling` each run is taken onto the block's cycle first
@@ -232,7 +233,7 @@ def read_campaign(runs: RunList, time_column: str, decimal: str = "auto", probed
     read = []
     for k, (path, values) in enumerate(zip(runs.paths, runs.attributes)):
         try:
-            table = read_table(path, time_column, progress, decimal, sparse=probed)
+            table = read_table(path, time_column, progress, reading, sparse=probed)
             if resampling is not None:
                 raw_rows, table = table.rows, resample(table, time_column, resampling, tuple(probed), held)
                 if table.rows < MIN_CALLS:
@@ -263,7 +264,7 @@ class CampaignSource:
     runs: RunList
     folder: str  # the reader's working folder: relative paths are taken from it
     time_column: str
-    decimal: str
+    reading: Reading
     probed: tuple[str, ...]
     held: bool
     sha256: tuple[str, ...]
@@ -272,7 +273,7 @@ class CampaignSource:
     @property
     def key(self) -> tuple:
         """What the tables read from this source depend on (a task reads no run's attributes: the client groups)."""
-        return (self.runs.paths, self.folder, self.time_column, self.decimal, self.probed, self.held, self.sha256,
+        return (self.runs.paths, self.folder, self.time_column, self.reading, self.probed, self.held, self.sha256,
                 self.resampling)
 
     def read(self) -> Campaign:
@@ -282,7 +283,7 @@ class CampaignSource:
         if _LAST_READ and _LAST_READ[0] == key:
             return _LAST_READ[1]
         where = replace(self.runs, paths=tuple(p if is_url(p) else str(Path(self.folder) / p) for p in self.runs.paths))
-        found = read_campaign(where, self.time_column, self.decimal, self.probed, self.held, resampling=self.resampling)
+        found = read_campaign(where, self.time_column, self.reading, self.probed, self.held, resampling=self.resampling)
         runs = []
         for run, given, digest in zip(found.runs, self.runs.paths, self.sha256):
             if run.table.sha256 != digest:
@@ -298,11 +299,11 @@ class CampaignSource:
 _LAST_READ: list = []
 
 
-def source_of(campaign: Campaign, runs: RunList, time_column: str, decimal: str = "auto",
+def source_of(campaign: Campaign, runs: RunList, time_column: str, reading: Reading = Reading(),
               probed: tuple[str, ...] = (), held: bool = False, resampling: Resampling | None = None) -> CampaignSource:
     """How `campaign` was read from `runs` (read_campaign's arguments), for a task that reads it elsewhere."""
     if "-" in runs.paths:
         raise UserError("--data -: a run read from standard input cannot be read again by a cluster's workers; "
                         "give it as a file")
-    return CampaignSource(runs, str(Path.cwd()), time_column, decimal, tuple(probed), held,
+    return CampaignSource(runs, str(Path.cwd()), time_column, reading, tuple(probed), held,
                           tuple(t.sha256 for t in campaign.tables), resampling)

@@ -19,7 +19,9 @@ import numpy as np
 from thermoplc.base.binary32 import FLT_MAX, f32_from_bits
 from thermoplc.base.errors import UserError, unreadable
 from thermoplc.base.locations import name as location_name, open_binary
+from thermoplc.recordings.gaps import apply_gaps
 from thermoplc.recordings.layout import Layout
+from thermoplc.recordings.reading import Reading
 from thermoplc.recordings.timestamps import looks_dated
 
 
@@ -43,6 +45,7 @@ class Table:
     sha256: str
     lines: np.ndarray  # line number in the file of each row (for .npz: the row number)
     read_notes: tuple[str, ...] = ()  # what the reader converted (date-times, a units row), for the user to see
+    reading: Reading = Reading()  # how the text was read (a model fitted on it records this)
 
     @property
     def rows(self) -> int:
@@ -125,9 +128,9 @@ NUMBER = re.compile(r"\s*[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\s*$|\s*[+-]?(nan|
 BINARY32_BITS = re.compile(r"\s*(?:(?:DW#)?16#|0x)([0-9A-F]{4})_?([0-9A-F]{4})\s*$", re.ASCII | re.IGNORECASE)
 
 
-DATE_HINT = (" (a date or a clock time: give the time column as --time COLUMN; a date and a time in two columns "
-             "are not read yet: join them into one column in the export)")
-GAP_HINT = " (a missing value: thermoplc fills no gaps; remove the row or fill the cell in the export)"
+DATE_HINT = (" (a date or a clock time: give the time column as --time COLUMN; a date column beside a clock-time "
+             "column is joined to it)")
+GAP_HINT = " (a missing value: give --gaps drop to drop its row, or --gaps hold:30s to hold the value before it)"
 MISSING = frozenset(("", "#n/a", "n/a", "#nv", "na", "nan", "null", "none", "---", "--", "-", "#value!", "#div/0!"))
 
 
@@ -149,10 +152,11 @@ def csv_fields(path: str, line: int, text: str, delimiter: str) -> list[str]:
 
 
 def _parse_cells(path: str, header: list[str], text_lines: list[str], numbers: list[int], delimiter: str,
-                 comma_decimal: bool, sparse: frozenset = frozenset()) -> np.ndarray:
-    """Rows of numbers; the fast C parser first, the careful one for the message when it fails. An empty
-    cell of a `sparse` column (a probed target between its measurements) is NaN; anywhere else, and a
-    NaN written out anywhere, is refused."""
+                 comma_decimal: bool, sparse: frozenset = frozenset(), gaps: bool = False
+                 ) -> tuple[np.ndarray, np.ndarray | None]:
+    """Rows of numbers, and where a cell was missing (`gaps`: the gap rule decides; else such a cell is refused).
+    The fast C parser first, the careful one for the message when it fails. An empty cell of a `sparse` column (a
+    probed target between its measurements) is NaN; anywhere else, and a NaN written out anywhere, is a gap."""
     written = text_lines
     if comma_decimal:
         _refuse_points(path, header, written, numbers, delimiter)
@@ -167,14 +171,17 @@ def _parse_cells(path: str, header: list[str], text_lines: list[str], numbers: l
         except ValueError:
             block = None
     if block is None or block.shape[1] != len(header):
-        block, empty = _parse_cells_one_by_one(path, header, written, numbers, delimiter, sparse, comma_decimal)
-    bad = np.argwhere(~np.isfinite(block) & ~empty)
-    if len(bad):
-        r, c = bad[0]
+        block, empty = _parse_cells_one_by_one(path, header, written, numbers, delimiter, sparse, comma_decimal, gaps)
+    bad = ~np.isfinite(block) & ~empty
+    missing = np.zeros(block.shape, bool) if gaps else None
+    for r, c in np.argwhere(bad):
         cell = csv_fields(path, numbers[r], written[r], delimiter)[c]
+        if gaps and cell.strip().lower() in MISSING:
+            missing[r, c] = True
+            continue
         raise UserError(f"{path}:{numbers[r]}:{c + 1}: column {header[c]!r}: expected a finite number, "
                         f"found {cell.strip()!r}{GAP_HINT if cell.strip().lower() in MISSING else ''}")
-    return block
+    return block, missing
 
 
 def _refuse_points(path: str, header: list[str], text_lines: list[str], numbers: list[int], delimiter: str) -> None:
@@ -195,9 +202,11 @@ def _refuse_points(path: str, header: list[str], text_lines: list[str], numbers:
 
 
 def _parse_cells_one_by_one(path: str, header: list[str], text_lines: list[str], numbers: list[int],
-                            delimiter: str, sparse: frozenset, comma_decimal: bool) -> tuple[np.ndarray, np.ndarray]:
+                            delimiter: str, sparse: frozenset, comma_decimal: bool, gaps: bool = False
+                            ) -> tuple[np.ndarray, np.ndarray]:
     """The rows the C parser refused: binary32 bit patterns are read here, an empty cell of a sparse column
-    is NaN (and marked in the second array), anything else is named as written."""
+    is NaN (and marked in the second array), a missing value NaN when `gaps` (the gap rule decides), anything
+    else is named as written."""
     block = np.empty((len(text_lines), len(header)))
     empty = np.zeros(block.shape, bool)
     for r, (line, text) in enumerate(zip(numbers, text_lines)):
@@ -210,6 +219,8 @@ def _parse_cells_one_by_one(path: str, header: list[str], text_lines: list[str],
                 block[r, c], empty[r, c] = np.nan, True
                 continue
             value = _cell_value(cell.replace(",", ".") if comma_decimal else cell)
+            if value is None and gaps and cell.strip().lower() in MISSING:
+                value = np.nan
             if value is None:
                 shown = cell.strip(" \t") if len(cell) <= 40 else cell.strip(" \t")[:30] + f"... ({len(cell)} characters)"
                 hint = " (a REAL's 32 bits are 8 hexadecimal digits: 16#3F800000 or 0x3F800000)" \
@@ -233,7 +244,7 @@ def bundled_hint(path: str) -> str:
     return f" (thermoplc ships a copy: {shipped}; copy it here with its LICENSE, or give that path)"
 
 
-def _read_npz(path: str, time_column: str | None, sparse: frozenset = frozenset()) -> Table:
+def _read_npz(path: str, time_column: str | None, sparse: frozenset = frozenset(), gaps: bool = False) -> Table:
     """Columns stored with numpy.savez: the fast way in for very long recordings."""
     try:
         with open_binary(path) as f:
@@ -266,9 +277,10 @@ def _read_npz(path: str, time_column: str | None, sparse: frozenset = frozenset(
         if a.dtype.kind not in "biuf":  # bool: the natural type of a recorded Enable or Reset
             raise UserError(f"{path}: column {name!r} holds {a.dtype}, expected numbers")
         columns[name] = a.astype(np.float64)
-        bad = np.nonzero(~np.isfinite(columns[name]) & ~(np.isnan(columns[name]) & (name in sparse)))[0]
+        bad = np.nonzero(~np.isfinite(columns[name]) & ~(np.isnan(columns[name]) & (name in sparse or gaps)))[0]
         if len(bad):
-            raise UserError(f"{path}: column {name!r} row {bad[0] + 1}: expected a finite number, found {a[bad[0]]}")
+            raise UserError(f"{path}: column {name!r} row {bad[0] + 1}: expected a finite number, found {a[bad[0]]}"
+                            f"{GAP_HINT if np.isnan(columns[name][bad[0]]) else ''}")
     if not len(next(iter(columns.values()))):
         raise UserError(f"{path}: no data rows")
     table = Table(path, columns, sha256_of(path), np.arange(1, len(next(iter(columns.values()))) + 1))
@@ -345,18 +357,19 @@ def _header(path: str, first: str, decimal: str) -> tuple[str, bool, list[str]]:
     return delimiter, comma_decimal, header
 
 
-def read_table(path: str | Path, time_column: str | None = "time_s", progress=None, decimal: str = "auto",
+def read_table(path: str | Path, time_column: str | None = "time_s", progress=None, reading: Reading = Reading(),
                sparse: tuple[str, ...] = ()) -> Table:
-    """Read a CSV file with one header line (or a .npz of columns); every cell must be a finite
+    """Read a CSV file with one header line (or a .npz or .parquet of columns); every cell must be a finite
     number, but for the `sparse` columns (a probed target), whose empty cells (NaN in .npz/.parquet) read
-    as NaN. ',' separated with decimal points, or ';' separated with decimal commas (detected, or
-    decimal=','). The text is streamed in chunks, so memory stays near the size of the numbers."""
+    as NaN, and the missing cells `reading.gaps` drops or holds. ',' separated with decimal points, or ';'
+    separated with decimal commas (detected, or reading.decimal ','). The text is streamed in chunks, so memory
+    stays near the size of the numbers."""
     path = str(path)
     kind = stream_kind(path)
-    if kind == "npz":
-        return _read_npz(path, time_column, frozenset(sparse))
-    if kind == "parquet":
-        return _read_parquet(path, time_column, frozenset(sparse))
+    if kind in ("npz", "parquet"):
+        table = (_read_npz if kind == "npz" else _read_parquet)(path, time_column, frozenset(sparse),
+                                                               reading.gaps != "refuse")
+        return _with_gaps(table, time_column, reading, frozenset(sparse))
     digest = hashlib.sha256()
     try:
         raw = sys.stdin.buffer if path == "-" else open_binary(path)  # `--data -`: the CSV on standard input
@@ -364,13 +377,17 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
         raise UserError(f"{unreadable(path, exc)}{bundled_hint(path)}") from None
     path = "<stdin>" if path == "-" else path
     handle = io.TextIOWrapper(io.BufferedReader(_Hashing(raw, digest)), encoding="utf-8-sig", newline=None)
-    blocks, numbers_all = [], []
+    blocks, missing_all, numbers_all = [], [], []
+    gaps = reading.gaps != "refuse"
     text_lines, numbers = [], []
     line = 0
     layout = None  # the file's form, known at its first data line
 
     def flush() -> None:
-        blocks.append(_parse_cells(path, header, text_lines, numbers, delimiter, comma_decimal, frozenset(sparse)))
+        block, missing = _parse_cells(path, header, text_lines, numbers, delimiter, comma_decimal, frozenset(sparse),
+                                      gaps)
+        blocks.append(block)
+        missing_all.append(missing)
         numbers_all.append(np.asarray(numbers, np.int64))
 
     try:
@@ -381,7 +398,7 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
                 if handle.read(1):
                     raise UserError(f"{path}:1: the first line is blank; expected the header (the column names) there")
                 raise UserError(f"{path}: file is empty; expected a header line and data rows")
-            delimiter, comma_decimal, header = _header(path, first, decimal)
+            delimiter, comma_decimal, header = _header(path, first, reading.decimal)
             if time_column is not None:
                 _refuse_no_time(path, time_column, header)
             total = 0
@@ -392,7 +409,8 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
                 if layout is None:
                     numeric = lambda cell: _cell_value(cell.replace(",", ".") if comma_decimal else cell) is not None
                     layout = Layout(path, header, delimiter, time_column, numeric,
-                                    lambda at, written: csv_fields(path, at, written, delimiter))
+                                    lambda at, written: csv_fields(path, at, written, delimiter), reading,
+                                    lambda cell: gaps and cell.strip().lower() in MISSING)
                 text = layout.row(line, text)
                 if text is None:  # the units row
                     continue
@@ -414,10 +432,31 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
     blocks.clear()  # frees the chunks before the columns are copied out
     columns = {name: np.ascontiguousarray(values[:, i]) for i, name in enumerate(header)}
     del values
-    notes = layout.convert(columns)
-    table = Table(path, columns, digest.hexdigest(), np.concatenate(numbers_all), notes)
-    _check_time(table, time_column, header, dated=None if layout.dated is None else layout.zoned)
+    missing = {}
+    if gaps:
+        where = np.concatenate(missing_all)
+        missing = {name: where[:, i] for i, name in enumerate(header) if where[:, i].any()}
+    lines = np.concatenate(numbers_all)
+    notes = layout.convert(columns, lines)
+    missing = {name: where for name, where in missing.items() if name in columns}  # a joined date column is gone
+    if layout.dated is not None and np.isnan(columns[header[layout.dated]]).any():
+        missing[header[layout.dated]] = np.isnan(columns[header[layout.dated]])  # a missing date or clock half
+    columns, lines, gap_note = apply_gaps(path, columns, missing, lines, time_column, reading)
+    table = Table(path, columns, digest.hexdigest(), lines, notes + ((gap_note,) if gap_note else ()), reading)
+    _check_time(table, time_column, list(columns), dated=None if layout.dated is None else layout.zoned)
     return table
+
+
+def _with_gaps(table: Table, time_column: str | None, reading: Reading, sparse: frozenset) -> Table:
+    """A .npz or .parquet table under the gap rule: its NaN cells (but a sparse column's) are the missing ones."""
+    if reading.gaps == "refuse":
+        return table
+    missing = {name: np.isnan(v) for name, v in table.columns.items() if name not in sparse and np.isnan(v).any()}
+    columns, lines, note = apply_gaps(table.path, dict(table.columns), missing, table.lines, time_column, reading)
+    result = replace(table, columns=columns, lines=lines, read_notes=table.read_notes + ((note,) if note else ()),
+                     reading=reading)
+    _check_time(result, time_column, list(columns))
+    return result
 
 
 def write_table(columns: dict) -> str:
@@ -455,7 +494,7 @@ def columns_named(columns, name: str) -> list[str]:
     return spellings(columns, name)
 
 
-def _read_parquet(path: str, time_column: str | None, sparse: frozenset = frozenset()) -> Table:
+def _read_parquet(path: str, time_column: str | None, sparse: frozenset = frozenset(), gaps: bool = False) -> Table:
     """Columns of a Parquet file (pyarrow): numbers only, no empty cells but in the `sparse` columns."""
     try:
         import pyarrow.parquet as pq
@@ -475,16 +514,18 @@ def _read_parquet(path: str, time_column: str | None, sparse: frozenset = frozen
     columns = {}
     for name in table.column_names:
         column = table.column(name)
-        if column.null_count and name not in sparse:
+        if column.null_count and name not in sparse and not gaps:
             row = int(np.flatnonzero(column.is_null().to_numpy(zero_copy_only=False))[0])
-            raise UserError(f"{path}: column {name!r} row {row + 1}: expected a finite number, found an empty cell")
+            raise UserError(f"{path}: column {name!r} row {row + 1}: expected a finite number, found an empty cell"
+                            f"{GAP_HINT}")
         a = column.to_numpy()
         if a.dtype.kind not in "iuf":
             raise UserError(f"{path}: column {name!r} holds {column.type}, expected numbers")
         columns[name] = a.astype(np.float64)
-        bad = np.nonzero(~np.isfinite(columns[name]) & ~(np.isnan(columns[name]) & (name in sparse)))[0]
+        bad = np.nonzero(~np.isfinite(columns[name]) & ~(np.isnan(columns[name]) & (name in sparse or gaps)))[0]
         if len(bad):
-            raise UserError(f"{path}: column {name!r} row {bad[0] + 1}: expected a finite number, found {a[bad[0]]!r}")
+            raise UserError(f"{path}: column {name!r} row {bad[0] + 1}: expected a finite number, found {a[bad[0]]!r}"
+                            f"{GAP_HINT if np.isnan(columns[name][bad[0]]) else ''}")
     result = Table(path, columns, sha256_of(path), np.arange(1, table.num_rows + 1))
     _check_time(result, time_column, list(columns))
     return result

@@ -108,7 +108,7 @@ def test_slashed_dates_are_read_in_the_order_the_file_shows_and_refused_when_it_
     np.testing.assert_array_equal(read_table(path, "time").columns["time"], [0.0, 10.0])
     _refused(tmp_path, "both.csv", "time,T1\n03/01/2024 08:00:00,1\n03/01/2024 08:00:10,2\n", "time",
              r"both.csv:2: column 'time': '03/01/2024 08:00:00' reads as day first and "
-             r"as month first .* ISO 8601")
+             r"as month first .* give --time-format day-first or --time-format month-first")
     _refused(tmp_path, "mixed.csv", "time,T1\n13/01/2024 08:00:00,1\n01/13/2024 08:00:10,2\n", "time",
              r"mixed.csv:3: .*day first at line 2 and month first at line 3")
 
@@ -117,7 +117,7 @@ def test_slashed_dates_are_read_in_the_order_the_file_shows_and_refused_when_it_
 def test_a_missing_cell_is_refused_by_line_and_column_saying_what_to_do(tmp_path, cell):
     path = tmp_path / "gap.csv"
     path.write_text(f"time_s,T1,T2\n0,1,2\n15,{cell},2\n")
-    with pytest.raises(UserError, match=r"gap.csv:3:2: column 'T1': .*a missing value: .*remove the row or fill"):
+    with pytest.raises(UserError, match=r"gap.csv:3:2: column 'T1': .*a missing value: give --gaps drop to drop its row, or --gaps hold:30s"):
         read_table(path)
 
 
@@ -170,7 +170,77 @@ def test_edge_date_times_read_or_refused_with_the_reason(tmp_path):
     _refused(tmp_path, "back.csv", "t,T1\n2024-03-01T08:00:00Z,1\n2024-03-01T07:00:00Z,2\n", "t",
              r"back.csv:3: .*goes back 3600 s here \(a logger reset or rows out of order\); "
              r"expected times that increase$")
-    _refused(tmp_path, "split.csv", "Datum;Uhrzeit;T1\n01.03.2024;08:00:00;20,5\n01.03.2024;08:00:10;20,6\n", "Uhrzeit",
-             r"split.csv:2:1: column 'Datum': expected a number, found '01.03.2024' \(a date "
-             r"or a clock time: give the time column as --time COLUMN; a date and a time in "
-             r"two columns are not read yet")
+    _refused(tmp_path, "clock.csv", "Uhrzeit;T1\n08:00:00;20,5\n08:00:10;20,6\n", "Uhrzeit",
+             r"clock.csv:2: column 'Uhrzeit': '08:00:00' is a clock time without a date; expected a date-time, or "
+             r"one date column beside it \(none found\)")
+    path = tmp_path / "split.csv"
+    path.write_text("Datum;Uhrzeit;T1\n01.03.2024;23:59:50;20,5\n02.03.2024;00:00:10;20,6\n")
+    table = read_table(path, "Uhrzeit")
+    assert list(table.columns) == ["Uhrzeit", "T1"] and table.columns["Uhrzeit"].tolist() == [0.0, 20.0]
+    assert table.read_notes[0] == "Datum + Uhrzeit: date-times read as seconds since 2024-03-01 23:59:50 (the first row)"
+
+
+def _seconds_file(tmp_path, header, rows):
+    (tmp_path / "seconds.csv").write_text("\n".join([",".join(header), *map(",".join, rows)]) + "\n")
+    return _fit(tmp_path, "seconds.csv", "seconds.json", time=())[0]
+
+
+def test_day_first_excel_days_and_a_date_beside_a_clock_fit_to_the_seconds_files_model(tmp_path, fl):
+    header, rows = fl
+    plain = _seconds_file(tmp_path, header, rows)
+    moment = lambda s: START + timedelta(seconds=s)
+    slashed = _export(tmp_path / "slashed.csv", header, rows, lambda s: moment(s).strftime("%d/%m/%Y %H:%M:%S"))
+    refused = thermoplc("fit", "--data", slashed.name, "--time", "timestamp", "--model", "mlr", "--target", "ch3_um",
+                        "--temps", "t5_C,t4_C", "--train-until", 15000, "-o", "x.json", cwd=tmp_path, check=2)
+    assert "slashed.csv:2: column 'timestamp': '01/03/2024 08:00:00' reads as day first and as month first" \
+        in refused.stderr and "give --time-format day-first" in refused.stderr
+    model, _ = _fit(tmp_path, slashed.name, "slashed.json", time=("--time", "timestamp", "--time-format", "day-first"))
+    assert _bits(model) == _bits(plain) and model["reading"] == {"time_format": "day-first"}
+    day = (START - datetime(1899, 12, 30)).days
+    excel = _export(tmp_path / "excel.csv", header, rows, lambda s: f"{day + (8 * 3600 + s) / 86400:.10f}")
+    model, result = _fit(tmp_path, excel.name, "excel.json", time=("--time", "timestamp", "--time-format", "excel"))
+    assert _bits(model) == _bits(plain)
+    assert "timestamp: Excel serial days read as seconds since 2024-03-01 08:00:00 (the first row)" in result.stderr
+    thermoplc("generate", "excel.json", "-o", "excel.scl", "--accept-unvalidated", cwd=tmp_path)
+    verdict = thermoplc("verify", "excel.scl", "--model", "excel.json", "--data", excel.name, cwd=tmp_path).stdout
+    assert verdict.startswith("bit-exact") and "read as the model file records: --time-format excel" in verdict
+    split = tmp_path / "split.csv"
+    split.write_text("\n".join([";".join(["Datum", "Zeit", *header[1:]]),
+                                *(";".join([moment(float(r[0])).strftime("%d.%m.%Y"),
+                                            moment(float(r[0])).strftime("%H:%M:%S"),
+                                            *(c.replace(".", ",") for c in r[1:])]) for r in rows)]) + "\n")
+    model, result = _fit(tmp_path, split.name, "split.json", time=("--time", "Zeit"))
+    assert _bits(model) == _bits(plain) and "Datum + Zeit: date-times read as seconds since" in result.stderr
+
+
+def test_missing_cells_are_held_or_dropped_as_told_counted_and_verify_reads_them_so_again(tmp_path, fl):
+    header, rows = fl
+    gapped = [list(r) for r in rows]
+    for k in (40, 41, 700):  # two cells in a row of t5_C (15 s each) and one in t4_C
+        gapped[k][header.index("t5_C" if k < 100 else "t4_C")] = "#N/A"
+    (tmp_path / "gaps.csv").write_text("\n".join([",".join(header), *map(",".join, gapped)]) + "\n")
+    refused = thermoplc("fit", "--data", "gaps.csv", "--model", "mlr", "--target", "ch3_um", "--temps", "t5_C,t4_C",
+                        "--train-until", 15000, "-o", "x.json", cwd=tmp_path, check=2)
+    column = header.index("t5_C") + 1
+    assert f"gaps.csv:42:{column}: column 't5_C': expected a number, found '#N/A' (a missing value: give --gaps drop" \
+        in refused.stderr
+    short = thermoplc("fit", "--data", "gaps.csv", "--gaps", "hold:15s", "--model", "mlr", "--target", "ch3_um",
+                      "--temps", "t5_C,t4_C", "--train-until", 15000, "-o", "x.json", cwd=tmp_path, check=2)
+    assert ("gaps.csv:43: column 't5_C': missing for 30 s since its last value at line 41, longer than --gaps "
+            "hold:15s holds (15 s)") in short.stderr
+    model, result = _fit(tmp_path, "gaps.csv", "held.json", time=("--gaps", "hold:30s"))
+    assert ("--gaps hold:30s: held 3 missing cells in 2 column(s) at their last value, for at most 30 s (the first at "
+            "line 42, column 't5_C')") in result.stderr
+    assert model["reading"] == {"gaps": "hold:30s"}
+    thermoplc("generate", "held.json", "-o", "held.scl", "--accept-unvalidated", cwd=tmp_path)
+    verdict = thermoplc("verify", "held.scl", "--model", "held.json", "--data", "gaps.csv", cwd=tmp_path).stdout
+    assert verdict.startswith("bit-exact") and "read as the model file records: --gaps hold:30s" in verdict
+    assert "--gaps hold:30s: held 3 missing cells" in verdict
+    dropped = thermoplc("fit", "--data", "gaps.csv", "--gaps", "drop", "--model", "mlr", "--target", "ch3_um",
+                        "--temps", "t5_C,t4_C", "--train-until", 15000, "-o", "x.json", cwd=tmp_path, check=2)
+    assert ("gaps.csv:44: column 'time_s': step 45 s (--gaps drop dropped the rows between), expected 15 s ±5%; the "
+            "block runs on a fixed cycle: give --resample") in dropped.stderr
+    model, result = _fit(tmp_path, "gaps.csv", "dropped.json", time=("--gaps", "drop", "--resample", "15"))
+    assert "--gaps drop: dropped 3 of 1,500 rows with a missing cell (the first at line 42, column 't5_C')" \
+        in result.stderr
+    assert model["reading"] == {"gaps": "drop"} and model["resample"]["period_s"] == 15

@@ -31,7 +31,7 @@ def _mapping(text: str, manifest: str, line: int, field: str) -> dict | None:
     return mapping
 
 
-def read_manifest(path: str, decimal: str = "auto", probe_every: int | Every | None = None,
+def read_manifest(path: str, reading: tuple = (), probe_every: int | Every | None = None,
                   resample_s: float | None = None) -> list[Pair]:
     try:
         with open(path, encoding="utf-8-sig", newline="") as f:
@@ -61,7 +61,7 @@ def read_manifest(path: str, decimal: str = "auto", probe_every: int | Every | N
         where = lambda p: str(base / p) if p and not Path(p).is_absolute() and not is_url(p) else p
         pairs.append(Pair(line, where(cell["block"]), where(cell["data"]), where(model) or None,
                           _mapping(expect, path, line, "expect"), _mapping(cell.get("inputs", ""), path, line, "inputs"),
-                          decimal=decimal, probe_every=probe_every, resample_s=resample_s))
+                          reading=reading, probe_every=probe_every, resample_s=resample_s))
     if not pairs:
         raise UserError(f"{path}: the manifest lists no pairs")
     return pairs

@@ -18,7 +18,7 @@ class Pair:
     expect: dict | None
     inputs: dict | None
     sha256: tuple[tuple[str, str], ...] = ()  # (file, digest) of each file a task run elsewhere must find
-    decimal: str = "auto"  # the data's decimal separator (--decimal)
+    reading: tuple = ()  # (option, value) of --decimal, --gaps, --time-format as given (recordings/reading.py::resolved)
     probe_every: int | Every | None = None  # a fused block on a full-rate target: a probing every N calls or a duration
     resample_s: float | None = None  # raw data taken onto the block's cycle (--resample; a model's own rule applies anyway)
 
@@ -37,6 +37,7 @@ def verify_pair(pair: Pair, engine: str) -> Outcome:
     """One pair, in a worker process; errors become an outcome, never an exception."""
     started = time.perf_counter()
     from thermoplc.models.modelfile import load_model
+    from thermoplc.recordings.reading import resolved
     from thermoplc.recordings.table import read_table
     from thermoplc.verifier.replay import verify_against_model, verify_against_trace
     from thermoplc.verifier.recording import read_recording, resampling_for
@@ -45,10 +46,11 @@ def verify_pair(pair: Pair, engine: str) -> Outcome:
         _same_bytes(pair)
         if pair.model:
             model = load_model(pair.model)
-            report = (verify_streaming(pair.block, model, pair.model, pair.data, pair.inputs, engine, pair.decimal)
+            reading = resolved(dict(pair.reading), model.reading)
+            report = (verify_streaming(pair.block, model, pair.model, pair.data, pair.inputs, engine, reading)
                       if resampling_for(model, pair.resample_s) is None else None)
             if report is None:
-                table = read_recording(pair.data, model, decimal=pair.decimal, period_s=pair.resample_s,
+                table = read_recording(pair.data, model, reading=reading, period_s=pair.resample_s,
                                        overrides=pair.inputs, model_path=pair.model)
                 report = verify_against_model(pair.block, model, pair.model, table, pair.inputs, engine,
                                               pair.probe_every)
@@ -56,7 +58,7 @@ def verify_pair(pair: Pair, engine: str) -> Outcome:
             if pair.resample_s is not None:
                 raise UserError("--resample takes raw data onto a model's cycle; a pair compared with a PLC trace "
                                 "(expect) is on the block's cycle already")
-            table = read_table(pair.data, decimal=pair.decimal)
+            table = read_table(pair.data, reading=resolved(dict(pair.reading)))
             report = verify_against_trace(pair.block, table, pair.expect, pair.inputs, engine=engine)
     except UserError as exc:
         return Outcome(pair, "error", str(exc), str(exc), 0, time.perf_counter() - started)

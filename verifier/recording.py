@@ -9,6 +9,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.contract.outputs import (CONTROL_INPUT_START, ENABLE_INPUT, PROBE_INPUTS, PROBE_NEW_INPUT, PROBE_VALUE_INPUT,
                                        RESET_INPUT)
 from thermoplc.models.modelfile import Model
+from thermoplc.recordings.reading import Reading
 from thermoplc.recordings.resample import Resampling, resample
 from thermoplc.recordings.table import Table, read_table
 from thermoplc.verifier.control import control_column, control_inputs
@@ -34,18 +35,20 @@ def resampling_for(model: Model, period_s: float | None) -> Resampling | None:
     return model.resample or Resampling(period_s, tuple(s.column for s in model.signals("speed")))
 
 
-def read_recording(path: str, model: Model, progress=None, decimal: str = "auto",
+def read_recording(path: str, model: Model, progress=None, reading: Reading | None = None,
                    period_s: float | None = None, overrides: dict | None = None, model_path: str = "model file"
                    ) -> Table:
     """The recording `path` read for a replay of `model`'s block, on the block's cycle: the speed (and feed) held
     under the columns they are read from (`--inputs` included), Enable and ProbeValue held, Reset and ProbeNew
-    kept as pulses at the call that follows them."""
+    kept as pulses at the call that follows them. The text is read as `reading` says, by default as the model's
+    data were."""
     probe_names = PROBE_INPUTS.values() if model.probe is not None else ()
     overrides = known_overrides(overrides, [*(s.name for s in model.inputs), *CONTROL_INPUT_START, *probe_names],
                                 model_path)  # `reset=R` is `Reset=R`, here as in the replay
     column = lambda name: overrides.get(name, name)
     targets = (*model_targets(model), *((column(PROBE_VALUE_INPUT),) if probe_names else ()))  # mapped: also empty
-    table = read_table(path, model.time_column, progress, decimal, sparse=targets)  # between probings
+    table = read_table(path, model.time_column, progress, model.reading if reading is None else reading,
+                       sparse=targets)  # between probings
     rule = resampling_for(model, period_s)
     if rule is None:
         return table

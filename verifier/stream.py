@@ -28,6 +28,7 @@ from thermoplc.fitting.fit import SAMPLING_TOLERANCE
 from thermoplc.models.modelfile import Model
 from thermoplc.models.streaming import StreamingReference, streamable
 from thermoplc.recordings.chunks import CannotStream, stream_columns
+from thermoplc.recordings.reading import Reading
 from thermoplc.verifier.replay import (Report, check_interface, compare_constants, load_block, block_limits,
                                        known_overrides, mistyped, subnormal_declarations, unsafe_findings,
                                        verify_against_model)
@@ -46,7 +47,7 @@ class _GiveUp(Exception):
 
 
 def verify_streaming(block: str, model: Model, model_path: str, data: str, overrides: dict | None = None,
-                     engine: str = "auto", decimal: str = "auto", progress=None) -> Report | None:
+                     engine: str = "auto", reading: Reading | None = None, progress=None) -> Report | None:
     """The report when the streamed recording proves the block bit-exact; None when the streaming
     route does not decide (the caller then runs read_table + verify_against_model itself, at the
     call depth it always had, so every message -- even a RecursionError's -- stays as it was)."""
@@ -61,8 +62,12 @@ def verify_streaming(block: str, model: Model, model_path: str, data: str, overr
     if model.resample is not None:  # raw data taken onto the cycle (verifier/recording.py) are read whole
         LAST_TIMINGS["route"] = "whole recording (resampled)"
         return None
+    reading = model.reading if reading is None else reading
+    if reading.time_format != "auto":  # Excel serial days are numbers the streamed route would take as seconds
+        LAST_TIMINGS["route"] = "whole recording (--time-format)"
+        return None
     try:
-        report = _verify_streaming(block, model, model_path, str(data), overrides, engine, decimal, progress)
+        report = _verify_streaming(block, model, model_path, str(data), overrides, engine, reading.decimal, progress)
     except (_GiveUp, CannotStream, UserError, RecursionError, MemoryError) as exc:
         LAST_TIMINGS.clear()
         LAST_TIMINGS["route"] = f"whole recording ({type(exc).__name__}: {str(exc)[:200]})"
@@ -73,13 +78,13 @@ def verify_streaming(block: str, model: Model, model_path: str, data: str, overr
 
 
 def verify_file_against_model(block: str, model: Model, model_path: str, data: str, overrides: dict | None = None,
-                              engine: str = "auto", decimal: str = "auto", progress=None) -> Report:
+                              engine: str = "auto", reading: Reading | None = None, progress=None) -> Report:
     """verify_against_model on the file `data`: streamed when it can be, else read whole."""
-    report = verify_streaming(block, model, model_path, data, overrides, engine, decimal, progress)
+    report = verify_streaming(block, model, model_path, data, overrides, engine, reading, progress)
     if report is not None:
         return report
     t = time.perf_counter()
-    table = read_recording(data, model, progress, decimal, overrides=overrides, model_path=model_path)
+    table = read_recording(data, model, progress, reading, overrides=overrides, model_path=model_path)
     LAST_TIMINGS["read"] = time.perf_counter() - t
     t = time.perf_counter()
     report = verify_against_model(block, model, model_path, table, overrides, engine)

@@ -6,8 +6,9 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_outputs
-from thermoplc.commands.options import (DECIMAL, FORCE_HELP, MODEL_FILE, OUTPUT, RESAMPLE, RUNS, campaign_arguments,
-                                        columns, examples, named, scheduler_address, training_part)
+from thermoplc.commands.options import (FORCE_HELP, MODEL_FILE, OUTPUT, RESAMPLE, RUNS, campaign_arguments,
+                                        columns, examples, named, reading_arguments, reading_of,
+                                        scheduler_address, training_part)
 from thermoplc.commands.reads import Writes, files_read
 from thermoplc.commands.terminal import end_progress, progress
 
@@ -40,7 +41,7 @@ def add_parser(sub) -> None:
     training_part(p, required=False, default="the first 60%% of the rows")
     p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
     p.add_argument("--name", default="ThermalComp", help="function block name of the augmented model")
-    p.add_argument("--decimal", **DECIMAL)
+    reading_arguments(p)
     p.add_argument("--resample", **RESAMPLE)
     p.add_argument("--force", action="store_true", help=FORCE_HELP)
     p.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
@@ -61,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     from thermoplc.recordings.campaign import run_list
     request = DiagnoseRequest(tuple(args.data) if args.data else None, args.temps, args.speed, args.ambient,
                               args.target, args.feed, args.baseline, args.train_until, args.train_rows, args.time,
-                              args.name, args.decimal, not args.no_structure_lag, args.runs, args.train_runs,
+                              args.name, reading_of(args), not args.no_structure_lag, args.runs, args.train_runs,
                               args.resample, args.held_target)
     if args.baseline and args.no_structure_lag:
         raise UserError("--no-structure-lag shapes a fitted baseline; with --baseline the model file decides")

@@ -5,7 +5,8 @@ import argparse
 
 from thermoplc.commands import json_output
 from thermoplc.base.errors import UserError
-from thermoplc.commands.options import DECIMAL, EVERY_HELP, READ_FILE, every, examples, mapping, named, number
+from thermoplc.commands.options import (EVERY_HELP, READ_FILE, every, examples, mapping, named, number,
+                                        reading_arguments, reading_of)
 from thermoplc.commands.reads import files_read
 
 
@@ -18,7 +19,7 @@ def add_parser(sub) -> None:
     p.add_argument("old", type=READ_FILE, help="the block as it was (ST source or PLCopen XML)")
     p.add_argument("new", type=READ_FILE, help="the block as it is now (ST source or PLCopen XML)")
     p.add_argument("--data", type=READ_FILE, help="replay both blocks on this CSV and report the largest output difference")
-    p.add_argument("--decimal", **DECIMAL)
+    reading_arguments(p)
     p.add_argument("--inputs", type=mapping, help="block input to column mapping NAME=COLUMN,...")
     p.add_argument("--probe-target", metavar="COLUMN", type=named("--probe-target"),
                    help="fused blocks (fit --probe): replay the probings from this target column (its measured rows, "
@@ -41,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
                         "give --probe-target")
     if args.probe_target and not args.data:
         raise UserError("--probe-target replays probings on --data; give --data")
-    table = (read_table(args.data, args.time, decimal=args.decimal, sparse=(args.probe_target,) if args.probe_target
+    table = (read_table(args.data, args.time, reading=reading_of(args), sparse=(args.probe_target,) if args.probe_target
                         else ()) if args.data else None)
     if args.probe_target:
         from thermoplc.verifier.probings import with_probings

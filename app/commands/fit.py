@@ -11,8 +11,9 @@ from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_outputs, write_outputs
 from thermoplc.commands import json_output
 from thermoplc.commands.fit_options import Given, refuse_columns_not_read, refuse_options_not_read
-from thermoplc.commands.options import (DECIMAL, EVERY_HELP, FORCE_HELP, OUTPUT, RESAMPLE, campaign_arguments, columns,
-                                        every, examples, named, number, scheduler_address, training_part)
+from thermoplc.commands.options import (EVERY_HELP, FORCE_HELP, OUTPUT, RESAMPLE, campaign_arguments, columns,
+                                        every, examples, named, number, reading_arguments, reading_of,
+                                        scheduler_address, training_part)
 from thermoplc.commands.reads import Writes, files_read
 from thermoplc.commands.terminal import end_progress, progress
 
@@ -97,7 +98,7 @@ def add_parser(sub) -> None:
     _kind_options(kinds)
     model.add_argument("--name", default="ThermalComp",
                        help="function block name, kept in the model file (generate --name overrides it) (default: %(default)s)")
-    data.add_argument("--decimal", **DECIMAL)
+    reading_arguments(data)
     data.add_argument("--resample", **RESAMPLE)
     output.add_argument("--force", action="store_true", help=FORCE_HELP)
     output.add_argument("-o", "--output", required=True, type=OUTPUT, help="model file to write (JSON)")
@@ -177,7 +178,7 @@ def _remote(args: argparse.Namespace, campaign, runs):
     from thermoplc.base.cluster import connect
     from thermoplc.recordings.campaign import source_of
     from thermoplc.fitting.crossval import Remote
-    source = source_of(campaign, runs, args.time, args.decimal, tuple(args.target), args.held_target,
+    source = source_of(campaign, runs, args.time, reading_of(args), tuple(args.target), args.held_target,
                        resampling_of(args))
     return Remote(connect(args.scheduler), source)
 
@@ -219,7 +220,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--probe on a campaign chooses the fusion on runs held out: give --folds K or --group-by")
     stale = check_outputs({"-o": args.output, "--json": json_output.file(args)}, args.force, files_read(args), args.report,
                           report_names(list(runs.paths)), is_report_file)
-    campaign = read_campaign(runs, args.time, args.decimal, probed=args.target, held=args.held_target,
+    campaign = read_campaign(runs, args.time, reading_of(args), probed=args.target, held=args.held_target,
                              resampling=resampling_of(args))
     groups = campaign.groups(args.group_by) if args.group_by else None
     tables = campaign.tables

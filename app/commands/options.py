@@ -21,9 +21,52 @@ def examples(page: str, *lines: str) -> dict:
 
 
 FORCE_HELP = "replace an existing output file (never an input of the command, never a non-regular file)"
-DECIMAL = {"choices": ("auto", ".", ","), "default": "auto",
+DECIMAL = {"choices": ("auto", ".", ","),
            "help": "decimal separator of the CSV: auto (',' when ';' separates the columns), '.' or ',' "
-                   "(default: %(default)s)"}
+                   "(default: auto, or the model file's)"}
+
+
+def gaps(text: str) -> str:
+    """--gaps: refuse, drop or hold:DURATION (checked here, kept as written)."""
+    from thermoplc.recordings.reading import gaps_problem
+    problem = gaps_problem(text)[1]
+    if problem:
+        raise argparse.ArgumentTypeError(problem)
+    return text
+
+
+def time_format(text: str) -> str:
+    """--time-format: a named form or a strptime pattern."""
+    from thermoplc.recordings.reading import time_format_problem
+    problem = time_format_problem(text)
+    if problem:
+        raise argparse.ArgumentTypeError(problem)
+    return text
+
+
+def reading_arguments(group) -> None:
+    """--decimal, --gaps and --time-format: how each command that reads recordings reads their text."""
+    group.add_argument("--decimal", **DECIMAL)
+    group.add_argument("--gaps", type=gaps, metavar="RULE",
+                       help="missing cells (#N/A, empty, NaN, ---): refuse (the default), drop (the rows that have one) "
+                            "or hold:DURATION (each takes its column's last value for at most DURATION: hold:30s, "
+                            "hold:2min); the count is printed")
+    group.add_argument("--time-format", type=time_format, metavar="FORM",
+                       help="how the time column is written when the file cannot say: day-first or month-first "
+                            "(slashed dates such as 03/01/2024), excel (Excel serial days), or a strptime pattern "
+                            "('%%d/%%m/%%Y %%H:%%M:%%S'; a date and a clock time in two columns are joined with a space). "
+                            "Default: ISO 8601, dotted day-first dates, seconds")
+
+
+def given_reading(args: argparse.Namespace) -> dict:
+    """--decimal, --gaps and --time-format as given (None: not given, so a model file's own applies)."""
+    return {"decimal": args.decimal, "gaps": args.gaps, "time_format": args.time_format}
+
+
+def reading_of(args: argparse.Namespace, model=None):
+    """The Reading of the command line; an option not given takes the model file's (how its data were read)."""
+    from thermoplc.recordings.reading import Reading, resolved
+    return resolved(given_reading(args), model.reading if model is not None else Reading())
 
 
 class Names(tuple):

@@ -7,8 +7,8 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.fileio import check_output, write_atomic
-from thermoplc.commands.options import (DECIMAL, FORCE_HELP, OUTPUT, READ_FILE, RESAMPLE, columns, examples, number,
-                                        training_part)
+from thermoplc.commands.options import (FORCE_HELP, OUTPUT, READ_FILE, RESAMPLE, columns, examples, number,
+                                        reading_arguments, reading_of, training_part)
 from thermoplc.commands.reads import files_read
 
 
@@ -31,7 +31,7 @@ def add_parser(sub) -> None:
     training_part(p, required=False, default="all rows")
     p.add_argument("--time", default="time_s", help="time column, s (default: %(default)s)")
     p.add_argument("-o", "--output", type=OUTPUT, help="write the chosen sensors for fit --temps @FILE")
-    p.add_argument("--decimal", **DECIMAL)
+    reading_arguments(p)
     p.add_argument("--resample", **{**RESAMPLE, "help": "take raw logger data onto the block's cycle of SECONDS "
                                                          "first (temperatures linear; docs/campaigns.md), as fit "
                                                          "--resample will"})
@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     from thermoplc.recordings.table import read_table
     if args.output:
         check_output(args.output, args.force, inputs=files_read(args))
-    table = read_table(args.data, args.time, decimal=args.decimal)
+    table = read_table(args.data, args.time, reading=reading_of(args))
     if args.resample:
         from thermoplc.recordings.resample import Resampling, resample
         table = resample(table, args.time, Resampling(args.resample))

@@ -8,8 +8,9 @@ from pathlib import Path
 
 from thermoplc.base.errors import UserError
 from thermoplc.commands import json_output
-from thermoplc.commands.options import (DECIMAL, EVERY_HELP, READ_FILE, RECORDING, RESAMPLE, RUNS_TABLE, columns, every,
-                                        examples, mapping, named, number, scheduler_address)
+from thermoplc.commands.options import (EVERY_HELP, READ_FILE, RECORDING, RESAMPLE, RUNS_TABLE, columns, every,
+                                        examples, given_reading, mapping, named, number, reading_arguments,
+                                        reading_of, scheduler_address)
 from thermoplc.commands.reads import Reads, Writes, files_read
 from thermoplc.commands.terminal import progress
 
@@ -35,7 +36,7 @@ def add_parser(sub) -> None:
     data.add_argument("--runs", metavar="TABLE", type=RUNS_TABLE,
                       help="a campaign's runs table (fit --runs) instead of --data: each run verified from a "
                            "fresh block")
-    data.add_argument("--decimal", **DECIMAL)
+    reading_arguments(data)
     data.add_argument("--resample", **{**RESAMPLE, "help": "with --model: take raw logger data onto the block's "
                                                             "cycle of SECONDS by the rule fit --resample records (a "
                                                             "model fitted with --resample applies it without this "
@@ -147,7 +148,7 @@ def _campaign(args: argparse.Namespace, runs: list[str]) -> int:
     from thermoplc.recordings.campaign import run_labels
     from thermoplc.verifier.fleet import Pair, verify_fleet
     expect = dict(item.partition("=")[::2] if "=" in item else (item, item) for item in args.expect or ()) or None
-    pairs = [Pair(k, args.block, path, args.model, expect, args.inputs, decimal=args.decimal,
+    pairs = [Pair(k, args.block, path, args.model, expect, args.inputs, reading=tuple(given_reading(args).items()),
                   probe_every=args.probe_every, resample_s=args.resample) for k, path in enumerate(runs, start=1)]
     outcomes, seconds = verify_fleet(pairs, min(args.jobs, len(pairs)), args.engine, args.scheduler)
     labels = run_labels(runs)
@@ -185,7 +186,7 @@ def _fleet(args: argparse.Namespace, read: list[str]) -> int:
         raise UserError("--manifest lists the blocks, data and models itself; give no BLOCK, --data, --model, --expect, "
                         "--faults or --outputs (verify one pair alone for its --outputs)")
     from thermoplc.verifier.fleet import fleet_document, format_fleet, read_manifest, verify_fleet
-    pairs = read_manifest(args.manifest, args.decimal, args.probe_every, args.resample)
+    pairs = read_manifest(args.manifest, tuple(given_reading(args).items()), args.probe_every, args.resample)
     json_output.check(args, read)
     outcomes, seconds = verify_fleet(pairs, args.jobs, args.engine, args.scheduler)
     json_output.emit(args, format_fleet(outcomes, args.manifest, seconds), fleet_document(outcomes, args.manifest))
@@ -206,15 +207,16 @@ def _against_model(args: argparse.Namespace) -> int:
     if args.time is not None:  # the data's time column, where the model's was named otherwise
         model = replace(model, time_column=args.time)
     rule = resampling_for(model, args.resample)
+    reading = reading_of(args, model)
     report, table = None, None
     origin = other_model(args.block, model, args.model)
     try:
         if not args.faults and args.outputs is None and rule is None:
             from thermoplc.verifier.stream import verify_streaming
             report = verify_streaming(args.block, model, args.model, args.data, args.inputs, args.engine,
-                                      args.decimal, progress())
+                                      reading, progress())
         if report is None:
-            table = read_recording(args.data, model, progress(), args.decimal, args.resample, args.inputs, args.model)
+            table = read_recording(args.data, model, progress(), reading, args.resample, args.inputs, args.model)
             if args.faults:
                 return _faults(args, model, table)
             report = verify_against_model(args.block, model, args.model, table, args.inputs, args.engine,
@@ -224,11 +226,22 @@ def _against_model(args: argparse.Namespace) -> int:
     report = replace(report, origin=origin)
     said = (f"\n  {args.data} taken onto the block's cycle of {rule.period_s:g} s first ("
             f"{'the model file' if model.resample else '--resample'}: {RULE})" if rule else "")
+    said += _read_as(reading, model, table)
     said += _written_outputs(args, report, table, model.time_column)
     resampled = {"resampled": {"period_s": rule.period_s, "by": "model file" if model.resample else "--resample"}} \
         if rule else {}
     return _result(args, report.text() + said, report.ok,
                    lambda: {**verify_document(report), **resampled, **_outputs_named(args)})
+
+
+def _read_as(reading, model, table) -> str:
+    """What the reader converted, and the reading options the model file gave (not the command line)."""
+    from thermoplc.recordings.table import reading_notes
+    recorded = {k: v for k, v in model.reading.to_doc().items() if reading.written()[k] == v}
+    said = "".join(f"\n  {line}" for line in reading_notes([table] if table is not None else []))
+    if recorded:
+        said += "\n  read as the model file records: " + ", ".join(f"--{k.replace('_', '-')} {v}" for k, v in recorded.items())
+    return said
 
 
 def _faults(args: argparse.Namespace, model, table) -> int:
@@ -249,7 +262,7 @@ def _against_trace(args: argparse.Namespace) -> int:
         raise UserError("--resample takes raw data onto a model's cycle (--model); a PLC trace (--expect) is recorded "
                         "on the block's cycle already")
     time_column = args.time or "time_s"
-    table = read_table(args.data, time_column, decimal=args.decimal)
+    table = read_table(args.data, time_column, reading=reading_of(args))
     expect = {}
     for item in args.expect:
         output, sep, column = item.partition("=")
