@@ -295,7 +295,10 @@ def _refuse_no_time(path: str, time_column: str, header: list[str]) -> None:
                         f"--runs TABLE")
     if time_column not in header:
         timed = [name for name in header if re.search(r"time|zeit|date|datum|stamp", name, re.IGNORECASE)]
-        hint = f": --time {shlex.quote(timed[0])}" if len(timed) == 1 else ""
+        clocks = [name for name in timed if not re.search(r"date|datum", name, re.IGNORECASE)]
+        hint = f": --time {shlex.quote(timed[0])}" if len(timed) == 1 else \
+            f": --time {shlex.quote(clocks[0])}, the date column beside it is joined" if len(timed) == 2 and \
+            len(clocks) == 1 else ""
         raise UserError(f"{path}: no time column {time_column!r} (set it with --time{hint}); "
                         f"the header has {', '.join(header)}")
 
@@ -364,6 +367,8 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
     as NaN, and the missing cells `reading.gaps` drops or holds. ',' separated with decimal points, or ';'
     separated with decimal commas (detected, or reading.decimal ','). The text is streamed in chunks, so memory
     stays near the size of the numbers."""
+    if not isinstance(reading, Reading):
+        raise UserError(f"reading: expected a thermoplc.api.Reading, found {type(reading).__name__} {reading!r:.60}")
     path = str(path)
     kind = stream_kind(path)
     if kind in ("npz", "parquet"):

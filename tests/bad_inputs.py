@@ -118,6 +118,29 @@ def _dated(text: str, form: str, back_at: int | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _excel_days(text: str) -> str:
+    """The time column as Excel serial days from 2024-03-01 08:00 (45352.3333...), ten decimals as Excel writes them."""
+    lines = text.splitlines()
+    for k in range(1, len(lines)):
+        time, rest = lines[k].split(",", 1)
+        lines[k] = f"{45352 + (8 * 3600 + float(time)) / 86400:.10f},{rest}"
+    return "\n".join(lines) + "\n"
+
+
+def _date_beside_clock(text: str, clock_only: bool = False) -> str:
+    """A date column before the time column, which holds clock times (as many loggers export them); `clock_only`:
+    the clock times without the date column."""
+    from datetime import datetime, timedelta
+    lines = text.splitlines()
+    start = datetime(2024, 3, 1, 23, 0, 0)  # the run crosses midnight
+    lines[0] = lines[0] if clock_only else "date," + lines[0]
+    for k in range(1, len(lines)):
+        time, rest = lines[k].split(",", 1)
+        moment = start + timedelta(seconds=float(time))
+        lines[k] = f"{'' if clock_only else moment.strftime('%d.%m.%Y') + ','}{moment.strftime('%H:%M:%S')},{rest}"
+    return "\n".join(lines) + "\n"
+
+
 def _units_row(text: str) -> str:
     """A units row under the header, as a logger exports it: s, rpm, °C, µm."""
     head, rest = text.split("\n", 1)
@@ -200,8 +223,12 @@ def _csv_cases() -> list[Case]:
         ("a cell of 1e308 (beyond REAL)", lambda t: _cell(t, 100, "T_motor", "1e308"), "error",
          "line 101, column 'T_motor': 1e+308 cannot be a temperature input of type REAL"),
         ("#N/A cell (a logger's gap)", lambda t: _cell(t, 5, "T_motor", "#N/A"), "error",
-         "bad.csv:6:5: column 'T_motor': expected a number, found '#N/A' (a missing value: thermoplc fills no gaps; "
-         "remove the row or fill the cell in the export)"),
+         "bad.csv:6:5: column 'T_motor': expected a number, found '#N/A' (a missing value: give --gaps drop to drop "
+         "its row, or --gaps hold:30s to hold the value before it)"),
+        ("a date column beside a clock-time column", _date_beside_clock, "accepted", ""),
+        ("clock times without a date", lambda t: _date_beside_clock(t, clock_only=True), "error",
+         "bad.csv:2: column 'time_s': '23:00:00' is a clock time without a date; expected a date-time, or one date "
+         "column beside it (none found)"),
         ("date-times as slashed dates that read both ways", lambda t: _dated(t, "%m/%d/%Y %H:%M:%S"), "error",
          "bad.csv:2: column 'time_s': '03/01/2024 08:00:00' reads as day first and as month first in every row"),
         ("date-times whose clock goes back an hour (DST)", lambda t: _dated(t, "%Y-%m-%d %H:%M:%S", 300), "error",
@@ -239,6 +266,31 @@ def _csv_cases() -> list[Case]:
                       ("fit", "--model", "mlr", "--target", "E_z_um", "--temps", "T_motor(°C),T_bearing", "--train-rows",
                        "200", "-o", "out.json", "--data", "bad.csv"),
                       with_text("bad.csv", lambda t: _rename(t, "T_motor", "T_motor(°C)")), "accepted", "wrote out.json"))
+    gap = with_text("bad.csv", lambda t: _cell(t, 5, "T_motor", "#N/A"))
+    for fault, options, expect, message in (
+            ("#N/A cell, --gaps hold:30s", ("--gaps", "hold:30s"), "accepted", "wrote out.json"),
+            ("#N/A cell, --gaps hold:5s (shorter than a step)", ("--gaps", "hold:5s"), "error",
+             "bad.csv:6: column 'T_motor': missing for 10 s since its last value at line 5, longer than --gaps hold:5s "
+             "holds (5 s); give a longer hold, --gaps drop, or fill the cells in the export"),
+            ("#N/A cell, --gaps drop (a step of two cycles)", ("--gaps", "drop"), "error",
+             "bad.csv:7: column 'time_s': step 20 s (--gaps drop dropped the rows between), expected 10 s ±5%; the "
+             "block runs on a fixed cycle: give --resample SECONDS"),
+            ("#N/A cell, --gaps keep", ("--gaps", "keep"), "error",
+             "argument --gaps: expected refuse, drop or hold:DURATION (hold:30s, hold:2min), found 'keep'")):
+        cases.append(Case("CSV", fault, "fit", (*FIT, "bad.csv", *options), gap, expect, message))
+    cases.append(Case("CSV", "#N/A time, --gaps hold:30s", "fit", (*FIT, "bad.csv", "--gaps", "hold:30s"),
+                      with_text("bad.csv", lambda t: _cell(t, 5, "time_s", "#N/A")), "error",
+                      "bad.csv:6: column 'time_s': the time is missing; --gaps hold:30s holds measured values, not the "
+                      "time: give --gaps drop, or fill the time in the export"))
+    cases.append(Case("CSV", "slashed dates that read both ways, --time-format month-first", "fit",
+                      (*FIT, "bad.csv", "--time-format", "month-first"),
+                      with_text("bad.csv", lambda t: _dated(t, "%m/%d/%Y %H:%M:%S")), "accepted", "wrote out.json"))
+    cases.append(Case("CSV", "Excel serial days, --time-format excel", "fit", (*FIT, "bad.csv", "--time-format", "excel"),
+                      with_text("bad.csv", _excel_days), "accepted", "wrote out.json"))
+    cases.append(Case("CSV", "seconds read with --time-format excel", "fit", (*FIT, "bad.csv", "--time-format", "excel"),
+                      with_text("bad.csv", lambda t: t), "error",
+                      "bad.csv:2: column 'time_s': --time-format excel reads Excel serial days (45352.5 is 2024-03-01 "
+                      "12:00), found 0; expected a day from 1 (1900-01-01) to 2958465 (9999-12-31)"))
     cases.append(Case("CSV", "missing file", "fit", (*FIT, "nothere.csv"), lambda f: None, "error",
                       "nothere.csv: cannot read: no such file"))
     return cases

@@ -93,7 +93,7 @@ def test_the_api_refuses_what_the_kind_does_not_read_and_wrong_types(fitted):
                             ({"resample_s": -40.0}, "--resample: expected the block's cycle in seconds"),
                             ({"data": str(DATA)}, "--data: expected a tuple of recordings or folders"),
                             ({"data": ()}, "--data: an empty tuple"),
-                            ({"decimal": "x"}, "--decimal: expected one of auto"),
+                            ({"reading": "x"}, "reading: expected a thermoplc.recordings.reading.Reading"),
                             ({"block_name": "1x"}, "--name: block name '1x' must start with a letter"),
                             ({"structure_lag": "no"}, "structure_lag: expected True or False, found 'no'")):
         with pytest.raises(UserError, match=re.escape(message)):
