@@ -66,7 +66,8 @@ def augmented_model(final: Simulation, added: list[dict], request: DiagnoseReque
         kind="lumped", block_name=request.block_name, inputs=tuple(signals),
         target=Signal(block_identifier(request.target, "target"), request.target, "target", "um"),
         time_column=request.time_column, sample_period_s=dt, coefficients=coefficients, settings=settings,
-        resample=request.resampling, training=_training_record(tables, train_rows, request.time_column),
+        resample=request.resampling, reading=request.reading,
+        training=_training_record(tables, train_rows, request.time_column),
         fit={"method": "thermoplc diagnose: " + (
             "identified lumped-mass model (steady-state Kalman filter on the readings, map by forward validation) "
             "with the effects the data supports as nested extensions" if final.displacement.ridge_weight is not None

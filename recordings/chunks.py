@@ -16,7 +16,8 @@ from thermoplc.base.errors import UserError
 from thermoplc.base.locations import open_binary
 from thermoplc.recordings import plain_csv
 from thermoplc.recordings.read_ahead import read_ahead
-from thermoplc.recordings.table import csv_delimiter, csv_fields, spellings, stream_kind
+from thermoplc.recordings.cells import csv_fields
+from thermoplc.recordings.table import csv_delimiter, spellings, stream_kind
 
 # Streaming at disk speed (issue 17). The fast readers below hand out the columns chunk by chunk
 # and never word an error: anything they do not take in their stride (a cell that is not a

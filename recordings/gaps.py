@@ -55,7 +55,7 @@ def _hold(path: str, columns: dict, missing: dict, lines: np.ndarray, time_colum
                             f"value to hold; give --gaps drop, or fill the cell in the export")
         last = np.maximum.accumulate(np.where(where, 0, np.arange(len(where))))  # each row's last measured row
         held_for = t - t[last]
-        too_long = np.flatnonzero(where & (held_for > reading.hold_s))
+        too_long = np.flatnonzero(where & (held_for > reading.hold_s * (1 + 1e-9)))  # 0.1 + 0.2 is no longer 0.3
         if len(too_long):
             row = int(too_long[0])
             raise UserError(f"{path}:{int(lines[row])}: column {name!r}: missing for {held_for[row]:g} s since its last "

@@ -31,6 +31,8 @@ class Layout:
         self.dated: int | None = None  # the time column's index when it holds date-times
         self.joined: int | None = None  # the index of the other half when a date and a clock time are two columns
         self.rows = 0  # data lines seen, the units row included
+        self.decided = False  # whether the time column's form is known (on the first row whose time is there)
+        self.pending: list[int] = []  # the lines before it, their time missing
         self.zoned = False  # whether the date-times carry their UTC offset
         self.cells: list[str] = []
         self.lines: list[int] = []
@@ -41,9 +43,31 @@ class Layout:
         self.rows += 1
         if self.rows == 1 and self.units_in(line, text):
             return None
-        if self.rows == (2 if self.units is not None else 1):
+        if not self.decided:
+            if self.time_missing(line, text):  # the row goes by the gap rule; the next one shows the form
+                self.pending.append(line)
+                return self.without_text(line, text)
+            self.decided = True
             self.dated = self.dated_column(line, text)
+            if self.dated is not None:
+                self.cells, self.lines = [None] * len(self.pending), list(self.pending)
+            elif self.time_format not in ("auto", "excel") and self.time_column in self.header:
+                raise UserError(f"{self.path}:{line}: column {self.time_column!r}: --time-format {self.time_format} "
+                                f"reads date-times written as text; this column holds numbers (seconds, or Excel "
+                                f"serial days with --time-format excel)")
         return self.take_time(line, text) if self.dated is not None else text
+
+    def time_missing(self, line: int, text: str) -> bool:
+        """Whether the row's time cell is a missing value (under a gap rule: never without one)."""
+        fields = self.split(line, text)
+        return (self.time_column in self.header and len(fields) == len(self.header)
+                and self.missing(fields[self.header.index(self.time_column)]))
+
+    def without_text(self, line: int, text: str) -> str:
+        """A row with no time, before the time's form is known: its text cells (a date half) as 0, for the gap rule
+        drops or refuses the row by its missing time."""
+        fields = self.split(line, text)
+        return self.delimiter.join(cell if self.numeric(cell) or self.missing(cell) else "0" for cell in fields) + "\n"
 
     def units_in(self, line: int, text: str) -> bool:
         """Whether the first data line is a units row (kept)."""

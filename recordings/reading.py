@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from datetime import datetime
 
 from thermoplc.base.errors import UserError
 from thermoplc.base.values import DURATION_UNITS
@@ -27,7 +28,11 @@ class Reading:
 
     @property
     def gaps_text(self) -> str:
-        return f"hold:{self.hold_s:g}s" if self.gaps == "hold" else self.gaps
+        """The rule as --gaps takes it, the time held to the last digit (a model file's verify holds as long)."""
+        if self.gaps != "hold":
+            return self.gaps
+        seconds = repr(self.hold_s)  # from 1 ms to 366 days: plain digits, never an exponent
+        return f"hold:{seconds[:-2] if seconds.endswith('.0') else seconds}s"
 
     def written(self) -> dict:
         return {"decimal": self.decimal, "gaps": self.gaps_text, "time_format": self.time_format}
@@ -56,18 +61,24 @@ def gaps_problem(text: str) -> tuple[tuple[str, float] | None, str | None]:
     if not held:
         return None, f"expected {GAP_CHOICES}, found {text!r}"
     seconds = float(held.group(1)) * DURATION_UNITS[(held.group(2) or "s").lower()]
-    if not 0 < seconds <= 366 * 86400:
-        return None, f"expected a time held from more than 0 s to 366 days, found {text!r}"
+    if not 1e-3 <= seconds <= 366 * 86400:
+        return None, f"expected a time held from 1ms to 366 days, found {text!r}"
     return ("hold", seconds), None
 
 
 def time_format_problem(text: str) -> str | None:
-    """Why --time-format is none of the named forms nor a strptime pattern (one with a %-directive), or None."""
+    """Why --time-format is none of the named forms nor a strptime pattern that reads back what it writes, or None."""
     if not isinstance(text, str) or not text.strip():
         return f"expected {TIME_FORMAT_CHOICES}, found {text!r}"
-    if text in TIME_FORMATS or "%" in text:
+    if text in TIME_FORMATS:
         return None
-    return f"expected {TIME_FORMAT_CHOICES}, found {text!r}"
+    if "%" not in text:
+        return f"expected {TIME_FORMAT_CHOICES}, found {text!r}"
+    try:
+        datetime.strptime(datetime(2024, 3, 1, 20, 15, 30).strftime(text), text)
+    except ValueError as exc:
+        return f"{text!r} is no strptime pattern ({exc}); expected one such as '%d/%m/%Y %H:%M:%S'"
+    return None
 
 
 def reading_problem(decimal, gaps, time_format) -> tuple[Reading | None, str | None]:

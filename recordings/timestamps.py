@@ -24,7 +24,7 @@ _ISO = re.compile(r"\d{4}-\d{2}-\d{2}(?:[T ]\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?
 _DOTTED = re.compile(r"(\d{1,2})\.(\d{1,2})\.(\d{4})(?:[ T](\d{1,2}):(\d{2})(?::(\d{2})(?:[.,](\d+))?)?)?\Z")
 _SLASHED = re.compile(r"(\d{1,2})/(\d{1,2})/(\d{4})(?:[ T](\d{1,2}):(\d{2})(?::(\d{2})(?:[.,](\d+))?)?"
                       r"(?:\s*([AaPp][Mm]))?)?\Z")
-_CLOCK = re.compile(r"\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?(?:\s*[AaPp][Mm])?\Z")
+_CLOCK = re.compile(r"\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?(?:\s*[AaPp][Mm]|Z|[+-]\d{2}:?\d{2})?\Z")
 ISO_EXAMPLE = "2024-03-01 08:00:00"
 EXCEL_EPOCH = datetime(1899, 12, 30)  # Excel's day 0 (its serial days count the fictitious 29 February 1900)
 EXCEL_LAST_DAY = 2958465  # 9999-12-31
@@ -89,6 +89,9 @@ def _form(cells: Sequence[str], lines: Sequence[int], path: str, column: str, ti
     if _ISO.match(head):
         return lambda text, line: _iso(text, line, path, column)
     pattern = _DOTTED if _DOTTED.match(head) else _SLASHED
+    if pattern is _DOTTED and time_format == "month-first":
+        raise _refuse(path, lines[0], column, head, "a slashed date for --time-format month-first (dotted dates are "
+                                                    "written day first); give the times without it")
     if time_format in ("day-first", "month-first"):
         day_first = time_format == "day-first"
     else:
@@ -99,9 +102,9 @@ def _form(cells: Sequence[str], lines: Sequence[int], path: str, column: str, ti
 def _pattern(pattern: str, text: str, line: int, path: str, column: str) -> datetime:
     try:
         moment = datetime.strptime(text, pattern)
-    except ValueError:
+        return moment.astimezone(timezone.utc) if moment.tzinfo is not None else moment
+    except (ValueError, OverflowError):
         raise _refuse(path, line, column, text, f"a date-time of --time-format {pattern!r}") from None
-    return moment.astimezone(timezone.utc) if moment.tzinfo is not None else moment
 
 
 def _refuse(path: str, line: int, column: str, text: str, expected: str) -> UserError:
@@ -114,9 +117,9 @@ def _iso(text: str, line: int, path: str, column: str) -> datetime:
     written = re.sub(r"([T ])(\d):", r"\g<1>0\2:", text.replace(",", "."))  # 8:00 is 08:00 (Excel writes it so)
     try:
         moment = datetime.fromisoformat(written)
-    except ValueError:
+        return moment.astimezone(timezone.utc) if moment.tzinfo is not None else moment
+    except (ValueError, OverflowError):
         raise _refuse(path, line, column, text, f"a date-time that exists ({ISO_EXAMPLE})") from None
-    return moment.astimezone(timezone.utc) if moment.tzinfo is not None else moment
 
 
 def _numeric(pattern: re.Pattern, text: str, line: int, path: str, column: str, day_first: bool) -> datetime:
@@ -133,9 +136,9 @@ def _numeric(pattern: re.Pattern, text: str, line: int, path: str, column: str, 
         hour = hour % 12 + (12 if half[0].upper() == "PM" else 0)
     try:
         moment = datetime(int(year), int(month), int(day), hour, int(minute or 0), int(second or 0))
-    except ValueError:
+        return moment + timedelta(seconds=float(f"0.{fraction}")) if fraction else moment
+    except (ValueError, OverflowError):
         raise _refuse(path, line, column, text, f"a date-time that exists ({order})") from None
-    return moment + timedelta(seconds=float(f"0.{fraction}")) if fraction else moment
 
 
 def _slashed_order(cells: Sequence[str], lines: Sequence[int], path: str, column: str) -> bool:

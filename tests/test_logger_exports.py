@@ -12,6 +12,7 @@ from hypothesis import given, settings, strategies as st
 from tests.cli_runner import thermoplc
 from thermoplc.base.errors import UserError
 from thermoplc.base.identifiers import block_identifier
+from thermoplc.recordings.reading import Reading, time_format_problem
 from thermoplc.recordings.table import read_table
 from thermoplc.recordings.timestamps import seconds_since_first
 from thermoplc import api
@@ -50,11 +51,11 @@ def _bits(model):
     return {k: v["f32"] for k, v in model["coefficients"].items()}
 
 
-def _refused(folder, name: str, text: str, time: str, message: str) -> None:
+def _refused(folder, name: str, text: str, time: str, message: str, reading: Reading = Reading()) -> None:
     """A file of `text` read with time column `time` is refused with `message` (a regular expression)."""
     (folder / name).write_text(text)
     with pytest.raises(UserError, match=message):
-        read_table(folder / name, time)
+        read_table(folder / name, time, reading=reading)
 
 
 def test_iso_dotted_and_units_row_exports_fit_generate_and_verify_to_the_seconds_files_model(tmp_path, fl):
@@ -236,6 +237,10 @@ def test_missing_cells_are_held_or_dropped_as_told_counted_and_verify_reads_them
     verdict = thermoplc("verify", "held.scl", "--model", "held.json", "--data", "gaps.csv", cwd=tmp_path).stdout
     assert verdict.startswith("bit-exact") and "read as the model file records: --gaps hold:30s" in verdict
     assert "--gaps hold:30s: held 3 missing cells" in verdict
+    longer = thermoplc("verify", "held.scl", "--model", "held.json", "--data", "gaps.csv", "--gaps", "hold:45s",
+                       cwd=tmp_path).stdout
+    assert "NOTE: read otherwise than the model's data were: --gaps hold:45s given here, --gaps hold:30s in the model" \
+        in longer
     dropped = thermoplc("fit", "--data", "gaps.csv", "--gaps", "drop", "--model", "mlr", "--target", "ch3_um",
                         "--temps", "t5_C,t4_C", "--train-until", 15000, "-o", "x.json", cwd=tmp_path, check=2)
     assert ("gaps.csv:44: column 'time_s': step 45 s (--gaps drop dropped the rows between), expected 15 s ±5%; the "
@@ -244,3 +249,45 @@ def test_missing_cells_are_held_or_dropped_as_told_counted_and_verify_reads_them
     assert "--gaps drop: dropped 3 of 1,500 rows with a missing cell (the first at line 42, column 't5_C')" \
         in result.stderr
     assert model["reading"] == {"gaps": "drop"} and model["resample"]["period_s"] == 15
+
+
+def test_a_probed_targets_missing_cell_is_not_measured_there_and_never_held(tmp_path):
+    path = tmp_path / "probed.csv"
+    path.write_text("time_s,T1,E\n0,1,5\n10,2,#N/A\n20,#N/A,\n30,4,7\n")
+    table = read_table(path, sparse=("E",), reading=Reading(gaps="hold", hold_s=10.0))
+    assert np.isnan(table.columns["E"][1:3]).all() and table.columns["E"][[0, 3]].tolist() == [5.0, 7.0]
+    assert table.columns["T1"].tolist() == [1.0, 2.0, 2.0, 4.0]
+    assert "held 1 missing cells in 1 column(s)" in table.read_notes[-1]
+
+
+def test_npz_excel_days_are_converted_and_text_forms_refused(tmp_path):
+    path = tmp_path / "days.npz"
+    np.savez(path, t=45352 + (8 * 3600 + np.arange(4) * 15.0) / 86400, T1=np.arange(4.0))
+    table = read_table(path, "t", reading=Reading(time_format="excel"))
+    assert table.columns["t"].tolist() == [0.0, 15.0, 30.0, 45.0] and table.reading.time_format == "excel"
+    with pytest.raises(UserError, match=r"days.npz: --time-format day-first reads date-times written as text"):
+        read_table(path, "t", reading=Reading(time_format="day-first"))
+
+
+def test_reading_options_are_written_exactly_and_hostile_ones_refused(tmp_path):
+    for seconds, text in ((1_080_000.0, "hold:1080000s"), (100.00004, "hold:100.00004s"), (0.001, "hold:0.001s")):
+        reading = Reading(gaps="hold", hold_s=seconds)
+        assert reading.gaps_text == text and Reading.from_doc(reading.to_doc()) == reading
+    assert "no strptime pattern" in time_format_problem("%") and time_format_problem("%d/%m/%Y %H:%M") is None
+    _refused(tmp_path, "y1.csv", "t,T1\n0001-01-01T00:00:15+01:00,1\n0001-01-01T00:00:30+01:00,2\n", "t",
+             r"y1.csv:2: column 't': expected a date-time that exists")
+    _refused(tmp_path, "dotted.csv", "t,T1\n01.03.2024 08:00:00,1\n01.03.2024 08:00:15,2\n", "t",
+             r"dotted.csv:2: .*dotted dates are written day first", Reading(time_format="month-first"))
+    _refused(tmp_path, "numbers.csv", "t,T1\n0,1\n15,2\n", "t",
+             r"numbers.csv:2: column 't': --time-format %d.%m.%Y reads date-times written as text",
+             Reading(time_format="%d.%m.%Y"))
+
+
+def test_a_missing_first_time_is_dropped_and_a_hold_as_long_as_the_gap_is_kept(tmp_path):
+    path = tmp_path / "first.csv"
+    path.write_text("Datum,Zeit,T1\n01.03.2024,#N/A,1\n01.03.2024,23:59:50,2\n02.03.2024,00:00:00,3\n")
+    table = read_table(path, "Zeit", reading=Reading(gaps="drop"))
+    assert table.columns["Zeit"].tolist() == [0.0, 10.0] and table.lines.tolist() == [3, 4]
+    path = tmp_path / "tenths.csv"
+    path.write_text("t,x\n0.1,1\n0.2,#N/A\n0.3,#N/A\n0.4,#N/A\n0.5,5\n")
+    assert read_table(path, "t", reading=Reading(gaps="hold", hold_s=0.3)).columns["x"].tolist() == [1, 1, 1, 1, 5]

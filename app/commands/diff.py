@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from thermoplc.commands import json_output
 from thermoplc.base.errors import UserError
@@ -33,7 +34,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from thermoplc.recordings.table import read_table
+    from thermoplc.recordings.table import read_table, reading_notes
     from thermoplc.verifier.diff import diff_blocks, format_diff
     from thermoplc.verifier.documents import diff_document
     json_output.check(args, files_read(args))
@@ -44,6 +45,8 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--probe-target replays probings on --data; give --data")
     table = (read_table(args.data, args.time, reading=reading_of(args), sparse=(args.probe_target,) if args.probe_target
                         else ()) if args.data else None)
+    for note in reading_notes([table] if table is not None else []):
+        print(note, file=sys.stderr)
     if args.probe_target:
         from thermoplc.verifier.probings import with_probings
         from thermoplc.fitting.fit import sample_period

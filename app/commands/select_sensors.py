@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from thermoplc.base.errors import UserError
@@ -42,10 +43,12 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from thermoplc.fitting.fit import training_rows
     from thermoplc.fitting.selection import select_sensors
-    from thermoplc.recordings.table import read_table
+    from thermoplc.recordings.table import read_table, reading_notes
     if args.output:
         check_output(args.output, args.force, inputs=files_read(args))
     table = read_table(args.data, args.time, reading=reading_of(args))
+    for note in reading_notes([table]):
+        print(note, file=sys.stderr)
     if args.resample:
         from thermoplc.recordings.resample import Resampling, resample
         table = resample(table, args.time, Resampling(args.resample))

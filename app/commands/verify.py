@@ -237,10 +237,16 @@ def _against_model(args: argparse.Namespace) -> int:
 def _read_as(reading, model, table) -> str:
     """What the reader converted, and the reading options the model file gave (not the command line)."""
     from thermoplc.recordings.table import reading_notes
+    option = lambda key, value: f"--{key.replace('_', '-')} {value}"
     recorded = {k: v for k, v in model.reading.to_doc().items() if reading.written()[k] == v}
+    overridden = [(k, v, model.reading.written()[k]) for k, v in reading.written().items()
+                  if v != model.reading.written()[k]]
     said = "".join(f"\n  {line}" for line in reading_notes([table] if table is not None else []))
     if recorded:
-        said += "\n  read as the model file records: " + ", ".join(f"--{k.replace('_', '-')} {v}" for k, v in recorded.items())
+        said += "\n  read as the model file records: " + ", ".join(option(k, v) for k, v in recorded.items())
+    if overridden:
+        said += "\n  NOTE: read otherwise than the model's data were: " + ", ".join(
+            f"{option(k, given)} given here, {option(k, was)} in the model file" for k, given, was in overridden)
     return said
 
 
