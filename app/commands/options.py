@@ -26,32 +26,25 @@ DECIMAL = {"choices": ("auto", ".", ","),
                    "(default: auto, or the model file's)"}
 
 
-def gaps(text: str) -> str:
-    """--gaps: refuse, drop or hold:DURATION (checked here, kept as written)."""
-    from thermoplc.recordings.reading import gaps_problem
-    problem = gaps_problem(text)[1]
-    if problem:
-        raise argparse.ArgumentTypeError(problem)
-    return text
-
-
-def time_format(text: str) -> str:
-    """--time-format: a named form or a strptime pattern."""
-    from thermoplc.recordings.reading import time_format_problem
-    problem = time_format_problem(text)
-    if problem:
-        raise argparse.ArgumentTypeError(problem)
-    return text
+def checked(problem_of: Callable[[str], str | None]) -> Callable[[str], str]:
+    """An argparse type: the text as written, refused with `problem_of`'s reason."""
+    def parse(text: str) -> str:
+        problem = problem_of(text)
+        if problem:
+            raise argparse.ArgumentTypeError(problem)
+        return text
+    return parse
 
 
 def reading_arguments(group) -> None:
     """--decimal, --gaps and --time-format: how each command that reads recordings reads their text."""
     group.add_argument("--decimal", **DECIMAL)
-    group.add_argument("--gaps", type=gaps, metavar="RULE",
+    from thermoplc.recordings.reading import gaps_problem, time_format_problem
+    group.add_argument("--gaps", type=checked(lambda text: gaps_problem(text)[1]), metavar="RULE",
                        help="missing cells (#N/A, empty, NaN, ---): refuse (the default), drop (the rows that have one) "
                             "or hold:DURATION (each takes its column's last value for at most DURATION: hold:30s, "
                             "hold:2min); the count is printed")
-    group.add_argument("--time-format", type=time_format, metavar="FORM",
+    group.add_argument("--time-format", type=checked(time_format_problem), metavar="FORM",
                        help="how the time column is written when the file cannot say: day-first or month-first "
                             "(slashed dates such as 03/01/2024), excel (Excel serial days), or a strptime pattern "
                             "('%%d/%%m/%%Y %%H:%%M:%%S'; a date and a clock time in two columns are joined with a space). "
