@@ -17,7 +17,7 @@ from thermoplc.models.probing import Fusion
 from thermoplc.models.envelope import Envelope
 from thermoplc.models.plausibility import Plausibility
 from thermoplc.models.start import Start
-from thermoplc.recordings.reading import Reading, reading_problem
+from thermoplc.recordings.reading import Reading
 from thermoplc.recordings.resample import Resampling
 from thermoplc.base.binary32 import FLT_MAX, f32_hex, parse_f32_hex, ulp_distance
 from thermoplc.base.errors import UserError, unreadable
@@ -262,11 +262,10 @@ def _reading(doc: dict, path: str) -> Reading:
     found = doc.get("reading", {})
     if not isinstance(found, dict) or set(found) - {"decimal", "gaps", "time_format"}:
         raise UserError(f"{path}: field 'reading': expected an object of decimal, gaps and time_format, found {found!r}")
-    reading, problem = reading_problem(found.get("decimal", "auto"), found.get("gaps", "refuse"),
-                                       found.get("time_format", "auto"))
-    if problem:
-        raise UserError(f"{path}: field 'reading': {problem.split(': ', 1)[1]}")
-    return reading
+    try:
+        return Reading.from_doc(found)
+    except UserError as exc:
+        raise UserError(f"{path}: field 'reading': {str(exc).split(': ', 1)[1]}") from None
 
 
 def _resampling(doc: dict, path: str, sample_period: float) -> Resampling | None:

@@ -26,6 +26,18 @@ class Reading:
     hold_s: float = 0.0
     time_format: str = "auto"
 
+    def __post_init__(self) -> None:
+        """A Reading built in Python (thermoplc.api) is checked as the options are."""
+        hold = self.gaps == "hold" and not (isinstance(self.hold_s, (int, float)) and 1e-3 <= self.hold_s <= 366 * 86400)
+        if self.gaps not in ("refuse", "drop", "hold") or hold:
+            raise UserError(f"Reading: gaps {self.gaps!r}, hold_s {self.hold_s!r}; expected refuse, drop, or hold with "
+                            f"hold_s from 0.001 to {366 * 86400} seconds")
+        problem = (None if self.decimal in ("auto", ".", ",") else f"--decimal: expected auto, . or ',', found "
+                   f"{self.decimal!r}") or (time_format_problem(self.time_format) and
+                                           f"--time-format: {time_format_problem(self.time_format)}")
+        if problem:
+            raise UserError(f"Reading: {problem}")
+
     @property
     def gaps_text(self) -> str:
         """The rule as --gaps takes it, the time held to the last digit (a model file's verify holds as long)."""
@@ -44,11 +56,8 @@ class Reading:
 
     @staticmethod
     def from_doc(doc: dict) -> Reading:
-        reading, problem = reading_problem(doc.get("decimal", "auto"), doc.get("gaps", "refuse"),
-                                           doc.get("time_format", "auto"))
-        if problem:
-            raise ValueError(problem)
-        return reading
+        """The Reading a model file's 'reading' field records (absent options: the defaults)."""
+        return resolved(doc)
 
 
 def gaps_problem(text: str) -> tuple[tuple[str, float] | None, str | None]:
