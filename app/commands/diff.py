@@ -45,14 +45,14 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--probe-target replays probings on --data; give --data")
     table = (read_table(args.data, args.time, reading=reading_of(args), sparse=(args.probe_target,) if args.probe_target
                         else ()) if args.data else None)
-    for note in reading_notes([table] if table is not None else []):
-        print(note, file=sys.stderr)
     if args.probe_target:
         from thermoplc.verifier.probings import with_probings
         from thermoplc.fitting.fit import sample_period
         every = args.probe_every.calls_at(sample_period(table, args.time)) if args.probe_every else None
         table = with_probings(table, args.probe_target, every, args.held_target)
     result = diff_blocks(args.old, args.new, table, args.inputs, args.time)
+    for note in reading_notes([table] if table is not None else []):  # once the diff stands: a refusal stays one line
+        print(note, file=sys.stderr)
     json_output.emit(args, format_diff(result), diff_document(result, table is not None) if args.json else None)
     if table is not None and not result.behaviour_equal:
         return 1

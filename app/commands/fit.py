@@ -224,8 +224,6 @@ def run(args: argparse.Namespace) -> int:
                              resampling=resampling_of(args))
     groups = campaign.groups(args.group_by) if args.group_by else None
     tables = campaign.tables
-    for note in reading_notes(tables):
-        print(note, file=sys.stderr)
     every = args.probe_every.calls_at(common_sample_period(tables, args.time)) if args.probe_every else None
     refuse_columns_not_read(args, request, tables)
     if len(tables) == 1 and not (args.folds or args.group_by):
@@ -258,6 +256,8 @@ def run(args: argparse.Namespace) -> int:
     write_outputs(outputs, remove=[Path(args.report) / name for name in stale])  # all of them, or none
     report = Path(args.report) / INDEX if args.report is not None else None
     text = f"{format_fit(model, campaign)}\nwrote {args.output}" + (f"\nwrote {report}" if report else "")
+    for note in reading_notes(tables):  # once the fit stands: a refusal stays one line
+        print(note, file=sys.stderr)
     json_output.emit(args, text, document, written=True)
     if refused:
         print(f"thermoplc: WARNING: generate will refuse this model: {refused}", file=sys.stderr)

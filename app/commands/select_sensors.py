@@ -47,8 +47,6 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         check_output(args.output, args.force, inputs=files_read(args))
     table = read_table(args.data, args.time, reading=reading_of(args))
-    for note in reading_notes([table]):
-        print(note, file=sys.stderr)
     if args.resample:
         from thermoplc.recordings.resample import Resampling, resample
         table = resample(table, args.time, Resampling(args.resample))
@@ -68,6 +66,8 @@ def run(args: argparse.Namespace) -> int:
     except UserError as exc:
         raise UserError(str(exc) if str(exc).startswith(args.data) else f"{args.data}: {exc}") from None
     source = "<stdin>" if args.data == "-" else Path(args.data).name
+    for note in reading_notes([table]):  # once the selection stands: a refusal stays one line
+        print(note, file=sys.stderr)
     print(f"sensor selection ({selection.method}) for {args.target} on {source}, {rows} rows")
     print(f"  {selection.detail}")
     for column, why in skipped.items():
