@@ -329,8 +329,6 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
     lines = np.concatenate(numbers_all)
     notes = layout.convert(columns, lines)
     missing = {name: where for name, where in missing.items() if name in columns}  # a joined date column is gone
-    if layout.dated is not None and np.isnan(columns[header[layout.dated]]).any():
-        missing[header[layout.dated]] = np.isnan(columns[header[layout.dated]])  # a missing date or clock half
     columns, lines, gap_note = apply_gaps(path, columns, missing, lines, time_column, reading)
     table = Table(path, columns, digest.hexdigest(), lines, notes + ((gap_note,) if gap_note else ()), reading)
     _check_time(table, time_column, list(columns), dated=None if layout.dated is None else layout.zoned)
