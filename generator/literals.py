@@ -14,9 +14,8 @@ MAX_DIGITS = 9  # nine significant digits always identify a binary32 value
 
 
 def _names_value(text: str, bits: int) -> bool:
-    via_double = round_f32(float(text))
-    direct = decimal_to_f32(text)
-    return f32_bits(via_double) == bits and f32_bits(direct) == bits
+    """Both routes give `bits`; the exact (slow) route only for a text the quick one accepts."""
+    return f32_bits(round_f32(float(text))) == bits and f32_bits(decimal_to_f32(text)) == bits
 
 
 def _layout(digits: str, exponent: int, negative: bool) -> str:

@@ -25,8 +25,9 @@ from lark.tools.standalone import gen_standalone
 ROOT = Path(__file__).resolve().parent.parent
 GRAMMAR = ROOT / "verifier" / "st.lark"
 OUTPUT = ROOT / "verifier" / "st_standalone.py"
-# start: a whole block; st_body: a body apart from its declarations; constant: one start value (PLCopen XML)
-STARTS = ["start", "st_body", "constant"]
+# start: a whole block; st_body: a body apart from its declarations; constant: one start value (PLCopen XML);
+# sources: a test bench's data blocks and function blocks
+STARTS = ["start", "st_body", "constant", "sources"]
 OPTIONS = dict(parser="lalr", lexer="contextual", propagate_positions=True, maybe_placeholders=True, start=STARTS)
 
 

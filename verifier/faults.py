@@ -28,8 +28,9 @@ from thermoplc.models.safety import Limits, guards
 from thermoplc.recordings.table import Table
 from thermoplc.verifier.probings import probing_inputs, reference_keys, start_value_errors
 from thermoplc.verifier.restarts import restart_cases, step_calls
-from thermoplc.verifier.replay import (check_interface, load_block, replay_and_compare, block_limits, check_model_inputs,
-                                       compare_constants, constants_lines, subnormal_declarations)
+from thermoplc.verifier.expectation import check_interface, check_model_inputs
+from thermoplc.verifier.replay import (load_block, replay_and_compare, block_limits, compare_constants, constants_lines,
+                                       subnormal_declarations)
 
 TRANSIENT_CALLS = 30
 WRONG_PROBING_UM = 50.0  # a chip on the probe: inside any limit a machine has, far beyond what drift does between probings

@@ -38,7 +38,7 @@ BODY_FRAME_WORDS = {word: f"{word} in the body (statements only: the XML's <inte
                                  "FUNCTION_BLOCK", "END_FUNCTION_BLOCK")}
 
 
-_STATEMENTS = (s.Assign, s.If, s.For, s.Region)
+_STATEMENTS = (s.Assign, s.If, s.For, s.Region, s.BlockCall)
 DINT_MAX = 2 ** 31 - 1
 
 
@@ -73,6 +73,8 @@ def _with_system_flag(name: str, body: tuple) -> tuple:
             return s.If(tuple((c, tuple(map(stmt, b))) for c, b in st.branches), tuple(map(stmt, st.orelse)), st.pos)
         if isinstance(st, s.For):
             return s.For(st.var, st.start, st.stop, st.step, tuple(map(stmt, st.body)), st.pos)
+        if isinstance(st, s.BlockCall):
+            return st
         return s.Region(st.title, tuple(map(stmt, st.body)), st.pos)
     return tuple(map(stmt, body))
 
@@ -189,6 +191,27 @@ class _ToAst(Transformer):
         name, value = items
         base = "BOOL" if isinstance(value, bool) else "INT" if isinstance(value, int) else "REAL"
         return s.VarDecl(str(name), "constant", s.TypeRef(base), value, _at(name))
+
+    def _bench_only(self, what: str, at) -> None:
+        self._fail(_at(at), f"{what} in a block under test: only a test bench calls a block or reads a data block")
+
+    @v_args(meta=True)
+    def fb_call(self, meta, items):
+        self._bench_only("a call of another block", meta)
+
+    @v_args(meta=True)
+    def member(self, meta, items):
+        self._bench_only(f"{items[0].name}.{items[1]}", meta)
+
+    @v_args(meta=True)
+    def global_item(self, meta, items):
+        self._bench_only(f"{items[0]}.{items[1]}", meta)
+
+    def block_type(self, items):
+        self._bench_only(f"an instance of {items[0]}", items[0])
+
+    def fb_argument(self, items):
+        return str(items[0]), items[1]
 
     def scalar_type(self, items):
         return s.TypeRef(str(items[0]).upper())

@@ -11,20 +11,20 @@ import numpy as np
 from thermoplc.base.binary32 import f32_bits, f32_hex, is_subnormal, ulp_distance
 from thermoplc.contract.constants import (LIMIT_NAMES, TABLE_PREFIX, constant_name, expected, limits_of_block,
                                           required)
-from thermoplc.contract.outputs import (CONTROL_INPUT_START, FAULT_PREFIX, PROBE_INPUT_START, PROBE_INPUTS, block_names,
-                                       control_of, named)
+from thermoplc.contract.outputs import FAULT_PREFIX, PROBE_INPUTS, control_of
 from thermoplc.base.errors import UserError
 from thermoplc.fitting.fit import SAMPLING_TOLERANCE, sample_period
 from thermoplc.models.modelfile import Model
-from thermoplc.models.reference import block_outputs, model_inputs
+from thermoplc.models.reference import block_outputs
 from thermoplc.models.safety import Limits
 from thermoplc.recordings.table import Table, close_match
-from thermoplc.verifier.control import control_inputs, control_summary, unread_control_columns
+from thermoplc.verifier.control import control_summary, unread_control_columns
 from thermoplc.verifier.engines import Replayer
+from thermoplc.verifier.expectation import model_expectation
 from thermoplc.verifier.mapping import known_overrides
 from thermoplc.verifier.semantics import BlockFailure, Finding
 from thermoplc.verifier.block_file import parse_file
-from thermoplc.verifier.probings import probing_inputs, reference_keys, start_value_errors, summary as probing_summary
+from thermoplc.verifier.probings import reference_keys, start_value_errors, summary as probing_summary
 from thermoplc.verifier.syntax import Program, names_read
 from thermoplc.verifier.typed import cells_as, differing_rows, first_non_finite
 
@@ -160,30 +160,6 @@ def load_block(block_path: str, engine: str = "auto") -> tuple[Program, Replayer
     return program, Replayer(program, str(block_path), engine)
 
 
-def check_interface(machine, block: str, available: dict, what: str) -> None:
-    """Every block input without a start value has a column in `what`, and `what` has no column the block
-    lacks: a misspelt column would otherwise leave an input at its start value for the whole replay."""
-    names = {d.name.upper() for d in machine.inputs}
-    missing = sorted(d.name for d in machine.inputs if d.name not in available and d.initial is None)
-    extra = sorted(n for n in available if n.upper() not in names)
-    if missing or extra:
-        raise UserError(f"{block}: block inputs {', '.join(d.name for d in machine.inputs)} do not match {what}"
-                        + (f"; no value for {', '.join(missing)}" if missing else "")
-                        + (f"; {what} also has {', '.join(extra)}" if extra else ""))
-
-
-def check_model_inputs(machine, block: str, model: Model, source: str) -> None:
-    """Every input the model file lists must be an input of the block: a block generated from the file
-    reads each one (generate refuses an input its kind does not read), so the file and the block
-    belong to different models, or the file was edited."""
-    declared = {d.name.upper() for d in machine.inputs}
-    for k, s in enumerate(model.inputs):
-        if s.name.upper() not in declared:
-            raise UserError(f"{source}: field 'inputs[{k}]': input {s.name!r} (role {s.role!r}) is not an input of "
-                            f"{block} (its inputs: {', '.join(d.name for d in machine.inputs)}); was the model file "
-                            f"edited, or is the block another model's?")
-
-
 def block_columns(inputs: list, table: Table, overrides: dict | None, block: str, probings: str = "") -> dict:
     """The data column of each block input (by its name unless --inputs maps it), REAL as float32; `probings`
     says where else a fused block's probing inputs may come from (diff: --probe-target)."""
@@ -284,7 +260,7 @@ def replay_and_compare(replayer: Replayer, block: str, against: str, table: Tabl
                           *_unsafe(produced, types, findings, table, block, inputs)), produced=produced)
 
 
-def _check_period(model: Model, table: Table) -> None:
+def check_period(model: Model, table: Table) -> None:
     """The block's constants are discretised for the model's period: the data must be sampled at it."""
     if model.time_column not in table.columns or table.rows < 2:
         return
@@ -364,48 +340,14 @@ def compare_constants(program: Program, model: Model, limits: Limits) -> tuple[i
     return checked, tuple(errors)
 
 
-def mistyped(machine, reference: dict):
-    """The first input or output the block declares with another type than the model's block has
-    (BOOL outputs, Enable/Reset and ProbeNew, INT counters, REAL the rest, no arrays), with that type; or None."""
-    kinds = {"b": "BOOL", "i": "INT"}
-    wanted = {**{name: kinds.get(np.asarray(values).dtype.kind, "REAL") for name, values in reference.items()},
-              **dict.fromkeys(CONTROL_INPUT_START, "BOOL"), **dict.fromkeys(PROBE_INPUT_START, "BOOL")}
-    for d in (*machine.outputs, *machine.inputs):
-        expected = wanted.get(d.name, "REAL")
-        if d.type.base != expected or d.type.bounds:
-            return d, expected
-    return None
-
-
 def verify_against_model(block: str, model: Model, model_path: str, table: Table,
                          overrides: dict | None = None, engine: str = "auto", probe_every: int | None = None) -> Report:
     program, machine = load_block(block, engine)
     limits = block_limits(program, block)
-    check_model_inputs(machine, block, model, model_path)
-    _check_period(model, table)
-    probe_names = PROBE_INPUTS.values() if model.probe is not None else ()
-    overrides = known_overrides(overrides, [*(s.name for s in model.inputs), *CONTROL_INPUT_START, *probe_names],
-                                model_path)
-    inputs = model_inputs(model, table, overrides)
-    control = control_inputs(table, overrides)
-    probing = probing_inputs(model, table, overrides, probe_every)
-    check_interface(machine, block, {**inputs, **control, **probing}, f"the inputs of {Path(model_path).name}")
-    reference_control = control_of(control)
-    reference_inputs = {**inputs, **reference_keys(probing)}
-    block32 = named(block_outputs(model, reference_inputs, "f32", limits, reference_control),
-                    block_names(model, [d.name for d in machine.outputs]))
-    declared = [d.name for d in machine.outputs]
-    unknown = [name for name in declared if name not in block32]
-    missing = [name for name in block32 if name not in declared]
-    if unknown or missing:
-        raise UserError(f"{block}: block outputs {', '.join(declared)} do not match the outputs of "
-                        f"{Path(model_path).name}: {', '.join(block32)}")
-    wrong = mistyped(machine, block32)
-    if wrong:
-        d, expected = wrong
-        raise UserError(f"{block}:{d.pos[0]}:{d.pos[1]}: {d.name} is declared {d.type.base}; the model's block "
-                        f"has it as {expected}")
-    ideal = block_outputs(model, reference_inputs, "f64", limits, reference_control)
+    check_period(model, table)
+    seen = model_expectation(block, program, machine, limits, model, model_path, table, overrides, probe_every)
+    inputs, control, probing, block32 = seen.inputs, seen.control, seen.probing, seen.expected
+    ideal = block_outputs(model, {**inputs, **reference_keys(probing)}, "f64", limits, control_of(control))
     quantisation = {model.target.name: float(np.max(np.abs(block32[model.target.name].astype(np.float64)
                                                           - ideal[model.target.name])))}
     against = f"the float32 reference of {Path(model_path).name} ({model.kind})"

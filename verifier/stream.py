@@ -29,9 +29,10 @@ from thermoplc.models.modelfile import Model
 from thermoplc.models.streaming import StreamingReference, streamable
 from thermoplc.recordings.chunks import CannotStream, stream_columns
 from thermoplc.recordings.reading import Reading
-from thermoplc.verifier.replay import (Report, check_interface, compare_constants, load_block, block_limits,
-                                       known_overrides, mistyped, subnormal_declarations, unsafe_findings,
-                                       verify_against_model)
+from thermoplc.verifier.expectation import check_interface, mistyped
+from thermoplc.verifier.mapping import known_overrides
+from thermoplc.verifier.replay import (Report, compare_constants, load_block, block_limits, subnormal_declarations,
+                                       unsafe_findings, verify_against_model)
 from thermoplc.verifier.recording import read_recording
 from thermoplc.verifier.typed import differing_rows, first_non_finite
 

@@ -70,7 +70,24 @@ class Call:
     pos: Pos = _pos()
 
 
-Expr = Union[Name, Index, RealLit, IntLit, BoolLit, BinOp, Unary, Call]
+@dataclass(frozen=True)
+class Member:
+    """An output of a block instance (`Dut.Comp_X`): test benches only (verifier/bench_source.py)."""
+    instance: str
+    name: str
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class GlobalItem:
+    """An item of a data block's array (`"TB_D1".In1[k]`): test benches only."""
+    block: str
+    name: str
+    index: "Expr"
+    pos: Pos = _pos()
+
+
+Expr = Union[Name, Index, RealLit, IntLit, BoolLit, BinOp, Unary, Call, Member, GlobalItem]
 
 
 @dataclass(frozen=True)
@@ -104,13 +121,22 @@ class Region:
     pos: Pos = _pos()
 
 
-Stmt = Union[Assign, If, For, Region]
+@dataclass(frozen=True)
+class BlockCall:
+    """A call of a block instance with its inputs by name: test benches only."""
+    instance: str
+    arguments: tuple[tuple[str, Expr], ...]
+    pos: Pos = _pos()
+
+
+Stmt = Union[Assign, If, For, Region, BlockCall]
 
 
 @dataclass(frozen=True)
 class TypeRef:
     base: str  # upper case: REAL, BOOL, INT, DINT
     bounds: tuple[int, int] | None = None  # ARRAY[lo..hi] OF base
+    block: str = ""  # an instance of this function block (test benches only); base is then "BLOCK"
 
 
 @dataclass(frozen=True)
@@ -132,6 +158,22 @@ class Program:
 
     def section(self, section: str) -> tuple[VarDecl, ...]:
         return tuple(d for d in self.decls if d.section == section)
+
+
+@dataclass(frozen=True)
+class DataBlock:
+    """A global data block of a test bench: its arrays with the values its BEGIN section gives."""
+    name: str
+    decls: tuple[VarDecl, ...]
+    values: tuple[tuple[str, int, object], ...]  # (array, index, value), in the order written
+    pos: Pos = _pos()
+
+
+@dataclass(frozen=True)
+class Sources:
+    """A test bench source: its function blocks and data blocks, in the order written."""
+    blocks: tuple[Program, ...]
+    data_blocks: tuple[DataBlock, ...]
 
 
 def names_read(node) -> frozenset[str]:
