@@ -104,12 +104,12 @@ def _suggestion(word: str, parser: argparse.ArgumentParser) -> str:
 def build_parser() -> argparse.ArgumentParser:
     # the commands (and the choices they take from the packages) are imported here, inside main's
     # handling of Ctrl-C; one module per subcommand in thermoplc.commands, in the order of --help
-    from thermoplc.commands import demo, diagnose, diff, fit, generate, select_sensors, twin, verify
+    from thermoplc.commands import demo, diagnose, diff, fit, generate, select_sensors, testbench, twin, verify
     from thermoplc.commands.reads import declare
     parser = _Parser(prog="thermoplc", description=__doc__.splitlines()[0] if __doc__ else None)
     parser.add_argument("--version", action="version", version=f"thermoplc {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
-    for command in (demo, twin, fit, select_sensors, diagnose, generate, diff, verify):
+    for command in (demo, twin, fit, select_sensors, diagnose, generate, diff, verify, testbench):
         command.add_parser(sub)
     for each in sub.choices.values():
         declare(each)  # the options whose files the command reads: no output of it may replace one

@@ -28,7 +28,7 @@ from thermoplc.verifier.bench_source import parse_sources
 from thermoplc.verifier.expectation import model_expectation, window
 from thermoplc.verifier.parser import parse_text
 from thermoplc.verifier.plcopen import is_xml, read_plcopen
-from thermoplc.verifier.syntax import Program
+from thermoplc.verifier.syntax import Program, Sources
 from thermoplc.verifier.stress import StressResult, stress
 
 
@@ -126,6 +126,7 @@ class Bench:
     text: str
     name: str  # the bench block's
     dialect: str
+    plcopen: bool  # PLCopen XML of the iec dialect
     first: int  # the data row of call 1, counted from 0
     plan: BenchPlan
     data_blocks: int
@@ -133,57 +134,61 @@ class Bench:
     counters: BenchCounters
 
 
-def block_dialect(block_path: str) -> str:
-    """The dialect a block source is written in, as generate writes them: TIA's optimized-access attribute,
-    STEP 7's quoted name without it, IEC's bare name; PLCopen XML holds the iec dialect."""
+def block_dialect(block_path: str) -> tuple[str, bool]:
+    """The dialect a block source is written in, as generate writes them (TIA's optimized-access attribute,
+    STEP 7's quoted name without it, IEC's bare name), and whether it is PLCopen XML (of the iec dialect)."""
     from thermoplc.verifier.block_file import read_source
     text = read_source(block_path)
     if is_xml(text):
-        return "iec"
+        return "iec", True
     if "S7_Optimized_Access" in text:
-        return "tia"
-    return "step7" if re.search(r'(?im)^\s*FUNCTION_BLOCK\s+"', text) else "iec"
+        return "tia", False
+    return ("step7" if re.search(r'(?im)^\s*FUNCTION_BLOCK\s+"', text) else "iec"), False
 
 
-def testbench(block_path: str, model: Model, model_path: str, table: Table, dialect: str | None = None,
-              first: int = 0, calls: int | None = None, rows_per_cycle: int = 50, tolerance: float = 0.0,
-              overrides: dict | None = None, probe_every=None) -> Bench:
-    """The test bench of the block at `block_path` over rows `first` .. of `table`, the expected outputs the
-    model's float32 reference from a Reset at the window's first row; run here before it is returned."""
+def testbench(block_path: str, model: Model, model_path: str, table: Table, first: int = 0, calls: int | None = None,
+              rows_per_cycle: int = 50, tolerance: float = 0.0, overrides: dict | None = None,
+              probe_every=None) -> Bench:
+    """The test bench of the block at `block_path`, in its dialect, over rows `first` (from 0) .. of `table`; the
+    expected outputs the model's float32 reference from a Reset at the window's first row. Run here, in
+    thermoplc's interpreter, before it is returned (`Bench.counters`)."""
     from thermoplc.verifier.replay import block_limits, check_period, load_block
     program, replayer = load_block(block_path, "interp")
-    dialect = dialect or block_dialect(block_path)
+    dialect, plcopen = block_dialect(block_path)
     check_period(model, table)
     seen = model_expectation(block_path, program, replayer, block_limits(program, block_path), model, model_path,
                              table, overrides, probe_every)
     if not 0 <= first < table.rows:
-        raise UserError(f"--from {first}: the data have rows 0 to {table.rows - 1}")
+        raise UserError(f"--from {first + 1}: {table.path} has rows 1 to {table.rows}")
     outputs = [d for d in replayer.outputs if d.name not in program.per_call]
     row_bytes = sum(ELEMENT_BYTES[d.type.base] for d in (*replayer.inputs, *outputs))
     calls = default_calls(row_bytes, table.rows - first, dialect) if calls is None else calls
-    if first + calls > table.rows:
-        raise UserError(f"--calls {calls} from row {first}: the data have {table.rows - first} rows from there")
+    if not 1 <= calls <= table.rows - first:
+        raise UserError(f"--calls {calls}: {table.path} has {table.rows - first} rows from row {first + 1}")
     columns, expected = window(seen, model, first, calls)
     as_values = lambda d, values: tuple(float(x) if d.type.base == "REAL" else bool(x) if d.type.base == "BOOL"
                                         else int(x) for x in np.asarray(values).tolist())
     plan = BenchPlan(program.name, tuple(Port(d.name, d.type.base, as_values(d, columns[d.name]))
                                          for d in replayer.inputs),
                      tuple(Port(d.name, d.type.base, as_values(d, expected[d.name])) for d in outputs),
-                     rows_per_cycle, tolerance, bench_notes(seen, model_path, table, first, calls, program))
+                     rows_per_cycle, tolerance, bench_notes(expected, model_path, table, first, calls, program))
     try:
-        text = render_bench(plan, dialect)
+        text = render_bench(plan, dialect, plcopen, __version__)
         parts = chunks(plan, dialect)
     except GenerationError as exc:
         raise UserError(f"{block_path}: no test bench: {exc}") from None
     name = bench_names(program.name)[0]
-    counters = run_bench_text(text, f"{name} (the test bench)", program, block_path, math.ceil(calls / rows_per_cycle) + 1)
+    counters = run_bench_text(text, f"{name} (the test bench)", program, block_path,
+                              math.ceil(calls / rows_per_cycle) + 1, plcopen)
     largest = max(part.rows for part in parts) * (plan.row_bytes + 1)
-    return Bench(text, name, dialect, first, plan, len(parts), largest, counters)
+    return Bench(text, name, dialect, plcopen, first, plan, len(parts), largest, counters)
 
 
-def run_bench_text(text: str, source: str, block: Program, block_path: str, max_cycles: int) -> BenchCounters:
-    """A test bench's source run in thermoplc's interpreter against the parsed block under test."""
-    sources = parse_sources(text, source)
+def run_bench_text(text: str, source: str, block: Program, block_path: str, max_cycles: int,
+                   plcopen: bool = False) -> BenchCounters:
+    """A test bench's source (PLCopen XML with `plcopen`) run in thermoplc's interpreter against the parsed
+    block under test."""
+    sources = Sources((read_plcopen(text, source, bench=True),), ()) if plcopen else parse_sources(text, source)
     benches = [b for b in sources.blocks if b.name.upper() != block.name.upper()]
     if len(benches) != 1:
         raise UserError(f"{source}: expected one test bench function block besides {block.name}, found "
@@ -192,16 +197,18 @@ def run_bench_text(text: str, source: str, block: Program, block_path: str, max_
     return run_bench(benches[0], source, blocks, data_arrays(sources.data_blocks, source), max_cycles)
 
 
-def bench_notes(seen, model_path: str, table: Table, first: int, calls: int, program: Program) -> tuple[str, ...]:
+def bench_notes(expected: dict, model_path: str, table: Table, first: int, calls: int,
+                program: Program) -> tuple[str, ...]:
     """The bench's header: where its rows come from, how it starts, what '=' cannot see."""
     from pathlib import Path
-    negative_zero = sum(int(np.count_nonzero((np.asarray(v) == 0) & np.signbit(np.asarray(v, np.float32))))
-                        for v in seen.expected.values() if np.asarray(v).dtype.kind == "f")
+    negative_zero = sum(int(np.count_nonzero((values == 0) & np.signbit(values)))
+                        for values in map(np.asarray, expected.values()) if values.dtype.kind == "f")
     lines = table.lines
-    notes = [f"Call k is row {first} + k - 1 of {Path(table.path).name} (lines {int(lines[first])} to "
-             f"{int(lines[first + calls - 1])}); expected: the float32 reference of {Path(model_path).name}.",
-             "The block is Reset at call 1 (a new instance's state), then driven as recorded.",
-             "Call this block from a cyclic OB or task; it makes RowsPerCycle calls per cycle and sets Done.",
+    notes = [f"Calls 1 to {calls} are rows {first + 1} to {first + calls} of {Path(table.path).name} (lines "
+             f"{int(lines[first])} to {int(lines[first + calls - 1])}): call k is what verify names cycle {first} + k - 1.",
+             f"Expected: the float32 reference of {Path(model_path).name}, the block Reset at call 1 (a new "
+             f"instance's state), then driven as recorded.",
+             "Call this block from a cyclic OB or task: RowsPerCycle calls of the block per cycle, until Done.",
              "REAL outputs are compared with '=' (BOOL with XOR): '=' does not tell -0.0 from 0.0 "
              f"({negative_zero} expected values here are -0.0) and counts any NaN as a mismatch."]
     if program.per_call:

@@ -224,6 +224,22 @@ def _environment() -> jinja2.Environment:
 UNDATED = "2000-01-01T00:00:00"  # TC6 requires a creationDateTime: this one when no date is given (the API, goldens)
 
 
+def plcopen_type(kind: str, bounds: tuple[int, int] | None = None, block: str = "") -> str:
+    """A variable's <type> content: a scalar, a one-dimensional array of one, or an instance of a block."""
+    if block:
+        return f'<derived name="{block}"/>'
+    if bounds is None:
+        return f"<{kind}/>"
+    return f'<array><dimension lower="{bounds[0]}" upper="{bounds[1]}"/><baseType><{kind}/></baseType></array>'
+
+
+def plcopen_pou(name: str, version: str, title: str, created: str, header: list[str], sections: list, body: list[str]) -> str:
+    """One function block as PLCopen TC6 XML; `sections` are (element, attributes, variables), each variable a
+    dict of name, type_xml, simple (a start value's text or None), array (start values' texts), comment."""
+    return _environment().get_template("plcopen.xml.j2").render(
+        name=name, version=version, title=title, created=created, header=header, sections=sections, body=body)
+
+
 def render_plcopen(block: Block, version: str) -> str:
     """The iec block wrapped as PLCopen TC6 XML (CODESYS, TwinCAT import). Its creationDateTime is the
     block's date (generate --date, or SOURCE_DATE_EPOCH, or today), the one the header comment states,
@@ -234,11 +250,11 @@ def render_plcopen(block: Block, version: str) -> str:
     def decl(v: Var) -> dict:
         flag = isinstance(v.initial, bool)
         items = [real_literal(x) for x in v.initial] if v.initial is not None and not flag else []
-        return {"name": v.name, "type": v.type, "last": None if v.length is None else v.length - 1,
+        return {"name": v.name, "type_xml": plcopen_type(v.type, None if v.length is None else (0, v.length - 1)),
                 "simple": ("TRUE" if v.initial else "FALSE") if flag else None, "array": items,
                 "comment": safe_comment(v.comment)}
 
-    constants = [{"name": c.name, "type": c.type, "last": None, "array": [], "comment": safe_comment(c.comment),
+    constants = [{"name": c.name, "type_xml": plcopen_type(c.type), "array": [], "comment": safe_comment(c.comment),
                   "simple": real_literal(c.value) if c.type == "REAL" else str(c.value)} for c in block.constants]
     retain = ' retain="true"' if block.retain else ""
     sections = [(element, attributes, [decl(v) for v in group]) for element, attributes, group in
@@ -246,11 +262,10 @@ def render_plcopen(block: Block, version: str) -> str:
                  ("tempVars", "", block.temps)) if group]
     if constants:
         sections.append(("localVars", ' constant="true"', constants))
-    return _environment().get_template("plcopen.xml.j2").render(
-        name=block.name, version=version, title=safe_string(block.title),
-        created=f"{block.identity.date}T00:00:00" if block.identity.date else UNDATED,
-        header=[safe_comment(line) for line in _header(block, DIALECTS["iec"])], sections=sections,
-        body=printer.body(block.regions))
+    return plcopen_pou(block.name, version, safe_string(block.title),
+                       f"{block.identity.date}T00:00:00" if block.identity.date else UNDATED,
+                       [safe_comment(line) for line in _header(block, DIALECTS["iec"])], sections,
+                       printer.body(block.regions))
 
 
 def render_instance_db(block: Block, db_name: str) -> str:

@@ -7,10 +7,21 @@ from dataclasses import dataclass
 
 from thermoplc.generator.ir import GenerationError
 from thermoplc.generator.literals import real_literal
-from thermoplc.generator.printer import safe_comment, safe_string
+from thermoplc.generator.printer import UNDATED, plcopen_pou, plcopen_type, safe_comment, safe_string
 from thermoplc.generator.testbench import MAX_CALLS, TARGETS, BenchPlan, Chunk, bench_names, check_plan, chunks
 
 VALUES_PER_LINE = 8
+
+
+@dataclass(frozen=True)
+class _Decl:
+    """A variable of the bench: its type, its start value's text (a tuple for an array), what it holds."""
+    name: str
+    type: str  # REAL, BOOL, INT, or BLOCK (an instance of `block`)
+    bounds: tuple[int, int] | None = None
+    block: str = ""
+    initial: str | tuple | None = None
+    comment: str = ""
 
 
 @dataclass(frozen=True)
@@ -79,52 +90,61 @@ class _Text:
             lines += [f"   {array}[{k}] := {_literal(v, port.type)};" for k, v in enumerate(values)]
         return lines + ["END_DATA_BLOCK", ""]
 
-    def constant_arrays(self) -> list[str]:
-        lines = []
-        for chunk in self.chunks:
-            for array, port in self.arrays():
-                values = [_literal(v, port.type) for v in port.values[chunk.first:chunk.first + chunk.rows]]
-                rows = [", ".join(values[i:i + VALUES_PER_LINE]) for i in range(0, len(values), VALUES_PER_LINE)]
-                lines.append(f"    D{chunk.number}_{array} : {self.array(0, chunk.rows - 1, port.type)} := ["
-                             + ",\n        ".join(rows) + f"]; {self.comment(f'{port.name}, calls {chunk.first + 1} to {chunk.first + chunk.rows}')}")
-        return lines
-
     # -- declarations ---------------------------------------------------------------------------------
-    def declarations(self) -> list[str]:
-        t, plan = self.sp.types, self.plan
-        indent = "      " if self.dialect == "tia" else "    "
-        end = "   END_VAR" if self.dialect == "tia" else "END_VAR"
-
-        def section(keyword, decls):
-            head = f"   {keyword}" if self.dialect == "tia" else keyword
-            return [head, *(f"{indent}{name} : {kind};{f'   {self.comment(c)}' if c else ''}" for name, kind, c in decls),
-                    end]
-        reals = max(1, len(self.reals))
-        lines = section("VAR_INPUT", [("Restart", t["BOOL"], "TRUE: start again from call 1 (the block is Reset at call 1)")])
-        lines += section("VAR_OUTPUT", [
-            ("Done", t["BOOL"], f"TRUE once all {plan.calls} calls are made"),
-            ("Calls", t["INT"], "calls of the block made"),
-            ("Mismatches", t["INT"], f"calls with an output not as expected (counted up to {MAX_CALLS})"),
-            ("FirstMismatchCall", t["INT"], "the first such call, counted from 1 (0: none)"),
-            ("FirstMismatchOutput", t["INT"], "its first differing output, numbered as listed in the header"),
-            ("FirstExpected", t["REAL"], "that output's expected value (BOOL as 0.0 or 1.0)"),
-            ("FirstActual", t["REAL"], "and the block's"),
-            ("MaxDiff", self.array(1, reals, "REAL"), "largest |block - expected| of each REAL output, its unit"),
-        ])
-        block_type = f'"{plan.block}"' if self.sp.data_blocks else plan.block
-        lines += section("VAR", [("Dut", block_type, "the block under test")])
-        temps = [("Step", t["INT"], ""), ("Row", t["INT"], ""), ("Differs", t["BOOL"], ""), ("Diff", t["REAL"], "")]
-        temps += [(array, t[port.type], port.name) for array, port in self.arrays()]
-        lines += section("VAR_TEMP", temps)
-        constants = [("CallCount", "INT", str(plan.calls)), ("RowsPerCycle", "INT", str(plan.rows_per_cycle))]
+    def sections(self) -> list[tuple[str, list[_Decl]]]:
+        """The bench's variables by section, in no dialect's spelling."""
+        plan = self.plan
+        constants = [_Decl("CallCount", "INT", initial=str(plan.calls)),
+                     _Decl("RowsPerCycle", "INT", initial=str(plan.rows_per_cycle))]
         if plan.tolerance:
-            constants.append(("Tolerance", "REAL", real_literal(plan.tolerance)))
-        if self.dialect == "step7":
-            lines += ["CONST", *(f"    {name} := {value};" for name, _, value in constants), "END_CONST"]
-        else:
-            data = [] if self.sp.data_blocks else self.constant_arrays()
-            decls = [f"{indent}{name} : {t[kind]} := {value};" for name, kind, value in constants]
-            lines += ["   VAR CONSTANT" if self.dialect == "tia" else "VAR CONSTANT", *decls, *data, end]
+            constants.append(_Decl("Tolerance", "REAL", initial=real_literal(plan.tolerance)))
+        if not self.sp.data_blocks:
+            constants += [_Decl(f"D{chunk.number}_{array}", port.type, (0, chunk.rows - 1),
+                                initial=tuple(_literal(v, port.type) for v in port.values[chunk.first:chunk.first + chunk.rows]),
+                                comment=f"{port.name}, calls {chunk.first + 1} to {chunk.first + chunk.rows}")
+                          for chunk in self.chunks for array, port in self.arrays()]
+        return [
+            ("VAR_INPUT", [_Decl("Restart", "BOOL", comment="TRUE: start again from call 1 (the block is Reset at call 1)")]),
+            ("VAR_OUTPUT", [
+                _Decl("Done", "BOOL", comment=f"TRUE once all {plan.calls} calls are made"),
+                _Decl("Calls", "INT", comment="calls of the block made"),
+                _Decl("Mismatches", "INT", comment=f"calls with an output not as expected (counted up to {MAX_CALLS})"),
+                _Decl("FirstMismatchCall", "INT", comment="the first such call, counted from 1 (0: none)"),
+                _Decl("FirstMismatchOutput", "INT", comment="its first differing output, numbered as the header lists them"),
+                _Decl("FirstExpected", "REAL", comment="that output's expected value (BOOL as 0.0 or 1.0)"),
+                _Decl("FirstActual", "REAL", comment="and the block's"),
+                _Decl("MaxDiff", "REAL", (1, max(1, len(self.reals))),
+                      comment="largest |block - expected| of each REAL output, in its unit")]),
+            ("VAR", [_Decl("Dut", "BLOCK", block=plan.block, comment="the block under test")]),
+            ("VAR_TEMP", [_Decl("Step", "INT"), _Decl("Row", "INT"), _Decl("Differs", "BOOL"), _Decl("Diff", "REAL"),
+                          *(_Decl(array, port.type, comment=port.name) for array, port in self.arrays())]),
+            ("VAR CONSTANT", constants),
+        ]
+
+    def st_type(self, d: _Decl) -> str:
+        if d.block:
+            return f'"{d.block}"' if self.sp.data_blocks else d.block
+        return self.array(*d.bounds, d.type) if d.bounds else self.sp.types[d.type]
+
+    def declarations(self) -> list[str]:
+        tia = self.dialect == "tia"
+        indent = "      " if tia else "    "
+        lines = []
+        for keyword, decls in self.sections():
+            if keyword == "VAR CONSTANT" and self.dialect == "step7":  # classic SCL: untyped named constants
+                lines += ["CONST", *(f"    {d.name} := {d.initial};" for d in decls), "END_CONST"]
+                continue
+            lines.append(f"   {keyword}" if tia else keyword)
+            for d in decls:
+                initial = ""
+                if isinstance(d.initial, tuple):
+                    rows = [", ".join(d.initial[i:i + VALUES_PER_LINE]) for i in range(0, len(d.initial), VALUES_PER_LINE)]
+                    initial = " := [" + f",\n{indent}    ".join(rows) + "]"
+                elif d.initial is not None:
+                    initial = f" := {d.initial}"
+                note = f"   {self.comment(d.comment)}" if d.comment else ""
+                lines.append(f"{indent}{d.name} : {self.st_type(d)}{initial};{note}")
+            lines.append("   END_VAR" if tia else "END_VAR")
         return lines
 
     # -- body ----------------------------------------------------------------------------------------
@@ -187,12 +207,16 @@ class _Text:
                          *first, "            END_IF;", f"            {n('Differs')} := TRUE;", "        END_IF;"]
 
     # -- the file -----------------------------------------------------------------------------------
+    def title(self) -> str:
+        return safe_string(f"Test bench of {self.plan.block}: {self.plan.calls} recorded calls, every output compared")
+
+    def header(self) -> list[str]:
+        return [*self.plan.notes, "Outputs compared, numbered as FirstMismatchOutput counts them:",
+                *(f"  {k + 1}: {p.name} ({p.type})" for k, p in enumerate(self.plan.outputs))]
+
     def source(self) -> str:
-        plan = self.plan
-        header = [*plan.notes, "Outputs compared, numbered as FirstMismatchOutput counts them:",
-                  *(f"  {k + 1}: {p.name} ({p.type})" for k, p in enumerate(plan.outputs))]
+        header, title = self.header(), self.title()
         lines = [line for chunk in self.chunks for line in self.data_block(chunk)] if self.sp.data_blocks else []
-        title = safe_string(f"Test bench of {plan.block}: {plan.calls} recorded calls, every output compared")
         if self.dialect == "tia":
             lines += [f'FUNCTION_BLOCK "{self.name}"', f"TITLE = {title}", "{ S7_Optimized_Access := 'TRUE' }",
                       "AUTHOR : thermopl", "FAMILY : ThermTB", f"NAME : {self.name[:8]}", "VERSION : 0.1"]
@@ -210,9 +234,28 @@ class _Text:
         return "\n".join(lines) + "\n"
 
 
-def render_bench(plan: BenchPlan, dialect: str) -> str:
-    """The test bench's source in `dialect` (tia, step7, iec), byte-identical for the same plan."""
+_PLCOPEN_SECTIONS = {"VAR_INPUT": ("inputVars", ""), "VAR_OUTPUT": ("outputVars", ""), "VAR": ("localVars", ""),
+                     "VAR_TEMP": ("tempVars", ""), "VAR CONSTANT": ("localVars", ' constant="true"')}
+
+
+def _plcopen(text: _Text, version: str) -> str:
+    """The iec bench as PLCopen TC6 XML: one POU, its data as constant arrays (CODESYS, TwinCAT import)."""
+    def variable(d: _Decl) -> dict:
+        return {"name": d.name, "type_xml": plcopen_type(d.type, d.bounds, d.block), "comment": safe_comment(d.comment),
+                "simple": d.initial if isinstance(d.initial, str) else None,
+                "array": list(d.initial) if isinstance(d.initial, tuple) else []}
+    sections = [(*_PLCOPEN_SECTIONS[keyword], [variable(d) for d in decls]) for keyword, decls in text.sections()]
+    return plcopen_pou(text.name, version, text.title(), UNDATED, [safe_comment(line) for line in text.header()],
+                       sections, text.body())
+
+
+def render_bench(plan: BenchPlan, dialect: str, plcopen: bool = False, version: str = "") -> str:
+    """The test bench's source in `dialect` (tia, step7, iec; PLCopen XML around iec with `plcopen`),
+    byte-identical for the same plan."""
     if dialect not in TARGETS:
         raise GenerationError(f"dialect {dialect!r}: a test bench is written for {', '.join(TARGETS)}")
+    if plcopen and dialect != "iec":
+        raise GenerationError("PLCopen XML holds the iec dialect")
     check_plan(plan)
-    return _Text(plan, dialect).source()
+    text = _Text(plan, dialect)
+    return _plcopen(text, version) if plcopen else text.source()

@@ -68,6 +68,11 @@ class _BenchToAst(_ToAst):
         return s.GlobalItem(str(items[0]).strip('"'), str(items[1]), items[2], _at(meta))
 
 
+def bench_transformer(source: str) -> _ToAst:
+    """The transformer that reads a test bench's constructs (for a PLCopen bench's body)."""
+    return _BenchToAst(source)
+
+
 def parse_sources(text: str, source: str) -> s.Sources:
     """A test bench source (data blocks and function blocks, in any order), or a StSyntaxError naming the place."""
     if len(text) > MAX_SOURCE_CHARACTERS * 16:

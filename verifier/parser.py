@@ -422,10 +422,11 @@ def _transform(tree, to_ast: _ToAst, source: str):
         raise
 
 
-def parse_body(text: str, source: str, line: int = 1, column: int = 1) -> tuple[s.Stmt, ...]:
+def parse_body(text: str, source: str, line: int = 1, column: int = 1, to_ast: "_ToAst | None" = None) -> tuple[s.Stmt, ...]:
     """The statements of a body held apart from its declarations (the ST text of a PLCopen POU),
     with positions counted from (line, column), where the text starts in `source`; declarations,
-    BEGIN or a block frame in the text are syntax errors."""
+    BEGIN or a block frame in the text are syntax errors. `to_ast`: another transformer (a test
+    bench's body calls the block under test: verifier/bench_source.py)."""
     if len(text) > MAX_SOURCE_CHARACTERS:
         raise StSyntaxError(f"{source}:{line}:{column}: {len(text):,} characters of ST; a function block body is at "
                             f"most {MAX_SOURCE_CHARACTERS:,} here (the largest generated block is about 200,000)")
@@ -437,7 +438,7 @@ def parse_body(text: str, source: str, line: int = 1, column: int = 1) -> tuple[
         at_end = isinstance(exc, UnexpectedToken) and exc.token.type == "$END"  # its place is the end of the text
         raise StSyntaxError(_explain(padded, source, exc, "the body (an IF, FOR or REGION not closed?)",
                                      {**UNSUPPORTED_WORDS, **BODY_FRAME_WORDS}, at_end)) from None
-    return _transform(tree, _ToAst(source), source)
+    return _transform(tree, to_ast or _ToAst(source), source)
 
 
 def parse_literal(text: str, source: str, where: str):

@@ -26,6 +26,7 @@ from xml.parsers import expat
 from thermoplc.base.errors import UserError
 from thermoplc.verifier import syntax as s
 from thermoplc.verifier.parser import SUPPORTED_TYPES, array_type, parse_body, parse_literal
+from thermoplc.verifier.bench_source import bench_transformer
 
 TC6 = "http://www.plcopen.org/xml/tc6_0201"
 XHTML = "http://www.w3.org/1999/xhtml"
@@ -82,6 +83,7 @@ class _Document:
 
     def __init__(self, text: str, source: str):
         self.source = source
+        self.bench = False  # a test bench (read_plcopen)
         self.starts: dict[ET.Element, tuple[int, int]] = {}
         self.text_starts: dict[ET.Element, tuple[int, int]] = {}
         self.content: list[_Content] = []
@@ -182,15 +184,17 @@ def _refuse_other_encoding(text: str, source: str, encoding: str) -> None:
                     f"{mark}; importers would read other characters; expected encoding=\"{family}\"")
 
 
-def read_plcopen(text: str, source: str, encoding: str = "utf-8") -> s.Program:
+def read_plcopen(text: str, source: str, encoding: str = "utf-8", bench: bool = False) -> s.Program:
     """The one function block of a PLCopen XML file as the verifier's AST, or a UserError naming
     the file, the line and column, and what was expected. `encoding` is what the file was decoded
-    as; the XML declaration must not name another."""
+    as; the XML declaration must not name another. `bench`: a test bench, which may hold an
+    instance of the block under test (a derived type), call it and read its outputs."""
     if not is_xml(text):
         found = (text.lstrip().splitlines() or [""])[0][:20]
         raise UserError(f"{source}:1:1: not XML (it starts with {found!r}, not '<?xml' or '<project'); {EXPECTED}")
     _refuse_other_encoding(text, source, encoding)
     doc = _Document(text, source)
+    doc.bench = bench
     root = doc.root
     if root.tag != _q("project"):
         namespace = root.tag[1:].partition("}")[0] if root.tag.startswith("{") else "no namespace"
@@ -365,6 +369,8 @@ def _scalar(doc: _Document, element: ET.Element, variable: str) -> str:
 
 def _type(doc: _Document, type_element: ET.Element, variable: str) -> s.TypeRef:
     element = _only_child(doc, type_element, f"the type of variable {variable!r}")
+    if doc.bench and element.tag == _q("derived") and IDENTIFIER.match(element.get("name") or ""):
+        return s.TypeRef("BLOCK", block=element.get("name"))
     if element.tag != _q("array"):
         return s.TypeRef(_scalar(doc, element, variable))
     dimensions = element.findall(_q("dimension"))
@@ -438,4 +444,4 @@ def _body(doc: _Document, body: ET.Element, pou: str) -> tuple[s.Stmt, ...]:
                               f"verifier; expected none")
     doc.refuse_unread_content(text)
     line, column = doc.text_starts.get(text, doc.starts[text])
-    return parse_body(text.text or "", doc.source, line, column)
+    return parse_body(text.text or "", doc.source, line, column, bench_transformer(doc.source) if doc.bench else None)
