@@ -166,6 +166,7 @@ def testbench(block_path: str, model: Model, model_path: str, table: Table, firs
     if not 1 <= calls <= table.rows - first:
         raise UserError(f"--calls {calls}: {table.path} has {table.rows - first} rows from row {first + 1}")
     columns, expected = window(seen, model, first, calls)
+    tolerance = float(np.float32(tolerance))  # a REAL on the PLC: the nearest one
     as_values = lambda d, values: tuple(float(x) if d.type.base == "REAL" else bool(x) if d.type.base == "BOOL"
                                         else int(x) for x in np.asarray(values).tolist())
     plan = BenchPlan(program.name, tuple(Port(d.name, d.type.base, as_values(d, columns[d.name]))

@@ -71,9 +71,10 @@ class _Text:
         return f"D{chunk.number}_{array}[Row]"
 
     def arrays(self):
-        """(array name, port) of every column the bench holds: I1.. the inputs, E1.. the expected outputs."""
-        return [*((f"I{k + 1}", p) for k, p in enumerate(self.plan.inputs)),
-                *((f"E{k + 1}", p) for k, p in enumerate(self.plan.outputs))]
+        """(array name, port) of every column the bench holds: In1.. the inputs, Exp1.. the expected outputs
+        (short names: I1 and E1 read as input addresses in SCL)."""
+        return [*((f"In{k + 1}", p) for k, p in enumerate(self.plan.inputs)),
+                *((f"Exp{k + 1}", p) for k, p in enumerate(self.plan.outputs))]
 
     # -- data -------------------------------------------------------------------------------------
     def data_block(self, chunk: Chunk) -> list[str]:
@@ -116,7 +117,7 @@ class _Text:
                 _Decl("MaxDiff", "REAL", (1, max(1, len(self.reals))),
                       comment="largest |block - expected| of each REAL output, in its unit")]),
             ("VAR", [_Decl("Dut", "BLOCK", block=plan.block, comment="the block under test")]),
-            ("VAR_TEMP", [_Decl("Step", "INT"), _Decl("Row", "INT"), _Decl("Differs", "BOOL"), _Decl("Diff", "REAL"),
+            ("VAR_TEMP", [_Decl("Pass", "INT"), _Decl("Row", "INT"), _Decl("Differs", "BOOL"), _Decl("Diff", "REAL"),
                           *(_Decl(array, port.type, comment=port.name) for array, port in self.arrays())]),
             ("VAR CONSTANT", constants),
         ]
@@ -153,9 +154,9 @@ class _Text:
         out = [f"IF {n('Restart')} THEN",
                *(f"    {n(v)} := 0;" for v in ("Calls", "Mismatches", "FirstMismatchCall", "FirstMismatchOutput")),
                f"    {n('FirstExpected')} := 0.0;", f"    {n('FirstActual')} := 0.0;",
-               f"    FOR {n('Step')} := 1 TO {max(1, len(self.reals))} DO",
-               f"        {n('MaxDiff')}[{n('Step')}] := 0.0;", "    END_FOR;", "END_IF;",
-               f"FOR {n('Step')} := 1 TO {n('RowsPerCycle')} DO",
+               f"    FOR {n('Pass')} := 1 TO {max(1, len(self.reals))} DO",
+               f"        {n('MaxDiff')}[{n('Pass')}] := 0.0;", "    END_FOR;", "END_IF;",
+               f"FOR {n('Pass')} := 1 TO {n('RowsPerCycle')} DO",
                f"    IF {n('Calls')} < {n('CallCount')} THEN"]
         many = len(self.chunks) > 1
         pad = " " * (12 if many else 8)
@@ -169,7 +170,7 @@ class _Text:
                     *(f"{pad}{n(array)} := {self.data_ref(chunk, array)};" for array, _ in self.arrays())]
         if many:
             out.append("        END_IF;")
-        arguments = ", ".join(f"{p.name} := {n(f'I{k + 1}')}" for k, p in enumerate(plan.inputs))
+        arguments = ", ".join(f"{p.name} := {n(f'In{k + 1}')}" for k, p in enumerate(plan.inputs))
         out += [f"        {n('Dut')}({arguments});", f"        {n('Differs')} := FALSE;"]
         for k, port in enumerate(plan.outputs):
             out += self.compare(k, port)
@@ -184,7 +185,7 @@ class _Text:
 
     def compare(self, k: int, port) -> list[str]:
         n = self.n
-        actual, expected = f"{n('Dut')}.{port.name}", n(f"E{k + 1}")
+        actual, expected = f"{n('Dut')}.{port.name}", n(f"Exp{k + 1}")
         first = [f"                {n('FirstMismatchOutput')} := {k + 1};"]
         if port.type == "REAL":
             slot = f"{n('MaxDiff')}[{self.reals.index(k) + 1}]"
