@@ -1,4 +1,4 @@
-"""The public Python API: the five things the command line does, as functions over files and
+"""The public Python API: the six things the command line does, as functions over files and
 objects. Everything else in the package is internal and may change.
 
     from thermoplc.api import FitRequest, fit, generate, verify, diff, read_table
@@ -12,6 +12,7 @@ objects. Everything else in the package is internal and may change.
 
 `read_table(path, "Zeit", reading=Reading(gaps="drop", time_format="day-first"))` reads a logger export as
 `fit --time Zeit --gaps drop --time-format day-first` does (a model fitted on it records how).
+`testbench(block, model, table)` writes the block's test bench for the PLC itself (docs/commissioning.md).
 `diff(old, new, table)` compares two blocks (a table adds their behaviour on it); `diagnose(request,
 "diagnosed.json")` names the physical effects a lumped simulation misses (diagnosis/command.py).
 A refusal is a `thermoplc.base.errors.UserError` whose text names the file and what was expected.
@@ -32,12 +33,12 @@ from thermoplc.models.modelfile import Model, load_model
 from thermoplc.models.safety import Limits
 from thermoplc.recordings.reading import Reading
 from thermoplc.recordings.table import Table, read_table
-from thermoplc.pipeline import Generated, generate as _generate
+from thermoplc.pipeline import Bench, Generated, generate as _generate, testbench as _testbench
 from thermoplc.verifier.diff import BlockDiff, diff_blocks
 from thermoplc.verifier.replay import Report, verify_against_model
 
-__all__ = ["FitRequest", "fit", "generate", "verify", "diff", "diagnose", "DiagnoseRequest", "Generated",
-           "Limits", "Model", "load_model", "read_table", "Reading", "Table", "Report", "BlockDiff"]
+__all__ = ["FitRequest", "fit", "generate", "verify", "testbench", "diff", "diagnose", "DiagnoseRequest", "Generated",
+           "Bench", "Limits", "Model", "load_model", "read_table", "Reading", "Table", "Report", "BlockDiff"]
 
 
 def _expect(value, types: type | tuple[type, ...], argument: str, what: str) -> None:
@@ -91,6 +92,23 @@ def verify(block_path: str, model: Model, table: Table, model_path: str = "model
         _expect(name, str, "overrides", "block input names as keys")
         _expect(column, str, f"overrides[{name!r}]", "a column name")
     return verify_against_model(str(block_path), model, str(model_path), table, overrides)
+
+
+def testbench(block_path: str, model: Model, table: Table, model_path: str = "model", first: int = 0,
+              calls: int | None = None, rows_per_cycle: int = 50, tolerance: float = 0.0) -> Bench:
+    """The test bench of the block for the PLC itself (what `thermoplc testbench` writes): `Bench.text` in the
+    block's dialect, rows `first` (from 0) on of `table`, already run in thermoplc's interpreter
+    (`Bench.counters`: Mismatches 0 for a block that verify proves bit-exact)."""
+    _expect(block_path, PATH, "block_path", "the path of a block file")
+    _expect(model, Model, "model", "a Model (thermoplc.api.fit or load_model)")
+    _expect(table, Table, "table", "a Table (thermoplc.api.read_table)")
+    for value, name in ((first, "first"), (rows_per_cycle, "rows_per_cycle")):
+        _expect(value, int, name, "a whole number")
+    _expect(calls, (int, type(None)), "calls", "a whole number, or None for as many as fit one download")
+    _expect(tolerance, (int, float), "tolerance", "a number of micrometres (0: bit-exact)")
+    if not (0 <= tolerance < float("inf")) or not 1 <= rows_per_cycle <= 1000:
+        raise UserError("tolerance: expected a finite number >= 0; rows_per_cycle: 1 to 1000")
+    return _testbench(str(block_path), model, str(model_path), table, first, calls, rows_per_cycle, float(tolerance))
 
 
 def diff(old_path: str, new_path: str, table: Table | None = None) -> BlockDiff:

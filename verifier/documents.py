@@ -57,6 +57,9 @@ def verify_document(report: Report) -> dict:
         "unsafe": list(report.unsafe),
         "findings": _findings(report.findings),
         "float32_vs_float64_um": dict(report.quantisation_um),
+        "contraction": None if report.contraction is None else {
+            "max_deviation": {k: value(v) for k, v in report.contraction.deviation.items()},
+            "calls": report.contraction.calls, "failure": report.contraction.failure or None},
         "engine": report.engine,
         "note": report.control,
     }

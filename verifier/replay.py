@@ -19,6 +19,7 @@ from thermoplc.models.reference import block_outputs
 from thermoplc.models.safety import Limits
 from thermoplc.recordings.table import Table, close_match
 from thermoplc.verifier.control import control_summary, unread_control_columns
+from thermoplc.verifier.contraction import Contraction, contraction
 from thermoplc.verifier.engines import Replayer
 from thermoplc.verifier.expectation import model_expectation
 from thermoplc.verifier.mapping import known_overrides
@@ -67,6 +68,7 @@ class Report:
     # what the block output at each call, as replayed (verify --outputs writes it); empty from the streamed route
     produced: dict = field(default_factory=dict, repr=False, compare=False)
     origin: str = ""  # the block's header names another model than the one it is compared with (said first)
+    contraction: Contraction | None = None  # what a target that fuses multiply-adds shows (a bit-exact block)
 
     @property
     def ok(self) -> bool:
@@ -117,6 +119,8 @@ class Report:
                             if lim.fault_move is not None else "no fault hold (a block generated before it)"))
         for name, error in self.quantisation_um.items():
             lines.append(f"  max |float32 - float64| on {name}: {error:.6g} um")
+        if self.contraction is not None:
+            lines.append(f"  {self.contraction.line()}")
         found = {kind: [f for f in self.findings if f.kind == kind] for kind, _ in FINDING_LABELS}
         lines.append("  " + "; ".join(f"{label}: {len(found[kind]) or 'none'}" for kind, label in FINDING_LABELS))
         for kind, label in FINDING_LABELS:
@@ -356,7 +360,9 @@ def verify_against_model(block: str, model: Model, model_path: str, table: Table
     checked, errors = compare_constants(program, model, limits)
     errors = (*errors, *(start_value_errors(machine.inputs) if model.probe is not None else ()))
     said = [line for line in (control_summary(control, table.rows), probing_summary(probing)) if line]
-    return replace(report, constants_checked=checked, constant_errors=errors, limits=limits, control="; ".join(said))
+    fused = contraction(program, block, seen.columns, block32, table.rows) if report.ok else None
+    return replace(report, constants_checked=checked, constant_errors=errors, limits=limits, control="; ".join(said),
+                   contraction=fused)
 
 
 def other_model(block: str, model: Model, model_path: str) -> str:

@@ -29,6 +29,7 @@ from thermoplc.models.modelfile import Model
 from thermoplc.models.streaming import StreamingReference, streamable
 from thermoplc.recordings.chunks import CannotStream, stream_columns
 from thermoplc.recordings.reading import Reading
+from thermoplc.verifier.contraction import MAX_CALLS, ContractionRun
 from thermoplc.verifier.expectation import check_interface, mistyped
 from thermoplc.verifier.mapping import known_overrides
 from thermoplc.verifier.replay import (Report, compare_constants, load_block, block_limits, subnormal_declarations,
@@ -163,6 +164,7 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
     types, steps, rows, quantisation = None, _Steps(), 0, 0.0
     target = model.target.name
     replayer.native.reset()
+    fused = ContractionRun(program, block, MAX_CALLS)
     timings["setup"] = time.perf_counter() - t
     chunks = iter(stream_columns(data, names, decimal, optional=controls))
     while True:
@@ -188,6 +190,7 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
             raise _GiveUp("the fast engine met a value the interpreter reports")
         t = time.perf_counter()
         quantisation = max(quantisation, _compare_chunk(result[0], expected, types, ideal[target], target))
+        fused.feed(inputs, expected, chunk.rows)
         rows += chunk.rows
         timings["compare"] += time.perf_counter() - t
         if progress is not None:
@@ -207,7 +210,8 @@ def _verify_streaming(block: str, model: Model, model_path: str, data: str, over
     timings["compare"] += time.perf_counter() - t
     LAST_TIMINGS.update(timings)
     LAST_TIMINGS["rows"] = rows
-    return replace(report, constants_checked=checked, constant_errors=errors, limits=limits)
+    contraction = replace(fused.result(), rows=rows)
+    return replace(report, constants_checked=checked, constant_errors=errors, limits=limits, contraction=contraction)
 
 
 def _chunk_inputs(chunk, column_of: dict, controls: tuple) -> dict:
