@@ -91,7 +91,8 @@ def summary(bench, block: str, data: str, rows: int, chosen: bool) -> list[str]:
     """What the bench holds and how it ran here, as the console prints it; `chosen`: the calls by default."""
     plan, c = bench.plan, bench.counters
     form = "PLCopen XML (iec)" if bench.plcopen else bench.dialect
-    where = "data blocks" if bench.dialect != "iec" else "constant arrays"
+    where = (f"{bench.data_blocks} data block{'s' if bench.data_blocks > 1 else ''}" if bench.dialect != "iec" else
+             f"constant arrays in {bench.data_blocks} part{'s' if bench.data_blocks > 1 else ''}")
     compared = "exactly" if not plan.tolerance else f"within {plan.tolerance:g} (REAL; BOOL and INT exactly)"
     verdict = "exact" if not plan.tolerance or not any(c.max_diff) else "within the stated bound"
     return [f"test bench {bench.name} ({form}) for {Path(block).name}: {plan.calls:,} calls, rows {bench.first + 1:,} "
@@ -99,7 +100,7 @@ def summary(bench, block: str, data: str, rows: int, chosen: bool) -> list[str]:
             + (" (the most that fit 256 KiB of data, one download; --calls and --from choose others)"
                if chosen and plan.calls < rows - bench.first else ""),
             f"  the block Reset at call 1, then driven as recorded; {len(plan.outputs)} outputs compared {compared}",
-            f"  data: {bench.data_blocks} {where} of at most {bench.largest_bytes:,} bytes (limit 65,536), "
+            f"  data: {where} of at most {bench.largest_bytes:,} bytes each (limit 65,536), "
             f"{plan.calls * plan.row_bytes:,} bytes of values in all",
             f"  {plan.rows_per_cycle} calls of the block per PLC cycle: Done after {c.cycles} cycles",
             f"  run here (thermoplc's interpreter): {_counters(c)}: {verdict}"]
