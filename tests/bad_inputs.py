@@ -1403,11 +1403,57 @@ def _inputs_stay_inputs_cases() -> list[Case]:
     ]
 
 
+def _intercept_one_ulp_up(text: str) -> str:
+    """The block with its intercept one ULP up, as the printer writes a REAL."""
+    import numpy as np
+    from thermoplc.generator.literals import real_literal
+    old = re.search(r"c_beta0 : Real := ([^;]+);", text).group(1)
+    new = real_literal(float(np.nextafter(np.float32(old), np.float32(np.inf))))
+    return text.replace(f"c_beta0 : Real := {old};", f"c_beta0 : Real := {new};")
+
+
+def _testbench_cases() -> list[Case]:
+    """Issue 64: the test bench's window, options and output folder; a block that fails its own bench."""
+    bench = ("testbench", "block.scl", "--model", "mlr.json", "--data", "good.csv", "-o", "bench")
+    shown = "testbench block.scl --model mlr.json --data good.csv -o bench"
+
+    def existing(folder: Path) -> None:
+        (folder / "bench").mkdir()
+        (folder / "bench" / "ThermalComp_TB.scl").write_text("my own bench\n")
+
+    def named_like_the_bench(folder: Path) -> None:
+        (folder / "ThermalComp_TB.scl").write_text((folder / "block.scl").read_text())
+    return [
+        Case("test bench", "--calls beyond the rows", shown, (*bench, "--calls", "5000"), lambda f: None, "error",
+             "--calls 5000: good.csv has 721 rows from row 1"),
+        Case("test bench", "--from beyond the rows", shown, (*bench, "--from", "722"), lambda f: None, "error",
+             "--from 722: good.csv has rows 1 to 721"),
+        Case("test bench", "--calls 0", shown, (*bench, "--calls", "0"), lambda f: None, "error",
+             "--calls: expected calls from 1 to 32,767, found 0"),
+        Case("test bench", "--tolerance-um nan", shown, (*bench, "--tolerance-um", "nan"), lambda f: None, "error",
+             "--tolerance-um: expected"),
+        Case("test bench", "--rows-per-cycle 0", shown, (*bench, "--rows-per-cycle", "0"), lambda f: None, "error",
+             "--rows-per-cycle: expected"),
+        Case("test bench", "-o the recording", shown, (*bench[:-1], "good.csv"), lambda f: None, "error",
+             "-o good.csv: not a folder"),
+        Case("test bench", "the bench file exists", shown, bench, existing, "error",
+             "ThermalComp_TB.scl: exists; refusing to replace it"),
+        Case("test bench", "the bench would replace the block read, with --force", shown,
+             ("testbench", "ThermalComp_TB.scl", "--model", "mlr.json", "--data", "good.csv", "-o", ".", "--force"),
+             named_like_the_bench, "error", "ThermalComp_TB.scl: is also an input of this command"),
+        Case("test bench", "a block one ULP off the model", shown,
+             ("testbench", "bad.scl", "--model", "mlr.json", "--data", "good.csv", "-o", "bench"),
+             _block_edit(_intercept_one_ulp_up), "refused", "Mismatches = "),
+        Case("test bench", "a window of the recording", shown, (*bench, "--calls", "100", "--from", "301"),
+             lambda f: None, "accepted", "100 calls, rows 301 to 400 of good.csv's 721"),
+    ]
+
+
 CASES = [*_csv_cases(), *_model_cases(), *_st_cases(), *_injection_cases(), *_output_cases(), *_option_cases(),
          *_bounded_cases(), *_schema_cases(), *_nesting_cases(), *_data_file_cases(), *_verify_cases(),
          *_review_cases(), *_plcopen_cases(), *_campaign_cases(),
          *_read_two_ways_cases(), *_hostile_review_cases(), *_probing_cases(), *_resample_cases(),
-         *_inputs_stay_inputs_cases()]
+         *_inputs_stay_inputs_cases(), *_testbench_cases()]
 
 
 def setup_folder(folder: Path) -> None:
