@@ -9,6 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from blark.parse import parse_source_code
+from hypothesis import given, settings, strategies as st
 
 from tests.cli_runner import thermoplc
 from tests.golden_models import FUSED, FUSED_EVERY, GOLDEN, KINDS, golden_block, golden_twin_csv
@@ -22,6 +23,7 @@ from thermoplc import pipeline
 from thermoplc.pipeline import run_bench_text
 from thermoplc.recordings.table import read_table, write_table
 from thermoplc.verifier import syntax as s
+from thermoplc.verifier.bench_run import data_arrays
 from thermoplc.verifier.bench_source import parse_sources
 from thermoplc.verifier.block_file import parse_file
 from thermoplc.verifier.plcopen import read_plcopen
@@ -266,3 +268,36 @@ def test_the_command_writes_nothing_for_a_block_that_fails_its_bench(tmp_path):
                        "--calls", "500", cwd=tmp_path, check=1)
     assert "Mismatches = " in result.stdout and "fails its own test bench" in result.stderr
     assert not (tmp_path / "bench").exists()
+
+
+finite32 = st.floats(width=32, allow_nan=False, allow_infinity=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(finite32, min_size=1, max_size=30), st.lists(st.booleans(), min_size=30, max_size=30),
+       st.sampled_from(("tia", "step7", "iec")))
+def test_the_values_a_bench_holds_read_back_bit_for_bit(reals, flags, dialect):
+    calls = len(reals)
+    plan = plan_module.BenchPlan("Block", (plan_module.Port("T", "REAL", tuple(reals)),
+                                           plan_module.Port("On", "BOOL", tuple(flags[:calls]))),
+                                 (plan_module.Port("Y", "REAL", tuple(reversed(reals))),), 5, 0.0, ("a note",))
+    sources = parse_sources(render_bench(plan, dialect), "bench")
+    if dialect == "iec":
+        arrays = {d.name: d.initial for d in sources.blocks[0].decls if d.name.startswith("D1_")}
+        got = {name[3:]: list(values) for name, values in arrays.items()}
+    else:
+        found = data_arrays(sources.data_blocks, "bench")["BLOCK_TB_D1"]
+        got = {name.capitalize(): values for name, (_, values) in found.items()}
+    bits = lambda xs: np.asarray(xs, np.float32).view(np.uint32).tolist()
+    assert bits(got["In1"]) == bits(reals) and got["In2"] == flags[:calls]
+    assert bits(got["Exp1"]) == bits(list(reversed(reals)))
+
+
+@pytest.mark.parametrize("a, b", [(1.0, 1.0), (1.0, 2.0), (0.0, -0.0), (float("nan"), 1.0)])
+def test_not_equal_is_one_operator_and_sees_what_ieee_sees(a, b):
+    from thermoplc.verifier.interpreter import Machine
+    from thermoplc.verifier.parser import parse_text
+    machine = Machine(parse_text("FUNCTION_BLOCK B VAR_INPUT a, b : REAL; END_VAR VAR_OUTPUT y : BOOL; END_VAR "
+                                 "y := a <> b; END_FUNCTION_BLOCK", "b.st"), "b.st")
+    machine.call({"a": a, "b": b})
+    assert machine.values[machine.slots["Y"]] == (a != b)
