@@ -20,7 +20,9 @@ from thermoplc.generator.ranges import RangeProof
 from thermoplc.fitting.acceptance import problem, quantisation_problem
 from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import Limits
-from thermoplc.generator.testbench import ELEMENT_BYTES, BenchPlan, Port, bench_names, chunks, default_calls
+from thermoplc.contract.outputs import K0_PREFIX
+from thermoplc.generator.testbench import (ELEMENT_BYTES, ROWS_PER_CYCLE, BenchPlan, Port, bench_names, chunks,
+                                         default_calls)
 from thermoplc.generator.testbench_text import render_bench
 from thermoplc.recordings.table import Table
 from thermoplc.verifier.bench_run import BenchCounters, data_arrays, run_bench
@@ -147,11 +149,12 @@ def block_dialect(block_path: str) -> tuple[str, bool]:
 
 
 def testbench(block_path: str, model: Model, model_path: str, table: Table, first: int = 0, calls: int | None = None,
-              rows_per_cycle: int = 50, tolerance: float = 0.0, overrides: dict | None = None,
+              rows_per_cycle: int | None = None, tolerance: float = 0.0, overrides: dict | None = None,
               probe_every=None) -> Bench:
     """The test bench of the block at `block_path`, in its dialect, over rows `first` (from 0) .. of `table`; the
-    expected outputs the model's float32 reference from a Reset at the window's first row. Run here, in
-    thermoplc's interpreter, before it is returned (`Bench.counters`)."""
+    expected outputs the model's float32 reference from a Reset at the window's first row; `tolerance` in um
+    (urad for an angle, a thousandth of it for a K0 output in mm). Run here, in thermoplc's interpreter, before
+    it is returned (`Bench.counters`)."""
     from thermoplc.verifier.replay import block_limits, check_period, load_block
     program, replayer = load_block(block_path, "interp")
     dialect, plcopen = block_dialect(block_path)
@@ -164,15 +167,17 @@ def testbench(block_path: str, model: Model, model_path: str, table: Table, firs
     row_bytes = sum(ELEMENT_BYTES[d.type.base] for d in (*replayer.inputs, *outputs))
     calls = default_calls(row_bytes, table.rows - first, dialect) if calls is None else calls
     if not 1 <= calls <= table.rows - first:
-        raise UserError(f"--calls {calls}: {table.path} has {table.rows - first} rows from row {first + 1}")
+        left = table.rows - first
+        raise UserError(f"--calls {calls}: {table.path} has {left} row{'s' if left != 1 else ''} from row {first + 1}")
     columns, expected = window(seen, model, first, calls)
-    tolerance = float(np.float32(tolerance))  # a REAL on the PLC: the nearest one
     as_values = lambda d, values: tuple(float(x) if d.type.base == "REAL" else bool(x) if d.type.base == "BOOL"
                                         else int(x) for x in np.asarray(values).tolist())
     plan = BenchPlan(program.name, tuple(Port(d.name, d.type.base, as_values(d, columns[d.name]))
                                          for d in replayer.inputs),
-                     tuple(Port(d.name, d.type.base, as_values(d, expected[d.name])) for d in outputs),
-                     rows_per_cycle, tolerance, bench_notes(expected, model_path, table, first, calls, program))
+                     tuple(Port(d.name, d.type.base, as_values(d, expected[d.name]), _tolerance(d, tolerance))
+                           for d in outputs),
+                     rows_per_cycle or ROWS_PER_CYCLE[dialect],
+                     bench_notes(expected, model_path, table, first, calls, program))
     try:
         text = render_bench(plan, dialect, plcopen, __version__)
         parts = chunks(plan, dialect)
@@ -180,9 +185,16 @@ def testbench(block_path: str, model: Model, model_path: str, table: Table, firs
         raise UserError(f"{block_path}: no test bench: {exc}") from None
     name = bench_names(program.name)[0]
     counters = run_bench_text(text, f"{name} (the test bench)", program, block_path,
-                              math.ceil(calls / rows_per_cycle) + 1, plcopen)
+                              math.ceil(calls / plan.rows_per_cycle) + 1, plcopen)
     largest = max(part.rows for part in parts) * (plan.row_bytes + 1)
     return Bench(text, name, dialect, plcopen, first, plan, len(parts), largest, counters)
+
+
+def _tolerance(output, tolerance_um: float) -> float:
+    """An output's tolerance in its own unit, a REAL: um (urad for an angle); a K0 output is in mm."""
+    if output.type.base != "REAL" or not tolerance_um:
+        return 0.0
+    return float(np.float32(tolerance_um / 1000 if output.name.startswith(K0_PREFIX) else tolerance_um))
 
 
 def run_bench_text(text: str, source: str, block: Program, block_path: str, max_cycles: int,
@@ -206,10 +218,12 @@ def bench_notes(expected: dict, model_path: str, table: Table, first: int, calls
                         for values in map(np.asarray, expected.values()) if values.dtype.kind == "f")
     lines = table.lines
     notes = [f"Calls 1 to {calls} are rows {first + 1} to {first + calls} of {Path(table.path).name} (lines "
-             f"{int(lines[first])} to {int(lines[first + calls - 1])}): call k is what verify names cycle {first} + k - 1.",
+             f"{int(lines[first])} to {int(lines[first + calls - 1])}): call k is row {first} + k"
+             + ("; verify names it cycle k - 1." if first == 0 else "."),
              f"Expected: the float32 reference of {Path(model_path).name}, the block Reset at call 1 (a new "
              f"instance's state), then driven as recorded.",
              "Call this block from a cyclic OB or task: RowsPerCycle calls of the block per cycle, until Done.",
+             "It runs once, on a new instance: download it with its instance data initialised to run it again.",
              "REAL outputs are compared with '=' (BOOL with XOR): '=' does not tell -0.0 from 0.0 "
              f"({negative_zero} expected values here are -0.0) and counts any NaN as a mismatch."]
     if program.per_call:

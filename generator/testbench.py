@@ -6,9 +6,10 @@ from __future__ import annotations
 
 import hashlib
 import math
+import re
 from dataclasses import dataclass
 
-from thermoplc.base.binary32 import is_f32
+from thermoplc.base.binary32 import FLT_MIN_NORMAL, is_f32
 from thermoplc.base.identifiers import MAX_LENGTH, identifier_problem
 from thermoplc.generator.ir import GenerationError
 
@@ -26,10 +27,15 @@ class Target:
 
 
 TARGETS = {
-    "tia": Target(65536, 262144, "an S7-1200/1500 DB of at most 64 KiB (an S7-1200's limit); 256 KiB in all"),
-    "step7": Target(65536, 262144, "an S7-300/400 DB of at most 64 KiB; 256 KiB in all (an S7-315's work memory)"),
-    "iec": Target(65536, 262144, "CODESYS/OpenPLC constant arrays of at most 64 KiB each; 256 KiB in all"),
+    "tia": Target(65536, 262144, "DBs of at most 64 KiB, 256 KiB in all: a quarter of the smallest S7-1500's data "
+                                 "memory (an S7-1200 holds less: give --calls)"),
+    "step7": Target(65536, 65536, "one DB of at most 64 KiB, the S7-300/400 limit (older S7-312/314 CPUs allow "
+                                  "16 KiB: give --calls)"),
+    "iec": Target(65536, 262144, "constant arrays of at most 64 KiB each, 256 KiB in all"),
 }
+ROWS_PER_CYCLE = {"tia": 50, "step7": 10, "iec": 50}  # calls of the block per PLC cycle, by default
+BENCH_VARIABLES = ("Done", "Calls", "Mismatches", "FirstMismatchCall", "FirstMismatchOutput", "FirstExpected",
+                   "FirstActual", "MaxDiff", "Dut", "Pass", "Row", "Differs", "Diff", "CallCount", "RowsPerCycle")
 
 
 @dataclass(frozen=True)
@@ -38,6 +44,7 @@ class Port:
     name: str
     type: str  # REAL, BOOL or INT
     values: tuple
+    tolerance: float = 0.0  # a REAL output: |block - expected| <= this passes (in the output's unit); 0: '='
 
 
 @dataclass(frozen=True)
@@ -47,8 +54,11 @@ class BenchPlan:
     inputs: tuple[Port, ...]
     outputs: tuple[Port, ...]  # the expected values
     rows_per_cycle: int
-    tolerance: float  # 0: every REAL output compared with '='; else |actual - expected| <= this passes
     notes: tuple[str, ...]  # header lines: where the rows come from, what the counters mean
+
+    @property
+    def tolerant(self) -> bool:
+        return any(p.tolerance for p in self.outputs)
 
     @property
     def calls(self) -> int:
@@ -99,11 +109,13 @@ def check_plan(plan: BenchPlan) -> None:
         raise GenerationError(f"{plan.calls} calls; a test bench makes 1 to {MAX_CALLS} (its counters are INT)")
     if not 1 <= plan.rows_per_cycle <= 1000:
         raise GenerationError(f"{plan.rows_per_cycle} rows per PLC cycle; expected 1 to 1000")
-    if not (math.isfinite(plan.tolerance) and plan.tolerance >= 0 and is_f32(plan.tolerance)):
-        raise GenerationError(f"tolerance {plan.tolerance!r}: expected a finite REAL >= 0")
     problem = identifier_problem(plan.block)
     if problem:
         raise GenerationError(f"block name {plan.block!r} {problem}")
+    taken = {name.upper() for name in (*BENCH_VARIABLES, *bench_names(plan.block))}
+    if plan.block.upper() in taken or re.fullmatch(r"(?i)(In|Exp|Tol)[0-9]+|D[0-9]+_\w*", plan.block):
+        raise GenerationError(f"block name {plan.block!r} is also the name of a variable of its test bench; "
+                              f"generate the block with another --name")
     for port in (*plan.inputs, *plan.outputs):
         if len(port.values) != plan.calls:
             raise GenerationError(f"{port.name}: {len(port.values)} values for {plan.calls} calls")
@@ -113,3 +125,7 @@ def check_plan(plan: BenchPlan) -> None:
             bad = next((v for v in port.values if not (math.isfinite(v) and is_f32(v))), None)
             if bad is not None:
                 raise GenerationError(f"{port.name}: the value {bad!r} is no finite REAL; '=' cannot compare it")
+        tolerance = port.tolerance
+        if tolerance and not (port.type == "REAL" and is_f32(tolerance) and FLT_MIN_NORMAL <= tolerance <= 1e6):
+            raise GenerationError(f"{port.name}: tolerance {tolerance!r}; expected 0 or a normal REAL of at most 1e6 "
+                                  f"(a REAL output's)")

@@ -79,13 +79,13 @@ class _Text:
     # -- data -------------------------------------------------------------------------------------
     def data_block(self, chunk: Chunk) -> list[str]:
         tia = self.dialect == "tia"
-        lines = [f'DATA_BLOCK "{self.db_prefix}{chunk.number}"',
-                 f"TITLE = '{safe_string(f'Test bench data of {self.plan.block}: calls {chunk.first + 1} to {chunk.first + chunk.rows}')}'"]
+        title = safe_string(f"Test bench data of {self.plan.block}: calls {chunk.first + 1} to {chunk.first + chunk.rows}")
+        lines = [f'DATA_BLOCK "{self.db_prefix}{chunk.number}"', f"TITLE = {title}" if tia else f"TITLE = '{title}'"]
         lines += ["{ S7_Optimized_Access := 'TRUE' }", "VERSION : 0.1", "   VAR"] if tia else \
             ["VERSION : '0.1'", "AUTHOR : thermopl", "   STRUCT"]
         for array, port in self.arrays():
             lines.append(f"      {array} : {self.array(0, chunk.rows - 1, port.type)};   {self.comment(port.name)}")
-        lines += ["   END_VAR" if tia else "   END_STRUCT;", "BEGIN"]
+        lines += ["   END_VAR" if tia else "   END_STRUCT", "BEGIN"]
         for array, port in self.arrays():
             values = port.values[chunk.first:chunk.first + chunk.rows]
             lines += [f"   {array}[{k}] := {_literal(v, port.type)};" for k, v in enumerate(values)]
@@ -97,15 +97,15 @@ class _Text:
         plan = self.plan
         constants = [_Decl("CallCount", "INT", initial=str(plan.calls)),
                      _Decl("RowsPerCycle", "INT", initial=str(plan.rows_per_cycle))]
-        if plan.tolerance:
-            constants.append(_Decl("Tolerance", "REAL", initial=real_literal(plan.tolerance)))
+        constants += [_Decl(f"Tol{k + 1}", "REAL", initial=real_literal(port.tolerance),
+                            comment=f"{port.name} passes within this of the expected value")
+                      for k, port in enumerate(plan.outputs) if port.tolerance]
         if not self.sp.data_blocks:
             constants += [_Decl(f"D{chunk.number}_{array}", port.type, (0, chunk.rows - 1),
                                 initial=tuple(_literal(v, port.type) for v in port.values[chunk.first:chunk.first + chunk.rows]),
                                 comment=f"{port.name}, calls {chunk.first + 1} to {chunk.first + chunk.rows}")
                           for chunk in self.chunks for array, port in self.arrays()]
         return [
-            ("VAR_INPUT", [_Decl("Restart", "BOOL", comment="TRUE: start again from call 1 (the block is Reset at call 1)")]),
             ("VAR_OUTPUT", [
                 _Decl("Done", "BOOL", comment=f"TRUE once all {plan.calls} calls are made"),
                 _Decl("Calls", "INT", comment="calls of the block made"),
@@ -151,12 +151,7 @@ class _Text:
     # -- body ----------------------------------------------------------------------------------------
     def body(self) -> list[str]:
         n, plan = self.n, self.plan
-        out = [f"IF {n('Restart')} THEN",
-               *(f"    {n(v)} := 0;" for v in ("Calls", "Mismatches", "FirstMismatchCall", "FirstMismatchOutput")),
-               f"    {n('FirstExpected')} := 0.0;", f"    {n('FirstActual')} := 0.0;",
-               f"    FOR {n('Pass')} := 1 TO {max(1, len(self.reals))} DO",
-               f"        {n('MaxDiff')}[{n('Pass')}] := 0.0;", "    END_FOR;", "END_IF;",
-               f"FOR {n('Pass')} := 1 TO {n('RowsPerCycle')} DO",
+        out = [f"FOR {n('Pass')} := 1 TO {n('RowsPerCycle')} DO",
                f"    IF {n('Calls')} < {n('CallCount')} THEN"]
         many = len(self.chunks) > 1
         pad = " " * (12 if many else 8)
@@ -192,8 +187,8 @@ class _Text:
             lines = [f"        {n('Diff')} := ABS({actual} - {expected});",
                      f"        IF {n('Diff')} > {slot} THEN", f"            {slot} := {n('Diff')};", "        END_IF;"]
             differs = f"{actual} <> {expected}"
-            if self.plan.tolerance:  # NOT (<=): a NaN difference is a mismatch
-                differs += f" AND NOT ({n('Diff')} <= {n('Tolerance')})"
+            if port.tolerance:  # NOT (<=): a NaN difference is a mismatch
+                differs += f" AND NOT ({n('Diff')} <= {n(f'Tol{k + 1}')})"
             first += [f"                {n('FirstExpected')} := {expected};", f"                {n('FirstActual')} := {actual};"]
         elif port.type == "BOOL":
             lines, differs = [], f"{actual} XOR {expected}"

@@ -159,7 +159,8 @@ def test_tolerance_passes_a_deviation_within_it_and_says_so(twin, tmp_path):
     edited, _ = _first_edit_that_matters("mlr", "tia", twin, tmp_path)
     exact = _bench("mlr", "tia", twin, calls=400)
     tolerant = _bench("mlr", "tia", twin, calls=400, tolerance=0.001)
-    assert "Tolerance : Real := 0.001;" in tolerant.text and "Tolerance" not in exact.text
+    assert "Tol1 : Real := 0.001;" in tolerant.text and "Tol2 : Real := 1.0E-6;" in tolerant.text  # K0_1 is in mm
+    assert "Tol1" not in exact.text
     strict = run_bench_text(exact.text, "bench", parse_file(edited), str(edited), 100)
     within = run_bench_text(tolerant.text, "bench", parse_file(edited), str(edited), 100)
     assert strict.mismatches > 0 and within.mismatches == 0 and 0 < within.max_diff[0] < 0.001
@@ -206,8 +207,9 @@ def test_many_data_blocks_keep_the_limits_and_the_rows_in_order(dialect, twin, m
                                      for d in BENCH_DIALECTS])  # a data block source of 4,321 rows reads in 20 s
 def test_the_default_bench_fits_one_download_and_its_limits(dialect, twin):
     bench = _bench("kalman_fused", dialect, twin, calls=None, rows_per_cycle=100)
-    assert bench.plan.calls * bench.plan.row_bytes <= 262144
-    assert bench.plan.calls == min(twin.rows, 262144 // bench.plan.row_bytes)
+    budget = plan_module.TARGETS[bench.dialect].download_bytes
+    assert bench.plan.calls * bench.plan.row_bytes <= budget
+    assert bench.plan.calls == min(twin.rows, budget // bench.plan.row_bytes)
     assert bench.counters.mismatches == 0 and bench.counters.done
     _limits_kept(bench, dialect)
 
@@ -266,7 +268,7 @@ def test_the_command_writes_nothing_for_a_block_that_fails_its_bench(tmp_path):
     edited, _ = _first_edit_that_matters("mlr", "step7", golden_twin_table(tmp_path), tmp_path)
     result = thermoplc("testbench", edited, "--model", GOLDEN / "mlr.json", "--data", data, "-o", "bench",
                        "--calls", "500", cwd=tmp_path, check=1)
-    assert "Mismatches = " in result.stdout and "fails its own test bench" in result.stderr
+    assert "Mismatches = " in result.stdout and "differs from the reference in its own test bench" in result.stderr
     assert not (tmp_path / "bench").exists()
 
 
@@ -280,7 +282,7 @@ def test_the_values_a_bench_holds_read_back_bit_for_bit(reals, flags, dialect):
     calls = len(reals)
     plan = plan_module.BenchPlan("Block", (plan_module.Port("T", "REAL", tuple(reals)),
                                            plan_module.Port("On", "BOOL", tuple(flags[:calls]))),
-                                 (plan_module.Port("Y", "REAL", tuple(reversed(reals))),), 5, 0.0, ("a note",))
+                                 (plan_module.Port("Y", "REAL", tuple(reversed(reals))),), 5, ("a note",))
     sources = parse_sources(render_bench(plan, dialect), "bench")
     if dialect == "iec":
         arrays = {d.name: d.initial for d in sources.blocks[0].decls if d.name.startswith("D1_")}
@@ -301,3 +303,30 @@ def test_not_equal_is_one_operator_and_sees_what_ieee_sees(a, b):
                                  "y := a <> b; END_FUNCTION_BLOCK", "b.st"), "b.st")
     machine.call({"a": a, "b": b})
     assert machine.values[machine.slots["Y"]] == (a != b)
+
+
+@pytest.mark.parametrize("name", ("Calls", "Dut", "row", "In1", "Exp12", "D3_x"))
+def test_a_block_named_like_a_variable_of_its_bench_is_refused(name):
+    plan = plan_module.BenchPlan(name, (plan_module.Port("T", "REAL", (1.0,)),),
+                                 (plan_module.Port("Y", "REAL", (2.0,)),), 5, ())
+    with pytest.raises(plan_module.GenerationError, match="also the name of a variable of its test bench"):
+        render_bench(plan, "iec")
+
+
+def test_a_tolerance_never_lets_a_differing_block_be_written(tmp_path):
+    data = golden_twin_csv(tmp_path)
+    edited, _ = _first_edit_that_matters("mlr", "tia", golden_twin_table(tmp_path), tmp_path)
+    result = thermoplc("testbench", edited, "--model", GOLDEN / "mlr.json", "--data", data, "-o", "bench",
+                       "--calls", "500", "--tolerance-um", "0.0001", cwd=tmp_path, check=1)
+    assert "NOT exact" in result.stdout and "differs from the reference" in result.stderr
+    assert not (tmp_path / "bench").exists()
+
+
+def test_the_recording_is_never_the_bench_written(tmp_path):
+    (tmp_path / "x").mkdir()
+    data = tmp_path / "x" / "ThermalComp_TB.scl"
+    data.write_text(golden_twin_csv(tmp_path).read_text())
+    result = thermoplc("testbench", golden_block("mlr", "tia"), "--model", GOLDEN / "mlr.json", "--data", data,
+                       "-o", "x", "--calls", "10", "--force", cwd=tmp_path, check=2)
+    assert "is also an input of this command" in result.stderr
+    assert data.read_text().startswith("time_s")
