@@ -85,15 +85,22 @@ def bench_names(block: str) -> tuple[str, str]:
     return f"{base}_TB", f"{base}_TB_D"
 
 
+def rows_per_chunk(row_bytes: int, dialect: str) -> int:
+    """Rows one data block (or one set of arrays) holds within the target's limit, a byte of alignment per
+    array and row counted."""
+    return max(1, TARGETS[dialect].chunk_bytes // (row_bytes + 1) - 2)
+
+
 def default_calls(row_bytes: int, rows: int, dialect: str) -> int:
-    """Calls that fit one download on `dialect`'s smallest target (TARGETS), at most the rows there are."""
-    return max(1, min(rows, TARGETS[dialect].download_bytes // row_bytes, MAX_CALLS))
+    """Calls whose data fill at most the dialect's budget (TARGETS), at most the rows there are."""
+    target = TARGETS[dialect]
+    return max(1, min(rows, rows_per_chunk(row_bytes, dialect) * (target.download_bytes // target.chunk_bytes),
+                      MAX_CALLS))
 
 
 def chunks(plan: BenchPlan, dialect: str) -> tuple[Chunk, ...]:
     """The rows cut into data blocks within the target's size limit."""
-    per_chunk = TARGETS[dialect].chunk_bytes // (plan.row_bytes + 1)  # +1: a byte of alignment per array and row
-    per_chunk = max(1, per_chunk - 2)
+    per_chunk = rows_per_chunk(plan.row_bytes, dialect)
     count = math.ceil(plan.calls / per_chunk)
     if count > MAX_CHUNKS:
         raise GenerationError(f"{plan.calls} calls need {count} data blocks of at most "

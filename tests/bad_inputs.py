@@ -1435,7 +1435,7 @@ def _testbench_cases() -> list[Case]:
         Case("test bench", "--rows-per-cycle 0", shown, (*bench, "--rows-per-cycle", "0"), lambda f: None, "error",
              "--rows-per-cycle: expected"),
         Case("test bench", "-o the recording", shown, (*bench[:-1], "good.csv"), lambda f: None, "error",
-             "-o good.csv: not a folder"),
+             "-o good.csv: good.csv is not a folder"),
         Case("test bench", "the bench file exists", shown, bench, existing, "error",
              "ThermalComp_TB.scl: exists; refusing to replace it"),
         Case("test bench", "the bench would replace the block read, with --force", shown,

@@ -207,9 +207,10 @@ def test_many_data_blocks_keep_the_limits_and_the_rows_in_order(dialect, twin, m
                                      for d in BENCH_DIALECTS])  # a data block source of 4,321 rows reads in 20 s
 def test_the_default_bench_fits_one_download_and_its_limits(dialect, twin):
     bench = _bench("kalman_fused", dialect, twin, calls=None, rows_per_cycle=100)
-    budget = plan_module.TARGETS[bench.dialect].download_bytes
-    assert bench.plan.calls * bench.plan.row_bytes <= budget
-    assert bench.plan.calls == min(twin.rows, budget // bench.plan.row_bytes)
+    target = plan_module.TARGETS[bench.dialect]
+    assert bench.plan.calls * (bench.plan.row_bytes + 1) <= target.download_bytes
+    assert bench.data_blocks <= target.download_bytes // target.chunk_bytes
+    assert bench.plan.calls == min(twin.rows, plan_module.default_calls(bench.plan.row_bytes, 10 ** 6, bench.dialect))
     assert bench.counters.mismatches == 0 and bench.counters.done
     _limits_kept(bench, dialect)
 
