@@ -57,10 +57,6 @@ class BenchPlan:
     notes: tuple[str, ...]  # header lines: where the rows come from, what the counters mean
 
     @property
-    def tolerant(self) -> bool:
-        return any(p.tolerance for p in self.outputs)
-
-    @property
     def calls(self) -> int:
         return len(self.inputs[0].values) if self.inputs else 0
 

@@ -19,7 +19,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from tests.golden_models import (  # noqa: E402
-    DIALECTS, FUSED, FUSED_EVERY, GOLDEN, KINDS, batch_csvs, golden_block, golden_twin_csv, rendered,
+    DIALECTS, FUSED, FUSED_EVERY, GOLDEN, KINDS, batch_csvs, golden_bench, golden_block, golden_twin_csv, rendered,
+    rendered_bench,
 )
 from thermoplc.diagnosis.command import augmented_model  # noqa: E402
 from thermoplc.diagnosis.runs import DiagnoseRequest, series_of  # noqa: E402
@@ -94,6 +95,11 @@ def render_all() -> list[Path]:
         for dialect in (*DIALECTS, "plcopen"):
             path = golden_block(kind, dialect)
             path.write_text(rendered(kind, dialect))
+            written.append(path)
+    with tempfile.TemporaryDirectory() as tmp:
+        for dialect in (*DIALECTS, "plcopen"):  # the test benches of the blocks just written
+            path = golden_bench(dialect)
+            path.write_text(rendered_bench(dialect, Path(tmp)))
             written.append(path)
     return written
 

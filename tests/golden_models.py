@@ -12,7 +12,7 @@ from thermoplc.generator.printer import DIALECTS as PRINTER_DIALECTS, render, re
 from thermoplc.machines.cascade import simulate
 from thermoplc.models.kinds import names as kind_names
 from thermoplc.models.modelfile import load_model
-from thermoplc.recordings.table import write_table
+from thermoplc.recordings.table import read_table, write_table
 
 GOLDEN = Path(__file__).resolve().parent / "golden"
 TWIN = {"hours": 12, "seed": 7}
@@ -51,3 +51,22 @@ def golden_block(kind: str, dialect: str) -> Path:
 def rendered(kind: str, dialect: str) -> str:
     block = lower(load_model(GOLDEN / f"{kind}.json"))
     return render_plcopen(block, __version__) if dialect == "plcopen" else render(block, dialect)
+
+
+# the golden test bench (issue 64): a short window of the fused golden block on the golden twin, in every dialect
+BENCH = {"kind": "kalman_fused", "first": 30, "calls": 12, "rows_per_cycle": 5}
+
+
+def golden_bench(dialect: str) -> Path:
+    """tests/golden/bench.<dialect><suffix>: the test bench of golden_block(BENCH kind, dialect)."""
+    suffix = ".xml" if dialect == "plcopen" else PRINTER_DIALECTS[dialect].suffix
+    return GOLDEN / f"bench.{dialect}{suffix}"
+
+
+def rendered_bench(dialect: str, folder: Path) -> str:
+    from thermoplc import pipeline
+    kind = BENCH["kind"]
+    table = read_table(golden_twin_csv(folder))
+    return pipeline.testbench(str(golden_block(kind, dialect)), load_model(GOLDEN / f"{kind}.json"),
+                              str(GOLDEN / f"{kind}.json"), table, BENCH["first"], BENCH["calls"],
+                              BENCH["rows_per_cycle"], probe_every=FUSED_EVERY).text

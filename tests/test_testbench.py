@@ -12,7 +12,8 @@ from blark.parse import parse_source_code
 from hypothesis import given, settings, strategies as st
 
 from tests.cli_runner import thermoplc
-from tests.golden_models import FUSED, FUSED_EVERY, GOLDEN, KINDS, golden_block, golden_twin_csv
+from tests.golden_models import (FUSED, FUSED_EVERY, GOLDEN, KINDS, golden_bench, golden_block, golden_twin_csv,
+                                 rendered_bench)
 from thermoplc.base.version import __version__
 from thermoplc.base.identifiers import MAX_LENGTH, identifier_problem
 from thermoplc.generator import testbench as plan_module
@@ -331,3 +332,10 @@ def test_the_recording_is_never_the_bench_written(tmp_path):
                        "-o", "x", "--calls", "10", "--force", cwd=tmp_path, check=2)
     assert "is also an input of this command" in result.stderr
     assert data.read_text().startswith("time_s")
+
+
+@pytest.mark.parametrize("dialect", BENCH_DIALECTS)
+def test_the_bench_is_its_golden_file(dialect, tmp_path):
+    """A change in what a bench holds or how it is printed shows as a diff of tests/golden/bench.* in review
+    (python scripts/regen_golden.py rewrites them)."""
+    assert rendered_bench(dialect, tmp_path) == golden_bench(dialect).read_text()
