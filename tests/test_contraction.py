@@ -94,3 +94,12 @@ def test_verify_prints_and_writes_the_contraction(tmp_path):
     document = json.loads((tmp_path / "report.json").read_text())
     assert document["contraction"]["calls"] == 4321
     assert document["contraction"]["max_deviation"]["E_z_um"]["type"] == "REAL"
+
+
+def test_a_long_recording_is_judged_on_its_first_calls_and_says_so(twin, monkeypatch):
+    from thermoplc.verifier import contraction
+    monkeypatch.setattr(contraction, "MAX_CALLS", 500)
+    model_path = GOLDEN / "kalman.json"
+    report = verify_against_model(str(golden_block("kalman", "step7")), load_model(model_path), str(model_path), twin)
+    assert report.contraction.calls == 500 and report.contraction.rows == twin.rows
+    assert f"over 500 calls (the first of {twin.rows:,})" in report.text()
