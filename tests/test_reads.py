@@ -64,6 +64,9 @@ def folder(tmp_path_factory):
     assert main(fit) == 0
     assert main(["generate", str(where / "m.json"), "-o", str(where / "b.scl"), "--accept-unvalidated"]) == 0
     (where / "manifest.csv").write_text("block,data,model\nb.scl,run.csv,m.json\n")
+    for sub, source in (("", "b.scl"), ("tm", "m.json"), ("td", "run.csv")):  # each named as the bench it reads
+        (where / sub).mkdir(exist_ok=True)
+        shutil.copy(where / source, where / sub / "ThermalComp_TB.scl")
     return where
 
 
@@ -99,6 +102,12 @@ CASES = {
                          (*VERIFY, "--data", "camp", "--json", "camp/runs.csv", "--force")],
     ("verify", "runs"): [(*VERIFY, "--runs", "camp/runs.csv", "--json", "camp/a.csv", "--force")],  # no output at all
     ("verify", "model"): [(*VERIFY, "--data", "run.csv", "--json", "m.json", "--force")],
+    ("testbench", "block"): [("testbench", "ThermalComp_TB.scl", "--model", "m.json", "--data", "run.csv", "-o", ".",
+                              "--force")],
+    ("testbench", "model"): [("testbench", "b.scl", "--model", "tm/ThermalComp_TB.scl", "--data", "run.csv", "-o",
+                              "tm", "--force")],
+    ("testbench", "data"): [("testbench", "b.scl", "--model", "m.json", "--data", "td/ThermalComp_TB.scl", "-o",
+                             "td", "--force")],
     ("verify", "expect"): [("verify", "b.scl", "--data", "run.csv", "--expect", "@expect.csv", "--outputs",
                             "expect.csv", "--force")],
     ("verify", "manifest"): [("verify", "--manifest", "manifest.csv", "--json", "manifest.csv", "--force"),
