@@ -3,6 +3,7 @@ outputs under the block's names, as verify compares them and as a test bench hol
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -90,14 +91,14 @@ def model_expectation(block: str, program: Program, replayer: Replayer, limits: 
     inputs = model_inputs(model, table, overrides)
     control = control_inputs(table, overrides)
     probing = probing_inputs(model, table, overrides, probe_every)
-    check_interface(replayer, block, {**inputs, **control, **probing}, f"the inputs of {model_path.rsplit('/', 1)[-1]}")
+    check_interface(replayer, block, {**inputs, **control, **probing}, f"the inputs of {Path(model_path).name}")
     declared = [d.name for d in replayer.outputs]
     expected = reference_outputs(model, limits, {**inputs, **control, **probing}, declared)
     unknown = [name for name in declared if name not in expected]
     missing = [name for name in expected if name not in declared]
     if unknown or missing:
         raise UserError(f"{block}: block outputs {', '.join(declared)} do not match the outputs of "
-                        f"{model_path.rsplit('/', 1)[-1]}: {', '.join(expected)}")
+                        f"{Path(model_path).name}: {', '.join(expected)}")
     wrong = mistyped(replayer, expected)
     if wrong:
         d, kind = wrong
