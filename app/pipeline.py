@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -20,16 +21,18 @@ from thermoplc.generator.ranges import RangeProof
 from thermoplc.fitting.acceptance import problem, quantisation_problem
 from thermoplc.models.modelfile import Model
 from thermoplc.models.safety import Limits
-from thermoplc.contract.outputs import K0_PREFIX
+from thermoplc.contract.outputs import output_unit
 from thermoplc.generator.testbench import (ELEMENT_BYTES, ROWS_PER_CYCLE, BenchPlan, Port, bench_names, chunks,
                                          default_calls)
 from thermoplc.generator.testbench_text import render_bench
 from thermoplc.recordings.table import Table
 from thermoplc.verifier.bench_run import BenchCounters, data_arrays, run_bench
 from thermoplc.verifier.bench_source import parse_sources
+from thermoplc.verifier.block_file import read_source
 from thermoplc.verifier.expectation import model_expectation, window
 from thermoplc.verifier.parser import parse_text
 from thermoplc.verifier.plcopen import is_xml, read_plcopen
+from thermoplc.verifier.replay import block_limits, check_period, load_block
 from thermoplc.verifier.syntax import Program, Sources
 from thermoplc.verifier.stress import StressResult, stress
 
@@ -139,7 +142,6 @@ class Bench:
 def block_dialect(block_path: str) -> tuple[str, bool]:
     """The dialect a block source is written in, as generate writes them (TIA's optimized-access attribute,
     STEP 7's quoted name without it, IEC's bare name), and whether it is PLCopen XML (of the iec dialect)."""
-    from thermoplc.verifier.block_file import read_source
     text = read_source(block_path)
     if is_xml(text):
         return "iec", True
@@ -155,7 +157,6 @@ def testbench(block_path: str, model: Model, model_path: str, table: Table, firs
     expected outputs the model's float32 reference from a Reset at the window's first row; `tolerance` in um
     (urad for an angle, a thousandth of it for a K0 output in mm). Run here, in thermoplc's interpreter, before
     it is returned (`Bench.counters`)."""
-    from thermoplc.verifier.replay import block_limits, check_period, load_block
     program, replayer = load_block(block_path, "interp")
     dialect, plcopen = block_dialect(block_path)
     check_period(model, table)
@@ -194,7 +195,7 @@ def _tolerance(output, tolerance_um: float) -> float:
     """An output's tolerance in its own unit, a REAL: um (urad for an angle); a K0 output is in mm."""
     if output.type.base != "REAL" or not tolerance_um:
         return 0.0
-    return float(np.float32(tolerance_um / 1000 if output.name.startswith(K0_PREFIX) else tolerance_um))
+    return float(np.float32(tolerance_um / 1000 if output_unit(output.name) == "mm" else tolerance_um))
 
 
 def run_bench_text(text: str, source: str, block: Program, block_path: str, max_cycles: int,
@@ -213,7 +214,6 @@ def run_bench_text(text: str, source: str, block: Program, block_path: str, max_
 def bench_notes(expected: dict, model_path: str, table: Table, first: int, calls: int,
                 program: Program) -> tuple[str, ...]:
     """The bench's header: where its rows come from, how it starts, what '=' cannot see."""
-    from pathlib import Path
     negative_zero = sum(int(np.count_nonzero((values == 0) & np.signbit(values)))
                         for values in map(np.asarray, expected.values()) if values.dtype.kind == "f")
     lines = table.lines

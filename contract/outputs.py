@@ -46,6 +46,11 @@ CONTROL_INPUT_START = {CONTROL_INPUTS[key]: start for key, start in CONTROL_STAR
 K0_PREFIX = "K0_"
 
 
+def output_unit(output: str) -> str:
+    """A REAL output's unit as the block's names say it: K0 in mm, an angle in urad, a displacement in um."""
+    return "mm" if output.startswith(K0_PREFIX) else "urad" if "urad" in output.lower() else "um"
+
+
 def k0_output(axis: int) -> str:
     """The block's K0 output (SD43900, mm) of the `axis`-th output in um, counted from 1."""
     return f"{K0_PREFIX}{axis}"

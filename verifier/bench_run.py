@@ -67,22 +67,23 @@ class BenchMachine(Machine):
         self.data = data
         super().__init__(program, source)
 
-    def _initial(self, d: s.VarDecl):
-        if d.type.base != "BLOCK":
-            return super()._initial(d)
+    def _block_of(self, d: s.VarDecl) -> tuple[s.Program, str]:
+        """The block (and its file) an instance declaration names, or an error naming the blocks given."""
         if d.type.block.upper() not in self.blocks:
             self._fail(d.pos, f"{d.name} is an instance of {d.type.block}, a block not given "
                               f"(given: {', '.join(p.name for p, _ in self.blocks.values())})")
-        program, source = self.blocks[d.type.block.upper()]
-        return Machine(program, source)
+        return self.blocks[d.type.block.upper()]
+
+    def _initial(self, d: s.VarDecl):
+        if d.type.base != "BLOCK":
+            return super()._initial(d)
+        return Machine(*self._block_of(d))
 
     def _instance(self, name: str, pos: s.Pos) -> tuple[int, s.Program]:
         decl = self._decl(name, pos)
         if decl.type.base != "BLOCK":
             self._fail(pos, f"{decl.name} is not an instance of a block")
-        if decl.type.block.upper() not in self.blocks:
-            self._initial(decl)
-        return self.slots[decl.name.upper()], self.blocks[decl.type.block.upper()][0]
+        return self.slots[decl.name.upper()], self._block_of(decl)[0]
 
     def _stmt(self, st):
         if not isinstance(st, s.BlockCall):

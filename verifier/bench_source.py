@@ -4,9 +4,8 @@ The grammar is the block's (verifier/st.lark, start `sources`); the block parser
 from __future__ import annotations
 
 from thermoplc.verifier import syntax as s
-from thermoplc.verifier.parser import (MAX_SOURCE_CHARACTERS, SUPPORTED_TYPES, StSyntaxError, Token, UnexpectedInput,
-                                       _at, _explain, _lark, _Section, _ToAst, _transform, v_args)
-from thermoplc.verifier.one_reading import refuse_two_readings
+from thermoplc.verifier.parser import (MAX_SOURCE_CHARACTERS, SUPPORTED_TYPES, StSyntaxError, Token, _at, _Section,
+                                       _ToAst, parsed_from, v_args)
 
 
 class _DataValue(tuple):
@@ -78,9 +77,5 @@ def parse_sources(text: str, source: str) -> s.Sources:
     if len(text) > MAX_SOURCE_CHARACTERS * 16:
         raise StSyntaxError(f"{source}: {len(text):,} characters; a test bench source is at most "
                             f"{MAX_SOURCE_CHARACTERS * 16:,} here")
-    refuse_two_readings(text, source)
-    try:
-        tree = _lark().parse(text, start="sources")
-    except UnexpectedInput as exc:
-        raise StSyntaxError(_explain(text, source, exc, "file (missing END_FUNCTION_BLOCK or END_DATA_BLOCK?)")) from None
-    return _transform(tree, _BenchToAst(source), source)
+    return parsed_from(text, source, "sources", _BenchToAst(source),
+                       "file (missing END_FUNCTION_BLOCK or END_DATA_BLOCK?)")

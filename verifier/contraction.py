@@ -12,7 +12,7 @@ from fractions import Fraction
 import numpy as np
 
 from thermoplc.base.binary32 import FLT_MIN_NORMAL, fraction_to_f32
-from thermoplc.contract.outputs import K0_PREFIX
+from thermoplc.contract.outputs import output_unit
 from thermoplc.verifier import syntax as s
 from thermoplc.verifier.interpreter import Machine
 from thermoplc.verifier.semantics import BlockFailure
@@ -71,16 +71,12 @@ class Contraction:
     def line(self) -> str:
         if self.failure:
             return f"contraction (a*b+c fused, as OpenPLC on aarch64 builds it): the fused replay stops: {self.failure}"
-        shown = ", ".join(f"{name} {value:.3g} {_unit(name)}" for name, value in self.deviation.items())
+        shown = ", ".join(f"{name} {value:.3g} {output_unit(name)}" for name, value in self.deviation.items())
         over = f"{self.calls:,} calls" + (f" (the first of {self.rows:,})" if self.calls < self.rows else "")
         return (f"contraction: a target that fuses each a*b+c into one rounding (OpenPLC on aarch64, gcc -O2) differs "
                 f"by at most {shown} over {over}: a replay with every multiply-add of an expression fused, not a "
                 f"proof (docs/commissioning.md); testbench --tolerance-um takes it")
 
-
-def _unit(output: str) -> str:
-    """A REAL output's unit as the block's names say it: K0 in mm, an angle in urad, a displacement in um."""
-    return "mm" if output.startswith(K0_PREFIX) else "urad" if "urad" in output.lower() else "um"
 
 
 class ContractionRun:

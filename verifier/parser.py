@@ -402,12 +402,19 @@ def parse_text(text: str, source: str = "<text>") -> s.Program:
     if len(text) > MAX_SOURCE_CHARACTERS:
         raise StSyntaxError(f"{source}: {len(text):,} characters; a function block source is at most "
                             f"{MAX_SOURCE_CHARACTERS:,} here (the largest generated block is about 200,000)")
+    return parsed_from(text, source, "start", _ToAst(source))
+
+
+def parsed_from(text: str, source: str, start: str, to_ast: "_ToAst",
+                ending: str = "file (missing END_FUNCTION_BLOCK?)"):
+    """`text` parsed from grammar rule `start` and transformed by `to_ast`, or a StSyntaxError naming the place;
+    `ending` names what a text that stops too early lacks."""
     refuse_two_readings(text, source)
     try:
-        tree = _lark().parse(text, start="start")
+        tree = _lark().parse(text, start=start)
     except UnexpectedInput as exc:
-        raise StSyntaxError(_explain(text, source, exc)) from None
-    return _transform(tree, _ToAst(source), source)
+        raise StSyntaxError(_explain(text, source, exc, ending)) from None
+    return _transform(tree, to_ast, source)
 
 
 def _transform(tree, to_ast: _ToAst, source: str):
