@@ -424,8 +424,8 @@ def _transform(tree, to_ast: _ToAst, source: str):
         if isinstance(exc.orig_exc, UserError):
             raise exc.orig_exc from None
         if isinstance(exc.orig_exc, RecursionError):
-            raise StSyntaxError(f"{source}: statements or expressions nested too deeply to read "
-                                f"(thousands of levels)") from None
+            raise StSyntaxError(f"{source}: expressions or statements nested too deeply to read "
+                                f"(thousands of levels); nothing written") from None
         raise
 
 
