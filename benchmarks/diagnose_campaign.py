@@ -1,14 +1,17 @@
 """Detection table of `diagnose` on campaigns: twin campaigns with an effect hidden in every run, or in some.
 
     python benchmarks/diagnose_campaign.py [--machines cascade portal] [--seeds 3] [--first-seed 1]
-                                           [--runs 6] [--hours 12] [--some] [--jobs 2] [--json results.json]
+                                           [--runs 6] [--hours 12] [--some] [--ambient-levels 14,20,26,33]
+                                           [--jobs 2] [--json results.json]
 
 Each case is a campaign of one synthetic machine (`thermoplc twin --runs N`: hall air spread over
 14-34 degC, every third run swinging, every other one warm at the start), the effect drawn per seed
 from the first run as benchmarks/diagnose.py draws it and hidden in every run (`--some`: in the
 first half of the runs only, so the training runs carry it and the held-out runs partly not). The
 diagnosis reads it as `diagnose --data FOLDER` does: the first 60 % of the runs train, the others
-are held out, evidence pooled (diagnosis.search.diagnose_runs). Per machine and effect: runs, the
+are held out, evidence pooled (diagnosis.search.diagnose_runs). `--ambient-levels`: the designed ambient
+experiment instead (`twin --ambient-levels`: every run soaked at 20 degC, the air stepped to the levels in
+turn as it starts), so the held-out runs sit at the training runs' levels. Per machine and effect: runs, the
 right name alone, beside others, a wrong name, the verdicts, the target's held-out RMSE before and
 after and the seconds per campaign. Targets (issue 39, every run carrying the effect): right alone
 >= 90 %, a wrong name <= 2 %, "none" names nothing. Deterministic for the same arguments.
@@ -40,13 +43,13 @@ TARGETS = {"right": 0.90, "wrong": 0.02}
 
 
 def one(case: tuple) -> dict:
-    machine_name, name, seed, runs, hours, some = case
+    machine_name, name, seed, runs, hours, some, levels = case
     chosen = machine(machine_name)
-    plans = plan(runs, seed)
+    plans = plan(runs, seed, levels=levels)
     first = simulate_run(machine_name, plans[0], hours, DT, 0.0)
     effect = None if name == "none" else draw(name, chosen, first, len(first["time_s"]), seed)
     hidden = range(1, runs // 2 + 1) if some else None
-    plans = plan(runs, seed, (effect,) if effect else (), tuple(hidden) if hidden else None)
+    plans = plan(runs, seed, (effect,) if effect else (), tuple(hidden) if hidden else None, levels)
     series = [series_of(chosen, simulate_run(machine_name, p, hours, DT, 0.0)) for p in plans]
     training = max(1, int(TRAIN_SHARE * runs))
     parts = Parts(tuple(series), tuple(s.rows if k < training else 0 for k, s in enumerate(series)),
@@ -55,6 +58,7 @@ def one(case: tuple) -> dict:
     d = diagnose_runs(parts, "E_z_um")
     seconds = time.perf_counter() - start
     return {"machine": machine_name, "effect": name, "seed": seed, "runs": runs, "hours": hours, "some": some,
+            "ambient_levels": list(levels) if levels else None,
             "parameters": dict(effect.parameters) if effect else {}, "verdict": d.verdict,
             "found": [e["name"] for e in d.named], "added": [e["name"] for e in d.added], "reason": d.reason,
             "before": d.before.rmse_held_out["E_z_um"], "after": d.after.rmse_held_out["E_z_um"],
@@ -120,10 +124,12 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=6)
     parser.add_argument("--hours", type=float, default=12.0)
     parser.add_argument("--some", action="store_true", help="hide the effect in the first half of the runs only")
+    parser.add_argument("--ambient-levels", type=lambda text: tuple(float(v) for v in text.split(",")),
+                        help="the designed ambient experiment: the air stepped from 20 degC to these levels in turn")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--json", help="also write every campaign's result here")
     args = parser.parse_args()
-    cases = [(m, name, seed, args.runs, args.hours, args.some) for m in args.machines for name in args.effects
+    cases = [(m, name, seed, args.runs, args.hours, args.some, args.ambient_levels) for m in args.machines for name in args.effects
              for seed in range(args.first_seed, args.first_seed + args.seeds)]
     results = run_and_print(one, cases, args.jobs, args.json, table, summary)
     for r in results:

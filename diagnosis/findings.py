@@ -47,14 +47,16 @@ def _window(w: Window, d: Diagnosis, after: bool) -> dict:
 
 
 def per_run(d: Diagnosis) -> list[dict]:
-    """Each run: whether it trains or is held out, its target's RMSE before and after on its training and held-out
-    rows, and its disagreement windows before and after: where the gap was and how it shrank."""
+    """Each run: whether it trains or is held out, the hall air it ran in (lowest and highest reading), its target's
+    RMSE before and after on its training and held-out rows, and its disagreement windows before and after: where
+    the gap was and how it shrank, cold and warm runs told apart."""
     parts, target = d.parts, d.channels[-1]
     before, after = parts.unpool(d.residual_before[target]), parts.unpool(d.residual_after[target])
     rows = []
     for k, (run, n) in enumerate(zip(parts.runs, parts.train_rows)):
         role = "training" if n == run.rows else "held out" if n == 0 else "split"
         rows.append({"run": parts.labels[k] if parts.labels else str(k + 1), "role": role, "rows": run.rows,
+                     "ambient_C": [float(np.min(run.te)), float(np.max(run.te))],
                      "train_rmse_before_um": rms(before[k][:n]), "train_rmse_after_um": rms(after[k][:n]),
                      "held_out_rmse_before_um": rms(before[k][n:]), "held_out_rmse_after_um": rms(after[k][n:]),
                      "windows_before": sum(w.run == k for w in d.windows_before),
@@ -153,6 +155,8 @@ def text(doc: dict) -> str:
     for k, e in enumerate(doc["effects"], start=1):
         ev = e["evidence"]
         lines.append(f"  {k}. {e['name']}: {display(e['parameters'])}")
+        if e.get("shown_by_runs"):
+            lines.append(f"     shown by the training runs {', '.join(e['shown_by_runs'])} (each alone)")
         lines.append(f"     delta BIC {ev['delta_bic']:.1f}; held-out log-likelihood evidence {ev['held_out_evidence']:+.1f}; "
                      f"held-out excess above noise removed {percent(ev['held_out_excess_removed'])}")
         if ev.get("held_out_size_um") is not None:
@@ -177,12 +181,26 @@ def text(doc: dict) -> str:
                      f"{v['held_out_max_abs_after']:>10.3f}")
     if doc.get("no_compensation_rmse_um") is not None:
         lines.append(f"  no compensation: held-out RMSE {doc['no_compensation_rmse_um']:.3f} um")
+    if len(doc["runs"]) > 1:
+        lines += _runs_table(doc["runs"])
     if doc["not_tested"]:
         lines.append("  not tested: " + "; ".join(f"{k} ({v})" for k, v in doc["not_tested"].items()))
     steps = next_steps(doc)
     if steps:
         lines += ["next:", *(f"  {command}" for command in steps)]
     return "\n".join(lines)
+
+
+def _runs_table(runs: list[dict]) -> list[str]:
+    """A campaign's target RMSE per run before and after, each run with its role and the hall air it ran in."""
+    lines = [f"  {'run':<24}{'role':<10}{'air degC':>12}{'RMSE before':>13}{'after':>8}"]
+    for r in runs:
+        held = r["role"] == "held out"
+        before, after = ((r["held_out_rmse_before_um"], r["held_out_rmse_after_um"]) if held else
+                         (r["train_rmse_before_um"], r["train_rmse_after_um"]))
+        low, high = r["ambient_C"]
+        lines.append(f"  {r['run'][:23]:<24}{r['role']:<10}{f'{low:.1f}..{high:.1f}':>12}{before:>13.3f}{after:>8.3f}")
+    return lines
 
 
 def next_steps(doc: dict) -> list[str]:

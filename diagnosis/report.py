@@ -195,9 +195,10 @@ def report(doc: dict, d: Diagnosis) -> dict:
                                                       t["rejected_because"]]
                                                      for t in trials])
                      for k, trials in enumerate(doc["tested"], start=1))
-    runs = html_table(["run", "role", "rows", "training RMSE before um", "after", "held-out RMSE before um", "after",
-                       "windows before", "after"],
-                      [[r["run"], r["role"], r["rows"], _number(r["train_rmse_before_um"]),
+    runs = html_table(["run", "role", "rows", "air degC", "training RMSE before um", "after", "held-out RMSE before um",
+                       "after", "windows before", "after"],
+                      [[r["run"], r["role"], r["rows"], f"{r['ambient_C'][0]:.1f}..{r['ambient_C'][1]:.1f}",
+                        _number(r["train_rmse_before_um"]),
                         _number(r["train_rmse_after_um"]), _number(r["held_out_rmse_before_um"]),
                         _number(r["held_out_rmse_after_um"]), r["windows_before"], r["windows_after"]]
                        for r in doc["runs"]])

@@ -1,5 +1,6 @@
 """What `diagnose` is asked, and the runs it reads by role: one recording split in time (its first 60 %
-trains by default) or a campaign whose first runs train, each refused where it cannot be judged."""
+trains by default) or a campaign whose training runs span the hall air the held-out runs ran in (or whose
+first runs train), each refused where it cannot be judged."""
 from __future__ import annotations
 
 import os
@@ -24,6 +25,7 @@ DEFAULT_TRAIN_SHARE = 0.6
 MIN_ROWS = 10
 MIN_TRAIN_PROBINGS = 20  # a probed target's measurements the displacement map is fitted on
 MIN_HELD_OUT_PROBINGS = 10  # ... and those every effect is judged by
+MIN_AIR_SPREAD_K = 2.0  # runs whose hall air differs by this much are split by it (a designed ambient experiment)
 MAX_REPEATED_SHARE = 0.5  # a target that repeats its value more often is held between probings (FL_THERMAL: 0.07 %)
 
 
@@ -136,8 +138,12 @@ def series_of(table: Table, request: DiagnoseRequest, dt: float) -> Series:
                   table.columns[request.target], table.columns[request.feed] if request.feed else None)
 
 
-def _train_runs(campaign: Campaign, request: DiagnoseRequest) -> int:
-    """How many of a campaign's first runs train: --train-runs, else 60 % of them; at least one each way."""
+def _training_runs(campaign: Campaign, request: DiagnoseRequest) -> tuple[bool, ...]:
+    """Which of a campaign's runs train: with --train-runs N its first N; else 60 % of them (at least one each
+    way), the first ones, unless the runs' hall air (each run's median) differs by `MIN_AIR_SPREAD_K` or more:
+    then the coldest, the warmest and runs spread evenly between them train, so each held-out run lies inside the
+    air the training runs saw (a campaign recorded at set air levels tests the coupling across them; holding out
+    its coldest run would judge an extrapolation, not an effect)."""
     count = len(campaign.runs)
     if request.train_until is not None or request.train_rows is not None:
         raise UserError(f"--train-until/--train-rows split one recording; this campaign has {count} runs: give "
@@ -146,12 +152,17 @@ def _train_runs(campaign: Campaign, request: DiagnoseRequest) -> int:
     if not 1 <= chosen < count:
         raise UserError(f"--train-runs {chosen}: the campaign has {count} runs; both the training runs and the "
                         f"held-out runs need at least one (the held-out runs judge every effect)")
-    return chosen
+    air = [float(np.median(table.column(request.ambient))) for table in campaign.tables]
+    if request.train_runs is not None or not np.ptp(air) >= MIN_AIR_SPREAD_K:
+        return tuple(k < chosen for k in range(count))
+    by_air = np.argsort(air, kind="stable")
+    training = {int(by_air[k]) for k in np.round(np.linspace(0, count - 1, chosen)).astype(int)}
+    return tuple(k in training for k in range(count))
 
 
 def parts_of(campaign: Campaign, request: DiagnoseRequest) -> tuple[Parts, float]:
     """The runs by role and which rows of each train, and their common sample period: one recording split in
-    time (--train-until/--train-rows, default its first 60 %), or a campaign whose first runs train."""
+    time (--train-until/--train-rows, default its first 60 %), or a campaign's training runs (`_training_runs`)."""
     tables = campaign.tables
     dt = common_sample_period(tables, request.time_column)
     if request.train_runs is not None and len(tables) == 1:
@@ -162,8 +173,8 @@ def parts_of(campaign: Campaign, request: DiagnoseRequest) -> tuple[Parts, float
     if len(tables) == 1:
         train_rows = (_training_rows(tables[0], request),)
     else:
-        count = _train_runs(campaign, request)
-        train_rows = tuple(t.rows if k < count else 0 for k, t in enumerate(tables))
+        training = _training_runs(campaign, request)
+        train_rows = tuple(t.rows if trains else 0 for t, trains in zip(tables, training))
         for table in tables:
             if table.rows < MIN_ROWS:
                 raise UserError(f"{table.path}: {table.rows} rows; a run needs at least {MIN_ROWS}")

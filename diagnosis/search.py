@@ -28,7 +28,7 @@ from thermoplc.diagnosis.judges import (BIC_MARGIN, HELD_OUT_SHARE, MIN_TRAIN_EX
                                         held_out_threshold, identified, refit, score, simulate)
 from thermoplc.diagnosis.parts import Parts, single
 from thermoplc.diagnosis.rules import (candidates, describe, each_run, follows_running, implausible,
-                                       not_the_named_physics, too_small, worsens_own_sensor)
+                                       not_the_named_physics, showing_runs, too_small, worsens_own_sensor)
 from thermoplc.diagnosis.windows import Window, find_windows, noise_sigma, rms, settling_s
 from thermoplc.physics import identified_effects, identify
 from thermoplc.physics.effects import definition_of
@@ -217,7 +217,8 @@ def _named(name: str, parts: Parts, current: Simulation, current_score, residual
     target, n_train = next(reversed(residual)), parts.n_train
     change = residual[target][n_train:] - res[target][n_train:]
     before, after = current_score.rmse_held_out[target], s.rmse_held_out[target]
-    return {"name": name, "parameters": describe(trial, name, parts.joined()), "evidence": {
+    shown_by = {"shown_by_runs": runs} if (runs := showing_runs(parts, name)) else {}
+    return {"name": name, "parameters": describe(trial, name, parts.joined()), **shown_by, "evidence": {
         "held_out_size_um": rms(change),
         "held_out_error_removed": 1.0 - (after / before) ** 2 if before else None,
         "bic_before": current_score.bic, "bic_after": s.bic, "delta_bic": s.bic - current_score.bic,
@@ -272,7 +273,7 @@ def _try(parts: Parts, train: Series, channels, sigma: dict, current: Simulation
     delta = s.bic - current_score.bic
     effective = effective_delta_bic(residual, res, trial.parameter_count() - current.parameter_count(), n_train)
     by_bic = delta < -BIC_MARGIN and effective < -BIC_MARGIN
-    why = (not_the_named_physics(trial, name, parts, train, channels, sigma, current_score, s, by_bic)
+    why = (not_the_named_physics(trial, name, parts, train, channels, sigma, current_score, s, by_bic, current)
            or each_run(parts, train, lambda run: definition_of(name).after_fit(trial, run)))
     if why is None and delta < -BIC_MARGIN and not effective < -BIC_MARGIN:
         why = (f"the residual it leaves is still a slow misfit, not noise: counted over its effective rows "

@@ -3,7 +3,8 @@
 Each machine is a module with NAME, DESCRIPTION, SENSORS (its temperature columns), DIAGNOSED
 (the ones a diagnosis is given), COOLANT_SENSOR (the node the coolant relay reads),
 COLUMN_DEFAULTS (the sensor an offset or drift lands on unless told) and
-`simulate(hours, seed, dt, ambient_start, ambient_swing, faults, constant_rpm, effects, noise)`
+`simulate(hours, seed, dt, ambient_start, ambient_swing, faults, constant_rpm, effects, noise, ambient_level,
+ambient_step_s)`
 returning the columns by name. Two machines written apart keep the diagnosis honest: a method
 tuned on one is measured on the other.
 """

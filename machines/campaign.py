@@ -3,19 +3,21 @@
 The machine (its time constants and gains) is the same in every run; what changes is what changes
 on a real shop floor: the hall air (held at a level between 14 and 34 degC, or swinging by 3 K as
 an air conditioning that ramps), the speed programme and the noise (the run's seed), and the start
-state (cold: settled at the hall air; warm: after two hours of running, cut off). The drift is
+state (cold: settled at the hall air; warm: after two hours of running, cut off). A designed ambient
+experiment (`levels`) instead soaks the machine at 20 degC before every run (each starts cold) and moves
+the air to the run's set level as it starts (machines/hall.py), the levels taken in turn. The drift is
 probed every `probe_minutes` (0: every call) and held between probings, as a probing cycle leaves
 it on the NC; the measured target is taken relative to the run's first probing, the true one
 beside it on the same zero. Effects of the library can be hidden in all runs or in some.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from thermoplc.base.errors import UserError
-from thermoplc.machines import machine
+from thermoplc.machines import hall, machine
 
 WARM_UP_H = 2.0
 SWING_K = 3.0
@@ -30,7 +32,7 @@ class RunPlan:
     index: int
     seed: int
     hall_air_C: float
-    air: str  # "held" or "swinging"
+    air: str  # "held", "swinging", or "stepped" (from hall.REFERENCE_C to hall_air_C as the run starts)
     start: str  # "cold" or "warm"
     effects: tuple = ()
 
@@ -40,11 +42,16 @@ class RunPlan:
                 "effects": "+".join(e.name for e in self.effects) or "none"}
 
 
-def plan(runs: int, seed: int, effects: tuple = (), effect_runs: tuple[int, ...] | None = None) -> list[RunPlan]:
+def plan(runs: int, seed: int, effects: tuple = (), effect_runs: tuple[int, ...] | None = None,
+         levels: tuple[float, ...] | None = None) -> list[RunPlan]:
     """The runs' conditions, drawn from `seed`: hall air spread over its range (shuffled), every third run
-    swinging, every other run warm; the effects in `effect_runs` (numbered from 1; None: every run)."""
+    swinging, every other run warm; or, with `levels`, the air stepped to them in turn; the effects in
+    `effect_runs` (numbered from 1; None: every run)."""
     if runs < 1:
         raise UserError("--runs must be at least 1")
+    if levels:
+        return [replace(run, hall_air_C=float(levels[run.index % len(levels)]), air="stepped", start="cold")
+                for run in plan(runs, seed, effects, effect_runs)]
     rng = np.random.default_rng([seed, 37])
     levels = rng.permutation(np.linspace(*HALL_AIR_C, runs)) if runs > 1 else np.array([20.0])
     chosen = set(range(1, runs + 1)) if effect_runs is None else set(effect_runs)
@@ -70,8 +77,10 @@ def simulate_run(name: str, run: RunPlan, hours: float, dt: float, probe_minutes
     chosen = machine(name)
     warm = WARM_UP_H if run.start == "warm" else 0.0
     swing = SWING_K if run.air == "swinging" else 0.0
-    columns = chosen.simulate(hours + warm, run.seed, dt, run.hall_air_C, ambient_swing=swing,
-                              effects=run.effects, noise=noise)
+    air = ({"ambient_start": hall.REFERENCE_C, "ambient_level": run.hall_air_C, "ambient_step_s": warm * 3600}
+           if run.air == "stepped" else {"ambient_start": run.hall_air_C})
+    columns = chosen.simulate(hours + warm, run.seed, dt, ambient_swing=swing, effects=run.effects, noise=noise,
+                              **air)
     skip = int(round(warm * 3600 / dt))
     columns = {c: v[skip:].copy() for c, v in columns.items()}
     columns["time_s"] = columns["time_s"] - columns["time_s"][0]

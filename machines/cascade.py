@@ -16,6 +16,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from thermoplc.base.errors import UserError
+from thermoplc.machines import hall
 from thermoplc.machines.faults import SensorFault
 from thermoplc.physics.effects import Effect
 
@@ -106,9 +107,11 @@ def _lag(u: np.ndarray, tau: float, dt: float) -> np.ndarray:
 
 def simulate(hours: float, seed: int, dt: float = 10.0, ambient_start: float = 20.0, ambient_swing: float = 0.5,
              faults: tuple[SensorFault, ...] = (), constant_rpm: float | None = None,
-             effects: tuple[Effect, ...] = (), noise: float = 1.0) -> dict:
+             effects: tuple[Effect, ...] = (), noise: float = 1.0, ambient_level: float | None = None,
+             ambient_step_s: float = 0.0) -> dict:
     """Columns time_s, n_rpm, v_feed_mm_min, T_env, the four node sensors, E_z_um (measured),
-    E_z_true_um, the spindle tilts yaw_urad and pitch_urad, and the tool length in use."""
+    E_z_true_um, the spindle tilts yaw_urad and pitch_urad, and the tool length in use; with
+    `ambient_level` the hall air moves to it from `ambient_step_s` on (machines/hall.py)."""
     if hours <= 0 or dt <= 0:
         raise UserError("--hours and --dt must be positive")
     if noise < 0:
@@ -123,6 +126,8 @@ def simulate(hours: float, seed: int, dt: float = 10.0, ambient_start: float = 2
     if constant_rpm is not None:  # paper 000 case 1: one speed from the start
         n = np.full_like(t, constant_rpm)
     te = ambient_profile(t, ambient_start, ambient_swing, rng)
+    if ambient_level is not None:
+        te = hall.stepped(t, te, ambient_level, ambient_step_s)
     feed = feed_schedule(n, dt, np.random.default_rng([seed, 1]))
 
     tau = dict(TAU_S)

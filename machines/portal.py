@@ -21,6 +21,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from thermoplc.base.errors import UserError
+from thermoplc.machines.hall import stepped
 from thermoplc.physics.effects import registry
 
 NAME = "portal"
@@ -61,8 +62,10 @@ QUANTUM_K = 0.01
 
 def simulate(hours: float, seed: int, dt: float = 10.0, ambient_start: float = 20.0, ambient_swing: float = 1.0,
              faults: tuple = (), constant_rpm: float | None = None, effects: tuple = (),
-             noise: float = 1.0) -> dict[str, np.ndarray]:
-    """Columns of a recording `hours` long every `dt` s; noise=0 gives the exact physics (unquantised)."""
+             noise: float = 1.0, ambient_level: float | None = None,
+             ambient_step_s: float = 0.0) -> dict[str, np.ndarray]:
+    """Columns of a recording `hours` long every `dt` s; noise=0 gives the exact physics (unquantised); with
+    `ambient_level` the hall air moves to it from `ambient_step_s` on (machines/hall.py)."""
     _check_arguments(hours, seed, dt, noise, constant_rpm, faults)
     active = _active_effects(effects)
     schedule, feed, hall, sensors = (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(4))
@@ -70,6 +73,8 @@ def simulate(hours: float, seed: int, dt: float = 10.0, ambient_start: float = 2
     n = np.full(t.size, float(constant_rpm)) if constant_rpm is not None else _speed_schedule(t, schedule)
     v = _feed_rate(t, n, feed)
     env = _ambient(t, dt, ambient_start, ambient_swing, hall)
+    if ambient_level is not None:
+        env = stepped(t, env, ambient_level, ambient_step_s)
     temps = _measured_nodes(n, env, dt, active)
     e_true = _displacement(temps, env, v, dt, active)
     z = sensors.standard_normal((len(SENSORS) + 2, t.size)) * noise

@@ -1022,7 +1022,16 @@ def _campaign_cases() -> list[Case]:
              "--ambient-start and --ambient-swing: not with --runs"),
         Case("campaign", "twin --probe-minutes without --runs", "twin",
              ("twin", "--hours", "1", "--probe-minutes", "30", "-o", "t.csv"), lambda f: None, "error",
-             "--probe-every (--probe-minutes) and --effect-runs describe a campaign"),
+             "--probe-every (--probe-minutes), --effect-runs and --ambient-levels describe a campaign"),
+        Case("campaign", "twin --ambient-levels without --runs", "twin",
+             ("twin", "--hours", "1", "--ambient-levels", "14,33", "-o", "t.csv"), lambda f: None, "error",
+             "--ambient-levels describe a campaign: give --runs N"),
+        Case("campaign", "twin --ambient-levels with a word", "twin",
+             ("twin", "--runs", "2", "--hours", "1", "--ambient-levels", "14,hot", "-o", "c"), lambda f: None, "error",
+             "expected hall air levels C,C,... in degC from -40 to 60, found '14,hot'"),
+        Case("campaign", "twin --ambient-levels beyond a hall's air", "twin",
+             ("twin", "--runs", "2", "--hours", "1", "--ambient-levels", "14,1e9", "-o", "c"), lambda f: None, "error",
+             "expected hall air levels C,C,... in degC from -40 to 60, found '14,1e9'"),
     ]
 
 

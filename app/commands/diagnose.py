@@ -21,7 +21,9 @@ def add_parser(sub) -> None:
                                   "thermoplc diagnose --data injected.csv ... --baseline diagnosed.json -o injected.json"))
     campaign_arguments(p, "each started as a fresh block, the evidence pooled over them", "")
     p.add_argument("--train-runs", type=RUNS, metavar="N",
-                   help="a campaign: its first N runs train, the others are held out (default: 60%% of the runs)")
+                   help="a campaign: its first N runs train, the others are held out (default: 60%% of the runs, "
+                        "the first ones, or, when the runs' hall air differs by 2 K or more, the coldest, the "
+                        "warmest and runs spread between them)")
     p.add_argument("--temps", type=columns, required=True, help="temperature columns, comma-separated")
     p.add_argument("--speed", required=True, help="spindle speed column, rpm")
     p.add_argument("--ambient", required=True, help="ambient temperature column, degC")

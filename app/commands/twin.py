@@ -46,6 +46,9 @@ def add_parser(sub) -> None:
     p.add_argument("--probe-every", type=every, metavar="WHEN",
                    help=f"with --runs: --probe-minutes in the spelling of fit, verify and diff: every {EVERY_HELP} "
                         f"(calls of --dt)")
+    p.add_argument("--ambient-levels", type=_levels, metavar="C,C,...",
+                   help="with --runs: a designed ambient experiment: the machine soaks at 20 degC, and as each run "
+                        "starts the hall air moves to the next of these levels (degC, taken in turn) and is held")
     p.add_argument("--effect-runs", type=_run_numbers, metavar="K,K,...",
                    help="with --runs: hide the --effect only in these runs (numbered from 1; default: every run)")
     p.add_argument("--logger", action="store_true",
@@ -64,6 +67,16 @@ def _run_numbers(text: str) -> tuple[int, ...]:
     if not numbers or min(numbers) < 1:
         raise argparse.ArgumentTypeError(f"expected run numbers K,K,... (from 1), found {text!r}")
     return numbers
+
+
+def _levels(text: str) -> tuple[float, ...]:
+    try:
+        levels = tuple(float(k) for k in text.split(","))
+    except ValueError:
+        levels = ()
+    if not levels or not all(-40.0 <= level <= 60.0 for level in levels):  # NaN fails the range too
+        raise argparse.ArgumentTypeError(f"expected hall air levels C,C,... in degC from -40 to 60, found {text!r}")
+    return levels
 
 
 def run(args: argparse.Namespace) -> int:
@@ -87,8 +100,9 @@ def run(args: argparse.Namespace) -> int:
             raise UserError("--probe-every and --probe-minutes say the same; give one of them")
         args.probe_minutes = args.probe_every.calls_at(args.dt) * args.dt / 60
     if args.runs is None:
-        if args.probe_minutes or args.effect_runs:
-            raise UserError("--probe-every (--probe-minutes) and --effect-runs describe a campaign: give --runs N")
+        if args.probe_minutes or args.effect_runs or args.ambient_levels:
+            raise UserError("--probe-every (--probe-minutes), --effect-runs and --ambient-levels describe a campaign: "
+                            "give --runs N")
     else:
         if faults:
             raise UserError("--sensor-fault: not with --runs (a campaign's runs are clean of sensor faults)")
@@ -155,7 +169,7 @@ def _campaign(args: argparse.Namespace, effects: tuple) -> int:
     folder = Path(args.output)
     if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
         raise UserError(f"-o {folder}: with --runs, a new or empty folder (the runs and runs.csv are written in it)")
-    runs = plan(args.runs, args.seed, effects, args.effect_runs)
+    runs = plan(args.runs, args.seed, effects, args.effect_runs, args.ambient_levels)
     files, rows = [], ["file,hall_air_C,hall,air,start,seed,effects"]
     for run in runs:
         name = f"run_{run.index + 1:03d}.csv"
@@ -166,6 +180,8 @@ def _campaign(args: argparse.Namespace, effects: tuple) -> int:
     files.append((folder / "runs.csv", "\n".join(rows) + "\n"))
     write_outputs(files)
     probing = f", drift probed every {args.probe_minutes:g} min and held" if args.probe_minutes else ""
+    if args.ambient_levels:
+        probing += f", hall air stepped from 20 to {','.join(f'{v:g}' for v in args.ambient_levels)} degC in turn"
     print(f"wrote {folder}: {len(runs)} run{'s' if len(runs) != 1 else ''} of {args.hours:g} h {_pace(args)}, "
           f"seed {args.seed}, machine "
           f"{args.machine}{probing}; runs table {folder / 'runs.csv'}")

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.physics.effects.definition import DisplacementTerm, EffectDefinition
-from thermoplc.physics.effects.evidence import HOUR, shorter_than_a_day, time_constant_at_bound
+from thermoplc.physics.effects.evidence import HOUR, ambient_unseen, time_constant_at_bound
 
 
 def columns(series, temps, lagged, t0, tau_s: float) -> list:
@@ -26,7 +26,26 @@ def draw(rng: np.random.Generator, clean: dict, train: slice, machine) -> dict:
 
 
 def implausible(sim, train) -> str | None:
-    return time_constant_at_bound(sim.displacement.tau_ambient_s, 650.0, 45 * HOUR)
+    """An ambient lag at its search bound, or no slower than a sensor's own lag: the sensors read the air through
+    their lags already, and the baseline weighs them (a fast lag of the air is inside its class)."""
+    tau_s = sim.displacement.tau_ambient_s
+    slowest = max(sensor.tau_s for sensor in sim.sensors)
+    if tau_s <= slowest:
+        return (f"time constant {tau_s / HOUR:.3g} h, no slower than the sensors' own lag ({slowest / HOUR:.3g} h): "
+                f"the sensors' readings of the air carry it")
+    return time_constant_at_bound(tau_s, 650.0, 45 * HOUR)
+
+
+def slower_structure(before, trial):
+    """The baseline with its structure lag as slow as the fitted ambient lag: in runs shorter than that lag settles
+    thrice, forward validation could not choose it, and a structure that lags the sensors by hours follows the
+    air they read by hours too (a designed ambient experiment shows little else)."""
+    from dataclasses import replace
+    struct_s, tau_s = before.displacement.tau_struct_s, trial.displacement.tau_ambient_s
+    if struct_s is None or tau_s <= struct_s:
+        return None
+    return (f"a structure lag of {tau_s / HOUR:.3g} h (the baseline's {struct_s / HOUR:.3g} h)",
+            replace(before, displacement=replace(before.displacement, tau_struct_s=tau_s, tau_struct_chosen_s=tau_s)))
 
 
 EFFECT = EffectDefinition(
@@ -35,4 +54,5 @@ EFFECT = EffectDefinition(
     part="displacement", added_parameters=lambda sensors: 2,
     displacement=DisplacementTerm("ambient", "tau_ambient_s", "alpha", per_sensor=False, search_s=(600.0, 48 * HOUR),
                                   columns=columns, pole=("AAm", "BAm"), weight="alpha"),
-    describe=describe, draw=draw, untestable=shorter_than_a_day, implausible=implausible)
+    describe=describe, draw=draw, untestable=ambient_unseen, implausible=implausible,
+    rival=slower_structure)

@@ -92,6 +92,9 @@ class EffectDefinition:
     # (model before, model with it, training part) -> (names, why) when an effect added before
     # leaves a fit of this one that the data cannot tell from that effect
     alike_after: Callable[["FittedModel", "FittedModel", "Series"], tuple[tuple[str, ...], str] | None] = _never
+    # (model before, model with it) -> (what, the model before changed so) when the baseline's own class, reached
+    # further, may fit as well: the effect is named only if it beats that refitted by the BIC margin
+    rival: Callable[["FittedModel", "FittedModel"], tuple[str, Any] | None] = _never
     reading_size_K: Callable[["SensorParams", "Series"], float] | None = None  # part "reading": its size
     driven_by: str | None = None  # a recorded signal it needs besides speed and ambient (the feed rate)
     displacement: DisplacementTerm | None = None  # part "displacement": its term
