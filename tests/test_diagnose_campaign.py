@@ -145,7 +145,8 @@ def test_a_target_probed_too_rarely_is_refused_before_anything_is_fitted(tmp_pat
         for cells in rows:
             cells[column] = ""
         (tmp_path / held_out).write_text("\n".join([lines[0], *(",".join(c) for c in rows)]) + "\n")
-    assert main([*DIAGNOSE_CAMPAIGN[:2], "late", *DIAGNOSE_CAMPAIGN[3:], "--held-target", "-o", "m.json"]) == 2
+    assert main([*DIAGNOSE_CAMPAIGN[:2], "late", *DIAGNOSE_CAMPAIGN[3:], "--held-target", "--train-runs", "1",
+                 "-o", "m.json"]) == 2
     assert "measured 0 time(s) in the held-out part; diagnose needs at least 10" in capsys.readouterr().err
 
 
