@@ -177,3 +177,13 @@ def test_a_designed_ambient_campaign_names_the_ambient_coupling_in_six_hour_runs
     assert any(line.split()[:2] == ["run_008.csv", "held"] and "..33." in line for line in out.splitlines())
     assert main(["generate", "d.json", "-o", "d.scl"]) == 0
     assert main(["verify", "d.scl", "--model", "d.json", "--data", "camp"]) == 0
+    # the default split trains on one run per level (the coldest, the warmest, and between): runs 1, 2, 3 and 8.
+    # There a structure lag as slow as the coupling's predicts the held-out runs as well: nothing is named
+    assert main(["diagnose", "--data", "camp", "--speed", "n_rpm", "--ambient", "T_env", "--temps", "T_motor,T_bearing",
+                 "--target", "E_z_um", "--held-target", "--json", "g.json", "-o", "e.json"]) == 0
+    default = json.loads((tmp_path / "g.json").read_text())
+    assert [r["role"] for r in default["runs"]] == ["training"] * 3 + ["held out"] * 4 + ["training"]
+    assert default["effects"] == []
+    tried = {t["name"]: t["rejected_because"] for t in default["tested"][0]}
+    assert tried["ambient_coupling"].startswith("a structure lag of 3.3") and "predicts the held-out rows as well" \
+        in tried["ambient_coupling"]
