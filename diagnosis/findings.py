@@ -49,7 +49,7 @@ def _window(w: Window, d: Diagnosis, after: bool) -> dict:
 def per_run(d: Diagnosis) -> list[dict]:
     """Each run: whether it trains or is held out, the hall air it ran in (lowest and highest reading), its target's
     RMSE before and after on its training and held-out rows, and its disagreement windows before and after: where
-    the gap was and how it shrank, cold and warm runs told apart."""
+    the gap was and how it shrank, with the air each ran in."""
     parts, target = d.parts, d.channels[-1]
     before, after = parts.unpool(d.residual_before[target]), parts.unpool(d.residual_after[target])
     rows = []
@@ -156,7 +156,9 @@ def text(doc: dict) -> str:
         ev = e["evidence"]
         lines.append(f"  {k}. {e['name']}: {display(e['parameters'])}")
         if e.get("shown_by_runs"):
-            lines.append(f"     shown by the training runs {', '.join(e['shown_by_runs'])} (each alone)")
+            runs = e["shown_by_runs"]
+            lines.append(f"     shown by the training run{'s' if len(runs) > 1 else ''} {', '.join(runs)}"
+                         + (" (each alone)" if len(runs) > 1 else ""))
         lines.append(f"     delta BIC {ev['delta_bic']:.1f}; held-out log-likelihood evidence {ev['held_out_evidence']:+.1f}; "
                      f"held-out excess above noise removed {percent(ev['held_out_excess_removed'])}")
         if ev.get("held_out_size_um") is not None:
@@ -199,7 +201,8 @@ def _runs_table(runs: list[dict]) -> list[str]:
         before, after = ((r["held_out_rmse_before_um"], r["held_out_rmse_after_um"]) if held else
                          (r["train_rmse_before_um"], r["train_rmse_after_um"]))
         low, high = r["ambient_C"]
-        lines.append(f"  {r['run'][:23]:<24}{r['role']:<10}{f'{low:.1f}..{high:.1f}':>12}{before:>13.3f}{after:>8.3f}")
+        name = r["run"] if len(r["run"]) <= 23 else ".." + r["run"][-21:]  # the end tells runs apart
+        lines.append(f"  {name:<24}{r['role']:<10}{f'{low:.1f}..{high:.1f}':>12}{before:>13.3f}{after:>8.3f}")
     return lines
 
 

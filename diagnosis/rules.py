@@ -1,6 +1,7 @@
 """The physics rules a candidate effect must pass before the judges weigh it: what the training part
 can show, and why a fit is not the named physics (implausible parameters, no size, a sensor error
-that worsens its own sensor, a feed lag that only marks when the spindle runs)."""
+that worsens its own sensor, a feed lag that only marks when the spindle runs, an effect the baseline's
+own class fits as well once reached further)."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -126,16 +127,16 @@ def follows_running(trial: Simulation, trial_score: Score, parts: Parts, channel
     return None
 
 
-def baseline_reaches_it(trial: Simulation, name: str, before: Simulation, before_score: Score, trial_score: Score,
-                        parts: Parts, channels, sigma: dict) -> str | None:
+def baseline_reaches_it(trial: Simulation, name: str, baseline: Simulation, baseline_score: Score,
+                        trial_score: Score, parts: Parts, channels, sigma: dict) -> str | None:
     """Why the fitted effect is the baseline's own class reached further (the effect's record names how: a slower
     structure lag for an ambient lag), or None. The effect is named only if, added to that rival, it still wins by
     `BIC_MARGIN` on the training rows and predicts the held-out rows better. The clean cascade of a designed ambient
     campaign: its ram lags 2.5 h, forward validation chose 2.1 h, and an ambient lag of 2.8 h won the training BIC
     by 2264 over the baseline; the 2.5 h structure alone predicted the held-out runs better (0.69 um against 0.72)."""
-    if not identified(before) or trial_score.held_out >= before_score.held_out:
+    if not identified(baseline) or trial_score.held_out >= baseline_score.held_out:
         return None  # held out it does not help: the held-out judge refuses it and lists it with its size
-    rival = definition_of(name).rival(before, trial)
+    rival = definition_of(name).rival(baseline, trial)
     if rival is None:
         return None
     what, changed = rival

@@ -140,8 +140,9 @@ def series_of(table: Table, request: DiagnoseRequest, dt: float) -> Series:
 
 def _training_runs(campaign: Campaign, request: DiagnoseRequest) -> tuple[bool, ...]:
     """Which of a campaign's runs train: with --train-runs N its first N; else 60 % of them (at least one each
-    way), the first ones, unless the runs' hall air (each run's median) differs by `MIN_AIR_SPREAD_K` or more:
-    then the coldest, the warmest and runs spread evenly between them train, so each held-out run lies inside the
+    way), the first ones, unless there are three runs or more and their hall air (each run's median) differs by
+    `MIN_AIR_SPREAD_K` or more: then the coldest, the warmest and runs spread evenly between them train (at least
+    two), so each held-out run lies inside the
     air the training runs saw (a campaign recorded at set air levels tests the coupling across them; holding out
     its coldest run would judge an extrapolation, not an effect)."""
     count = len(campaign.runs)
@@ -153,8 +154,9 @@ def _training_runs(campaign: Campaign, request: DiagnoseRequest) -> tuple[bool, 
         raise UserError(f"--train-runs {chosen}: the campaign has {count} runs; both the training runs and the "
                         f"held-out runs need at least one (the held-out runs judge every effect)")
     air = [float(np.median(table.column(request.ambient))) for table in campaign.tables]
-    if request.train_runs is not None or not np.ptp(air) >= MIN_AIR_SPREAD_K:
+    if request.train_runs is not None or count < 3 or not np.ptp(air) >= MIN_AIR_SPREAD_K:
         return tuple(k < chosen for k in range(count))
+    chosen = max(chosen, 2)  # the coldest and the warmest, a held-out run between them
     by_air = np.argsort(air, kind="stable")
     training = {int(by_air[k]) for k in np.round(np.linspace(0, count - 1, chosen)).astype(int)}
     return tuple(k in training for k in range(count))

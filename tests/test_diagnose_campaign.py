@@ -132,7 +132,7 @@ def test_a_target_probed_too_rarely_is_refused_before_anything_is_fitted(tmp_pat
     monkeypatch.chdir(tmp_path)
     assert main(["twin", "--runs", "3", "--hours", "8", "--seed", str(SEED), "--probe-minutes", "120",
                  "-o", "camp"]) == 0
-    assert main([*DIAGNOSE_CAMPAIGN, "--held-target", "--json", "f.json", "-o", "m.json"]) == 2
+    assert main([*DIAGNOSE_CAMPAIGN, "--held-target", "--train-runs", "1", "--json", "f.json", "-o", "m.json"]) == 2
     assert "column 'E_z_um': measured 5 time(s) in the training part; diagnose needs at least 20" in \
         capsys.readouterr().err
     assert not (tmp_path / "m.json").exists() and not (tmp_path / "f.json").exists()

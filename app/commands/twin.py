@@ -38,8 +38,8 @@ def add_parser(sub) -> None:
     p.add_argument("--noise", type=number(float, 0.0, 100.0, "a scale"), default=1.0, help="scale of the sensor noise (default: %(default)s)")
     p.add_argument("--runs", type=number(int, 1, 10000, "runs"), metavar="N",
                    help="a campaign: N runs of --hours each of the same machine (hall air held at levels from 14 to "
-                        "34 degC or swinging, cold and warm starts, the seed's speed programmes), written into the "
-                        "folder -o with a runs table runs.csv")
+                        "34 degC or swinging, or stepped to --ambient-levels; cold and warm starts, the seed's speed "
+                        "programmes), written into the folder -o with a runs table runs.csv")
     p.add_argument("--probe-minutes", type=number(float, 0.0, 1e6, "minutes"), default=0.0, metavar="M",
                    help="with --runs: the drift E_z_um probed every M minutes and held between probings, relative "
                         "to the run's first probing (E_z_true_um beside it); 0: every call (default: %(default)s)")
@@ -71,7 +71,7 @@ def _run_numbers(text: str) -> tuple[int, ...]:
 
 def _levels(text: str) -> tuple[float, ...]:
     try:
-        levels = tuple(float(k) for k in text.split(","))
+        levels = tuple(float(k) + 0.0 for k in text.split(","))  # -0 is the level 0
     except ValueError:
         levels = ()
     if not levels or not all(-40.0 <= level <= 60.0 for level in levels):  # NaN fails the range too
@@ -108,7 +108,11 @@ def run(args: argparse.Namespace) -> int:
             raise UserError("--sensor-fault: not with --runs (a campaign's runs are clean of sensor faults)")
         if args.ambient_start is not None or args.ambient_swing is not None:
             raise UserError("--ambient-start and --ambient-swing: not with --runs (each run has its own hall air, "
-                            "held at a level from 14 to 34 degC or swinging by 3 K; runs.csv says which)")
+                            "held at a level from 14 to 34 degC, swinging by 3 K, or stepped to --ambient-levels; "
+                            "runs.csv says which)")
+        if args.ambient_levels and len(args.ambient_levels) > args.runs:
+            raise UserError(f"--ambient-levels gives {len(args.ambient_levels)} levels for --runs {args.runs}: each "
+                            f"level needs a run (they are taken in turn)")
         if args.effect_runs and not effects:
             raise UserError("--effect-runs says in which runs the --effect hides; give --effect NAME")
         if args.effect_runs and len(set(args.effect_runs)) != len(args.effect_runs):
@@ -165,6 +169,7 @@ def _campaign(args: argparse.Namespace, effects: tuple) -> int:
     from pathlib import Path
     from thermoplc.base.fileio import write_outputs
     from thermoplc.machines.campaign import plan, simulate_run
+    from thermoplc.machines.hall import REFERENCE_C
     from thermoplc.recordings.table import write_table
     folder = Path(args.output)
     if folder.exists() and (not folder.is_dir() or any(folder.iterdir())):
@@ -181,7 +186,8 @@ def _campaign(args: argparse.Namespace, effects: tuple) -> int:
     write_outputs(files)
     probing = f", drift probed every {args.probe_minutes:g} min and held" if args.probe_minutes else ""
     if args.ambient_levels:
-        probing += f", hall air stepped from 20 to {','.join(f'{v:g}' for v in args.ambient_levels)} degC in turn"
+        probing += (f", hall air stepped from {REFERENCE_C:g} to {','.join(f'{v:g}' for v in args.ambient_levels)} "
+                    f"degC in turn")
     print(f"wrote {folder}: {len(runs)} run{'s' if len(runs) != 1 else ''} of {args.hours:g} h {_pace(args)}, "
           f"seed {args.seed}, machine "
           f"{args.machine}{probing}; runs table {folder / 'runs.csv'}")

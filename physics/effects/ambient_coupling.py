@@ -3,6 +3,8 @@
 Term: one more displacement column, a lag of the ambient from its first value, with one weight."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from thermoplc.physics.effects.definition import DisplacementTerm, EffectDefinition
@@ -40,7 +42,6 @@ def slower_structure(before, trial):
     """The baseline with its structure lag as slow as the fitted ambient lag: in runs shorter than that lag settles
     thrice, forward validation could not choose it, and a structure that lags the sensors by hours follows the
     air they read by hours too (a designed ambient experiment shows little else)."""
-    from dataclasses import replace
     struct_s, tau_s = before.displacement.tau_struct_s, trial.displacement.tau_ambient_s
     if struct_s is None or tau_s <= struct_s:
         return None
