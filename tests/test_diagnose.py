@@ -62,12 +62,6 @@ def _hidden(machine_name: str, name: str, seed: int, hours: float = HOURS):
     return diagnose(_series(columns, chosen.DIAGNOSED), rows, "E_z_um"), effect
 
 
-_STAND_IN_AFTER = pytest.mark.xfail(strict=True, reason=(
-    "known: after the slow structure, an ambient lag of 10 h gains 144 BIC on the training part's "
-    "last 2 % of excess (MIN_TRAIN_EVIDENCE lets it count) and is named beside it; 1 run in 100 of "
-    "the benchmark's cascade 72 h rows"))
-
-
 # issue 39: measured on the identified baseline (filter gains, least-squares map), seed 1; left open in its note.
 # Issue 51's bounded structure lag names the feed heat (both machines) and the portal's slow structure alone
 _IDENTIFIED_SHORT = {
@@ -77,8 +71,6 @@ _IDENTIFIED_SHORT = {
 
 
 def _case(m: str, n: str):
-    if (m, n) == ("cascade", "slow_structure"):
-        return pytest.param(m, n, marks=_STAND_IN_AFTER)
     if (m, n) in _IDENTIFIED_SHORT:
         return pytest.param(m, n, marks=pytest.mark.xfail(strict=True, reason="known, issue 39: "
                                                                              + _IDENTIFIED_SHORT[m, n]))
