@@ -142,9 +142,8 @@ def _training_runs(campaign: Campaign, request: DiagnoseRequest) -> tuple[bool, 
     """Which of a campaign's runs train: with --train-runs N its first N; else 60 % of them (at least one each
     way), the first ones, unless there are three runs or more and their hall air (each run's median) differs by
     `MIN_AIR_SPREAD_K` or more: then the coldest, the warmest and runs spread evenly between them train (at least
-    two), so each held-out run lies inside the
-    air the training runs saw (a campaign recorded at set air levels tests the coupling across them; holding out
-    its coldest run would judge an extrapolation, not an effect)."""
+    two), so each held-out run lies inside the air the training runs saw (a campaign recorded at set air levels
+    tests the coupling across them; holding out its coldest run would judge an extrapolation, not an effect)."""
     count = len(campaign.runs)
     if request.train_until is not None or request.train_rows is not None:
         raise UserError(f"--train-until/--train-rows split one recording; this campaign has {count} runs: give "

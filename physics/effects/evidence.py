@@ -59,9 +59,7 @@ def air_move(train: "Series") -> float:
 def ambient_unseen(train: "Series") -> str | None:
     """Why an ambient coupling cannot be told apart on this training part, or None: neither a whole day of hall
     air nor an air move of kelvins watched for hours after it."""
-    short = shorter_than_a_day(train)
-    moved = air_move(train)
-    if short is None or moved >= MIN_AIR_MOVE_K:
+    if shorter_than_a_day(train) is None or (moved := air_move(train)) >= MIN_AIR_MOVE_K:
         return None
     return (f"the training part covers {train.rows * train.dt / HOUR:.2f} h and its air moves {moved:.2f} K before "
             f"its last {MIN_WATCHED_AFTER_S / HOUR:g} h; a lag of hours in the displacement is told from the "
