@@ -7,7 +7,9 @@ from pathlib import Path
 import numpy as np
 
 from thermoplc.diagnosis import sufficiency
-from thermoplc.diagnosis.search import Diagnosis
+from thermoplc.diagnosis.judges import BIC_MARGIN
+from thermoplc.diagnosis.rules import run_label, showing_run_indexes
+from thermoplc.diagnosis.search import Diagnosis, Trial
 from thermoplc.diagnosis.windows import Window, measured, rms
 from thermoplc.physics.primitives import Series
 
@@ -64,6 +66,41 @@ def per_run(d: Diagnosis) -> list[dict]:
     return rows
 
 
+def _outcome(t: Trial) -> str:
+    """Why a tested candidate was not named, with the evidence it had and needed."""
+    if t.rejected_because:
+        return t.rejected_because
+    if t.delta_bic >= -BIC_MARGIN:
+        return f"the training runs do not support it (delta BIC {t.delta_bic:+.1f}, below -{BIC_MARGIN:g} needed)"
+    if t.held_out_needed is not None and t.held_out_evidence < t.held_out_needed:
+        return (f"the held-out runs do not support it (log-likelihood evidence {t.held_out_evidence:+.1f}, "
+                f"{t.held_out_needed:.1f} needed)")
+    return "another candidate explained the same rows better"
+
+
+def tested_across_runs(d: Diagnosis) -> list[dict]:
+    """The candidates of a campaign that only some training runs can show (the runs whose hall air moved, whose
+    speeds span a threshold), tested and not named: which runs carried the test, the air they ran in, and the
+    evidence it had against what it needed. Candidates listed as supported but not named are said there."""
+    parts = d.parts
+    if not parts.campaign:
+        return []
+    named = {e["name"] for e in d.added} | {e["name"] for e in d.unsupported}
+    last = {t.name: t for trials in d.rounds for t in trials if t.sensor is None}
+    entries = []
+    for name, t in last.items():
+        showing = showing_run_indexes(parts, name)
+        training = [k for k, rows in enumerate(parts.train_rows) if rows > 0]
+        if name in named or not showing or showing == training:
+            continue
+        air = np.concatenate([parts.runs[k].te[:parts.train_rows[k]] for k in showing])
+        entries.append({"name": name, "shown_by_runs": [run_label(parts, k) for k in showing],
+                        "air_C": [float(air.min()), float(air.max())], "delta_bic": t.delta_bic,
+                        "held_out_evidence": t.held_out_evidence, "held_out_needed": t.held_out_needed,
+                        "why_not_named": _outcome(t)})
+    return entries
+
+
 def document(d: Diagnosis, source: dict, model_path: str | None) -> dict:
     """The findings document (findings.json) as a dict: verdict and summary, the effects named, the disagreement
     windows before and after, and each channel's training and held-out errors (um for the target, else K)."""
@@ -87,6 +124,7 @@ def document(d: Diagnosis, source: dict, model_path: str | None) -> dict:
         "effects": d.named,
         "fitted_not_named": [] if d.names_effects else [e["name"] for e in d.added],
         "supported_not_named": d.unsupported,
+        "tested_across_runs": tested_across_runs(d),
         "disagreements": [_window(w, d, True) for w in d.windows_before],
         "remaining_disagreements": [_window(w, d, False) for w in d.windows_after],
         "rmse_before_um": d.before.rmse_held_out[target],
@@ -170,6 +208,12 @@ def text(doc: dict) -> str:
         lines.append(f"  not named: {e['name']}" + (f" on {e['sensor']}" if e.get("sensor") else "")
                      + f" (delta BIC {ev['delta_bic']:.1f}; held out it moves the target {_um(ev['held_out_size_um'])}, "
                        f"{e['matters']}; {e['why_not_named']})")
+    for e in doc.get("tested_across_runs", []):
+        runs, (low, high) = e["shown_by_runs"], e["air_C"]
+        needed = "" if e["held_out_needed"] is None else f", {e['held_out_needed']:.1f} needed"
+        lines.append(f"  not named: {e['name']}, tested over the training run{'s' if len(runs) > 1 else ''} "
+                     f"{', '.join(runs)} (air {low:.1f}..{high:.1f} degC; delta BIC {e['delta_bic']:.1f}; held-out "
+                     f"evidence {e['held_out_evidence']:+.1f}{needed}): {e['why_not_named']}")
     lines.append(f"  disagreement windows: {len(doc['disagreements'])} before, {len(doc['remaining_disagreements'])} after")
     lines.append(f"  {'held out':<31}{'judged RMSE (one step)':>22}{'open-loop RMSE':>20}{'max (judged)':>20}")
     lines.append(f"  {'channel':<16}{'unit':<6}{'noise':>9}{'before':>12}{'after':>10}{'before':>10}{'after':>10}"

@@ -222,6 +222,15 @@ def report(doc: dict, d: Diagnosis) -> dict:
                                    [[e["name"], e.get("sensor") or "", _number(e["evidence"]["delta_bic"], 1),
                                      _number(e["evidence"]["held_out_size_um"], 3), e["matters"], e["why_not_named"]]
                                     for e in unsupported]))
+    across = doc.get("tested_across_runs", [])
+    if across:
+        not_named += ("<p>Tested over the training runs that can show it, not named:</p>"
+                      + html_table(["effect", "shown by the training runs", "air degC", "delta BIC",
+                                    "held-out evidence", "needed", "why not named"],
+                                   [[e["name"], ", ".join(e["shown_by_runs"]),
+                                     f"{e['air_C'][0]:.1f}..{e['air_C'][1]:.1f}", _number(e["delta_bic"], 1),
+                                     _number(e["held_out_evidence"], 1), _number(e["held_out_needed"], 1),
+                                     e["why_not_named"]] for e in across]))
     commands = next_steps(doc)
     next_section = ("<h2>What to run next</h2><p>Generate the block of the diagnosed model and prove it on the "
                     "recording:</p><pre>" + html.escape("\n".join(commands)) + "</pre>") if commands else ""

@@ -42,14 +42,22 @@ def _untestable(parts: Parts, train: Series, name: str) -> str | None:
     return None if not all(reasons) else f"no training run alone shows it ({reasons[0]})"
 
 
-def showing_runs(parts: Parts, name: str) -> list[str]:
+def showing_run_indexes(parts: Parts, name: str) -> list[int]:
     """The training runs of a campaign that alone show effect `name` by its evidence rule (the runs whose air
     moved, whose speeds span a threshold): where the evidence for it comes from. Empty for one recording."""
     if not parts.campaign:
         return []
-    return [parts.labels[k] if parts.labels else f"run {k + 1}"
-            for k, (run, rows) in enumerate(zip(parts.runs, parts.train_rows))
+    return [k for k, (run, rows) in enumerate(zip(parts.runs, parts.train_rows))
             if rows > 0 and sufficiency.untestable(run.head(rows), name) is None]
+
+
+def run_label(parts: Parts, k: int) -> str:
+    return parts.labels[k] if parts.labels else f"run {k + 1}"
+
+
+def showing_runs(parts: Parts, name: str) -> list[str]:
+    """`showing_run_indexes` by the runs' names."""
+    return [run_label(parts, k) for k in showing_run_indexes(parts, name)]
 
 
 ONE_RUN_ONLY = ("an error of one sensor's reading is fitted on one run: each run of a campaign may start with its "

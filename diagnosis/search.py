@@ -60,6 +60,7 @@ class Trial:
     accepted: bool
     rejected_because: str | None = None
     held_out_evidence: float = 0.0  # log-likelihood ratio on the held-out rows (effective rows), channels summed
+    held_out_needed: float | None = None  # the evidence it needs there (an identified baseline; else a share is judged)
 
 
 @dataclass
@@ -237,10 +238,8 @@ def _unsupported(credible: tuple, trials: list[Trial], parts: Parts, current: Si
     trial, s, res, (_, res_shown), index, name = credible
     entry = _named(name, parts, current, current_score, residual, shown, trial, s, res, res_shown,
                    trials[index].held_out_gain, windows0)
-    gain = trials[index].held_out_gain
-    if identified(current):
-        needed = held_out_threshold(trial.parameter_count() - current.parameter_count(),
-                                    int(np.count_nonzero(parts.seen_held_out())))
+    gain, needed = trials[index].held_out_gain, trials[index].held_out_needed
+    if needed is not None:
         why = (f"the held-out part does not support it: log-likelihood evidence {trials[index].held_out_evidence:+.1f} "
                f"on the held-out rows, {needed:.1f} needed")
     else:
@@ -278,7 +277,7 @@ def _try(parts: Parts, train: Series, channels, sigma: dict, current: Simulation
     if why is None and delta < -BIC_MARGIN and not effective < -BIC_MARGIN:
         why = (f"the residual it leaves is still a slow misfit, not noise: counted over its effective rows "
                f"(lag-1 autocorrelation) the BIC changes by {effective:+.1f}, not below -{BIC_MARGIN:g}")
-    evidence = held_out_evidence(residual, res, parts)
+    evidence, needed = held_out_evidence(residual, res, parts), None
     if identified(current):
         needed = held_out_threshold(trial.parameter_count() - current.parameter_count(),
                                     int(np.count_nonzero(parts.seen_held_out())))
@@ -287,7 +286,7 @@ def _try(parts: Parts, train: Series, channels, sigma: dict, current: Simulation
         judged = by_bic and gain >= HELD_OUT_SHARE and s.held_out < current_score.held_out
     alike = each_run(parts, train, lambda run: definition_of(name).alike_after(current, trial, run)) if judged else None
     row = Trial(name, None if sensor is None else train.names[sensor], float(delta), float(gain), False, why,
-                evidence)
+                evidence, needed)
     return row, (trial, s, res, sim_out) if by_bic and why is None else None, judged, alike
 
 

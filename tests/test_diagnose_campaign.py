@@ -187,3 +187,12 @@ def test_a_designed_ambient_campaign_names_the_ambient_coupling_in_six_hour_runs
     tried = {t["name"]: t["rejected_because"] for t in default["tested"][0]}
     assert tried["ambient_coupling"].startswith("a structure lag of 3.3") and "predicts the held-out rows as well" \
         in tried["ambient_coupling"]
+    # the console and the findings say which runs carried the test, their air, and the evidence against the need
+    across = {e["name"]: e for e in default["tested_across_runs"]}
+    ambient = across["ambient_coupling"]
+    assert ambient["shown_by_runs"] == ["run_001.csv", "run_003.csv", "run_008.csv"]
+    assert [round(v) for v in ambient["air_C"]] == [14, 33]
+    assert ambient["held_out_needed"] > 0 and ambient["why_not_named"] == tried["ambient_coupling"]
+    said = next(line for line in capsys.readouterr().out.splitlines() if "not named: ambient_coupling" in line)
+    assert "tested over the training runs run_001.csv, run_003.csv, run_008.csv (air 13.8..33.1 degC;" in said
+    assert f"{ambient['held_out_needed']:.1f} needed): a structure lag of 3.3" in said
