@@ -85,8 +85,11 @@ def lower_lumped(model: Model) -> Block:
     statics = [INIT, *(v for state in states for v in state.statics), *(speed.statics if speed else ())]
     regions = [first_call("First call: start the simulation at the measured temperatures",
                           [a for state in states for a in state.init]),
-               speed.region if speed else Region("Speed heat input", (Assign("S", block.speed),)),
-               *sensor_regions]
+               speed.region if speed else Region("Speed heat input", (Assign("S", block.speed),))]
+    heat_lags = tuple(stmt for effect in effects for stmt in effect.heat_lags(block))
+    if heat_lags:
+        regions.append(Region("Heat inputs that reach the sensors through a lag of their own", heat_lags))
+    regions += sensor_regions
     if shared:
         regions.append(Region("Ambient coupling and feed-axis heat lags", shared))
     regions.append(_displacement(block, effects, len(temps)))

@@ -18,7 +18,7 @@ from scipy.linalg import expm
 from thermoplc.base.errors import UserError
 from thermoplc.machines import hall
 from thermoplc.machines.faults import SensorFault
-from thermoplc.physics.effects import Effect
+from thermoplc.physics.effects import Effect, gear_ratio_switch
 
 NAME = "cascade"
 DESCRIPTION = "motor and bearing nodes feeding a ram and a slow base, run/stop at fixed speed levels, daily sine ambient"
@@ -147,8 +147,7 @@ def simulate(hours: float, seed: int, dt: float = 10.0, ambient_start: float = 2
         speed_heat = e.get("reference_rpm") * (n / e.get("reference_rpm")) ** e.get("exponent")
     motor_heat = RISE_AT_3000_RPM_K["motor"] / (TAU_S["motor"] * 3000) * speed_heat
     if "gear_ratio_switch" in on:
-        e = on["gear_ratio_switch"]
-        motor_heat = np.where(n > e.get("threshold_rpm"), e.get("ratio") * motor_heat, motor_heat)
+        motor_heat = gear_ratio_switch.twin_heat(motor_heat, n, on["gear_ratio_switch"], dt)
     bearing_heat = RISE_AT_3000_RPM_K["bearing"] / (TAU_S["bearing"] * 3000) * speed_heat
     screw_heat = SCREW_K_PER_MM_MIN / tau["screw"] * feed
     coolant = on.get("coolant_switching")

@@ -22,7 +22,7 @@ from scipy.signal import lfilter
 
 from thermoplc.base.errors import UserError
 from thermoplc.machines.hall import stepped
-from thermoplc.physics.effects import registry
+from thermoplc.physics.effects import gear_ratio_switch, registry
 
 NAME = "portal"
 DESCRIPTION = "gantry milling machine: spindle, gearbox and crossbeam nodes, unmeasured ram, random speeds"
@@ -209,8 +209,7 @@ def _measured_nodes(n: np.ndarray, env: np.ndarray, dt: float, active: dict) -> 
     for node in NODES:
         rise = node.gain_K_per_rpm * heat
         if node.name == "T_gearbox" and "gear_ratio_switch" in active:
-            g = active["gear_ratio_switch"]
-            rise = rise * np.where(n > g.get("threshold_rpm"), g.get("ratio"), 1.0)
+            rise = gear_ratio_switch.twin_heat(rise, n, active["gear_ratio_switch"], dt)
         a = np.exp(-dt / (node.tau_min * 60.0 * slower))
         if node.name == "T_spindle" and "coolant_switching" in active:
             temps[node.name] = _lag_with_coolant(env + rise, a, env[0], active["coolant_switching"])

@@ -5,14 +5,15 @@ set the start and, in a model identified by `fit` (physics/identify.py), correct
 each call by a fixed share KF_i (the steady-state Kalman filter); a model `diagnose` fitted runs
 open loop. Per call, in this order:
     S := n, or the n^p table interpolated at n                          (nonlinear_speed_heat)
-    per sensor i:  Q := G_i*S [+ H_i] [+ G2_i*n if n > Gear] [+ K_i if Cool]
+    [LG := AGr*LG + BGr*n if n > Gear, else AGr*LG]          (gear_ratio_switch with a lag of its own)
+    per sensor i:  Q := G_i*S [+ H_i] [+ G2_i*n if n > Gear, or + G2_i*LG] [+ K_i if Cool]
                    Tsim_i := A_i*Tsim_i + B_i*(Q + Te)   (As_i, Bs_i while n <= Stop: stop_convection)
                    [Tsim_i := Tsim_i + KF_i*(T_i - Tsim_i)]  (filtered)
                    [L_i := AS*L_i + BS*Tsim_i]  [M_i := A2*M_i + B2*(L_i or Tsim_i)]  (structure, slow_structure)
     [LA := AAm*LA + BAm*Te]  [LF := AF*LF + BF*feed]
     E := beta0 + sum_i beta_i*(Tsim_i-T0_i) [+ gamma_i*(L_i-T0_i)] [+ delta_i*(M_i-T0_i)] [+ alpha*(LA-Te0)] [+ phi*LF]
     [relay: Cool := TRUE above CoolOn, FALSE below CoolOff, from the simulated temperature of the switching sensor]
-First call: Tsim_i = L_i = M_i = T0_i := T_i [- O_i], LA = Te0 := Te, LF := 0, Cool := FALSE.
+First call: Tsim_i = L_i = M_i = T0_i := T_i [- O_i], LA = Te0 := Te, LF := 0, LG := 0, Cool := FALSE.
 H_i is the standstill heat load (K above the air with the spindle still); model files written
 before it existed have none and their blocks compute without it.
 The displacement follows the simulated temperatures with their ambient-driven part (paper 000
@@ -74,6 +75,8 @@ def coefficients(sim: Simulation, dt: float) -> tuple[dict[str, Coefficient], di
         c["Stop_rpm"] = Coefficient.of(s.stopped_rpm)
     if sim.has("gear_ratio_switch"):
         c["Gear_rpm"] = Coefficient.of(s.gear_rpm)
+        if s.gear_tau_s > 0:
+            c["AGr"], c["BGr"] = _pair(sim_.pole(s.gear_tau_s, dt))
     if sim.has("coolant_switching"):
         c["CoolOn"], c["CoolOff"] = Coefficient.of(s.relay[1]), Coefficient.of(s.relay[2])
     if sim.has("nonlinear_speed_heat"):
@@ -129,6 +132,7 @@ def simulation_of(model: Model) -> Simulation:
         for i in range(1, k + 1))
     shared = sim_.Shared(
         stopped_rpm=float(st.get("stopped_rpm", 0.0)), gear_rpm=c("Gear_rpm", None),
+        gear_tau_s=tau(c("AGr")) if "AGr" in model.coefficients else 0.0,
         exponent=st.get("exponent"), reference_rpm=float(st.get("reference_rpm", 1.0)),
         table_rpm=tuple(st.get("table_rpm", ())),
         relay=(st["relay_sensor"] - 1, c("CoolOn"), c("CoolOff")) if "relay_sensor" in st else None)
@@ -195,31 +199,35 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     k, rows = len(temps), len(n)
     gear, cool_on, stop = (has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection"))
     slow, amb, structure = has(model, "slow_structure"), has(model, "ambient_coupling"), "AS" in coef
-    load = "H_1" in coef
+    load, gear_lag = "H_1" in coef, gear and "AGr" in coef
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     offset = [coef.get(f"O_{i}") for i in range(1, k + 1)]
     relay_sensor = model.settings.get("relay_sensor", 1) - 1
     if rows and compiled.enabled(rows):  # the same loop, compiled (below)
         return {model.target.name: kernel_arguments(model, inputs, precision)[0]}
     sim = l_ = m_ = t0 = None
-    la = te0 = lf = None
+    la = te0 = lf = lg = None
     cool = False
     out = np.empty(rows, f)
     for j in range(rows):
         if sim is None:
             sim = [temps[i][j] - offset[i] if offset[i] is not None else temps[i][j] for i in range(k)]
             l_, m_, t0 = list(sim), list(sim), list(sim)
-            la, te0, lf = te[j], te[j], f(0.0)
+            la, te0, lf, lg = te[j], te[j], f(0.0), f(0.0)
         s = n[j]
         if table:
             index = next((m for m in range(len(table) - 1, 0, -1) if n[j] >= table[m][0]), 0)
             node, heat, slope = table[index]
             s = heat + (n[j] - node) * slope
+        if gear_lag:
+            lg = coef["AGr"] * lg + coef["BGr"] * n[j] if n[j] > coef["Gear_rpm"] else coef["AGr"] * lg
         for i in range(1, k + 1):
             q = coef[f"G_{i}"] * s
             if load:
                 q = q + coef[f"H_{i}"]
-            if gear and n[j] > coef["Gear_rpm"]:
+            if gear_lag:
+                q = q + coef[f"G2_{i}"] * lg
+            elif gear and n[j] > coef["Gear_rpm"]:
                 q = q + coef[f"G2_{i}"] * n[j]
             if cool_on and cool:
                 q = q + coef[f"K_{i}"]
@@ -263,7 +271,7 @@ def kernel_arguments(model: Model, inputs: dict, precision: str, state=None):
     f, coef, temps, te, n, feed = _arrays(model, inputs, precision)
     flags = (*(has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection", "slow_structure",
                                        "ambient_coupling")), "AS" in coef, feed is not None, "H_1" in coef,
-             any(name.startswith("KF_") for name in coef))
+             any(name.startswith("KF_") for name in coef), has(model, "gear_ratio_switch") and "AGr" in coef)
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     state = state or LumpedState(len(temps), f)
     out = lumped_loop(temps, te, n, feed, flags, coef, table, model.settings.get("relay_sensor", 1) - 1, f, state)
@@ -298,6 +306,11 @@ def check_settings(model: Model, path: str) -> None:
         if effect.get("sensor") is not None and not 1 <= effect["sensor"] <= temps:
             raise UserError(f"{path}: field 'settings.effects[{i}].sensor': {effect['sensor']} but the model has "
                             f"{temps} temperature inputs (numbered from 1)")
+    lag = [name for name in ("AGr", "BGr") if name in model.coefficients]
+    if lag and (len(lag) == 1 or not has(model, "gear_ratio_switch")):  # the gear heat's lag: a pair, of that effect
+        raise UserError(f"{path}: field 'coefficients': {' and '.join(lag)} without "
+                        + ("settings.effects listing gear_ratio_switch, whose heat lag it is" if len(lag) == 2 else
+                           f"{({'AGr', 'BGr'} - set(lag)).pop()}; the gear heat's lag needs both"))
     table, nonlinear = int(s.get("speed_table_segments", 0)), has(model, "nonlinear_speed_heat")
     if bool(table) != nonlinear:  # the table is that effect's heat: one without the other is an edited file
         raise UserError(f"{path}: field 'settings.speed_table_segments': {table}, but settings.effects "
@@ -335,10 +348,10 @@ SETTINGS_SCHEMA = {
 
 # The same loop compiled (base/compiled.py; the rules that keep its bits in models/kernels.py).
 # Lumped-mass simulation with effects (models/lumped_model.py::predict).
-# flags: gear, cool_on, stop, slow, amb, structure, feed, load, filtered (0/1); per (k,): G, G2, K,
+# flags: gear, cool_on, stop, slow, amb, structure, feed, load, filtered, gear_lag (0/1); per (k,): G, G2, K,
 # As, Bs, A, B, beta, gamma, delta, offset, H (standstill load), KF (filter gain); present (2, k):
 # whether each sensor has an offset, a filter gain; sc: Gear_rpm, Stop_rpm, AS, BS, A2, B2, AAm,
-# BAm, AF, BF, beta0, alpha, phi, CoolOn, CoolOff (absent ones 0; never used then);
+# BAm, AF, BF, beta0, alpha, phi, CoolOn, CoolOff, AGr, BGr (absent ones 0; never used then);
 # table: (segments, 3) node, heat, slope.
 
 @compiled.jit
@@ -347,9 +360,11 @@ def _lumped(temps, te, n, feed, flags, per, present, sc, table, relay, zero, sim
     gear, cool_on, stop, slow, amb, structure, with_feed, load = (flags[0], flags[1], flags[2], flags[3], flags[4],
                                                                    flags[5], flags[6], flags[7])
     filtered = flags[8]
+    gear_lag = flags[9]
     la = carried[0]
     te0 = carried[1]
     lf = carried[2]
+    lg = carried[3]
     cool = status[1] != 0
     segs = table.shape[0]
     for j in range(out.shape[0]):
@@ -365,6 +380,7 @@ def _lumped(temps, te, n, feed, flags, per, present, sc, table, relay, zero, sim
             la = te[j]
             te0 = te[j]
             lf = zero
+            lg = zero
             status[0] = 1
         s = n[j]
         if segs > 0:
@@ -374,11 +390,18 @@ def _lumped(temps, te, n, feed, flags, per, present, sc, table, relay, zero, sim
                     index = m
                     break
             s = table[index, 1] + (n[j] - table[index, 0]) * table[index, 2]
+        if gear_lag:
+            if n[j] > sc[0]:
+                lg = sc[15] * lg + sc[16] * n[j]
+            else:
+                lg = sc[15] * lg
         for i in range(k):
             q = per[0, i] * s
             if load:
                 q = q + per[11, i]
-            if gear and n[j] > sc[0]:
+            if gear_lag:
+                q = q + per[1, i] * lg
+            elif gear and n[j] > sc[0]:
                 q = q + per[1, i] * n[j]
             if cool_on and cool:
                 q = q + per[2, i]
@@ -420,22 +443,23 @@ def _lumped(temps, te, n, feed, flags, per, present, sc, table, relay, zero, sim
     carried[0] = la
     carried[1] = te0
     carried[2] = lf
+    carried[3] = lg
     status[1] = 1 if cool else 0
 
 
 class LumpedState:
-    """Simulated temperatures, structure and slow lags, their start values, the ambient and feed
+    """Simulated temperatures, structure and slow lags, their start values, the ambient, feed and gear
     lags, the ambient at the first call; whether the first call happened and the coolant relay."""
 
     def __init__(self, k: int, f):
         self.sim, self.ll, self.mm, self.t0 = (np.zeros(k, f) for _ in range(4))
-        self.carried = np.zeros(3, f)  # LA, Te0, LF
+        self.carried = np.zeros(4, f)  # LA, Te0, LF, LG
         self.status = np.zeros(2, np.int64)  # started, cool
 
 
 LUMPED_PER_SENSOR = ("G", "G2", "K", "As", "Bs", "A", "B", "beta", "gamma", "delta", "O", "H", "KF")
 LUMPED_SCALARS = ("Gear_rpm", "Stop_rpm", "AS", "BS", "A2", "B2", "AAm", "BAm", "AF", "BF", "beta0", "alpha", "phi",
-                  "CoolOn", "CoolOff")
+                  "CoolOn", "CoolOff", "AGr", "BGr")
 
 
 def lumped_loop(temps: list, te, n, feed, flags: tuple, coef: dict, table: list, relay: int, f,

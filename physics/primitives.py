@@ -63,6 +63,7 @@ class Shared:
     """Parameters every sensor shares: what the machine does, not where a sensor sits."""
     stopped_rpm: float
     gear_rpm: float | None = None
+    gear_tau_s: float = 0.0  # the lag the heat above the gear threshold enters through (0: none)
     exponent: float | None = None
     reference_rpm: float = 1.0
     table_rpm: tuple[float, ...] = ()  # nodes of the n^p table

@@ -73,6 +73,19 @@ def test_a_gear_switch_of_no_size_is_no_switch():
     assert search.implausible(_sim([("gear_ratio_switch", None)], real), "gear_ratio_switch", train) is None
 
 
+@pytest.mark.parametrize("gear_gain, lag_s, refused", [(-1.5e-3, 1200.0, True), (-1.5e-3, 0.0, False),
+                                                      (2e-3, 1200.0, False)])
+def test_less_heat_above_the_threshold_through_a_lag_of_its_own_is_a_second_time_constant(gear_gain, lag_s, refused):
+    """Issue 65: the gear heat enters through a lag of its own. A lagged part that takes heat away is the same
+    heat's path, slower (FL_THERMAL's clean recording fits one at 1250 rpm, 20 min, a quarter of the heat per rpm
+    above); added heat through its own lag is a switch, and so is less heat at once."""
+    sensors = (SensorParams(3600.0, 2e-3, gear_gain=gear_gain), SensorParams(3600.0, 1e-3, gear_gain=0.0))
+    sim = _sim([("gear_ratio_switch", None)], sensors)
+    sim = dataclasses.replace(sim, shared=dataclasses.replace(sim.shared, gear_tau_s=lag_s))
+    why = search.implausible(sim, "gear_ratio_switch", _series(30))
+    assert (why is not None and "second time constant" in why and "(20 min)" in why) == refused, why
+
+
 def test_a_barely_heated_sensor_does_not_make_a_switch_of_no_size_count():
     """Gear gains are compared with the largest heat gain: a sensor that the spindle hardly heats
     (a hall sensor) must not turn a tiny gear gain into a large relative change."""

@@ -176,3 +176,40 @@ def test_a_speed_table_without_its_effect_or_the_effect_without_a_table_is_refus
     (tmp_path / "m.json").write_text(json.dumps(doc))
     with pytest.raises(UserError, match=r"m\.json: field '" + message):
         load_model(tmp_path / "m.json")
+
+
+@pytest.mark.parametrize("edit, message", [
+    ("BGr", "AGr without BGr; the gear heat's lag needs both"),
+    ("gear_ratio_switch", "AGr and BGr without settings.effects listing gear_ratio_switch")])
+def test_the_gear_heat_lag_is_a_pair_of_the_gear_effect(tmp_path, edit, message):
+    """The golden block's gear heat enters through its lag (AGr, BGr); a file with half the pair, or the pair
+    without the effect, is an edited file, refused by name before any block is written."""
+    import json
+    from thermoplc.models.modelfile import load_model
+    from tests.golden_models import GOLDEN
+    doc = json.loads((GOLDEN / "lumped.json").read_text())
+    if edit == "BGr":
+        del doc["coefficients"]["BGr"]
+    else:
+        doc["settings"]["effects"] = [e for e in doc["settings"]["effects"] if e["name"] != edit]
+    (tmp_path / "m.json").write_text(json.dumps(doc))
+    with pytest.raises(UserError, match=r"m\.json: field 'coefficients': " + message):
+        load_model(tmp_path / "m.json")
+
+
+@pytest.mark.parametrize("machine_name", ["cascade", "portal"])
+def test_the_twins_gear_heat_enters_through_its_lag(machine_name):
+    """`--effect gear_ratio_switch:lag_min=M`: the heat above the threshold reaches the machine through a lag of M
+    minutes; 0 is the switch at once, bit for bit the twin before the lag existed."""
+    from thermoplc.machines import machine
+    chosen = machine(machine_name)
+    at_once, lagged, plain = (chosen.simulate(12, 3, effects=(Effect.parse(text),), noise=0.0) for text in (
+        "gear_ratio_switch:threshold_rpm=750,ratio=2,lag_min=0", "gear_ratio_switch:threshold_rpm=750,ratio=2,lag_min=60",
+        "gear_ratio_switch:threshold_rpm=750,ratio=2"))
+    sensor = "T_motor" if machine_name == "cascade" else "T_gearbox"
+    assert at_once[sensor].view(np.uint64).tolist() == plain[sensor].view(np.uint64).tolist()
+    clean = chosen.simulate(12, 3, noise=0.0)[sensor]
+    extra_at_once, extra_lagged = at_once[sensor] - clean, lagged[sensor] - clean
+    assert np.max(np.abs(extra_lagged)) > 0.2 * np.max(np.abs(extra_at_once)) > 0  # the heat arrives, later
+    first = int(np.argmax(np.abs(extra_at_once) > 0.05 * np.max(np.abs(extra_at_once))))
+    assert abs(extra_lagged[first]) < abs(extra_at_once[first])

@@ -1,12 +1,36 @@
-"""gear_ratio_switch in the block: above c_Gear_rpm each sensor's heat input gains G2_i * n."""
+"""gear_ratio_switch in the block: above c_Gear_rpm each sensor's heat input gains G2_i * n, at once or, when the
+model file has its lag (AGr/BGr), through LG, the speed above the threshold lagged from 0."""
 from __future__ import annotations
 
-from thermoplc.generator.ir import Assign, BinOp, If, Ref
+from thermoplc.generator.ir import Assign, BinOp, If, Ref, Var
 from thermoplc.generator.lower_shared import const
-from thermoplc.generator.lumped_effects.lowering import EffectLowering, Lumped
+from thermoplc.generator.lumped_effects.lowering import EffectLowering, Lumped, State
+
+
+def _lagged(block: Lumped) -> bool:
+    return "AGr" in block.model.coefficients
+
+
+def state(block: Lumped) -> State:
+    if not _lagged(block):
+        return State()
+    # from c_Zero, which every block declares (generator/commissioning.py: the Reset starts each state from it)
+    return State(init=(Assign("LG", const("Zero")),),
+                 statics=(Var("LG", "REAL", "speed above the gear threshold, lagged, rpm"),))
+
+
+def heat_lags(block: Lumped) -> tuple:
+    if not _lagged(block):
+        return ()
+    kept = BinOp("*", const("AGr"), Ref("LG"))
+    return (If(((BinOp(">", block.speed, const("Gear_rpm")),
+                 (Assign("LG", BinOp("+", kept, BinOp("*", const("BGr"), block.speed))),)),),
+               (Assign("LG", kept),)),)
 
 
 def heat(block: Lumped, i: int) -> tuple:
+    if _lagged(block):
+        return (Assign("Q", BinOp("+", Ref("Q"), BinOp("*", const(f"G2_{i}"), Ref("LG")))),)
     return (If(((BinOp(">", block.speed, const("Gear_rpm")),
                  (Assign("Q", BinOp("+", Ref("Q"), BinOp("*", const(f"G2_{i}"), block.speed))),)),)),)
 
@@ -14,6 +38,8 @@ def heat(block: Lumped, i: int) -> tuple:
 COMMENTS = (
     ("G2", "extra rise per rpm above the gear threshold, K"),
     ("Gear", "gear threshold, rpm"),
+    ("AGr", "decay per call of the heat above the gear threshold"),
+    ("BGr", "1 - AGr"),
 )
 
-LOWERING = EffectLowering("gear_ratio_switch", comments=COMMENTS, heat=heat)
+LOWERING = EffectLowering("gear_ratio_switch", comments=COMMENTS, shared_state=state, heat_lags=heat_lags, heat=heat)

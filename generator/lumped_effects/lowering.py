@@ -52,6 +52,7 @@ class EffectLowering:
     table_stems: tuple[str, ...] = ()  # coefficients it declares as read-only tables (node for node_1..), not constants
     speed: Callable[[Lumped], Speed | None] | None = None  # S from the speed, or None for S := n
     sensor_state: Callable[[Lumped, int], State] = _no_state  # per sensor i, after Tsim_i, T0_i (and L_i)
+    heat_lags: Callable[[Lumped], tuple[Stmt, ...]] = _nothing  # per call before the sensors: heat entering late
     heat: Callable[[Lumped, int], tuple[Stmt, ...]] = _nothing  # statements adding to sensor i's heat input Q
     # (context, i, the lag's drive, the lag step) -> the step sensor i takes instead
     step: Callable[[Lumped, int, BinOp, Stmt], Stmt] | None = None

@@ -1,7 +1,8 @@
 """Gear ratio switch: the heat per rpm changes above a speed threshold (paper 000's 750 rpm gearbox).
 
-Term: one more heat input per sensor, `gear_gain * n` while n is above the threshold; the
-threshold is searched among the speed groups the training part runs."""
+Term: one more heat input per sensor, `gear_gain * n` while n is above the threshold, through a lag of
+its own (a gearbox heats its oil and housing before the heat reaches a sensor; 0 when it enters at once);
+the threshold is searched among the speed groups the training part runs, then the lag on a bounded grid."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -13,6 +14,7 @@ from thermoplc.physics.effects.evidence import speed_groups
 
 MIN_GEAR_CHANGE = 0.05  # heat ratios above the threshold within 5 % of 1 on every sensor are no switch
 RUNNING_RPM = 1.0
+LAG_GRID_S = (0.0, 300.0, 600.0, 1200.0, 2400.0, 4800.0, 9600.0)  # the heat's own lag: none, then 5 min .. 2.7 h
 
 
 def describe(sim, series) -> dict:
@@ -20,7 +22,7 @@ def describe(sim, series) -> dict:
     s = sim.shared
     levels = speed_levels(series.n, s)
     above = levels[levels > s.gear_rpm]
-    return {"threshold_rpm": s.gear_rpm,
+    return {"threshold_rpm": s.gear_rpm, "lag_min": s.gear_tau_s / 60.0,
             "next_speed_rpm": float(above[0]) if len(above) else None,
             "heat_ratio_above": {c: 1.0 + p.gear_gain / p.gain if p.gain else None
                                  for c, p in zip(series.names, sim.sensors)}}
@@ -36,6 +38,17 @@ def draw(rng: np.random.Generator, clean: dict, train: slice, machine) -> dict:
     above = levels[levels > below][0]
     return {"threshold_rpm": float(below + rng.uniform(0.2, 0.8) * (above - below)),
             "ratio": float(rng.uniform(1.3, 3.0))}
+
+
+def twin_heat(heat: np.ndarray, n: np.ndarray, effect, dt: float) -> np.ndarray:
+    """A synthetic machine's heat with this effect on: `ratio` times `heat` above the threshold, the extra part
+    through a lag of `lag_min` (a gearbox's oil and housing) when given."""
+    from scipy.signal import lfilter
+    above, lag_s = n > effect.get("threshold_rpm"), effect.get("lag_min") * 60.0
+    if lag_s == 0:
+        return np.where(above, effect.get("ratio") * heat, heat)
+    a = float(np.exp(-dt / lag_s))
+    return heat + lfilter([1.0 - a], [1.0, -a], np.where(above, (effect.get("ratio") - 1.0) * heat, 0.0))
 
 
 def untestable(train) -> str | None:
@@ -61,39 +74,57 @@ def implausible(sim, train) -> str | None:
     largest_gain = max(abs(p.gain) for p in sim.sensors)
     if all(abs(p.gear_gain) < MIN_GEAR_CHANGE * largest_gain for p in sim.sensors):
         return f"heat per rpm above the threshold within {MIN_GEAR_CHANGE:.0%} of below it: no switch"
+    lowered = [name for name, p in zip(train.names, sim.sensors)
+               if p.gain and p.gear_gain / p.gain < -MIN_GEAR_CHANGE]
+    if sim.shared.gear_tau_s > 0 and lowered:
+        return (f"less heat per rpm above the threshold at {', '.join(lowered)}, reaching it through a lag of its own "
+                f"({sim.shared.gear_tau_s / 60:.0f} min): less of the same heat takes the path the rest of it takes, so "
+                f"a lag of its own is that sensor's second time constant, not a switch")
     return None
 
 
 
 def heat_input(series, shared, state) -> tuple[str, np.ndarray]:
-    """The heat per rpm above the threshold."""
-    return "gear_gain", np.where(series.n > shared.gear_rpm, series.n, 0.0)
+    """The heat per rpm above the threshold, through its own lag from zero (the block's LG starts at 0)."""
+    from thermoplc.physics.primitives import lag, pole
+    above = np.where(series.n > shared.gear_rpm, series.n, 0.0)
+    return "gear_gain", lag(above, pole(shared.gear_tau_s, series.dt), 0.0) if shared.gear_tau_s > 0 else above
+
+
+def _with_lag(shared, tau_s):
+    return replace(shared, gear_tau_s=float(tau_s))
 
 
 def search_open_loop(series, shared, effects, starts):
-    """The threshold at the top of one of the speed groups below the highest (none with one group)."""
+    """The threshold at the top of one of the speed groups below the highest (none with one group), then the
+    heat's own lag on LAG_GRID_S with that threshold."""
     from thermoplc.physics import simulation
     from thermoplc.physics.primitives import speed_levels
     levels = speed_levels(series.n, shared)
-    if len(levels) > 1:
-        return simulation.search_shared(series, shared, effects, starts, "gear_ratio_switch", list(levels[:-1]),
-                                        lambda s, v: replace(s, gear_rpm=float(v)))
-    return replace(shared, gear_rpm=0.0)
+    if len(levels) < 2:
+        return replace(shared, gear_rpm=0.0, gear_tau_s=0.0)
+    shared = simulation.search_shared(series, _with_lag(shared, 0.0), effects, starts, "gear_ratio_switch",
+                                      list(levels[:-1]), lambda s, v: replace(s, gear_rpm=float(v)))
+    return simulation.search_shared(series, shared, effects, starts, "gear_ratio_switch", list(LAG_GRID_S), _with_lag)
 
 
 def search_identified(runs, shared, effects, sensors):
     from thermoplc.physics import identify
     from thermoplc.physics.primitives import speed_levels
     levels = speed_levels(np.concatenate([series.n for series in runs]), shared)
-    return (replace(shared, gear_rpm=float(min(levels[:-1], key=lambda v: identify.held_cost(
-        runs, replace(shared, gear_rpm=float(v)), effects, sensors)))) if len(levels) > 1
-        else replace(shared, gear_rpm=0.0))
+    if len(levels) < 2:
+        return replace(shared, gear_rpm=0.0, gear_tau_s=0.0)
+    cost = lambda s: identify.held_cost(runs, s, effects, sensors)
+    shared = min((replace(shared, gear_rpm=float(v), gear_tau_s=0.0) for v in levels[:-1]), key=cost)
+    return min((_with_lag(shared, tau) for tau in LAG_GRID_S), key=cost)
 
 
 EFFECT = EffectDefinition(
-    name="gear_ratio_switch", rank=0, bounds=(("threshold_rpm", 0.0, 100000.0), ("ratio", 0.0, 100.0)),
-    description="motor heat per rpm changes above a speed threshold (paper 000's 750 rpm gearbox)",
-    defaults=(("threshold_rpm", 750.0), ("ratio", 1.6)), positive=("ratio",),
-    part="heat", added_parameters=lambda sensors: sensors + 1,
+    name="gear_ratio_switch", rank=0,
+    bounds=(("threshold_rpm", 0.0, 100000.0), ("ratio", 0.0, 100.0), ("lag_min", 0.0, 600.0)),
+    description="motor heat per rpm changes above a speed threshold (paper 000's 750 rpm gearbox), through a lag "
+                "of its own (lag_min, 0: at once)",
+    defaults=(("threshold_rpm", 750.0), ("ratio", 1.6), ("lag_min", 0.0)), positive=("ratio",),
+    part="heat", added_parameters=lambda sensors: sensors + 2,
     describe=describe, draw=draw, untestable=untestable, look_alike=look_alike, implausible=implausible,
     heat_input=heat_input, search_open_loop=search_open_loop, search_identified=search_identified)
