@@ -5,7 +5,7 @@ set the start and, in a model identified by `fit` (physics/identify.py), correct
 each call by a fixed share KF_i (the steady-state Kalman filter); a model `diagnose` fitted runs
 open loop. Per call, in this order:
     S := n, or the n^p table interpolated at n                          (nonlinear_speed_heat)
-    [LG := AGr*LG + BGr*n if n > Gear, else AGr*LG]          (gear_ratio_switch with a lag of its own)
+    [LG := AGr*LG + BGr*n if n > Gear, else AGr*LG; 0 when |LG| < Gear_Floor]  (gear heat with a lag of its own)
     per sensor i:  Q := G_i*S [+ H_i] [+ G2_i*n if n > Gear, or + G2_i*LG] [+ K_i if Cool]
                    Tsim_i := A_i*Tsim_i + B_i*(Q + Te)   (As_i, Bs_i while n <= Stop: stop_convection)
                    [Tsim_i := Tsim_i + KF_i*(T_i - Tsim_i)]  (filtered)
@@ -31,6 +31,9 @@ from thermoplc.physics import identify, simulation as sim_
 from thermoplc.models.kind import Kind
 from thermoplc.models.model import Coefficient, Model
 from thermoplc.physics.fitted import Simulation
+
+
+GEAR_FLOOR_RPM = float(np.float32(1e-3))  # a lagged gear speed below this is 0: a long stop would make it subnormal
 
 
 def effect_names(model: Model) -> tuple[str, ...]:
@@ -199,7 +202,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     k, rows = len(temps), len(n)
     gear, cool_on, stop = (has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection"))
     slow, amb, structure = has(model, "slow_structure"), has(model, "ambient_coupling"), "AS" in coef
-    load, gear_lag = "H_1" in coef, gear and "AGr" in coef
+    load, gear_lag, floor = "H_1" in coef, gear and "AGr" in coef, f(GEAR_FLOOR_RPM)
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     offset = [coef.get(f"O_{i}") for i in range(1, k + 1)]
     relay_sensor = model.settings.get("relay_sensor", 1) - 1
@@ -221,6 +224,8 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
             s = heat + (n[j] - node) * slope
         if gear_lag:
             lg = coef["AGr"] * lg + coef["BGr"] * n[j] if n[j] > coef["Gear_rpm"] else coef["AGr"] * lg
+            if abs(lg) < floor:
+                lg = f(0.0)
         for i in range(1, k + 1):
             q = coef[f"G_{i}"] * s
             if load:
@@ -306,11 +311,14 @@ def check_settings(model: Model, path: str) -> None:
         if effect.get("sensor") is not None and not 1 <= effect["sensor"] <= temps:
             raise UserError(f"{path}: field 'settings.effects[{i}].sensor': {effect['sensor']} but the model has "
                             f"{temps} temperature inputs (numbered from 1)")
-    lag = [name for name in ("AGr", "BGr") if name in model.coefficients]
+    lag = {name: model.coef(name, "f64") for name in ("AGr", "BGr") if name in model.coefficients}
     if lag and (len(lag) == 1 or not has(model, "gear_ratio_switch")):  # the gear heat's lag: a pair, of that effect
-        raise UserError(f"{path}: field 'coefficients': {' and '.join(lag)} without "
-                        + ("settings.effects listing gear_ratio_switch, whose heat lag it is" if len(lag) == 2 else
-                           f"{({'AGr', 'BGr'} - set(lag)).pop()}; the gear heat's lag needs both"))
+        raise UserError(f"{path}: field 'coefficients': {' and '.join(lag)} without " + (
+            "settings.effects listing gear_ratio_switch, whose heat lag it is" if len(lag) == 2 else
+            f"{({'AGr', 'BGr'} - set(lag)).pop()}; the gear heat's lag needs both"))
+    for name, value in ((n, v) for n, v in lag.items() if not 0.0 < v < 1.0):  # a decay per call and 1 - it
+        raise UserError(f"{path}: field 'coefficients.{name}': {value!r}; expected a value strictly between 0 and 1 "
+                        f"(the gear heat's decay per call and its complement)")
     table, nonlinear = int(s.get("speed_table_segments", 0)), has(model, "nonlinear_speed_heat")
     if bool(table) != nonlinear:  # the table is that effect's heat: one without the other is an edited file
         raise UserError(f"{path}: field 'settings.speed_table_segments': {table}, but settings.effects "
@@ -351,7 +359,7 @@ SETTINGS_SCHEMA = {
 # flags: gear, cool_on, stop, slow, amb, structure, feed, load, filtered, gear_lag (0/1); per (k,): G, G2, K,
 # As, Bs, A, B, beta, gamma, delta, offset, H (standstill load), KF (filter gain); present (2, k):
 # whether each sensor has an offset, a filter gain; sc: Gear_rpm, Stop_rpm, AS, BS, A2, B2, AAm,
-# BAm, AF, BF, beta0, alpha, phi, CoolOn, CoolOff, AGr, BGr (absent ones 0; never used then);
+# BAm, AF, BF, beta0, alpha, phi, CoolOn, CoolOff, AGr, BGr, the gear floor (absent ones 0; never used then);
 # table: (segments, 3) node, heat, slope.
 
 @compiled.jit
@@ -391,10 +399,9 @@ def _lumped(temps, te, n, feed, flags, per, present, sc, table, relay, zero, sim
                     break
             s = table[index, 1] + (n[j] - table[index, 0]) * table[index, 2]
         if gear_lag:
-            if n[j] > sc[0]:
-                lg = sc[15] * lg + sc[16] * n[j]
-            else:
-                lg = sc[15] * lg
+            lg = sc[15] * lg + sc[16] * n[j] if n[j] > sc[0] else sc[15] * lg
+            if abs(lg) < sc[17]:
+                lg = zero
         for i in range(k):
             q = per[0, i] * s
             if load:
@@ -472,7 +479,7 @@ def lumped_loop(temps: list, te, n, feed, flags: tuple, coef: dict, table: list,
         for i in range(k):
             per[r, i] = coef.get(f"{name}_{i + 1}", f(0))
     present = np.array([[f"{stem}_{i + 1}" in coef for i in range(k)] for stem in ("O", "KF")], np.bool_)
-    sc = np.array([coef.get(name, f(0)) for name in LUMPED_SCALARS], f)
+    sc = np.array([coef.get(name, f(0)) for name in LUMPED_SCALARS] + [f(GEAR_FLOOR_RPM)], f)
     rows = len(te)
     stacked = np.empty((k, rows), f)
     for i, x in enumerate(temps):
@@ -487,4 +494,5 @@ def lumped_loop(temps: list, te, n, feed, flags: tuple, coef: dict, table: list,
 
 
 KIND = Kind("lumped", 9, "000", _fit, predict, roles=("speed", "ambient"), ambient_apart=True, auto="iterative",
-            settings_schema=SETTINGS_SCHEMA, check_settings=check_settings, stream_core=StreamCore)
+            settings_schema=SETTINGS_SCHEMA, check_settings=check_settings, stream_core=StreamCore,
+            structure=lambda model: {"gear_floor": GEAR_FLOOR_RPM} if "AGr" in model.coefficients else {})

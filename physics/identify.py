@@ -140,6 +140,15 @@ def held_cost(runs: list[Series], shared: Shared, effects, sensors) -> float:
     return sum(_cost(runs, i, heats, shared, p.tau_s, p.filter_gain, p.stop_factor)[0] for i, p in enumerate(sensors))
 
 
+def held_heat_gains(runs: list[Series], shared: Shared, effects, sensors) -> list[dict[str, float]]:
+    """Each sensor's heat gains by name (gain, gear_gain, ...) with its pole, standstill factor and filter gain held:
+    what `held_cost` fits, read by a search that must know which way a term points."""
+    inputs = heat_inputs(runs, shared, effects)
+    names, heats = [name for name, _ in inputs[0]], [[x for _, x in run] for run in inputs]
+    return [dict(zip(names, map(float, _cost(runs, i, heats, shared, p.tau_s, p.filter_gain, p.stop_factor)[1])))
+            for i, p in enumerate(sensors)]
+
+
 def heat_inputs(runs: list[Series], shared: Shared, effects=(), cooling: list | None = None
                 ) -> list[list[tuple[str, np.ndarray]]]:
     """Each run's heat input columns with these effects (the coolant state per run when given)."""

@@ -130,6 +130,11 @@ def _held_cost(series: Series, shared: Shared, effects, sensors) -> float:
     return sum(_sensor_cost(series, i, shared, effects, p.tau_s, p.stop_factor)[0] for i, p in enumerate(sensors))
 
 
+def held_sensors(series: Series, shared: Shared, effects, sensors) -> tuple[SensorParams, ...]:
+    """Every sensor with its time constants held and its gains by least squares (what `_held_cost` fits)."""
+    return tuple(_sensor_cost(series, i, shared, effects, p.tau_s, p.stop_factor)[1] for i, p in enumerate(sensors))
+
+
 def search_shared(series, shared, effects, starts, without: str, options, apply):
     """A shared parameter (`options` a list, or a (low, high) interval) searched with the time
     constants held, then the time constants refitted with it, `SEARCH_ROUNDS` times: refitting

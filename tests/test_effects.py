@@ -179,8 +179,10 @@ def test_a_speed_table_without_its_effect_or_the_effect_without_a_table_is_refus
 
 
 @pytest.mark.parametrize("edit, message", [
-    ("BGr", "AGr without BGr; the gear heat's lag needs both"),
-    ("gear_ratio_switch", "AGr and BGr without settings.effects listing gear_ratio_switch")])
+    ("BGr", "': AGr without BGr; the gear heat's lag needs both"),
+    ("gear_ratio_switch", "': AGr and BGr without settings.effects listing gear_ratio_switch"),
+    ("AGr=1", r"\.AGr': 1\.0; expected a value strictly between 0 and 1"),
+    ("BGr=-0.5", r"\.BGr': -0\.5; expected a value strictly between 0 and 1")])
 def test_the_gear_heat_lag_is_a_pair_of_the_gear_effect(tmp_path, edit, message):
     """The golden block's gear heat enters through its lag (AGr, BGr); a file with half the pair, or the pair
     without the effect, is an edited file, refused by name before any block is written."""
@@ -190,10 +192,13 @@ def test_the_gear_heat_lag_is_a_pair_of_the_gear_effect(tmp_path, edit, message)
     doc = json.loads((GOLDEN / "lumped.json").read_text())
     if edit == "BGr":
         del doc["coefficients"]["BGr"]
+    elif "=" in edit:
+        name, value = edit.split("=")
+        doc["coefficients"][name] = {"f64": float(value), "f32": "0x" + np.float32(value).tobytes()[::-1].hex().upper()}
     else:
         doc["settings"]["effects"] = [e for e in doc["settings"]["effects"] if e["name"] != edit]
     (tmp_path / "m.json").write_text(json.dumps(doc))
-    with pytest.raises(UserError, match=r"m\.json: field 'coefficients': " + message):
+    with pytest.raises(UserError, match=r"m\.json: field 'coefficients" + message):
         load_model(tmp_path / "m.json")
 
 

@@ -2,9 +2,12 @@
 model file has its lag (AGr/BGr), through LG, the speed above the threshold lagged from 0."""
 from __future__ import annotations
 
-from thermoplc.generator.ir import Assign, BinOp, If, Ref, Var
+from thermoplc.generator.ir import Assign, BinOp, Call, Const, If, Ref, Var
 from thermoplc.generator.lower_shared import const
 from thermoplc.generator.lumped_effects.lowering import EffectLowering, Lumped, State
+from thermoplc.models import lumped_model
+
+FLOOR = "c_Gear_Floor"  # contract/constants.structure_name of the lumped kind's `gear_floor`
 
 
 def _lagged(block: Lumped) -> bool:
@@ -16,7 +19,9 @@ def state(block: Lumped) -> State:
         return State()
     # from c_Zero, which every block declares (generator/commissioning.py: the Reset starts each state from it)
     return State(init=(Assign("LG", const("Zero")),),
-                 statics=(Var("LG", "REAL", "speed above the gear threshold, lagged, rpm"),))
+                 statics=(Var("LG", "REAL", "speed above the gear threshold, lagged, rpm"),),
+                 constants=(Const(FLOOR, lumped_model.GEAR_FLOOR_RPM, "a lagged gear speed below this is 0 (before a "
+                                                                      "long stop makes it subnormal), rpm"),))
 
 
 def heat_lags(block: Lumped) -> tuple:
@@ -25,7 +30,8 @@ def heat_lags(block: Lumped) -> tuple:
     kept = BinOp("*", const("AGr"), Ref("LG"))
     return (If(((BinOp(">", block.speed, const("Gear_rpm")),
                  (Assign("LG", BinOp("+", kept, BinOp("*", const("BGr"), block.speed))),)),),
-               (Assign("LG", kept),)),)
+               (Assign("LG", kept),)),
+            If(((BinOp("<", Call("ABS", (Ref("LG"),)), Ref(FLOOR)), (Assign("LG", const("Zero")),)),)))
 
 
 def heat(block: Lumped, i: int) -> tuple:

@@ -74,9 +74,8 @@ def implausible(sim, train) -> str | None:
     largest_gain = max(abs(p.gain) for p in sim.sensors)
     if all(abs(p.gear_gain) < MIN_GEAR_CHANGE * largest_gain for p in sim.sensors):
         return f"heat per rpm above the threshold within {MIN_GEAR_CHANGE:.0%} of below it: no switch"
-    lowered = [name for name, p in zip(train.names, sim.sensors)
-               if p.gain and p.gear_gain / p.gain < -MIN_GEAR_CHANGE]
-    if sim.shared.gear_tau_s > 0 and lowered:
+    lowered = [name for name, p in zip(train.names, sim.sensors) if _lowers(((p.gain, p.gear_gain),))]
+    if sim.shared.gear_tau_s > 0 and lowered:  # the search gives a switch that takes heat away no lag; a refit may
         return (f"less heat per rpm above the threshold at {', '.join(lowered)}, reaching it through a lag of its own "
                 f"({sim.shared.gear_tau_s / 60:.0f} min): less of the same heat takes the path the rest of it takes, so "
                 f"a lag of its own is that sensor's second time constant, not a switch")
@@ -95,9 +94,15 @@ def _with_lag(shared, tau_s):
     return replace(shared, gear_tau_s=float(tau_s))
 
 
+def _lowers(gains) -> bool:
+    """Whether a switch's heat per rpm above the threshold is below its heat below on some sensor: (gain, gear
+    gain) per sensor."""
+    return any(gain and gear / gain < -MIN_GEAR_CHANGE for gain, gear in gains)
+
+
 def search_open_loop(series, shared, effects, starts):
     """The threshold at the top of one of the speed groups below the highest (none with one group), then the
-    heat's own lag on LAG_GRID_S with that threshold."""
+    heat's own lag on LAG_GRID_S with that threshold, unless the switch at once takes heat away (`implausible`)."""
     from thermoplc.physics import simulation
     from thermoplc.physics.primitives import speed_levels
     levels = speed_levels(series.n, shared)
@@ -105,10 +110,14 @@ def search_open_loop(series, shared, effects, starts):
         return replace(shared, gear_rpm=0.0, gear_tau_s=0.0)
     shared = simulation.search_shared(series, _with_lag(shared, 0.0), effects, starts, "gear_ratio_switch",
                                       list(levels[:-1]), lambda s, v: replace(s, gear_rpm=float(v)))
+    held = starts or simulation.fit_all_sensors(series, shared, effects, None)[0]
+    if _lowers((p.gain, p.gear_gain) for p in simulation.held_sensors(series, shared, effects, held)):
+        return shared
     return simulation.search_shared(series, shared, effects, starts, "gear_ratio_switch", list(LAG_GRID_S), _with_lag)
 
 
 def search_identified(runs, shared, effects, sensors):
+    """As `search_open_loop`, by the identified sensors' one-step prediction error."""
     from thermoplc.physics import identify
     from thermoplc.physics.primitives import speed_levels
     levels = speed_levels(np.concatenate([series.n for series in runs]), shared)
@@ -116,6 +125,9 @@ def search_identified(runs, shared, effects, sensors):
         return replace(shared, gear_rpm=0.0, gear_tau_s=0.0)
     cost = lambda s: identify.held_cost(runs, s, effects, sensors)
     shared = min((replace(shared, gear_rpm=float(v), gear_tau_s=0.0) for v in levels[:-1]), key=cost)
+    at_once = identify.held_heat_gains(runs, shared, effects, sensors)
+    if _lowers((g["gain"], g["gear_gain"]) for g in at_once):
+        return shared
     return min((_with_lag(shared, tau) for tau in LAG_GRID_S), key=cost)
 
 
