@@ -510,6 +510,8 @@ def _schema_cases() -> list[Case]:
          "field 'settings.speed_table_segments': 0, but settings.effects lists nonlinear_speed_heat"),
         ("lumped", "speed table of 15 segments holding 16 rows", ["settings", "speed_table_segments"], 15,
          "field 'settings.speed_table_segments': 15, but the file has 16 node_ coefficients"),
+        ("lumped", "gear heat lag that never decays", ["coefficients", "AGr"], {"f64": 1.0, "f32": "0x3F800000"},
+         "field 'coefficients.AGr': 1.0; expected a value strictly between 0 and 1"),
         ("mlr", "no inputs", ["inputs"], [], "field 'inputs': [] should be non-empty"),
         ("bayes", "configurations that do not fit the intervals", ["settings", "configurations"], 2,
          "intervals [8, 8] and configurations 2 do not fit 2 parents"),
