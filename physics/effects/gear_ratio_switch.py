@@ -75,7 +75,7 @@ def implausible(sim, train) -> str | None:
     if all(abs(p.gear_gain) < MIN_GEAR_CHANGE * largest_gain for p in sim.sensors):
         return f"heat per rpm above the threshold within {MIN_GEAR_CHANGE:.0%} of below it: no switch"
     lowered = [name for name, p in zip(train.names, sim.sensors) if _lowers(((p.gain, p.gear_gain),))]
-    if sim.shared.gear_tau_s > 0 and lowered:  # the search gives a switch that takes heat away no lag; a refit may
+    if sim.shared.gear_tau_s > 0 and lowered:  # the search lags none such; a warm refit may turn a lagged one's sign
         return (f"less heat per rpm above the threshold at {', '.join(lowered)}, reaching it through a lag of its own "
                 f"({sim.shared.gear_tau_s / 60:.0f} min): less of the same heat takes the path the rest of it takes, so "
                 f"a lag of its own is that sensor's second time constant, not a switch")
