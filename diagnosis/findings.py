@@ -87,10 +87,10 @@ def tested_across_runs(d: Diagnosis) -> list[dict]:
         return []
     named = {e["name"] for e in d.added} | {e["name"] for e in d.unsupported}
     last = {t.name: t for trials in d.rounds for t in trials if t.sensor is None}
+    training = [k for k, rows in enumerate(parts.train_rows) if rows > 0]
     entries = []
     for name, t in last.items():
         showing = showing_run_indexes(parts, name)
-        training = [k for k, rows in enumerate(parts.train_rows) if rows > 0]
         if name in named or not showing or showing == training:
             continue
         air = np.concatenate([parts.runs[k].te[:parts.train_rows[k]] for k in showing])

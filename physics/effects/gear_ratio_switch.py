@@ -43,12 +43,11 @@ def draw(rng: np.random.Generator, clean: dict, train: slice, machine) -> dict:
 def twin_heat(heat: np.ndarray, n: np.ndarray, effect, dt: float) -> np.ndarray:
     """A synthetic machine's heat with this effect on: `ratio` times `heat` above the threshold, the extra part
     through a lag of `lag_min` (a gearbox's oil and housing) when given."""
-    from scipy.signal import lfilter
+    from thermoplc.physics.primitives import lag, pole
     above, lag_s = n > effect.get("threshold_rpm"), effect.get("lag_min") * 60.0
     if lag_s == 0:
         return np.where(above, effect.get("ratio") * heat, heat)
-    a = float(np.exp(-dt / lag_s))
-    return heat + lfilter([1.0 - a], [1.0, -a], np.where(above, (effect.get("ratio") - 1.0) * heat, 0.0))
+    return heat + lag(np.where(above, (effect.get("ratio") - 1.0) * heat, 0.0), pole(lag_s, dt), 0.0)
 
 
 def untestable(train) -> str | None:
@@ -74,7 +73,7 @@ def implausible(sim, train) -> str | None:
     largest_gain = max(abs(p.gain) for p in sim.sensors)
     if all(abs(p.gear_gain) < MIN_GEAR_CHANGE * largest_gain for p in sim.sensors):
         return f"heat per rpm above the threshold within {MIN_GEAR_CHANGE:.0%} of below it: no switch"
-    lowered = [name for name, p in zip(train.names, sim.sensors) if _lowers(((p.gain, p.gear_gain),))]
+    lowered = [name for name, p in zip(train.names, sim.sensors) if _takes_heat_away(p.gain, p.gear_gain)]
     if sim.shared.gear_tau_s > 0 and lowered:  # the search lags none such; a warm refit may turn a lagged one's sign
         return (f"less heat per rpm above the threshold at {', '.join(lowered)}, reaching it through a lag of its own "
                 f"({sim.shared.gear_tau_s / 60:.0f} min): less of the same heat takes the path the rest of it takes, so "
@@ -94,10 +93,9 @@ def _with_lag(shared, tau_s):
     return replace(shared, gear_tau_s=float(tau_s))
 
 
-def _lowers(gains) -> bool:
-    """Whether a switch's heat per rpm above the threshold is below its heat below on some sensor: (gain, gear
-    gain) per sensor."""
-    return any(gain and gear / gain < -MIN_GEAR_CHANGE for gain, gear in gains)
+def _takes_heat_away(gain: float, gear_gain: float) -> bool:
+    """Whether a sensor's heat per rpm above the threshold is below its heat per rpm below it."""
+    return bool(gain) and gear_gain / gain < -MIN_GEAR_CHANGE
 
 
 def search_open_loop(series, shared, effects, starts):
@@ -111,7 +109,7 @@ def search_open_loop(series, shared, effects, starts):
     shared = simulation.search_shared(series, _with_lag(shared, 0.0), effects, starts, "gear_ratio_switch",
                                       list(levels[:-1]), lambda s, v: replace(s, gear_rpm=float(v)))
     held = starts or simulation.fit_all_sensors(series, shared, effects, None)[0]
-    if _lowers((p.gain, p.gear_gain) for p in simulation.held_sensors(series, shared, effects, held)):
+    if any(_takes_heat_away(p.gain, p.gear_gain) for p in simulation.held_sensors(series, shared, effects, held)):
         return shared
     return simulation.search_shared(series, shared, effects, starts, "gear_ratio_switch", list(LAG_GRID_S), _with_lag)
 
@@ -126,7 +124,7 @@ def search_identified(runs, shared, effects, sensors):
     cost = lambda s: identify.held_cost(runs, s, effects, sensors)
     shared = min((replace(shared, gear_rpm=float(v), gear_tau_s=0.0) for v in levels[:-1]), key=cost)
     at_once = identify.held_heat_gains(runs, shared, effects, sensors)
-    if _lowers((g["gain"], g["gear_gain"]) for g in at_once):
+    if any(_takes_heat_away(g["gain"], g["gear_gain"]) for g in at_once):
         return shared
     return min((_with_lag(shared, tau) for tau in LAG_GRID_S), key=cost)
 
