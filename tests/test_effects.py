@@ -178,11 +178,33 @@ def test_a_speed_table_without_its_effect_or_the_effect_without_a_table_is_refus
         load_model(tmp_path / "m.json")
 
 
+@pytest.mark.parametrize("name, value, accepted", [
+    ("A_1", 1.0, False), ("A_2", 1.0000001, False), ("As_1", -0.25, False), ("Bs_2", 0.0, False), ("B_1", 1.5, False),
+    ("AS", 1.0, False), ("BS", 0.0, False), ("AAm", 2.0, False), ("B2", -1e-3, False), ("AF", 1.0, False),
+    ("A_1", 0.0, True), ("B_1", 1.0, True), ("AAm", 0.999999, True)])
+def test_every_lag_of_a_lumped_file_decays(tmp_path, name, value, accepted):
+    """A decay per call of 1 or more integrates its input without bound (the block's state overflows after
+    enough calls), a negative one rings: refused by field before a block is built; 0 (no memory) and its
+    complement 1 are a lag faster than the call and run."""
+    import json
+    from thermoplc.models.modelfile import load_model
+    from tests.golden_models import GOLDEN
+    doc = json.loads((GOLDEN / "lumped.json").read_text())
+    assert name in doc["coefficients"]
+    doc["coefficients"][name] = {"f64": value, "f32": "0x" + np.float32(value).tobytes()[::-1].hex().upper()}
+    (tmp_path / "m.json").write_text(json.dumps(doc))
+    if accepted:
+        assert load_model(tmp_path / "m.json").coef(name, "f64") == value
+        return
+    with pytest.raises(UserError, match=rf"m\.json: field 'coefficients\.{name}': {value!r}; expected "):
+        load_model(tmp_path / "m.json")
+
+
 @pytest.mark.parametrize("edit, message", [
     ("BGr", "': AGr without BGr; the gear heat's lag needs both"),
     ("gear_ratio_switch", "': AGr and BGr without settings.effects listing gear_ratio_switch"),
-    ("AGr=1", r"\.AGr': 1\.0; expected a value strictly between 0 and 1"),
-    ("BGr=-0.5", r"\.BGr': -0\.5; expected a value strictly between 0 and 1")])
+    ("AGr=1", r"\.AGr': 1\.0; expected a decay per call exp\(-dt/tau\) in \[0, 1\)"),
+    ("BGr=-0.5", r"\.BGr': -0\.5; expected the complement 1 - exp\(-dt/tau\) of a decay per call, in \(0, 1\]")])
 def test_the_gear_heat_lag_is_a_pair_of_the_gear_effect(tmp_path, edit, message):
     """The golden block's gear heat enters through its lag (AGr, BGr); a file with half the pair, or the pair
     without the effect, is an edited file, refused by name before any block is written."""
