@@ -253,14 +253,6 @@ def _collect(results, predictions: dict | None) -> tuple[list[Fold], list[dict]]
     return found, per_run
 
 
-def cross_validate(tables: list[Table], request: FitRequest, time_column: str, folds: int | None,
-                   groups: dict[str, list[int]] | None = None) -> list[Fold]:
-    """Every fold's held-out errors, each fold fitted by `fit` itself: the very procedure whose
-    model is written. Several runs: whole runs held out (cross_validate_runs); one recording: blocks."""
-    tasks = _fold_tasks(tables, request, time_column, folds, groups, False)
-    return _collect(_start_folds(tables, tasks, None), None)[0]
-
-
 def _guarded(run, where: str):
     try:
         return run()

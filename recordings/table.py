@@ -390,14 +390,6 @@ def spellings(columns, name: str) -> list[str]:
     return [column for column in columns if column.upper() == name.upper()]
 
 
-def columns_named(columns, name: str) -> list[str]:
-    """The column `name`, else every column named so in another case (a block input's column: ST names
-    ignore case): one is the column, more are ambiguous, none means no column."""
-    if name in columns:
-        return [name]
-    return spellings(columns, name)
-
-
 def _read_parquet(path: str, time_column: str | None, sparse: frozenset = frozenset(), gaps: bool = False) -> Table:
     """Columns of a Parquet file (pyarrow): numbers only, no empty cells but in the `sparse` columns."""
     try:
