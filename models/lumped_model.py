@@ -28,14 +28,21 @@ from thermoplc.base import ridge
 from thermoplc.base import compiled
 from thermoplc.physics import primitives
 from thermoplc.physics import identify, simulation as sim_
-from thermoplc.models import lumped_checks
-from thermoplc.models.lumped_checks import effect_names, has
+from thermoplc.models import decays
 from thermoplc.models.kind import Kind
 from thermoplc.models.model import Coefficient, Model
 from thermoplc.physics.fitted import Simulation
 
 
 GEAR_FLOOR_RPM = float(np.float32(1e-3))  # a lagged gear speed below this is 0: a long stop would make it subnormal
+
+
+def effect_names(model: Model) -> tuple[str, ...]:
+    return tuple(e["name"] for e in model.settings.get("effects", ()))
+
+
+def has(model: Model, name: str) -> bool:
+    return name in effect_names(model)
 
 
 def segments(model: Model) -> int:
@@ -290,6 +297,40 @@ def _fit(parts, request, names, dt, progress):
         **measured}
 
 
+def check_settings(model: Model, path: str) -> None:
+    """The relay's sensor and each effect's sensor are temperature inputs of the model; every lag decays."""
+    s, temps = model.settings, len(model.signals("temperature"))
+    sensors = s.get("sensors")
+    if sensors is not None and (not isinstance(sensors, list) or len(sensors) != temps
+                                or not all(isinstance(x, dict) for x in sensors)):
+        raise UserError(f"{path}: field 'settings.sensors': expected a list of {temps} objects, one per temperature "
+                        f"input")
+    if s.get("relay_sensor", 1) > temps:
+        raise UserError(f"{path}: field 'settings.relay_sensor': {s['relay_sensor']} but the model has {temps} "
+                        f"temperature inputs")
+    for i, effect in enumerate(s.get("effects", [])):
+        if effect.get("sensor") is not None and not 1 <= effect["sensor"] <= temps:
+            raise UserError(f"{path}: field 'settings.effects[{i}].sensor': {effect['sensor']} but the model has "
+                            f"{temps} temperature inputs (numbered from 1)")
+    lag = {name: model.coef(name, "f64") for name in ("AGr", "BGr") if name in model.coefficients}
+    if lag and (len(lag) == 1 or not has(model, "gear_ratio_switch")):  # the gear heat's lag: a pair, of that effect
+        raise UserError(f"{path}: field 'coefficients': {' and '.join(lag)} without " + (
+            "settings.effects listing gear_ratio_switch, whose heat lag it is" if len(lag) == 2 else
+            f"{({'AGr', 'BGr'} - set(lag)).pop()}; the gear heat's lag needs both"))
+    decays.check(model, path)
+    table, nonlinear = int(s.get("speed_table_segments", 0)), has(model, "nonlinear_speed_heat")
+    if bool(table) != nonlinear:  # the table is that effect's heat: one without the other is an edited file
+        raise UserError(f"{path}: field 'settings.speed_table_segments': {table}, but settings.effects "
+                        + ("does not list nonlinear_speed_heat, whose speed heat table it is" if table else
+                           "lists nonlinear_speed_heat, which needs a speed heat table of at least 1 segment"))
+    for stem in ("node", "heat", "slope"):  # the table's rows: exactly as many as it has segments
+        rows = sum(1 for name in model.coefficients if name.startswith(f"{stem}_"))
+        if rows != table or any(f"{stem}_{m}" not in model.coefficients for m in range(1, table + 1)):
+            raise UserError(f"{path}: field 'settings.speed_table_segments': {table}, but the file has {rows} "
+                            f"{stem}_ coefficients; expected {stem}_1 .. {stem}_{table}" if table else
+                            f"{path}: field 'coefficients': {rows} {stem}_ coefficients but no speed table")
+
+
 class StreamCore:
     """predict with the simulation's state kept (LumpedState)."""
 
@@ -452,5 +493,5 @@ def lumped_loop(temps: list, te, n, feed, flags: tuple, coef: dict, table: list,
 
 
 KIND = Kind("lumped", 9, "000", _fit, predict, roles=("speed", "ambient"), ambient_apart=True, auto="iterative",
-            settings_schema=SETTINGS_SCHEMA, check_settings=lumped_checks.check_settings, stream_core=StreamCore,
+            settings_schema=SETTINGS_SCHEMA, check_settings=check_settings, stream_core=StreamCore,
             structure=lambda model: {"gear_floor": GEAR_FLOOR_RPM} if "AGr" in model.coefficients else {})
