@@ -18,7 +18,7 @@ from scipy.linalg import expm
 from thermoplc.base.errors import UserError
 from thermoplc.machines import hall
 from thermoplc.machines.faults import SensorFault
-from thermoplc.physics.effects import Effect, gear_ratio_switch
+from thermoplc.physics.effects import Effect, coolant_switching, gear_ratio_switch
 
 NAME = "cascade"
 DESCRIPTION = "motor and bearing nodes feeding a ram and a slow base, run/stop at fixed speed levels, daily sine ambient"
@@ -156,7 +156,8 @@ def simulate(hours: float, seed: int, dt: float = 10.0, ambient_start: float = 2
     ambient_only = np.empty((len(t), 5))
     state = np.full(5, te[0])
     still = np.full(5, te[0])
-    cooling = False
+    cooling, share = False, 0.0
+    cooling_pole = 0.0 if coolant is None else coolant_switching.twin_pole(coolant, dt)
     for j in range(len(t)):
         ad, bd = stopped if n[j] <= STOPPED_RPM else running
         q_motor = motor_heat[j]
@@ -165,8 +166,8 @@ def simulate(hours: float, seed: int, dt: float = 10.0, ambient_start: float = 2
                 cooling = True
             elif state[0] < coolant.get("off_C"):
                 cooling = False
-            if cooling:
-                q_motor -= coolant.get("cooling_K") / tau["motor"]
+            share = cooling_pole * share + (1.0 - cooling_pole) * (1.0 if cooling else 0.0)  # its own lag (0: at once)
+            q_motor -= coolant.get("cooling_K") * share / tau["motor"]
         state = ad @ state + bd @ np.array([q_motor, bearing_heat[j], screw_heat[j], te[j]])
         still = ad @ still + bd @ np.array([0.0, 0.0, 0.0, te[j]])
         full[j] = state

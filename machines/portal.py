@@ -22,7 +22,7 @@ from scipy.signal import lfilter
 
 from thermoplc.base.errors import UserError
 from thermoplc.machines.hall import stepped
-from thermoplc.physics.effects import gear_ratio_switch, registry
+from thermoplc.physics.effects import coolant_switching, gear_ratio_switch, registry
 
 NAME = "portal"
 DESCRIPTION = "gantry milling machine: spindle, gearbox and crossbeam nodes, unmeasured ram, random speeds"
@@ -212,22 +212,24 @@ def _measured_nodes(n: np.ndarray, env: np.ndarray, dt: float, active: dict) -> 
             rise = gear_ratio_switch.twin_heat(rise, n, active["gear_ratio_switch"], dt)
         a = np.exp(-dt / (node.tau_min * 60.0 * slower))
         if node.name == "T_spindle" and "coolant_switching" in active:
-            temps[node.name] = _lag_with_coolant(env + rise, a, env[0], active["coolant_switching"])
+            temps[node.name] = _lag_with_coolant(env + rise, a, env[0], active["coolant_switching"], dt)
         else:
             temps[node.name] = _lag(env + rise, a, env[0])
     return temps
 
 
-def _lag_with_coolant(u: np.ndarray, a, y0: float, coolant) -> np.ndarray:
+def _lag_with_coolant(u: np.ndarray, a, y0: float, coolant, dt: float) -> np.ndarray:
     """The spindle lag with a relay: on above on_C, off below off_C (from the previous sample's true
-    temperature); while on it removes cooling_K of steady rise."""
+    temperature); while on it removes cooling_K of steady rise, through the cooling's own lag when it has one."""
     on_C, off_C, cooling = coolant.get("on_C"), coolant.get("off_C"), coolant.get("cooling_K")
+    cooling_pole = coolant_switching.twin_pole(coolant, dt)
     a = np.broadcast_to(a, u.shape).tolist()
-    y, cooled = [y0], False
+    y, cooled, share = [y0], False, 0.0
     for k, target in zip(a[1:], u[1:].tolist()):
         last = y[-1]
         cooled = last > on_C or (cooled and last >= off_C)
-        y.append(k * last + (1.0 - k) * (target - cooling if cooled else target))
+        share = cooling_pole * share + (1.0 - cooling_pole) * (1.0 if cooled else 0.0)
+        y.append(k * last + (1.0 - k) * (target - cooling * share))
     return np.asarray(y)
 
 

@@ -9,7 +9,8 @@ from thermoplc.physics.displacement import displacement_terms
 
 PER_SENSOR_DECAY = re.compile(r"(A|As)_\d+")
 PER_SENSOR_COMPLEMENT = re.compile(r"(B|Bs)_\d+")
-SHARED_PAIRS = {"AS": "BS", "AGr": "BGr"}  # the structure lag and the gear heat's lag (displacement terms add theirs)
+SHARED_PAIRS = {"AS": "BS", "AGr": "BGr", "ACl": "BCl"}  # the structure's, the gear heat's and the cooling's lags
+# (the displacement terms add theirs)
 
 
 def check(model: Model, path: str) -> None:

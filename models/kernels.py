@@ -1,7 +1,7 @@
 """Compiled per-call loops of the float32/float64 references (the fast route, issue 17): here the safety
 logic's (the input guard of safety._hold and the limiter of safety.guarded_predict); each kind's own loop sits
 in its module beside the numpy loop it repeats (kalman.kalman_loop, grey.gm0n_loop and gm1n_loop,
-lumped_model.lumped_loop). All are written once more for numba, in the same operation order, and compiled by
+lumped_kernel.lumped_loop). All are written once more for numba, in the same operation order, and compiled by
 LLVM with fast-math off (no FMA contraction, no reassociation, IEEE division and NaN semantics). They never
 see the emitted ST: the proof still compares two independent computations (the model's loops, the block's
 own ST -> C translation in verifier/native.py).

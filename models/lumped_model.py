@@ -6,14 +6,15 @@ each call by a fixed share KF_i (the steady-state Kalman filter); a model `diagn
 open loop. Per call, in this order:
     S := n, or the n^p table interpolated at n                          (nonlinear_speed_heat)
     [LG := AGr*LG + BGr*n if n > Gear, else AGr*LG; 0 when |LG| < Gear_Floor]  (gear heat with a lag of its own)
-    per sensor i:  Q := G_i*S [+ H_i] [+ G2_i*n if n > Gear, or + G2_i*LG] [+ K_i if Cool]
+    [LC := ACl*LC + BCl if Cool, else ACl*LC; 0 when LC < Cool_Floor]  (the coolant's cooling with a lag of its own)
+    per sensor i:  Q := G_i*S [+ H_i] [+ G2_i*n if n > Gear, or + G2_i*LG] [+ K_i if Cool, or + K_i*LC]
                    Tsim_i := A_i*Tsim_i + B_i*(Q + Te)   (As_i, Bs_i while n <= Stop: stop_convection)
                    [Tsim_i := Tsim_i + KF_i*(T_i - Tsim_i)]  (filtered)
                    [L_i := AS*L_i + BS*Tsim_i]  [M_i := A2*M_i + B2*(L_i or Tsim_i)]  (structure, slow_structure)
     [LA := AAm*LA + BAm*Te]  [LF := AF*LF + BF*feed]
     E := beta0 + sum_i beta_i*(Tsim_i-T0_i) [+ gamma_i*(L_i-T0_i)] [+ delta_i*(M_i-T0_i)] [+ alpha*(LA-Te0)] [+ phi*LF]
     [relay: Cool := TRUE above CoolOn, FALSE below CoolOff, from the simulated temperature of the switching sensor]
-First call: Tsim_i = L_i = M_i = T0_i := T_i [- O_i], LA = Te0 := Te, LF := 0, LG := 0, Cool := FALSE.
+First call: Tsim_i = L_i = M_i = T0_i := T_i [- O_i], LA = Te0 := Te, LF := 0, LG := 0, LC := 0, Cool := FALSE.
 H_i is the standstill heat load (K above the air with the spindle still); model files written
 before it existed have none and their blocks compute without it.
 The displacement follows the simulated temperatures with their ambient-driven part (paper 000
@@ -30,11 +31,11 @@ from thermoplc.physics import primitives
 from thermoplc.physics import identify, simulation as sim_
 from thermoplc.models import decays
 from thermoplc.models.kind import Kind
+from thermoplc.models.lumped_kernel import COOL_FLOOR, GEAR_FLOOR_RPM, LumpedState, lumped_loop
 from thermoplc.models.model import Coefficient, Model
 from thermoplc.physics.fitted import Simulation
 
 
-GEAR_FLOOR_RPM = float(np.float32(1e-3))  # a lagged gear speed below this is 0: a long stop would make it subnormal
 
 
 def effect_names(model: Model) -> tuple[str, ...]:
@@ -43,6 +44,9 @@ def effect_names(model: Model) -> tuple[str, ...]:
 
 def has(model: Model, name: str) -> bool:
     return name in effect_names(model)
+
+
+EFFECT_LAGS = ((("AGr", "BGr"), "gear_ratio_switch", "gear heat's"), (("ACl", "BCl"), "coolant_switching", "cooling's"))
 
 
 def segments(model: Model) -> int:
@@ -83,6 +87,8 @@ def coefficients(sim: Simulation, dt: float) -> tuple[dict[str, Coefficient], di
             c["AGr"], c["BGr"] = _pair(sim_.pole(s.gear_tau_s, dt))
     if sim.has("coolant_switching"):
         c["CoolOn"], c["CoolOff"] = Coefficient.of(s.relay[1]), Coefficient.of(s.relay[2])
+        if s.cool_tau_s > 0:
+            c["ACl"], c["BCl"] = _pair(sim_.pole(s.cool_tau_s, dt))
     if sim.has("nonlinear_speed_heat"):
         nodes, values, slopes = primitives.speed_table(s)
         for m, (x, y, k) in enumerate(zip(nodes, values, slopes), start=1):
@@ -137,6 +143,7 @@ def simulation_of(model: Model) -> Simulation:
     shared = sim_.Shared(
         stopped_rpm=float(st.get("stopped_rpm", 0.0)), gear_rpm=c("Gear_rpm", None),
         gear_tau_s=tau(c("AGr")) if "AGr" in model.coefficients else 0.0,
+        cool_tau_s=tau(c("ACl")) if "ACl" in model.coefficients else 0.0,
         exponent=st.get("exponent"), reference_rpm=float(st.get("reference_rpm", 1.0)),
         table_rpm=tuple(st.get("table_rpm", ())),
         relay=(st["relay_sensor"] - 1, c("CoolOn"), c("CoolOff")) if "relay_sensor" in st else None)
@@ -204,20 +211,21 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     gear, cool_on, stop = (has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection"))
     slow, amb, structure = has(model, "slow_structure"), has(model, "ambient_coupling"), "AS" in coef
     load, gear_lag, floor = "H_1" in coef, gear and "AGr" in coef, f(GEAR_FLOOR_RPM)
+    cool_lag, cool_floor = cool_on and "ACl" in coef, f(COOL_FLOOR)
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     offset = [coef.get(f"O_{i}") for i in range(1, k + 1)]
     relay_sensor = model.settings.get("relay_sensor", 1) - 1
     if rows and compiled.enabled(rows):  # the same loop, compiled (below)
         return {model.target.name: kernel_arguments(model, inputs, precision)[0]}
     sim = l_ = m_ = t0 = None
-    la = te0 = lf = lg = None
+    la = te0 = lf = lg = lc = None
     cool = False
     out = np.empty(rows, f)
     for j in range(rows):
         if sim is None:
             sim = [temps[i][j] - offset[i] if offset[i] is not None else temps[i][j] for i in range(k)]
             l_, m_, t0 = list(sim), list(sim), list(sim)
-            la, te0, lf, lg = te[j], te[j], f(0.0), f(0.0)
+            la, te0, lf, lg, lc = te[j], te[j], f(0.0), f(0.0), f(0.0)
         s = n[j]
         if table:
             index = next((m for m in range(len(table) - 1, 0, -1) if n[j] >= table[m][0]), 0)
@@ -227,6 +235,10 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
             lg = coef["AGr"] * lg + coef["BGr"] * n[j] if n[j] > coef["Gear_rpm"] else coef["AGr"] * lg
             if abs(lg) < floor:
                 lg = f(0.0)
+        if cool_lag:
+            lc = coef["ACl"] * lc + coef["BCl"] if cool else coef["ACl"] * lc
+            if lc < cool_floor:
+                lc = f(0.0)
         for i in range(1, k + 1):
             q = coef[f"G_{i}"] * s
             if load:
@@ -235,7 +247,9 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
                 q = q + coef[f"G2_{i}"] * lg
             elif gear and n[j] > coef["Gear_rpm"]:
                 q = q + coef[f"G2_{i}"] * n[j]
-            if cool_on and cool:
+            if cool_lag:
+                q = q + coef[f"K_{i}"] * lc
+            elif cool_on and cool:
                 q = q + coef[f"K_{i}"]
             if stop and n[j] <= coef["Stop_rpm"]:
                 sim[i - 1] = coef[f"As_{i}"] * sim[i - 1] + coef[f"Bs_{i}"] * (q + te[j])
@@ -277,7 +291,8 @@ def kernel_arguments(model: Model, inputs: dict, precision: str, state=None):
     f, coef, temps, te, n, feed = _arrays(model, inputs, precision)
     flags = (*(has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection", "slow_structure",
                                        "ambient_coupling")), "AS" in coef, feed is not None, "H_1" in coef,
-             any(name.startswith("KF_") for name in coef), has(model, "gear_ratio_switch") and "AGr" in coef)
+             any(name.startswith("KF_") for name in coef), has(model, "gear_ratio_switch") and "AGr" in coef,
+             has(model, "coolant_switching") and "ACl" in coef)
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     state = state or LumpedState(len(temps), f)
     out = lumped_loop(temps, te, n, feed, flags, coef, table, model.settings.get("relay_sensor", 1) - 1, f, state)
@@ -312,11 +327,12 @@ def check_settings(model: Model, path: str) -> None:
         if effect.get("sensor") is not None and not 1 <= effect["sensor"] <= temps:
             raise UserError(f"{path}: field 'settings.effects[{i}].sensor': {effect['sensor']} but the model has "
                             f"{temps} temperature inputs (numbered from 1)")
-    lag = {name: model.coef(name, "f64") for name in ("AGr", "BGr") if name in model.coefficients}
-    if lag and (len(lag) == 1 or not has(model, "gear_ratio_switch")):  # the gear heat's lag: a pair, of that effect
-        raise UserError(f"{path}: field 'coefficients': {' and '.join(lag)} without " + (
-            "settings.effects listing gear_ratio_switch, whose heat lag it is" if len(lag) == 2 else
-            f"{({'AGr', 'BGr'} - set(lag)).pop()}; the gear heat's lag needs both"))
+    for pair, effect, what in EFFECT_LAGS:  # an effect's own lag: a pair, of that effect
+        lag = [name for name in pair if name in model.coefficients]
+        if lag and (len(lag) == 1 or not has(model, effect)):
+            raise UserError(f"{path}: field 'coefficients': {' and '.join(lag)} without " + (
+                f"settings.effects listing {effect}, whose {what} lag it is" if len(lag) == 2 else
+                f"{(set(pair) - set(lag)).pop()}; the {what} lag needs both"))
     decays.check(model, path)
     table, nonlinear = int(s.get("speed_table_segments", 0)), has(model, "nonlinear_speed_heat")
     if bool(table) != nonlinear:  # the table is that effect's heat: one without the other is an edited file
@@ -353,145 +369,7 @@ SETTINGS_SCHEMA = {
                    "speed_table_segments": {"type": "integer", "minimum": 0, "maximum": 4096}}}
 
 
-# The same loop compiled (base/compiled.py; the rules that keep its bits in models/kernels.py).
-# Lumped-mass simulation with effects (models/lumped_model.py::predict).
-# flags: gear, cool_on, stop, slow, amb, structure, feed, load, filtered, gear_lag (0/1); per (k,): G, G2, K,
-# As, Bs, A, B, beta, gamma, delta, offset, H (standstill load), KF (filter gain); present (2, k):
-# whether each sensor has an offset, a filter gain; sc: Gear_rpm, Stop_rpm, AS, BS, A2, B2, AAm,
-# BAm, AF, BF, beta0, alpha, phi, CoolOn, CoolOff, AGr, BGr, the gear floor (absent ones 0; never used then);
-# table: (segments, 3) node, heat, slope.
-
-@compiled.jit
-def _lumped(temps, te, n, feed, flags, per, present, sc, table, relay, zero, sim, ll, mm, t0, carried, status, out):
-    k = temps.shape[0]
-    gear, cool_on, stop, slow, amb, structure, with_feed, load = (flags[0], flags[1], flags[2], flags[3], flags[4],
-                                                                   flags[5], flags[6], flags[7])
-    filtered = flags[8]
-    gear_lag = flags[9]
-    la = carried[0]
-    te0 = carried[1]
-    lf = carried[2]
-    lg = carried[3]
-    cool = status[1] != 0
-    segs = table.shape[0]
-    for j in range(out.shape[0]):
-        if status[0] == 0:
-            for i in range(k):
-                if present[0, i]:
-                    sim[i] = temps[i, j] - per[10, i]
-                else:
-                    sim[i] = temps[i, j]
-                ll[i] = sim[i]
-                mm[i] = sim[i]
-                t0[i] = sim[i]
-            la = te[j]
-            te0 = te[j]
-            lf = zero
-            lg = zero
-            status[0] = 1
-        s = n[j]
-        if segs > 0:
-            index = 0
-            for m in range(segs - 1, 0, -1):
-                if n[j] >= table[m, 0]:
-                    index = m
-                    break
-            s = table[index, 1] + (n[j] - table[index, 0]) * table[index, 2]
-        if gear_lag:
-            lg = sc[15] * lg + sc[16] * n[j] if n[j] > sc[0] else sc[15] * lg
-            if abs(lg) < sc[17]:
-                lg = zero
-        for i in range(k):
-            q = per[0, i] * s
-            if load:
-                q = q + per[11, i]
-            if gear_lag:
-                q = q + per[1, i] * lg
-            elif gear and n[j] > sc[0]:
-                q = q + per[1, i] * n[j]
-            if cool_on and cool:
-                q = q + per[2, i]
-            if stop and n[j] <= sc[1]:
-                sim[i] = per[3, i] * sim[i] + per[4, i] * (q + te[j])
-            else:
-                sim[i] = per[5, i] * sim[i] + per[6, i] * (q + te[j])
-            if filtered and present[1, i]:
-                sim[i] = sim[i] + per[12, i] * (temps[i, j] - sim[i])
-            if structure:
-                ll[i] = sc[2] * ll[i] + sc[3] * sim[i]
-            if slow:
-                if structure:
-                    mm[i] = sc[4] * mm[i] + sc[5] * ll[i]
-                else:
-                    mm[i] = sc[4] * mm[i] + sc[5] * sim[i]
-        if amb:
-            la = sc[6] * la + sc[7] * te[j]
-        if with_feed:
-            lf = sc[8] * lf + sc[9] * feed[j]
-        e = sc[10]
-        for i in range(k):
-            e = e + per[7, i] * (sim[i] - t0[i])
-            if structure:
-                e = e + per[8, i] * (ll[i] - t0[i])
-            if slow:
-                e = e + per[9, i] * (mm[i] - t0[i])
-        if amb:
-            e = e + sc[11] * (la - te0)
-        if with_feed:
-            e = e + sc[12] * lf
-        out[j] = e
-        if cool_on:
-            t_switch = sim[relay]
-            if t_switch > sc[13]:
-                cool = True
-            elif t_switch < sc[14]:
-                cool = False
-    carried[0] = la
-    carried[1] = te0
-    carried[2] = lf
-    carried[3] = lg
-    status[1] = 1 if cool else 0
-
-
-class LumpedState:
-    """Simulated temperatures, structure and slow lags, their start values, the ambient, feed and gear
-    lags, the ambient at the first call; whether the first call happened and the coolant relay."""
-
-    def __init__(self, k: int, f):
-        self.sim, self.ll, self.mm, self.t0 = (np.zeros(k, f) for _ in range(4))
-        self.carried = np.zeros(4, f)  # LA, Te0, LF, LG
-        self.status = np.zeros(2, np.int64)  # started, cool
-
-
-LUMPED_PER_SENSOR = ("G", "G2", "K", "As", "Bs", "A", "B", "beta", "gamma", "delta", "O", "H", "KF")
-LUMPED_SCALARS = ("Gear_rpm", "Stop_rpm", "AS", "BS", "A2", "B2", "AAm", "BAm", "AF", "BF", "beta0", "alpha", "phi",
-                  "CoolOn", "CoolOff", "AGr", "BGr")
-
-
-def lumped_loop(temps: list, te, n, feed, flags: tuple, coef: dict, table: list, relay: int, f,
-                state: LumpedState | None = None) -> np.ndarray:
-    """coef: name -> value of dtype f (absent coefficients are not in it)."""
-    k = len(temps)
-    state = state or LumpedState(k, f)
-    per = np.zeros((len(LUMPED_PER_SENSOR), k), f)
-    for r, name in enumerate(LUMPED_PER_SENSOR):
-        for i in range(k):
-            per[r, i] = coef.get(f"{name}_{i + 1}", f(0))
-    present = np.array([[f"{stem}_{i + 1}" in coef for i in range(k)] for stem in ("O", "KF")], np.bool_)
-    sc = np.array([coef.get(name, f(0)) for name in LUMPED_SCALARS] + [f(GEAR_FLOOR_RPM)], f)
-    rows = len(te)
-    stacked = np.empty((k, rows), f)
-    for i, x in enumerate(temps):
-        stacked[i] = x
-    table_array = np.array(table, f).reshape(len(table), 3)
-    out = np.empty(rows, f)
-    _lumped(stacked, np.ascontiguousarray(te, f), np.ascontiguousarray(n, f),
-            np.ascontiguousarray(feed if feed is not None else te, f), np.array(flags, np.bool_), per, present, sc,
-            table_array, np.int64(relay), f(0), state.sim, state.ll, state.mm, state.t0, state.carried, state.status,
-            out)
-    return out
-
-
 KIND = Kind("lumped", 9, "000", _fit, predict, roles=("speed", "ambient"), ambient_apart=True, auto="iterative",
             settings_schema=SETTINGS_SCHEMA, check_settings=check_settings, stream_core=StreamCore,
-            structure=lambda model: {"gear_floor": GEAR_FLOOR_RPM} if "AGr" in model.coefficients else {})
+            structure=lambda model: {**({"gear_floor": GEAR_FLOOR_RPM} if "AGr" in model.coefficients else {}),
+                                     **({"cool_floor": COOL_FLOOR} if "ACl" in model.coefficients else {})})

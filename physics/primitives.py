@@ -68,6 +68,7 @@ class Shared:
     reference_rpm: float = 1.0
     table_rpm: tuple[float, ...] = ()  # nodes of the n^p table
     relay: tuple[int, float, float] | None = None  # (sensor, on at degC, off at degC)
+    cool_tau_s: float = 0.0  # the lag the coolant's cooling reaches the sensors through (0: at once)
 
 
 @dataclass(frozen=True)

@@ -41,6 +41,7 @@ LUMPED_EFFECTS = (("gear_ratio_switch", None), ("nonlinear_speed_heat", None), (
                   ("feed_axis_heat", None))
 
 GOLDEN_GEAR_LAG_S = 1200.0
+GOLDEN_COOL_LAG_S = 600.0
 
 
 def lumped_golden(path: Path) -> Model:
@@ -51,6 +52,8 @@ def lumped_golden(path: Path) -> Model:
     fitted = simulation.fit(series.head(rows), LUMPED_EFFECTS)
     if not fitted.shared.gear_tau_s:  # the twin's gear heats at once; the lag's branch is under review all the same
         fitted = replace(fitted, shared=replace(fitted.shared, gear_tau_s=GOLDEN_GEAR_LAG_S))
+    if not fitted.shared.cool_tau_s:  # so does its coolant: the cooling lag's branch too
+        fitted = replace(fitted, shared=replace(fitted.shared, cool_tau_s=GOLDEN_COOL_LAG_S))
     return augmented_model(fitted, [], request, [table], series.dt, (rows,))
 
 

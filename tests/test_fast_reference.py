@@ -6,7 +6,7 @@ import pytest
 
 from tests.golden_models import GOLDEN, KINDS, golden_twin_csv
 from thermoplc.base import compiled
-from thermoplc.models import grey, kalman, kernels, lumped_model
+from thermoplc.models import grey, kalman, kernels, lumped_kernel
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import ENABLE, ENABLED, RESET, Limits, guards
@@ -116,8 +116,8 @@ def test_compiled_loops_contract_nothing():
     grey.gm1n_loop([np.ones(3, f)], 1.0, 1.0, 1.0, [1.0], f)
     kernels.limit(np.ones(3, f), 0, np.zeros(1, f), np.zeros(3, f), np.zeros(3, bool), np.zeros(3, bool),
                   np.zeros(3, bool), Limits().values(), f)
-    lumped_model.lumped_loop([np.ones(3, f)], np.ones(3, f), np.ones(3, f), None, (True,) * 6 + (False, True, True, True), {}, [(1.0, 1.0, 1.0)], 0, f)
-    for fn in (kalman._kalman, kernels._hold, kernels._repeats, kernels._limit, grey._gm0n, grey._gm1n, lumped_model._lumped):
+    lumped_kernel.lumped_loop([np.ones(3, f)], np.ones(3, f), np.ones(3, f), None, (True,) * 6 + (False, True, True, True, True), {}, [(1.0, 1.0, 1.0)], 0, f)
+    for fn in (kalman._kalman, kernels._hold, kernels._repeats, kernels._limit, grey._gm0n, grey._gm1n, lumped_kernel._lumped):
         fresh = compiled.numba.njit(**{**compiled.JIT_OPTIONS, "cache": False})(fn.py_func)  # cached code has no IR
         for signature in fn.signatures:
             fresh.compile(signature)

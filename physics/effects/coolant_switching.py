@@ -1,7 +1,9 @@
 """Coolant switching: extra cooling switched on and off at temperature thresholds (hysteresis).
 
 Term: one more heat input per sensor, `cooling * state`, the relay switched by the simulated
-temperature of one sensor (tried on each); the thresholds are searched. A closed loop: the relay's
+temperature of one sensor (tried on each); the thresholds are searched, then the lag the cooling
+reaches the sensors through (a coolant loop's fluid and exchanger have a thermal mass of their own;
+0 when it acts at once) on a bounded grid. A closed loop: the relay's
 state follows the simulated temperature it cools, so the simulation asks this record for it
 (`closed_loop`), and its thresholds are searched with the sensors refitted around them, open loop
 (`fit_closed_loop`) and on the identified model (`search_identified`)."""
@@ -14,7 +16,8 @@ import numpy as np
 
 from thermoplc.base import compiled
 from thermoplc.physics.effects.definition import EffectDefinition
-from thermoplc.physics.primitives import Series, Shared, first_temperatures, lag, lag_columns, savgol_filter
+from thermoplc.physics.primitives import (Series, Shared, first_temperatures, lag, lag_columns, minimize_scalar, pole,
+                                         savgol_filter)
 
 MIN_RELAY_SWITCHES = 3  # on, off, on: one cycle and the start of another
 RELAY_ROUNDS = 4
@@ -23,6 +26,8 @@ RELAY_GRID_LEVELS = 80
 RELAY_SMOOTHING_ROWS = 9
 RELAY_LOOKAHEAD_S = 7200.0
 CLOSED_LOOP_ROUNDS = 2  # relay state from the simulation, sensors refitted with it
+LAG_GRID_S = (0.0, 300.0, 600.0, 1200.0, 2400.0, 4800.0)  # the cooling's own lag: none, then 5 min .. 80 min
+LAG_ROUNDS = 3
 
 
 def check(parameters: dict) -> str | None:
@@ -35,7 +40,7 @@ def check(parameters: dict) -> str | None:
 def describe(sim, series) -> dict:
     s = sim.shared
     return {"switch_sensor": series.names[s.relay[0]], "on_C": s.relay[1], "off_C": s.relay[2],
-            "cooling_K": {c: p.cooling for c, p in zip(series.names, sim.sensors)}}
+            "lag_min": s.cool_tau_s / 60.0, "cooling_K": {c: p.cooling for c, p in zip(series.names, sim.sensors)}}
 
 
 def draw(rng: np.random.Generator, clean: dict, train: slice, machine) -> dict:
@@ -45,6 +50,12 @@ def draw(rng: np.random.Generator, clean: dict, train: slice, machine) -> dict:
     on = float(np.quantile(t, rng.uniform(0.55, 0.8)))
     gap = min(rng.uniform(1.5, 4.0), 0.8 * (on - float(np.quantile(t, 0.1))))
     return {"on_C": on, "off_C": on - max(gap, 0.5), "cooling_K": float(rng.uniform(2.0, 6.0))}
+
+
+def twin_pole(effect, dt: float) -> float:
+    """A synthetic machine's pole of the cooling's own lag (`lag_min`; 0 when the cooling acts at once)."""
+    lag_s = effect.get("lag_min") * 60.0
+    return pole(lag_s, dt) if lag_s > 0 else 0.0
 
 
 def implausible(sim, train) -> str | None:
@@ -74,11 +85,21 @@ def relay(temperature: np.ndarray, on: float, off: float) -> np.ndarray:
 
 def heat_input(series: Series, shared: Shared, state) -> tuple[str, np.ndarray] | None:
     """The cooling column: the relay's closed-loop `state` when given, else switched by the measured
-    temperature (a fast stand-in while its thresholds are searched); none while they are unknown."""
+    temperature (a fast stand-in while its thresholds are searched), through the cooling's lag from 0 (the
+    block's LC starts at 0); none while the thresholds are unknown."""
     if shared.relay is None:
         return None
     sensor, on, off = shared.relay
-    return "cooling", relay(series.temps[:, sensor], on, off) if state is None else state
+    return "cooling", lagged(relay(series.temps[:, sensor], on, off) if state is None else state, shared, series.dt)
+
+
+def lagged(state: np.ndarray, shared: Shared, dt: float) -> np.ndarray:
+    """The relay's state through the cooling's own lag, from 0; the state itself when it acts at once."""
+    return lag(state, cooling_pole(shared, dt), 0.0) if shared.cool_tau_s > 0 else state
+
+
+def cooling_pole(shared: Shared, dt: float) -> float:
+    return pole(shared.cool_tau_s, dt) if shared.cool_tau_s > 0 else 0.0
 
 
 def closed_loop(series: Series, shared: Shared, sensors, effects) -> np.ndarray | None:
@@ -96,33 +117,37 @@ def closed_loop_cooling(series: Series, shared: Shared, sensors, effects) -> np.
     p = sensors[index]
     a = np.broadcast_to(simulation.sensor_poles(series, shared, p), (series.rows,))
     drive = series.te + sum(getattr(p, name) * x for name, x in simulation.heat_inputs(series, replace(shared, relay=None), effects))
+    ac = cooling_pole(shared, series.dt)
     if p.filter_gain:
         return _filtered_relay(series.temps[:, index], np.ascontiguousarray(a, dtype=float), drive, p.cooling,
-                               p.filter_gain, float(first_temperatures(series, sensors)[index]), on, off)
+                               p.filter_gain, float(first_temperatures(series, sensors)[index]), on, off, ac)
     state = np.zeros(series.rows)
     window = max(2, int(RELAY_LOOKAHEAD_S / series.dt))
-    y, cooling, j = first_temperatures(series, sensors)[index], False, 0
+    y, share, cooling, j = first_temperatures(series, sensors)[index], 0.0, False, 0
     while j < series.rows:
         stop = min(j + window, series.rows)
-        trajectory = lag(drive[j:stop] + (p.cooling if cooling else 0.0), a[j:stop], y)
+        shares = lag(np.full(stop - j, 1.0 if cooling else 0.0), ac, share)  # the cooling's lag, from its last share
+        trajectory = lag(drive[j:stop] + p.cooling * shares, a[j:stop], y)
         crossing = np.flatnonzero(trajectory < off if cooling else trajectory > on)
         end = j + int(crossing[0]) + 1 if len(crossing) else stop  # the new state acts from the next row
         state[j:end] = cooling
-        y = trajectory[end - j - 1]
+        y, share = trajectory[end - j - 1], shares[end - j - 1]
         cooling = cooling != bool(len(crossing))
         j = end
     return state
 
 
 @compiled.jit
-def _filtered_relay(reading, a, drive, cooling, gain, start, on, off):
+def _filtered_relay(reading, a, drive, cooling, gain, start, on, off, ac):
     """The relay state per row under the filter, as the block runs it: the filtered temperature of the
-    switching sensor (corrected by its reading each row) switches the coolant from the next row."""
+    switching sensor (corrected by its reading each row) switches the coolant from the next row; the
+    cooling reaches it through its lag of pole `ac` (0: at once)."""
     state = np.zeros(len(reading))
-    x, cool = start, False
+    x, share, cool = start, 0.0, False
     for j in range(len(reading)):
         state[j] = 1.0 if cool else 0.0
-        x = a[j] * x + (1.0 - a[j]) * (drive[j] + (cooling if cool else 0.0))
+        share = ac * share + (1.0 - ac) * state[j]
+        x = a[j] * x + (1.0 - a[j]) * (drive[j] + cooling * share)
         x = x + gain * (reading[j] - x)
         if x > on:
             cool = True
@@ -138,7 +163,7 @@ def fit_closed_loop(series, shared, effects, starts):
     simulated one (the closed loop the model runs) and move the thresholds and sensors with it.
     Returns the shared parameters and the sensors fitted with the closed-loop relay."""
     from thermoplc.physics import simulation
-    sensor = next(s for e, s in effects if e == "coolant_switching")
+    sensor, shared = next(s for e, s in effects if e == "coolant_switching"), _with_lag(shared, 0.0)
     temperature = savgol_filter(series.temps[:, sensor], RELAY_SMOOTHING_ROWS, 2) if series.rows > RELAY_SMOOTHING_ROWS else series.temps[:, sensor]
     # the cost is spiky in the thresholds (a relay switched by a noisy reading trips on single
     # samples): a grid as fine as the noise finds the right basin where 16 levels missed it
@@ -183,7 +208,30 @@ def fit_closed_loop(series, shared, effects, starts):
         shared = replace(shared, relay=(sensor, float(on), float(off)))
         sensors = simulation.fit_all_sensors(series, shared, effects, sensors,
                                    closed_loop_cooling(series, shared, sensors, effects))[0]
-    return shared, sensors
+    parts, state = prepared(), closed_loop_cooling(series, shared, sensors, effects)
+    tau = _best_lag(lambda tau: cost_of(lagged(state, _with_lag(shared, tau), series.dt)))
+    if tau == 0:
+        return shared, sensors
+    shared = _with_lag(shared, tau)
+    return shared, simulation.fit_all_sensors(series, shared, effects, sensors,
+                                              closed_loop_cooling(series, shared, sensors, effects))[0]
+
+
+def _best_lag(cost) -> float:
+    """The cooling's lag: the best of LAG_GRID_S, then, when it is not none, polished between its neighbours on the
+    grid (log scale, a few seconds' tolerance): a lag between two grid points leaves a slow misfit either way."""
+    costs = [cost(tau) for tau in LAG_GRID_S]
+    best = int(np.argmin(costs))
+    if best == 0:
+        return 0.0
+    low, high = LAG_GRID_S[max(best - 1, 1)], LAG_GRID_S[min(best + 1, len(LAG_GRID_S) - 1)]
+    found = minimize_scalar(lambda x: cost(float(np.exp(x))), bounds=(np.log(low), np.log(high)), method="bounded",
+                            options={"xatol": 0.01})
+    return float(np.exp(found.x)) if found.fun < costs[best] else LAG_GRID_S[best]
+
+
+def _with_lag(shared: Shared, tau_s: float) -> Shared:
+    return replace(shared, cool_tau_s=float(tau_s))
 
 
 def _centred(on: float, off: float, step: float, cost, reach: float = 8, passes: int = 2, points: int = 64
@@ -235,9 +283,9 @@ def _relay_sensor(effects) -> int:
 def search_identified(runs: list[Series], shared: Shared, effects, sensors) -> Shared:
     """The coolant thresholds: a grid over the switching sensor's smoothed readings, scored by its one-step
     error with the others' columns projected out (two dot products per row and pair), then each threshold
-    moved to the middle of its best plateau."""
+    moved to the middle of its best plateau; then the cooling's lag on LAG_GRID_S, scored the same way."""
     from thermoplc.physics import identify, simulation
-    sensor = _relay_sensor(effects)
+    sensor, shared = _relay_sensor(effects), _with_lag(shared, 0.0)
     p = sensors[sensor]
     smooth = lambda t: savgol_filter(t, RELAY_SMOOTHING_ROWS, 2) if len(t) > RELAY_SMOOTHING_ROWS else t
     readings = [smooth(series.temps[:, sensor]) for series in runs]
@@ -253,8 +301,10 @@ def search_identified(runs: list[Series], shared: Shared, effects, sensors) -> S
         pole = a * (1.0 - p.filter_gain)  # simulation.filtered with a zero reading, as one lag (the same bits)
         return lag_columns(((1.0 - a) * state / (1.0 - pole))[:, None], pole, np.zeros(1))[:, 0]
 
-    def cost(on: float, off: float) -> float:
-        column = np.concatenate([share(a, relay(t, on, off)) for a, t in zip(poles, readings)])
+    def cost(on: float, off: float, tau_s: float = 0.0) -> float:
+        at = _with_lag(shared, tau_s)
+        column = np.concatenate([share(a, lagged(relay(t, on, off), at, series.dt))
+                                 for a, t, series in zip(poles, readings, runs)])
         return _added_column_sse(basis, y_perp, column)
 
     every = np.concatenate(readings)
@@ -264,14 +314,21 @@ def search_identified(runs: list[Series], shared: Shared, effects, sensors) -> S
     if not pairs:
         return replace(shared, relay=(sensor, float(levels[-1]), float(levels[0])))
     on, off = min(pairs, key=lambda pair: cost(*pair))
-    on, off = _centred(on, off, max(float(np.ptp(every)) / 100, 0.01), cost)
-    return replace(shared, relay=(sensor, float(on), float(off)))
+    step, tau = max(float(np.ptp(every)) / 100, 0.01), 0.0
+    for _ in range(LAG_ROUNDS):  # the thresholds at the lag, then the lag at the thresholds: a lag delays each switch
+        on, off = _centred(on, off, step, lambda on_, off_: cost(on_, off_, tau))
+        chosen, tau = tau, _best_lag(lambda lag_s: cost(on, off, lag_s))
+        if tau == chosen:
+            break
+    return _with_lag(replace(shared, relay=(sensor, float(on), float(off))), tau)
 
 
 EFFECT = EffectDefinition(
-    name="coolant_switching", rank=1, bounds=(("on_C", -50.0, 250.0), ("off_C", -50.0, 250.0), ("cooling_K", -100.0, 100.0)),
-    description="extra motor cooling switched on/off at temperature thresholds with hysteresis",
-    defaults=(("on_C", 27.0), ("off_C", 24.0), ("cooling_K", 4.0)), check=check,
-    part="heat", per_sensor=True, added_parameters=lambda sensors: sensors + 2,
+    name="coolant_switching", rank=1, bounds=(("on_C", -50.0, 250.0), ("off_C", -50.0, 250.0), ("cooling_K", -100.0, 100.0),
+                                              ("lag_min", 0.0, 600.0)),
+    description="extra motor cooling switched on/off at temperature thresholds with hysteresis, through a lag of its "
+                "own (lag_min, 0: at once)",
+    defaults=(("on_C", 27.0), ("off_C", 24.0), ("cooling_K", 4.0), ("lag_min", 0.0)), check=check,
+    part="heat", per_sensor=True, added_parameters=lambda sensors: sensors + 3,
     describe=describe, draw=draw, implausible=implausible, after_fit=too_quiet, heat_input=heat_input,
     closed_loop=closed_loop, fit_closed_loop=fit_closed_loop, search_identified=search_identified)
