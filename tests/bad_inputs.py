@@ -531,6 +531,10 @@ def _schema_cases() -> list[Case]:
     ]
     cases = [Case("model file", f"{kind}: {fault}", "generate", ("generate", "bad.json", "-o", "out.scl"),
                   _golden_edit(kind, _set(path, value)), "error", message) for kind, fault, path, value, message in rows]
+    cases.append(Case("model file", "lumped: cooling lag without its other half", "generate",
+                      ("generate", "bad.json", "-o", "out.scl"),
+                      _golden_edit("lumped", lambda doc: doc["coefficients"].pop("BCl")), "error",
+                      "field 'coefficients': ACl without BCl; the cooling's lag needs both"))
 
     def deep(folder: Path) -> None:
         (folder / "bad.json").write_text("[" * 100000 + "]" * 100000)

@@ -204,16 +204,18 @@ def test_every_lag_of_a_lumped_file_decays(tmp_path, name, value, accepted):
     ("BGr", "': AGr without BGr; the gear heat's lag needs both"),
     ("gear_ratio_switch", "': AGr and BGr without settings.effects listing gear_ratio_switch"),
     ("AGr=1", r"\.AGr': 1\.0; expected a decay per call exp\(-dt/tau\) in \[0, 1\)"),
-    ("BGr=-0.5", r"\.BGr': -0\.5; expected the complement 1 - exp\(-dt/tau\) of a decay per call, in \(0, 1\]")])
-def test_the_gear_heat_lag_is_a_pair_of_the_gear_effect(tmp_path, edit, message):
-    """The golden block's gear heat enters through its lag (AGr, BGr); a file with half the pair, or the pair
-    without the effect, is an edited file, refused by name before any block is written."""
+    ("BGr=-0.5", r"\.BGr': -0\.5; expected the complement 1 - exp\(-dt/tau\) of a decay per call, in \(0, 1\]"),
+    ("BCl", "': ACl without BCl; the cooling's lag needs both"),
+    ("coolant_switching", "': ACl and BCl without settings.effects listing coolant_switching")])
+def test_an_effects_own_lag_is_a_pair_of_that_effect(tmp_path, edit, message):
+    """The golden block's gear heat and cooling enter through their lags (AGr, BGr; ACl, BCl); a file with half a
+    pair, or a pair without its effect, is an edited file, refused by name before any block is written."""
     import json
     from thermoplc.models.modelfile import load_model
     from tests.golden_models import GOLDEN
     doc = json.loads((GOLDEN / "lumped.json").read_text())
-    if edit == "BGr":
-        del doc["coefficients"]["BGr"]
+    if edit in ("BGr", "BCl"):
+        del doc["coefficients"][edit]
     elif "=" in edit:
         name, value = edit.split("=")
         doc["coefficients"][name] = {"f64": float(value), "f32": "0x" + np.float32(value).tobytes()[::-1].hex().upper()}
@@ -240,3 +242,21 @@ def test_the_twins_gear_heat_enters_through_its_lag(machine_name):
     assert np.max(np.abs(extra_lagged)) > 0.2 * np.max(np.abs(extra_at_once)) > 0  # the heat arrives, later
     first = int(np.argmax(np.abs(extra_at_once) > 0.05 * np.max(np.abs(extra_at_once))))
     assert abs(extra_lagged[first]) < abs(extra_at_once[first])
+
+
+@pytest.mark.parametrize("machine_name", ["cascade", "portal"])
+def test_the_twins_cooling_enters_through_its_lag(machine_name):
+    """`--effect coolant_switching:lag_min=M`: the relay's cooling reaches the machine through a lag of M minutes
+    (the coolant loop's own thermal mass); 0 is the cooling at once, bit for bit the default."""
+    from thermoplc.machines import machine
+    chosen = machine(machine_name)
+    at_once, lagged, plain = (chosen.simulate(24, 7, effects=(Effect.parse(text),), noise=0.0) for text in (
+        "coolant_switching:lag_min=0", "coolant_switching:lag_min=30", "coolant_switching"))
+    sensor = chosen.COOLANT_SENSOR
+    assert at_once[sensor].view(np.uint64).tolist() == plain[sensor].view(np.uint64).tolist()
+    clean = chosen.simulate(24, 7, noise=0.0)[sensor]
+    cooled_at_once, cooled_lagged = clean - at_once[sensor], clean - lagged[sensor]
+    first = int(np.argmax(cooled_at_once > 0.05 * np.max(cooled_at_once)))
+    assert np.max(cooled_at_once) > 0.5 and 0 <= cooled_lagged[first] < cooled_at_once[first]  # the cooling, later
+    assert np.max(cooled_lagged) > 0.3 * np.max(cooled_at_once)
+
