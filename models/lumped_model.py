@@ -36,8 +36,6 @@ from thermoplc.models.model import Coefficient, Model
 from thermoplc.physics.fitted import Simulation
 
 
-
-
 def effect_names(model: Model) -> tuple[str, ...]:
     return tuple(e["name"] for e in model.settings.get("effects", ()))
 
@@ -215,7 +213,7 @@ def predict(model: Model, inputs: dict, precision: str) -> dict:
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     offset = [coef.get(f"O_{i}") for i in range(1, k + 1)]
     relay_sensor = model.settings.get("relay_sensor", 1) - 1
-    if rows and compiled.enabled(rows):  # the same loop, compiled (below)
+    if rows and compiled.enabled(rows):  # the same loop, compiled (models/lumped_kernel.py)
         return {model.target.name: kernel_arguments(model, inputs, precision)[0]}
     sim = l_ = m_ = t0 = None
     la = te0 = lf = lg = lc = None
