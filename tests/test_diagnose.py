@@ -405,9 +405,10 @@ def test_fl_thermal_baseline_beats_no_compensation_on_every_training_part(channe
 @pytest.mark.slow
 def test_a_cooling_with_a_lag_of_its_own_is_named_with_its_lag_and_the_block_carries_it(tmp_path, monkeypatch):
     """Issue 65 item 2: the coolant's cooling reaches the motor through 30 min of its own (the coolant loop's
-    thermal mass). The relay is named with a lag near it, its thresholds near the hidden 27/24 degC, and the
-    motor's held-out open-loop error falls well below what the relay at once leaves (0.203 K on this recording,
-    measured with the lag grid cut to none); the block carrying the lag (LC) is generated and proved bit-exact."""
+    thermal mass). The relay is named alone with a lag near it and its thresholds near the hidden 27/24 degC,
+    nothing is left unexplained, and the motor's held-out open-loop error falls to its noise, a quarter of what
+    the relay at once leaves (0.203 K on this recording, measured with the lag grid cut to none); the block
+    carrying the lag (LC) is generated and proved bit-exact."""
     monkeypatch.chdir(tmp_path)
     assert main(["twin", "--hours", "72", "--seed", "5", "--effect", "coolant_switching:lag_min=30",
                  "-o", "lag.csv"]) == 0
@@ -416,9 +417,10 @@ def test_a_cooling_with_a_lag_of_its_own_is_named_with_its_lag_and_the_block_car
     findings = json.loads((tmp_path / "f.json").read_text())
     assert [e["name"] for e in findings["effects"]] == ["coolant_switching"]
     parameters = findings["effects"][0]["parameters"]
-    assert 15 <= parameters["lag_min"] <= 45 and abs(parameters["on_C"] - 27) < 1 and abs(parameters["off_C"] - 24) < 1.5
+    assert 25 <= parameters["lag_min"] <= 35 and abs(parameters["on_C"] - 27) < 0.3 and abs(parameters["off_C"] - 24) < 0.4
+    assert findings["verdict"] == "explained"
     motor = findings["channels"]["T_motor"]
-    assert motor["open_loop_held_out_rmse_after"] < 0.5 * 0.203 < motor["open_loop_held_out_rmse_before"]
+    assert motor["open_loop_held_out_rmse_after"] < 0.3 * 0.203 < motor["open_loop_held_out_rmse_before"]
     assert main(["generate", "m.json", "-o", "m.scl", "--accept-unvalidated"]) == 0
     assert "#LC := #c_ACl * #LC + #c_BCl;" in (tmp_path / "m.scl").read_text()
     assert main(["verify", "m.scl", "--model", "m.json", "--data", "lag.csv"]) == 0

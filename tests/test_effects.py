@@ -178,25 +178,32 @@ def test_a_speed_table_without_its_effect_or_the_effect_without_a_table_is_refus
         load_model(tmp_path / "m.json")
 
 
-@pytest.mark.parametrize("name, value, accepted", [
-    ("A_1", 1.0, False), ("A_2", 1.0000001, False), ("As_1", -0.25, False), ("Bs_2", 0.0, False), ("B_1", 1.5, False),
-    ("AS", 1.0, False), ("BS", 0.0, False), ("AAm", 2.0, False), ("B2", -1e-3, False), ("AF", 1.0, False),
-    ("A_1", 0.0, True), ("B_1", 1.0, True), ("AAm", 0.999999, True)])
-def test_every_lag_of_a_lumped_file_decays(tmp_path, name, value, accepted):
+@pytest.mark.parametrize("edits, refused", [
+    ({"A_1": 1.0}, r"A_1': 1\.0; expected a decay"), ({"A_2": 1.0000001}, r"A_2': 1\.0000001; expected a decay"),
+    ({"As_1": -0.25}, r"As_1': -0\.25; expected a decay"), ({"Bs_2": 0.0}, r"Bs_2': 0\.0; expected the complement"),
+    ({"B_1": 1.5}, r"B_1': 1\.5; expected the complement"), ({"AS": 1.0}, r"AS': 1\.0; expected a decay"),
+    ({"BS": 0.0}, r"BS': 0\.0; expected the complement"), ({"AAm": 2.0}, r"AAm': 2\.0; expected a decay"),
+    ({"B2": -1e-3}, r"B2': -0\.001; expected the complement"), ({"AF": 1.0}, r"AF': 1\.0; expected a decay"),
+    ({"ACl": 1.0}, r"ACl': 1\.0; expected a decay"), ({"BCl": 0.0}, r"BCl': 0\.0; expected the complement"),
+    ({"ACl": 0.5, "BCl": 0.9}, r"BCl': 0\.9, but 1 - ACl is 0\.5: a lag's decay and its complement add up to 1"),
+    ({"A_2": 0.25}, r"B_2': [0-9.e-]+, but 1 - A_2 is 0\.75"),
+    ({"A_1": 0.0, "B_1": 1.0}, None), ({"AAm": 0.999999, "BAm": 1 - 0.999999}, None)])
+def test_every_lag_of_a_lumped_file_decays_and_its_pair_adds_up_to_1(tmp_path, edits, refused):
     """A decay per call of 1 or more integrates its input without bound (the block's state overflows after
-    enough calls), a negative one rings: refused by field before a block is built; 0 (no memory) and its
-    complement 1 are a lag faster than the call and run."""
+    enough calls), a negative one rings, a pair that does not add up to 1 scales what it lags: refused by field
+    before a block is built; 0 (no memory) and its complement 1 are a lag faster than the call and run."""
     import json
     from thermoplc.models.modelfile import load_model
     from tests.golden_models import GOLDEN
     doc = json.loads((GOLDEN / "lumped.json").read_text())
-    assert name in doc["coefficients"]
-    doc["coefficients"][name] = {"f64": value, "f32": "0x" + np.float32(value).tobytes()[::-1].hex().upper()}
+    for name, value in edits.items():
+        assert name in doc["coefficients"]
+        doc["coefficients"][name] = {"f64": value, "f32": "0x" + np.float32(value).tobytes()[::-1].hex().upper()}
     (tmp_path / "m.json").write_text(json.dumps(doc))
-    if accepted:
-        assert load_model(tmp_path / "m.json").coef(name, "f64") == value
+    if refused is None:
+        assert {name: load_model(tmp_path / "m.json").coef(name, "f64") for name in edits} == edits
         return
-    with pytest.raises(UserError, match=rf"m\.json: field 'coefficients\.{name}': {value!r}; expected "):
+    with pytest.raises(UserError, match=r"m\.json: field 'coefficients\." + refused):
         load_model(tmp_path / "m.json")
 
 
@@ -260,3 +267,37 @@ def test_the_twins_cooling_enters_through_its_lag(machine_name):
     assert np.max(cooled_at_once) > 0.5 and 0 <= cooled_lagged[first] < cooled_at_once[first]  # the cooling, later
     assert np.max(cooled_lagged) > 0.3 * np.max(cooled_at_once)
 
+
+
+def _running_then_a_cold_night(path: Path) -> None:
+    """3 h at 3000 rpm, then 41 h stopped while the hall cools to 15 degC: the golden block's relay switches on
+    while running and off in the night, and its lagged cooling decays to its floor and stays there."""
+    dt, running, stopped = 10.0, 1080, 14760
+    t = np.arange(running + stopped) * dt
+    night = np.arange(stopped) * dt
+    air = np.r_[np.full(running, 20.0), 15.0 + 5.0 * np.exp(-night / 7200.0)]
+    heat = np.r_[8.0 * (1 - np.exp(-t[:running] / 3600.0)), 8.0 * (1 - np.exp(-3.0)) * np.exp(-night / 3600.0)]
+    columns = {"time_s": t, "n_rpm": np.r_[np.full(running, 3000.0), np.zeros(stopped)], "v_feed_mm_min": 0.0 * t,
+               "T_env": air, "T_motor": air + heat, "T_bearing": air + 0.6 * heat, "E_z_um": 2.0 * heat}
+    rows = [",".join(columns)] + [",".join(f"{columns[c][j]:.6f}" for c in columns) for j in range(len(t))]
+    path.write_text("\n".join(rows) + "\n")
+
+
+@pytest.mark.parametrize("edit, proved", [
+    (None, True),
+    (("ELSE\n\t            #LC := #c_ACl * #LC;", "ELSE\n\t            #LC := #c_Zero;"), False),  # the relay's off branch
+    (("IF #LC < #c_Cool_Floor THEN", "IF #LC < #c_Zero THEN"), False)])  # the floor made a no-op
+def test_the_lagged_cooling_decays_to_its_floor_after_the_relay_is_off(tmp_path, edit, proved):
+    """The golden twin's relay never switches off, so the golden replay never runs the lag's decay or its floor;
+    a cold night after a run does: the block is proved on it, and an edit of either branch is caught."""
+    from thermoplc.cli import main
+    from tests.golden_models import GOLDEN, golden_block
+    _running_then_a_cold_night(tmp_path / "night.csv")
+    text = golden_block("lumped", "tia").read_text()
+    if edit is not None:
+        assert text.count(edit[0]) == 1
+        text = text.replace(*edit)
+    (tmp_path / "b.scl").write_text(text)
+    code = main(["verify", str(tmp_path / "b.scl"), "--model", str(GOLDEN / "lumped.json"),
+                 "--data", str(tmp_path / "night.csv")])
+    assert (code == 0) == proved

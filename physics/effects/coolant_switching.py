@@ -27,7 +27,8 @@ RELAY_SMOOTHING_ROWS = 9
 RELAY_LOOKAHEAD_S = 7200.0
 CLOSED_LOOP_ROUNDS = 2  # relay state from the simulation, sensors refitted with it
 LAG_GRID_S = (0.0, 300.0, 600.0, 1200.0, 2400.0, 4800.0)  # the cooling's own lag: none, then 5 min .. 80 min
-LAG_ROUNDS = 3
+LAG_ROUNDS = 12  # rounds of thresholds and lag in turn; they settle within 10 on the twins
+LAG_SETTLED = 0.02  # the lag moved less than this share of itself: settled
 
 
 def check(parameters: dict) -> str | None:
@@ -54,8 +55,7 @@ def draw(rng: np.random.Generator, clean: dict, train: slice, machine) -> dict:
 
 def twin_pole(effect, dt: float) -> float:
     """A synthetic machine's pole of the cooling's own lag (`lag_min`; 0 when the cooling acts at once)."""
-    lag_s = effect.get("lag_min") * 60.0
-    return pole(lag_s, dt) if lag_s > 0 else 0.0
+    return _pole_or_none(effect.get("lag_min") * 60.0, dt)
 
 
 def implausible(sim, train) -> str | None:
@@ -99,7 +99,12 @@ def lagged(state: np.ndarray, shared: Shared, dt: float) -> np.ndarray:
 
 
 def cooling_pole(shared: Shared, dt: float) -> float:
-    return pole(shared.cool_tau_s, dt) if shared.cool_tau_s > 0 else 0.0
+    return _pole_or_none(shared.cool_tau_s, dt)
+
+
+def _pole_or_none(tau_s: float, dt: float) -> float:
+    """The pole of a lag of `tau_s`; 0 (the input itself) for none."""
+    return pole(tau_s, dt) if tau_s > 0 else 0.0
 
 
 def closed_loop(series: Series, shared: Shared, sensors, effects) -> np.ndarray | None:
@@ -187,8 +192,8 @@ def fit_closed_loop(series, shared, effects, starts):
         return sum(_added_column_sse(basis, y_perp, lag(state, a, 0.0)) for a, basis, y_perp in parts)
 
     measured = lambda on, off: cost_of(relay(temperature, on, off))
-    closed = lambda on, off: cost_of(closed_loop_cooling(series, replace(shared, relay=(sensor, on, off)), sensors,
-                                                         effects))
+    closed = lambda on, off: cost_of(lagged(closed_loop_cooling(series, replace(shared, relay=(sensor, on, off)),
+                                                                sensors, effects), shared, series.dt))
     step = max(float(np.ptp(temperature)) / 100, 0.01)
     chosen = None
     a, basis, y_perp = prepared()[sensor]  # the grid scores the switch sensor alone (the others follow it)
@@ -201,25 +206,35 @@ def fit_closed_loop(series, shared, effects, starts):
         chosen = (on, off)
         shared = replace(shared, relay=(sensor, float(on), float(off)))
         sensors = simulation.fit_all_sensors(series, shared, effects, None, relay(temperature, on, off))[0]
-    for _ in range(CLOSED_LOOP_ROUNDS):
+    def closed_loop_round():
+        nonlocal parts, on, off, shared, sensors
         parts = prepared()
         for reach, points in ((4.0, 17), (0.5, 11)):  # coarse, then fine: the measured relay trips early
             on, off = _centred(on, off, step, closed, reach, passes=2, points=points)
         shared = replace(shared, relay=(sensor, float(on), float(off)))
         sensors = simulation.fit_all_sensors(series, shared, effects, sensors,
                                    closed_loop_cooling(series, shared, sensors, effects))[0]
-    parts, state = prepared(), closed_loop_cooling(series, shared, sensors, effects)
-    tau = _best_lag(lambda tau: cost_of(lagged(state, _with_lag(shared, tau), series.dt)))
-    if tau == 0:
-        return shared, sensors
-    shared = _with_lag(shared, tau)
-    return shared, simulation.fit_all_sensors(series, shared, effects, sensors,
-                                              closed_loop_cooling(series, shared, sensors, effects))[0]
+
+    for _ in range(CLOSED_LOOP_ROUNDS):
+        closed_loop_round()
+    for _ in range(LAG_ROUNDS):  # the lag at the thresholds, then the thresholds at the lag, until the lag settles
+        parts, state = prepared(), closed_loop_cooling(series, shared, sensors, effects)
+        tau = _best_lag(lambda tau: cost_of(lagged(state, _with_lag(shared, tau), series.dt)))
+        if _settled(tau, shared.cool_tau_s):
+            break
+        shared = _with_lag(shared, tau)
+        closed_loop_round()
+    return shared, sensors
+
+
+def _settled(tau_s: float, previous_s: float) -> bool:
+    """Whether the lag moved less than LAG_SETTLED of itself (none stays none)."""
+    return abs(tau_s - previous_s) <= LAG_SETTLED * max(previous_s, 1.0)
 
 
 def _best_lag(cost) -> float:
     """The cooling's lag: the best of LAG_GRID_S, then, when it is not none, polished between its neighbours on the
-    grid (log scale, a few seconds' tolerance): a lag between two grid points leaves a slow misfit either way."""
+    grid (log scale, 1 % tolerance): a lag between two grid points leaves a slow misfit either way."""
     costs = [cost(tau) for tau in LAG_GRID_S]
     best = int(np.argmin(costs))
     if best == 0:
@@ -318,7 +333,7 @@ def search_identified(runs: list[Series], shared: Shared, effects, sensors) -> S
     for _ in range(LAG_ROUNDS):  # the thresholds at the lag, then the lag at the thresholds: a lag delays each switch
         on, off = _centred(on, off, step, lambda on_, off_: cost(on_, off_, tau))
         chosen, tau = tau, _best_lag(lambda lag_s: cost(on, off, lag_s))
-        if tau == chosen:
+        if _settled(tau, chosen):
             break
     return _with_lag(replace(shared, relay=(sensor, float(on), float(off))), tau)
 
