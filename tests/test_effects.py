@@ -251,6 +251,22 @@ def test_the_twins_gear_heat_enters_through_its_lag(machine_name):
     assert abs(extra_lagged[first]) < abs(extra_at_once[first])
 
 
+# sha256 of `thermoplc twin --machine M --hours 24 --seed 7 --effect coolant_switching` written by the code before the
+# cooling had a lag (commit f1d5c67): the cooling at once is that twin, byte for byte
+COOLANT_TWIN_BEFORE_THE_LAG = {"cascade": "3c965dd5dd51a74b5927e4ee7c5cd3a4c093af2cc23dcd90d61f5c3cf427cd67",
+                               "portal": "a5513575adea33c31560f7fbac20ca6104a21ecf88800ce17b82f47069b16601"}
+
+
+@pytest.mark.parametrize("machine_name", ["cascade", "portal"])
+def test_the_twins_cooling_at_once_is_the_twin_before_the_lag(tmp_path, machine_name):
+    import hashlib
+    from thermoplc.cli import main
+    assert main(["twin", "--machine", machine_name, "--hours", "24", "--seed", "7", "--effect",
+                 "coolant_switching:lag_min=0", "-o", str(tmp_path / "t.csv")]) == 0
+    digest = hashlib.sha256((tmp_path / "t.csv").read_bytes()).hexdigest()
+    assert digest == COOLANT_TWIN_BEFORE_THE_LAG[machine_name]
+
+
 @pytest.mark.parametrize("machine_name", ["cascade", "portal"])
 def test_the_twins_cooling_enters_through_its_lag(machine_name):
     """`--effect coolant_switching:lag_min=M`: the relay's cooling reaches the machine through a lag of M minutes
