@@ -3,9 +3,9 @@ model file has the cooling's lag (ACl/BCl), through LC, the relay state lagged f
 simulated temperature of its sensor with hysteresis, used from the next call."""
 from __future__ import annotations
 
-from thermoplc.generator.ir import Assign, BinOp, BoolConst, Const, If, Ref, Region, Var
+from thermoplc.generator.ir import Assign, BinOp, BoolConst, If, Ref, Region, Var
 from thermoplc.generator.lower_shared import const
-from thermoplc.generator.lumped_effects.lowering import EffectLowering, Lumped, State
+from thermoplc.generator.lumped_effects.lowering import EffectLowering, Lumped, State, lag_state
 from thermoplc.models import lumped_model
 
 FLOOR = "c_Cool_Floor"  # contract/constants.structure_name of the lumped kind's `cool_floor`
@@ -18,11 +18,9 @@ def _lagged(block: Lumped) -> bool:
 def lag_state(block: Lumped) -> State:
     if not _lagged(block):
         return State()
-    # from c_Zero, which every block declares (generator/commissioning.py: the Reset starts each state from it)
-    return State(init=(Assign("LC", const("Zero")),),
-                 statics=(Var("LC", "REAL", "share of the coolant's cooling reaching the sensors, lagged, 0..1"),),
-                 constants=(Const(FLOOR, lumped_model.COOL_FLOOR, "a lagged coolant share below this is 0 (before a "
-                                                                  "long time off makes it subnormal)"),))
+    return lag_state("LC", "share of the coolant's cooling reaching the sensors, lagged, 0..1", FLOOR,
+                     lumped_model.COOL_FLOOR, "a lagged coolant share below this is 0 (before a long time off makes it "
+                                              "subnormal)")
 
 
 def heat_lags(block: Lumped) -> tuple:

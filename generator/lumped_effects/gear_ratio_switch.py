@@ -2,9 +2,9 @@
 model file has its lag (AGr/BGr), through LG, the speed above the threshold lagged from 0."""
 from __future__ import annotations
 
-from thermoplc.generator.ir import Assign, BinOp, Call, Const, If, Ref, Var
+from thermoplc.generator.ir import Assign, BinOp, Call, If, Ref
 from thermoplc.generator.lower_shared import const
-from thermoplc.generator.lumped_effects.lowering import EffectLowering, Lumped, State
+from thermoplc.generator.lumped_effects.lowering import EffectLowering, Lumped, State, lag_state
 from thermoplc.models import lumped_model
 
 FLOOR = "c_Gear_Floor"  # contract/constants.structure_name of the lumped kind's `gear_floor`
@@ -17,11 +17,8 @@ def _lagged(block: Lumped) -> bool:
 def state(block: Lumped) -> State:
     if not _lagged(block):
         return State()
-    # from c_Zero, which every block declares (generator/commissioning.py: the Reset starts each state from it)
-    return State(init=(Assign("LG", const("Zero")),),
-                 statics=(Var("LG", "REAL", "speed above the gear threshold, lagged, rpm"),),
-                 constants=(Const(FLOOR, lumped_model.GEAR_FLOOR_RPM, "a lagged gear speed below this is 0 (before a "
-                                                                      "long stop makes it subnormal), rpm"),))
+    return lag_state("LG", "speed above the gear threshold, lagged, rpm", FLOOR, lumped_model.GEAR_FLOOR_RPM,
+                     "a lagged gear speed below this is 0 (before a long stop makes it subnormal), rpm")
 
 
 def heat_lags(block: Lumped) -> tuple:

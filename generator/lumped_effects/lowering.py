@@ -68,3 +68,11 @@ class EffectLowering:
 def lag(state: str, decay: str, drive: str, source) -> Assign:
     """state := c_decay * state + c_drive * source: one first-order lag step, as the reference rounds it."""
     return Assign(state, BinOp("+", BinOp("*", const(decay), Ref(state)), BinOp("*", const(drive), source)))
+
+
+def lag_state(name: str, comment: str, floor: str, floor_value: float, floor_comment: str) -> State:
+    """An effect's own lag as block state: REAL `name` from c_Zero (which every block declares; the Reset starts
+    each state from it) and the floor below which it is set to 0 before a long decay makes it subnormal."""
+    return State(init=(Assign(name, const("Zero")),), statics=(Var(name, "REAL", comment),),
+                 constants=(Const(floor, floor_value, floor_comment),))
+
