@@ -15,7 +15,7 @@ def _lagged(block: Lumped) -> bool:
     return "ACl" in block.model.coefficients
 
 
-def lag_state(block: Lumped) -> State:
+def cooling_lag(block: Lumped) -> State:
     if not _lagged(block):
         return State()
     return lag_state("LC", "share of the coolant's cooling reaching the sensors, lagged, 0..1", FLOOR,
@@ -56,5 +56,5 @@ COMMENTS = (
     ("BCl", "1 - ACl"),
 )
 
-LOWERING = EffectLowering("coolant_switching", comments=COMMENTS, shared_state=lag_state, heat_lags=heat_lags,
+LOWERING = EffectLowering("coolant_switching", comments=COMMENTS, shared_state=cooling_lag, heat_lags=heat_lags,
                           heat=heat, closing_state=relay_state, closing=relay)
