@@ -25,19 +25,22 @@ from typing import Callable
 
 from thermoplc.base.errors import UserError
 from thermoplc.diagnosis.command import DiagnoseRequest, run as _diagnose
-from thermoplc.fitting import fit as _fitting
+from thermoplc.fit_pipeline import FitPlan, fit as _fit
 from thermoplc.fitting.fit import FitRequest
 from thermoplc.generator.ir import Identity
 from thermoplc.fitting.options_read import refuse_roles_not_read, refuse_settings_not_read
 from thermoplc.models.modelfile import Model, load_model
 from thermoplc.models.safety import Limits
 from thermoplc.recordings.reading import Reading
+from thermoplc.recordings.campaign import onto_calls
+from thermoplc.recordings.resample import Resampling
 from thermoplc.recordings.table import Table, read_table
 from thermoplc.pipeline import Bench, Generated, generate as _generate, testbench as _testbench
 from thermoplc.verifier.diff import BlockDiff, diff_blocks
 from thermoplc.verifier.replay import Report, verify_against_model
 
-__all__ = ["FitRequest", "fit", "generate", "verify", "testbench", "diff", "diagnose", "DiagnoseRequest", "Generated",
+__all__ = ["FitRequest", "FitPlan", "Resampling", "fit", "generate", "verify", "testbench", "diff", "diagnose",
+           "DiagnoseRequest", "Generated",
            "Bench", "Limits", "Model", "load_model", "read_table", "Reading", "Table", "Report", "BlockDiff"]
 
 
@@ -51,10 +54,12 @@ PATH = (str, os.PathLike)
 
 
 def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
-        progress: Callable[[str], None] | None = None) -> Model:
-    """Fit `request.kind` on the training part of each run (one Table per run, each from its first row, as a
-    freshly started block). An option or a column role the kind does not read is refused, as `thermoplc fit`
-    refuses it."""
+        progress: Callable[[str], None] | None = None, plan: FitPlan | None = None) -> Model:
+    """The model `thermoplc fit` writes, byte for byte: `request.kind` (or "auto") fitted on the training part of
+    each run (one Table per run as read_table reads it, each from its first row, as a freshly started block), with
+    its held-out evidence and what `plan` adds (thermoplc.fit_pipeline.FitPlan: folds, groups, probe fusion, a
+    held target, resampling, which takes each table onto the block's cycle first). An option or a column role the
+    kind does not read is refused, as `thermoplc fit` refuses it."""
     if isinstance(tables, Table):
         raise UserError("tables: expected a list of tables, one per run, found one Table: give [table]")
     _expect(tables, (list, tuple), "tables", "a list of tables, one per run")
@@ -64,11 +69,16 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
         raise UserError("tables: an empty list; expected one table per run")
     _expect(request, FitRequest, "request", "a FitRequest")
     _expect(time_column, str, "time_column", "a column name")
+    _expect(plan, (FitPlan, type(None)), "plan", "a FitPlan or None")
+    plan = plan or FitPlan()
     for table in tables:
         table.column(time_column)  # a missing time column named with the file and its header
     refuse_settings_not_read(request)
-    refuse_roles_not_read(request)
-    return _fitting.fit(list(tables), request, time_column, progress)
+    refuse_roles_not_read(request, "--resample" if plan.resampling else
+                          "--folds" if plan.folds and len(tables) == 1 else None)  # what reads the speed besides
+    targets = (request.target, *request.extra_targets)
+    tables = [onto_calls(table, time_column, plan.resampling, targets, plan.held_target) for table in tables]
+    return _fit(tables, request, time_column, plan, progress).model
 
 
 @functools.wraps(_generate)

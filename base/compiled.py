@@ -1,10 +1,10 @@
 """The switch between compiled (numba) and pure numpy/Python loops, and numba loaded on first use.
 
-Every floor has loops written twice, once for numba: the CSV parser (recordings/plain_csv), the
-simulation's lags (physics/) and the references' per-call loops (models/kernels.py). They all
-compile with the same house options (fast-math off) and obey one switch: THERMOPLC_REFERENCE
-(auto | fast | slow) or `reference()`; `enabled()` decides per request, so a short verify never
-loads numba. Both routes give the same bits (tests/test_fast_reference.py)."""
+The references' per-call loops (each kind's, models/kernels.py's) are written once, as Python numba can compile
+(`jit`), and run compiled or as Python (`route`); the CSV parser (recordings/plain_csv) and the simulation's lags
+(physics/) keep a numpy route beside their numba one. They all compile with the same house options (fast-math off)
+and obey one switch: THERMOPLC_REFERENCE (auto | fast | slow) or `reference()`; `enabled()` decides per request, so
+a short verify never loads numba. Both routes give the same bits (tests/test_fast_reference.py)."""
 from __future__ import annotations
 
 import contextlib
@@ -56,6 +56,12 @@ def enabled(calls: int = COMPILED_AFTER_CALLS) -> bool:
         return False
     _asked += calls
     return (_mode == "fast" or _asked >= COMPILED_AFTER_CALLS) and _load_numba() is not None
+
+
+def route(loop, calls: int):
+    """`loop` (a `jit` function) compiled when `enabled(calls)`, else as the Python it was written in: one source,
+    two ways to run it, the same bits."""
+    return loop if enabled(calls) else getattr(loop, "py_func", loop)
 
 
 @contextlib.contextmanager

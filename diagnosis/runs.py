@@ -66,8 +66,7 @@ class DiagnoseRequest:
     @property
     def resampling(self) -> Resampling | None:
         """The rule the augmented model file records (recordings/resample.py): the speed and feed held."""
-        held = (self.speed, *([self.feed] if self.feed else ()))
-        return Resampling(self.resample_s, held) if self.resample_s else None
+        return Resampling.holding(self.resample_s, (self.speed, self.feed))
 
 
 def request_problem(request: DiagnoseRequest) -> str | None:

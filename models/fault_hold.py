@@ -33,9 +33,8 @@ def apply(values: np.ndarray, any_fault: np.ndarray, bound: float, fade: float, 
     values = np.ascontiguousarray(values, f)
     state = np.zeros(3, f) if state is None else state
     out = np.empty(len(values), f)
-    loop = _apply if compiled.enabled(len(values)) else getattr(_apply, "py_func", _apply)
-    loop(values, np.ascontiguousarray(any_fault, np.bool_), f(bound), f(fade), f(REAL_TEXT_MAX), f(FADE_FLOOR), f(0),
-         state, out)
+    compiled.route(_apply, len(values))(values, np.ascontiguousarray(any_fault, np.bool_), f(bound), f(fade),
+                                        f(REAL_TEXT_MAX), f(FADE_FLOOR), f(0), state, out)
     return out
 
 

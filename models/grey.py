@@ -292,19 +292,7 @@ def predict_gm0n(model: Model, inputs: dict, precision: str) -> dict:
     b = [f(model.coef(f"b_{i}", precision)) for i in range(1, len(temps) + 1)]
     b0 = unit_coefficient(model, precision, f)
     rises = bool(model.settings.get("rises"))
-    if compiled.enabled(len(temps[0]) if temps else 0):  # the same loop, compiled (below)
-        return {model.target.name: gm0n_loop(temps, x1, b, f, rises=rises, b0=b0)}
-    xs = [x - x[0] for x in temps] if rises else temps
-    out = np.empty(len(temps[0]), f)
-    for k in range(len(out)):
-        if k == 0:
-            out[k] = x1
-            continue
-        level = b[0] * xs[0][k] if b0 is None else b0 + b[0] * xs[0][k]
-        for i in range(1, len(xs)):
-            level = level + b[i] * xs[i][k]
-        out[k] = level
-    return {model.target.name: out}
+    return {model.target.name: gm0n_loop(temps, x1, b, f, rises=rises, b0=b0)}
 
 
 def unit_coefficient(model: Model, precision: str, f):
@@ -327,28 +315,7 @@ def predict_gm1n(model: Model, inputs: dict, precision: str) -> dict:
     x1, keep, gain = c("X1"), c("Keep"), c("In")
     b0 = unit_coefficient(model, precision, f)
     rises = bool(model.settings.get("rises"))
-    if compiled.enabled(len(temps[0]) if temps else 0):  # the same loop, compiled (below)
-        return {model.target.name: gm1n_loop(temps, x1, keep, gain, b, f, rises=rises, b0=b0)}
-    xs = [x - x[0] for x in temps] if rises else temps
-    out = np.empty(len(temps[0]), f)
-    previous = f(0.0)
-    for k in range(len(out)):
-        if k == 0:
-            level = x1
-        elif k == 1:  # the rises are 0 at the first call: x_i(1) + x_i(2) is x_i(2) itself
-            start = (lambda i: xs[i][1]) if rises else (lambda i: xs[i][0] + xs[i][1])
-            forced = b[0] * start(0) if b0 is None else (b0 + b0) + b[0] * start(0)  # the unit sequence's sum is 2
-            for i in range(1, len(xs)):
-                forced = forced + b[i] * start(i)
-            level = (keep * previous + gain * forced) - x1
-        else:
-            forced = b[0] * xs[0][k] if b0 is None else b0 + b[0] * xs[0][k]
-            for i in range(1, len(xs)):
-                forced = forced + b[i] * xs[i][k]
-            level = keep * previous + gain * forced
-        out[k] = level
-        previous = level
-    return {model.target.name: out}
+    return {model.target.name: gm1n_loop(temps, x1, keep, gain, b, f, rises=rises, b0=b0)}
 
 
 class StreamCore:
@@ -373,8 +340,8 @@ class StreamCore:
         return {self.target: out}
 
 
-# The same loop compiled (base/compiled.py; the rules that keep its bits in models/kernels.py).
-# Grey models (models/grey.py::predict_gm0n, predict_gm1n). temps: (k, rows).
+# The references' one loop per kind, compiled or run as Python (base/compiled.py; the rules that keep its bits in
+# models/kernels.py). temps: (k, rows).
 
 @compiled.jit
 def _gm0n(temps, x1, b, b0, unit, rises, first, started, out):
@@ -435,24 +402,25 @@ class GreyState:
 
 def gm0n_loop(temps: list, x1, b: list, f, state: GreyState | None = None, rises: bool = False,
               b0=None) -> np.ndarray:
-    """GM(0,N) error estimates of `temps` (one array per sensor) by the compiled loop, bit for bit
-    those of grey.predict_gm0n; `state` carries the first temperatures from chunk to chunk."""
+    """GM(0,N) error estimates of `temps` (one array per sensor); `state` carries the first temperatures from chunk
+    to chunk."""
     state = state or GreyState(len(temps), f)
     stacked = np.array(temps, f).reshape(len(temps), -1)
     out = np.empty(stacked.shape[1], f)
-    _gm0n(stacked, f(x1), np.array(b, f), f(0.0 if b0 is None else b0), b0 is not None, rises, state.first, state.started, out)
+    compiled.route(_gm0n, len(out))(stacked, f(x1), np.array(b, f), f(0.0 if b0 is None else b0), b0 is not None,
+                                    rises, state.first, state.started, out)
     return out
 
 
 def gm1n_loop(temps: list, x1, keep, gain, b: list, f, state: GreyState | None = None, rises: bool = False,
               b0=None) -> np.ndarray:
-    """GM(1,N) error estimates of `temps` (one array per sensor) by the compiled loop, bit for bit
-    those of grey.predict_gm1n; `state` carries the first temperatures and the last estimate."""
+    """GM(1,N) error estimates of `temps` (one array per sensor); `state` carries the first temperatures and the last
+    estimate."""
     state = state or GreyState(len(temps), f)
     stacked = np.array(temps, f).reshape(len(temps), -1)
     out = np.empty(stacked.shape[1], f)
-    _gm1n(stacked, f(x1), f(keep), f(gain), np.array(b, f), f(0.0 if b0 is None else b0), b0 is not None, rises, state.first,
-          state.prev, state.started, out)
+    compiled.route(_gm1n, len(out))(stacked, f(x1), f(keep), f(gain), np.array(b, f), f(0.0 if b0 is None else b0),
+                                    b0 is not None, rises, state.first, state.prev, state.started, out)
     return out
 
 

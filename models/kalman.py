@@ -10,6 +10,7 @@ then E = beta0 + sum_i beta_i*(TF_i - T0_i) with T0_i the measured temperature a
 """
 from __future__ import annotations
 
+from collections import namedtuple
 from dataclasses import dataclass, fields
 from typing import Callable
 
@@ -30,6 +31,7 @@ def differential_evolution(*args, **kwargs):  # scipy on first use: verify never
 
 
 SENSOR_COEFFICIENTS = ("A", "AA", "B", "C", "D", "N", "R", "P0", "Jmp", "Agr")
+Sensors = namedtuple("Sensors", SENSOR_COEFFICIENTS)  # each a coefficient of every sensor, element i for sensor i+1
 
 
 @dataclass(frozen=True)
@@ -44,77 +46,32 @@ class FitOptions:
 
 
 def predict(model: Model, inputs: dict, precision: str, valid: dict | None = None) -> dict:
-    """Reference in binary32 ('f32', numpy float32 scalars) or float64 ('f64'), in the block's order.
+    """Reference in binary32 ('f32') or float64 ('f64'), in the block's order: `_kalman` below.
 
     valid maps a temperature input to a per-call flag 'reading in range'; a reading out of range
     marks the sensor faulty without touching the jump memory (the block's input guard decides it).
     """
     f = np.float32 if precision == "f32" else np.float64
     temps = model.signals("temperature")
-    te = np.asarray(inputs[model.signals("ambient")[0].name], f)
     n = np.asarray(inputs[model.signals("speed")[0].name], f)
     rows = len(n)
-    coef = lambda name: f(model.coef(name, precision))  # a missing one: UserError naming it
-    k = len(temps)
-    sensor = [{c: coef(f"{c}_{i}") for c in SENSOR_COEFFICIENTS} for i in range(1, k + 1)]
-    betas = [coef(f"beta_{i}") for i in range(1, k + 1)]
-    beta0 = coef("beta0")
-    measured = [np.asarray(inputs[s.name], f) for s in temps]
-    tf = [m[0] for m in measured]
-    t0 = list(tf)
-    tm_prev = list(tf)
-    pf = [s["P0"] for s in sensor]
-    fault = [False] * k
-    error = np.empty(rows, f)
-    faults = np.zeros((k, rows), bool)
     in_range = [np.ones(rows, bool) if valid is None or s.name not in valid else np.asarray(valid[s.name], bool)
                 for s in temps]
-    if compiled.enabled(rows):  # the same loop, compiled (below)
-        error, faults = kalman_loop(te, n, measured, in_range, *kernel_coefficients(model, precision), f)
-        out = {model.target.name: error}
-        out.update({fault_key(s.name): faults[i] for i, s in enumerate(temps)})
-        return out
-    for j in range(rows):
-        for i, s in enumerate(sensor):
-            tm = measured[i][j]
-            tp = s["A"] * tf[i] + s["B"] * te[j] + s["C"] * n[j] + s["D"]
-            pp = s["AA"] * pf[i] + s["N"]
-            if not in_range[i][j]:
-                fault[i] = True
-                tf[i], pf[i] = tp, pp
-                faults[i, j] = True
-                continue
-            jump = abs(tm - tm_prev[i])
-            tm_prev[i] = tm
-            if not jump <= s["Jmp"]:
-                fault[i] = True
-            elif abs(tm - tp) <= s["Agr"]:
-                fault[i] = False
-            if fault[i]:
-                tf[i], pf[i] = tp, pp
-            else:
-                gain = pp / (pp + s["R"])
-                tf[i] = tp + gain * (tm - tp)
-                pf[i] = pp - gain * pp
-            faults[i, j] = fault[i]
-        e = beta0
-        for i in range(k):
-            e = e + betas[i] * (tf[i] - t0[i])
-        error[j] = e
-    out = {model.target.name: error}
-    for i, s in enumerate(temps):
-        out[fault_key(s.name)] = faults[i]
-    return out
+    error, faults = kalman_loop(inputs[model.signals("ambient")[0].name], n,
+                                [np.asarray(inputs[s.name], f) for s in temps], in_range,
+                                *kernel_coefficients(model, precision), f)
+    return {model.target.name: error, **{fault_key(s.name): faults[i] for i, s in enumerate(temps)}}
 
 
 def kernel_coefficients(model: Model, precision: str) -> tuple:
-    """(sc, betas, beta0) for kalman_loop: sc[i] holds SENSOR_COEFFICIENTS of sensor i+1."""
+    """(sensors, betas, beta0) for kalman_loop: each of SENSOR_COEFFICIENTS by name, element i for sensor i+1 (a
+    missing one: UserError naming it)."""
     f = np.float32 if precision == "f32" else np.float64
     k = len(model.signals("temperature"))
-    sc = np.array([[model.coef(f"{c}_{i}", precision) for c in SENSOR_COEFFICIENTS] for i in range(1, k + 1)],
-                  f).reshape(k, len(SENSOR_COEFFICIENTS))
+    sensors = Sensors(*(np.array([model.coef(f"{c}_{i}", precision) for i in range(1, k + 1)], f)
+                        for c in SENSOR_COEFFICIENTS))
     betas = np.array([model.coef(f"beta_{i}", precision) for i in range(1, k + 1)], f)
-    return sc, betas, f(model.coef("beta0", precision))
+    return sensors, betas, f(model.coef("beta0", precision))
 
 
 def _rms(residual: np.ndarray) -> np.ndarray:
@@ -289,27 +246,27 @@ class StreamCore:
         return out
 
 
-# The same loop compiled (base/compiled.py; the rules that keep its bits in models/kernels.py).
-# Kalman fusion (models/kalman_loop.py::predict). sc[i] = A, AA, B, C, D, N, R, P0, Jmp, Agr of sensor i.
-# state: tf, pf, t0, tm_prev (float, per sensor); fault (bool, per sensor); started[0] (int).
+# The reference's one loop, compiled or run as Python (base/compiled.py; the rules that keep its bits in
+# models/kernels.py). state: tf, pf, t0, tm_prev (float, per sensor); fault (bool, per sensor); started[0] (int).
 
 @compiled.jit
-def _kalman(te, n, measured, in_range, sc, betas, beta0, tf, pf, t0, tm_prev, fault, started, error, faults):
+def _kalman(te, n, measured, in_range, sensors, betas, beta0, tf, pf, t0, tm_prev, fault, started, error, faults):
     k = measured.shape[0]
     rows = te.shape[0]
+    s = sensors
     for j in range(rows):
         if started[0] == 0:
             for i in range(k):
                 tf[i] = measured[i, j]
                 t0[i] = measured[i, j]
                 tm_prev[i] = measured[i, j]
-                pf[i] = sc[i, 7]
+                pf[i] = s.P0[i]
                 fault[i] = False
             started[0] = 1
         for i in range(k):
             tm = measured[i, j]
-            tp = sc[i, 0] * tf[i] + sc[i, 2] * te[j] + sc[i, 3] * n[j] + sc[i, 4]
-            pp = sc[i, 1] * pf[i] + sc[i, 5]
+            tp = s.A[i] * tf[i] + s.B[i] * te[j] + s.C[i] * n[j] + s.D[i]
+            pp = s.AA[i] * pf[i] + s.N[i]
             if not in_range[i, j]:
                 fault[i] = True
                 tf[i] = tp
@@ -318,15 +275,15 @@ def _kalman(te, n, measured, in_range, sc, betas, beta0, tf, pf, t0, tm_prev, fa
                 continue
             jump = abs(tm - tm_prev[i])
             tm_prev[i] = tm
-            if not jump <= sc[i, 8]:
+            if not jump <= s.Jmp[i]:
                 fault[i] = True
-            elif abs(tm - tp) <= sc[i, 9]:
+            elif abs(tm - tp) <= s.Agr[i]:
                 fault[i] = False
             if fault[i]:
                 tf[i] = tp
                 pf[i] = pp
             else:
-                gain = pp / (pp + sc[i, 6])
+                gain = pp / (pp + s.R[i])
                 tf[i] = tp + gain * (tm - tp)
                 pf[i] = pp - gain * pp
             faults[i, j] = fault[i]
@@ -346,7 +303,7 @@ class KalmanState:
         self.started = np.zeros(1, np.int64)
 
 
-def kalman_loop(te, n, measured: list, in_range: list, sc: np.ndarray, betas: np.ndarray, beta0, f,
+def kalman_loop(te, n, measured: list, in_range: list, sensors: Sensors, betas: np.ndarray, beta0, f,
                 state: KalmanState | None = None):
     """(error, faults (k, rows)) for these calls; state carries over when given."""
     rows = len(te)
@@ -360,9 +317,10 @@ def kalman_loop(te, n, measured: list, in_range: list, sc: np.ndarray, betas: np
     ranges = np.empty((k, rows), np.bool_)
     for i, r in enumerate(in_range):
         ranges[i] = r
-    _kalman(np.ascontiguousarray(te, f), np.ascontiguousarray(n, f), stacked, ranges, np.ascontiguousarray(sc, f),
-            np.ascontiguousarray(betas, f), f(beta0), state.tf, state.pf, state.t0, state.tm_prev, state.fault,
-            state.started, error, faults)
+    compiled.route(_kalman, rows)(
+        np.ascontiguousarray(te, f), np.ascontiguousarray(n, f), stacked, ranges,
+        Sensors(*(np.ascontiguousarray(x, f) for x in sensors)), np.ascontiguousarray(betas, f), f(beta0), state.tf,
+        state.pf, state.t0, state.tm_prev, state.fault, state.started, error, faults)
     return error, faults
 
 

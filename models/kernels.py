@@ -1,12 +1,12 @@
-"""Compiled per-call loops of the float32/float64 references (the fast route, issue 17): here the safety
-logic's (the input guard of safety._hold and the limiter of safety.guarded_predict); each kind's own loop sits
-in its module beside the numpy loop it repeats (kalman.kalman_loop, grey.gm0n_loop and gm1n_loop,
-lumped_kernel.lumped_loop). All are written once more for numba, in the same operation order, and compiled by
-LLVM with fast-math off (no FMA contraction, no reassociation, IEEE division and NaN semantics). They never
-see the emitted ST: the proof still compares two independent computations (the model's loops, the block's
-own ST -> C translation in verifier/native.py).
+"""The per-call loops of the float32/float64 references: here the safety logic's (the stuck-reading count, the
+input guard of safety._hold and the limiter of safety.guarded_predict); each kind's own loop sits in its module
+(kalman._kalman, grey._gm0n and _gm1n, lumped_kernel._lumped). Each is written once: numba compiles it with
+fast-math off (no FMA contraction, no reassociation, IEEE division and NaN semantics), or it runs as Python on
+numpy scalars, as base/compiled.py's `route` decides; both give the same bits (tests/test_fast_reference.py).
+They never see the emitted ST: the proof still compares two independent computations (the model's loop, the
+block's own ST -> C translation in verifier/native.py).
 
-Rules that keep every value bit-identical to the numpy scalar loops:
+Rules that keep every value bit-identical whichever way the loop runs:
 - every array and every scalar argument has the precision's dtype (float32 or float64), so
   numba types each operation in that precision: float32 * float32 -> float32, rounded per
   operation as numpy float32 scalars are;
@@ -14,14 +14,14 @@ Rules that keep every value bit-identical to the numpy scalar loops:
 - state lives in small arrays the caller passes in, so a recording can be run chunk by chunk
   with the same result as in one piece.
 
-The pure numpy/Python loops stay: they are the oracle in the tests and the path taken when
-numba is missing, THERMOPLC_REFERENCE=slow, or a process has asked for few calls: base/compiled.py's
-`enabled()` decides.
+They run as Python when numba is missing, under THERMOPLC_REFERENCE=slow, or while a process has asked for few
+calls (base/compiled.py's `enabled()`).
 """
 from __future__ import annotations
 
 import numpy as np
 
+from thermoplc.base import compiled
 from thermoplc.base.compiled import jit
 
 # ---------------------------------------------------------------------------------------------
@@ -52,14 +52,13 @@ class RepeatState:
         self.counts = np.zeros(1, np.int64)  # repeats of it
 
 
-def repeats(x, valid, stuck: int, f, compiled_loop: bool, state: RepeatState | None = None):
+def repeats(x, valid, stuck: int, f, state: RepeatState | None = None):
     """Per call, whether the reading is stuck (`stuck` repeats of the last in-range reading) and that last
-    in-range reading (the block's LastIn_i); `compiled_loop` False runs the same loop as Python (the oracle)."""
+    in-range reading (the block's LastIn_i)."""
     state = state or RepeatState(f)
     out = np.zeros(len(x), np.bool_)
     lasts = np.zeros(len(x), f)
-    loop = _repeats if compiled_loop else getattr(_repeats, "py_func", _repeats)
-    loop(np.ascontiguousarray(x, f), np.ascontiguousarray(valid, np.bool_), np.int64(stuck), state.values,
+    compiled.route(_repeats, len(x))(np.ascontiguousarray(x, f), np.ascontiguousarray(valid, np.bool_), np.int64(stuck), state.values,
          state.counts, out, lasts)
     return out, lasts
 
@@ -121,9 +120,9 @@ def hold(x, valid, stuck, is_range: bool, ready_row: int, settle: int, jump, f, 
     rows = len(x)
     held = np.zeros(rows, f)
     faults = np.zeros(rows, np.bool_)
-    _hold(np.ascontiguousarray(x, f), np.ascontiguousarray(valid, np.bool_), np.ascontiguousarray(stuck, np.bool_),
-          bool(is_range), np.int64(ready_row),
-          np.int64(offset), np.int64(settle), f(jump), state.values, state.flags, held, faults)
+    compiled.route(_hold, rows)(np.ascontiguousarray(x, f), np.ascontiguousarray(valid, np.bool_), np.ascontiguousarray(stuck, np.bool_),
+                                bool(is_range), np.int64(ready_row), np.int64(offset), np.int64(settle), f(jump),
+                                state.values, state.flags, held, faults)
     return held, faults
 
 
@@ -160,6 +159,7 @@ def _limit(m, start, y_state, series, limited, clamped, invalid, real_max, step_
 
 def limit(model_values, start: int, y_state: np.ndarray, series, limited, clamped, invalid, constants: dict, f) -> None:
     """Rows start.. of series from model_values[0..]; flags OR-ed into limited/clamped/invalid."""
-    _limit(np.ascontiguousarray(model_values, f), np.int64(start), y_state, series, limited, clamped, invalid,
-           f(constants["real_max"]), f(constants["step_max"]), f(constants["step_min"]),
-           f(constants["out_max"]), f(constants["out_min"]))
+    compiled.route(_limit, len(series) - start)(
+        np.ascontiguousarray(model_values, f), np.int64(start), y_state, series, limited, clamped, invalid,
+        f(constants["real_max"]), f(constants["step_max"]), f(constants["step_min"]), f(constants["out_max"]),
+        f(constants["out_min"]))

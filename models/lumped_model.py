@@ -26,12 +26,11 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.base import ridge
-from thermoplc.base import compiled
 from thermoplc.physics import primitives
 from thermoplc.physics import identify, simulation as sim_
 from thermoplc.models import decays
 from thermoplc.models.kind import Kind
-from thermoplc.models.lumped_kernel import COOL_FLOOR, GEAR_FLOOR_RPM, LumpedState, lumped_loop
+from thermoplc.models.lumped_kernel import COOL_FLOOR, GEAR_FLOOR_RPM, Flags, LumpedState, lumped_loop
 from thermoplc.models.model import Coefficient, Model
 from thermoplc.physics.fitted import Simulation
 
@@ -192,7 +191,7 @@ def check_fit_log(model: Model, path: str) -> None:
 
 
 def _arrays(model: Model, inputs: dict, precision: str) -> tuple:
-    """The precision's type, the coefficients and the input columns in it: what both loops start from."""
+    """The precision's type, the coefficients and the input columns in it: what the loop starts from."""
     f = np.float32 if precision == "f32" else np.float64
     coef = {name: f(model.coef(name, precision)) for name in model.coefficients}
     temps = [np.asarray(inputs[s.name], f) for s in model.signals("temperature")]
@@ -203,94 +202,18 @@ def _arrays(model: Model, inputs: dict, precision: str) -> tuple:
 
 
 def predict(model: Model, inputs: dict, precision: str) -> dict:
-    """Reference in binary32 ('f32', numpy float32 scalars) or float64 ('f64'), in the block's order."""
-    f, coef, temps, te, n, feed = _arrays(model, inputs, precision)
-    k, rows = len(temps), len(n)
-    gear, cool_on, stop = (has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection"))
-    slow, amb, structure = has(model, "slow_structure"), has(model, "ambient_coupling"), "AS" in coef
-    load, gear_lag, floor = "H_1" in coef, gear and "AGr" in coef, f(GEAR_FLOOR_RPM)
-    cool_lag, cool_floor = cool_on and "ACl" in coef, f(COOL_FLOOR)
-    table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
-    offset = [coef.get(f"O_{i}") for i in range(1, k + 1)]
-    relay_sensor = model.settings.get("relay_sensor", 1) - 1
-    if rows and compiled.enabled(rows):  # the same loop, compiled (models/lumped_kernel.py)
-        return {model.target.name: kernel_arguments(model, inputs, precision)[0]}
-    sim = l_ = m_ = t0 = None
-    la = te0 = lf = lg = lc = None
-    cool = False
-    out = np.empty(rows, f)
-    for j in range(rows):
-        if sim is None:
-            sim = [temps[i][j] - offset[i] if offset[i] is not None else temps[i][j] for i in range(k)]
-            l_, m_, t0 = list(sim), list(sim), list(sim)
-            la, te0, lf, lg, lc = te[j], te[j], f(0.0), f(0.0), f(0.0)
-        s = n[j]
-        if table:
-            index = next((m for m in range(len(table) - 1, 0, -1) if n[j] >= table[m][0]), 0)
-            node, heat, slope = table[index]
-            s = heat + (n[j] - node) * slope
-        if gear_lag:
-            lg = coef["AGr"] * lg + coef["BGr"] * n[j] if n[j] > coef["Gear_rpm"] else coef["AGr"] * lg
-            if abs(lg) < floor:
-                lg = f(0.0)
-        if cool_lag:
-            lc = coef["ACl"] * lc + coef["BCl"] if cool else coef["ACl"] * lc
-            if lc < cool_floor:
-                lc = f(0.0)
-        for i in range(1, k + 1):
-            q = coef[f"G_{i}"] * s
-            if load:
-                q = q + coef[f"H_{i}"]
-            if gear_lag:
-                q = q + coef[f"G2_{i}"] * lg
-            elif gear and n[j] > coef["Gear_rpm"]:
-                q = q + coef[f"G2_{i}"] * n[j]
-            if cool_lag:
-                q = q + coef[f"K_{i}"] * lc
-            elif cool_on and cool:
-                q = q + coef[f"K_{i}"]
-            if stop and n[j] <= coef["Stop_rpm"]:
-                sim[i - 1] = coef[f"As_{i}"] * sim[i - 1] + coef[f"Bs_{i}"] * (q + te[j])
-            else:
-                sim[i - 1] = coef[f"A_{i}"] * sim[i - 1] + coef[f"B_{i}"] * (q + te[j])
-            if f"KF_{i}" in coef:
-                sim[i - 1] = sim[i - 1] + coef[f"KF_{i}"] * (temps[i - 1][j] - sim[i - 1])
-            if structure:
-                l_[i - 1] = coef["AS"] * l_[i - 1] + coef["BS"] * sim[i - 1]
-            if slow:
-                m_[i - 1] = coef["A2"] * m_[i - 1] + coef["B2"] * (l_[i - 1] if structure else sim[i - 1])
-        if amb:
-            la = coef["AAm"] * la + coef["BAm"] * te[j]
-        if feed is not None:
-            lf = coef["AF"] * lf + coef["BF"] * feed[j]
-        e = coef["beta0"]
-        for i in range(1, k + 1):
-            e = e + coef[f"beta_{i}"] * (sim[i - 1] - t0[i - 1])
-            if structure:
-                e = e + coef[f"gamma_{i}"] * (l_[i - 1] - t0[i - 1])
-            if slow:
-                e = e + coef[f"delta_{i}"] * (m_[i - 1] - t0[i - 1])
-        if amb:
-            e = e + coef["alpha"] * (la - te0)
-        if feed is not None:
-            e = e + coef["phi"] * lf
-        out[j] = e
-        if cool_on:
-            t_switch = sim[relay_sensor]
-            if t_switch > coef["CoolOn"]:
-                cool = True
-            elif t_switch < coef["CoolOff"]:
-                cool = False
-    return {model.target.name: out}
+    """Reference in binary32 ('f32') or float64 ('f64'), in the block's order: models/lumped_kernel.py's loop."""
+    return {model.target.name: kernel_arguments(model, inputs, precision)[0]}
 
 
 def kernel_arguments(model: Model, inputs: dict, precision: str, state=None):
-    """(the compiled loop's output, its state) for these calls; predict's setup, for lumped_loop."""
+    """(the reference loop's output, its state) for these calls from `state` (None: from the first call)."""
     f, coef, temps, te, n, feed = _arrays(model, inputs, precision)
-    flags = (*(has(model, e) for e in ("gear_ratio_switch", "coolant_switching", "stop_convection", "slow_structure",
-                                       "ambient_coupling")), "AS" in coef, feed is not None, "H_1" in coef,
-             any(name.startswith("KF_") for name in coef), has(model, "gear_ratio_switch") and "AGr" in coef,
-             has(model, "coolant_switching") and "ACl" in coef)
+    gear, cool = has(model, "gear_ratio_switch"), has(model, "coolant_switching")
+    flags = Flags(gear=gear, cool_on=cool, stop=has(model, "stop_convection"), slow=has(model, "slow_structure"),
+                  amb=has(model, "ambient_coupling"), structure="AS" in coef, feed=feed is not None, load="H_1" in coef,
+                  filtered=any(name.startswith("KF_") for name in coef), gear_lag=gear and "AGr" in coef,
+                  cool_lag=cool and "ACl" in coef)
     table = [(coef[f"node_{m}"], coef[f"heat_{m}"], coef[f"slope_{m}"]) for m in range(1, segments(model) + 1)]
     state = state or LumpedState(len(temps), f)
     out = lumped_loop(temps, te, n, feed, flags, coef, table, model.settings.get("relay_sensor", 1) - 1, f, state)

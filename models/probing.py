@@ -133,12 +133,12 @@ def fuse(fusion: Fusion, static: np.ndarray, value: np.ndarray, new: np.ndarray,
     count = np.zeros(rows, np.int16)
     state = np.zeros(2, f)  # offset, rate
     min_calls = int(fusion.min_calls[0]) if fusion.min_calls is not None else 0
-    loop = _fuse if compiled.enabled(rows) else getattr(_fuse, "py_func", _fuse)
-    loop(np.ascontiguousarray(static, f), np.ascontiguousarray(value, f), np.ascontiguousarray(new, np.bool_),
-         state, c["gain"], c.get("rate_gain", f(0)), c.get("decay", f(1)), c["gate_um"], c["limit_um"],
-         c["offset_max_um"], c.get("rate_max_um", f(0)), fusion.has_rate, fusion.decay is not None, min_calls,
-         c["gate_um"] * f(STUCK_SHARE),
-         out, before, used, refused, suspect, count)
+    compiled.route(_fuse, rows)(
+        np.ascontiguousarray(static, f), np.ascontiguousarray(value, f), np.ascontiguousarray(new, np.bool_),
+        state, c["gain"], c.get("rate_gain", f(0)), c.get("decay", f(1)), c["gate_um"], c["limit_um"],
+        c["offset_max_um"], c.get("rate_max_um", f(0)), fusion.has_rate, fusion.decay is not None, min_calls,
+        c["gate_um"] * f(STUCK_SHARE),
+        out, before, used, refused, suspect, count)
     return {"fused": out, "before": before, USED: used, REFUSED: refused, SUSPECT: suspect, REFUSALS: count}
 
 

@@ -18,7 +18,6 @@ import numpy as np
 
 from thermoplc.base.binary32 import FADE_FLOOR, REAL_TEXT_MAX
 from thermoplc.base.errors import UserError
-from thermoplc.base import compiled
 from thermoplc.models import fault_hold, kernels
 from thermoplc.models.envelope import data_limits, stuck_limit
 from thermoplc.models.kind import fault_key, guard_kind
@@ -173,7 +172,7 @@ def stuck_readings(x: np.ndarray, valid: np.ndarray, limits: Limits, f, state=No
     (never, for a block generated before the check), and that last reading in range (what the cross-sensor check
     reads of a temperature a filter judges itself); `state` carries both from one chunk to the next."""
     stuck = NEVER_STUCK if limits.stuck_calls is None else limits.stuck_calls
-    return kernels.repeats(x, valid, stuck, f, compiled.enabled(len(x)), state)
+    return kernels.repeats(x, valid, stuck, f, state)
 
 
 def limited_outputs(core: dict) -> list[str]:
@@ -191,36 +190,7 @@ def axis_outputs(model: Model, names: list[str]) -> list[str]:
 def _hold(x: np.ndarray, valid: np.ndarray, stuck: np.ndarray, guard: Guard, ready_row: int, limits: Limits, f):
     """Last good value and fault flag per call, as the guard region computes them; `stuck`: per call, whether the
     reading is stuck (stuck_readings)."""
-    if compiled.enabled(len(x)):  # the same loop, compiled (models/kernels.py)
-        return kernels.hold(x, valid, stuck, guard.kind == "range", ready_row, limits.settle_calls,
-                            limits.max_jump_K, f)
-    rows = len(x)
-    held = np.zeros(rows, f)
-    faults = np.zeros(rows, bool)
-    fault, count, last, good = False, 0, f(0), f(0)
-    jump = f(limits.max_jump_K)
-    for j in range(rows):
-        ok = bool(valid[j])
-        if guard.kind == "range":
-            fault = not ok
-        elif j <= ready_row:
-            fault, count = not ok, 0
-        elif not ok:
-            fault, count = True, 0
-        elif not abs(x[j] - last) <= jump:
-            fault, count = True, 0
-        elif stuck[j]:
-            fault, count = True, 0
-        elif fault:
-            count += 1
-            if count >= limits.settle_calls:  # released: the count restarts, so it never exceeds the limit
-                fault, count = False, 0
-        if ok and guard.kind != "range":
-            last = x[j]
-        if not fault:
-            good = x[j]
-        held[j], faults[j] = good, fault
-    return held, faults
+    return kernels.hold(x, valid, stuck, guard.kind == "range", ready_row, limits.settle_calls, limits.max_jump_K, f)
 
 
 def held_while_faulty(core: dict | None, names: list[str], flags: dict, start: int, limits: Limits, precision: str,
@@ -319,34 +289,11 @@ def guarded_predict(model: Model, inputs: dict, precision: str, limits: Limits, 
     limited = np.zeros(rows, bool)
     clamped = np.zeros(rows, bool)
     invalid = np.zeros(rows, bool)
-    real_max = f(constants["real_max"])
-    step_max, step_min = f(constants["step_max"]), f(constants["step_min"])
-    out_max, out_min = f(constants["out_max"]), f(constants["out_min"])
     for name in names:
         y = f(held.get(name, 0))
         series = np.full(rows, y, f)
-        model_values = core[name] if core is not None else ()
-        if compiled.enabled(rows) and core is not None and np.asarray(model_values).dtype == f:
-            kernels.limit(model_values, ready_row, np.array([y], f), series, limited, clamped, invalid, constants, f)
-            out[name] = series
-            continue
-        for j in range(ready_row, rows):
-            m = model_values[j - ready_row]
-            if not abs(m) <= real_max:  # NaN or Inf: hold the last output
-                invalid[j] = True
-            else:
-                delta = m - y
-                if delta > step_max:
-                    y, limited[j] = y + step_max, True
-                elif delta < step_min:
-                    y, limited[j] = y + step_min, True
-                else:
-                    y = m
-            if y > out_max:
-                y, clamped[j] = out_max, True
-            elif y < out_min:
-                y, clamped[j] = out_min, True
-            series[j] = y
+        if core is not None:
+            kernels.limit(core[name], ready_row, np.array([y], f), series, limited, clamped, invalid, constants, f)
         out[name] = series
     for k, name in enumerate(axis_outputs(model, names), start=1):
         k0 = np.full(rows, held.get(k0_key(k), 0), f)

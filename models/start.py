@@ -73,9 +73,9 @@ def apply(start: Start, model_values: np.ndarray, precision: str, state: np.ndar
     values = np.ascontiguousarray(model_values, f)
     state = np.zeros(2, f) if state is None else state
     out = np.empty(len(values), f)
-    loop = _apply if compiled.enabled(len(values)) else getattr(_apply, "py_func", _apply)
-    loop(values, f(start.value("drift_um", precision)), f(start.value("decay", precision)), f(REAL_TEXT_MAX),
-         f(FADE_FLOOR), f(0), state, out)
+    compiled.route(_apply, len(values))(values, f(start.value("drift_um", precision)),
+                                        f(start.value("decay", precision)), f(REAL_TEXT_MAX), f(FADE_FLOOR), f(0),
+                                        state, out)
     return out
 
 

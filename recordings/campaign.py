@@ -233,22 +233,30 @@ def read_campaign(runs: RunList, time_column: str, reading: Reading = Reading(),
     read = []
     for k, (path, values) in enumerate(zip(runs.paths, runs.attributes)):
         try:
-            table = read_table(path, time_column, progress, reading, sparse=probed)
-            if resampling is not None:
-                raw_rows, table = table.rows, resample(table, time_column, resampling, tuple(probed), held)
-                if table.rows < MIN_CALLS:
-                    raise UserError(f"{path}: --resample {resampling.period_s:g} takes its {raw_rows} rows onto "
-                                    f"{table.rows} calls; at least {MIN_CALLS} are needed: give a shorter cycle")
+            table = onto_calls(read_table(path, time_column, progress, reading, sparse=probed), time_column,
+                               resampling, probed, held)
         except UserError as exc:
             relative = (f" (a runs table names its files relative to its own folder, "
                         f"{Path(runs.table).parent}/)" if runs.table and not is_url(runs.table)
                         and not is_url(path) and not Path(path).exists() else "")
             raise UserError(f"{runs.where(k)}{exc}{relative}") from None
-        for column in probed if held else ():
-            if column in table.columns:
-                table = held_to_probed(table, column)
         read.append(Run(table, values))
     return Campaign(tuple(read), runs.names)
+
+
+def onto_calls(table: Table, time_column: str, resampling: Resampling | None = None, probed: tuple[str, ...] = (),
+               held: bool = False) -> Table:
+    """A run as read becomes the block's calls: with `resampling` taken onto the block's cycle
+    (recordings/resample.py); a `held` probed column as its measurements only (held_to_probed)."""
+    if resampling is not None:
+        raw_rows, table = table.rows, resample(table, time_column, resampling, tuple(probed), held)
+        if table.rows < MIN_CALLS:
+            raise UserError(f"{table.path}: --resample {resampling.period_s:g} takes its {raw_rows} rows onto "
+                            f"{table.rows} calls; at least {MIN_CALLS} are needed: give a shorter cycle")
+    for column in probed if held else ():
+        if column in table.columns:
+            table = held_to_probed(table, column)
+    return table
 
 
 def run_labels(paths: list[str]) -> list[str]:

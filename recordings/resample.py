@@ -43,6 +43,12 @@ class Resampling:
         return {"period_s": self.period_s, "hold": list(self.hold), "rule": RULE}
 
     @classmethod
+    def holding(cls, period_s: float | None, held: tuple[str | None, ...]) -> "Resampling | None":
+        """The rule fit, verify and diagnose take a raw recording onto a cycle of `period_s` by (None: none): the
+        columns of `held` that are given (speed, feed: a set point holds until it changes) hold their last value."""
+        return cls(period_s, tuple(column for column in held if column)) if period_s else None
+
+    @classmethod
     def from_doc(cls, doc: dict) -> "Resampling":
         return cls(float(doc["period_s"]), tuple(doc.get("hold", ())))
 

@@ -32,7 +32,7 @@ def resampling_for(model: Model, period_s: float | None) -> Resampling | None:
     if abs(period_s - model.sample_period_s) > 1e-9 * model.sample_period_s:
         raise UserError(f"--resample {period_s:g}: the block runs every {model.sample_period_s:g} s (sample_period_s of "
                         f"the model file); give --resample {model.sample_period_s:g}")
-    return model.resample or Resampling(period_s, tuple(s.column for s in model.signals("speed")))
+    return model.resample or Resampling.holding(period_s, tuple(s.column for s in model.signals("speed")))
 
 
 def read_recording(path: str, model: Model, progress=None, reading: Reading | None = None,

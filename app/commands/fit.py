@@ -4,7 +4,6 @@ from __future__ import annotations
 import argparse
 import shlex
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 from thermoplc.base.errors import UserError
@@ -168,7 +167,7 @@ def _refuse_nothing_held_out(args: argparse.Namespace, table) -> None:
 def resampling_of(args: argparse.Namespace):
     """--resample as the rule the model file records: the speed column held at its last value."""
     from thermoplc.recordings.resample import Resampling
-    return Resampling(args.resample, (args.speed,) if args.speed else ()) if args.resample else None
+    return Resampling.holding(args.resample, (args.speed,))
 
 
 def _remote(args: argparse.Namespace, campaign, runs):
@@ -184,16 +183,14 @@ def _remote(args: argparse.Namespace, campaign, runs):
 
 
 def run(args: argparse.Namespace) -> int:
-    from thermoplc.commands.fit_auto import fit_auto
-    from thermoplc.fitting.auto import Probing
+    from thermoplc.commands.fit_auto import print_ranking
+    from thermoplc.fit_pipeline import FitPlan, fit
     from thermoplc.commands.fit_summary import fit_document, format_fit
     from thermoplc.fitting.acceptance import refusal
-    from thermoplc.fitting.crossval import fit_held_out
     from thermoplc.fitting.fit import FitRequest, common_sample_period
     from thermoplc.models.kinds import options
     from thermoplc.recordings.campaign import read_campaign, run_list
     from thermoplc.recordings.table import reading_notes
-    from thermoplc.pipeline import becomes_block
     from thermoplc.commands.fit_report import INDEX, is_report_file, report_files, report_names
     request = FitRequest(kind=args.model, target=args.target[0], temps=args.temps, speed=args.speed,
                          ambient=args.ambient, train_until=args.train_until, train_rows=args.train_rows,
@@ -228,24 +225,17 @@ def run(args: argparse.Namespace) -> int:
     refuse_columns_not_read(args, request, tables)
     if len(tables) == 1 and not (args.folds or args.group_by):
         _refuse_nothing_held_out(args, tables[0])
-    predictions: dict = {}  # each run's held-out prediction: the report draws it, the probe fusion is chosen on it
     remote = _remote(args, campaign, runs)
+    plan = FitPlan(args.folds, groups, args.probe, every, args.probe_gate_um, args.held_target, resampling_of(args))
     try:
-        if args.model == "auto":
-            probing = Probing(every, args.held_target, args.probe_gate_um) if args.probe else None
-            model = fit_auto(tables, request, args.folds, args.time, progress(), groups, remote, probing)
-        else:
-            model = fit_held_out(tables, request, args.folds, args.time, progress(), groups, predictions, remote)
+        fitted = fit(tables, request, args.time, plan, progress(), remote, args.output)
     finally:
         if remote is not None:
             remote.cluster.close()
     end_progress()
-    if args.probe and args.model != "auto":  # auto fused every candidate it ranked
-        from thermoplc.fitting.probe_fit import fit_probe
-        model = fit_probe(model, tables, predictions, every, args.held_target, args.probe_gate_um)
-    if args.resample:
-        model = replace(model, resample=resampling_of(args))
-    becomes_block(model, args.output)
+    if args.model == "auto":
+        print_ranking(fitted, request, plan.probing, len(tables) > 1 or groups is not None)
+    model, predictions = fitted.model, fitted.predictions
     document = fit_document(model, args.output)
     command = " ".join(shlex.quote(a) for a in ("thermoplc", *sys.argv[1:]))
     refused = refusal(model)
