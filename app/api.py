@@ -29,7 +29,8 @@ from thermoplc.fit_pipeline import FitPlan, fit as _fit
 from thermoplc.fitting.fit import FitRequest
 from thermoplc.generator.ir import Identity
 from thermoplc.fitting.options_read import refuse_roles_not_read, refuse_settings_not_read
-from thermoplc.models.modelfile import Model, load_model
+from thermoplc.models.modelfile import load_model
+from thermoplc.models.model import Model
 from thermoplc.models.safety import Limits
 from thermoplc.recordings.reading import Reading
 from thermoplc.recordings.campaign import onto_calls

@@ -15,7 +15,7 @@ from thermoplc.fitting.fit import FitRequest
 from thermoplc.fitting.probe_fit import fit_probe
 from thermoplc.generator.lower import lower_model
 from thermoplc.generator.stats import block_stats
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.pipeline import becomes_block
 from thermoplc.recordings.resample import Resampling
 from thermoplc.recordings.table import Table

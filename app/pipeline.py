@@ -19,7 +19,7 @@ from thermoplc.generator.printer import (DIALECTS, GenerationError, render, rend
                                         validate)
 from thermoplc.generator.ranges import RangeProof
 from thermoplc.fitting.acceptance import problem, quantisation_problem
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.models.safety import Limits
 from thermoplc.contract.outputs import output_unit
 from thermoplc.generator.testbench import (ELEMENT_BYTES, ROWS_PER_CYCLE, BenchPlan, Port, bench_names, chunks,

@@ -13,7 +13,8 @@ from thermoplc.demo import AMBIENT, SPEED, TARGET, TEMPS, recording
 from thermoplc.base.errors import UserError
 from thermoplc.fitting.fit import FitRequest, fit
 from thermoplc.models.kinds import kind_of
-from thermoplc.models.modelfile import Model, load_model
+from thermoplc.models.modelfile import load_model
+from thermoplc.models.model import Model
 from thermoplc.recordings.table import Table, read_table
 
 TRAIN_S = 24 * 3600.0

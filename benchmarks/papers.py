@@ -17,7 +17,7 @@ import numpy as np
 from thermoplc.demo import AMBIENT, SPEED, TEMPS, TARGET, TRAIN_UNTIL_S, recording
 from thermoplc.models import bayes, grey
 from thermoplc.fitting.fit import FitRequest, fit
-from thermoplc.models.modelfile import Coefficient
+from thermoplc.models.model import Coefficient
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.recordings.table import read_table, write_table
 from thermoplc.base.errors import UserError

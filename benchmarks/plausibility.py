@@ -27,7 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from benchmarks.kinds_on_data import TRAIN_S, split_row  # noqa: E402
 from thermoplc.demo import recording  # noqa: E402
 from thermoplc.fitting.plausibility_fit import fit_plausibility  # noqa: E402
-from thermoplc.models.modelfile import Model, Signal  # noqa: E402
+from thermoplc.models.model import Model, Signal  # noqa: E402
 from thermoplc.models.plausibility import Plausibility, disagree  # noqa: E402
 from thermoplc.recordings.table import Table, read_table  # noqa: E402
 from thermoplc.verifier.faults import FAULT_KINDS, inject  # noqa: E402

@@ -14,7 +14,7 @@ import numpy as np
 
 from thermoplc.base.errors import UserError
 from thermoplc.models.kinds import kind_of
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.base.binary32 import FADE_FLOOR, round_f32
 from thermoplc.models.plausibility import quiet_K, swing_factors, swing_quiet_K
 from thermoplc.models.probing import COUNT_MAX, HELD_MAX, REJOIN, STUCK_COUNT, STUCK_SHARE

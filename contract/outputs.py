@@ -21,7 +21,7 @@ from typing import Iterable
 
 from thermoplc.base.identifiers import identifier_problem
 from thermoplc.models.kind import fault_key
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.models.plausibility import DISAGREE
 from thermoplc.models.probing import PROBE_NEW, PROBE_VALUE, REFUSALS, REFUSED, SUSPECT, USED
 from thermoplc.models.safety import (CLAMPED, CONTROL_START, ENABLE, ENABLED, INVALID, LIMITED, READY, RESET,

@@ -17,7 +17,8 @@ from thermoplc.models import lumped_model
 from thermoplc.recordings.campaign import read_campaign, run_list, source_of
 from thermoplc.physics.effects import definition_of
 from thermoplc.fitting.fit import block_identifier, with_evidence
-from thermoplc.models.modelfile import Model, Signal, load_model
+from thermoplc.models.modelfile import load_model
+from thermoplc.models.model import Model, Signal
 from thermoplc.physics.fitted import Simulation
 from thermoplc.recordings.table import Table
 from thermoplc.pipeline import becomes_block, block_problem

@@ -35,10 +35,8 @@ from thermoplc.physics.effects import definition_of
 from thermoplc.physics.fitted import Simulation
 from thermoplc.physics.primitives import Series
 
-# the search's own steps, and the judges and physics rules it applies (diagnosis/judges.py, diagnosis/rules.py)
-__all__ = ["BIC_MARGIN", "Attempt", "Diagnosis", "Score", "Trial", "attempt", "candidates", "completed", "diagnose",
-           "diagnose_runs", "effective_delta_bic", "effective_rows", "follows_running", "held_out_gain", "implausible",
-           "polish", "refit", "score", "simulate", "too_small", "worsens_own_sensor"]
+# the search's own steps; the judges and physics rules it applies are diagnosis/judges.py's and diagnosis/rules.py's
+__all__ = ["Attempt", "Diagnosis", "Trial", "attempt", "completed", "diagnose", "diagnose_runs", "polish"]
 
 AMBIGUOUS_BIC_SHARE = 0.02  # another effect within this share of the winner's BIC gain: no name
 MIN_STAND_INS = 2  # this many effects added with windows still left: none is named

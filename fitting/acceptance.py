@@ -14,7 +14,7 @@ import textwrap
 from dataclasses import dataclass
 
 from thermoplc.base.errors import UserError
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 
 WORSE_RUNS_SHARE = 0.25  # of a campaign's held-out runs that may do worse than no compensation
 MIN_HELD_OUT_ROWS = 100  # fewer predicted rows than this say nothing of a thermal model

@@ -33,10 +33,10 @@ from thermoplc.base.errors import ClusterError, UserError
 from thermoplc.base import ridge
 from thermoplc.fitting import acceptance, crossval
 from thermoplc.fitting.copies import refuse_copies
-from thermoplc.fitting.fit import LEGACY_OPTIONS, FitRequest, check_inputs, runs_named, training_rows
+from thermoplc.fitting.fit import FitRequest, check_inputs, runs_named, training_rows
 from thermoplc.models.kind import Kind
 from thermoplc.models.kinds import kind_of, options, registry
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.fitting.selection import select_sensors
 from thermoplc.recordings.table import Table
 
@@ -237,8 +237,7 @@ def shrunk_request(request: FitRequest, kind: Kind) -> FitRequest:
     shrunk = dict(kind.shrunk)
     read = lambda field: shrunk.get(field, request.option(field))
     given = {field: value for field, value in request.settings if not kind.conflict(read, field)}
-    # the old keywords (InitVars) would carry a dropped option back in through `replace`: each given as None
-    return replace(request, settings={**given, **shrunk}, options=None, **dict.fromkeys(LEGACY_OPTIONS))
+    return replace(request, settings={**given, **shrunk})
 
 
 def _shrunk_options(request: FitRequest) -> tuple[tuple[str, Any], ...]:

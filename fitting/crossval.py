@@ -32,7 +32,7 @@ from thermoplc.fitting.broken_runs import Screening, screen_runs
 from thermoplc.fitting.copies import refuse_copies
 from thermoplc.fitting.fit import FitRequest, evaluate, fit, runs_named
 from thermoplc.fitting.ridge_floor import floor_temperatures, ridge_floor
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.models.reference import block_outputs, model_inputs, predict
 from thermoplc.models.plausibility import DISAGREE
 from thermoplc.models.safety import Limits

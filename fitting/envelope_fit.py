@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.models.envelope import Envelope
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.safety import stuck_checked
 from thermoplc.recordings.table import Table

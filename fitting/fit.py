@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import InitVar, dataclass, fields, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
@@ -14,7 +14,7 @@ from thermoplc.base.values import UNIX_SECONDS, name_problem, names_problem, num
 from thermoplc.fitting import sensor_choice
 from thermoplc.models.kind import Part
 from thermoplc.models.kinds import kind_of, options, registry
-from thermoplc.models.modelfile import Model, Signal
+from thermoplc.models.model import Model, Signal
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.fitting.envelope_fit import measure_envelope
 from thermoplc.fitting.plausibility_fit import fit_plausibility
@@ -27,16 +27,12 @@ SAMPLING_TOLERANCE = 0.05  # relative deviation of a time step from the median s
 # fits every run again in each fold, and the checks (a copy of the target, a temperature range) depend
 # on the data alone
 _CHECKED: set[tuple] = set()
-LEGACY_OPTIONS = ("bins", "precision_um", "lags", "lag_step_s", "tool_length", "unseen", "time_bins")
 
 
 @dataclass(frozen=True)
 class FitRequest:
     """What to fit: the kind, the columns, the training part; each kind's own options in `settings` by field
-    (models/kind.py::KindOption: `--bins` is "bins"), an option not given being its record's default. The
-    keywords these options had before the kinds declared them (options=FitOptions(...), bins=, lags=, ...)
-    are still taken, in their old places, and read back as attributes; one given overrides the same option in
-    `settings`, as `dataclasses.replace(request, bins=5)` expects."""
+    (models/kind.py::KindOption: `--bins` is "bins"), an option not given being its record's default."""
     kind: str
     target: str
     temps: tuple[str, ...]
@@ -45,22 +41,14 @@ class FitRequest:
     train_until: float | None = None
     train_rows: int | None = None
     block_name: str = "ThermalComp"
-    options: InitVar[Any] = None  # a models.kalman.FitOptions
-    bins: InitVar[int | None] = None
-    precision_um: InitVar[float | None] = None
-    lags: InitVar[int | None] = None
-    lag_step_s: InitVar[float | None] = None
     extra_targets: tuple[str, ...] = ()  # further targets (bpnn: elongation, yaw, pitch, the compensation's order)
-    tool_length: InitVar[str | None] = None
-    unseen: InitVar[str | None] = None
-    time_bins: InitVar[int | None] = None
     choose_sensors: int = 0  # at most this many of `temps` chosen on the training rows (fitting/sensor_choice.py)
     # held as sorted (field, value) pairs of the options given other than their defaults: a request stays
     # hashable, and equal whether a default is spelled out or not
     settings: Mapping[str, Any] | tuple[tuple[str, Any], ...] = ()
     keep_every_run: bool = False  # train on every run of a campaign, broken or not (fitting/broken_runs.py)
 
-    def __post_init__(self, options_, *legacy) -> None:
+    def __post_init__(self) -> None:
         for name in ("temps", "extra_targets"):  # a list is taken as the tuple it means (a request is hashable)
             if isinstance(getattr(self, name), list):
                 object.__setattr__(self, name, tuple(getattr(self, name)))
@@ -72,15 +60,6 @@ class FitRequest:
         for name in given:
             if name not in declared:
                 raise UserError(f"fit option {name!r}: no kind reads it; the kinds' options are {', '.join(declared)}")
-        if options_ is not None:  # what an old FitOptions sets other than its defaults
-            from thermoplc.models.kalman import FitOptions
-            if not isinstance(options_, FitOptions):
-                raise UserError(f"options: expected a thermoplc.models.kalman.FitOptions, found {options_!r}; give "
-                                f"settings={{'option': value}} instead")
-            defaults = type(options_)()
-            given.update({name: value for name, value in vars(options_).items()
-                          if name in declared and value != getattr(defaults, name)})
-        given.update({name: value for name, value in zip(LEGACY_OPTIONS, legacy) if value is not None})
         for name, value in given.items():
             if why := declared[name].problem(value):
                 raise UserError(f"{declared[name].flag}: {why}")
@@ -90,19 +69,6 @@ class FitRequest:
     def option(self, name: str) -> Any:
         """A kind's own option as given, else its record's default."""
         return dict(self.settings).get(name, options()[name].default)
-
-    def __getattr__(self, name: str) -> Any:
-        """The old attributes: `request.bins`, `request.options` (a kalman.FitOptions) read the settings."""
-        if name in LEGACY_OPTIONS:
-            return self.option(name)
-        if name == "options":
-            from thermoplc.models.kalman import FitOptions
-            return FitOptions(**{field.name: self.option(field.name) for field in fields(FitOptions)})
-        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
-
-
-for _name in ("options", *LEGACY_OPTIONS):  # an InitVar's default is a class attribute: read through __getattr__
-    delattr(FitRequest, _name)
 
 
 def request_problem(request: FitRequest) -> str | None:

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from thermoplc.models.envelope import round_up
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.models.kinds import checked_temperatures, driving_temperatures
 from thermoplc.models.plausibility import GATE_FLOOR_K, MARGIN, Plausibility, deviations, swing_factors
 from thermoplc.models.reference import model_inputs

@@ -146,7 +146,7 @@ def refitted(model, tables: list, every: int | None) -> Refitted | None:
 def _with(model, kind, parts: list[Part], every: int | None):
     """`model` with its slopes refitted on `parts`, or None."""
     from dataclasses import replace
-    from thermoplc.models.modelfile import Coefficient
+    from thermoplc.models.model import Coefficient
     found = refit(kind, model.settings, parts, every)
     if found is None:
         return None

@@ -13,7 +13,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.models.start import Start
 from thermoplc.recordings.table import Table

@@ -13,7 +13,7 @@ from thermoplc.generator.probing import Fusion
 from thermoplc.generator.start import KnownStart
 from thermoplc.generator.ranges import RangeProof, prove_ranges
 from thermoplc.generator.safety import with_safety
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.contract.constants import (SWING_ALPHA, SWING_KEEP, plausibility_constants, plausibility_names, probe_constants,
                                          start_constants)
 from thermoplc.generator.plausibility import Check, Relation as PlausibleRelation

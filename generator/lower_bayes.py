@@ -4,7 +4,7 @@ from __future__ import annotations
 from thermoplc.base.binary32 import round_f32
 from thermoplc.generator.ir import Assign, BinOp, Block, Const, If, Index, IntConst, Ref, Region, Var
 from thermoplc.models.bayes import counted, edges_of
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.generator.lower_shared import (
     INIT, const, error_output, first_call, header, inputs_of, reference_vars, references, weighted_rises,
 )

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from thermoplc.generator.ir import Assign, BinOp, Block, Const, If, Ref, Region, Var
 from thermoplc.models.bpnn import has_compensation, output_names
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.generator.lower_shared import (
     INIT, const, first_call, header, inputs_of, reference_vars, references, sum_of, weighted_rises,
 )

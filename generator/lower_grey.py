@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from thermoplc.generator.ir import Assign, BinOp, Block, BoolConst, Const, If, Ref, Region, Unary, Var
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.generator.lower_shared import INIT, const, error_output, header, inputs_of, sum_of
 
 

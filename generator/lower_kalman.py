@@ -7,7 +7,7 @@ from thermoplc.generator.ir import (
     Assign, BinOp, Block, BoolConst, Call, Const, GenerationError, If, Ref, Region, Unary, Var,
 )
 from thermoplc.models.kalman import SENSOR_COEFFICIENTS
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.generator.lower_shared import (
     INIT, const, error_output, first_call, header, inputs_of, regression, regression_constants, sum_of,
 )

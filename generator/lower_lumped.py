@@ -10,7 +10,7 @@ from thermoplc.generator.ir import Assign, BinOp, Block, Const, Ref, Region, Var
 from thermoplc.generator.lower_shared import INIT, const, error_output, first_call, header, inputs_of, sum_of
 from thermoplc.generator.lumped_effects import Lumped, State, lag
 from thermoplc.models import lumped_model
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 
 
 def _sensor(block: Lumped, effects, i: int, name: str) -> tuple[State, Region]:

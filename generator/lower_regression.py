@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from thermoplc.generator.ir import Assign, BinOp, Block, Const, For, If, Index, IntConst, Ref, Region, Var
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.models.piecewise import node_count
 from thermoplc.generator.lower_shared import (
     INIT, const, error_output, first_call, header, inputs_of, reference_vars, references, regression,

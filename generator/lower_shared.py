@@ -6,7 +6,7 @@ from functools import reduce
 from thermoplc.base.version import __version__
 from thermoplc.generator.ir import Assign, BinOp, BoolConst, Const, If, Ref, Region, Unary, Var
 from thermoplc.fitting.acceptance import header_lines
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 
 
 def sum_of(terms):

@@ -42,7 +42,6 @@ class FitOptions:
     generations: int = 60
     jump_limit: float | None = None  # K; default from the training data
     recover_limit: float | None = None
-    ga_operators: str = "paper002"  # bpnn's (models/ga.py OPERATORS): kept so old callers' FitOptions still work
 
 
 def predict(model: Model, inputs: dict, precision: str, valid: dict | None = None) -> dict:

@@ -10,7 +10,7 @@ from importlib import resources
 from pathlib import Path
 
 from thermoplc.base.identifiers import identifier_problem
-from thermoplc.physics.effects import NAMES as EFFECT_NAMES
+from thermoplc.physics import effects as effect_library
 from thermoplc.models.kinds import checked_temperatures, driving_temperatures, kind_of, registry
 from thermoplc.models.model import COMBINED_ROLE, FORMAT, ROLES, SCHEMA_VERSION, Coefficient, Model, Signal
 from thermoplc.models.probing import Fusion
@@ -178,11 +178,12 @@ def _check_effects(settings: dict, path: str) -> None:
     effects = settings.get("effects", [])
     if not isinstance(effects, list):
         raise UserError(f"{path}: field 'settings.effects' must be a list, found {effects!r:.60}")
+    known = effect_library.registry() if effects else {}  # a model without effects loads no effect module
     for i, effect in enumerate(effects):
         name = effect.get("name") if isinstance(effect, dict) else None
-        if name not in EFFECT_NAMES:
-            raise UserError(f"{path}: field 'settings.effects[{i}].name' must be one of {', '.join(EFFECT_NAMES)}, "
-                            f"found {name!r:.60}")
+        if name not in known:
+            raise UserError(f"{path}: field 'settings.effects[{i}].name' must be one of "
+                            f"{', '.join(effect_library.registry())}, found {name!r:.60}")
 
 
 def _parse(doc, path: str) -> Model:

@@ -6,7 +6,7 @@ import numpy as np
 from thermoplc.base.errors import UserError
 from thermoplc.models.kinds import kind_of
 from thermoplc.models import start
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.models.safety import Limits, commissioned_predict
 from thermoplc.recordings.table import Table, close_match
 

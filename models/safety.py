@@ -22,7 +22,7 @@ from thermoplc.models import fault_hold, kernels
 from thermoplc.models.envelope import data_limits, stuck_limit
 from thermoplc.models.kind import fault_key, guard_kind
 from thermoplc.models.kinds import kind_of
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.models.plausibility import DISAGREE, CheckState, disagree
 from thermoplc.models.probing import fused_core
 

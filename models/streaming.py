@@ -17,7 +17,7 @@ from thermoplc.base import compiled
 
 from thermoplc.models import kernels
 from thermoplc.models.kinds import kind_of
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.models.plausibility import CheckState
 from thermoplc.models.reference import guarded_core, with_start
 from thermoplc.models.safety import (CLAMPED, ENABLED, INVALID, LIMITED, READY, Limits, axis_outputs, checked_values,

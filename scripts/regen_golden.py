@@ -28,7 +28,8 @@ from thermoplc.physics import simulation  # noqa: E402
 from thermoplc.fitting.envelope_fit import measure_envelope  # noqa: E402
 from thermoplc.fitting.plausibility_fit import fit_plausibility  # noqa: E402
 from thermoplc.fitting.fit import FitRequest, fit, sample_period  # noqa: E402
-from thermoplc.models.modelfile import Model, load_model  # noqa: E402
+from thermoplc.models.modelfile import load_model  # noqa: E402
+from thermoplc.models.model import Model  # noqa: E402
 from thermoplc.models.probing import Fusion  # noqa: E402
 from thermoplc.recordings.table import read_table  # noqa: E402
 

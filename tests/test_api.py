@@ -85,8 +85,6 @@ def test_the_api_refuses_what_the_kind_does_not_read_and_wrong_types(fitted):
         api.verify("block.scl", model, table, overrides={"t1_C": 5})
     with pytest.raises(UserError, match="identity: expected a thermoplc.generator.ir.Identity"):
         api.generate(model, "model.json", identity="x")
-    with pytest.raises(UserError, match="options: expected a thermoplc.models.kalman.FitOptions, found 5"):
-        api.FitRequest(**base, options=5)
     request = dict(data=(str(DATA),), temps=("t5_C",), speed="spindle_rpm", ambient="t6_C", target="ch3_um")
     assert api.DiagnoseRequest(**{**request, "data": (DATA,)}).data == (str(DATA),)  # a Path is its path
     for fields, message in (({"resample_s": float("nan")}, "--resample: expected the block's cycle in seconds"),

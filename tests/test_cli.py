@@ -9,7 +9,8 @@ from thermoplc.base.binary32 import f32_bits, f32_from_bits, f32_hex
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
 from thermoplc.models.kind import fault_key
-from thermoplc.models.modelfile import Coefficient, Model, load_model
+from thermoplc.models.modelfile import load_model
+from thermoplc.models.model import Coefficient, Model
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.recordings.table import read_table
 

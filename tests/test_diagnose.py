@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from thermoplc.cli import main
-from thermoplc.diagnosis.search import BIC_MARGIN, diagnose
+from thermoplc.diagnosis.judges import BIC_MARGIN
+from thermoplc.diagnosis.search import diagnose
 from thermoplc.diagnosis.windows import noise_sigma
 from thermoplc.machines import MACHINES, machine
 from thermoplc.machines.random_effects import draw
@@ -222,7 +223,7 @@ def test_the_lumped_reference_is_the_simulation():
 
 
 def _model(coefficients, settings):
-    from thermoplc.models.modelfile import Model, Signal
+    from thermoplc.models.model import Model, Signal
     inputs = (Signal("T_motor", "T_motor", "temperature", "degC"), Signal("T_bearing", "T_bearing", "temperature", "degC"),
               Signal("n_rpm", "n_rpm", "speed", "rpm"), Signal("T_env", "T_env", "ambient", "degC"),
               Signal("v_feed", "v_feed_mm_min", "feed", "mm/min"))

@@ -13,12 +13,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from thermoplc.diagnosis import findings, search, sufficiency, windows
+from thermoplc.diagnosis import findings, judges, rules, search, sufficiency, windows
 from thermoplc.diagnosis.windows import Window
 from thermoplc.diagnosis.parts import single
 from thermoplc.machines import hall, machine
 from thermoplc.machines.random_effects import draw
-from thermoplc.physics import primitives
+from thermoplc.physics import identify, primitives
 from thermoplc.physics import simulation
 from thermoplc.physics.effects import slow_structure
 from thermoplc.physics.fitted import Simulation
@@ -68,9 +68,9 @@ def _hidden(machine_name: str, name: str | None, seed: int, hours: float = 24, n
 def test_a_gear_switch_of_no_size_is_no_switch():
     train = _series(30)
     flat = (SensorParams(3600.0, 2e-3, gear_gain=4e-5), SensorParams(3600.0, 1e-3, gear_gain=-3e-5))
-    assert "no switch" in search.implausible(_sim([("gear_ratio_switch", None)], flat), "gear_ratio_switch", train)
+    assert "no switch" in rules.implausible(_sim([("gear_ratio_switch", None)], flat), "gear_ratio_switch", train)
     real = (SensorParams(3600.0, 2e-3, gear_gain=2e-3), SensorParams(3600.0, 1e-3, gear_gain=0.0))
-    assert search.implausible(_sim([("gear_ratio_switch", None)], real), "gear_ratio_switch", train) is None
+    assert rules.implausible(_sim([("gear_ratio_switch", None)], real), "gear_ratio_switch", train) is None
 
 
 @pytest.mark.parametrize("gear_gain, lag_s, refused", [(-1.5e-3, 1200.0, True), (-1.5e-3, 0.0, False),
@@ -82,7 +82,7 @@ def test_less_heat_above_the_threshold_through_a_lag_of_its_own_is_a_second_time
     sensors = (SensorParams(3600.0, 2e-3, gear_gain=gear_gain), SensorParams(3600.0, 1e-3, gear_gain=0.0))
     sim = _sim([("gear_ratio_switch", None)], sensors)
     sim = dataclasses.replace(sim, shared=dataclasses.replace(sim.shared, gear_tau_s=lag_s))
-    why = search.implausible(sim, "gear_ratio_switch", _series(30))
+    why = rules.implausible(sim, "gear_ratio_switch", _series(30))
     assert (why is not None and "second time constant" in why and "(20 min)" in why) == refused, why
 
 
@@ -91,14 +91,14 @@ def test_a_barely_heated_sensor_does_not_make_a_switch_of_no_size_count():
     (a hall sensor) must not turn a tiny gear gain into a large relative change."""
     train = _series(30)
     hall = (SensorParams(3600.0, 2e-3, gear_gain=2e-5), SensorParams(3600.0, 2.5e-7, gear_gain=1e-6))
-    assert "no switch" in search.implausible(_sim([("gear_ratio_switch", None)], hall), "gear_ratio_switch", train)
+    assert "no switch" in rules.implausible(_sim([("gear_ratio_switch", None)], hall), "gear_ratio_switch", train)
 
 
 @pytest.mark.parametrize("exponent, linear", [(1.0, True), (1.04, True), (0.97, True), (1.3, False)])
 def test_an_exponent_near_one_is_linear_heat(exponent, linear):
     sim = _sim([("nonlinear_speed_heat", None)])
     sim = dataclasses.replace(sim, shared=dataclasses.replace(sim.shared, exponent=exponent))
-    why = search.implausible(sim, "nonlinear_speed_heat", _series(30))
+    why = rules.implausible(sim, "nonlinear_speed_heat", _series(30))
     assert (why is not None and "linear heat" in why) == linear
 
 
@@ -109,19 +109,19 @@ def test_a_slow_structure_that_cancels_the_heat_and_keeps_the_air_is_not_one():
     cancelling = _sim([("slow_structure", None)], tau_slow_s=6 * HOUR, delta=(1.0, -2.0))
     heat_kept, ambient_kept = slow_structure.kept_shares(cancelling, train)
     assert heat_kept < 1e-6 and ambient_kept == pytest.approx(1 / 3, rel=0.02)  # start values differ by the noise
-    assert "lag of the air" in search.implausible(cancelling, "slow_structure", train)
+    assert "lag of the air" in rules.implausible(cancelling, "slow_structure", train)
     adding = _sim([("slow_structure", None)], tau_slow_s=6 * HOUR, delta=(1.0, 2.0))
     assert slow_structure.kept_shares(adding, train) == pytest.approx((1.0, 1.0))
-    assert search.implausible(adding, "slow_structure", train) is None
+    assert rules.implausible(adding, "slow_structure", train) is None
 
 
 def test_a_displacement_term_under_the_noise_is_too_small():
     series = _series(30)
     sigma = {"T_a": 0.05, "T_b": 0.05, "E": 0.5}
     tiny = _sim([("ambient_coupling", None)], tau_ambient_s=3 * HOUR, alpha=0.3)  # 2 K of air: 0.6 um
-    assert "under 3 times its noise" in search.too_small(tiny, "ambient_coupling", single(series, series.rows), sigma, "E")
+    assert "under 3 times its noise" in rules.too_small(tiny, "ambient_coupling", single(series, series.rows), sigma, "E")
     real = _sim([("ambient_coupling", None)], tau_ambient_s=3 * HOUR, alpha=5.0)
-    assert search.too_small(real, "ambient_coupling", single(series, series.rows), sigma, "E") is None
+    assert rules.too_small(real, "ambient_coupling", single(series, series.rows), sigma, "E") is None
 
 
 def test_an_offset_of_a_few_noise_sigmas_is_an_offset():
@@ -131,14 +131,14 @@ def test_an_offset_of_a_few_noise_sigmas_is_an_offset():
     series = _series(30)
     sigma = {"T_a": 0.158, "T_b": 0.158, "E": 1.4}
     offset = lambda k: _sim([("sensor_offset", 0)], (SensorParams(3600.0, 2e-3, offset_K=k), SensorParams(3600.0, 1e-3)))
-    assert search.too_small(offset(-0.456), "sensor_offset", single(series, series.rows), sigma, "E") is None
-    assert "under 1.5 times the sensor noise" in search.too_small(offset(0.09), "sensor_offset", single(series, series.rows), sigma, "E")
+    assert rules.too_small(offset(-0.456), "sensor_offset", single(series, series.rows), sigma, "E") is None
+    assert "under 1.5 times the sensor noise" in rules.too_small(offset(0.09), "sensor_offset", single(series, series.rows), sigma, "E")
 
 
 def test_a_feed_that_never_changes_is_not_a_candidate():
     series = _series(30)
     still = dataclasses.replace(series, feed=np.zeros(series.rows))
-    options, skipped = search.candidates(single(still, still.rows), _sim(), still)
+    options, skipped = rules.candidates(single(still, still.rows), _sim(), still)
     assert "feed_axis_heat" not in [name for name, _ in options]
     assert skipped["feed_axis_heat"] == "the feed rate never changes in the training part"
 
@@ -231,18 +231,18 @@ def test_polishing_never_raises_the_criterion():
     channels = (*series.names, "E_z_um")
     fitted = simulation.fit(train, [("nonlinear_speed_heat", None)], warm=simulation.fit(train))
     parts = single(series, rows)
-    residual = search.simulate(fitted, parts, channels)[1]
+    residual = judges.simulate(fitted, parts, channels)[1]
     sigma = {c: 1.0 for c in channels}
-    first = search.score(fitted, residual, sigma, rows)
+    first = judges.score(fitted, residual, sigma, rows)
     again, again_score = search.polish(fitted, first, parts, channels, sigma)
     assert again_score.bic <= first.bic
     plain = simulation.fit(train)
-    plain_score = search.score(plain, search.simulate(plain, parts, channels)[1], sigma, rows)
+    plain_score = judges.score(plain, judges.simulate(plain, parts, channels)[1], sigma, rows)
     assert search.polish(plain, plain_score, parts, channels, sigma)[0] is plain
 
 
-def _score(train: dict, held: dict) -> search.Score:
-    return search.Score({}, {}, {}, 0.0, sum(held.values()), held, train)
+def _score(train: dict, held: dict) -> judges.Score:
+    return judges.Score({}, {}, {}, 0.0, sum(held.values()), held, train)
 
 
 def test_a_held_out_gain_counts_where_the_training_part_gives_evidence():
@@ -253,15 +253,15 @@ def test_a_held_out_gain_counts_where_the_training_part_gives_evidence():
     before = _score({"E": 1.03}, {"E": 30.0})
     fitted_better = _score({"E": 1.01}, {"E": 1.1})
     only_held_out = _score({"E": 1.0299}, {"E": 1.1})
-    assert search.held_out_gain(before, fitted_better, 15552) == pytest.approx((30.0 - 1.1) / 29.0)
-    assert search.held_out_gain(before, only_held_out, 15552) == 0.0
+    assert judges.held_out_gain(before, fitted_better, 15552) == pytest.approx((30.0 - 1.1) / 29.0)
+    assert judges.held_out_gain(before, only_held_out, 15552) == 0.0
     visible = _score({"E": 1.2}, {"E": 30.0})
-    assert search.held_out_gain(visible, only_held_out, 15552) > 0.9
+    assert judges.held_out_gain(visible, only_held_out, 15552) > 0.9
 
 
 def _credible(name: str, bic: float, train: dict) -> tuple:
     """A candidate as the search keeps it: (fit, score, residual, simulated, index, name); only the score read."""
-    return None, search.Score(train, {}, {}, bic, 0.0, {}, {}), {}, None, 0, name
+    return None, judges.Score(train, {}, {}, bic, 0.0, {}, {}), {}, None, 0, name
 
 
 def test_a_rival_the_held_out_part_rejects_still_makes_the_choice_a_coin_toss():
@@ -301,8 +301,8 @@ def test_a_slow_sensor_started_from_a_noisy_reading_settles_by_its_own_time_cons
 
 def test_a_feed_lag_slower_than_a_ball_screw_is_a_stand_in():
     sim = _sim([("feed_axis_heat", None)], tau_feed_s=14.8 * HOUR, phi=2e-3)
-    assert "slower than a feed axis heats" in search.implausible(sim, "feed_axis_heat", _series(30))
-    assert search.implausible(dataclasses.replace(sim, displacement=dataclasses.replace(
+    assert "slower than a feed axis heats" in rules.implausible(sim, "feed_axis_heat", _series(30))
+    assert rules.implausible(dataclasses.replace(sim, displacement=dataclasses.replace(
         sim.displacement, tau_feed_s=1.5 * HOUR)), "feed_axis_heat", _series(30)) is None
 
 
@@ -313,9 +313,9 @@ def test_an_offset_or_drift_that_makes_its_own_sensor_worse_is_not_one():
     sim = _sim([("sensor_drift", 1)])
     before = _score({}, {"T_a": 1.0, "T_b": 2.03})
     worse, better = _score({}, {"T_a": 1.0, "T_b": 28.1}), _score({}, {"T_a": 1.0, "T_b": 1.02})
-    assert "T_b's own held-out error worse" in search.worsens_own_sensor(sim, "sensor_drift", train, before, worse)
-    assert search.worsens_own_sensor(sim, "sensor_drift", train, before, better) is None
-    assert search.worsens_own_sensor(sim, "slow_structure", train, before, worse) is None
+    assert "T_b's own held-out error worse" in rules.worsens_own_sensor(sim, "sensor_drift", train, before, worse)
+    assert rules.worsens_own_sensor(sim, "sensor_drift", train, before, better) is None
+    assert rules.worsens_own_sensor(sim, "slow_structure", train, before, worse) is None
 
 
 @pytest.mark.slow
@@ -332,11 +332,11 @@ def test_a_feed_lag_that_only_marks_the_running_is_not_named():
     marks = dataclasses.replace(series, feed=np.where(series.n > 0, 900.0, 0.0))
     parts = single(marks, rows)
     channels = (*marks.names, "E_z_um")
-    base = search.identify.fit(parts.train)[0]
-    trial = search.refit(parts.train, (("feed_axis_heat", None),), base)
+    base = identify.fit(parts.train)[0]
+    trial = judges.refit(parts.train, (("feed_axis_heat", None),), base)
     sigma = {c: 1.0 for c in channels}
-    trial_score = search.score(trial, search.simulate(trial, parts, channels)[1], sigma, rows)
-    assert "does not follow the feed" in search.follows_running(trial, trial_score, parts, channels, sigma)
+    trial_score = judges.score(trial, judges.simulate(trial, parts, channels)[1], sigma, rows)
+    assert "does not follow the feed" in rules.follows_running(trial, trial_score, parts, channels, sigma)
 
 
 @settings(max_examples=60, deadline=None)
@@ -355,9 +355,9 @@ def test_a_white_residual_counts_every_row_and_a_slow_misfit_a_handful():
     rng = np.random.default_rng(11)
     white = rng.normal(0.0, 0.05, 5000)
     slow = 3.0 * np.sin(np.linspace(0.0, 3.0, 5000)) + white
-    assert search.effective_rows(white) > 0.9 * 5000
-    assert search.effective_rows(slow) < 5
-    assert search.effective_rows(np.zeros(10)) == 10.0
+    assert judges.effective_rows(white) > 0.9 * 5000
+    assert judges.effective_rows(slow) < 5
+    assert judges.effective_rows(np.zeros(10)) == 10.0
 
 
 def test_an_effect_that_only_bends_toward_a_slow_misfit_earns_no_bic():
@@ -367,7 +367,7 @@ def test_an_effect_that_only_bends_toward_a_slow_misfit_earns_no_bic():
     noise = rng.normal(0.0, 0.05, 4000)
     misfit = 2.0 * np.sin(np.linspace(0.0, 4.0, 4000))
     before = {"E": misfit + noise}
-    bent = search.effective_delta_bic(before, {"E": 0.5 * misfit + noise}, 2, 4000)
-    explained = search.effective_delta_bic(before, {"E": noise}, 2, 4000)
-    assert bent > -search.BIC_MARGIN
+    bent = judges.effective_delta_bic(before, {"E": 0.5 * misfit + noise}, 2, 4000)
+    explained = judges.effective_delta_bic(before, {"E": noise}, 2, 4000)
+    assert bent > -judges.BIC_MARGIN
     assert explained < -1000.0

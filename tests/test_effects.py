@@ -122,7 +122,7 @@ def test_the_displacement_fit_and_the_model_file_read_each_displacement_term_fro
 def test_a_displacement_term_round_trips_through_the_model_file(name):
     """coefficients() writes the term's lag and weights under the record's names; simulation_of() reads them back."""
     from thermoplc.models import lumped_model
-    from thermoplc.models.modelfile import Model, Signal
+    from thermoplc.models.model import Model, Signal
     term = registry()[name].displacement
     sensors = tuple(SensorParams(600.0 * (i + 1), 0.001) for i in range(2))
     fields = {term.tau_field: 7200.0, term.weight_field: (1.5, -2.5) if term.per_sensor else 3.5}

@@ -10,7 +10,6 @@ from thermoplc.base.errors import UserError
 from thermoplc.commands import fit as fit_command
 from thermoplc.fitting.fit import FitRequest
 from thermoplc.models import kinds
-from thermoplc.models.kalman import FitOptions
 from thermoplc.models.kind import Kind, KindOption
 from tests.cli_runner import thermoplc
 
@@ -47,27 +46,17 @@ def test_a_request_reads_an_option_given_or_its_records_default():
     assert hash(request) == hash(FitRequest("bayes", "E", ("a", "b"), settings={"bins": 12}))
 
 
-def test_the_old_keywords_still_reach_the_options():
-    old = FitRequest("bayes", "E", ("a",), bins=12, unseen="frequent", options=FitOptions(seed=3, generations=5))
-    new = FitRequest("bayes", "E", ("a",), settings={"bins": 12, "unseen": "frequent", "seed": 3, "generations": 5,
-                                                       "population": 40, "optimizer": "ga", "jump_limit": None,
-                                                       "recover_limit": None})
-    assert old == new and hash(old) == hash(new) and old.option("seed") == 3
-    assert dataclasses.replace(old, kind="mlr").settings == old.settings
-    assert (old.bins, old.lags, old.unseen, old.options.seed, old.options.population) == (12, 3, "frequent", 3, 40)
-    assert FitRequest("bayes", "E", ("a",)).bins == 8 and FitRequest("bayes", "E", ("a",)) == FitRequest(
-        "bayes", "E", ("a",), bins=8, settings={"lags": 3})
-    positional = FitRequest("kalman", "E", ("a",), "n", "T", 3600.0, None, "Blk", FitOptions(seed=3))
-    assert positional.option("seed") == 3 and positional.extra_targets == ()
-    assert FitOptions(ga_operators="paper000") and FitRequest("bpnn", "E", ("a",), options=FitOptions(
-        ga_operators="paper000")).option("ga_operators") == "paper000"
-
-
-def test_an_old_keyword_overrides_the_setting_as_replace_expects():
+def test_the_options_are_settings_only():
+    """The keywords before the kinds declared their options (bins=, options=FitOptions(...)) are gone (issue 66):
+    one way to give an option, and `replace` cannot carry a dropped one back in."""
+    for old in ({"bins": 12}, {"options": None}, {"unseen": "frequent"}):
+        with pytest.raises(TypeError):
+            FitRequest("bayes", "E", ("a",), **old)
     request = FitRequest("bayes", "E", ("a",), settings={"bins": 6, "seed": 4})
-    assert dataclasses.replace(request, bins=5).option("bins") == 5
-    assert dataclasses.replace(request, options=dataclasses.replace(request.options, seed=1)).option("seed") == 1
-    assert FitRequest("kalman", "E", ("a",), options=FitOptions(), settings={"seed": 4}).option("seed") == 4
+    assert dataclasses.replace(request, kind="mlr").settings == request.settings
+    assert dataclasses.replace(request, settings={"bins": 5}).option("bins") == 5
+    assert dataclasses.replace(request, settings={"bins": 5}).option("seed") == 0
+    assert not hasattr(request, "bins") and not hasattr(request, "options")
 
 
 @pytest.mark.parametrize("settings, message", [

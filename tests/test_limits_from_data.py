@@ -12,7 +12,8 @@ from hypothesis import given, strategies as st
 from thermoplc.base.errors import UserError
 from thermoplc.fitting.envelope_fit import measure_envelope
 from thermoplc.models.envelope import Envelope, data_limits, round_up
-from thermoplc.models.modelfile import Signal, load_model
+from thermoplc.models.modelfile import load_model
+from thermoplc.models.model import Signal
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import CLAMPED, Limits
 from thermoplc.recordings.table import Table, read_table

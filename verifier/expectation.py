@@ -10,7 +10,7 @@ import numpy as np
 from thermoplc.base.errors import UserError
 from thermoplc.contract.outputs import (CONTROL_INPUT_START, PROBE_INPUT_START, PROBE_INPUTS, RESET_INPUT, block_names,
                                        control_of, named)
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits
 from thermoplc.recordings.table import Table

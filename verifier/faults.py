@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.contract.outputs import (DISAGREE_OUTPUT, ENABLE_INPUT, ENO, K0_PREFIX, PROBE_NEW_INPUT,
                                        PROBE_REFUSED_OUTPUT,
                                        PROBE_SUSPECT_OUTPUT,

@@ -9,7 +9,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.base.values import Every
 from thermoplc.contract.outputs import PROBE_INPUTS, PROBE_NEW_INPUT, PROBE_VALUE_INPUT
 from thermoplc.recordings.campaign import held_to_probed
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.models.probing import needs_schedule, probings, rising
 from thermoplc.recordings.table import Table
 from thermoplc.verifier.typed import cells_as

@@ -8,7 +8,7 @@ from dataclasses import replace
 from thermoplc.base.errors import UserError
 from thermoplc.contract.outputs import (CONTROL_INPUT_START, ENABLE_INPUT, PROBE_INPUTS, PROBE_NEW_INPUT, PROBE_VALUE_INPUT,
                                        RESET_INPUT)
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.recordings.reading import Reading
 from thermoplc.recordings.resample import Resampling, resample
 from thermoplc.recordings.table import Table, read_table

@@ -14,7 +14,7 @@ from thermoplc.contract.constants import (LIMIT_NAMES, TABLE_PREFIX, constant_na
 from thermoplc.contract.outputs import FAULT_PREFIX, PROBE_INPUTS, control_of
 from thermoplc.base.errors import UserError
 from thermoplc.fitting.fit import SAMPLING_TOLERANCE, sample_period
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.models.reference import block_outputs
 from thermoplc.models.safety import Limits
 from thermoplc.recordings.table import Table, close_match

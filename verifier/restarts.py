@@ -39,7 +39,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from thermoplc.contract.outputs import ENABLE_INPUT, PROBE_NEW_INPUT, PROBE_VALUE_INPUT, RESET_INPUT
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.models.plausibility import SWING_S, relation_difference, swing_factors
 from thermoplc.models.probing import rising
 from thermoplc.models.safety import Limits, guards, in_range

@@ -25,7 +25,7 @@ from thermoplc.base.errors import UserError
 from thermoplc.base.locations import size
 from thermoplc.contract.outputs import CONTROL_INPUT_START, block_names, named
 from thermoplc.fitting.fit import SAMPLING_TOLERANCE
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.models.streaming import StreamingReference, streamable
 from thermoplc.recordings.chunks import CannotStream, stream_columns
 from thermoplc.recordings.reading import Reading

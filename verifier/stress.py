@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 from thermoplc.contract.outputs import ENABLE_INPUT, PROBE_NEW_INPUT, PROBE_VALUE_INPUT, RESET_INPUT
 from thermoplc.models.safety import Limits, guards
 from thermoplc.verifier.engines import Replayer

@@ -9,7 +9,7 @@ from typing import Callable
 
 from thermoplc.generator.ir import Assign, BinOp, Const, Ref, Region, Stmt, Var
 from thermoplc.generator.lower_shared import const
-from thermoplc.models.modelfile import Model
+from thermoplc.models.model import Model
 
 
 @dataclass(frozen=True)

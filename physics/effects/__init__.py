@@ -3,8 +3,8 @@ declare one (`EFFECT = EffectDefinition(...)`, see `definition.py`): the single 
 `--effect`, the model file, the simulation's bookkeeping and the diagnosis read. Adding an effect
 is a new module here (its term: a displacement term, a heat input, the search of its shared
 parameters, a closed loop or a reading's column, as its record declares; the simulation and the
-identified model call them), its per-call arithmetic in the reference and its compiled loop
-(`models/lumped_model.py`) and in the block (a module of `generator/lumped_effects/`), and its physics in
+identified model call them), its per-call arithmetic in the reference's one loop
+(`models/lumped_kernel.py`, its flag in `models/lumped_model.py`) and in the block (a module of `generator/lumped_effects/`), and its physics in
 each synthetic machine."""
 from __future__ import annotations
 
