@@ -4,7 +4,6 @@ the demo and a user's script write the same, checked blocks."""
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -13,6 +12,7 @@ import numpy as np
 from thermoplc.base.errors import UserError
 from thermoplc.base.version import __version__
 from thermoplc.contract.constants import expected
+from thermoplc.generator.dialects import recognized
 from thermoplc.generator.ir import Block, Identity
 from thermoplc.generator.lower import lower, prove
 from thermoplc.generator.printer import (DIALECTS, GenerationError, render, render_instance_db, render_plcopen,
@@ -92,11 +92,11 @@ def generate(model: Model, source: str = "model", limits: Limits | None = None, 
     limits = Limits.for_model(model) if limits is None else limits
     if dialect not in DIALECTS:
         raise UserError(f"dialect {dialect!r}: expected one of {', '.join(DIALECTS)}")
-    if plcopen and dialect != "iec":
-        raise UserError("--format plcopen wraps the iec dialect; add --dialect iec")
-    if instance_db is not None and dialect != "step7":
-        raise UserError("--instance-db writes a STEP 7 instance DB source; TIA and IEC targets create the instance "
-                        "when the block is called")
+    if plcopen and not DIALECTS[dialect].plcopen:
+        raise UserError(f"--format plcopen wraps the {_with('plcopen')} dialect; add --dialect {_with('plcopen')}")
+    if instance_db is not None and not DIALECTS[dialect].instance_db:
+        raise UserError(f"--instance-db writes a {_titles(True)} instance DB source; {_titles(False)} targets "
+                        f"create the instance when the block is called")
     unvalidated = accepted(model, source, accept_unvalidated)
     try:
         block = lower(model, limits, identity, retain)
@@ -139,15 +139,24 @@ class Bench:
     counters: BenchCounters
 
 
+def _with(flag: str) -> str:
+    """The dialects whose record sets `flag` (generator/dialects/)."""
+    return " or ".join(name for name, record in DIALECTS.items() if getattr(record, flag))
+
+
+def _titles(instance_db: bool) -> str:
+    """The dialects that write an instance DB beside the block, or those that do not, as a sentence names them."""
+    return " and ".join(record.title for record in DIALECTS.values() if record.instance_db == instance_db)
+
+
 def block_dialect(block_path: str) -> tuple[str, bool]:
-    """The dialect a block source is written in, as generate writes them (TIA's optimized-access attribute,
-    STEP 7's quoted name without it, IEC's bare name), and whether it is PLCopen XML (of the iec dialect)."""
+    """The dialect a block source is written in, as each dialect's record recognizes it (TIA's optimized-access
+    attribute, STEP 7's quoted name without it, IEC's bare name), and whether it is PLCopen XML (of the dialect
+    it wraps)."""
     text = read_source(block_path)
     if is_xml(text):
-        return "iec", True
-    if "S7_Optimized_Access" in text:
-        return "tia", False
-    return ("step7" if re.search(r'(?im)^\s*FUNCTION_BLOCK\s+"', text) else "iec"), False
+        return _with("plcopen"), True
+    return recognized(text), False
 
 
 def testbench(block_path: str, model: Model, model_path: str, table: Table, first: int = 0, calls: int | None = None,

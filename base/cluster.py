@@ -36,8 +36,8 @@ from thermoplc.base.errors import ClusterError, UserError
 CONNECT_TIMEOUT_S = 20
 POLL_S = 2  # how often the cluster is asked whether it still has workers
 PACKAGES = ("thermoplc", "thermoplc.commands", "thermoplc.base", "thermoplc.contract", "thermoplc.generator",
-            "thermoplc.generator.lumped_effects", "thermoplc.templates", "thermoplc.verifier", "thermoplc.recordings",
-            "thermoplc.recordings.plain_csv", "thermoplc.physics", "thermoplc.physics.effects", "thermoplc.models",
+            "thermoplc.generator.dialects", "thermoplc.generator.lumped_effects", "thermoplc.templates",
+            "thermoplc.verifier", "thermoplc.recordings", "thermoplc.recordings.plain_csv", "thermoplc.physics", "thermoplc.physics.effects", "thermoplc.models",
             "thermoplc.fitting", "thermoplc.diagnosis", "thermoplc.machines")
 SOURCE_SUFFIXES = (".py", ".lark", ".json", ".j2")
 NUMERIC_LIBRARIES = ("numpy", "scipy", "numba", "pyarrow")

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
 from importlib import resources
 
 import jinja2
@@ -14,6 +13,7 @@ from thermoplc.generator.ir import (
     PORTABLE_FUNCTIONS, Assign, BinOp, Block, BoolConst, Call, Expr, For, Index, IntConst, Ref, Region, Stmt,
     Unary, Var, assigned_names, walk_exprs,
 )
+from thermoplc.generator.dialects import DialectDefinition, registry
 from thermoplc.generator.identity import check_header_name
 from thermoplc.generator.literals import real_literal
 
@@ -24,32 +24,7 @@ _PRECEDENCE = {"OR": 1, "XOR": 2, "AND": 3, "=": 4, "<>": 4, "<": 5, "<=": 5, ">
 INT_MIN, INT_MAX = INT_RANGES["INT"]
 
 
-@dataclass(frozen=True)
-class Dialect:
-    """What differs between the dialects at the statement level; the template holds the block's frame."""
-    name: str
-    template: str
-    local_prefix: str  # '#' for TIA, nothing elsewhere
-    type_names: dict
-    body_indent: str
-    array_type: str
-    regions: str  # 'keyword': REGION ... END_REGION; 'comment': a comment line opens and closes a region
-    array_initial: str  # 'brackets': := [a, b]; 'list': := a, b (classic STEP 7 SCL)
-    suffix: str  # file name ending users expect
-    eno: str  # the enable output: a system flag written under this name (TIA ENO, STEP 7 OK), or '' if declared
-    retain: bool  # statics and outputs can be declared RETAIN (STEP 7: the instance DB is retentive as a whole)
-    functions: frozenset = PORTABLE_FUNCTIONS  # functions the dialect's compiler offers
-    attributes: bool = True  # a Siemens header (VERSION, AUTHOR, NAME, FAMILY); IEC says them in a comment
-
-
-DIALECTS = {
-    "tia": Dialect("tia", "tia.scl.j2", "#", {"REAL": "Real", "BOOL": "Bool", "INT": "Int"}, "\t",
-                   "Array[0..{last}] of {type}", "keyword", "brackets", ".scl", "ENO", True),
-    "step7": Dialect("step7", "step7.scl.j2", "", {"REAL": "REAL", "BOOL": "BOOL", "INT": "INT"}, "    ",
-                     "ARRAY[0..{last}] OF {type}", "comment", "list", ".scl", "OK", False, frozenset({"ABS", "SQRT"})),
-    "iec": Dialect("iec", "iec.st.j2", "", {"REAL": "REAL", "BOOL": "BOOL", "INT": "INT"}, "    ",
-                   "ARRAY[0..{last}] OF {type}", "comment", "brackets", ".st", "", True, attributes=False),
-}
+DIALECTS = registry()  # what differs between the dialects is in each one's record (generator/dialects/)
 
 
 def safe_comment(text: str) -> str:
@@ -64,7 +39,7 @@ def safe_string(text: str) -> str:
 
 
 class _Printer:
-    def __init__(self, dialect: Dialect):
+    def __init__(self, dialect: DialectDefinition):
         self.d = dialect
 
     def name(self, name: str) -> str:
@@ -281,7 +256,7 @@ def render_instance_db(block: Block, db_name: str) -> str:
         short_name=check_header_name(block.name, block.identity.name))
 
 
-def _header(block: Block, d: Dialect) -> list[str]:
+def _header(block: Block, d: DialectDefinition) -> list[str]:
     """The header comment: the block's own lines, the date, and how its state survives a power cycle."""
     lines = list(block.header)
     if block.identity.date:

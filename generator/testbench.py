@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 from thermoplc.base.binary32 import FLT_MIN_NORMAL, is_f32
 from thermoplc.base.identifiers import MAX_LENGTH, identifier_problem
+from thermoplc.generator.dialects import registry
 from thermoplc.generator.ir import GenerationError
 
 ELEMENT_BYTES = {"REAL": 4, "INT": 2, "BOOL": 1}  # a BOOL counted as a byte: what an optimized DB gives it
@@ -18,22 +19,8 @@ MAX_CALLS = 32767  # the counters are INT: every S7-300 CPU has INT arithmetic o
 MAX_CHUNKS = 99
 
 
-@dataclass(frozen=True)
-class Target:
-    """What one data block (or one constant array) may hold, and why."""
-    chunk_bytes: int
-    download_bytes: int  # the data a default test bench holds: one download on the smallest CPU of the family
-    why: str
-
-
-TARGETS = {
-    "tia": Target(65536, 262144, "DBs of at most 64 KiB, 256 KiB in all: a quarter of the smallest S7-1500's data "
-                                 "memory (an S7-1200 holds less: give --calls)"),
-    "step7": Target(65536, 65536, "one DB of at most 64 KiB, the S7-300/400 limit (older S7-312/314 CPUs allow "
-                                  "16 KiB: give --calls)"),
-    "iec": Target(65536, 262144, "constant arrays of at most 64 KiB each, 256 KiB in all"),
-}
-ROWS_PER_CYCLE = {"tia": 50, "step7": 10, "iec": 50}  # calls of the block per PLC cycle, by default
+TARGETS = {name: record.bench for name, record in registry().items()}  # what one data block may hold, by dialect
+ROWS_PER_CYCLE = {name: record.rows_per_cycle for name, record in registry().items()}  # calls per PLC cycle
 BENCH_VARIABLES = ("Done", "Calls", "Mismatches", "FirstMismatchCall", "FirstMismatchOutput", "FirstExpected",
                    "FirstActual", "MaxDiff", "Dut", "Pass", "Row", "Differs", "Diff", "CallCount", "RowsPerCycle")
 

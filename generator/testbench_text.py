@@ -1,10 +1,11 @@
 """A BenchPlan (generator/testbench.py) as source text of one dialect: the data blocks (Siemens) or
 constant arrays (IEC) and the bench function block. One statement shape for every dialect; what
-differs is spelt by _Spelling."""
+differs is spelt by each dialect's BenchSpelling (generator/dialects/)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from thermoplc.generator.dialects import registry
 from thermoplc.generator.ir import GenerationError
 from thermoplc.generator.literals import real_literal
 from thermoplc.generator.printer import UNDATED, plcopen_pou, plcopen_type, safe_comment, safe_string
@@ -24,21 +25,7 @@ class _Decl:
     comment: str = ""
 
 
-@dataclass(frozen=True)
-class _Spelling:
-    local: str  # '#' before a local name (TIA)
-    types: dict
-    array: str
-    comment: str  # a line comment's opening and closing
-    data_blocks: bool  # the rows in global data blocks (Siemens) or in the bench's constant arrays (IEC)
-
-
-SPELLINGS = {
-    "tia": _Spelling("#", {"REAL": "Real", "BOOL": "Bool", "INT": "Int"}, "Array[{lo}..{hi}] of {type}", "// {}", True),
-    "step7": _Spelling("", {"REAL": "REAL", "BOOL": "BOOL", "INT": "INT"}, "ARRAY[{lo}..{hi}] OF {type}", "// {}", True),
-    "iec": _Spelling("", {"REAL": "REAL", "BOOL": "BOOL", "INT": "INT"}, "ARRAY[{lo}..{hi}] OF {type}", "(* {} *)",
-                     False),
-}
+SPELLINGS = {name: record.bench_spelling for name, record in registry().items()}
 
 
 def _literal(value, kind: str) -> str:
@@ -250,8 +237,9 @@ def render_bench(plan: BenchPlan, dialect: str, plcopen: bool = False, version: 
     byte-identical for the same plan."""
     if dialect not in TARGETS:
         raise GenerationError(f"dialect {dialect!r}: a test bench is written for {', '.join(TARGETS)}")
-    if plcopen and dialect != "iec":
-        raise GenerationError("PLCopen XML holds the iec dialect")
+    if plcopen and not registry()[dialect].plcopen:
+        raise GenerationError(f"PLCopen XML holds the {' or '.join(n for n, r in registry().items() if r.plcopen)} "
+                              f"dialect")
     check_plan(plan)
     text = _Text(plan, dialect)
     return _plcopen(text, version) if plcopen else text.source()

@@ -199,7 +199,7 @@ def _limits_kept(bench, dialect: str) -> None:
 
 @pytest.mark.parametrize("dialect", BENCH_DIALECTS)
 def test_many_data_blocks_keep_the_limits_and_the_rows_in_order(dialect, twin, monkeypatch):
-    small = {name: plan_module.Target(2048, t.download_bytes, t.why) for name, t in plan_module.TARGETS.items()}
+    small = {name: replace(t, chunk_bytes=2048) for name, t in plan_module.TARGETS.items()}
     monkeypatch.setattr(plan_module, "TARGETS", small)
     bench = _bench("dlag", dialect, twin, first=5, calls=900, rows_per_cycle=40)
     assert bench.data_blocks >= 10

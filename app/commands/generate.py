@@ -25,9 +25,10 @@ def add_parser(sub) -> None:
                                   "thermoplc generate model.json --dialect step7 -o ThermalComp.scl",
                                   "thermoplc generate model.json --dialect iec --format plcopen -o ThermalComp.xml"))
     p.add_argument("model", type=READ_FILE, help="model file written by fit or diagnose")
-    p.add_argument("--dialect", choices=("tia", "step7", "iec"), default="tia",
-                   help="tia: S7-1500/SINUMERIK ONE (TIA Portal); step7: classic STEP 7 SCL (840D sl, S7-300); "
-                        "iec: IEC 61131-3 for CODESYS/TwinCAT/OpenPLC (default: %(default)s)")
+    from thermoplc.generator.dialects import registry  # the dialects' records: their names and what each is for
+    p.add_argument("--dialect", choices=tuple(registry()), default=next(iter(registry())),
+                   help="; ".join(f"{name}: {record.help}" for name, record in registry().items())
+                        + " (default: %(default)s)")
     p.add_argument("--format", choices=("st", "plcopen"), default="st",
                    help="st: source text; plcopen: PLCopen TC6 XML of the iec block (default: %(default)s)")
     p.add_argument("--max-offset-um", type=number(float, 1e-6, 1e12, "micrometres"),
@@ -152,6 +153,7 @@ REPLACED_HEAD = 1 << 16  # bytes of the replaced file read for its header: a blo
 def _summary(say: Callable[[str], None], args: argparse.Namespace, model, limits, generated, why: str) -> None:
     """What was written, its VERSION and NAME and within which limits; the cost, proof and stress
     replay with --stats; the regions with --explain."""
+    from thermoplc.generator.dialects import registry
     from thermoplc.generator.identity import NAME_MAX, header_name, show
     from thermoplc.generator.lower import lower_model
     from thermoplc.fitting.acceptance import evidence, fused_summary
@@ -162,7 +164,7 @@ def _summary(say: Callable[[str], None], args: argparse.Namespace, model, limits
         f"{model.fingerprint()}")
     if args.format != "plcopen":  # the XML has no VERSION or NAME
         say(f"  VERSION {show(block.identity.version)} ({why})")
-    if args.dialect != "iec":  # IEC text names its version in a comment, and has no NAME
+    if registry()[args.dialect].attributes:  # IEC text names its version in a comment, and has no NAME
         name, cut = header_name(block.name, block.identity.name)
         say(f"  NAME {name}: " + (f"the block name cut to the {NAME_MAX} characters STEP 7 allows; --header-name sets it"
                                   if cut else "--header-name" if block.identity.name else "the block name"))

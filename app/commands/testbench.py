@@ -88,6 +88,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _bench_path(block: str, output: str) -> Path:
     """Where the bench goes: the folder -o names (made when missing: every part of it that exists a folder)."""
+    from thermoplc.generator.dialects import registry
     from thermoplc.generator.testbench import bench_names
     from thermoplc.pipeline import block_dialect
     from thermoplc.verifier.block_file import parse_file
@@ -101,7 +102,7 @@ def _bench_path(block: str, output: str) -> Path:
             break
     dialect, plcopen = block_dialect(block)
     name = bench_names(parse_file(block).name)[0]
-    return folder / (name + (".xml" if plcopen else ".st" if dialect == "iec" else ".scl"))
+    return folder / (name + (".xml" if plcopen else registry()[dialect].suffix))
 
 
 def _counters(c) -> str:
@@ -115,10 +116,12 @@ def _counters(c) -> str:
 def summary(bench, block: str, data: str, rows: int, chosen: bool) -> list[str]:
     """What the bench holds and how it ran here, as the console prints it; `chosen`: the calls by default. Here
     the block must be exact whatever the tolerance: the tolerance is the PLC's."""
+    from thermoplc.generator.dialects import registry
     from thermoplc.generator.testbench import TARGETS
     plan, c = bench.plan, bench.counters
     form = "PLCopen XML (iec)" if bench.plcopen else bench.dialect
-    where = (f"{bench.data_blocks} data block{'s' if bench.data_blocks > 1 else ''}" if bench.dialect != "iec" else
+    where = (f"{bench.data_blocks} data block{'s' if bench.data_blocks > 1 else ''}"
+             if registry()[bench.dialect].bench_spelling.data_blocks else
              f"constant arrays in {bench.data_blocks} part{'s' if bench.data_blocks > 1 else ''}")
     tolerances = ", ".join(f"{p.name} {p.tolerance:g}" for p in plan.outputs if p.tolerance)
     compared = f"within {tolerances} (the others exactly)" if tolerances else "exactly"

@@ -1,0 +1,32 @@
+"""The ST dialects thermoplc writes, found in the modules of this package that declare one (`DIALECT =
+DialectDefinition(...)`, definition.py): the single list `generate --dialect` offers, the printer spells, the test
+bench sizes its data by and a block file is recognised by. Adding a dialect is a module here and its template
+(templates/); docs/architecture.md lists the steps."""
+from __future__ import annotations
+
+import functools
+import importlib
+import pkgutil
+
+from thermoplc.generator.dialects.definition import BenchSpelling, DialectDefinition, Target
+
+__all__ = ["BenchSpelling", "DialectDefinition", "Target", "recognized", "registry"]
+
+
+@functools.cache
+def registry() -> dict[str, DialectDefinition]:
+    """Dialect name -> record, by rank."""
+    found = []
+    for module in pkgutil.iter_modules(__path__):
+        record = getattr(importlib.import_module(f"{__name__}.{module.name}"), "DIALECT", None)
+        if isinstance(record, DialectDefinition):
+            found.append(record)
+    found.sort(key=lambda record: record.rank)
+    if len({r.name for r in found}) != len(found) or len({r.rank for r in found}) != len(found):
+        raise RuntimeError(f"two dialects share a name or a rank: {[(r.rank, r.name) for r in found]}")
+    return {record.name: record for record in found}
+
+
+def recognized(text: str) -> str:
+    """The dialect a block source generate wrote is in: the first by rank that recognizes it."""
+    return next(name for name, record in registry().items() if record.recognizes(text))
