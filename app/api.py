@@ -25,7 +25,7 @@ from typing import Callable
 
 from thermoplc.base.errors import UserError
 from thermoplc.diagnosis.command import DiagnoseRequest, run as _diagnose
-from thermoplc.fit_pipeline import FitPlan, fit as _fit
+from thermoplc.fit_pipeline import FitPlan, fit as _fit, refuse_plan
 from thermoplc.fitting.fit import FitRequest
 from thermoplc.generator.ir import Identity
 from thermoplc.fitting.options_read import refuse_roles_not_read, refuse_settings_not_read
@@ -34,13 +34,12 @@ from thermoplc.models.model import Model
 from thermoplc.models.safety import Limits
 from thermoplc.recordings.reading import Reading
 from thermoplc.recordings.campaign import onto_calls
-from thermoplc.recordings.resample import Resampling
 from thermoplc.recordings.table import Table, read_table
 from thermoplc.pipeline import Bench, Generated, generate as _generate, testbench as _testbench
 from thermoplc.verifier.diff import BlockDiff, diff_blocks
 from thermoplc.verifier.replay import Report, verify_against_model
 
-__all__ = ["FitRequest", "FitPlan", "Resampling", "fit", "generate", "verify", "testbench", "diff", "diagnose",
+__all__ = ["FitRequest", "FitPlan", "fit", "generate", "verify", "testbench", "diff", "diagnose",
            "DiagnoseRequest", "Generated",
            "Bench", "Limits", "Model", "load_model", "read_table", "Reading", "Table", "Report", "BlockDiff"]
 
@@ -59,8 +58,8 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
     """The model `thermoplc fit` writes, byte for byte: `request.kind` (or "auto") fitted on the training part of
     each run (one Table per run as read_table reads it, each from its first row, as a freshly started block), with
     its held-out evidence and what `plan` adds (thermoplc.fit_pipeline.FitPlan: folds, groups, probe fusion, a
-    held target, resampling, which takes each table onto the block's cycle first). An option or a column role the
-    kind does not read is refused, as `thermoplc fit` refuses it."""
+    held target, resample_s, which takes each table onto the block's cycle first). An option, a column role or a
+    combination the command line refuses is refused in its words."""
     if isinstance(tables, Table):
         raise UserError("tables: expected a list of tables, one per run, found one Table: give [table]")
     _expect(tables, (list, tuple), "tables", "a list of tables, one per run")
@@ -75,10 +74,11 @@ def fit(tables: list[Table], request: FitRequest, time_column: str = "time_s",
     for table in tables:
         table.column(time_column)  # a missing time column named with the file and its header
     refuse_settings_not_read(request)
-    refuse_roles_not_read(request, "--resample" if plan.resampling else
+    refuse_roles_not_read(request, "--resample" if plan.resample_s else
                           "--folds" if plan.folds and len(tables) == 1 else None)  # what reads the speed besides
+    refuse_plan(request, plan, len(tables))
     targets = (request.target, *request.extra_targets)
-    tables = [onto_calls(table, time_column, plan.resampling, targets, plan.held_target) for table in tables]
+    tables = [onto_calls(table, time_column, plan.resampling(request), targets, plan.held_target) for table in tables]
     return _fit(tables, request, time_column, plan, progress).model
 
 

@@ -18,7 +18,7 @@ diagnosis/judges.py, the physics rules' in diagnosis/rules.py.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -161,11 +161,21 @@ def _extrapolated(window: Window, final: Score, parts: Parts) -> str | None:
     return None
 
 
-def _choose(passed: list[tuple]) -> tuple:
+class Credible(NamedTuple):
+    """A candidate the information criteria credit and no physics rule refuses, with what it fitted."""
+    trial: Simulation
+    score: Score
+    residual: dict
+    simulated: tuple  # (simulated, residual as shown): simulate's output
+    index: int  # its row in the round's trials
+    name: str
+
+
+def _choose(passed: list[Credible]) -> Credible:
     """Among the candidates both judges support, the one the information criterion prefers: the
     training part is the larger and its evidence grows with the data, while a held-out gain can be
     cut by speeds the training part never separated (a gear threshold between two of them)."""
-    return min(passed, key=lambda p: p[1].bic)
+    return min(passed, key=lambda p: p.score.bic)
 
 
 def _main_channel(before: Score, after: Score) -> str:
@@ -174,23 +184,23 @@ def _main_channel(before: Score, after: Score) -> str:
                                                        max(after.rmse_train[c], 1e-300)))
 
 
-def _rivals(credible: list[tuple], best: tuple, before: Score) -> list[tuple]:
+def _rivals(credible: list[Credible], best: Credible, before: Score) -> list[Credible]:
     """Other plausible effects that the BIC prefers or barely separates from its choice, gaining most on the
     same channel (slow structure and lagged ambient look alike when the temperatures follow the air): naming
     either would be a coin toss, whichever the held-out part prefers, so a rival need not pass the held-out
     judge. The same effect on another sensor is no rival, nor one that explains another channel (a heat
     the sensors' innovations show beside a lag the displacement shows: both may be missing, and the next
     round tests the other)."""
-    best_gain = abs(best[1].bic - before.bic)
-    channel = _main_channel(before, best[1])
-    return [p for p in credible if p[5] != best[5] and p[1].bic - best[1].bic < AMBIGUOUS_BIC_SHARE * best_gain
-            and _main_channel(before, p[1]) == channel]
+    best_gain = abs(best.score.bic - before.bic)
+    channel = _main_channel(before, best.score)
+    return [p for p in credible if p.name != best.name
+            and p.score.bic - best.score.bic < AMBIGUOUS_BIC_SHARE * best_gain
+            and _main_channel(before, p.score) == channel]
 
 
-def _label(p: tuple, series: Series) -> str:
-    trial, name = p[0], p[5]
-    sensor = trial.sensor_of(name)
-    return name + (f" on {series.names[sensor]}" if sensor is not None else "")
+def _label(p: Credible, series: Series) -> str:
+    sensor = p.trial.sensor_of(p.name)
+    return p.name + (f" on {series.names[sensor]}" if sensor is not None else "")
 
 
 def polish(sim: Simulation, sim_score: Score, parts: Parts, channels, sigma: dict) -> tuple[Simulation, Score]:
@@ -229,7 +239,7 @@ def _named(name: str, parts: Parts, current: Simulation, current_score, residual
         "windows": _window_change(parts, windows0, shown, res_shown)}}
 
 
-def _unsupported(credible: tuple, trials: list[Trial], parts: Parts, current: Simulation,
+def _unsupported(credible: Credible, trials: list[Trial], parts: Parts, current: Simulation,
                  current_score: Score, residual: dict, shown: dict, windows0) -> dict:
     """A candidate the last round's training part supported and the held-out part did not, as a findings entry
     with the same evidence a named effect carries."""
@@ -384,7 +394,7 @@ def diagnose_runs(parts: Parts, target_name: str, baseline: Simulation | None = 
             undecided = alike or undecided
             trials.append(row)
             if fitted is not None:
-                credible.append((*fitted, len(trials) - 1, name))
+                credible.append(Credible(*fitted, len(trials) - 1, name))
                 if judged:
                     passed.append(credible[-1])
         if undecided:  # an effect added before leaves what this one still fits
@@ -398,7 +408,7 @@ def diagnose_runs(parts: Parts, target_name: str, baseline: Simulation | None = 
             break
         best = _choose(passed)
         rivals = _rivals(credible, best, current_score)
-        alike = sufficiency.look_alike(train, best[5])
+        alike = sufficiency.look_alike(train, best.name)
         if rivals or alike:
             ambiguous = tuple(_label(p, series) for p in (best, *rivals)) if rivals else (_label(best, series), alike[0])
             ambiguity = ("the training part supports the others as well or better: information criteria lower "

@@ -178,7 +178,7 @@ def _check_effects(settings: dict, path: str) -> None:
     effects = settings.get("effects", [])
     if not isinstance(effects, list):
         raise UserError(f"{path}: field 'settings.effects' must be a list, found {effects!r:.60}")
-    known = effect_library.registry() if effects else {}  # a model without effects loads no effect module
+    known = tuple(effect_library.registry()) if effects else ()  # a model without effects loads no effect module
     for i, effect in enumerate(effects):
         name = effect.get("name") if isinstance(effect, dict) else None
         if name not in known:

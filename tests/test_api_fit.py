@@ -9,6 +9,7 @@ import pytest
 from tests.cli_runner import thermoplc
 from tests.golden_models import batch_csvs
 from thermoplc import api
+from thermoplc.base.errors import UserError
 from thermoplc.machines.cascade import simulate
 from thermoplc.models.kinds import kind_of, names, options, readers
 from thermoplc.recordings.table import write_table
@@ -89,7 +90,51 @@ def test_resample_and_a_probing_schedule(folder):
     cli = _cli_bytes(folder, "--data", "twin.csv", "--model", "mlr", "--target", "E_z_um", "--temps", ",".join(TEMPS),
                      "--speed", "n_rpm", "--train-until", "18000", "--resample", "20", "--probe", "--probe-every", "45")
     request = api.FitRequest("mlr", "E_z_um", TEMPS, "n_rpm", train_until=18000.0)
-    plan = api.FitPlan(probe=True, probe_every=45, resampling=api.Resampling.holding(20.0, ("n_rpm",)))
+    plan = api.FitPlan(probe=True, probe_every=45, resample_s=20.0)
     model = api.fit([api.read_table(folder / "twin.csv")], request, plan=plan)
     assert model.resample is not None and model.sample_period_s == 20.0
     assert model.to_json().encode() == cli
+
+
+@pytest.mark.parametrize("plan, message", [
+    ({"folds": "4"}, "--folds: expected an integer, found '4'"),
+    ({"folds": 2.5}, "--folds: expected an integer, found 2.5"),
+    ({"folds": 1}, "--folds: expected folds from 2 to 1,000,000, found 1"),
+    ({"probe": "no"}, "--probe: expected True or False, found 'no'"),
+    ({"held_target": 1}, "--held-target: expected True or False, found 1"),
+    ({"probe": True, "probe_every": 0}, "--probe-every: expected a number of calls from 1 to"),
+    ({"probe": True, "probe_every": "45"}, "--probe-every: expected an integer, found '45'"),
+    ({"probe": True, "probe_gate_um": -1.0}, "--probe-gate-um: expected um from 0.1 to 100000, found -1.0"),
+    ({"probe": True, "probe_gate_um": float("nan")}, "--probe-gate-um: expected um from 0.1 to 100000, found nan"),
+    ({"resample_s": float("nan")}, "--resample: expected the block's cycle in seconds"),
+    ({"resample_s": "40"}, "--resample: expected a number, found '40'"),
+    ({"groups": [[0], [1]]}, "--group-by: expected a mapping of group to run indices"),
+    ({"groups": {"a": ["0"]}}, "--group-by: expected a mapping of group to run indices"),
+])
+def test_a_plan_the_command_line_would_refuse_is_one_line(plan, message):
+    with pytest.raises(UserError) as refused:
+        api.FitPlan(**plan)
+    assert message in str(refused.value) and "\n" not in str(refused.value)
+
+
+@pytest.mark.parametrize("request_fields, plan, message", [
+    ({"train_until": 18000.0}, {"folds": 3}, "give exactly one of --train-until, --train-rows, --folds, --group-by"),
+    ({}, {}, "give exactly one of --train-until, --train-rows, --folds, --group-by (FitRequest.train_until, "
+             "train_rows; FitPlan.folds, groups), found none"),
+    ({}, {"folds": 3, "groups": {"a": [0], "b": [1, 2]}}, "found --folds and --group-by"),
+    ({"train_until": 18000.0}, {"probe_every": 45}, "--probe-every sets the probing schedule of a fused block"),
+    ({"train_until": 18000.0}, {"probe_gate_um": 3.0}, "--probe-gate-um sets the gate of a fused block"),
+    ({"train_until": 18000.0, "keep_every_run": True}, {}, "--keep-every-run keeps a campaign's runs"),
+    ({}, {"groups": {"a": [0, 1, 2], "b": [2]}}, "expected each of the 3 runs (0 to 2) in exactly one group"),
+    ({}, {"groups": {"a": [0], "b": [7]}}, "expected each of the 3 runs (0 to 2) in exactly one group"),
+    ({"train_until": 1e9}, {}, "--train-until 1000000000 leaves no row held out"),
+])
+def test_a_combination_the_command_line_would_refuse_is_refused_alike(folder, request_fields, plan, message):
+    """The reviewer's cases: each wrote a model (groups naming a run twice leaked its rows into the evidence)."""
+    paths = [folder / f"run_{k}.csv" for k in range(3)]
+    if request_fields.get("train_until") == 1e9 or "keep_every_run" in request_fields:
+        paths = paths[:1]
+    request = api.FitRequest("mlr", "E_z_um", TEMPS, **request_fields)
+    with pytest.raises(UserError) as refused:
+        api.fit([api.read_table(p) for p in paths], request, plan=api.FitPlan(**plan))
+    assert message in str(refused.value) and "\n" not in str(refused.value)

@@ -259,9 +259,9 @@ def test_a_held_out_gain_counts_where_the_training_part_gives_evidence():
     assert judges.held_out_gain(visible, only_held_out, 15552) > 0.9
 
 
-def _credible(name: str, bic: float, train: dict) -> tuple:
-    """A candidate as the search keeps it: (fit, score, residual, simulated, index, name); only the score read."""
-    return None, judges.Score(train, {}, {}, bic, 0.0, {}, {}), {}, None, 0, name
+def _credible(name: str, bic: float, train: dict) -> search.Credible:
+    """A candidate as the search keeps it; only the score and the name read."""
+    return search.Credible(None, judges.Score(train, {}, {}, bic, 0.0, {}, {}), {}, None, 0, name)
 
 
 def test_a_rival_the_held_out_part_rejects_still_makes_the_choice_a_coin_toss():
@@ -269,7 +269,7 @@ def test_a_rival_the_held_out_part_rejects_still_makes_the_choice_a_coin_toss():
     structure and ambient lag gained the same BIC (-317 and -314) and only the held-out part preferred the
     ambient lag, which used to be named. Equal evidence on the training part is a coin toss, whichever the
     held-out part prefers: a rival need not pass the held-out judge, only gain within 2 % on the same channel."""
-    before = _credible("baseline", 0.0, {"T_a": 1.0, "E_z_um": 2.0})[1]
+    before = _credible("baseline", 0.0, {"T_a": 1.0, "E_z_um": 2.0}).score
     best = _credible("ambient_coupling", -317.0, {"T_a": 1.0, "E_z_um": 1.0})
     alike = _credible("slow_structure", -314.0, {"T_a": 1.0, "E_z_um": 1.01})
     weaker = _credible("gear_ratio_switch", -250.0, {"T_a": 1.0, "E_z_um": 1.2})

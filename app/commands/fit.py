@@ -149,21 +149,6 @@ def _kind_options(groups: dict[str, argparse._ArgumentGroup]) -> None:
                                           **({"metavar": option.metavar} if option.metavar else {}))
 
 
-def _refuse_nothing_held_out(args: argparse.Namespace, table) -> None:
-    """One recording whose training part takes every row leaves no evidence: name where the data end instead of
-    writing a model generate will refuse (a campaign trained on whole runs is verified on other runs)."""
-    from thermoplc.fitting.fit import training_rows
-    if training_rows(table, args.time, args.train_until, args.train_rows) < table.rows:
-        return
-    if args.train_rows is not None:
-        raise UserError(f"{table.path}: --train-rows {args.train_rows} leaves no row held out (the file has {table.rows} "
-                        f"rows); train on fewer, or judge by cross-validation with --folds K")
-    t = table.columns[args.time]
-    raise UserError(f"{table.path}: --train-until {args.train_until:.12g} leaves no row held out (the data run from "
-                    f"{t[0]:.12g} s to {t[-1]:.12g} s); give a time before {t[-1]:.12g} s, or judge by cross-validation with "
-                    f"--folds K")
-
-
 def resampling_of(args: argparse.Namespace):
     """--resample as the rule the model file records: the speed column held at its last value."""
     from thermoplc.recordings.resample import Resampling
@@ -184,7 +169,8 @@ def _remote(args: argparse.Namespace, campaign, runs):
 
 def run(args: argparse.Namespace) -> int:
     from thermoplc.commands.fit_auto import print_ranking
-    from thermoplc.fit_pipeline import FitPlan, fit
+    from dataclasses import replace
+    from thermoplc.fit_pipeline import FitPlan, fit, request_problem, runs_problem
     from thermoplc.commands.fit_summary import fit_document, format_fit
     from thermoplc.fitting.acceptance import refusal
     from thermoplc.fitting.fit import FitRequest, common_sample_period
@@ -197,24 +183,17 @@ def run(args: argparse.Namespace) -> int:
                          block_name=args.name, extra_targets=args.target[1:], choose_sensors=args.choose_sensors,
                          settings={field: getattr(args, field) for field in options()},
                          keep_every_run=args.keep_every_run)
-    if args.choose_sensors and args.model == "auto":
-        raise UserError("--choose-sensors is for one kind: --model auto chooses its sensor sets itself")
+    # the plan's options as the library takes them, checked before any run is read (the groups once they are)
+    asked = FitPlan(args.folds, None, args.probe, None, args.probe_gate_um, args.held_target, args.resample)
+    if problem := request_problem(request, replace(asked, probe_every=1 if args.probe_every else None,
+                                                   groups={} if args.group_by else None)):
+        raise UserError(problem)
     if args.scheduler and not (args.folds or args.group_by):
         raise UserError("--scheduler runs the folds of --folds or --group-by on a cluster; give one of them")
-    if args.probe_every is not None and not args.probe:
-        raise UserError("--probe-every sets the probing schedule of a fused block; give --probe")
-    if args.probe_gate_um is not None and not args.probe:
-        raise UserError("--probe-gate-um sets the gate of a fused block; give --probe")
     refuse_options_not_read(args, request)
     runs = run_list(args.data, args.runs)
-    if args.keep_every_run and not (len(runs.paths) > 1 and (args.folds or args.group_by)):
-        raise UserError("--keep-every-run keeps a campaign's runs that disagree with the others in its cross-validation; "
-                        "give several runs with --folds K or --group-by")
-    if args.probe and len(runs.paths) == 1 and (args.folds or args.group_by):
-        raise UserError("--probe on one recording chooses the fusion on its held-out part: give --train-until or "
-                        "--train-rows instead of --folds (or a campaign of runs with --folds)")
-    if args.probe and len(runs.paths) > 1 and not (args.folds or args.group_by):
-        raise UserError("--probe on a campaign chooses the fusion on runs held out: give --folds K or --group-by")
+    if problem := runs_problem(request, replace(asked, groups={} if args.group_by else None), len(runs.paths)):
+        raise UserError(problem)
     stale = check_outputs({"-o": args.output, "--json": json_output.file(args)}, args.force, files_read(args), args.report,
                           report_names(list(runs.paths)), is_report_file)
     campaign = read_campaign(runs, args.time, reading_of(args), probed=args.target, held=args.held_target,
@@ -223,16 +202,14 @@ def run(args: argparse.Namespace) -> int:
     tables = campaign.tables
     every = args.probe_every.calls_at(common_sample_period(tables, args.time)) if args.probe_every else None
     refuse_columns_not_read(args, request, tables)
-    if len(tables) == 1 and not (args.folds or args.group_by):
-        _refuse_nothing_held_out(args, tables[0])
     remote = _remote(args, campaign, runs)
-    plan = FitPlan(args.folds, groups, args.probe, every, args.probe_gate_um, args.held_target, resampling_of(args))
+    plan = replace(asked, groups=groups, probe_every=every)
     try:
         fitted = fit(tables, request, args.time, plan, progress(), remote, args.output)
     finally:
+        end_progress()  # a refusal from any stage of the fit on a line of its own
         if remote is not None:
             remote.cluster.close()
-    end_progress()
     if args.model == "auto":
         print_ranking(fitted, request, plan.probing, len(tables) > 1 or groups is not None)
     model, predictions = fitted.model, fitted.predictions
