@@ -1,6 +1,8 @@
 """thermoplc: thermal-error models for machine tools, compiled to bit-exact PLC function blocks."""
 import os
 import platform
+import sys
+import warnings
 
 # The fits solve thousands of small least-squares problems; a threaded BLAS only spins on them
 # and, beside a second process on the same cores, makes them several times slower. One thread
@@ -21,8 +23,12 @@ def _pin_blas_kernels() -> None:
             flags = set(next((line for line in info if line.startswith("flags")), "").split())
     except OSError:
         return
-    if {"avx2", "fma"} <= flags:
-        os.environ.setdefault("OPENBLAS_CORETYPE", "Haswell")
+    if {"avx2", "fma"} <= flags and "OPENBLAS_CORETYPE" not in os.environ:
+        os.environ["OPENBLAS_CORETYPE"] = "Haswell"
+        if "numpy" in sys.modules:  # too late: OpenBLAS chose its kernels when numpy loaded
+            warnings.warn("numpy was imported before thermoplc, so OpenBLAS chose this CPU's own kernels: a fit here "
+                          "may differ in its last bits from `thermoplc fit`'s; import thermoplc first, or set "
+                          "OPENBLAS_CORETYPE=Haswell", RuntimeWarning, stacklevel=3)
 
 
 _pin_blas_kernels()

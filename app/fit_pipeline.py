@@ -9,6 +9,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Callable
 
+import numpy as np
+
 from thermoplc.base.errors import UserError
 from thermoplc.base.values import cycle_problem, number_problem
 from thermoplc.fitting.auto import Candidate, Probing, rank
@@ -60,15 +62,16 @@ def _field_problem(plan: FitPlan) -> str | None:
     groups = plan.groups
     checks = {
         "--folds": None if plan.folds is None else number_problem(plan.folds, int, 2, 1_000_000, "folds"),
-        "--probe-every": None if plan.probe_every is None else
-        number_problem(plan.probe_every, int, 1, 10 ** 9, "a number of calls"),
+        "--probe-every": None if plan.probe_every is None else  # a duration may give more calls than one types
+        number_problem(plan.probe_every, int, 1, 2 ** 62, "a number of calls"),
         "--probe-gate-um": None if plan.probe_gate_um is None else
         number_problem(plan.probe_gate_um, float, 0.1, 1e5, "um"),
         "--resample": None if plan.resample_s is None else cycle_problem(plan.resample_s),
         "--group-by": None if groups is None else
         None if isinstance(groups, Mapping) and all(
-            isinstance(v, Sequence) and not isinstance(v, str) and all(
-                isinstance(i, int) and not isinstance(i, bool) for i in v) for v in groups.values())
+            isinstance(v, Sequence | np.ndarray) and not isinstance(v, str) and all(
+                isinstance(i, int | np.integer) and not isinstance(i, bool | np.bool_) for i in v)
+            for v in groups.values())
         else f"expected a mapping of group to run indices (Campaign.groups), found {groups!r:.60}"}
     return next((f"{flag}: {problem}" for flag, problem in checks.items() if problem), None)
 
@@ -109,6 +112,8 @@ def groups_problem(plan: FitPlan, runs: int) -> str | None:
     column gives one by construction (Campaign.groups). One group for every run is refused by the folds."""
     if plan.groups is None:
         return None
+    if empty := [group for group, run_indices in plan.groups.items() if not run_indices]:
+        return f"--group-by: group {empty[0]!r} has no run; expected every group to hold at least one"
     indices = sorted(i for run_indices in plan.groups.values() for i in run_indices)
     if indices != list(range(runs)):
         return (f"--group-by: groups of runs {indices}; expected each of the {runs} runs (0 to {runs - 1}) in exactly "

@@ -146,7 +146,8 @@ def _with(flag: str) -> str:
 
 def _titles(instance_db: bool) -> str:
     """The dialects that write an instance DB beside the block, or those that do not, as a sentence names them."""
-    return " and ".join(record.title for record in DIALECTS.values() if record.instance_db == instance_db)
+    titles = [record.title for record in DIALECTS.values() if record.instance_db == instance_db]
+    return " and ".join(filter(None, (", ".join(titles[:-1]), titles[-1])))
 
 
 def block_dialect(block_path: str) -> tuple[str, bool]:

@@ -215,12 +215,17 @@ def plcopen_pou(name: str, version: str, title: str, created: str, header: list[
         name=name, version=version, title=title, created=created, header=header, sections=sections, body=body)
 
 
+def _wrapped() -> DialectDefinition:
+    """The dialect PLCopen XML wraps (its record's `plcopen`)."""
+    return next(record for record in DIALECTS.values() if record.plcopen)
+
+
 def render_plcopen(block: Block, version: str) -> str:
     """The iec block wrapped as PLCopen TC6 XML (CODESYS, TwinCAT import). Its creationDateTime is the
     block's date (generate --date, or SOURCE_DATE_EPOCH, or today), the one the header comment states,
     at 00:00:00; without a date a fixed UNDATED: either way the same inputs give the same bytes."""
     validate(block)
-    printer = _Printer(DIALECTS["iec"])
+    printer = _Printer(_wrapped())
 
     def decl(v: Var) -> dict:
         flag = isinstance(v.initial, bool)
@@ -239,7 +244,7 @@ def render_plcopen(block: Block, version: str) -> str:
         sections.append(("localVars", ' constant="true"', constants))
     return plcopen_pou(block.name, version, safe_string(block.title),
                        f"{block.identity.date}T00:00:00" if block.identity.date else UNDATED,
-                       [safe_comment(line) for line in _header(block, DIALECTS["iec"])], sections,
+                       [safe_comment(line) for line in _header(block, _wrapped())], sections,
                        printer.body(block.regions))
 
 

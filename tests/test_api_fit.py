@@ -103,6 +103,7 @@ def test_resample_and_a_probing_schedule(folder):
     ({"probe": "no"}, "--probe: expected True or False, found 'no'"),
     ({"held_target": 1}, "--held-target: expected True or False, found 1"),
     ({"probe": True, "probe_every": 0}, "--probe-every: expected a number of calls from 1 to"),
+    ({"groups": {"a": [0], "b": [True]}}, "--group-by: expected a mapping of group to run indices"),
     ({"probe": True, "probe_every": "45"}, "--probe-every: expected an integer, found '45'"),
     ({"probe": True, "probe_gate_um": -1.0}, "--probe-gate-um: expected um from 0.1 to 100000, found -1.0"),
     ({"probe": True, "probe_gate_um": float("nan")}, "--probe-gate-um: expected um from 0.1 to 100000, found nan"),
@@ -127,6 +128,7 @@ def test_a_plan_the_command_line_would_refuse_is_one_line(plan, message):
     ({"train_until": 18000.0, "keep_every_run": True}, {}, "--keep-every-run keeps a campaign's runs"),
     ({}, {"groups": {"a": [0, 1, 2], "b": [2]}}, "expected each of the 3 runs (0 to 2) in exactly one group"),
     ({}, {"groups": {"a": [0], "b": [7]}}, "expected each of the 3 runs (0 to 2) in exactly one group"),
+    ({}, {"groups": {"a": [0, 1, 2], "b": []}}, "--group-by: group 'b' has no run"),
     ({"train_until": 1e9}, {}, "--train-until 1000000000 leaves no row held out"),
 ])
 def test_a_combination_the_command_line_would_refuse_is_refused_alike(folder, request_fields, plan, message):
@@ -138,3 +140,23 @@ def test_a_combination_the_command_line_would_refuse_is_refused_alike(folder, re
     with pytest.raises(UserError) as refused:
         api.fit([api.read_table(p) for p in paths], request, plan=api.FitPlan(**plan))
     assert message in str(refused.value) and "\n" not in str(refused.value)
+
+
+def test_numpy_run_indices_are_taken():
+    plan = api.FitPlan(groups={"cool": np.array([0, 1]), "warm": [np.int64(2)]})
+    assert plan.groups == {"cool": [0, 1], "warm": [2]}
+
+
+def test_a_script_that_imported_numpy_first_is_told_its_fits_may_differ():
+    """OpenBLAS picks its kernels when numpy loads; thermoplc pins them only if it is imported first (app/__init__)."""
+    import os
+    import subprocess
+    import sys
+    flags = Path("/proc/cpuinfo").read_text(errors="replace") if Path("/proc/cpuinfo").exists() else ""
+    if not ({"avx2", "fma"} <= set(flags.split())):
+        pytest.skip("the kernels are pinned on x86-64 CPUs with AVX2 and FMA only")
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_CORETYPE"}
+    said = [subprocess.run([sys.executable, "-c", first], capture_output=True, text=True, env=env,
+                           stdin=subprocess.DEVNULL, check=True).stderr
+            for first in ("import numpy, thermoplc", "import thermoplc, numpy")]
+    assert "numpy was imported before thermoplc" in said[0] and said[1] == ""

@@ -183,16 +183,19 @@ def run(args: argparse.Namespace) -> int:
                          block_name=args.name, extra_targets=args.target[1:], choose_sensors=args.choose_sensors,
                          settings={field: getattr(args, field) for field in options()},
                          keep_every_run=args.keep_every_run)
-    # the plan's options as the library takes them, checked before any run is read (the groups once they are)
-    asked = FitPlan(args.folds, None, args.probe, None, args.probe_gate_um, args.held_target, args.resample)
-    if problem := request_problem(request, replace(asked, probe_every=1 if args.probe_every else None,
-                                                   groups={} if args.group_by else None)):
+    # the plan's options as the library takes them, checked before any run is read (the groups once they are):
+    # the kind's first, then the cluster's, then the fusion's
+    asked = FitPlan(args.folds, {} if args.group_by else None, args.probe, None, None, args.held_target, args.resample)
+    if problem := request_problem(request, asked):
         raise UserError(problem)
     if args.scheduler and not (args.folds or args.group_by):
         raise UserError("--scheduler runs the folds of --folds or --group-by on a cluster; give one of them")
+    asked = replace(asked, probe_gate_um=args.probe_gate_um)
+    if problem := request_problem(request, replace(asked, probe_every=1 if args.probe_every else None)):
+        raise UserError(problem)
     refuse_options_not_read(args, request)
     runs = run_list(args.data, args.runs)
-    if problem := runs_problem(request, replace(asked, groups={} if args.group_by else None), len(runs.paths)):
+    if problem := runs_problem(request, asked, len(runs.paths)):
         raise UserError(problem)
     stale = check_outputs({"-o": args.output, "--json": json_output.file(args)}, args.force, files_read(args), args.report,
                           report_names(list(runs.paths)), is_report_file)

@@ -24,6 +24,11 @@ def registry() -> dict[str, DialectDefinition]:
     found.sort(key=lambda record: record.rank)
     if len({r.name for r in found}) != len(found) or len({r.rank for r in found}) != len(found):
         raise RuntimeError(f"two dialects share a name or a rank: {[(r.rank, r.name) for r in found]}")
+    if [r.recognized_by is None for r in found] != [False] * (len(found) - 1) + [True]:
+        raise RuntimeError("one dialect, ranked last, recognizes the blocks no other does (recognized_by=None): "
+                           f"{[(r.rank, r.name, r.recognized_by) for r in found]}")
+    if sum(r.plcopen for r in found) != 1:
+        raise RuntimeError(f"one dialect is the one PLCopen XML wraps: {[r.name for r in found if r.plcopen]}")
     return {record.name: record for record in found}
 
 
