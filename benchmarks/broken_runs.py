@@ -15,6 +15,8 @@ out) over the sound runs: fitted on the campaign without the broken run (the ref
 """
 from __future__ import annotations
 
+import thermoplc  # noqa: F401,E402  (before numpy: it pins OpenBLAS's kernels and threads)
+
 import argparse
 import math
 from dataclasses import replace

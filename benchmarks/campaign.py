@@ -17,6 +17,8 @@ on which such a block raised a fault or SensorsDisagree.
 """
 from __future__ import annotations
 
+import thermoplc  # noqa: F401,E402  (before numpy: it pins OpenBLAS's kernels and threads)
+
 import argparse
 import math
 import time

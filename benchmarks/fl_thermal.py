@@ -15,6 +15,8 @@ by the four-block cross-validation of the whole recording. Seeded: the same run 
 """
 from __future__ import annotations
 
+import thermoplc  # noqa: F401,E402  (before numpy: it pins OpenBLAS's kernels and threads)
+
 import time
 from dataclasses import replace
 

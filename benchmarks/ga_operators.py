@@ -10,6 +10,8 @@ operator set, the median over seeds and how many cases each set wins. The defaul
 """
 from __future__ import annotations
 
+import thermoplc  # noqa: F401,E402  (before numpy: it pins OpenBLAS's kernels and threads)
+
 import argparse
 import statistics
 import sys

@@ -2,6 +2,8 @@
 limits) judge them: the demo's sensors, fit on the first 24 h; the twin seed 3, 48 h. Seeded."""
 from __future__ import annotations
 
+import thermoplc  # noqa: F401,E402  (before numpy: it pins OpenBLAS's kernels and threads)
+
 import subprocess
 import sys
 from pathlib import Path

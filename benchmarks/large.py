@@ -15,6 +15,8 @@ manifest and runs `verify --manifest` in a child: the throughput of fleet verifi
 """
 from __future__ import annotations
 
+import thermoplc  # noqa: F401,E402  (before numpy: it pins OpenBLAS's kernels and threads)
+
 import argparse
 import json
 import subprocess

@@ -11,6 +11,8 @@ recording's, with the share of held-out calls the rate limit acted on. `--quick`
 """
 from __future__ import annotations
 
+import thermoplc  # noqa: F401,E402  (before numpy: it pins OpenBLAS's kernels and threads)
+
 import argparse
 import sys
 import tempfile

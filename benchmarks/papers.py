@@ -8,6 +8,8 @@ what to look at. Seeded: the same run prints the same table.
 """
 from __future__ import annotations
 
+import thermoplc  # noqa: F401,E402  (before numpy: it pins OpenBLAS's kernels and threads)
+
 import tempfile
 from dataclasses import replace
 from pathlib import Path

@@ -14,6 +14,8 @@ T_env, fitted on seed 3 and judged on seeds 3 (held-out half) and 7 (another mac
 """
 from __future__ import annotations
 
+import thermoplc  # noqa: F401,E402  (before numpy: it pins OpenBLAS's kernels and threads)
+
 import subprocess
 import sys
 import tempfile

@@ -14,6 +14,8 @@ the first and the second probing that follows the step.
 """
 from __future__ import annotations
 
+import thermoplc  # noqa: F401,E402  (before numpy: it pins OpenBLAS's kernels and threads)
+
 from dataclasses import replace
 from pathlib import Path
 

@@ -16,6 +16,8 @@ leave-one-run-out fit, and the fusion's choice over all schedules, on this machi
 """
 from __future__ import annotations
 
+import thermoplc  # noqa: F401,E402  (before numpy: it pins OpenBLAS's kernels and threads)
+
 import argparse
 import time
 

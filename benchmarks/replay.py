@@ -11,6 +11,8 @@ line is one JSON object {"<block>": {"<engine>": cycles_per_s, ...}, ...}.
 """
 from __future__ import annotations
 
+import thermoplc  # noqa: F401,E402  (before numpy: it pins OpenBLAS's kernels and threads)
+
 import argparse
 import json
 import sys

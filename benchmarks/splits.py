@@ -12,6 +12,8 @@ columns: the worst ratio to mlr on the same split and the worst ratio to the rid
 """
 from __future__ import annotations
 
+import thermoplc  # noqa: F401,E402  (before numpy: it pins OpenBLAS's kernels and threads)
+
 import argparse
 import time
 

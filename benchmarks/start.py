@@ -11,6 +11,8 @@ did before). Last per data the fused mlr block (`fit --probe --probe-every 120`)
 """
 from __future__ import annotations
 
+import thermoplc  # noqa: F401,E402  (before numpy: it pins OpenBLAS's kernels and threads)
+
 import argparse
 import sys
 import tempfile
