@@ -12,7 +12,7 @@ import numpy as np
 from thermoplc.base.errors import UserError
 from thermoplc.base.version import __version__
 from thermoplc.contract.constants import expected
-from thermoplc.generator.dialects import recognized
+from thermoplc.generator.dialects import plcopen_wrapped, recognized
 from thermoplc.generator.ir import Block, Identity
 from thermoplc.generator.lower import lower, prove
 from thermoplc.generator.printer import (DIALECTS, GenerationError, render, render_instance_db, render_plcopen,
@@ -93,7 +93,8 @@ def generate(model: Model, source: str = "model", limits: Limits | None = None, 
     if dialect not in DIALECTS:
         raise UserError(f"dialect {dialect!r}: expected one of {', '.join(DIALECTS)}")
     if plcopen and not DIALECTS[dialect].plcopen:
-        raise UserError(f"--format plcopen wraps the {_with('plcopen')} dialect; add --dialect {_with('plcopen')}")
+        raise UserError(f"--format plcopen wraps the {plcopen_wrapped().name} dialect; add --dialect "
+                        f"{plcopen_wrapped().name}")
     if instance_db is not None and not DIALECTS[dialect].instance_db:
         raise UserError(f"--instance-db writes a {_titles(True)} instance DB source; {_titles(False)} targets "
                         f"create the instance when the block is called")
@@ -139,11 +140,6 @@ class Bench:
     counters: BenchCounters
 
 
-def _with(flag: str) -> str:
-    """The dialects whose record sets `flag` (generator/dialects/)."""
-    return " or ".join(name for name, record in DIALECTS.items() if getattr(record, flag))
-
-
 def _titles(instance_db: bool) -> str:
     """The dialects that write an instance DB beside the block, or those that do not, as a sentence names them."""
     titles = [record.title for record in DIALECTS.values() if record.instance_db == instance_db]
@@ -156,7 +152,7 @@ def block_dialect(block_path: str) -> tuple[str, bool]:
     it wraps)."""
     text = read_source(block_path)
     if is_xml(text):
-        return _with("plcopen"), True
+        return plcopen_wrapped().name, True
     return recognized(text), False
 
 

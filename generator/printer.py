@@ -13,7 +13,7 @@ from thermoplc.generator.ir import (
     PORTABLE_FUNCTIONS, Assign, BinOp, Block, BoolConst, Call, Expr, For, Index, IntConst, Ref, Region, Stmt,
     Unary, Var, assigned_names, walk_exprs,
 )
-from thermoplc.generator.dialects import DialectDefinition, registry
+from thermoplc.generator.dialects import DialectDefinition, plcopen_wrapped, registry
 from thermoplc.generator.identity import check_header_name
 from thermoplc.generator.literals import real_literal
 
@@ -215,17 +215,12 @@ def plcopen_pou(name: str, version: str, title: str, created: str, header: list[
         name=name, version=version, title=title, created=created, header=header, sections=sections, body=body)
 
 
-def _wrapped() -> DialectDefinition:
-    """The dialect PLCopen XML wraps (its record's `plcopen`)."""
-    return next(record for record in DIALECTS.values() if record.plcopen)
-
-
 def render_plcopen(block: Block, version: str) -> str:
     """The iec block wrapped as PLCopen TC6 XML (CODESYS, TwinCAT import). Its creationDateTime is the
     block's date (generate --date, or SOURCE_DATE_EPOCH, or today), the one the header comment states,
     at 00:00:00; without a date a fixed UNDATED: either way the same inputs give the same bytes."""
     validate(block)
-    printer = _Printer(_wrapped())
+    printer = _Printer(plcopen_wrapped())
 
     def decl(v: Var) -> dict:
         flag = isinstance(v.initial, bool)
@@ -244,7 +239,7 @@ def render_plcopen(block: Block, version: str) -> str:
         sections.append(("localVars", ' constant="true"', constants))
     return plcopen_pou(block.name, version, safe_string(block.title),
                        f"{block.identity.date}T00:00:00" if block.identity.date else UNDATED,
-                       [safe_comment(line) for line in _header(block, _wrapped())], sections,
+                       [safe_comment(line) for line in _header(block, plcopen_wrapped())], sections,
                        printer.body(block.regions))
 
 

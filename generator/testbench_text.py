@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from thermoplc.generator.dialects import registry
+from thermoplc.generator.dialects import plcopen_wrapped, registry
 from thermoplc.generator.ir import GenerationError
 from thermoplc.generator.literals import real_literal
 from thermoplc.generator.printer import UNDATED, plcopen_pou, plcopen_type, safe_comment, safe_string
@@ -39,18 +39,19 @@ def _literal(value, kind: str) -> str:
 class _Text:
     def __init__(self, plan: BenchPlan, dialect: str):
         self.plan, self.dialect, self.sp = plan, dialect, SPELLINGS[dialect]
+        self.local, self.types = registry()[dialect].local_prefix, registry()[dialect].type_names  # the block's own
         self.name, self.db_prefix = bench_names(plan.block)
         self.chunks = chunks(plan, dialect)
         self.reals = [k for k, p in enumerate(plan.outputs) if p.type == "REAL"]
 
     def n(self, name: str) -> str:
-        return self.sp.local + name
+        return self.local + name
 
     def comment(self, text: str) -> str:
         return self.sp.comment.format(safe_comment(text))
 
     def array(self, lo: int, hi: int, kind: str) -> str:
-        return self.sp.array.format(lo=lo, hi=hi, type=self.sp.types[kind])
+        return self.sp.array.format(lo=lo, hi=hi, type=self.types[kind])
 
     def data_ref(self, chunk: Chunk, array: str) -> str:
         if self.sp.data_blocks:
@@ -112,7 +113,7 @@ class _Text:
     def st_type(self, d: _Decl) -> str:
         if d.block:
             return f'"{d.block}"' if self.sp.data_blocks else d.block
-        return self.array(*d.bounds, d.type) if d.bounds else self.sp.types[d.type]
+        return self.array(*d.bounds, d.type) if d.bounds else self.types[d.type]
 
     def declarations(self) -> list[str]:
         tia = self.dialect == "tia"
@@ -238,8 +239,7 @@ def render_bench(plan: BenchPlan, dialect: str, plcopen: bool = False, version: 
     if dialect not in TARGETS:
         raise GenerationError(f"dialect {dialect!r}: a test bench is written for {', '.join(TARGETS)}")
     if plcopen and not registry()[dialect].plcopen:
-        raise GenerationError(f"PLCopen XML holds the {' or '.join(n for n, r in registry().items() if r.plcopen)} "
-                              f"dialect")
+        raise GenerationError(f"PLCopen XML holds the {plcopen_wrapped().name} dialect")
     check_plan(plan)
     text = _Text(plan, dialect)
     return _plcopen(text, version) if plcopen else text.source()

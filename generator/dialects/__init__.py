@@ -10,7 +10,7 @@ import pkgutil
 
 from thermoplc.generator.dialects.definition import BenchSpelling, DialectDefinition, Target
 
-__all__ = ["BenchSpelling", "DialectDefinition", "Target", "recognized", "registry"]
+__all__ = ["BenchSpelling", "DialectDefinition", "Target", "plcopen_wrapped", "recognized", "registry"]
 
 
 @functools.cache
@@ -30,6 +30,11 @@ def registry() -> dict[str, DialectDefinition]:
     if sum(r.plcopen for r in found) != 1:
         raise RuntimeError(f"one dialect is the one PLCopen XML wraps: {[r.name for r in found if r.plcopen]}")
     return {record.name: record for record in found}
+
+
+def plcopen_wrapped() -> DialectDefinition:
+    """The dialect PLCopen XML wraps (the one record with `plcopen`; the registry refuses any other count)."""
+    return next(record for record in registry().values() if record.plcopen)
 
 
 def recognized(text: str) -> str:

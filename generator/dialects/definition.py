@@ -19,9 +19,7 @@ class Target:
 
 @dataclass(frozen=True)
 class BenchSpelling:
-    """How the test bench spells what differs (generator/testbench_text.py)."""
-    local: str  # '#' before a local name (TIA)
-    types: dict
+    """How the test bench spells what differs beyond the block's own spelling (generator/testbench_text.py)."""
     array: str
     comment: str  # a line comment's opening and closing
     data_blocks: bool  # the rows in global data blocks (Siemens) or in the bench's constant arrays (IEC)

@@ -8,6 +8,5 @@ DIALECT = DialectDefinition(
     retain=False, functions=frozenset({"ABS", "SQRT"}),
     bench=Target(65536, 65536, "one DB of at most 64 KiB, the S7-300/400 limit (older S7-312/314 CPUs allow "
                                "16 KiB: give --calls)"),
-    bench_spelling=BenchSpelling("", {"REAL": "REAL", "BOOL": "BOOL", "INT": "INT"}, "ARRAY[{lo}..{hi}] OF {type}",
-                                 "// {}", True),
+    bench_spelling=BenchSpelling("ARRAY[{lo}..{hi}] OF {type}", "// {}", True),
     rows_per_cycle=10, recognized_by=r'(?im)^\s*FUNCTION_BLOCK\s+"', instance_db=True)

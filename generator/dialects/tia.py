@@ -7,6 +7,5 @@ DIALECT = DialectDefinition(
     regions="keyword", array_initial="brackets", suffix=".scl", eno="ENO", retain=True,
     bench=Target(65536, 262144, "DBs of at most 64 KiB, 256 KiB in all: a quarter of the smallest S7-1500's data "
                                 "memory (an S7-1200 holds less: give --calls)"),
-    bench_spelling=BenchSpelling("#", {"REAL": "Real", "BOOL": "Bool", "INT": "Int"}, "Array[{lo}..{hi}] of {type}",
-                                 "// {}", True),
+    bench_spelling=BenchSpelling("Array[{lo}..{hi}] of {type}", "// {}", True),
     rows_per_cycle=50, recognized_by="S7_Optimized_Access")
