@@ -33,7 +33,7 @@ def print_ranking(fitted, request, probing, campaign: bool) -> None:
         print(f"  {k:<6}{c.kind:<8}{c.label:<32}{held['rmse_um']:>9.3f}{held['max_abs_um']:>9.3f}"
               f"{cost[k - 1]:>10}" + (f"{c.rmse:>10.3f}" if probing else "")
               + (f"  generate refuses: {c.not_accepted}" if c.not_accepted else ""))
-    best_k, best = fitted_[0]
+    best = fitted_[0][1]
     cheap_k, cheaper = min(((k, c) for k, c in fitted_ if c.rmse <= (1 + AUTO_TOLERANCE) * best.rmse and
                             (c.not_accepted is None) == (best.not_accepted is None)), key=lambda kc: cost[kc[0]])
     if cheaper is not best:
