@@ -36,7 +36,7 @@ from thermoplc.models.kinds import kind_of
 from thermoplc.recordings.table import Table, read_table
 
 ROOT = Path(__file__).resolve().parent.parent
-FL_THERMAL = ROOT / "app" / "data" / "fl_thermal" / "fl_thermal.csv"
+FL_THERMAL = ROOT / "thermoplc" / "data" / "fl_thermal" / "fl_thermal.csv"
 KINDS = ("mlr", "dlag", "gm0n", "gm1n", "bayes", "bpnn", "lumped", "kalman")
 QUICK_GA = {"population": 20, "generations": 15}  # kalman's GA held short so the table runs in minutes
 FL_RUN_HOURS = 6.0

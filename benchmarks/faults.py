@@ -21,7 +21,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks.kinds_on_data import PROBE_EVERY, fitted_kinds  # noqa: E402
 from thermoplc.pipeline import generate  # noqa: E402
-from thermoplc.verifier.faults import verify_faults  # noqa: E402
+from thermoplc.verifier.replays.faults import verify_faults  # noqa: E402
 
 KINDS = ("mlr", "kalman", "lumped", "dlag", "gm0n", "gm1n", "bayes", "bpnn")
 QUICK = ("mlr", "kalman")

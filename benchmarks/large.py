@@ -84,11 +84,15 @@ def write_recording(folder: Path, rows: int, sources=("csv", "npz")) -> dict:
     return paths
 
 
+# the child notes the route and stage times of verify's streamed reading by wrapping the function the command calls
 CHILD = ("import json, resource, sys, time\nstart = time.perf_counter()\nfrom thermoplc.cli import main\n"
+         "stages = {}\ntry:\n    from thermoplc.verifier.replays import stream\n    plain = stream.verify_streaming\n"
+         "    def noting(*args, **kwargs):\n        streamed = plain(*args, **kwargs)\n"
+         "        stages.update(route=streamed.route, **streamed.seconds)\n        return streamed\n"
+         "    stream.verify_streaming = noting\n"
+         "except ImportError:\n    pass  # a thermoplc before the verifier's split: no stages\n"
          "try:\n    code = main(sys.argv[1:])\nfinally:\n"
-         "    try:\n        from thermoplc.verifier.stream import LAST_TIMINGS\n"
-         "        print('stages', json.dumps(LAST_TIMINGS), file=sys.stderr)\n"
-         "    except ImportError:\n        pass  # a thermoplc from before issue 17: no stages\n"
+         "    print('stages', json.dumps(stages), file=sys.stderr)\n"
          "    print('peak-rss-kib', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr)\n"
          "sys.exit(code)\n")
 

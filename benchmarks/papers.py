@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from thermoplc.demo import AMBIENT, SPEED, TEMPS, TARGET, TRAIN_UNTIL_S, recording
-from thermoplc.models import bayes, grey
+from thermoplc.models.kinds import bayes, grey
 from thermoplc.fitting.fit import FitRequest, fit
 from thermoplc.models.model import Coefficient
 from thermoplc.models.reference import model_inputs, predict

@@ -32,7 +32,7 @@ from thermoplc.fitting.plausibility_fit import fit_plausibility  # noqa: E402
 from thermoplc.models.model import Model, Signal  # noqa: E402
 from thermoplc.models.plausibility import Plausibility, disagree  # noqa: E402
 from thermoplc.recordings.table import Table, read_table  # noqa: E402
-from thermoplc.verifier.faults import FAULT_KINDS, inject  # noqa: E402
+from thermoplc.verifier.replays.faults import FAULT_KINDS, inject  # noqa: E402
 
 SETTLE_CALLS = 30  # generate's default
 DRIFTS = [k for k in FAULT_KINDS if k.name in ("sine", "offset")]

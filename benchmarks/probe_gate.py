@@ -31,9 +31,9 @@ from thermoplc.models.probing import Fusion, probings, rising
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits
 from thermoplc.recordings.table import read_table
-from thermoplc.verifier.probings import reference_keys
+from thermoplc.verifier.replays.probings import reference_keys
 
-FL = Path(__file__).resolve().parent.parent / "app" / "data" / "fl_thermal" / "fl_thermal.csv"
+FL = Path(__file__).resolve().parent.parent / "thermoplc" / "data" / "fl_thermal" / "fl_thermal.csv"
 OFF_UM = (20.0, 50.0, 80.0)
 STEP_UM = 10.0
 

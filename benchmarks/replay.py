@@ -30,9 +30,9 @@ from thermoplc.models.reference import block_outputs, model_inputs  # noqa: E402
 from thermoplc.models.safety import Limits  # noqa: E402
 from thermoplc.recordings.table import read_table, write_table  # noqa: E402
 from thermoplc.machines.cascade import simulate  # noqa: E402
-from thermoplc.verifier.interpreter import Machine  # noqa: E402
-from thermoplc.verifier.native import NativeBlock  # noqa: E402
-from thermoplc.verifier.block_file import parse_file  # noqa: E402
+from thermoplc.verifier.engines.interpreter import Machine  # noqa: E402
+from thermoplc.verifier.engines.native import NativeBlock  # noqa: E402
+from thermoplc.verifier.reading.block_file import parse_file  # noqa: E402
 
 
 def _best(run, repeat: int = 3) -> float:

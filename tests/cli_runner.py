@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 CLI = (sys.executable, "-m", "thermoplc")
-# the progress a long command writes to a log (app/commands/terminal.py) depends on how loaded the
+# the progress a long command writes to a log (thermoplc/commands/terminal.py) depends on how loaded the
 # machine is; tests/test_progress.py checks it, every other test reads what is left
 PROGRESS_LINE = re.compile(r"^thermoplc: \d+ s: .*\n", re.MULTILINE)
 
@@ -31,3 +31,18 @@ def thermoplc(*args, cwd: Path, check: int | None = 0, stdin: str | None = None,
     if check is not None:
         assert result.returncode == check, result.stdout + result.stderr
     return result
+
+
+def routes_taken(monkeypatch) -> list[str]:
+    """The routes verify's streamed reading takes in this process from now on ("streamed", or "whole recording
+    (why)"), noted by wrapping the library function the command calls."""
+    from thermoplc.verifier.replays import stream
+    taken: list[str] = []
+    plain = stream.verify_streaming
+
+    def noting(*args, **kwargs):
+        streamed = plain(*args, **kwargs)
+        taken.append(streamed.route)
+        return streamed
+    monkeypatch.setattr(stream, "verify_streaming", noting)
+    return taken

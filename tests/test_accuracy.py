@@ -4,10 +4,10 @@ recover the coefficients of data made by their own equations."""
 import numpy as np
 import pytest
 
-from thermoplc.models import grey
-from thermoplc.models.dlag import fit_dlag, lagged
+from thermoplc.models.kinds import grey
+from thermoplc.models.kinds.dlag import fit_dlag, lagged
 from thermoplc.fitting.fit import FitRequest, fit
-from thermoplc.models.mlr import fit_mlr
+from thermoplc.models.kinds.mlr import fit_mlr
 from thermoplc.recordings.table import read_table, write_table
 from thermoplc.machines.cascade import simulate
 from thermoplc.models.kind import Part
@@ -76,7 +76,7 @@ def test_gm0n_recovers_its_equation():
 
 
 def test_piecewise_recovers_each_nodes_equation():
-    from thermoplc.models.piecewise import fit_piecewise
+    from thermoplc.models.kinds.piecewise import fit_piecewise
     truth = {10.0: (0.5, [1.0, -0.4]), 20.0: (1.5, [2.0, 0.3]), 30.0: (-1.0, [0.7, 0.9])}
     batches = []
     for k, (ambient, (beta0, beta)) in enumerate(sorted(truth.items())):

@@ -1,5 +1,5 @@
 """`thermoplc.api.fit` writes what `thermoplc fit` writes, byte for byte (issue 66): every kind, `auto`, a
-campaign with folds, a fused block (--probe), a held target and --resample. Both go through app/fit_pipeline.py;
+campaign with folds, a fused block (--probe), a held target and --resample. Both go through thermoplc/fit_pipeline.py;
 a check or a step that only the command made would show here as a different file."""
 from pathlib import Path
 
@@ -148,7 +148,8 @@ def test_numpy_run_indices_are_taken():
 
 
 def test_a_script_that_imported_numpy_first_is_told_its_fits_may_differ():
-    """OpenBLAS picks its kernels when numpy loads; thermoplc pins them only if it is imported first (app/__init__)."""
+    """OpenBLAS picks its kernels when numpy loads; thermoplc pins them only if it is imported
+first (thermoplc/__init__.py)."""
     import os
     import subprocess
     import sys

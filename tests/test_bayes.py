@@ -5,8 +5,8 @@ from tests.conftest import fit_small
 from tests.test_piecewise import table_mutants
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
-from thermoplc.models.bayes import configuration, interval
-from thermoplc.verifier.replay import verify_against_model
+from thermoplc.models.kinds.bayes import configuration, interval
+from thermoplc.verifier.replays.replay import verify_against_model
 
 
 def test_intervals_and_configuration_index():
@@ -34,7 +34,7 @@ def test_every_table_entry_of_the_bayes_block_is_checked(twin_table, tmp_path):
 
 
 def test_an_unseen_configuration_answers_as_the_nearest_seen_one():
-    from thermoplc.models.bayes import fit_rises, predict_rises
+    from thermoplc.models.kinds.bayes import fit_rises, predict_rises
     rises = np.array([[0.0, 0.0], [0.1, 0.0], [3.9, 0.0], [4.0, 4.0]])
     target = np.array([1.0, 1.0, 9.0, 20.0])
     nearest, settings, _ = fit_rises(rises, target, 4, 1.0, unseen="nearest")
@@ -169,7 +169,7 @@ def test_the_ridge_parent_goes_on_past_the_training_range_where_a_table_of_error
     is predicted along the ridge (3 um/K to 10 K), where temperature parents stop at their outer interval."""
     import math
     from thermoplc.fitting.fit import FitRequest, fit
-    from thermoplc.models.bayes import predict
+    from thermoplc.models.kinds.bayes import predict
     from thermoplc.recordings.table import Table
     rng = np.random.default_rng(5)
     tables = []

@@ -10,7 +10,7 @@ from tests.test_bayes import _constant_mutants
 from thermoplc.fitting.fit import FitRequest
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
-from thermoplc.verifier.replay import verify_against_model
+from thermoplc.verifier.replays.replay import verify_against_model
 
 FOUR = ("t8_C", "t4_C", "t5_C", "t11_C")
 
@@ -52,7 +52,7 @@ def test_the_skip_block_is_bit_exact_and_every_weight_is_checked(twin_table, tmp
 def test_a_network_the_validation_runs_do_not_confirm_stays_at_0_um():
     """Error exactly linear in the rises: the ridge takes all of it, back-propagation never lowers the
     validation error below its start, and the block's output is the ridge's to within the rounding of 0 um."""
-    from thermoplc.models.bpnn import fit_bpnn
+    from thermoplc.models.kinds.bpnn import fit_bpnn
     rng = np.random.default_rng(3)
     rises = np.cumsum(rng.normal(0.0, 0.05, (600, 3)), axis=0)
     residual = rng.normal(0.0, 0.2, (600, 1))  # what a ridge leaves of a linear error: noise

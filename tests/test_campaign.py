@@ -12,7 +12,7 @@ from thermoplc.fitting.fit import FitRequest, fit
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.safety import Limits
 from thermoplc.recordings.table import Table, read_table, write_table
-from thermoplc.verifier.replay import block_columns, load_block
+from thermoplc.verifier.replays.replay import block_columns, load_block
 
 COMMON = ("--target", "E_z_um", "--temps", "T_motor,T_bearing,T_struct")
 

@@ -11,8 +11,8 @@ from thermoplc.generator.printer import render
 from thermoplc.machines.cascade import simulate
 from thermoplc.models.modelfile import load_model
 from thermoplc.recordings.table import write_table
-from thermoplc.verifier.interpreter import Machine
-from thermoplc.verifier.parser import parse_text
+from thermoplc.verifier.engines.interpreter import Machine
+from thermoplc.verifier.reading.parser import parse_text
 
 KINDS = ("kalman", "dlag", "bayes", "gm1n", "lumped")  # latches, ring buffers, a clock, a grey state, a simulation
 

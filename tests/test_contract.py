@@ -79,7 +79,7 @@ def test_verify_refuses_a_block_whose_constants_left_their_place(edit, tmp_path)
     """Found by a hostile review: with only declared constants compared, these passed as bit-exact."""
     from tests.golden_models import golden_twin_csv
     from thermoplc.recordings.table import read_table
-    from thermoplc.verifier.replay import verify_against_model
+    from thermoplc.verifier.replays.replay import verify_against_model
     original = (GOLDEN / "bayes.iec.st").read_text()
     edited = _edited(original, edit)
     assert edited != original
@@ -170,7 +170,8 @@ def test_the_models_name_no_constant_of_the_block():
     from pathlib import Path
     from thermoplc.contract.constants import LIMIT_NAMES, limit_constants
     from thermoplc.models.safety import Limits
-    roots = [Path(__file__).resolve().parents[1] / folder for folder in ("recordings", "physics", "models", "fitting")]
+    roots = [Path(__file__).resolve().parents[1] / "thermoplc" / folder
+             for folder in ("recordings", "physics", "models", "fitting")]
     named = [f"{path.name}:{i}" for root in roots for path in sorted(root.rglob("*.py"))
              for i, line in enumerate(path.read_text("utf-8").splitlines(), 1) if re.search(r"[\"']c_[A-Z]", line)]
     assert named == []
@@ -186,7 +187,8 @@ def test_the_models_name_no_status_output_or_commissioning_input_of_the_block():
     from pathlib import Path
     from thermoplc.contract.outputs import CONTROL_INPUTS, STATUS_OUTPUTS, named
     from thermoplc.models.safety import CONTROL_START, commissioned_predict, k0_key
-    roots = [Path(__file__).resolve().parents[1] / folder for folder in ("recordings", "physics", "models", "fitting")]
+    roots = [Path(__file__).resolve().parents[1] / "thermoplc" / folder
+             for folder in ("recordings", "physics", "models", "fitting")]
     block_names_ = "|".join(["Enable", "Reset", "ENO", "Ready", "Limited", "Clamped", "Invalid", "K0_", "Probe[A-Z]",
                              "SensorsDisagree"])
     named_in_models = [f"{path.name}:{i}" for root in roots for path in sorted(root.rglob("*.py"))

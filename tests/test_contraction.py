@@ -14,9 +14,9 @@ from tests.cli_runner import thermoplc
 from tests.golden_models import FUSED, FUSED_EVERY, GOLDEN, KINDS, golden_block, golden_twin_csv
 from thermoplc.models.modelfile import load_model
 from thermoplc.recordings.table import read_table
-from thermoplc.verifier.contraction import ContractingMachine, fused
-from thermoplc.verifier.parser import parse_text
-from thermoplc.verifier.replay import verify_against_model
+from thermoplc.verifier.engines.contraction import ContractingMachine, fused
+from thermoplc.verifier.reading.parser import parse_text
+from thermoplc.verifier.replays.replay import verify_against_model
 
 _LIBM = ctypes.util.find_library("m")
 binary32 = st.floats(width=32, allow_nan=False, allow_infinity=False)
@@ -97,7 +97,7 @@ def test_verify_prints_and_writes_the_contraction(tmp_path):
 
 
 def test_a_long_recording_is_judged_on_its_first_calls_and_says_so(twin, monkeypatch):
-    from thermoplc.verifier import contraction
+    from thermoplc.verifier.engines import contraction
     monkeypatch.setattr(contraction, "MAX_CALLS", 500)
     model_path = GOLDEN / "kalman.json"
     report = verify_against_model(str(golden_block("kalman", "step7")), load_model(model_path), str(model_path), twin)

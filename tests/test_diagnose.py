@@ -20,7 +20,7 @@ from thermoplc.diagnosis.search import diagnose
 from thermoplc.diagnosis.windows import noise_sigma
 from thermoplc.machines import MACHINES, machine
 from thermoplc.machines.random_effects import draw
-from thermoplc.models import lumped_model
+from thermoplc.models.kinds import lumped_model
 from thermoplc.physics import primitives
 from thermoplc.physics import simulation
 from thermoplc.physics.effects import NAMES, Effect

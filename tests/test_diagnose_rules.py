@@ -18,7 +18,7 @@ from thermoplc.diagnosis.windows import Window
 from thermoplc.diagnosis.parts import single
 from thermoplc.machines import hall, machine
 from thermoplc.machines.random_effects import draw
-from thermoplc.physics import identify, primitives
+from thermoplc.physics import identified_effects, identify, primitives
 from thermoplc.physics import simulation
 from thermoplc.physics.effects import slow_structure
 from thermoplc.physics.fitted import Simulation
@@ -107,11 +107,11 @@ def test_a_slow_structure_that_cancels_the_heat_and_keeps_the_air_is_not_one():
     of the ambient: a lag of the air. Weights of one sign keep both."""
     train = _series(30)
     cancelling = _sim([("slow_structure", None)], tau_slow_s=6 * HOUR, delta=(1.0, -2.0))
-    heat_kept, ambient_kept = slow_structure.kept_shares(cancelling, train)
+    heat_kept, ambient_kept = slow_structure.kept_shares(cancelling, train, identified_effects.ROUTINES)
     assert heat_kept < 1e-6 and ambient_kept == pytest.approx(1 / 3, rel=0.02)  # start values differ by the noise
     assert "lag of the air" in rules.implausible(cancelling, "slow_structure", train)
     adding = _sim([("slow_structure", None)], tau_slow_s=6 * HOUR, delta=(1.0, 2.0))
-    assert slow_structure.kept_shares(adding, train) == pytest.approx((1.0, 1.0))
+    assert slow_structure.kept_shares(adding, train, identified_effects.ROUTINES) == pytest.approx((1.0, 1.0))
     assert rules.implausible(adding, "slow_structure", train) is None
 
 

@@ -12,7 +12,7 @@ from tests.cli_runner import thermoplc
 from tests.test_json_output import schema
 from thermoplc.generator.literals import real_literal
 from thermoplc.recordings.table import read_table
-from thermoplc.verifier.diff import diff_blocks
+from thermoplc.verifier.replays.diff import diff_blocks
 
 
 @pytest.fixture(scope="module")

@@ -103,7 +103,7 @@ def test_the_displacement_fit_and_the_model_file_read_each_displacement_term_fro
     """The columns, the search, the fitted fields and the block coefficients of a displacement effect
     (slow structure, ambient coupling, feed-axis heat) come from its record's DisplacementTerm."""
     import inspect
-    from thermoplc.models import lumped_model
+    from thermoplc.models.kinds import lumped_model
     from thermoplc.physics import displacement
     from thermoplc.physics import simulation
     from thermoplc.physics.effects import with_part
@@ -121,7 +121,7 @@ def test_the_displacement_fit_and_the_model_file_read_each_displacement_term_fro
 @pytest.mark.parametrize("name", ["slow_structure", "ambient_coupling", "feed_axis_heat"])
 def test_a_displacement_term_round_trips_through_the_model_file(name):
     """coefficients() writes the term's lag and weights under the record's names; simulation_of() reads them back."""
-    from thermoplc.models import lumped_model
+    from thermoplc.models.kinds import lumped_model
     from thermoplc.models.model import Model, Signal
     term = registry()[name].displacement
     sensors = tuple(SensorParams(600.0 * (i + 1), 0.001) for i in range(2))

@@ -10,13 +10,13 @@ from thermoplc.generator.printer import DIALECTS as PRINTERS, _Printer
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.reference import model_inputs
 from thermoplc.recordings.table import read_table
-from thermoplc.verifier import native
-from thermoplc.verifier.engines import Replayer
-from thermoplc.verifier.faults import FAULT_KINDS, inject
-from thermoplc.verifier.interpreter import Machine
-from thermoplc.verifier.native import NativeBlock
-from thermoplc.verifier.block_file import parse_file
-from thermoplc.verifier.parser import parse_text
+from thermoplc.verifier.engines import native
+from thermoplc.verifier.engines.choice import Replayer
+from thermoplc.verifier.replays.faults import FAULT_KINDS, inject
+from thermoplc.verifier.engines.interpreter import Machine
+from thermoplc.verifier.engines.native import NativeBlock
+from thermoplc.verifier.reading.block_file import parse_file
+from thermoplc.verifier.reading.parser import parse_text
 
 
 pytestmark = pytest.mark.skipif(native._compiler() is None, reason="no C compiler: the fast engine cannot be built here")

@@ -6,12 +6,13 @@ import pytest
 
 from tests.golden_models import GOLDEN, KINDS, golden_twin_csv
 from thermoplc.base import compiled
-from thermoplc.models import grey, kalman, kernels, lumped_kernel
+from thermoplc.models import kernels, lumped_kernel
+from thermoplc.models.kinds import grey, kalman
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import ENABLE, ENABLED, RESET, Limits, guards
 from thermoplc.recordings.table import read_table
-from thermoplc.verifier.faults import FAULT_KINDS, inject
+from thermoplc.verifier.replays.faults import FAULT_KINDS, inject
 
 pytestmark = pytest.mark.skipif(compiled.numba is None, reason="numba not installed")
 

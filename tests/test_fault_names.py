@@ -12,7 +12,7 @@ from thermoplc.contract.outputs import block_names, fault_outputs, numbered_faul
 from thermoplc.generator.lower import lower
 from thermoplc.models.kind import fault_key
 from thermoplc.models.modelfile import load_model
-from thermoplc.verifier.block_file import parse_file
+from thermoplc.verifier.reading.block_file import parse_file
 
 
 @pytest.fixture(scope="module")

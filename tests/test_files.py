@@ -199,7 +199,7 @@ def test_the_interpreter_has_a_budget_for_the_whole_replay(tmp_path, monkeypatch
     import numpy as np
     from thermoplc.cli import main
     from thermoplc.recordings.table import write_table
-    from thermoplc.verifier import interpreter
+    from thermoplc.verifier.engines import interpreter
     monkeypatch.setattr(interpreter, "MAX_REPLAY_LOOP_ITERATIONS", 20_000)
     monkeypatch.chdir(tmp_path)
     (tmp_path / "loop.st").write_text(LOOP_BLOCK)

@@ -321,8 +321,8 @@ def test_a_campaign_verified_by_a_worker_in_another_folder_judges_the_users_file
 
 def test_a_pair_whose_file_has_other_bytes_where_it_runs_fails(tmp_path):
     from dataclasses import replace
-    from thermoplc.verifier.fleet_dask import pinned
-    from thermoplc.verifier.pair import Pair, verify_pair
+    from thermoplc.verifier.fleets.fleet_dask import pinned
+    from thermoplc.verifier.fleets.pair import Pair, verify_pair
     block = tmp_path / "mlr.scl"
     block.write_bytes(golden_block("mlr", "tia").read_bytes())
     pair = pinned(Pair(1, str(block), str(golden_twin_csv(tmp_path)), str(GOLDEN / "mlr.json"), None, None))

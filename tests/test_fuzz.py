@@ -18,8 +18,8 @@ from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import render
 from thermoplc.models.modelfile import load_model
 from thermoplc.recordings.table import read_table
-from thermoplc.verifier.interpreter import Machine
-from thermoplc.verifier.parser import parse_text
+from thermoplc.verifier.engines.interpreter import Machine
+from thermoplc.verifier.reading.parser import parse_text
 
 EXAMPLES = int(os.environ.get("THERMOPLC_FUZZ_EXAMPLES", "150"))
 GOLDEN_TEXT = golden_block("kalman", "tia").read_text()

@@ -12,9 +12,9 @@ from tests.golden_models import DIALECTS, GOLDEN, KINDS, golden_block, golden_tw
 from thermoplc.base.identifiers import identifier_problem
 from thermoplc.models.modelfile import load_model
 from thermoplc.recordings.table import read_table
-from thermoplc.verifier.block_file import parse_file
-from thermoplc.verifier.replay import verify_against_model
-from thermoplc.verifier import syntax as s
+from thermoplc.verifier.reading.block_file import parse_file
+from thermoplc.verifier.replays.replay import verify_against_model
+from thermoplc.verifier.reading import syntax as s
 
 
 @pytest.fixture(scope="module")

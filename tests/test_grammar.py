@@ -5,8 +5,8 @@ from hypothesis import given, settings
 from thermoplc.generator import ir
 from thermoplc.generator.lower import lower
 from thermoplc.generator.printer import _Printer, DIALECTS, render
-from thermoplc.verifier import syntax as s
-from thermoplc.verifier.parser import StSyntaxError, parse_text
+from thermoplc.verifier.reading import syntax as s
+from thermoplc.verifier.reading.parser import StSyntaxError, parse_text
 from tests.strategies import real_exprs
 
 

@@ -6,7 +6,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from thermoplc.models import grey
+from thermoplc.models.kinds import grey
 from thermoplc.fitting.fit import FitRequest, fit
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.recordings.table import read_table, write_table
@@ -130,7 +130,7 @@ def test_a_campaign_block_with_its_unit_sequence_is_bit_exact_and_every_coeffici
     from tests.test_bayes import _constant_mutants
     from thermoplc.generator.lower import lower
     from thermoplc.generator.printer import render
-    from thermoplc.verifier.replay import verify_against_model
+    from thermoplc.verifier.replays.replay import verify_against_model
     runs = fl_thermal_runs("ch5_um", 6.0, 0)[:4]
     model = fit(runs, FitRequest(kind=kind, target="ch5_um", temps=("t8_C", "t4_C", "t5_C", "t11_C"),
                                  train_until=math.inf), "time_s")

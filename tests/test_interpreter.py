@@ -9,8 +9,8 @@ from thermoplc.base.binary32 import f32_bits, f32_from_bits
 from thermoplc.generator import ir
 from thermoplc.generator.literals import real_literal
 from thermoplc.generator.printer import DIALECTS, _Printer
-from thermoplc.verifier.interpreter import InterpretError, Machine
-from thermoplc.verifier.parser import parse_text
+from thermoplc.verifier.engines.interpreter import InterpretError, Machine
+from thermoplc.verifier.reading.parser import parse_text
 from tests.strategies import CONSTANTS, VARIABLES, real_exprs
 
 any_f32 = st.integers(0, 2 ** 32 - 1).map(f32_from_bits)
@@ -109,7 +109,7 @@ def test_type_errors_name_the_place():
 
 
 def test_runaway_loop_is_bounded(monkeypatch):
-    monkeypatch.setattr("thermoplc.verifier.interpreter.MAX_LOOP_ITERATIONS", 100)
+    monkeypatch.setattr("thermoplc.verifier.engines.interpreter.MAX_LOOP_ITERATIONS", 100)
     with pytest.raises(InterpretError, match="exceed 100 iterations"):
         run("FOR #i := 0 TO 1000 DO #i := #i; END_FOR;", "VAR i : DInt; END_VAR")
 

@@ -6,7 +6,7 @@ from hypothesis import given, settings, strategies as st
 
 from thermoplc.base.binary32 import decimal_to_f32, f32_bits, f32_from_bits, round_f32
 from thermoplc.generator.literals import real_literal
-from thermoplc.verifier.parser import parse_text
+from thermoplc.verifier.reading.parser import parse_text
 
 finite_f32 = st.integers(0, 2 ** 32 - 1).map(f32_from_bits).filter(math.isfinite)
 

@@ -1,5 +1,5 @@
 """The fast engine's private cache of compiled blocks: a block compiled once is loaded by the next process,
-and a library anyone else could have planted is never loaded (verifier/native_cache.py)."""
+and a library anyone else could have planted is never loaded (verifier/engines/native_cache.py)."""
 from __future__ import annotations
 
 import os
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from tests.golden_models import golden_block
-from thermoplc.verifier import native, native_cache
-from thermoplc.verifier.native import NativeBlock
-from thermoplc.verifier.block_file import parse_file
+from thermoplc.verifier.engines import native, native_cache
+from thermoplc.verifier.engines.native import NativeBlock
+from thermoplc.verifier.reading.block_file import parse_file
 
 pytestmark = [pytest.mark.skipif(native._compiler() is None, reason="no C compiler: the fast engine cannot be built"),
               pytest.mark.skipif(not os.sys.platform.startswith("linux"), reason="the cache is used on Linux only")]

@@ -14,7 +14,7 @@ import pytest
 
 from tests.cli_runner import thermoplc
 from tests.golden_models import golden_block, golden_twin_csv, GOLDEN
-from thermoplc.verifier import native, native_cache
+from thermoplc.verifier.engines import native, native_cache
 
 pytestmark = [pytest.mark.skipif(native._compiler() is None, reason="no C compiler: the fast engine cannot be built"),
               pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the cache is used on Linux only")]

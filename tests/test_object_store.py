@@ -69,8 +69,10 @@ def _text(capsys, *argv) -> tuple[int, str]:
 @pytest.mark.parametrize("suffix", ["csv", "npz", "parquet"])
 @pytest.mark.parametrize("route", ["whole", "streamed"])
 def test_a_recording_in_the_store_verifies_as_its_file_does(store, capsys, monkeypatch, suffix, route):
+    from tests.cli_runner import routes_taken
     if route == "streamed":
-        monkeypatch.setattr("thermoplc.verifier.stream.WHOLE_BELOW_BYTES", 0)
+        monkeypatch.setattr("thermoplc.verifier.replays.stream.WHOLE_BELOW_BYTES", 0)
+    taken = routes_taken(monkeypatch)
     block, model = str(golden_block("kalman", "tia")), str(GOLDEN / "kalman.json")
     local = _text(capsys, "verify", block, "--model", model, "--data", str(store / f"golden_twin.{suffix}"))
     remote = _text(capsys, "verify", block, "--model", model, "--data", f"s3://{BUCKET}/twin.{suffix}")
@@ -78,8 +80,7 @@ def test_a_recording_in_the_store_verifies_as_its_file_does(store, capsys, monke
     strip = lambda text: [line for line in text.splitlines()  # the timings differ
                           if not line.startswith("bit-exact") and "cycles/s" not in line]
     assert strip(local[1]) == strip(remote[1])
-    from thermoplc.verifier import stream
-    assert (stream.LAST_TIMINGS["route"] == "streamed") == (route == "streamed"), stream.LAST_TIMINGS["route"]
+    assert len(taken) == 2 and all((seen == "streamed") == (route == "streamed") for seen in taken), taken
 
 
 def test_a_campaign_in_the_store_is_read_through_its_runs_table(store, tmp_path):

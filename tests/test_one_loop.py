@@ -29,15 +29,16 @@ def loops_over_calls(source: str) -> list[tuple[str, int, bool]]:
 
 
 def test_every_loop_over_calls_in_models_is_the_one_compiled_source():
-    plain = [(path.name, name, line) for path in sorted((ROOT / "models").glob("*.py"))
+    plain = [(path.name, name, line) for path in sorted((ROOT / "thermoplc" / "models").rglob("*.py"))
              for name, line, compiled in loops_over_calls(path.read_text()) if not compiled]
     assert plain == [], f"a per-call loop written as plain Python beside its compiled copy: {plain}"
 
 
 def test_each_stateful_kind_has_one_loop():
-    for module, loops in (("lumped_kernel", {"_lumped"}), ("kalman", {"_kalman"}), ("grey", {"_gm0n", "_gm1n"}),
-                          ("kernels", {"_repeats", "_hold", "_limit"})):
-        found = {name for name, _, compiled in loops_over_calls((ROOT / "models" / f"{module}.py").read_text())}
+    for module, loops in (("lumped_kernel", {"_lumped"}), ("kinds/kalman", {"_kalman"}),
+                          ("kinds/grey", {"_gm0n", "_gm1n"}), ("kernels", {"_repeats", "_hold", "_limit"})):
+        source = (ROOT / "thermoplc" / "models" / f"{module}.py").read_text()
+        found = {name for name, _, compiled in loops_over_calls(source)}
         assert found == loops, module
 
 

@@ -1,4 +1,4 @@
-"""ST text is read one way or refused (verifier/one_reading.py): whatever it accepts, a compiler that nests
+"""ST text is read one way or refused (verifier/reading/one_reading.py): whatever it accepts, a compiler that nests
 comments and one that does not, one that ends a // comment at any line break and one that ends it at LF
 only, all keep the same code."""
 import pytest
@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from thermoplc.base.errors import UserError
-from thermoplc.verifier.one_reading import refuse_two_readings
+from thermoplc.verifier.reading.one_reading import refuse_two_readings
 
 PIECES = ("(*", "*)", "/*", "*/", "//", "\n", "\r\n", "\r", "\x0c", "\u2028", "x", " ", "*", "(", "/", ")")
 OPENERS = {"(*": "*)", "/*": "*/"}

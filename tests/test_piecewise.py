@@ -8,10 +8,10 @@ from tests.cli_runner import thermoplc
 from thermoplc.base.binary32 import f32_bits, f32_from_bits
 from thermoplc.generator.literals import real_literal
 from thermoplc.models.modelfile import load_model
-from thermoplc.models.piecewise import node_of, select
+from thermoplc.models.kinds.piecewise import node_of, select
 from thermoplc.recordings.table import read_table, write_table
 from thermoplc.machines.cascade import simulate
-from thermoplc.verifier.replay import verify_against_model
+from thermoplc.verifier.replays.replay import verify_against_model
 
 
 @pytest.fixture(scope="module")

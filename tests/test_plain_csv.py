@@ -155,16 +155,18 @@ def test_verify_on_the_plain_route_is_bit_exact_and_a_tampered_block_is_not(tmp_
 
     from tests.golden_models import GOLDEN, golden_block, golden_twin_csv
     from thermoplc.cli import main
-    from thermoplc.verifier import stream
+    from thermoplc.verifier.replays import stream
 
+    from tests.cli_runner import routes_taken
     monkeypatch.setattr(stream, "WHOLE_BELOW_BYTES", 0)
     monkeypatch.setattr(chunks, "STREAM_BYTES", 20_000)
+    taken = routes_taken(monkeypatch)
     data = golden_twin_csv(tmp_path)
     block, model = golden_block("kalman", "tia"), GOLDEN / "kalman.json"
     assert main(["verify", str(block), "--model", str(model), "--data", str(data)]) == 0
     out = capsys.readouterr().out
     assert "bit-exact" in out and "NOT bit-exact" not in out
-    assert stream.LAST_TIMINGS["route"] == "streamed" and len(plain_route) > 10 and all(plain_route)
+    assert taken == ["streamed"] and len(plain_route) > 10 and all(plain_route)
     tampered = tmp_path / "tampered.scl"
     tampered.write_text(re.sub(r"(c_beta_1\s*:\s*Real\s*:=\s*)([^;]+);", r"\g<1>1.5;", block.read_text(), count=1))
     assert main(["verify", str(tampered), "--model", str(model), "--data", str(data)]) != 0

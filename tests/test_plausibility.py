@@ -17,7 +17,7 @@ from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import Limits
 from thermoplc.models.streaming import StreamingReference
 from thermoplc.recordings.table import read_table
-from thermoplc.verifier.restarts import restart_cases
+from thermoplc.verifier.replays.restarts import restart_cases
 from tests.cli_runner import thermoplc
 from tests.golden_models import GOLDEN, golden_twin_csv
 
@@ -170,7 +170,7 @@ STARTS_PLANTED = {
         "REGION Plausibility: each temperature against what the others say it should read\n\t    IF #Enable AND #Ready",
         "REGION Plausibility: each temperature against what the others say it should read\n\t    IF #Ready"),
 }
-# the case that tells each: a restart where the data moved (verifier/restarts.py)
+# the case that tells each: a restart where the data moved (verifier/replays/restarts.py)
 STARTS_TOLD_BY = {"check-runs-while-disabled": "/pause-flagged"}
 
 

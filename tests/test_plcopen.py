@@ -15,9 +15,9 @@ from hypothesis import strategies as st
 from tests.cli_runner import thermoplc
 from tests.golden_models import GOLDEN, KINDS, golden_block, golden_twin_csv
 from thermoplc.base.errors import UserError
-from thermoplc.verifier.block_file import parse_file
-from thermoplc.verifier.parser import parse_body
-from thermoplc.verifier.plcopen import read_plcopen
+from thermoplc.verifier.reading.block_file import parse_file
+from thermoplc.verifier.reading.parser import parse_body
+from thermoplc.verifier.reading.plcopen import read_plcopen
 
 XML = golden_block("mlr", "plcopen")
 
@@ -209,7 +209,7 @@ def _diff(old, new, folder, *extra, check=None) -> tuple[int, list[str]]:
 
 
 def _diff_lines(old: Path, new: Path, table=None) -> tuple[bool, list[str]]:
-    from thermoplc.verifier.diff import diff_blocks, format_diff
+    from thermoplc.verifier.replays.diff import diff_blocks, format_diff
     d = diff_blocks(str(old), str(new), table)
     return d.structurally_equal and (table is None or d.behaviour_equal), format_diff(d).splitlines()[1:]
 
@@ -399,7 +399,7 @@ def test_the_reader_is_the_verifiers_own():
     """No generator import: the proof of the XML does not ask the code that wrote it (the import
     contract in pyproject.toml checks the whole verifier; this names the module)."""
     import ast
-    import thermoplc.verifier.plcopen as module
+    import thermoplc.verifier.reading.plcopen as module
     tree = ast.parse(Path(module.__file__).read_text())
     imported = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
     imported |= {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}

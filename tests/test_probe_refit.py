@@ -7,7 +7,7 @@ import numpy as np
 from hypothesis import given, settings, strategies as st
 
 from tests.cli_runner import thermoplc
-from thermoplc.models import mlr
+from thermoplc.models.kinds import mlr
 from thermoplc.models.kind import Part
 from thermoplc.fitting.probe_refit import refit, sums
 

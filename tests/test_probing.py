@@ -318,7 +318,7 @@ def test_on_fl_thermal_one_wrong_probing_is_refused_and_the_engineer_may_set_the
     from thermoplc.models.reference import block_outputs, model_inputs
     from thermoplc.models.safety import Limits
     from thermoplc.recordings.table import read_table
-    from thermoplc.verifier.probings import reference_keys
+    from thermoplc.verifier.replays.probings import reference_keys
     fit = ("fit", "--data", FL_THERMAL, "--model", "mlr", "--target", "ch3_um", "--temps", "t8_C,t4_C,t5_C,t11_C",
            "--train-until", "100035", "--probe", "--probe-every", "120")
     fitted = thermoplc(*fit, "-o", "f.json", cwd=tmp_path)

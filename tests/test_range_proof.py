@@ -13,8 +13,8 @@ from thermoplc.generator.printer import render
 from thermoplc.generator.ranges import prove_ranges
 from thermoplc.models.modelfile import load_model
 from thermoplc.models.safety import Limits
-from thermoplc.verifier.parser import parse_text
-from thermoplc.verifier.stress import stress
+from thermoplc.verifier.reading.parser import parse_text
+from thermoplc.verifier.replays.stress import stress
 from tests.cli_runner import thermoplc
 from tests.golden_models import GOLDEN
 

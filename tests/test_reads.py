@@ -1,5 +1,5 @@
 """Every input stays an input (issue 60): each option of every command that reads a file is declared so
-(app/commands/reads.py), and no output of the command — -o, --json, --outputs — may replace any file it read,
+(thermoplc/commands/reads.py), and no output of the command — -o, --json, --outputs — may replace any file it read,
 not even with --force: the recording, a folder's runs table, a run the table names, an @FILE list, a model,
 a block, a manifest and the files of its pairs."""
 from __future__ import annotations
@@ -42,7 +42,7 @@ def _reading_options() -> set[tuple[str, str]]:
 def test_every_option_that_could_name_a_file_is_declared_read_written_or_a_value():
     undeclared = {(name, a.dest) for name, p in _commands().items() for a in p._actions
                   if _free_text(a) and not isinstance(a.type, (Reads, Writes)) and a.dest != "help"}
-    assert undeclared - VALUES == set(), "declare these options Reads/Writes (app/commands/reads.py) or a value"
+    assert undeclared - VALUES == set(), "declare these options Reads/Writes (thermoplc/commands/reads.py) or a value"
     writes = {(name, a.dest) for name, p in _commands().items() for a in p._actions if isinstance(a.type, Writes)}
     assert {("fit", "output"), ("fit", "json"), ("fit", "report"), ("diagnose", "json"), ("verify", "outputs"),
             ("generate", "output"), ("demo", "out")} <= writes

@@ -12,7 +12,7 @@ from tests.golden_models import GOLDEN, golden_block, golden_twin_csv
 from thermoplc.base.errors import UserError
 from thermoplc.models.modelfile import load_model
 from thermoplc.recordings.table import read_table
-from thermoplc.verifier.replay import verify_against_model
+from thermoplc.verifier.replays.replay import verify_against_model
 
 KEYWORDS = ("IF", "THEN", "ELSIF", "ELSE", "END_IF", "NOT", "AND", "BEGIN", "END_REGION", "REGION", "VAR_INPUT",
             "VAR_OUTPUT", "VAR_TEMP", "END_VAR", "FOR", "TO", "DO", "END_FOR", "TRUE", "FALSE", "OR")

@@ -6,7 +6,7 @@ import pytest
 
 from thermoplc.base.errors import UserError
 from thermoplc.base import ridge
-from thermoplc.models import grey
+from thermoplc.models.kinds import grey
 from thermoplc.fitting.fit import FitRequest, fit
 from thermoplc.models.reference import model_inputs, predict
 from thermoplc.recordings.table import read_table, write_table

@@ -14,9 +14,9 @@ from thermoplc.contract.outputs import block_names, named
 from thermoplc.models.reference import block_outputs, model_inputs
 from thermoplc.models.safety import K0_MM_PER_UM, Limits
 from thermoplc.recordings.table import read_table
-from thermoplc.verifier.faults import CONTROL_KINDS, FAULT_KINDS, verify_faults
-from thermoplc.verifier.interpreter import Machine
-from thermoplc.verifier.parser import parse_text
+from thermoplc.verifier.replays.faults import CONTROL_KINDS, FAULT_KINDS, verify_faults
+from thermoplc.verifier.engines.interpreter import Machine
+from thermoplc.verifier.reading.parser import parse_text
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""The standalone parser (verifier/st_standalone.py, written by scripts/regen_parser.py) is the grammar's parser:
+"""The standalone parser (verifier/reading/st_standalone.py, written by scripts/regen_parser.py) is the grammar's parser:
 built from the same st.lark and giving the same trees, tokens, positions and errors as lark building it."""
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ from scripts.regen_parser import GRAMMAR, OPTIONS
 from tests.golden_models import DIALECTS, KINDS, golden_block
 from tests.strategies import real_exprs
 from thermoplc.generator.printer import DIALECTS as PRINTER_DIALECTS, _Printer
-from thermoplc.verifier import st_standalone
-from thermoplc.verifier.parser import _lark
+from thermoplc.verifier.reading import st_standalone
+from thermoplc.verifier.reading.parser import _lark
 
 
 @lru_cache(maxsize=1)

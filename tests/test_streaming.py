@@ -15,10 +15,10 @@ from thermoplc.recordings import chunks
 from thermoplc.models.modelfile import load_model
 from thermoplc.recordings.chunks import CannotStream, stream_columns
 from thermoplc.recordings.table import read_table
-from thermoplc.verifier import stream
-from thermoplc.verifier.native import native_or_reason
-from thermoplc.verifier.parser import parse_text
-from thermoplc.verifier.replay import verify_against_model
+from thermoplc.verifier.replays import stream
+from thermoplc.verifier.engines.native import native_or_reason
+from thermoplc.verifier.reading.parser import parse_text
+from thermoplc.verifier.replays.replay import verify_against_model
 
 pytestmark = pytest.mark.skipif(kernels.numba is None, reason="numba not installed")
 
@@ -61,9 +61,9 @@ def test_streamed_verify_reports_what_the_whole_recording_path_reports(kind, sou
     monkeypatch.setattr(chunks, "STREAM_BYTES", 50_000)
     block, model_path = str(golden_block(kind, "tia")), str(GOLDEN / f"{kind}.json")
     model = load_model(model_path)
-    streamed = stream.verify_file_against_model(block, model, model_path, str(data))
-    assert stream.LAST_TIMINGS["route"] == "streamed"
-    assert stream.LAST_TIMINGS["rows"] == table.rows
+    streamed, route, seconds = stream.verify_file_against_model(block, model, model_path, str(data))
+    assert route == "streamed"
+    assert seconds["rows"] == table.rows
     whole = verify_against_model(block, model, model_path, read_table(data, model.time_column))
     assert streamed.ok and whole.ok
     assert _without_timing(streamed.text()) == _without_timing(whole.text())
@@ -82,8 +82,8 @@ def test_a_mismatch_is_reported_by_the_whole_recording_path(recording, tmp_path)
     assert tampered != text, name
     block = tmp_path / "kalman.scl"
     block.write_text(tampered)
-    streamed = stream.verify_file_against_model(str(block), model, model_path, str(csv_path))
-    assert stream.LAST_TIMINGS["route"].startswith("whole recording")
+    streamed, route, _ = stream.verify_file_against_model(str(block), model, model_path, str(csv_path))
+    assert route.startswith("whole recording")
     whole = verify_against_model(str(block), model, model_path, read_table(csv_path, model.time_column))
     assert not streamed.ok and streamed.mismatch is not None
     assert _without_timing(streamed.text()) == _without_timing(whole.text())

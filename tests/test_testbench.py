@@ -24,12 +24,12 @@ from thermoplc.models.modelfile import load_model
 from thermoplc import pipeline
 from thermoplc.pipeline import run_bench_text
 from thermoplc.recordings.table import read_table, write_table
-from thermoplc.verifier import syntax as s
-from thermoplc.verifier.bench_run import data_arrays
-from thermoplc.verifier.bench_source import parse_sources
-from thermoplc.verifier.block_file import parse_file
-from thermoplc.verifier.plcopen import read_plcopen
-from thermoplc.verifier.replay import verify_against_model
+from thermoplc.verifier.reading import syntax as s
+from thermoplc.verifier.replays.bench_run import data_arrays
+from thermoplc.verifier.reading.bench_source import parse_sources
+from thermoplc.verifier.reading.block_file import parse_file
+from thermoplc.verifier.reading.plcopen import read_plcopen
+from thermoplc.verifier.replays.replay import verify_against_model
 
 BENCH_DIALECTS = ("tia", "step7", "iec", "plcopen")
 ALL_KINDS = (*KINDS, *FUSED)
@@ -227,7 +227,7 @@ def test_a_long_block_name_gives_bench_names_within_24_characters():
 
 
 def test_the_block_under_test_never_calls_or_reads_a_data_block():
-    from thermoplc.verifier.parser import StSyntaxError, parse_text
+    from thermoplc.verifier.reading.parser import StSyntaxError, parse_text
     for body in ('x := "D".a[1];', "x := D.a;", "D(a := 1.0);"):
         with pytest.raises(StSyntaxError, match="only a test bench"):
             parse_text(f"FUNCTION_BLOCK B VAR x : REAL; D : REAL; END_VAR {body} END_FUNCTION_BLOCK", "b.st")
@@ -303,8 +303,8 @@ def test_the_values_a_bench_holds_read_back_bit_for_bit(reals, flags, dialect):
 
 @pytest.mark.parametrize("a, b", [(1.0, 1.0), (1.0, 2.0), (0.0, -0.0), (float("nan"), 1.0)])
 def test_not_equal_is_one_operator_and_sees_what_ieee_sees(a, b):
-    from thermoplc.verifier.interpreter import Machine
-    from thermoplc.verifier.parser import parse_text
+    from thermoplc.verifier.engines.interpreter import Machine
+    from thermoplc.verifier.reading.parser import parse_text
     machine = Machine(parse_text("FUNCTION_BLOCK B VAR_INPUT a, b : REAL; END_VAR VAR_OUTPUT y : BOOL; END_VAR "
                                  "y := a <> b; END_FUNCTION_BLOCK", "b.st"), "b.st")
     machine.call({"a": a, "b": b})

@@ -13,7 +13,7 @@ import pytest
 from thermoplc.base.binary32 import f32_hex
 from thermoplc.base.identifiers import identifier_problem
 from thermoplc.recordings.table import write_table
-from thermoplc.verifier.parser import StSyntaxError, parse_text
+from thermoplc.verifier.reading.parser import StSyntaxError, parse_text
 from tests.cli_runner import thermoplc as run_cli
 from tests.golden_models import GOLDEN
 
