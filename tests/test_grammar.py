@@ -103,3 +103,43 @@ end_function_block"""
     program = parse_text(text)
     assert [d.name for d in program.decls] == ["a", "y", "ENO"]  # SCL (BEGIN): the system enable output
     assert program.body[0].title == "free text, with (brackets) and while words"
+
+
+def _tree_names(grammar: str) -> set[str]:
+    """The names of the trees the grammar can build: each rule's alias, or its own name unless lark inlines it
+    (`_rule`, or `?rule` on an alternative of one kept child)."""
+    from lark import Lark
+    from lark.grammar import NonTerminal
+    parser = Lark(grammar, parser="lalr", start=["start", "st_body", "constant", "sources"])
+    names = set()
+    for rule in parser.rules:
+        kept = [sym for sym in rule.expansion if isinstance(sym, NonTerminal) or not sym.filter_out]
+        if rule.alias:
+            names.add(rule.alias)
+        elif not rule.origin.name.startswith("_") and not (rule.options.expand1 and len(kept) == 1):
+            names.add(rule.origin.name)
+    return names
+
+
+def test_every_grammar_rule_is_turned_into_the_ast_or_refused():
+    """As blark checks its grammar: every tree the grammar builds has a method of the block's transformer or the
+    test bench's (which refuses what a block under test may not hold), and no method waits for a tree the
+    grammar never builds. A rule added to st.lark without its handling would reach the interpreter as a raw
+    lark tree."""
+    from pathlib import Path
+
+    from thermoplc.verifier.reading import bench_source, parser
+    names = _tree_names((Path(parser.__file__).parent / "st.lark").read_text("utf-8"))
+    handled = {name for cls in (parser._ToAst, bench_source._BenchToAst) for name in vars(cls)
+               if not name.startswith("_")}
+    assert names - handled == set(), "grammar trees nothing turns into the AST"
+    assert handled - names == set(), "handlers of trees the grammar never builds"
+
+
+def test_the_rule_check_sees_a_rule_left_unhandled():
+    from pathlib import Path
+
+    from thermoplc.verifier.reading import parser
+    grammar = (Path(parser.__file__).parent / "st.lark").read_text("utf-8")
+    grammar = grammar.replace('| ";" -> empty', '| ";" -> empty | "EXIT"i ";" -> exit_stmt', 1)
+    assert "exit_stmt" in _tree_names(grammar)

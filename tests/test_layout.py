@@ -24,6 +24,7 @@ REGISTRIES = {
     "thermoplc.generator.lower": "lowerings()",
     "thermoplc.generator.lumped_effects": "lowerings()",
     "thermoplc.generator.dialects": "registry()",
+    "thermoplc.recordings.formats": "registry()",
     "thermoplc.machines": "[machine(name) for name in MACHINES]",
 }
 IMPORTS_A_LIBRARY_BY_NAME = {"thermoplc.base.compiled", "thermoplc.base.cluster"}  # numba, numpy: not thermoplc

@@ -103,7 +103,7 @@ def generate(model: Model, source: str = "model", limits: Limits | None = None, 
         block = lower(model, limits, identity, retain)
         text = render_plcopen(block, __version__) if plcopen else render(block, dialect)
         if instance_db is not None:
-            text += render_instance_db(block, instance_db)
+            text += render_instance_db(block, instance_db, dialect)
     except GenerationError as exc:
         raise UserError(f"{source}: cannot generate a block: {exc}") from None
     except UserError as exc:  # a coefficient the kind needs is missing
@@ -142,7 +142,7 @@ class Bench:
 
 def _titles(instance_db: bool) -> str:
     """The dialects that write an instance DB beside the block, or those that do not, as a sentence names them."""
-    titles = [record.title for record in DIALECTS.values() if record.instance_db == instance_db]
+    titles = [record.title for record in DIALECTS.values() if bool(record.instance_db) == instance_db]
     return " and ".join(filter(None, (", ".join(titles[:-1]), titles[-1])))
 
 

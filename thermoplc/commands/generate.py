@@ -25,12 +25,14 @@ def add_parser(sub) -> None:
                                   "thermoplc generate model.json --dialect step7 -o ThermalComp.scl",
                                   "thermoplc generate model.json --dialect iec --format plcopen -o ThermalComp.xml"))
     p.add_argument("model", type=READ_FILE, help="model file written by fit or diagnose")
-    from thermoplc.generator.dialects import registry  # the dialects' records: their names and what each is for
+    # the dialects' records: their names, what each is for, and which of them an option applies to
+    from thermoplc.generator.dialects import named_where, plcopen_wrapped, registry
     p.add_argument("--dialect", choices=tuple(registry()), default=next(iter(registry())),
                    help="; ".join(f"{name}: {record.help}" for name, record in registry().items())
                         + " (default: %(default)s)")
     p.add_argument("--format", choices=("st", "plcopen"), default="st",
-                   help="st: source text; plcopen: PLCopen TC6 XML of the iec block (default: %(default)s)")
+                   help=f"st: source text; plcopen: PLCopen TC6 XML of the {plcopen_wrapped().name} block "
+                        "(default: %(default)s)")
     p.add_argument("--max-offset-um", type=number(float, 1e-6, 1e12, "micrometres"),
                    help="clamp every output to +-this (um; urad for angles) (default: 1.5 x the largest drift the "
                         "model file's recording reached, measured or modelled, rounded up; 300 for a model file "
@@ -60,18 +62,19 @@ def add_parser(sub) -> None:
     p.add_argument("--name", help="function block name (default: the model file's, set by fit --name); one block "
                                   "per axis needs one name each")
     p.add_argument("--retain", action="store_true",
-                   help="keep the state over a power cycle: statics and outputs declared RETAIN (tia, iec); step7: "
+                   help="keep the state over a power cycle: statics and outputs declared RETAIN "
+                        f"({named_where(lambda d: d.retain)}); {named_where(lambda d: not d.retain)}: "
                         "the header says to keep the instance DB retentive")
     p.add_argument("--instance-db", metavar="NAME", type=st_name,
-                   help="step7: append the source of an instance DB NAME of the block (enter NAME in the symbol table); "
-                        "its header attributes are the block's")
+                   help=f"{named_where(lambda d: d.instance_db)}: append the source of an instance DB NAME of the "
+                        "block (enter NAME in the symbol table); its header attributes are the block's")
     p.add_argument("--author", type=header_attribute, default="thermopl",
                    help="AUTHOR in the block header, at most 8 letters, digits or '_' (default: %(default)s)")
     p.add_argument("--family", type=header_attribute, default="ThermCmp",
                    help="FAMILY in the block header, at most 8 letters, digits or '_' (default: %(default)s)")
     p.add_argument("--header-name", type=header_attribute, metavar="NAME",
-                   help="NAME in the block header (tia, step7), at most 8 letters, digits or '_' (default: the block "
-                        "name cut to 8 characters, which the summary states)")
+                   help=f"NAME in the block header ({named_where(lambda d: d.attributes)}), at most 8 letters, digits "
+                        "or '_' (default: the block name cut to 8 characters, which the summary states)")
     p.add_argument("--block-version", type=block_version, metavar="X.Y",
                    help="VERSION in the block header, each part 0 to 15 (default: a counter that only goes up: 0.1 for "
                         "a new block; replacing a block thermoplc wrote (--force), its version for the same model, "

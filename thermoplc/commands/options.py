@@ -11,6 +11,7 @@ from typing import Callable
 
 from thermoplc.base.values import UNIX_SECONDS, cycle_problem, number_problem
 from thermoplc.commands.reads import Reads, Writes
+from thermoplc.recordings.formats import described
 
 
 def examples(page: str, *lines: str) -> dict:
@@ -98,7 +99,7 @@ def named(what: str) -> Callable[[str], str]:
 
 
 columns = Reads("list", column_list)  # an @FILE list is an input of the command
-RECORDING = Reads("recordings", named("a recording (CSV, .npz or Parquet) or a folder of them"))
+RECORDING = Reads("recordings", named(f"a recording ({described()}) or a folder of them"))
 RUNS_TABLE = Reads("runs table", named("a runs table (CSV)"))
 MODEL_FILE = Reads("file", named("a model file"))
 READ_FILE = Reads("file")  # a block, a model or one recording, taken as given (the reading names a bad one)
@@ -253,7 +254,7 @@ def campaign_arguments(parser: argparse.ArgumentParser, each: str, table: str) -
     """--data (repeated: a campaign) and --runs TABLE, in the same words for every command that takes runs;
     `each` says what a run is to this command, `table` what the runs table's columns are for."""
     parser.add_argument("--data", action="append", type=RECORDING,
-                        help="a run's recording (CSV, .npz or Parquet) or a folder of them; repeat for a campaign of "
+                        help=f"a run's recording ({described()}) or a folder of them; repeat for a campaign of "
                              f"runs, {each}")
     parser.add_argument("--runs", metavar="TABLE", type=RUNS_TABLE,
                         help="runs table instead of --data: a CSV with a 'file' column (relative to the table)"

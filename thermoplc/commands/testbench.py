@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from collections import Counter
 from pathlib import Path
 
 from thermoplc.base.errors import UserError
@@ -13,6 +14,15 @@ from thermoplc.commands.options import (EVERY_HELP, FORCE_HELP, READ_FILE, RESAM
                                         examples, mapping, named, number, reading_arguments, reading_of)
 from thermoplc.commands.reads import Reads, Writes, files_read
 from thermoplc.commands.terminal import progress
+from thermoplc.recordings.formats import described
+
+
+def _rows_per_cycle(dialects) -> str:
+    """The dialects' calls per cycle in a bench, as the help says them: '10 for step7, 50 elsewhere'."""
+    counts = Counter(d.rows_per_cycle for d in dialects)
+    usual = counts.most_common(1)[0][0]
+    return ", ".join([*(f"{d.rows_per_cycle} for {d.name}" for d in dialects if d.rows_per_cycle != usual),
+                      f"{usual} elsewhere"])
 
 
 def add_parser(sub) -> None:
@@ -21,23 +31,24 @@ def add_parser(sub) -> None:
                                   "thermoplc testbench ThermalComp.scl --model model.json --data twin.csv -o bench",
                                   "thermoplc testbench ThermalComp.st --model model.json --data twin.csv -o bench "
                                   "--calls 2000 --from 5001"))
-    p.add_argument("block", type=READ_FILE, help="the block generate wrote (its dialect is the bench's: tia, step7, "
-                                                 "iec, or PLCopen XML)")
+    from thermoplc.generator.dialects import registry  # the dialects' records: names, budgets, calls per cycle
+    dialects = registry().values()
+    p.add_argument("block", type=READ_FILE, help="the block generate wrote (its dialect is the bench's: "
+                                                 f"{', '.join(d.name for d in dialects)}, or PLCopen XML)")
     p.add_argument("--model", required=True, type=READ_FILE, help="the model file the block was generated from")
-    p.add_argument("--data", required=True, type=Reads("file", named("a recording (CSV, .npz or Parquet)")),
+    p.add_argument("--data", required=True, type=Reads("file", named(f"a recording ({described()})")),
                    help="the recording whose rows the bench replays")
     p.add_argument("-o", "--output", required=True, metavar="DIR", type=Writes(named("a folder")),
                    help="folder for the bench's source (made when missing)")
     p.add_argument("--calls", type=number(int, 1, 32767, "calls"),
                    help="rows replayed (default: as many as fit the dialect's data budget, at most the rows there "
-                        "are: tia 256 KiB in DBs of 64 KiB, a quarter of the smallest S7-1500's data memory; step7 one "
-                        "DB of 64 KiB; iec 256 KiB)")
+                        f"are: {'; '.join(f'{d.name}: {d.bench.why}' for d in dialects)})")
     p.add_argument("--from", dest="first", type=number(int, 1, 10 ** 9, "rows"), default=1, metavar="ROW",
                    help="the data row of the first call, counted from 1; the block is Reset there (a new "
                         "instance's state) (default: %(default)s)")
     p.add_argument("--rows-per-cycle", type=number(int, 1, 1000, "rows"),
-                   help="calls of the block per PLC cycle, so that the cycle time stays short (default: 10 for step7, "
-                        "50 elsewhere)")
+                   help="calls of the block per PLC cycle, so that the cycle time stays short (default: "
+                        f"{_rows_per_cycle(dialects)})")
     p.add_argument("--tolerance-um", type=number(float, 0.0, 1000.0, "micrometres"), default=0.0,
                    help="a REAL output passes within this of the reference (urad for an angle, a thousandth of it for a "
                         "K0 output in mm): for a target that fuses multiply-adds, a few times the figure verify's "

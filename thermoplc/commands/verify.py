@@ -13,6 +13,7 @@ from thermoplc.commands.options import (EVERY_HELP, READ_FILE, RECORDING, RESAMP
                                         reading_of, scheduler_address)
 from thermoplc.commands.reads import Reads, Writes, files_read
 from thermoplc.commands.terminal import progress
+from thermoplc.recordings.formats import described
 
 
 def add_parser(sub) -> None:
@@ -29,7 +30,7 @@ def add_parser(sub) -> None:
     output = p.add_argument_group("output")
     p.add_argument("block", nargs="?", type=READ_FILE, help="the block: its ST source, or the PLCopen XML of generate --format plcopen")
     data.add_argument("--data", action="append", type=RECORDING,
-                      help="the recording (CSV, .npz or Parquet of columns), one row per call; columns Enable "
+                      help=f"the recording ({described()} of columns), one row per call; columns Enable "
                            "and Reset (0/1), when present, drive those block inputs. Repeat it, or give a "
                            "folder, for a campaign: each run replayed from a freshly started block, one line "
                            "per run, one verdict")

@@ -62,7 +62,7 @@ class Trial:
     held_out_needed: float | None = None  # the evidence it needs there (an identified baseline; else a share is judged)
 
 
-@dataclass
+@dataclass(kw_only=True)  # 21 fields: built by name only
 class Diagnosis:
     channels: tuple[str, ...]  # temperature columns, then the target column
     sigma: dict
@@ -436,6 +436,8 @@ def diagnose_runs(parts: Parts, target_name: str, baseline: Simulation | None = 
     unseen = {k: text for k, w in enumerate(windows)
               if (text := sufficiency.unseen_conditions(train, parts.runs[w.run], parts.train_rows[w.run], w)
                   or _extrapolated(w, current_score, parts))}
-    return Diagnosis(channels, sigma, base, current, before, current_score, windows0, windows, shown0, shown,
-                     simulated0, simulated, added, rounds, skipped, insufficient, unseen, ambiguous, ambiguity,
-                     unsupported, parts)
+    return Diagnosis(channels=channels, sigma=sigma, baseline=base, final=current, before=before,
+                     after=current_score, windows_before=windows0, windows_after=windows, residual_before=shown0,
+                     residual_after=shown, simulated_before=simulated0, simulated_after=simulated, added=added,
+                     rounds=rounds, not_tested=skipped, insufficient=insufficient, unseen=unseen, ambiguous=ambiguous,
+                     ambiguity=ambiguity, unsupported=unsupported, parts=parts)

@@ -243,15 +243,15 @@ def render_plcopen(block: Block, version: str) -> str:
                        printer.body(block.regions))
 
 
-def render_instance_db(block: Block, db_name: str) -> str:
-    """A classic STEP 7 instance DB source of the block, to append after the block's own source; its
-    header attributes are the block's (VERSION, AUTHOR, NAME, FAMILY)."""
+def render_instance_db(block: Block, db_name: str, dialect: str) -> str:
+    """An instance DB source of the block in the dialect's template (classic STEP 7's), to append after the
+    block's own source; its header attributes are the block's (VERSION, AUTHOR, NAME, FAMILY)."""
     problem = identifier_problem(db_name)
     if problem:
         raise GenerationError(f"instance DB name {db_name!r} {problem}")
     if db_name.upper() == block.name.upper():
         raise GenerationError(f"instance DB name {db_name!r} is the block's own name")
-    return _environment().get_template("step7_instance_db.scl.j2").render(
+    return _environment().get_template(DIALECTS[dialect].instance_db).render(
         db=db_name, name=block.name, identity=block.identity,
         short_name=check_header_name(block.name, block.identity.name))
 

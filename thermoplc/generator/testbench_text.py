@@ -50,6 +50,11 @@ class _Text:
     def comment(self, text: str) -> str:
         return self.sp.comment.format(safe_comment(text))
 
+    def spelt(self, lines: tuple[str, ...], title: str) -> list[str]:
+        """A dialect's lines of a header, with the bench's name and this title put in."""
+        return [line.format(name=self.name, short=self.name[:8], title=title, title_comment=self.comment(title))
+                for line in lines]
+
     def array(self, lo: int, hi: int, kind: str) -> str:
         return self.sp.array.format(lo=lo, hi=hi, type=self.types[kind])
 
@@ -66,14 +71,11 @@ class _Text:
 
     # -- data -------------------------------------------------------------------------------------
     def data_block(self, chunk: Chunk) -> list[str]:
-        tia = self.dialect == "tia"
         title = safe_string(f"Test bench data of {self.plan.block}: calls {chunk.first + 1} to {chunk.first + chunk.rows}")
-        lines = [f'DATA_BLOCK "{self.db_prefix}{chunk.number}"', f"TITLE = {title}" if tia else f"TITLE = '{title}'"]
-        lines += ["{ S7_Optimized_Access := 'TRUE' }", "VERSION : 0.1", "   VAR"] if tia else \
-            ["VERSION : '0.1'", "AUTHOR : thermopl", "   STRUCT"]
+        lines = [f'DATA_BLOCK "{self.db_prefix}{chunk.number}"', *self.spelt(self.sp.data_block_head, title)]
         for array, port in self.arrays():
             lines.append(f"      {array} : {self.array(0, chunk.rows - 1, port.type)};   {self.comment(port.name)}")
-        lines += ["   END_VAR" if tia else "   END_STRUCT", "BEGIN"]
+        lines += [self.sp.data_block_end, "BEGIN"]
         for array, port in self.arrays():
             values = port.values[chunk.first:chunk.first + chunk.rows]
             lines += [f"   {array}[{k}] := {_literal(v, port.type)};" for k, v in enumerate(values)]
@@ -116,14 +118,12 @@ class _Text:
         return self.array(*d.bounds, d.type) if d.bounds else self.types[d.type]
 
     def declarations(self) -> list[str]:
-        tia = self.dialect == "tia"
-        indent = "      " if tia else "    "
-        lines = []
+        indent, lines = self.sp.declaration_indent, []
         for keyword, decls in self.sections():
-            if keyword == "VAR CONSTANT" and self.dialect == "step7":  # classic SCL: untyped named constants
+            if keyword == "VAR CONSTANT" and self.sp.untyped_constants:
                 lines += ["CONST", *(f"    {d.name} := {d.initial};" for d in decls), "END_CONST"]
                 continue
-            lines.append(f"   {keyword}" if tia else keyword)
+            lines.append(f"{self.sp.section_indent}{keyword}")
             for d in decls:
                 initial = ""
                 if isinstance(d.initial, tuple):
@@ -133,7 +133,7 @@ class _Text:
                     initial = f" := {d.initial}"
                 note = f"   {self.comment(d.comment)}" if d.comment else ""
                 lines.append(f"{indent}{d.name} : {self.st_type(d)}{initial};{note}")
-            lines.append("   END_VAR" if tia else "END_VAR")
+            lines.append(f"{self.sp.section_indent}END_VAR")
         return lines
 
     # -- body ----------------------------------------------------------------------------------------
@@ -201,14 +201,7 @@ class _Text:
     def source(self) -> str:
         header, title = self.header(), self.title()
         lines = [line for chunk in self.chunks for line in self.data_block(chunk)] if self.sp.data_blocks else []
-        if self.dialect == "tia":
-            lines += [f'FUNCTION_BLOCK "{self.name}"', f"TITLE = {title}", "{ S7_Optimized_Access := 'TRUE' }",
-                      "AUTHOR : thermopl", "FAMILY : ThermTB", f"NAME : {self.name[:8]}", "VERSION : 0.1"]
-        elif self.dialect == "step7":
-            lines += [f'FUNCTION_BLOCK "{self.name}"', f"TITLE = '{title}'", "VERSION : '0.1'", "AUTHOR : thermopl",
-                      f"NAME : {self.name[:8]}", "FAMILY : ThermTB"]
-        else:
-            lines += [f"FUNCTION_BLOCK {self.name}", self.comment(title)]
+        lines += self.spelt(self.sp.block_head, title)
         lines += [self.comment(line) for line in header]
         lines += self.declarations()
         if self.sp.data_blocks:

@@ -1,7 +1,7 @@
 """The record of one model kind: everything the generic code (fit, model file, references,
 streaming, auto) needs to know about a kind, declared once in the kind's own module.
 
-A kind module ends with `KIND = Kind(...)` (grey.py declares two); `models/kinds.py` finds them.
+A kind module ends with `KIND = Kind(...)` (grey.py declares two), in `models/kinds/`, whose `__init__.py` finds them.
 The block lowering is the generator's side of the same kind and is registered there
 (`generator/lower_*.py::LOWERINGS`), so the models import nothing of the generator.
 """

@@ -20,11 +20,11 @@ import numpy as np
 
 from thermoplc.base.errors import ClusterError, UserError, unreadable
 from thermoplc.base.locations import is_url, listing, name as name_of, open_binary
+from thermoplc.recordings.formats import suffixes
 from thermoplc.recordings.reading import Reading
 from thermoplc.recordings.resample import Resampling, resample
 from thermoplc.recordings.table import Table, read_table
 
-RECORDING_SUFFIXES = (".csv", ".npz", ".parquet")
 FILE_COLUMN = "file"
 RUNS_TABLE = "runs.csv"  # in a folder given as --data: its runs table, not a run
 MIN_CALLS = 10  # a run resampled onto fewer calls is too short for any fit or diagnosis
@@ -85,7 +85,7 @@ class RunList:
 
 
 def recording_paths(data: list[str]) -> list[str]:
-    """`--data` values: files as given, a folder as the recordings in it (CSV, .npz, Parquet) by name, but
+    """`--data` values: files as given, a folder as the recordings in it (CSV and each format of recordings/formats/) by name, but
     for its runs table `runs.csv` and hidden files (a '.' first: editors' and other systems' leftovers)."""
     paths = []
     for given in data:
@@ -94,11 +94,11 @@ def recording_paths(data: list[str]) -> list[str]:
             paths += _recordings_at(given)
         elif given != "-" and folder.is_dir():
             found = sorted(str(p) for p in folder.iterdir()
-                           if p.suffix.lower() in RECORDING_SUFFIXES and p.name != RUNS_TABLE
+                           if p.suffix.lower() in suffixes() and p.name != RUNS_TABLE
                            and not p.name.startswith(".") and _recording_file(p))
             if not found:
                 raise UserError(f"{given}: a folder with no recordings in it (expected files ending in "
-                                f"{', '.join(RECORDING_SUFFIXES)})")
+                                f"{', '.join(suffixes())})")
             paths += found
         else:
             paths.append(given)
@@ -119,7 +119,7 @@ def _recording_file(path: Path) -> bool:
 def _recordings_at(url: str) -> list[str]:
     """An object-store URL as its recordings: the object itself, or the recordings under a prefix, by name."""
     try:
-        found = listing(url, RECORDING_SUFFIXES)
+        found = listing(url, suffixes())
     except OSError as exc:
         raise unreadable(url, exc) from None
     if found is None:
@@ -127,7 +127,7 @@ def _recordings_at(url: str) -> list[str]:
     found = [each for each in found if name_of(each) != RUNS_TABLE]
     if not found:
         raise UserError(f"{url}: a folder with no recordings in it (expected objects ending in "
-                        f"{', '.join(RECORDING_SUFFIXES)})")
+                        f"{', '.join(suffixes())})")
     return found
 
 

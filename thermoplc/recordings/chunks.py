@@ -17,7 +17,8 @@ from thermoplc.base.locations import open_binary
 from thermoplc.recordings import plain_csv
 from thermoplc.recordings.read_ahead import read_ahead
 from thermoplc.recordings.cells import csv_fields
-from thermoplc.recordings.table import csv_delimiter, spellings, stream_kind
+from thermoplc.recordings.formats import CannotStream, format_of
+from thermoplc.recordings.table import csv_delimiter, spellings
 
 # Streaming at disk speed (issue 17). The fast readers below hand out the columns chunk by chunk
 # and never word an error: anything they do not take in their stride (a cell that is not a
@@ -37,10 +38,6 @@ CSV_PARSE_BYTES = 4 << 20
 PLAIN_PARSE_BYTES = 4 << 20
 
 
-class CannotStream(Exception):
-    """The fast reader declines this file (the careful reader decides, and words any error)."""
-
-
 @dataclass(frozen=True)
 class Chunk:
     start: int  # row number of the first row in the recording (0-based)
@@ -57,12 +54,14 @@ def stream_columns(path: str | Path, names: list[str], decimal: str = "auto", ro
     read_table checks it (finite numbers), so the file is accepted exactly when read_table accepts
     it; only `names` (and those of `optional` the file has, in any case) are kept. Raises CannotStream instead
     of any error."""
-    kind = stream_kind(path)
+    stored = format_of(path)
     try:
-        if kind == "npz":
-            yield from _stream_npz(str(path), names, rows_per_chunk, optional)
-        elif kind == "parquet":
-            yield from _stream_parquet(str(path), names, rows_per_chunk, optional)
+        if stored is not None:
+            start = 0
+            for columns in stored.chunks(str(path), rows_per_chunk):
+                _finite_numbers(columns)
+                yield _keep(columns, names, start, optional)
+                start += len(next(iter(columns.values())))
         else:
             for chunks in read_ahead(lambda: _stream_csv(str(path), names, decimal, optional)):
                 yield from chunks
@@ -221,67 +220,3 @@ def _content_end(data: bytes, end: int) -> int:
     while end > 0 and data[end - 1] in b" \t\r\n":
         end -= 1
     return end
-
-
-def _npy_header(member) -> tuple[tuple, np.dtype]:
-    version = np.lib.format.read_magic(member)
-    if version == (1, 0):
-        shape, fortran, dtype = np.lib.format.read_array_header_1_0(member)
-    elif version == (2, 0):
-        shape, fortran, dtype = np.lib.format.read_array_header_2_0(member)
-    else:
-        raise CannotStream(f"npy format {version}")
-    if dtype.hasobject or dtype.kind not in "iuf" or len(shape) != 1:
-        raise CannotStream("not a column of numbers")
-    return shape, dtype
-
-
-def _stream_npz(path: str, names: list[str], rows_per_chunk: int, optional: tuple[str, ...] = ()):
-    with open_binary(path) as f:
-        if f.read(4) != b"PK\x03\x04":
-            raise CannotStream("not a zip file")
-    with open_binary(path) as f, zipfile.ZipFile(f) as archive:
-        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-        if 2 * sum(info.file_size for info in archive.infolist()) > memory:
-            raise CannotStream("larger than memory")
-        members = {}
-        try:
-            for info in archive.infolist():
-                if not info.filename.endswith(".npy"):
-                    raise CannotStream("not an array")
-                member = archive.open(info)
-                members[info.filename[:-4]] = (member, *_npy_header(member))
-            if not members or len({shape for _, shape, _ in members.values()}) != 1:
-                raise CannotStream("columns of different lengths")
-            rows = next(iter(members.values()))[1][0]
-            if rows == 0:
-                raise CannotStream("no data rows")
-            for start in range(0, rows, rows_per_chunk):
-                n = min(rows_per_chunk, rows - start)
-                columns = {}
-                for name, (member, _, dtype) in members.items():
-                    raw = member.read(n * dtype.itemsize)
-                    if len(raw) != n * dtype.itemsize:
-                        raise CannotStream("truncated array")
-                    columns[name] = np.frombuffer(raw, dtype)
-                _finite_numbers(columns)
-                yield _keep(columns, names, start, optional)
-        finally:
-            for member, *_ in members.values():
-                member.close()
-
-
-def _stream_parquet(path: str, names: list[str], rows_per_chunk: int, optional: tuple[str, ...] = ()):
-    import pyarrow.parquet as pq
-
-    with open_binary(path) as f, pq.ParquetFile(f, pre_buffer=False, buffer_size=1 << 20) as pf:
-        if pf.metadata.num_rows == 0:
-            raise CannotStream("no data rows")
-        start = 0
-        for batch in pf.iter_batches(batch_size=rows_per_chunk, use_threads=False):
-            if any(c.null_count for c in batch.columns):
-                raise CannotStream("an empty cell")
-            columns = {n: batch.column(n).to_numpy(zero_copy_only=False) for n in batch.schema.names}
-            _finite_numbers(columns)
-            yield _keep(columns, names, start, optional)
-            start += batch.num_rows

@@ -4,12 +4,10 @@ from __future__ import annotations
 import functools
 import hashlib
 import io
-import os
 import re
 import shlex
 import sys
 import unicodedata
-import zipfile
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -18,7 +16,8 @@ import numpy as np
 from thermoplc.base.binary32 import FLT_MAX
 from thermoplc.base.errors import UserError, unreadable
 from thermoplc.base.locations import name as location_name, open_binary
-from thermoplc.recordings.cells import GAP_HINT, MISSING, cell_value, csv_fields, parse_cells
+from thermoplc.recordings.cells import MISSING, cell_value, csv_fields, parse_cells
+from thermoplc.recordings.formats import format_of
 from thermoplc.recordings.gaps import apply_gaps
 from thermoplc.recordings.layout import Layout
 from thermoplc.recordings.reading import Reading
@@ -129,50 +128,6 @@ def bundled_hint(path: str) -> str:
     return f" (thermoplc ships a copy: {shipped}; copy it here with its LICENSE, or give that path)"
 
 
-def _read_npz(path: str, time_column: str | None, sparse: frozenset = frozenset(), gaps: bool = False) -> Table:
-    """Columns stored with numpy.savez: the fast way in for very long recordings."""
-    try:
-        with open_binary(path) as f:
-            magic = f.read(4)
-    except OSError as exc:
-        raise unreadable(path, exc) from None
-    if magic != b"PK\x03\x04":
-        raise UserError(f"{path}: not a .npz archive (it does not start as a zip file); a CSV file must not end in .npz")
-    try:
-        with open_binary(path) as f, zipfile.ZipFile(f) as archive:
-            unpacked = sum(info.file_size for info in archive.infolist())
-    except (OSError, zipfile.BadZipFile) as exc:
-        raise UserError(f"{path}: cannot read as .npz: {exc}") from None
-    memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    if 2 * unpacked > memory:  # the columns are held as float64: up to twice the stored size
-        raise UserError(f"{path}: the archive unpacks to {unpacked / 2 ** 30:.1f} GiB; this machine has "
-                        f"{memory / 2 ** 30:.1f} GiB of memory (a zip bomb, or split the recording)")
-    try:
-        with open_binary(path) as f, np.load(f, allow_pickle=False) as archive:
-            columns = {name: np.asarray(archive[name]) for name in archive.files}
-    except (OSError, ValueError) as exc:
-        raise UserError(f"{path}: cannot read as .npz: {exc}") from None
-    if not columns:
-        raise UserError(f"{path}: the archive holds no columns")
-    lengths = {name: a.shape for name, a in columns.items()}
-    if any(len(shape) != 1 for shape in lengths.values()) or len({s[0] for s in lengths.values()}) != 1:
-        raise UserError(f"{path}: every array must be one column of the same length; found "
-                        + ", ".join(f"{n} {s}" for n, s in lengths.items()))
-    for name, a in columns.items():
-        if a.dtype.kind not in "biuf":  # bool: the natural type of a recorded Enable or Reset
-            raise UserError(f"{path}: column {name!r} holds {a.dtype}, expected numbers")
-        columns[name] = a.astype(np.float64)
-        bad = np.nonzero(~np.isfinite(columns[name]) & ~(np.isnan(columns[name]) & (name in sparse or gaps)))[0]
-        if len(bad):
-            raise UserError(f"{path}: column {name!r} row {bad[0] + 1}: expected a finite number, found {a[bad[0]]}"
-                            f"{GAP_HINT if np.isnan(columns[name][bad[0]]) else ''}")
-    if not len(next(iter(columns.values()))):
-        raise UserError(f"{path}: no data rows")
-    table = Table(path, columns, sha256_of(path), np.arange(1, len(next(iter(columns.values()))) + 1))
-    _check_time(table, time_column, list(columns))
-    return table
-
-
 def _refuse_no_time(path: str, time_column: str, header: list[str]) -> None:
     """A missing time column named before any row is read, with the header's one time-like column suggested."""
     if time_column not in header and "file" in header:
@@ -247,18 +202,19 @@ def _header(path: str, first: str, decimal: str) -> tuple[str, bool, list[str]]:
 
 def read_table(path: str | Path, time_column: str | None = "time_s", progress=None, reading: Reading = Reading(),
                sparse: tuple[str, ...] = ()) -> Table:
-    """Read a CSV file with one header line (or a .npz or .parquet of columns); every cell must be a finite
-    number, but for the `sparse` columns (a probed target), whose empty cells (NaN in .npz/.parquet) read
+    """Read a CSV file with one header line (or a file of columns: recordings/formats/); every cell must be a finite
+    number, but for the `sparse` columns (a probed target), whose empty cells (NaN in a file of columns) read
     as NaN, and the missing cells `reading.gaps` drops or holds. ',' separated with decimal points, or ';'
     separated with decimal commas (detected, or reading.decimal ','). The text is streamed in chunks, so memory
     stays near the size of the numbers."""
     if not isinstance(reading, Reading):
         raise UserError(f"reading: expected a thermoplc.api.Reading, found {type(reading).__name__} {reading!r:.60}")
     path = str(path)
-    kind = stream_kind(path)
-    if kind in ("npz", "parquet"):
-        table = (_read_npz if kind == "npz" else _read_parquet)(path, time_column, frozenset(sparse),
-                                                               reading.gaps != "refuse")
+    stored = format_of(path)
+    if stored is not None:
+        columns = stored.columns(path, frozenset(sparse), reading.gaps != "refuse")
+        table = Table(path, columns, sha256_of(path), np.arange(1, len(next(iter(columns.values()))) + 1))
+        _check_time(table, time_column, list(columns))
         return _with_gaps(_numbers_in_time(table, time_column, reading), time_column, reading, frozenset(sparse))
     digest = hashlib.sha256()
     try:
@@ -336,7 +292,7 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
 
 
 def _numbers_in_time(table: Table, time_column: str | None, reading: Reading) -> Table:
-    """A .npz or .parquet table's time column under --time-format: Excel serial days converted; a form of dates
+    """A table of columns' time column under --time-format: Excel serial days converted; a form of dates
     written as text refused (these files hold numbers)."""
     if reading.time_format == "auto" or time_column not in table.columns:
         return replace(table, reading=reading)
@@ -352,7 +308,7 @@ def _numbers_in_time(table: Table, time_column: str | None, reading: Reading) ->
 
 
 def _with_gaps(table: Table, time_column: str | None, reading: Reading, sparse: frozenset) -> Table:
-    """A .npz or .parquet table under the gap rule: its NaN cells (but a sparse column's) are the missing ones."""
+    """A table of columns under the gap rule: its NaN cells (but a sparse column's) are the missing ones."""
     if reading.gaps == "refuse":
         return replace(table, reading=reading)
     missing = {name: np.isnan(v) for name, v in table.columns.items() if name not in sparse and np.isnan(v).any()}
@@ -380,51 +336,9 @@ def _cell(v) -> str:
 
 
 
-def stream_kind(path: str | Path) -> str:
-    lower = location_name(str(path)).lower()  # a URL's query is no part of its name
-    return "npz" if lower.endswith(".npz") else "parquet" if lower.endswith(".parquet") else "csv"
-
-
 def spellings(columns, name: str) -> list[str]:
     """Every column named `name` in any case (a block input's name: ST names ignore case)."""
     return [column for column in columns if column.upper() == name.upper()]
-
-
-def _read_parquet(path: str, time_column: str | None, sparse: frozenset = frozenset(), gaps: bool = False) -> Table:
-    """Columns of a Parquet file (pyarrow): numbers only, no empty cells but in the `sparse` columns."""
-    try:
-        import pyarrow.parquet as pq
-    except ImportError:
-        raise UserError(f"{path}: reading Parquet needs pyarrow (pip install pyarrow)") from None
-    try:
-        with open_binary(path) as f:
-            table = pq.read_table(f)
-    except OSError as exc:
-        raise UserError(f"{path}: cannot read as Parquet: {exc}") from None
-    except Exception as exc:
-        raise UserError(f"{path}: cannot read as Parquet: {exc}") from None
-    if table.num_columns == 0:
-        raise UserError(f"{path}: the file holds no columns")
-    if table.num_rows == 0:
-        raise UserError(f"{path}: no data rows")
-    columns = {}
-    for name in table.column_names:
-        column = table.column(name)
-        if column.null_count and name not in sparse and not gaps:
-            row = int(np.flatnonzero(column.is_null().to_numpy(zero_copy_only=False))[0])
-            raise UserError(f"{path}: column {name!r} row {row + 1}: expected a finite number, found an empty cell"
-                            f"{GAP_HINT}")
-        a = column.to_numpy()
-        if a.dtype.kind not in "iuf":
-            raise UserError(f"{path}: column {name!r} holds {column.type}, expected numbers")
-        columns[name] = a.astype(np.float64)
-        bad = np.nonzero(~np.isfinite(columns[name]) & ~(np.isnan(columns[name]) & (name in sparse or gaps)))[0]
-        if len(bad):
-            raise UserError(f"{path}: column {name!r} row {bad[0] + 1}: expected a finite number, found {a[bad[0]]!r}"
-                            f"{GAP_HINT if np.isnan(columns[name][bad[0]]) else ''}")
-    result = Table(path, columns, sha256_of(path), np.arange(1, table.num_rows + 1))
-    _check_time(result, time_column, list(columns))
-    return result
 
 
 def reading_notes(tables, shown: int = 3) -> list[str]:

@@ -10,7 +10,7 @@ import pkgutil
 
 from thermoplc.generator.dialects.definition import BenchSpelling, DialectDefinition, Target
 
-__all__ = ["BenchSpelling", "DialectDefinition", "Target", "plcopen_wrapped", "recognized", "registry"]
+__all__ = ["BenchSpelling", "DialectDefinition", "Target", "named_where", "plcopen_wrapped", "recognized", "registry"]
 
 
 @functools.cache
@@ -30,6 +30,11 @@ def registry() -> dict[str, DialectDefinition]:
     if sum(r.plcopen for r in found) != 1:
         raise RuntimeError(f"one dialect is the one PLCopen XML wraps: {[r.name for r in found if r.plcopen]}")
     return {record.name: record for record in found}
+
+
+def named_where(holds) -> str:
+    """The names of the dialects whose record `holds` is true of, as a help lists them: 'tia, iec'."""
+    return ", ".join(name for name, record in registry().items() if holds(record))
 
 
 def plcopen_wrapped() -> DialectDefinition:

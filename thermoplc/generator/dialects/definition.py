@@ -19,10 +19,18 @@ class Target:
 
 @dataclass(frozen=True)
 class BenchSpelling:
-    """How the test bench spells what differs beyond the block's own spelling (generator/testbench_text.py)."""
+    """How the test bench spells what differs beyond the block's own spelling (generator/testbench_text.py).
+    The lines below are formatted with `name` (the bench's), `short` (its first 8 characters), `title` and
+    `title_comment` (the title as a comment of this dialect)."""
     array: str
     comment: str  # a line comment's opening and closing
     data_blocks: bool  # the rows in global data blocks (Siemens) or in the bench's constant arrays (IEC)
+    block_head: tuple[str, ...]  # the bench function block's first lines, its header
+    section_indent: str  # before VAR_OUTPUT ... END_VAR
+    declaration_indent: str  # before each variable of a section
+    untyped_constants: bool = False  # the constants as CONST name := value; END_CONST (classic SCL)
+    data_block_head: tuple[str, ...] = ()  # a data block's lines after DATA_BLOCK "name", its struct opened
+    data_block_end: str = ""  # the line that closes its struct
 
 
 @dataclass(frozen=True)
@@ -48,7 +56,7 @@ class DialectDefinition:
     recognized_by: str | None  # a regular expression a block source of this dialect matches; None: the rest
     functions: frozenset = PORTABLE_FUNCTIONS  # functions the dialect's compiler offers
     attributes: bool = True  # a Siemens header (VERSION, AUTHOR, NAME, FAMILY); IEC says them in a comment
-    instance_db: bool = False  # generate --instance-db: the source of an instance DB beside the block
+    instance_db: str = ""  # generate --instance-db: the template (templates/) of an instance DB beside the block
     plcopen: bool = False  # generate --format plcopen wraps this dialect's block in PLCopen TC6 XML
 
     def recognizes(self, text: str) -> bool:

@@ -7,5 +7,7 @@ DIALECT = DialectDefinition(
     array_type="ARRAY[0..{last}] OF {type}", regions="comment", array_initial="brackets", suffix=".st", eno="",
     retain=True, attributes=False,
     bench=Target(65536, 262144, "constant arrays of at most 64 KiB each, 256 KiB in all"),
-    bench_spelling=BenchSpelling("ARRAY[{lo}..{hi}] OF {type}", "(* {} *)", False),
+    bench_spelling=BenchSpelling("ARRAY[{lo}..{hi}] OF {type}", "(* {} *)", False,
+                                 block_head=("FUNCTION_BLOCK {name}", "{title_comment}"), section_indent="",
+                                 declaration_indent="    "),
     rows_per_cycle=50, recognized_by=None, plcopen=True)

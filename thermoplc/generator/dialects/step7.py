@@ -8,5 +8,11 @@ DIALECT = DialectDefinition(
     retain=False, functions=frozenset({"ABS", "SQRT"}),
     bench=Target(65536, 65536, "one DB of at most 64 KiB, the S7-300/400 limit (older S7-312/314 CPUs allow "
                                "16 KiB: give --calls)"),
-    bench_spelling=BenchSpelling("ARRAY[{lo}..{hi}] OF {type}", "// {}", True),
-    rows_per_cycle=10, recognized_by=r'(?im)^\s*FUNCTION_BLOCK\s+"', instance_db=True)
+    bench_spelling=BenchSpelling(
+        "ARRAY[{lo}..{hi}] OF {type}", "// {}", True,
+        block_head=('FUNCTION_BLOCK "{name}"', "TITLE = '{title}'", "VERSION : '0.1'", "AUTHOR : thermopl",
+                    "NAME : {short}", "FAMILY : ThermTB"),
+        section_indent="", declaration_indent="    ", untyped_constants=True,
+        data_block_head=("TITLE = '{title}'", "VERSION : '0.1'", "AUTHOR : thermopl", "   STRUCT"),
+        data_block_end="   END_STRUCT"),
+    rows_per_cycle=10, recognized_by=r'(?im)^\s*FUNCTION_BLOCK\s+"', instance_db="step7_instance_db.scl.j2")

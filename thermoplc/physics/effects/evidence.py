@@ -1,5 +1,6 @@
 """What a training part shows, for the effects' evidence rules: speed groups, standstills after
-running, its span. The simulation is imported when a rule runs, not when the names are listed."""
+running, its span. The lumped model's primitives are imported when a rule runs, not when the names are
+listed."""
 from __future__ import annotations
 
 from typing import TYPE_CHECKING

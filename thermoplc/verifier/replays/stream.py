@@ -58,9 +58,9 @@ class _GiveUp(Exception):
 
 def verify_streaming(block: str, model: Model, model_path: str, data: str, overrides: dict | None = None,
                      engine: str = "auto", reading: Reading | None = None, progress=None) -> Streamed:
-    """The report when the streamed recording proves the block bit-exact; none when the streaming
-    route does not decide (the caller then runs read_table + verify_against_model itself, at the
-    call depth it always had, so every message -- even a RecursionError's -- stays as it was)."""
+    """The report when the streamed recording proves the block bit-exact, with its route and stage times; no
+    report when the streaming route does not decide (the caller then runs read_table + verify_against_model
+    itself, at the call depth it always had, so every message -- even a RecursionError's -- stays as it was)."""
     started = time.perf_counter()
     if str(data) == "-":  # standard input on every path, never a file named '-' (read whole: one pass only)
         return Streamed(None, "whole recording (standard input)", {})
