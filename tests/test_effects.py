@@ -53,7 +53,7 @@ def test_the_parameter_count_grows_by_what_the_record_declares(name):
 def test_the_diagnosis_and_the_random_draws_name_no_effect(folder):
     """Their rules live in the effect records; a name here is a branch the next effect would need."""
     pattern = re.compile("|".join(NAMES))
-    path = ROOT / folder
+    path = ROOT / "thermoplc" / folder
     files = sorted(path.glob("*.py")) if path.is_dir() else [path]
     named = [f"{f.relative_to(ROOT)}:{i}" for f in files
              for i, line in enumerate(f.read_text("utf-8").splitlines(), 1)
