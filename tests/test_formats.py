@@ -68,3 +68,27 @@ def test_a_bad_file_of_a_new_format_is_refused_in_its_own_words(tmp_path, json_f
     run.write_text(json.dumps({"time_s": [0.0, 10.0], "x": [1.0, None]}))
     with pytest.raises(UserError, match=r"bad.json: column 'x': expected finite numbers"):
         read_table(run)
+
+
+@pytest.mark.parametrize("ending, why", [(".NPZ2", "lower case"), ("npz2", "a '.' first"), (".gz", "end alike"),
+                                         (".tsv.csv", "end alike")])
+def test_a_record_whose_ending_is_wrong_or_claimed_twice_is_refused(monkeypatch, ending, why):
+    """A file's name picks one format: an ending that ends as another does ('.csv.gz' and '.gz') would pick two."""
+    import thermoplc.recordings.formats as package
+    known = list(registry.__wrapped__().values())
+    extra = [InputFormat("a", ending, "A", 7, _json_columns, _json_chunks)]
+    if ending == ".gz":
+        extra.append(InputFormat("b", ".csv.gz", "B", 8, _json_columns, _json_chunks))
+    records = {r.name: r for r in [*known, *extra]}
+    monkeypatch.setattr(package.pkgutil, "iter_modules", lambda path: [type("M", (), {"name": n}) for n in records])
+    monkeypatch.setattr(package.importlib, "import_module",
+                        lambda name: type("Module", (), {"FORMAT": records[name.rsplit(".", 1)[1]]}))
+    with pytest.raises(RuntimeError, match=why):
+        registry.__wrapped__()
+
+
+def test_a_name_ending_in_a_formats_suffix_in_any_case_is_a_run_of_a_folder(tmp_path):
+    (tmp_path / "a.NPZ").write_bytes(b"")
+    (tmp_path / "b.Parquet").write_bytes(b"")
+    (tmp_path / "c.csv.bak").write_text("")
+    assert recording_paths([str(tmp_path)]) == [str(tmp_path / "a.NPZ"), str(tmp_path / "b.Parquet")]

@@ -22,9 +22,9 @@ def add_parser(sub) -> None:
     from thermoplc.models.kinds import names  # the kinds' records build the options below too
     p = sub.add_parser(
         "fit", help="fit a thermal-error model to a recording or a campaign of runs",
-        description=f"Fit a thermal-error model to a recording or a campaign of runs ({described()})\n"
-                    "and judge it on rows it never saw; `thermoplc generate` compiles the model file\n"
-                    "into a PLC block.",
+        description="Fit a thermal-error model to a recording or a campaign of runs\n"
+                    f"({described()}) and judge it on rows it never saw; `thermoplc generate`\n"
+                    "compiles the model file into a PLC block.",
         **examples("docs/models.md (the kinds and their papers), docs/campaigns.md (runs, probed targets, --resample)",
                    "thermoplc fit --data fl_thermal.csv --model dlag --target ch3_um --temps t8_C,t4_C,t5_C,t11_C \\",
                    "    --train-until 86400 -o model.json",

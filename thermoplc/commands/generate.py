@@ -63,18 +63,20 @@ def add_parser(sub) -> None:
                                   "per axis needs one name each")
     p.add_argument("--retain", action="store_true",
                    help="keep the state over a power cycle: statics and outputs declared RETAIN "
-                        f"({named_where(lambda d: d.retain)}); {named_where(lambda d: not d.retain)}: "
-                        "the header says to keep the instance DB retentive")
+                        f"({named_where(lambda d: d.retain)})"
+                        + (f"; {without}: the header says to keep the instance DB retentive"
+                           if (without := named_where(lambda d: not d.retain)) else ""))
     p.add_argument("--instance-db", metavar="NAME", type=st_name,
-                   help=f"{named_where(lambda d: d.instance_db)}: append the source of an instance DB NAME of the "
-                        "block (enter NAME in the symbol table); its header attributes are the block's")
+                   help=f"{named_where(lambda d: d.instance_db) or 'no dialect'}: append the source of an instance "
+                        "DB NAME of the block (enter NAME in the symbol table); its header attributes are the block's")
     p.add_argument("--author", type=header_attribute, default="thermopl",
                    help="AUTHOR in the block header, at most 8 letters, digits or '_' (default: %(default)s)")
     p.add_argument("--family", type=header_attribute, default="ThermCmp",
                    help="FAMILY in the block header, at most 8 letters, digits or '_' (default: %(default)s)")
     p.add_argument("--header-name", type=header_attribute, metavar="NAME",
-                   help=f"NAME in the block header ({named_where(lambda d: d.attributes)}), at most 8 letters, digits "
-                        "or '_' (default: the block name cut to 8 characters, which the summary states)")
+                   help=f"NAME in the block header ({named_where(lambda d: d.attributes) or 'no dialect'}), at most 8 "
+                        "letters, digits or '_' (default: the block name cut to 8 characters, which the summary "
+                        "states)")
     p.add_argument("--block-version", type=block_version, metavar="X.Y",
                    help="VERSION in the block header, each part 0 to 15 (default: a counter that only goes up: 0.1 for "
                         "a new block; replacing a block thermoplc wrote (--force), its version for the same model, "

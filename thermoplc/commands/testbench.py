@@ -21,8 +21,8 @@ def _rows_per_cycle(dialects) -> str:
     """The dialects' calls per cycle in a bench, as the help says them: '10 for step7, 50 elsewhere'."""
     counts = Counter(d.rows_per_cycle for d in dialects)
     usual = counts.most_common(1)[0][0]
-    return ", ".join([*(f"{d.rows_per_cycle} for {d.name}" for d in dialects if d.rows_per_cycle != usual),
-                      f"{usual} elsewhere"])
+    others = [f"{d.rows_per_cycle} for {d.name}" for d in dialects if d.rows_per_cycle != usual]
+    return ", ".join([*others, f"{usual} elsewhere"]) if others else str(usual)
 
 
 def add_parser(sub) -> None:

@@ -94,7 +94,7 @@ def recording_paths(data: list[str]) -> list[str]:
             paths += _recordings_at(given)
         elif given != "-" and folder.is_dir():
             found = sorted(str(p) for p in folder.iterdir()
-                           if p.suffix.lower() in suffixes() and p.name != RUNS_TABLE
+                           if p.name.lower().endswith(suffixes()) and p.name != RUNS_TABLE
                            and not p.name.startswith(".") and _recording_file(p))
             if not found:
                 raise UserError(f"{given}: a folder with no recordings in it (expected files ending in "

@@ -23,8 +23,15 @@ def registry() -> dict[str, InputFormat]:
         if isinstance(record, InputFormat):
             found.append(record)
     found.sort(key=lambda record: record.rank)
-    if len({r.suffix for r in found} | {TEXT_SUFFIX}) != len(found) + 1 or len({r.rank for r in found}) != len(found):
-        raise RuntimeError(f"two input formats share an ending or a rank: {[(r.rank, r.suffix) for r in found]}")
+    if len({r.name for r in found}) != len(found) or len({r.rank for r in found}) != len(found):
+        raise RuntimeError(f"two input formats share a name or a rank: {[(r.rank, r.name) for r in found]}")
+    endings = [TEXT_SUFFIX, *(r.suffix for r in found)]
+    for ending in endings[1:]:
+        if not ending.startswith(".") or ending != ending.lower():
+            raise RuntimeError(f"input format ending {ending!r}: expected a '.' first and lower case")
+    clashes = [(a, b) for a in endings for b in endings if a is not b and a.endswith(b)]
+    if clashes:  # a file's name would be claimed by two: 'run.csv.gz' ends in '.gz' too
+        raise RuntimeError(f"input format endings that end alike: {clashes}")
     return {record.name: record for record in found}
 
 

@@ -20,8 +20,9 @@ class InputFormat:
     suffix: str  # the ending of a file's name that picks it, lower case (a URL's query aside)
     title: str  # how the help names it: ".npz", "Parquet"
     rank: int  # its place in the lists the help and a folder's runs show
-    # (path, sparse columns, gaps allowed) -> column name -> float64 values, every cell a finite number but NaN in a
-    # sparse column or where gaps are allowed; any other file is refused naming the file, column and row
+    # (path, sparse columns, gaps allowed) -> column name -> float64 values, at least one column of at least one row,
+    # every cell a finite number but NaN in a sparse column or where gaps are allowed; any other file is refused
+    # (UserError) naming the file, column and row
     columns: Callable[[str, frozenset, bool], dict]
     # (path, rows per chunk) -> the file's columns, chunk by chunk, not yet checked; raises CannotStream to leave
     # the file to `columns` (which words the error)

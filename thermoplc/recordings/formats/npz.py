@@ -55,7 +55,8 @@ def read_columns(path: str, sparse: frozenset, gaps: bool) -> dict:
     return columns
 
 
-def _npy_header(member) -> tuple[tuple, np.dtype]:
+def _npy_header(member) -> tuple:
+    """The shape and dtype of one member of the archive, read from its header."""
     import numpy as np
 
     version = np.lib.format.read_magic(member)

@@ -19,9 +19,7 @@ def read_columns(path: str, sparse: frozenset, gaps: bool) -> dict:
     try:
         with open_binary(path) as f:
             table = pq.read_table(f)
-    except OSError as exc:
-        raise UserError(f"{path}: cannot read as Parquet: {exc}") from None
-    except Exception as exc:
+    except Exception as exc:  # OSError, and pyarrow's own errors for what is no Parquet file
         raise UserError(f"{path}: cannot read as Parquet: {exc}") from None
     if table.num_columns == 0:
         raise UserError(f"{path}: the file holds no columns")
