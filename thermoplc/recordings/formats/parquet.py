@@ -18,7 +18,7 @@ def read_columns(path: str, sparse: frozenset, gaps: bool) -> dict:
         raise UserError(f"{path}: reading Parquet needs pyarrow (pip install pyarrow)") from None
     try:
         with open_binary(path) as f:
-            table = pq.read_table(f)
+            table = pq.read_table(f, use_threads=False)  # threads on a Python file abort or hang at exit (arrow#34314, #50482)
     except Exception as exc:  # OSError, and pyarrow's own errors for what is no Parquet file
         raise UserError(f"{path}: cannot read as Parquet: {exc}") from None
     if table.num_columns == 0:
