@@ -18,7 +18,9 @@ def read_columns(path: str, sparse: frozenset, gaps: bool) -> dict:
         raise UserError(f"{path}: reading Parquet needs pyarrow (pip install pyarrow)") from None
     try:
         with open_binary(path) as f:
-            table = pq.read_table(f, use_threads=False)  # threads on a Python file abort or hang at exit (arrow#34314, #50482)
+            # no thread pool: read from a Python file on its threads, pyarrow aborts or hangs at the interpreter's
+            # exit in some runs (apache/arrow#34314, #50482; here 1 run in 3 to 6 ended 'terminate called ...')
+            table = pq.read_table(f, use_threads=False)
     except Exception as exc:  # OSError, and pyarrow's own errors for what is no Parquet file
         raise UserError(f"{path}: cannot read as Parquet: {exc}") from None
     if table.num_columns == 0:
