@@ -71,7 +71,7 @@ def test_a_bad_file_of_a_new_format_is_refused_in_its_own_words(tmp_path, json_f
 
 
 @pytest.mark.parametrize("ending, why", [(".NPZ2", "lower case"), ("npz2", "a '.' first"), (".gz", "end alike"),
-                                         (".tsv.csv", "end alike")])
+                                         (".tsv.csv", "end alike"), (".npz", "end alike")])
 def test_a_record_whose_ending_is_wrong_or_claimed_twice_is_refused(monkeypatch, ending, why):
     """A file's name picks one format: an ending that ends as another does ('.csv.gz' and '.gz') would pick two."""
     import thermoplc.recordings.formats as package

@@ -29,7 +29,7 @@ def registry() -> dict[str, InputFormat]:
     for ending in endings[1:]:
         if not ending.startswith(".") or ending != ending.lower():
             raise RuntimeError(f"input format ending {ending!r}: expected a '.' first and lower case")
-    clashes = [(a, b) for a in endings for b in endings if a is not b and a.endswith(b)]
+    clashes = [(a, b) for i, a in enumerate(endings) for j, b in enumerate(endings) if i != j and a.endswith(b)]
     if clashes:  # a file's name would be claimed by two: 'run.csv.gz' ends in '.gz' too
         raise RuntimeError(f"input format endings that end alike: {clashes}")
     return {record.name: record for record in found}
