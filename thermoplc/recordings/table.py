@@ -213,9 +213,10 @@ def read_table(path: str | Path, time_column: str | None = "time_s", progress=No
     stored = format_of(path)
     if stored is not None:
         columns = stored.columns(path, frozenset(sparse), reading.gaps != "refuse")
-        if not columns or not len(next(iter(columns.values()))):  # the readers refuse these in their words
+        rows = len(next(iter(columns.values()), ()))
+        if not rows:  # the readers refuse these in their words
             raise UserError(f"{path}: no data rows")
-        table = Table(path, columns, sha256_of(path), np.arange(1, len(next(iter(columns.values()))) + 1))
+        table = Table(path, columns, sha256_of(path), np.arange(1, rows + 1))
         _check_time(table, time_column, list(columns))
         return _with_gaps(_numbers_in_time(table, time_column, reading), time_column, reading, frozenset(sparse))
     digest = hashlib.sha256()
